@@ -1,0 +1,11 @@
+# forklift_add_test(NAME <name> LABEL <module> SOURCES <files...> LIBS <targets...>)
+# One GoogleTest executable whose tests are registered with ctest under the module's label,
+# so `ctest -L <module>` runs one module. Tests run from the source tree's data/.
+function(forklift_add_test)
+  cmake_parse_arguments(T "" "NAME;LABEL" "SOURCES;LIBS" ${ARGN})
+  add_executable(${T_NAME} ${T_SOURCES})
+  target_link_libraries(${T_NAME} PRIVATE ${T_LIBS} GTest::gtest GTest::gtest_main)
+  target_compile_definitions(${T_NAME} PRIVATE FORKLIFT_DATA_DIR="${FORKLIFT_DATA_DIR}")
+  set_target_properties(${T_NAME} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
+  gtest_discover_tests(${T_NAME} PROPERTIES LABELS ${T_LABEL} DISCOVERY_TIMEOUT 60)
+endfunction()
