@@ -1,0 +1,113 @@
+// The truck's parameters: loaded once from a data file, converted to SI, then const.
+// Frames: x forward, y left, z up. Positions in the "geometry frame" (origin on the
+// ground below the middle of the front axle) are converted on load to the chassis
+// frame, whose origin is the chassis centre of gravity (paper section 3).
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <string>
+
+namespace forklift {
+
+// Indices of the 13 generalised coordinates, named and ordered as in the paper (section 3).
+// The first 9 are the dynamic degrees of freedom (DDOF), the last 4 the driven coordinates (DC).
+enum Coord : int {
+  kX = 0, kY, kZ,          // chassis centre of gravity, world frame, m
+  kAwc, kAuc, kAvc,        // chassis yaw (about W), roll (about U), pitch (about V), rad
+  kAvr1, kAvr2, kAvr3,     // spin of front-left, front-right and rear wheel about their axles, rad
+  kAwr3, kBeta, kS, kR,    // rear-wheel steer, mast tilt (+ forward), fork lift, side-shift (+ left)
+};
+inline constexpr int kNumCoords = 13;
+inline constexpr int kNumDynamic = 9;
+inline constexpr int kNumDriven = 4;
+
+// Wheel numbering of the paper: 1 front left, 2 front right (both driven), 3 rear (steered).
+enum Wheel : int { kFrontLeft = 0, kFrontRight = 1, kRear = 2 };
+inline constexpr int kNumWheels = 3;
+const char* wheel_name(int wheel);  // "front_left", "front_right", "rear"
+
+struct RigidBodyParams {
+  double mass_kg = 0;
+  Eigen::Vector3d cog_m = Eigen::Vector3d::Zero();  // in the frame its owner documents
+  Eigen::Matrix3d inertia_kg_m2 = Eigen::Matrix3d::Zero();  // about the CoG, body axes
+};
+
+struct WheelParams {
+  Eigen::Vector3d centre_m;  // chassis frame
+  double radius_m = 0;       // Z0 of eq (7)
+  double mass_kg = 0;
+  double spin_inertia_kg_m2 = 0;
+  double transverse_inertia_kg_m2 = 0;
+};
+
+struct ContactParams {
+  double stiffness_N_m = 0;           // K, eq (7)
+  double damping_N_s_m = 0;           // C, eq (7)
+  double fx_slip_gain_s_m = 0;        // k, eq (8)
+  double fx_max_N = 0;                // eq (8)
+  double fy_mu = 0;                   // mu, eq (10)
+  double fy_alpha0_rad = 0;           // alpha0, eq (10)
+  double rolling_resistance_N_m_s = 0;  // k of eq (6)
+  double slip_angle_speed_floor_m_s = 0;
+};
+
+struct DriveParams {
+  double drive_torque_max_N_m = 0;  // total, at full accelerator
+  double brake_torque_max_N_m = 0;  // per front wheel, at full pedal
+  double torque_lag_s = 0;
+  double brake_lag_s = 0;
+  double brake_fade_speed_rad_s = 0;
+};
+
+struct MastLimits {
+  double tilt_forward_max_rad = 0, tilt_backward_max_rad = 0;
+  double lift_max_m = 0, side_shift_max_m = 0;
+  double lift_rate_max_m_s = 0, tilt_rate_max_rad_s = 0, side_shift_rate_max_m_s = 0;
+};
+
+// The constant model. Built by load_truck(); never changed during a run.
+struct TruckParams {
+  std::string name;
+  double service_mass_kg = 0;
+  double rated_capacity_kg = 0;
+  double rated_load_centre_m = 0;
+
+  RigidBodyParams chassis;                 // cog_m is zero by definition of the chassis frame
+  Eigen::Vector3d chassis_cog_geometry_m;  // where the chassis frame sits in the geometry frame
+  std::array<WheelParams, kNumWheels> wheels;
+  Eigen::Vector3d mast_pivot_m;            // chassis frame
+  RigidBodyParams mast;                    // cog_m from the pivot, mast frame
+  Eigen::Vector3d fork_heel_from_pivot_m;  // mast frame, at s = r = 0: where the fork face meets
+                                           // the top of the forks; loads are placed from here
+  RigidBodyParams carriage;                // cog_m from the fork heel, mast frame
+  double fork_face_from_pivot_m = 0;       // fork_heel_from_pivot_m.x()
+  MastLimits limits;
+  ContactParams contact;
+  DriveParams drive;
+  double steer_bandwidth_rad_s = 0;
+  double lever_bandwidth_rad_s = 0;
+
+  double wheelbase_m() const;    // L: front axle to rear axle
+  double front_track_m() const;  // H: between the front wheels
+};
+
+// Reads a truck data file (see data/trucks/). Throws std::runtime_error naming the file and
+// the key when a value is missing, not a number, or physically impossible (negative mass,
+// inertia not positive definite, ...).
+TruckParams load_truck(const std::string& path);
+
+// A load on the forks (section 5): any mass, CoG and inertia, attached or released at run time.
+struct Load {
+  double mass_kg = 0;
+  Eigen::Vector3d cog_m = Eigen::Vector3d::Zero();  // from the fork face at the heel of the forks
+                                                    // (x forward along the forks, y left, z up)
+  Eigen::Matrix3d inertia_kg_m2 = Eigen::Matrix3d::Zero();  // about its CoG
+};
+
+// A uniform box load: mass, size (l along the forks, w, h), CoG at its centre, resting on the
+// forks with its centre `load_centre_m` ahead of the fork face and offset `lateral_m` left.
+Load box_load(double mass_kg, double length_m, double width_m, double height_m,
+              double load_centre_m, double lateral_m);
+
+}  // namespace forklift

@@ -1,0 +1,165 @@
+// forklift-sim: the offline model tool. Every command prints one JSON object on stdout;
+// errors go to stderr with exit status 2 (bad arguments or data) or 3 (numerical failure).
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "figures.h"
+#include "forklift/manoeuvre.h"
+#include "forklift/stability.h"
+
+using namespace forklift;
+using nlohmann::json;
+
+namespace {
+
+constexpr double kDeg = 180.0 / M_PI;
+
+json fz_json(const std::array<double, kNumWheels>& fz) {
+  json j;
+  for (int w = 0; w < kNumWheels; ++w) j[wheel_name(w)] = std::isfinite(fz[w]) ? json(fz[w]) : json(nullptr);
+  return j;
+}
+
+json result_json(const ManoeuvreResult& r) {
+  return {
+      {"manoeuvre", r.manoeuvre},
+      {"integrator", integrator_name(r.options.kind)},
+      {"rtol", r.options.kind == IntegratorKind::kRk4 ? json(nullptr) : json(r.options.rtol)},
+      {"sim_time_s", r.sim_time_s},
+      {"steps", r.stats.steps},
+      {"rhs_evals", r.stats.rhs_evals},
+      {"wall_s", r.wall_s},
+      {"real_time_factor", r.wall_s > 0 ? json(r.sim_time_s / r.wall_s) : json(nullptr)},
+      {"max_pitch_deg", r.max_pitch_deg},
+      {"max_roll_deg", r.max_roll_deg},
+      {"min_fz_N", fz_json(r.min_fz_N)},
+      {"rear_wheel_lifted", r.rear_wheel_lifted},
+      {"stop_time_s", r.stop_time_s ? json(*r.stop_time_s) : json(nullptr)},
+      {"final_pose", {{"x", r.final_pose.x()}, {"y", r.final_pose.y()}, {"yaw", r.final_pose.z() * kDeg}}},
+      {"tipped_over", r.tipped_over},
+  };
+}
+
+std::optional<Load> cli_load(const TruckParams& truck, double mass, double offset) {
+  if (mass <= 0) return std::nullopt;
+  return box_load(mass, 1.0, 1.0, 1.0, truck.rated_load_centre_m, offset);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"forklift-sim: the SIMUCEL forklift truck model, offline"};
+  app.require_subcommand(1);
+  std::string truck_file = std::string(FORKLIFT_DATA_DIR) + "/trucks/linde_e16c.json";
+  app.add_option("--truck", truck_file, "truck data file")->check(CLI::ExistingFile);
+
+  // manoeuvre N
+  auto* man = app.add_subcommand("manoeuvre", "run one of the paper's manoeuvres (section 11) for 20 s");
+  int number = 0;
+  std::string integrator = "cvode", csv, plot;
+  IntegratorOptions opts;
+  man->add_option("N", number, "1, 2, 3, 4, 5, 10, 11, 12, 14, 15, 17 or 18")->required();
+  man->add_option("--integrator", integrator, "cvode (BDF, default), dopri5 or rk4")
+      ->check(CLI::IsMember({"cvode", "dopri5", "rk4"}));
+  man->add_option("--rtol", opts.rtol, "relative tolerance of the variable-step integrators")
+      ->check(CLI::Range(1e-14, 0.1));
+  man->add_option("--csv", csv, "write the time series here");
+  man->add_option("--plot", plot, "write an SVG figure here");
+
+  // paper: every manoeuvre, a table, figures
+  auto* paper = app.add_subcommand("paper", "run every manoeuvre, print a summary table, write figures and CSV");
+  std::string out_dir = "out";
+  paper->add_option("--out", out_dir, "directory for the figures and CSV files");
+  paper->add_option("--integrator", integrator, "cvode, dopri5 or rk4")->check(CLI::IsMember({"cvode", "dopri5", "rk4"}));
+
+  // static
+  auto* stat = app.add_subcommand("static", "settle the truck at rest on flat ground");
+  double load_mass = 0, load_height = 0, load_offset = 0;
+  for (auto* sub : {stat}) {
+    sub->add_option("--load-mass", load_mass, "load on the forks, kg (a 1 m cube at the rated load centre)")->check(CLI::Range(0.0, 20000.0));
+    sub->add_option("--load-height", load_height, "height of the load's CoG above the floor, m")->check(CLI::Range(0.0, 10.0));
+    sub->add_option("--load-offset", load_offset, "lateral offset of the load, m (+ left)")->check(CLI::Range(-2.0, 2.0));
+  }
+
+  // tilt
+  auto* tilt = app.add_subcommand("tilt", "virtual tilt-table test: the table angle at which a wheel leaves the ground");
+  std::string axis = "longitudinal";
+  tilt->add_option("--axis", axis, "longitudinal (front down) or lateral (right side down)")
+      ->check(CLI::IsMember({"longitudinal", "lateral"}));
+  tilt->add_option("--load-mass", load_mass, "load on the forks, kg")->check(CLI::Range(0.0, 20000.0));
+  tilt->add_option("--load-height", load_height, "height of the load's CoG above the floor, m")->check(CLI::Range(0.0, 10.0));
+
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    const TruckParams truck = load_truck(truck_file);
+    opts.kind = parse_integrator(integrator);
+
+    if (*man) {
+      const ManoeuvreSpec spec = manoeuvre(number, truck);  // validates N before running
+      const ManoeuvreResult r = run_manoeuvre(truck, number, opts);
+      if (!csv.empty()) write_csv(r, csv);
+      if (!plot.empty()) write_manoeuvre_figure(r, spec.description, plot);
+      std::cout << result_json(r).dump(2) << std::endl;
+      return 0;
+    }
+    if (*paper) {
+      std::filesystem::create_directories(out_dir);
+      json all = json::array();
+      std::printf("%-4s %-8s %7s %8s %9s %9s %9s %11s %11s %8s %7s %6s\n", "man", "integr", "steps", "rhs",
+                  "wall_ms", "pitch_deg", "roll_deg", "min_fz_rear", "rear_lifted", "stop_s", "yaw_deg", "tipped");
+      for (int n : manoeuvre_numbers()) {
+        const ManoeuvreSpec spec = manoeuvre(n, truck);
+        const ManoeuvreResult r = run_manoeuvre(truck, n, opts);
+        const std::string base = out_dir + "/manoeuvre_" + std::to_string(n);
+        write_csv(r, base + ".csv", 5);
+        write_manoeuvre_figure(r, spec.description, base + ".svg");
+        std::printf("%-4d %-8s %7ld %8ld %9.1f %9.3f %9.3f %11.0f %11s %8s %7.1f %6s\n", n, integrator_name(opts.kind),
+                    r.stats.steps, r.stats.rhs_evals, r.wall_s * 1e3, r.max_pitch_deg, r.max_roll_deg,
+                    r.min_fz_N[kRear], r.rear_wheel_lifted ? "yes" : "no",
+                    r.stop_time_s ? std::to_string(*r.stop_time_s).substr(0, 5).c_str() : "-",
+                    r.final_pose.z() * kDeg, r.tipped_over ? "yes" : "no");
+        all.push_back(result_json(r));
+      }
+      std::ofstream(out_dir + "/summary.json") << all.dump(2) << '\n';
+      std::printf("figures, CSV and summary.json written to %s/\n", out_dir.c_str());
+      return 0;
+    }
+    if (*stat) {
+      const std::optional<Load> load = cli_load(truck, load_mass, load_offset);
+      const double lift = load ? std::max(0.0, lift_for_load_height(truck, *load, load_height)) : 0.0;
+      const StaticReport s = static_report(truck, load, lift);
+      json contacts, j;
+      for (int w = 0; w < kNumWheels; ++w) contacts[wheel_name(w)] = {s.wheel_contact_m[w].x(), s.wheel_contact_m[w].y()};
+      j = {{"total_mass_kg", s.total_mass_kg},
+           {"cog_m", {s.cog_m.x(), s.cog_m.y(), s.cog_m.z()}},
+           {"load_cog_m", s.load_cog_m ? json{s.load_cog_m->x(), s.load_cog_m->y(), s.load_cog_m->z()} : json(nullptr)},
+           {"fork_lift_m", lift},
+           {"wheel_contact_m", contacts},
+           {"fz_N", fz_json(s.fz_N)},
+           {"rear_wheel_lifted", s.rear_wheel_lifted}};
+      std::cout << j.dump(2) << std::endl;
+      return 0;
+    }
+    if (*tilt) {
+      const std::optional<Load> load = cli_load(truck, load_mass, 0);
+      const double lift = load ? std::max(0.0, lift_for_load_height(truck, *load, load_height)) : 0.0;
+      const TiltResult t = tilt_table(truck, load, lift, axis == "lateral" ? TiltAxis::kLateral : TiltAxis::kLongitudinal);
+      std::cout << json{{"axis", axis}, {"load_mass_kg", load_mass}, {"critical_angle_deg", t.critical_angle_deg},
+                        {"lifted_wheel", wheel_name(t.lifted_wheel)}}.dump(2) << std::endl;
+      return 0;
+    }
+  } catch (const IntegratorError& e) {
+    std::cerr << "forklift-sim: numerical failure: " << e.what() << '\n';
+    return 3;
+  } catch (const std::exception& e) {
+    std::cerr << "forklift-sim: " << e.what() << '\n';
+    return 2;
+  }
+  return 0;
+}

@@ -1,0 +1,147 @@
+// The physical facts of the paper's section 11, on the default integrator (CVODE BDF).
+#include <gtest/gtest.h>
+
+#include <map>
+
+#include "forklift/manoeuvre.h"
+#include "forklift/stability.h"
+#include "test_truck.h"
+
+using namespace forklift;
+
+namespace {
+
+constexpr double kDeg = 180.0 / M_PI;
+
+const ManoeuvreResult& run(int n, IntegratorKind kind = IntegratorKind::kCvodeBdf) {
+  static std::map<std::pair<int, IntegratorKind>, ManoeuvreResult> cache;
+  auto key = std::pair(n, kind);
+  auto it = cache.find(key);
+  if (it == cache.end()) {
+    IntegratorOptions o;
+    o.kind = kind;
+    it = cache.emplace(key, run_manoeuvre(shipped_truck(), n, o, 0.002)).first;
+  }
+  return it->second;
+}
+
+const Sample& at(const ManoeuvreResult& r, double t) {
+  for (const Sample& s : r.samples) if (std::abs(s.t - t) < 1e-9) return s;
+  throw std::runtime_error("no sample at t = " + std::to_string(t));
+}
+
+double static_rear_fz(int n) {
+  const ManoeuvreSpec m = manoeuvre(n, shipped_truck());
+  return static_report(shipped_truck(), m.load, m.lift_m).fz_N[kRear];
+}
+
+}  // namespace
+
+TEST(Manoeuvre, UnknownNumberIsRefused) {
+  EXPECT_THROW(manoeuvre(6, shipped_truck()), std::invalid_argument);
+}
+
+TEST(Manoeuvre, StartingTorqueAcceleratesWithoutSlidingTheWheels) {
+  // Manoeuvres 1-3: more torque, more slip and more speed; Fx max is reached only in braking.
+  const ManoeuvreResult &m1 = run(1), &m2 = run(2);
+  EXPECT_GT(m2.final_pose.x(), 1.5 * m1.final_pose.x());
+  for (int n : {1, 2, 3}) {
+    for (const Sample& s : run(n).samples) EXPECT_LT(std::abs(s.out.wheels[kFrontLeft].fx_N), 4500.0);
+    EXPECT_FALSE(run(n).rear_wheel_lifted);
+  }
+  EXPECT_GT(std::abs(at(m2, 10).out.wheels[kFrontLeft].slip_x_m_s), 1.5 * std::abs(at(m1, 10).out.wheels[kFrontLeft].slip_x_m_s));
+  // Accelerating, the truck squats back: pitch (+ nose down) is below its static value.
+  EXPECT_LT(at(m2, 1).out.q[kAvc], m2.samples.front().out.q[kAvc]);
+}
+
+TEST(Manoeuvre, HardBrakingLiftsTheRearWheel) {
+  // Manoeuvre 4: "the rear wheel looses contact with the ground and the time spent for braking is
+  // 1.5 seconds. The pitch angle reaches a maximum value of 1 deg."
+  const ManoeuvreResult& r = run(4);
+  EXPECT_TRUE(r.rear_wheel_lifted);
+  EXPECT_FALSE(r.tipped_over);
+  ASSERT_TRUE(r.stop_time_s);
+  EXPECT_GT(*r.stop_time_s, 1.2);
+  EXPECT_LT(*r.stop_time_s, 2.5);
+  EXPECT_GT(r.max_pitch_deg, 0.5);
+  EXPECT_LT(r.max_pitch_deg, 1.5);
+  // The front tyres slide: Fx reaches Fx max just after the brake comes on.
+  double strongest = 0;
+  for (const Sample& s : r.samples) if (s.t > 10 && s.t < 10.5) strongest = std::min(strongest, s.out.wheels[kFrontLeft].fx_N);
+  EXPECT_DOUBLE_EQ(strongest, -4500.0);
+}
+
+TEST(Manoeuvre, GentlerBrakingNearlyLiftsItAndTakesLonger) {
+  // Manoeuvre 5: "the wheel nearly looses contact and spends 2 seconds for braking".
+  const ManoeuvreResult &r5 = run(5), &r4 = run(4);
+  EXPECT_FALSE(r5.rear_wheel_lifted);
+  EXPECT_LT(r5.min_fz_N[kRear], 0.6 * static_rear_fz(5));
+  ASSERT_TRUE(r5.stop_time_s);
+  EXPECT_GT(*r5.stop_time_s, *r4.stop_time_s + 0.2);
+  EXPECT_LT(*r5.stop_time_s, 3.2);
+}
+
+TEST(Manoeuvre, OuterWheelCarriesMoreWhenTurning) {
+  // Manoeuvres 10-12: the rear wheel peaks at t = 10.5 s, turning right: left is outside.
+  for (int n : {10, 11, 12}) {
+    const Outputs& before = at(run(n), 7.9).out;
+    const Outputs& turning = at(run(n), 10.5).out;
+    EXPECT_NEAR(before.wheels[kFrontLeft].fz_N, before.wheels[kFrontRight].fz_N, 50) << n;
+    EXPECT_GT(turning.wheels[kFrontLeft].fz_N, turning.wheels[kFrontRight].fz_N + 2000) << n;
+    EXPECT_GT(turning.wheels[kFrontLeft].fz_N, before.wheels[kFrontLeft].fz_N + 1000) << n;
+    EXPECT_LT(run(n).final_pose.z(), -0.5) << n;  // it turned right
+  }
+}
+
+TEST(Manoeuvre, UnbalancedLoadTurnsTheTruckWithZeroSteer) {
+  // Manoeuvre 14: the left wheel carries more Fz, gets more torque, and the truck turns right.
+  const ManoeuvreResult& r = run(14);
+  const Sample& s = at(r, 15.0);
+  EXPECT_LT(std::abs(s.out.q[kAwr3]), 0.01);
+  EXPECT_GT(s.out.wheels[kFrontLeft].fz_N, 2 * s.out.wheels[kFrontRight].fz_N);
+  EXPECT_GT(s.out.wheels[kFrontLeft].drive_torque_N_m, 2 * s.out.wheels[kFrontRight].drive_torque_N_m);
+  EXPECT_LT(s.out.q[kAwc] * kDeg, -5.0);
+}
+
+TEST(Manoeuvre, SharpTurnWithUnbalancedLoadSaturatesTheFrontTyres) {
+  // Manoeuvre 15: both front slip angles exceed alpha0, Fy saturates, and the right wheel
+  // almost loses contact.
+  const ManoeuvreResult& r = run(15);
+  const double a0 = shipped_truck().contact.fy_alpha0_rad, mu = shipped_truck().contact.fy_mu;
+  for (int w : {kFrontLeft, kFrontRight}) {
+    bool passed = false, saturated = false;
+    for (const Sample& s : r.samples) {
+      const WheelContact& c = s.out.wheels[w];
+      if (s.t < 15 || c.fz_N <= 0) continue;
+      if (std::abs(c.slip_angle_rad) > a0) {
+        passed = true;
+        saturated |= std::abs(std::abs(c.fy_N) - mu * c.fz_N) < 1e-6;
+      }
+    }
+    EXPECT_TRUE(passed) << wheel_name(w);
+    EXPECT_TRUE(saturated) << wheel_name(w);
+  }
+  const double right_before = at(r, 14.9).out.wheels[kFrontRight].fz_N;
+  EXPECT_GT(r.min_fz_N[kFrontRight], 0.0);
+  EXPECT_LT(r.min_fz_N[kFrontRight], 0.25 * right_before);
+  EXPECT_FALSE(r.tipped_over);
+}
+
+TEST(Manoeuvre, IntegratorsAgreeOnTheZigZag) {
+  // Manoeuvre 17, a normal operating manoeuvre: "all three integrators give analogous results".
+  const ManoeuvreResult &bdf = run(17), &dp = run(17, IntegratorKind::kDopri5), &rk = run(17, IntegratorKind::kRk4);
+  for (const ManoeuvreResult* r : {&dp, &rk}) {
+    EXPECT_LT((r->final_pose.head<2>() - bdf.final_pose.head<2>()).norm(), 0.10);
+    EXPECT_LT(std::abs(r->final_pose.z() - bdf.final_pose.z()) * kDeg, 1.5);
+    EXPECT_NEAR(r->max_roll_deg, bdf.max_roll_deg, 0.05);
+  }
+  EXPECT_EQ(rk.stats.steps, 20000);  // the paper's rk4 row: 1 ms for 20 s
+}
+
+TEST(Manoeuvre, StiffnessDependsOnTheForcing) {
+  // Section 12: the explicit method needs far more steps on the sharp braking than on the
+  // zig-zag; the implicit one does not.
+  const long dp4 = run(4, IntegratorKind::kDopri5).stats.steps, dp17 = run(17, IntegratorKind::kDopri5).stats.steps;
+  EXPECT_GT(dp4, 2 * dp17);
+  EXPECT_LT(run(4).stats.steps, dp4 / 5);
+}
