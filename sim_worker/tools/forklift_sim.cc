@@ -77,6 +77,13 @@ int main(int argc, char** argv) {
   paper->add_option("--out", out_dir, "directory for the figures and CSV files");
   paper->add_option("--integrator", integrator, "cvode, dopri5 or rk4")->check(CLI::IsMember({"cvode", "dopri5", "rk4"}));
 
+  // script: a manoeuvre as a cab control script (and its scenario), for the real-time loop
+  auto* scr = app.add_subcommand("script", "write a manoeuvre as a cab control script (CSV, 100 Hz) and its scenario JSON");
+  std::string script_out, scenario_out;
+  scr->add_option("N", number, "manoeuvre number")->required();
+  scr->add_option("--out", script_out, "CSV file to write")->required();
+  scr->add_option("--scenario-out", scenario_out, "scenario JSON to write (start at rest, the manoeuvre's load)");
+
   // static
   auto* stat = app.add_subcommand("static", "settle the truck at rest on flat ground");
   double load_mass = 0, load_height = 0, load_offset = 0;
@@ -106,6 +113,29 @@ int main(int argc, char** argv) {
       if (!csv.empty()) write_csv(r, csv);
       if (!plot.empty()) write_manoeuvre_figure(r, spec.description, plot);
       std::cout << result_json(r).dump(2) << std::endl;
+      return 0;
+    }
+    if (*scr) {
+      const ManoeuvreSpec spec = manoeuvre(number, truck);
+      std::ofstream f(script_out);
+      if (!f) throw std::runtime_error("cannot write " + script_out);
+      f << "# manoeuvre " << number << ": " << spec.description << "\n";
+      f << "t,steer,accelerator,brake,lift,tilt,shift\n";
+      f.precision(9);
+      for (int k = 0; k * 0.01 <= spec.duration_s + 1e-9; ++k) {
+        const double t = k * 0.01;
+        const DriverInputs u = spec.inputs(t);
+        f << t << ',' << u.steer_rad << ',' << u.drive_torque_N_m / truck.drive.drive_torque_max_N_m << ','
+          << u.brake_torque_N_m / truck.drive.brake_torque_max_N_m << ",0,0,0\n";
+      }
+      if (!scenario_out.empty()) {
+        json sc = {{"truck", "trucks/linde_e16c.json"}, {"start", {{"x_m", 0}, {"y_m", 0}, {"yaw_deg", 0}}},
+                   {"manoeuvre", number}, {"load", nullptr}};
+        if (spec.load)
+          sc["load"] = {{"mass_kg", spec.load->mass_kg}, {"lateral_m", spec.load->cog_m.y()},
+                        {"cog_height_m", 2.0}};
+        std::ofstream(scenario_out) << sc.dump(2) << '\n';
+      }
       return 0;
     }
     if (*paper) {

@@ -1,0 +1,188 @@
+// forklift-cab: the cab's peripherals to its sim worker over DDS, and a one-line head-up display
+// of the truck's state. Sources: a timed script, the keyboard, or a Linux joystick / wheel.
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <fcntl.h>
+#include <iostream>
+#include <linux/joystick.h>
+#include <termios.h>
+#include <thread>
+#include <unistd.h>
+
+#include "forklift/protocol.h"
+#include "script.h"
+
+using namespace forklift;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+void on_signal(int) { g_stop = true; }
+
+struct Cab {
+  std::string id;
+  dds::Writer<fk_Controls>& writer;
+  dds::Reader<fk_TruckState>& states;
+  uint32_t seq = 0;
+  Clock::time_point start = Clock::now();
+  Clock::time_point last_hud{};
+  bool tty = isatty(STDOUT_FILENO);
+  fk_TruckState last{};
+  bool have_state = false;
+
+  void send(double steer, double accel, double brake, double lift, double tilt, double shift, bool horn = false) {
+    fk_Controls c{};
+    dds::set_string(c.cab_id, id);
+    c.seq = ++seq;
+    c.cab_time_s = std::chrono::duration<double>(Clock::now() - start).count();
+    c.steer_rad = steer; c.accelerator = accel; c.brake = brake;
+    c.lift = lift; c.tilt = tilt; c.side_shift = shift; c.horn = horn;
+    writer.write(c);
+  }
+
+  // Head-up display: speed, fork height, load, stability margin (and the dead man if it tripped).
+  void hud() {
+    states.take_each([&](const fk_TruckState& s) { last = s; have_state = true; });
+    const auto now = Clock::now();
+    if (!have_state || now - last_hud < std::chrono::milliseconds(tty ? 100 : 1000)) return;
+    last_hud = now;
+    std::printf("%st=%6.2f s  speed %5.2f m/s  forks %4.2f m  load %s  stability %3.0f%%%s%s", tty ? "\r" : "",
+                last.sim_time_s, last.speed_m_s, last.lift_m,
+                last.load_attached ? (std::to_string(int(last.load_mass_kg)) + " kg").c_str() : "none",
+                100 * last.stability_margin, last.deadman ? "  DEAD MAN" : "        ", tty ? "" : "\n");
+    std::fflush(stdout);
+  }
+};
+
+// Waits until the worker's reader matches our writer, so that the script's first row is not lost.
+bool wait_for_worker(dds::Writer<fk_Controls>& w, double timeout_s) {
+  const auto until = Clock::now() + std::chrono::duration<double>(timeout_s);
+  while (!g_stop && Clock::now() < until) {
+    if (w.matched() > 0) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return w.matched() > 0;
+}
+
+int run_script(Cab& cab, const std::vector<ScriptRow>& rows) {
+  cab.start = Clock::now();
+  for (const ScriptRow& r : rows) {
+    const auto due = cab.start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(r.t));
+    while (!g_stop && Clock::now() < due) {
+      cab.hud();
+      std::this_thread::sleep_until(std::min(due, Clock::now() + std::chrono::milliseconds(5)));
+    }
+    if (g_stop) break;
+    cab.send(r.steer, r.accelerator, r.brake, r.lift, r.tilt, r.shift);
+    cab.hud();
+  }
+  return 0;
+}
+
+// Keyboard: arrows drive and steer, space brakes, w/s lift, a/d tilt, q/e side-shift, h horn, x quits.
+// Commands decay back to neutral when keys are released (no key-up events in a terminal).
+int run_keyboard(Cab& cab) {
+  termios saved{};
+  if (tcgetattr(STDIN_FILENO, &saved) != 0) throw std::runtime_error("--keyboard needs a terminal");
+  termios raw = saved;
+  raw.c_lflag &= ~(ICANON | ECHO);
+  raw.c_cc[VMIN] = 0;
+  raw.c_cc[VTIME] = 0;
+  tcsetattr(STDIN_FILENO, TCSANOW, &raw);
+  std::fprintf(stderr, "arrows: drive/steer, space: brake, w/s: lift, a/d: tilt, q/e: side-shift, h: horn, x: quit\n");
+  double steer = 0, accel = 0, brake = 0, lift = 0, tilt = 0, shift = 0;
+  bool horn = false;
+  while (!g_stop) {
+    char buf[16];
+    const ssize_t n = read(STDIN_FILENO, buf, sizeof buf);
+    brake *= 0.8; lift = tilt = shift = 0; horn = false;
+    for (ssize_t i = 0; i < n; ++i) {
+      const char c = buf[i];
+      if (c == 'x') g_stop = true;
+      else if (c == ' ') brake = 1;
+      else if (c == 'w') lift = 1; else if (c == 's') lift = -1;
+      else if (c == 'a') tilt = -1; else if (c == 'd') tilt = 1;
+      else if (c == 'q') shift = 1; else if (c == 'e') shift = -1;
+      else if (c == 'h') horn = true;
+      else if (c == '\033' && i + 2 < n && buf[i + 1] == '[') {
+        const char k = buf[i + 2];
+        i += 2;
+        if (k == 'A') accel = std::min(1.0, accel + 0.1);
+        if (k == 'B') accel = std::max(-1.0, accel - 0.1);
+        if (k == 'D') steer = std::min(1.5, steer + 0.1);   // wheel left: truck turns right
+        if (k == 'C') steer = std::max(-1.5, steer - 0.1);
+      }
+    }
+    cab.send(steer, accel, brake, lift, tilt, shift, horn);
+    cab.hud();
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  tcsetattr(STDIN_FILENO, TCSANOW, &saved);
+  return 0;
+}
+
+// Linux joystick API: axis 0 steer, axis 1 accelerator (up) and brake (down), axes 2-4 levers.
+int run_joystick(Cab& cab, const std::string& dev) {
+  const int fd = open(dev.c_str(), O_RDONLY | O_NONBLOCK);
+  if (fd < 0) throw std::runtime_error("cannot open joystick " + dev);
+  double axis[8] = {0};
+  while (!g_stop) {
+    js_event e;
+    while (read(fd, &e, sizeof e) == sizeof e)
+      if ((e.type & ~JS_EVENT_INIT) == JS_EVENT_AXIS && e.number < 8) axis[e.number] = e.value / 32767.0;
+    const double pedal = -axis[1];
+    cab.send(-1.5 * axis[0], std::max(0.0, pedal), std::max(0.0, -pedal), -axis[2], axis[3], -axis[4]);
+    cab.hud();
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  close(fd);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"forklift-cab: a cab's controls to its sim worker, and a head-up display"};
+  std::string cab_id, script, joystick, dds_config;
+  bool keyboard = false;
+  double wait_s = 10;
+  std::optional<int> domain;
+  app.add_option("--cab", cab_id, "this cab's id")->required();
+  auto* src = app.add_option_group("source", "where the controls come from")->require_option(1);
+  src->add_option("--script", script, "timed CSV: t, steer, accelerator, brake, lift, tilt, shift")->check(CLI::ExistingFile);
+  src->add_flag("--keyboard", keyboard, "drive from this terminal");
+  src->add_option("--joystick", joystick, "a Linux joystick or wheel device, e.g. /dev/input/js0");
+  app.add_option("--wait-worker", wait_s, "how long to wait for the worker before starting, s")->check(CLI::Range(0.0, 3600.0));
+  app.add_option("--dds-domain", domain, "DDS domain id (default FORKLIFT_DDS_DOMAIN or 0)")->check(CLI::Range(0, 232));
+  app.add_option("--dds-config", dds_config, "Cyclone DDS configuration file (default: loopback)")->check(CLI::ExistingFile);
+  CLI11_PARSE(app, argc, argv);
+  std::signal(SIGTERM, on_signal);
+  std::signal(SIGINT, on_signal);
+
+  try {
+    const std::vector<ScriptRow> rows = script.empty() ? std::vector<ScriptRow>{} : read_script(script);
+    dds::Participant participant(dds::DomainSettings::resolve(domain, dds_config));
+    dds::Writer<fk_Controls> writer(participant, dds::cab_partition(cab_id));
+    dds::Reader<fk_TruckState> states(participant, dds::cab_partition(cab_id));
+    Cab cab{cab_id, writer, states};
+    if (!wait_for_worker(writer, wait_s)) {
+      std::cerr << "forklift-cab: no worker for cab " << cab_id << " after " << wait_s << " s\n";
+      return 5;
+    }
+    int rc = 0;
+    if (!script.empty()) rc = run_script(cab, rows);
+    else if (keyboard) rc = run_keyboard(cab);
+    else rc = run_joystick(cab, joystick);
+    if (cab.tty) std::printf("\n");
+    dds_sleepfor(DDS_MSECS(100));  // let the last reliable sample out
+    return rc;
+  } catch (const std::exception& e) {
+    std::cerr << "forklift-cab: " << e.what() << '\n';
+    return 2;
+  }
+}

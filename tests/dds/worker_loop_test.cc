@@ -1,0 +1,197 @@
+// The cab -> worker -> cab loop between real processes over loopback DDS. Every test has its own
+// domain id so that tests running in parallel never meet.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "forklift/manoeuvre.h"
+#include "forklift/protocol.h"
+#include "forklift/session.h"
+#include "support/process.h"
+
+using namespace forklift;
+using nlohmann::json;
+
+namespace {
+
+const std::string kBin = FORKLIFT_BIN_DIR;
+const std::string kData = FORKLIFT_DATA_DIR;
+
+std::string tmp(const std::string& name) { return testing::TempDir() + "/" + name; }
+
+Process worker(int domain, const std::string& cab, const std::string& session, std::vector<std::string> extra = {}) {
+  std::vector<std::string> args = {kBin + "/forklift-worker", "--cab", cab, "--session", session,
+                                   "--dds-domain", std::to_string(domain), "--log", tmp(session + ".ctl")};
+  args.insert(args.end(), extra.begin(), extra.end());
+  return Process(args, tmp(session + ".worker"));
+}
+
+json output_json(const Process& p) {
+  const std::string out = p.out();
+  try {
+    return json::parse(out);
+  } catch (const std::exception&) {
+    ADD_FAILURE() << "not JSON: " << out << "\nstderr: " << p.err();
+    return json::object();
+  }
+}
+
+fk_Controls controls(const std::string& cab, uint32_t seq, double accel = 0, double steer = 0) {
+  fk_Controls c{};
+  dds::set_string(c.cab_id, cab);
+  c.seq = seq;
+  c.accelerator = accel;
+  c.steer_rad = steer;
+  return c;
+}
+
+bool wait_matched(dds::Writer<fk_Controls>& w, double s) {
+  for (int i = 0; i < s * 100 && w.matched() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  return w.matched() > 0;
+}
+
+}  // namespace
+
+TEST(WorkerLoop, ScriptedCabDrivesManoeuvre17LikeTheOfflineModelAndReplaysExactly) {
+  Process w = worker(41, "c17", "m17", {"--duration", "20"});
+  Process cab({kBin + "/forklift-cab", "--cab", "c17", "--script", kData + "/manoeuvres/manoeuvre_17.csv", "--dds-domain", "41"},
+              tmp("m17.cab"));
+  ASSERT_EQ(cab.wait(40), 0) << cab.err();
+  ASSERT_EQ(w.wait(10), 0) << w.err();
+  const json live = output_json(w);
+  EXPECT_EQ(live["ticks"], 20000);
+  EXPECT_EQ(live["deadman_stops"], 0);
+
+  // Tolerance: the cab's 100 Hz samples land on 1 ms ticks up to a few ms late, and the worker's
+  // integrator lands on every tick; measured differences are a few cm.
+  const ManoeuvreResult offline = run_manoeuvre(load_truck(kData + "/trucks/linde_e16c.json"), 17, {}, 0);
+  const double dx = live["final_pose"]["x"].get<double>() - offline.final_pose.x();
+  const double dy = live["final_pose"]["y"].get<double>() - offline.final_pose.y();
+  EXPECT_LT(std::hypot(dx, dy), 0.25);
+  EXPECT_LT(std::abs(live["final_pose"]["yaw"].get<double>() - offline.final_pose.z() * 180 / M_PI), 3.0);
+
+  Process rp({kBin + "/forklift-worker", "--replay", tmp("m17.ctl")}, tmp("m17.replay"));
+  ASSERT_EQ(rp.wait(30), 0) << rp.err();
+  const json again = output_json(rp);
+  EXPECT_EQ(again["matches_log"], true);
+  EXPECT_EQ(again["state_hex"], live["state_hex"]);  // bit for bit
+}
+
+TEST(WorkerLoop, BadControlsAreRefusedSilenceStopsTheTruckAndTheWorkerStaysUp) {
+  Process w = worker(42, "c1", "bad", {"--duration", "3"});
+  dds::Participant p(dds::DomainSettings::resolve(42, ""));
+  dds::Writer<fk_Controls> out(p, dds::cab_partition("c1"));
+  dds::Reader<fk_TruckState> states(p, dds::cab_partition("c1"));
+  dds::Reader<fk_Event> events(p);
+  ASSERT_TRUE(wait_matched(out, 10)) << w.err();
+
+  auto send = [&](const fk_Controls& c) {
+    out.write(c);
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));  // keep-last-1: one at a time
+  };
+  send(controls("c1", 1, 0.5));
+  fk_Controls c = controls("c1", 2, NAN);
+  send(c);
+  c = controls("c1", 3, 0.5, INFINITY);
+  send(c);
+  c = controls("c1", 4, 2.0);
+  send(c);
+  c = controls("c9", 5, 1.0);  // another cab's id in this cab's partition
+  send(c);
+  for (uint32_t s = 6; s < 40; ++s) send(controls("c1", s, 0.5));  // about 0.7 s of driving
+  double speed_driving = 0;
+  states.take_each([&](const fk_TruckState& s) { speed_driving = std::max(speed_driving, s.speed_m_s); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(1200));  // silence beyond the 0.5 s dead man
+
+  bool deadman_state = false;
+  double last_speed = 1e9;
+  states.take_each([&](const fk_TruckState& s) { deadman_state |= s.deadman; last_speed = s.speed_m_s; });
+  EXPECT_TRUE(deadman_state);
+  EXPECT_GT(speed_driving, 0.05);
+  EXPECT_LT(last_speed, speed_driving);
+  EXPECT_TRUE(w.running());
+
+  ASSERT_EQ(w.wait(10), 0) << w.err();
+  bool deadman_event = false;
+  events.take_each([&](const fk_Event& e) { deadman_event |= std::string(e.kind) == "deadman" && std::string(e.session_id) == "bad"; });
+  EXPECT_TRUE(deadman_event);
+  const json r = output_json(w);
+  EXPECT_EQ(r["rejected_controls"]["non_finite"], 2);
+  EXPECT_EQ(r["rejected_controls"]["out_of_range"], 1);
+  EXPECT_EQ(r["rejected_controls"]["wrong_cab"], 1);
+  EXPECT_EQ(r["deadman_stops"], 1);
+  const std::string err = w.err();
+  EXPECT_NE(err.find("rejected control 2: accelerator is not finite"), std::string::npos) << err;
+  EXPECT_NE(err.find("rejected control 4: accelerator = 2 is outside [-1, 1]"), std::string::npos) << err;
+  EXPECT_NE(err.find("rejected control 5 from cab 'c9'"), std::string::npos) << err;
+  // Nothing refused reached the log: only good samples and the dead-man stop were applied.
+  const ControlLog log = read_control_log(tmp("bad.ctl"));
+  for (const ControlLog::Entry& e : log.entries) {
+    EXPECT_TRUE(e.seq == 1 || e.seq >= 6) << e.seq;
+    EXPECT_TRUE(std::isfinite(e.inputs.drive_torque_N_m) && std::isfinite(e.inputs.steer_rad));
+  }
+}
+
+TEST(WorkerLoop, AnotherCabsControlsNeverReachThisWorker) {
+  Process w = worker(43, "c1", "lonely", {"--start-timeout", "2"});
+  dds::Participant p(dds::DomainSettings::resolve(43, ""));
+  dds::Writer<fk_Controls> other(p, dds::cab_partition("c2"));
+  dds::Reader<fk_SessionStatus> status(p);
+  for (uint32_t s = 1; s < 100 && w.running(); ++s) {
+    other.write(controls("c2", s, 1.0));
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  EXPECT_EQ(w.wait(10), 5) << w.err();
+  std::string last_state;
+  status.take_each([&](const fk_SessionStatus& s) { if (std::string(s.session_id) == "lonely") last_state = s.state; });
+  EXPECT_EQ(last_state, "failed");
+}
+
+TEST(WorkerLoop, SigtermFlushesTheLogAndPublishesTheEnd) {
+  Process w = worker(44, "c1", "term");
+  dds::Participant p(dds::DomainSettings::resolve(44, ""));
+  dds::Reader<fk_SessionStatus> status(p);
+  Process cab({kBin + "/forklift-cab", "--cab", "c1", "--script", kData + "/manoeuvres/manoeuvre_1.csv", "--dds-domain", "44"},
+              tmp("term.cab"));
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+  w.signal(SIGTERM);
+  ASSERT_EQ(w.wait(10), 0) << w.err();
+  cab.signal(SIGTERM);
+  cab.wait(5);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  std::string state, reason;
+  status.take_each([&](const fk_SessionStatus& s) { if (std::string(s.session_id) == "term") { state = s.state; reason = s.reason; } });
+  EXPECT_EQ(state, "ended");
+  EXPECT_EQ(reason, "signal");
+  const ControlLog log = read_control_log(tmp("term.ctl"));
+  ASSERT_TRUE(log.ticks && log.final_state);
+  EXPECT_GT(*log.ticks, 1000);
+  EXPECT_EQ(replay(log), *log.final_state);
+}
+
+TEST(ControlLog, BrokenLogsAreRefusedClearly) {
+  const std::string path = tmp("broken.ctl");
+  std::ofstream(path) << "forklift-control-log 1\ninit 1 2 3\n";
+  Process rp({kBin + "/forklift-worker", "--replay", path}, tmp("broken.replay"));
+  EXPECT_EQ(rp.wait(10), 2);
+  EXPECT_NE(rp.err().find("broken.ctl:2: a state needs 32 numbers"), std::string::npos) << rp.err();
+}
+
+TEST(Controls, RangesAndMapping) {
+  ControlSample s;
+  EXPECT_FALSE(control_problem(s));
+  s.brake = -0.1;
+  EXPECT_EQ(*control_problem(s), "brake = -0.1 is outside [0, 1]");
+  s.brake = 1;
+  s.lift = NAN;
+  EXPECT_EQ(*control_problem(s), "lift is not finite");
+  s.lift = -1;
+  s.accelerator = -0.5;
+  const TruckParams t = load_truck(kData + "/trucks/linde_e16c.json");
+  const DriverInputs u = driver_inputs(s, t);
+  EXPECT_DOUBLE_EQ(u.drive_torque_N_m, -0.5 * t.drive.drive_torque_max_N_m);
+  EXPECT_DOUBLE_EQ(u.brake_torque_N_m, t.drive.brake_torque_max_N_m);
+  EXPECT_DOUBLE_EQ(u.lift_rate_m_s, -t.limits.lift_rate_max_m_s);
+}
