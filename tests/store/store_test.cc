@@ -1,0 +1,410 @@
+#include "forklift/store.h"
+
+#include <gtest/gtest.h>
+#include <sqlite3.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <map>
+#include <optional>
+#include <regex>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace fs = forklift::store;
+
+namespace {
+
+// Runs `sql` on a separate raw connection to `path` and returns the first column of each row.
+std::vector<std::string> RawQuery(const std::string& path, const std::string& sql) {
+  sqlite3* db = nullptr;
+  sqlite3_stmt* stmt = nullptr;
+  std::vector<std::string> rows;
+  if (sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr) == SQLITE_OK &&
+      sqlite3_prepare_v2(db, sql.c_str(), -1, &stmt, nullptr) == SQLITE_OK) {
+    int rc;
+    while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+      const auto* text = reinterpret_cast<const char*>(sqlite3_column_text(stmt, 0));
+      rows.emplace_back(text ? text : "");
+    }
+    if (rc != SQLITE_DONE) ADD_FAILURE() << sql << ": " << sqlite3_errmsg(db);
+  } else {
+    ADD_FAILURE() << sql << ": " << sqlite3_errmsg(db);
+  }
+  sqlite3_finalize(stmt);
+  sqlite3_close(db);
+  return rows;
+}
+
+// Calls `f` and returns the kind of StoreError it throws; fails the test if it throws nothing.
+template <class F>
+std::optional<fs::StoreError::Kind> ErrorKind(F f) {
+  try {
+    f();
+  } catch (const fs::StoreError& e) {
+    return e.kind();
+  }
+  ADD_FAILURE() << "no StoreError thrown";
+  return std::nullopt;
+}
+
+class StoreTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    path_ = ::testing::TempDir() + "forklift_store_" + info->name() + "_" + std::to_string(getpid()) + ".db";
+    RemoveFiles();
+    store_ = fs::Store::open_sqlite(path_);
+    school_ = store_->create_school("Depot school");
+  }
+  void TearDown() override {
+    store_.reset();
+    RemoveFiles();
+  }
+  void RemoveFiles() {
+    for (const char* suffix : {"", "-wal", "-shm"}) std::remove((path_ + suffix).c_str());
+  }
+
+  int64_t NewPupil(const std::string& name) { return store_->create_pupil(school_, name, ""); }
+  fs::Session NewSession(int64_t pupil, const std::string& mode = "training",
+                         const std::string& now = "2026-01-01T10:00:00Z",
+                         std::optional<int64_t> examiner = std::nullopt) {
+    return store_->create_session(pupil, "cab1", "manoeuvre_4", mode, examiner, now);
+  }
+  fs::EventRecord MakeEvent(const std::string& session, int64_t seq, const std::string& kind, int worry) {
+    return fs::EventRecord{session, seq, 0.1 * static_cast<double>(seq), kind, worry, 1.0, 2.0, "{}"};
+  }
+
+  std::string path_;
+  std::unique_ptr<fs::Store> store_;
+  int64_t school_ = 0;
+};
+
+TEST_F(StoreTest, MigrationsAreAppliedOnceAndReopeningKeepsData) {
+  const int version = store_->schema_version();
+  EXPECT_GE(version, 1);
+  const int64_t pupil = NewPupil("Ann");
+  const auto applied = RawQuery(path_, "SELECT version || ' ' || applied_at FROM schema_migrations ORDER BY version");
+  ASSERT_EQ(applied.size(), static_cast<size_t>(version));
+
+  store_.reset();
+  store_ = fs::Store::open_sqlite(path_);
+  EXPECT_EQ(store_->schema_version(), version);
+  ASSERT_TRUE(store_->get_pupil(pupil).has_value());
+  EXPECT_EQ(store_->get_pupil(pupil)->name, "Ann");
+  // Same rows, same applied_at: nothing was applied again.
+  EXPECT_EQ(RawQuery(path_, "SELECT version || ' ' || applied_at FROM schema_migrations ORDER BY version"), applied);
+}
+
+TEST_F(StoreTest, WalModeAndForeignKeysAreOn) {
+  // journal_mode=WAL is a property of the file, visible to any connection.
+  EXPECT_EQ(RawQuery(path_, "PRAGMA journal_mode"), std::vector<std::string>{"wal"});
+  EXPECT_FALSE(RawQuery(path_, "SELECT \"table\" FROM pragma_foreign_key_list('sessions')").empty());
+  // foreign_keys is per connection: only the store's own enforcement shows it. create_pupil does
+  // not look the school up itself, so only the foreign key can refuse an unknown one.
+  EXPECT_EQ(ErrorKind([&] { store_->create_pupil(school_ + 999, "Nobody", ""); }), fs::StoreError::kNotFound);
+  EXPECT_EQ(ErrorKind([&] { store_->create_user("ghost", "h", fs::Role::kPupil, school_, 12345); }),
+            fs::StoreError::kNotFound);
+  EXPECT_TRUE(RawQuery(path_, "PRAGMA foreign_key_check").empty());
+}
+
+TEST_F(StoreTest, UsersAreUniqueAndRoundTrip) {
+  const int64_t pupil = NewPupil("Ann");
+  const int64_t id = store_->create_user("ann", "hash1", fs::Role::kPupil, school_, pupil);
+  EXPECT_EQ(ErrorKind([&] { store_->create_user("ann", "hash2", fs::Role::kAdmin, school_); }),
+            fs::StoreError::kConflict);
+  EXPECT_EQ(ErrorKind([&] { store_->create_user("", "hash", fs::Role::kAdmin, school_); }), fs::StoreError::kInvalid);
+  EXPECT_EQ(ErrorKind([&] { store_->create_pupil(school_, "", ""); }), fs::StoreError::kInvalid);
+
+  const auto user = store_->find_user("ann");
+  ASSERT_TRUE(user.has_value());
+  EXPECT_EQ(user->id, id);
+  EXPECT_EQ(user->password_hash, "hash1");
+  EXPECT_EQ(user->role, fs::Role::kPupil);
+  EXPECT_EQ(user->pupil_id, pupil);
+  EXPECT_EQ(store_->get_user(id)->username, "ann");
+  EXPECT_FALSE(store_->find_user("bob").has_value());
+
+  for (fs::Role r : {fs::Role::kAdmin, fs::Role::kInstructor, fs::Role::kExaminer, fs::Role::kPupil}) {
+    EXPECT_EQ(fs::parse_role(fs::role_name(r)), r);
+  }
+  EXPECT_FALSE(fs::parse_role("janitor").has_value());
+}
+
+TEST_F(StoreTest, CreateSessionValidatesAndAssignsPublicId) {
+  const int64_t pupil = NewPupil("Ann");
+  EXPECT_EQ(ErrorKind([&] { NewSession(pupil + 999); }), fs::StoreError::kNotFound);
+  EXPECT_EQ(ErrorKind([&] { NewSession(pupil, "practice"); }), fs::StoreError::kInvalid);
+  EXPECT_EQ(ErrorKind([&] { store_->create_session(pupil, "", "m4", "training", std::nullopt, "t"); }),
+            fs::StoreError::kInvalid);
+  EXPECT_EQ(ErrorKind([&] { store_->create_session(pupil, "cab1", "", "training", std::nullopt, "t"); }),
+            fs::StoreError::kInvalid);
+
+  const fs::Session s = NewSession(pupil);
+  EXPECT_EQ(s.public_id, "s-000001");
+  EXPECT_EQ(s.state, "starting");
+  const auto stored = store_->get_session("s-000001");
+  ASSERT_TRUE(stored.has_value());
+  EXPECT_EQ(stored->pupil_id, pupil);
+  EXPECT_EQ(stored->cab_id, "cab1");
+  EXPECT_EQ(stored->mode, "training");
+  EXPECT_EQ(stored->state, "starting");
+  EXPECT_TRUE(stored->ended_at.empty());
+  EXPECT_FALSE(stored->mark.has_value());
+  EXPECT_EQ(NewSession(pupil).public_id, "s-000002");
+}
+
+TEST_F(StoreTest, EventsAreStoredExactlyOnce) {
+  const std::string s = NewSession(NewPupil("Ann")).public_id;
+  EXPECT_TRUE(store_->add_event(MakeEvent(s, 1, "overspeed", 2)));
+  EXPECT_TRUE(store_->add_event(MakeEvent(s, 2, "collision", 3)));
+  EXPECT_FALSE(store_->add_event(MakeEvent(s, 1, "something else", 1)));  // a redelivery
+  const auto events = store_->list_events(s);
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[0].seq, 1);
+  EXPECT_EQ(events[0].kind, "overspeed");  // the first one kept
+  EXPECT_EQ(events[0].worry_level, 2);
+  EXPECT_DOUBLE_EQ(events[0].y_m, 2.0);
+  EXPECT_EQ(events[1].kind, "collision");
+  EXPECT_EQ(ErrorKind([&] { store_->add_event(MakeEvent("s-999999", 1, "x", 1)); }), fs::StoreError::kNotFound);
+}
+
+TEST_F(StoreTest, ScoreIsKeptOnceAndSetsTheMark) {
+  const int64_t pupil = NewPupil("Ann");
+  const std::string s = NewSession(pupil).public_id;
+  EXPECT_TRUE(store_->set_score(fs::ScoreRecord{s, 72.5, true, {{"overspeed", 2}, {"collision", 1}}}, "t1"));
+  EXPECT_FALSE(store_->set_score(fs::ScoreRecord{s, 10, false, {}}, "t2"));
+  const auto score = store_->get_score(s);
+  ASSERT_TRUE(score.has_value());
+  EXPECT_DOUBLE_EQ(score->mark, 72.5);
+  EXPECT_TRUE(score->passed);
+  EXPECT_EQ(score->counts, (std::map<std::string, int>{{"collision", 1}, {"overspeed", 2}}));
+  const auto session = store_->get_session(s);
+  EXPECT_EQ(session->mark, 72.5);
+  EXPECT_EQ(session->passed, true);
+  EXPECT_TRUE(store_->history(pupil, "t3")->exams.empty());  // a training session is no exam
+  EXPECT_EQ(ErrorKind([&] { store_->set_score(fs::ScoreRecord{"s-999999", 1, true, {}}, "t"); }),
+            fs::StoreError::kNotFound);
+}
+
+TEST_F(StoreTest, ExamSessionScoreAddsPracticalExam) {
+  const int64_t pupil = NewPupil("Ann");
+  const int64_t examiner = store_->create_user("eve", "h", fs::Role::kExaminer, school_);
+  const std::string s = NewSession(pupil, "exam", "2026-01-01T10:00:00Z", examiner).public_id;
+  ASSERT_TRUE(store_->set_score(fs::ScoreRecord{s, 81, true, {}}, "2026-01-01T10:30:00Z"));
+  ASSERT_FALSE(store_->set_score(fs::ScoreRecord{s, 20, false, {}}, "2026-01-01T10:40:00Z"));
+  const auto exams = store_->history(pupil, "2026-01-02T00:00:00Z")->exams;
+  ASSERT_EQ(exams.size(), 1u);
+  EXPECT_EQ(exams[0].kind, "practical");
+  EXPECT_EQ(exams[0].session_public_id, s);
+  EXPECT_DOUBLE_EQ(exams[0].score, 81);
+  EXPECT_TRUE(exams[0].passed);
+  EXPECT_EQ(exams[0].examiner_id, examiner);
+  EXPECT_EQ(exams[0].taken_at, "2026-01-01T10:30:00Z");
+}
+
+TEST_F(StoreTest, TheoryExamsAreValidated) {
+  const int64_t pupil = NewPupil("Ann");
+  fs::ExamRecord r;
+  r.pupil_id = pupil;
+  r.kind = "theory";
+  r.score = 0.9;
+  r.passed = true;
+  r.taken_at = "2026-02-01T09:00:00Z";
+  r.details = R"({"answers":[1,2,3]})";
+  const int64_t id = store_->add_exam(r);
+  const auto exams = store_->history(pupil, "2026-03-01T00:00:00Z")->exams;
+  ASSERT_EQ(exams.size(), 1u);
+  EXPECT_EQ(exams[0].id, id);
+  EXPECT_EQ(exams[0].details, r.details);
+  EXPECT_FALSE(exams[0].session_public_id.has_value());
+
+  r.kind = "oral";
+  EXPECT_EQ(ErrorKind([&] { store_->add_exam(r); }), fs::StoreError::kInvalid);
+  r.kind = "theory";
+  r.pupil_id = pupil + 999;
+  EXPECT_EQ(ErrorKind([&] { store_->add_exam(r); }), fs::StoreError::kNotFound);
+}
+
+TEST_F(StoreTest, TerminalStatesNeverChange) {
+  const int64_t pupil = NewPupil("Ann");
+  const std::string s = NewSession(pupil).public_id;
+  const std::string other = NewSession(pupil).public_id;
+  EXPECT_EQ(ErrorKind([&] { store_->set_session_state(s, "paused", "", "t"); }), fs::StoreError::kInvalid);
+  EXPECT_EQ(ErrorKind([&] { store_->set_session_state("s-999999", "running", "", "t"); }),
+            fs::StoreError::kNotFound);
+
+  EXPECT_TRUE(store_->set_session_state(s, "running", "", "2026-01-01T10:01:00Z"));
+  EXPECT_TRUE(store_->get_session(s)->ended_at.empty());
+  EXPECT_TRUE(store_->set_session_state(s, "ended", "finished", "2026-01-01T10:20:00Z"));
+  EXPECT_FALSE(store_->set_session_state(s, "running", "again", "2026-01-01T10:30:00Z"));
+  EXPECT_FALSE(store_->set_session_state(s, "aborted", "late", "2026-01-01T10:31:00Z"));
+  const auto ended = store_->get_session(s);
+  EXPECT_EQ(ended->state, "ended");
+  EXPECT_EQ(ended->reason, "finished");
+  EXPECT_EQ(ended->ended_at, "2026-01-01T10:20:00Z");
+
+  const auto open = store_->open_sessions();
+  ASSERT_EQ(open.size(), 1u);
+  EXPECT_EQ(open[0].public_id, other);
+  EXPECT_TRUE(store_->set_session_state(other, "failed", "worker died", "t"));
+  EXPECT_FALSE(store_->set_session_state(other, "ended", "", "t"));
+  EXPECT_TRUE(store_->open_sessions().empty());
+}
+
+TEST_F(StoreTest, ListPupilsSearchIsCaseInsensitiveAndLiteral) {
+  for (const char* name : {"bob JONES", "Alice Jonesy", "carol 100%", "Dan 1005", "Eve_Y", "EveXY"}) NewPupil(name);
+  const int64_t other_school = store_->create_school("Other");
+  store_->create_pupil(other_school, "Zed Jones", "");
+
+  auto names = [&](const std::string& search, int limit = 100, int offset = 0) {
+    std::vector<std::string> out;
+    for (const auto& p : store_->list_pupils(school_, search, limit, offset)) out.push_back(p.name);
+    return out;
+  };
+  using V = std::vector<std::string>;
+  EXPECT_EQ(names("jones"), (V{"Alice Jonesy", "bob JONES"}));  // by name, ignoring case
+  EXPECT_EQ(names("100%"), V{"carol 100%"});                     // % is literal
+  EXPECT_EQ(names("e_"), V{"Eve_Y"});                            // _ is literal
+  EXPECT_EQ(names(""), (V{"Alice Jonesy", "bob JONES", "carol 100%", "Dan 1005", "Eve_Y", "EveXY"}));
+  EXPECT_EQ(names("", 2, 1), (V{"bob JONES", "carol 100%"}));
+  EXPECT_EQ(ErrorKind([&] { store_->list_pupils(school_ + 999, "", 10, 0); }), fs::StoreError::kNotFound);
+}
+
+TEST_F(StoreTest, CabsAreUpsertedPerSchool) {
+  store_->cab_seen("cab1", school_, "2026-01-01T08:00:00Z");
+  store_->cab_seen("cab1", school_, "2026-01-01T09:00:00Z");
+  const auto cabs = store_->list_cabs(school_);
+  ASSERT_EQ(cabs.size(), 1u);
+  EXPECT_EQ(cabs[0].last_seen_at, "2026-01-01T09:00:00Z");
+  const int64_t other = store_->create_school("Other");
+  EXPECT_EQ(ErrorKind([&] { store_->cab_seen("cab1", other, "t"); }), fs::StoreError::kConflict);
+}
+
+TEST_F(StoreTest, SessionLogsAreReplaced) {
+  const std::string s = NewSession(NewPupil("Ann")).public_id;
+  EXPECT_FALSE(store_->get_session_log(s, "control").has_value());
+  store_->put_session_log(s, "control", "v1");
+  store_->put_session_log(s, "control", "v2");
+  EXPECT_EQ(store_->get_session_log(s, "control"), "v2");
+  EXPECT_EQ(ErrorKind([&] { store_->put_session_log("s-999999", "control", "x"); }), fs::StoreError::kNotFound);
+}
+
+TEST_F(StoreTest, HistoryAggregatesFaultsTrendAndLicence) {
+  const int64_t pupil = NewPupil("Ann");
+  const int64_t other = NewPupil("Bob");
+  const std::string s1 = NewSession(pupil, "training", "2026-01-01T10:00:00Z").public_id;
+  const std::string aborted = NewSession(pupil, "training", "2026-01-02T10:00:00Z").public_id;
+  const std::string s2 = NewSession(pupil, "training", "2026-01-03T10:00:00Z").public_id;
+  const std::string s3 = NewSession(pupil, "training", "2026-01-04T10:00:00Z").public_id;
+  const std::string bobs = NewSession(other).public_id;
+  store_->add_event(MakeEvent(s1, 1, "overspeed", 2));
+  store_->add_event(MakeEvent(s1, 2, "overspeed", 1));
+  store_->add_event(MakeEvent(s1, 3, "horn", 0));  // worry 0: not a fault
+  store_->add_event(MakeEvent(s2, 1, "overspeed", 3));
+  store_->add_event(MakeEvent(s2, 2, "collision", 3));
+  store_->add_event(MakeEvent(bobs, 1, "collision", 3));  // someone else's
+  store_->set_session_state(aborted, "aborted", "cab lost", "2026-01-02T10:05:00Z");
+  store_->set_score(fs::ScoreRecord{s1, 50, false, {}}, "t");
+  store_->set_score(fs::ScoreRecord{s2, 60, false, {}}, "t");
+  store_->set_score(fs::ScoreRecord{s3, 70, true, {}}, "t");
+  store_->add_licence(pupil, "2021-05-01T12:00:00Z", "inspector");
+  const int64_t latest = store_->add_licence(pupil, "2022-05-01T12:00:00Z", "inspector");
+
+  const auto h = store_->history(pupil, "2026-01-05T00:00:00Z");
+  ASSERT_TRUE(h.has_value());
+  EXPECT_EQ(h->pupil.name, "Ann");
+  ASSERT_EQ(h->sessions.size(), 4u);
+  EXPECT_EQ(h->sessions.front().public_id, s1);
+  EXPECT_EQ(h->sessions.back().public_id, s3);
+  EXPECT_EQ(h->faults_by_kind, (std::map<std::string, int>{{"collision", 1}, {"overspeed", 3}}));
+  ASSERT_TRUE(h->trend.has_value());
+  EXPECT_NEAR(*h->trend, 10.0, 1e-9);  // 50, 60, 70 over the marked sessions
+  ASSERT_TRUE(h->licence.has_value());
+  EXPECT_EQ(h->licence->id, latest);
+  EXPECT_EQ(h->licence->reevaluation_due, "2025-05-01T12:00:00Z");
+  EXPECT_TRUE(h->reevaluation_overdue);
+
+  EXPECT_FALSE(store_->history(pupil, "2025-04-30T23:59:59Z")->reevaluation_overdue);
+  const auto bob = store_->history(other, "2026-01-05T00:00:00Z");
+  EXPECT_FALSE(bob->trend.has_value());
+  EXPECT_FALSE(bob->licence.has_value());
+  EXPECT_FALSE(bob->reevaluation_overdue);
+  EXPECT_FALSE(store_->history(pupil + 999, "t").has_value());
+}
+
+TEST_F(StoreTest, BatchIsAllOrNothingAndACallFailingInsideItUndoesOnlyItself) {
+  // A failing batch leaves nothing behind.
+  EXPECT_THROW(store_->batch([&] {
+    store_->create_pupil(school_, "Ann", "");
+    store_->create_pupil(school_, "Bob", "");
+    throw std::runtime_error("import aborted");
+  }), std::runtime_error);
+  EXPECT_TRUE(store_->list_pupils(school_, "", 10, 0).empty());
+
+  // A refused call inside a batch is undone alone; the batch's other writes commit.
+  store_->batch([&] {
+    store_->create_user("carol", "h", fs::Role::kInstructor, school_);
+    EXPECT_EQ(ErrorKind([&] { store_->create_user("carol", "h2", fs::Role::kAdmin, school_); }),
+              fs::StoreError::kConflict);
+    store_->create_pupil(school_, "Dan", "");
+  });
+  EXPECT_EQ(RawQuery(path_, "SELECT COUNT(*) FROM users WHERE username = 'carol'"), std::vector<std::string>{"1"});
+  EXPECT_EQ(store_->list_pupils(school_, "", 10, 0).size(), 1u);
+  EXPECT_EQ(ErrorKind([&] { store_->batch([&] { store_->batch([] {}); }); }), fs::StoreError::kInvalid);
+}
+
+TEST(StoreTimeTest, AddYearsAndNow) {
+  EXPECT_EQ(fs::add_years_iso8601("2024-02-29T08:00:00Z", 3), "2027-02-28T08:00:00Z");
+  EXPECT_EQ(fs::add_years_iso8601("2024-02-29T08:00:00Z", 4), "2028-02-29T08:00:00Z");
+  EXPECT_EQ(fs::add_years_iso8601("2026-11-23T10:30:00Z", 3), "2029-11-23T10:30:00Z");
+  for (const char* bad : {"", "2026-11-23", "2026-13-01T00:00:00Z", "2025-02-29T00:00:00Z", "2026-11-23T25:00:00Z",
+                          "2026-11-23 10:30:00Z", "2026-11-23T10:30:00"}) {
+    EXPECT_EQ(ErrorKind([&] { fs::add_years_iso8601(bad, 3); }), fs::StoreError::kInvalid) << bad;
+  }
+  const std::string now = fs::now_iso8601();
+  EXPECT_TRUE(std::regex_match(now, std::regex(R"(\d{4}-\d{2}-\d{2}T\d{2}:\d{2}:\d{2}Z)"))) << now;
+  EXPECT_NO_THROW(fs::add_years_iso8601(now, 3));
+}
+
+TEST_F(StoreTest, TwoStoresOnOneFileSeeEachOthersWrites) {
+  auto second = fs::Store::open_sqlite(path_);
+  const int64_t pupil = NewPupil("Ann");
+  ASSERT_TRUE(second->get_pupil(pupil).has_value());
+  const std::string s = second->create_session(pupil, "cab1", "m4", "training", std::nullopt, "t").public_id;
+  ASSERT_TRUE(store_->get_session(s).has_value());
+
+  // Two threads writing at once, one store each: the busy timeout serialises them.
+  constexpr int kPerThread = 300;
+  auto write = [&](fs::Store* store, int first) {
+    for (int i = 0; i < kPerThread; ++i) store->add_event(MakeEvent(s, first + i, "overspeed", 1));
+  };
+  std::thread a(write, store_.get(), 1);
+  std::thread b(write, second.get(), 1 + kPerThread);
+  a.join();
+  b.join();
+  EXPECT_EQ(store_->list_events(s).size(), 2u * kPerThread);
+  EXPECT_EQ(second->history(pupil, "t")->faults_by_kind.at("overspeed"), 2 * kPerThread);
+}
+
+// Each write through the API is its own commit (some 80 us here), so the store is kept to
+// 20,000 sessions; the benchmark times history() on 500,000.
+TEST_F(StoreTest, HistoryOnALargeStore) {
+  constexpr int kPupils = 400, kSessions = 50;
+  int64_t probe = 0;
+  for (int p = 0; p < kPupils; ++p) {
+    const int64_t pupil = NewPupil("Pupil " + std::to_string(p));
+    if (p == kPupils / 2) probe = pupil;
+    for (int i = 0; i < kSessions; ++i) {
+      const std::string s = NewSession(pupil, "training", "2026-01-01T10:00:" + std::to_string(10 + i) + "Z").public_id;
+      if (pupil == probe) store_->add_event(MakeEvent(s, 1, "overspeed", 1));
+    }
+  }
+  const auto h = store_->history(probe, "2026-02-01T00:00:00Z");
+  ASSERT_TRUE(h.has_value());
+  EXPECT_EQ(h->sessions.size(), static_cast<size_t>(kSessions));
+  EXPECT_EQ(h->faults_by_kind.at("overspeed"), kSessions);
+}
+
+}  // namespace
