@@ -4,7 +4,7 @@
 set -euo pipefail
 
 packages=(
-  build-essential cmake pkg-config git
+  build-essential cmake pkg-config git curl
   # dynamics
   libeigen3-dev libsundials-dev
   # scene, collision, rendering (later modules)

@@ -28,6 +28,10 @@ struct Cab {
   std::string id;
   dds::Writer<fk_Controls>& writer;
   dds::Reader<fk_TruckState>& states;
+  dds::Writer<fk_CabAnnounce>& announce;
+  dds::Reader<fk_SessionStatus>& statuses;
+  std::string mode;
+  Clock::time_point last_announce{};
   uint32_t seq = 0;
   Clock::time_point start = Clock::now();
   Clock::time_point last_hud{};
@@ -45,8 +49,29 @@ struct Cab {
     writer.write(c);
   }
 
+  // Once a second: "this cab is here" for the server's fleet view.
+  void heartbeat() {
+    const auto now = Clock::now();
+    if (now - last_announce < std::chrono::seconds(1)) return;
+    last_announce = now;
+    fk_CabAnnounce a{};
+    dds::set_string(a.cab_id, id);
+    a.cab_time_s = std::chrono::duration<double>(now - start).count();
+    dds::set_string(a.mode, mode);
+    announce.write(a);
+  }
+
   // Head-up display: speed, fork height, load, stability margin (and the dead man if it tripped).
+  // A session of this cab that ends or fails is announced, and stops the cab.
   void hud() {
+    heartbeat();
+    statuses.take_each([&](const fk_SessionStatus& s) {
+      const std::string state = s.state;
+      if (id != s.cab_id || (state != "ended" && state != "failed")) return;
+      std::printf("%ssession %s %s%s%s\n", tty ? "\n" : "", s.session_id, state.c_str(), s.reason[0] ? ": " : "", s.reason);
+      std::fflush(stdout);
+      if (state == "failed") g_stop = true;
+    });
     states.take_each([&](const fk_TruckState& s) { last = s; have_state = true; });
     const auto now = Clock::now();
     if (!have_state || now - last_hud < std::chrono::milliseconds(tty ? 100 : 1000)) return;
@@ -60,9 +85,11 @@ struct Cab {
 };
 
 // Waits until the worker's reader matches our writer, so that the script's first row is not lost.
-bool wait_for_worker(dds::Writer<fk_Controls>& w, double timeout_s) {
+bool wait_for_worker(Cab& cab, double timeout_s) {
+  dds::Writer<fk_Controls>& w = cab.writer;
   const auto until = Clock::now() + std::chrono::duration<double>(timeout_s);
   while (!g_stop && Clock::now() < until) {
+    cab.heartbeat();
     if (w.matched() > 0) return true;
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
@@ -169,8 +196,10 @@ int main(int argc, char** argv) {
     dds::Participant participant(dds::DomainSettings::resolve(domain, dds_config));
     dds::Writer<fk_Controls> writer(participant, dds::cab_partition(cab_id));
     dds::Reader<fk_TruckState> states(participant, dds::cab_partition(cab_id));
-    Cab cab{cab_id, writer, states};
-    if (!wait_for_worker(writer, wait_s)) {
+    dds::Writer<fk_CabAnnounce> announce(participant);
+    dds::Reader<fk_SessionStatus> statuses(participant);
+    Cab cab{cab_id, writer, states, announce, statuses, !script.empty() ? "script" : keyboard ? "keyboard" : "joystick"};
+    if (!wait_for_worker(cab, wait_s)) {
       std::cerr << "forklift-cab: no worker for cab " << cab_id << " after " << wait_s << " s\n";
       return 5;
     }

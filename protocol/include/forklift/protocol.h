@@ -26,6 +26,11 @@ template <> struct Topic<fk_Controls> {
   static constexpr QosKind qos = QosKind::kLatestReliable;
   static const dds_topic_descriptor_t* descriptor() { return &fk_Controls_desc; }
 };
+template <> struct Topic<fk_CabAnnounce> {
+  static constexpr const char* name = "fk_CabAnnounce";
+  static constexpr QosKind qos = QosKind::kLatestBestEffort;
+  static const dds_topic_descriptor_t* descriptor() { return &fk_CabAnnounce_desc; }
+};
 template <> struct Topic<fk_TruckState> {
   static constexpr const char* name = "fk_TruckState";
   static constexpr QosKind qos = QosKind::kLatestBestEffort;

@@ -1,0 +1,192 @@
+// forklift-menu: the command-line side of the Menu Structure, a client of forklift-server's API
+// for the cab station and for scripting. The login token is kept in ~/.forklift-token (or
+// --token-file) so that later commands need no password.
+#include <httplib.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+using nlohmann::json;
+
+namespace {
+
+struct Client {
+  std::string server, token_file;
+
+  httplib::Client http() const {
+    httplib::Client c(server);
+    c.set_connection_timeout(5);
+    c.set_read_timeout(30);
+    return c;
+  }
+  std::string token() const {
+    std::ifstream in(token_file);
+    std::string t;
+    std::getline(in, t);
+    if (t.empty()) throw std::runtime_error("not logged in: run forklift-menu login first");
+    return t;
+  }
+  // Sends a request; a refusal is printed from the server's JSON error and ends the program.
+  json call(const std::string& method, const std::string& path, const json& body = nullptr, bool auth = true) const {
+    auto c = http();
+    httplib::Headers h;
+    if (auth) h.emplace("Authorization", "Bearer " + token());
+    httplib::Result r = method == "GET" ? c.Get(path, h) : c.Post(path, h, body.is_null() ? "" : body.dump(), "application/json");
+    if (!r) throw std::runtime_error("cannot reach " + server + " (" + httplib::to_string(r.error()) + ")");
+    json j;
+    try { j = json::parse(r->body); } catch (...) { j = r->body; }
+    if (r->status >= 400) {
+      const std::string msg = j.is_object() && j.contains("error") ? j["error"].value("message", r->body) : r->body;
+      throw std::runtime_error("server refused (" + std::to_string(r->status) + "): " + msg);
+    }
+    return j;
+  }
+  std::string get_text(const std::string& path) const {
+    auto c = http();
+    auto r = c.Get(path, {{"Authorization", "Bearer " + token()}});
+    if (!r || r->status >= 400) throw std::runtime_error("export failed");
+    return r->body;
+  }
+};
+
+std::string fmt(const json& v, int decimals = 1) {
+  if (v.is_null()) return "-";
+  if (v.is_number_float()) { char b[32]; std::snprintf(b, sizeof b, "%.*f", decimals, v.get<double>()); return b; }
+  if (v.is_boolean()) return v.get<bool>() ? "yes" : "no";
+  return v.is_string() ? v.get<std::string>() : v.dump();
+}
+
+void print_history(const json& h) {
+  std::printf("%s (pupil %s)\n", fmt(h["pupil"]["name"]).c_str(), fmt(h["pupil"]["id"]).c_str());
+  std::printf("%-10s %-20s %-14s %-9s %-8s %6s %6s\n", "session", "created", "scenario", "mode", "state", "mark", "passed");
+  for (const auto& s : h["sessions"])
+    std::printf("%-10s %-20s %-14s %-9s %-8s %6s %6s\n", fmt(s["id"]).c_str(), fmt(s["created_at"]).c_str(), fmt(s["scenario"]).c_str(),
+                fmt(s["mode"]).c_str(), fmt(s["state"]).c_str(), fmt(s["mark"]).c_str(), fmt(s["passed"]).c_str());
+  if (!h["exams"].empty()) {
+    std::printf("exams:\n");
+    for (const auto& e : h["exams"])
+      std::printf("  %-9s %-20s score %-6s passed %s\n", fmt(e["kind"]).c_str(), fmt(e["taken_at"]).c_str(), fmt(e["score"], 2).c_str(), fmt(e["passed"]).c_str());
+  }
+  std::printf("faults by kind: %s\n", h["faults_by_kind"].empty() ? "none" : h["faults_by_kind"].dump().c_str());
+  std::printf("trend: %s per session   licence: %s   re-evaluation overdue: %s\n", fmt(h["trend"], 2).c_str(),
+              h["licence"].is_null() ? "none" : ("due " + fmt(h["licence"]["reevaluation_due"])).c_str(), fmt(h["reevaluation_overdue"]).c_str());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"forklift-menu: pupils, scenarios, sessions and histories through forklift-server"};
+  app.require_subcommand(1);
+  Client cl;
+  cl.server = "http://127.0.0.1:8080";
+  const char* home = std::getenv("HOME");
+  cl.token_file = std::string(home ? home : ".") + "/.forklift-token";
+  app.add_option("--server", cl.server, "the server's base URL");
+  app.add_option("--token-file", cl.token_file, "where the login token is kept");
+
+  std::string username, password, name, email, search, cab, scenario, mode = "training", drive, session, out;
+  int64_t pupil = 0;
+  int dds_domain = -1;
+  bool wait = false;
+  auto* login = app.add_subcommand("login", "log in and keep the token");
+  login->add_option("--user", username)->required();
+  login->add_option("--password", password, "else FORKLIFT_PASSWORD");
+  auto* add = app.add_subcommand("pupil-add", "create a pupil (and optionally their login)");
+  add->add_option("--name", name)->required();
+  add->add_option("--email", email);
+  add->add_option("--user", username, "the pupil's own username");
+  add->add_option("--password", password, "the pupil's password");
+  auto* list = app.add_subcommand("pupils", "list pupils");
+  list->add_option("--search", search);
+  auto* scen = app.add_subcommand("scenarios", "list scenarios");
+  auto* start = app.add_subcommand("start", "start a session on a cab");
+  start->add_option("--pupil", pupil)->required();
+  start->add_option("--cab", cab)->required();
+  start->add_option("--scenario", scenario)->required();
+  start->add_option("--mode", mode)->check(CLI::IsMember({"training", "exam"}));
+  start->add_option("--drive", drive, "drive it with a scripted cab (forklift-cab --script)")->check(CLI::ExistingFile);
+  start->add_option("--dds-domain", dds_domain, "DDS domain of the scripted cab (default: environment)");
+  start->add_flag("--wait", wait, "wait until the session is over and print it");
+  auto* show = app.add_subcommand("session", "show a session's state, events and mark");
+  show->add_option("ID", session)->required();
+  auto* hist = app.add_subcommand("history", "a pupil's history as a table");
+  hist->add_option("--pupil", pupil)->required();
+  auto* exp = app.add_subcommand("export", "a pupil's history as CSV");
+  exp->add_option("--pupil", pupil)->required();
+  exp->add_option("--out", out, "file (default: stdout)");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    if (*login) {
+      if (password.empty()) if (const char* p = std::getenv("FORKLIFT_PASSWORD")) password = p;
+      const json r = cl.call("POST", "/api/login", {{"username", username}, {"password", password}}, false);
+      std::ofstream(cl.token_file) << r["token"].get<std::string>() << '\n';
+      std::printf("logged in as %s (%s)\n", username.c_str(), r["role"].get<std::string>().c_str());
+    } else if (*add) {
+      json b = {{"name", name}, {"email", email}};
+      if (!username.empty()) { b["username"] = username; b["password"] = password; }
+      const json r = cl.call("POST", "/api/pupils", b);
+      std::printf("pupil %lld: %s\n", static_cast<long long>(r["id"].get<int64_t>()), r["name"].get<std::string>().c_str());
+    } else if (*list) {
+      const json r = cl.call("GET", "/api/pupils?search=" + httplib::detail::encode_query_param(search));
+      for (const auto& p : r) std::printf("%6lld  %s\n", static_cast<long long>(p["id"].get<int64_t>()), p["name"].get<std::string>().c_str());
+    } else if (*scen) {
+      for (const auto& s : cl.call("GET", "/api/scenarios")) std::printf("%-16s load %s\n", s["name"].get<std::string>().c_str(), s["load"].dump().c_str());
+    } else if (*start) {
+      const json s = cl.call("POST", "/api/sessions", {{"pupil_id", pupil}, {"cab_id", cab}, {"scenario", scenario}, {"mode", mode}});
+      const std::string id = s["id"];
+      std::printf("session %s started on cab %s\n", id.c_str(), cab.c_str());
+      std::fflush(stdout);  // before the scripted cab writes to the same terminal
+      if (!drive.empty()) {
+        const std::string self = std::filesystem::canonical("/proc/self/exe").parent_path().string();
+        std::vector<std::string> args = {self + "/forklift-cab", "--cab", cab, "--script", drive, "--wait-worker", "30"};
+        if (dds_domain >= 0) { args.push_back("--dds-domain"); args.push_back(std::to_string(dds_domain)); }
+        const pid_t pid = fork();
+        if (pid == 0) {
+          std::vector<char*> argv;
+          for (auto& a : args) argv.push_back(a.data());
+          argv.push_back(nullptr);
+          execv(argv[0], argv.data());
+          _exit(127);
+        }
+        int status = 0;
+        waitpid(pid, &status, 0);
+        wait = true;
+      }
+      if (wait) {
+        json cur;
+        for (int i = 0; i < 600; ++i) {
+          cur = cl.call("GET", "/api/sessions/" + id);
+          const std::string st = cur["state"];
+          if (st == "ended" || st == "failed" || st == "aborted") break;
+          std::this_thread::sleep_for(std::chrono::milliseconds(200));
+        }
+        std::printf("session %s: %s %s\n", id.c_str(), fmt(cur["state"]).c_str(), fmt(cur["reason"]).c_str());
+      }
+    } else if (*show) {
+      const json s = cl.call("GET", "/api/sessions/" + session);
+      std::printf("session %s  pupil %s  cab %s  scenario %s  mode %s  state %s  mark %s  passed %s\n", fmt(s["id"]).c_str(),
+                  fmt(s["pupil_id"]).c_str(), fmt(s["cab_id"]).c_str(), fmt(s["scenario"]).c_str(), fmt(s["mode"]).c_str(),
+                  fmt(s["state"]).c_str(), fmt(s["mark"]).c_str(), fmt(s["passed"]).c_str());
+      for (const auto& e : s["events"])
+        std::printf("  t=%7.2f s  %-18s worry %d  %s\n", e["sim_time_s"].get<double>(), fmt(e["kind"]).c_str(), e["worry_level"].get<int>(), fmt(e["details"]).c_str());
+    } else if (*hist) {
+      print_history(cl.call("GET", "/api/pupils/" + std::to_string(pupil) + "/history"));
+    } else if (*exp) {
+      const std::string csv = cl.get_text("/api/pupils/" + std::to_string(pupil) + "/history.csv");
+      if (out.empty()) std::cout << csv; else std::ofstream(out) << csv;
+    }
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "forklift-menu: " << e.what() << '\n';
+    return 2;
+  }
+}

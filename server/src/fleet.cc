@@ -1,0 +1,247 @@
+#include "fleet.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstring>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+namespace forklift::server {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+bool terminal(const std::string& state) { return state == "ended" || state == "failed" || state == "aborted"; }
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+}  // namespace
+
+Fleet::Fleet(FleetConfig config) : config_(std::move(config)) {
+  participant_ = std::make_unique<dds::Participant>(dds::DomainSettings::resolve(config_.dds_domain, config_.dds_config));
+  status_writer_ = std::make_unique<dds::Writer<fk_SessionStatus>>(*participant_);
+  // A restarted server adopts the sessions still open: their workers keep running on their own
+  // and keep reporting over DDS; without a child pid they are supervised by their heartbeat.
+  auto db = store::Store::open_sqlite(config_.db_path);
+  for (const store::Session& s : db->open_sessions()) {
+    if (s.state == "starting") continue;  // never got a worker
+    WorkerInfo w;
+    w.session = s.public_id;
+    w.cab = s.cab_id;
+    w.started = w.last_state = Clock::now();
+    workers_[s.public_id] = w;
+  }
+  supervisor_ = std::thread([this] { supervise(); });
+  ingest_ = std::thread([this] { ingest(); });
+}
+
+Fleet::~Fleet() {
+  stop_ = true;
+  if (supervisor_.joinable()) supervisor_.join();
+  if (ingest_.joinable()) ingest_.join();
+  std::lock_guard<std::mutex> lock(mu_);
+  for (auto& [id, w] : workers_)
+    if (w.pid > 0) kill(w.pid, SIGTERM);
+}
+
+void Fleet::start_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s) {
+  std::lock_guard<std::mutex> lock(mu_);
+  if (static_cast<int>(workers_.size()) >= config_.max_workers)
+    throw std::runtime_error("this machine already runs " + std::to_string(workers_.size()) + " workers (the limit)");
+  for (const auto& [id, w] : workers_)
+    if (w.cab == s.cab_id) throw std::runtime_error("cab " + s.cab_id + " is running session " + id);
+  const std::string base = config_.log_dir + "/" + s.public_id;
+  std::vector<std::string> args = {config_.worker_binary, "--cab", s.cab_id, "--session", s.public_id,
+                                   "--scenario", scenario_file, "--dds-domain", std::to_string(config_.dds_domain),
+                                   "--log", base + ".ctl", "--start-timeout", std::to_string(config_.start_timeout_s)};
+  if (duration_s) { args.push_back("--duration"); args.push_back(std::to_string(*duration_s)); }
+  if (!config_.dds_config.empty()) { args.push_back("--dds-config"); args.push_back(config_.dds_config); }
+  const pid_t pid = fork();
+  if (pid < 0) throw std::runtime_error(std::string("fork: ") + std::strerror(errno));
+  if (pid == 0) {
+    const int out = open((base + ".out").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int err = open((base + ".err").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (out >= 0) dup2(out, 1);
+    if (err >= 0) dup2(err, 2);
+    setpgid(0, 0);  // a Ctrl-C to the server's terminal must not kill sessions mid-exam
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  WorkerInfo w;
+  w.session = s.public_id;
+  w.cab = s.cab_id;
+  w.pid = pid;
+  w.started = w.last_state = Clock::now();
+  workers_[s.public_id] = w;
+}
+
+bool Fleet::abort(const std::string& session) {
+  std::lock_guard<std::mutex> lock(mu_);
+  auto it = workers_.find(session);
+  if (it == workers_.end()) return false;
+  if (it->second.pid > 0) kill(it->second.pid, SIGTERM);
+  return true;
+}
+
+std::vector<WorkerInfo> Fleet::workers() {
+  std::lock_guard<std::mutex> lock(mu_);
+  std::vector<WorkerInfo> out;
+  for (const auto& [id, w] : workers_) out.push_back(w);
+  return out;
+}
+
+std::vector<CabInfo> Fleet::cabs_online(double within_s) {
+  std::lock_guard<std::mutex> lock(mu_);
+  std::vector<CabInfo> out;
+  const auto now = Clock::now();
+  for (const auto& [id, c] : cabs_)
+    if (std::chrono::duration<double>(now - c.last_seen).count() < within_s) out.push_back(c);
+  return out;
+}
+
+bool Fleet::cab_busy(const std::string& cab) {
+  std::lock_guard<std::mutex> lock(mu_);
+  for (const auto& [id, w] : workers_) if (w.cab == cab) return true;
+  return false;
+}
+
+void Fleet::publish_status(const std::string& session, const std::string& cab, const char* state, const std::string& reason) {
+  fk_SessionStatus s{};
+  dds::set_string(s.session_id, session);
+  dds::set_string(s.cab_id, cab);
+  dds::set_string(s.state, state);
+  dds::set_string(s.reason, reason);
+  status_writer_->write(s);
+}
+
+void Fleet::fail(store::Store& db, const std::string& session, const std::string& cab, const std::string& reason) {
+  // Never a pass: a session whose worker died is failed with the reason, and the cab is told.
+  if (db.set_session_state(session, "failed", reason, store::now_iso8601())) {
+    std::cerr << "forklift-server: session " << session << " failed: " << reason << std::endl;
+    publish_status(session, cab, "failed", reason);
+  }
+}
+
+void Fleet::supervise() {
+  auto db = store::Store::open_sqlite(config_.db_path);
+  while (!stop_) {
+    std::vector<std::pair<WorkerInfo, std::string>> finished;  // worker, failure reason ("" if clean)
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      const auto now = Clock::now();
+      for (auto it = workers_.begin(); it != workers_.end();) {
+        WorkerInfo& w = it->second;
+        std::string reason;
+        bool done = false;
+        if (w.pid > 0) {
+          int status = 0;
+          if (waitpid(w.pid, &status, WNOHANG) == w.pid) {
+            done = true;
+            if (WIFSIGNALED(status)) reason = "worker killed by signal " + std::to_string(WTERMSIG(status));
+            else if (WEXITSTATUS(status) != 0) reason = "worker exited with code " + std::to_string(WEXITSTATUS(status));
+          }
+        }
+        const double silent = std::chrono::duration<double>(now - w.last_state).count();
+        if (!done && w.seen_state && silent > config_.hang_timeout_s) {
+          reason = "worker hung: no truck state for " + std::to_string(int(silent)) + " s";
+          if (w.pid > 0) { kill(w.pid, SIGKILL); waitpid(w.pid, nullptr, 0); }
+          done = true;
+        }
+        if (!done && w.pid == 0 && !w.seen_state && silent > config_.hang_timeout_s + config_.start_timeout_s) {
+          reason = "worker lost across a server restart";
+          done = true;
+        }
+        if (done) { finished.push_back({w, reason}); it = workers_.erase(it); } else ++it;
+      }
+    }
+    for (const auto& [w, reason] : finished) {
+      const std::string base = config_.log_dir + "/" + w.session;
+      db->put_session_log(w.session, "control", slurp(base + ".ctl"));
+      db->put_session_log(w.session, "worker", slurp(base + ".err"));
+      if (!reason.empty()) {
+        fail(*db, w.session, w.cab, reason);
+      } else {
+        // A clean exit normally follows the worker's own "ended" status; if it was lost, the
+        // session still ends, but as ended, which carries no mark and so is never a pass.
+        const auto s = db->get_session(w.session);
+        if (s && !terminal(s->state)) {
+          const std::string err = slurp(base + ".err");
+          const bool gave_up = err.find("no controls within") != std::string::npos;
+          if (gave_up) fail(*db, w.session, w.cab, "the cab never spoke");
+          else db->set_session_state(w.session, "ended", "worker exited", store::now_iso8601());
+        }
+      }
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+}
+
+void Fleet::ingest() {
+  auto db = store::Store::open_sqlite(config_.db_path);
+  dds::Reader<fk_Event> events(*participant_);
+  dds::Reader<fk_Score> scores(*participant_);
+  dds::Reader<fk_SessionStatus> statuses(*participant_);
+  dds::Reader<fk_TruckState> states(*participant_, "cab.*");
+  dds::Reader<fk_CabAnnounce> announces(*participant_);
+  dds::WaitSet ws(*participant_);
+  for (dds_entity_t r : {events.handle(), scores.handle(), statuses.handle(), states.handle(), announces.handle()})
+    ws.attach_reader(r);
+  while (!stop_) {
+    ws.wait(0.1);
+    try {
+      events.take_each([&](const fk_Event& e) {
+        if (!db->get_session(e.session_id)) return;  // not one of ours (another server on this domain)
+        db->add_event({e.session_id, e.seq, e.sim_time_s, e.kind, e.worry_level, e.x_m, e.y_m, e.details});
+      });
+      scores.take_each([&](const fk_Score& s) {
+        if (!db->get_session(s.session_id)) return;
+        store::ScoreRecord r{s.session_id, s.mark, s.passed, {}};
+        for (uint32_t i = 0; i < s.counts._length; ++i) r.counts[s.counts._buffer[i].kind] = int(s.counts._buffer[i].count);
+        db->set_score(r, store::now_iso8601());
+      });
+      statuses.take_each([&](const fk_SessionStatus& s) {
+        const std::string state = s.state;
+        if (!db->get_session(s.session_id)) return;
+        if (state == "waiting" || state == "running" || state == "ended" || state == "failed")
+          db->set_session_state(s.session_id, state, s.reason, store::now_iso8601());
+      });
+      std::vector<std::string> announced;
+      {
+      std::lock_guard<std::mutex> lock(mu_);
+      states.take_each([&](const fk_TruckState& t) {
+        auto it = workers_.find(t.session_id);
+        if (it != workers_.end()) {
+          it->second.last_state = Clock::now();
+          it->second.seen_state = true;
+          it->second.sim_time_s = t.sim_time_s;
+          it->second.speed_m_s = t.speed_m_s;
+        }
+      });
+      announces.take_each([&](const fk_CabAnnounce& a) {
+        CabInfo& c = cabs_[a.cab_id];
+        c.id = a.cab_id;
+        c.mode = a.mode;
+        c.last_seen = Clock::now();
+        announced.push_back(c.id);
+      });
+      }
+      for (const std::string& cab : announced) db->cab_seen(cab, 1, store::now_iso8601());  // the default school
+    } catch (const std::exception& e) {
+      std::cerr << "forklift-server: ingest: " << e.what() << std::endl;  // counted, never fatal
+    }
+  }
+}
+
+}  // namespace forklift::server

@@ -1,0 +1,79 @@
+// The server's view of the cabs and their sim workers: it spawns one forklift-worker per session,
+// supervises it (exit, crash, hang), and writes what workers report over DDS into the store.
+#pragma once
+
+#include <sys/types.h>
+
+#include <atomic>
+#include <chrono>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "forklift/protocol.h"
+#include "forklift/store.h"
+
+namespace forklift::server {
+
+struct FleetConfig {
+  std::string db_path;
+  std::string worker_binary;
+  std::string data_dir;
+  std::string log_dir;        // worker logs and control logs
+  int dds_domain = 0;
+  std::string dds_config;     // empty: default resolution
+  int max_workers = 8;
+  double hang_timeout_s = 5;  // a running worker with no TruckState for this long is killed
+  double start_timeout_s = 120;
+};
+
+struct WorkerInfo {
+  std::string session, cab;
+  pid_t pid = 0;  // 0 if the worker is not our child (adopted after a server restart)
+  std::chrono::steady_clock::time_point started, last_state;
+  bool seen_state = false;
+  double sim_time_s = 0, speed_m_s = 0;
+};
+
+struct CabInfo {
+  std::string id, mode;
+  std::chrono::steady_clock::time_point last_seen;
+};
+
+class Fleet {
+ public:
+  explicit Fleet(FleetConfig config);
+  ~Fleet();  // stops the threads; running workers are told to stop (SIGTERM)
+
+  // Spawns the worker for a session created in the store. Throws std::runtime_error when the
+  // machine already runs max_workers, or the cab is busy.
+  void start_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s);
+  // SIGTERM to the session's worker; returns false if it has none.
+  bool abort(const std::string& session);
+
+  std::vector<WorkerInfo> workers();
+  std::vector<CabInfo> cabs_online(double within_s = 3.0);
+  bool cab_busy(const std::string& cab);
+  const FleetConfig& config() const { return config_; }
+
+ private:
+  void supervise();  // thread: reap exits, detect hangs
+  void ingest();     // thread: DDS -> store
+  void fail(store::Store& db, const std::string& session, const std::string& cab, const std::string& reason);
+  void publish_status(const std::string& session, const std::string& cab, const char* state, const std::string& reason);
+
+  FleetConfig config_;
+  std::mutex mu_;
+  std::map<std::string, WorkerInfo> workers_;  // by session
+  std::map<std::string, CabInfo> cabs_;
+  std::unique_ptr<dds::Participant> participant_;
+  std::unique_ptr<dds::Writer<fk_SessionStatus>> status_writer_;
+  std::atomic<bool> stop_{false};
+  std::thread supervisor_, ingest_;
+};
+
+}  // namespace forklift::server

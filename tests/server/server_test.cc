@@ -1,0 +1,222 @@
+// forklift-server over real HTTP on loopback, with a real SQLite file and real workers and cabs.
+// Each test runs its own server on its own port and DDS domain.
+#include <gtest/gtest.h>
+#include <httplib.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <thread>
+
+#include "support/process.h"
+
+using nlohmann::json;
+
+namespace {
+
+const std::string kBin = FORKLIFT_BIN_DIR;
+const std::string kData = FORKLIFT_DATA_DIR;
+const std::string kAdminPassword = "admin-pass-1";
+
+struct Server {
+  int port, domain;
+  std::string dir, db;
+  std::unique_ptr<Process> proc;
+
+  Server(int port_, int domain_, const std::string& name, std::vector<std::string> extra = {})
+      : port(port_), domain(domain_), dir(testing::TempDir() + "/server-" + name) {
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    db = dir + "/forklift.db";
+    start(extra);
+  }
+  void start(std::vector<std::string> extra = {}) {
+    std::vector<std::string> args = {kBin + "/forklift-server", "--db", db, "--listen", "127.0.0.1:" + std::to_string(port),
+                                     "--dds-domain", std::to_string(domain), "--admin-password", kAdminPassword};
+    args.insert(args.end(), extra.begin(), extra.end());
+    proc = std::make_unique<Process>(args, dir + "/server-" + std::to_string(std::rand()));
+    httplib::Client c("127.0.0.1", port);
+    for (int i = 0; i < 200; ++i) {
+      if (auto r = c.Get("/api/health"); r && r->status == 200) return;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    ADD_FAILURE() << "server did not come up: " << proc->err();
+  }
+  httplib::Client client() const { return httplib::Client("127.0.0.1", port); }
+
+  // Status and JSON body of one request.
+  std::pair<int, json> call(const std::string& method, const std::string& path, const std::string& token = "",
+                            const std::string& body = "") const {
+    auto c = client();
+    httplib::Headers h;
+    if (!token.empty()) h.emplace("Authorization", "Bearer " + token);
+    auto r = method == "GET" ? c.Get(path, h) : c.Post(path, h, body, "application/json");
+    if (!r) return {0, nullptr};
+    json j;
+    try { j = json::parse(r->body); } catch (...) { j = r->body; }
+    return {r->status, j};
+  }
+  std::string login(const std::string& user, const std::string& pw) const {
+    auto [status, j] = call("POST", "/api/login", "", json{{"username", user}, {"password", pw}}.dump());
+    EXPECT_EQ(status, 200) << j;
+    return status == 200 ? j["token"].get<std::string>() : "";
+  }
+  json wait_session(const std::string& token, const std::string& id, double seconds) const {
+    json s;
+    for (int i = 0; i < seconds * 10; ++i) {
+      s = call("GET", "/api/sessions/" + id, token).second;
+      const std::string st = s.value("state", "");
+      if (st == "ended" || st == "failed" || st == "aborted") break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    return s;
+  }
+};
+
+std::string error_code(const json& j) { return j.is_object() && j.contains("error") ? j["error"].value("code", "") : ""; }
+
+// A cab script: driving for `drive_s`, then silent, so the worker's dead man fires.
+std::string short_script(const std::string& dir, double drive_s) {
+  const std::string path = dir + "/short.csv";
+  std::ofstream f(path);
+  f << "t,steer,accelerator,brake,lift,tilt,shift\n";
+  for (double t = 0; t <= drive_s + 1e-9; t += 0.02) f << t << ",0,0.3,0,0,0,0\n";
+  return path;
+}
+
+Process cab(const Server& s, const std::string& id, const std::string& script) {
+  return Process({kBin + "/forklift-cab", "--cab", id, "--script", script, "--dds-domain", std::to_string(s.domain), "--wait-worker", "20"},
+                 s.dir + "/cab-" + id);
+}
+
+}  // namespace
+
+TEST(Server, LoginRolesAndVisibility) {
+  Server s(18101, 101, "roles");
+  EXPECT_EQ(error_code(s.call("POST", "/api/login", "", R"({"username":"admin","password":"wrong"})").second), "bad_credentials");
+  const std::string admin = s.login("admin", kAdminPassword);
+  auto [st1, p1] = s.call("POST", "/api/pupils", admin, R"({"name":"Ana Pupil","username":"ana","password":"ana-pass-1"})");
+  ASSERT_EQ(st1, 201) << p1;
+  auto [st2, p2] = s.call("POST", "/api/pupils", admin, R"({"name":"Ben Pupil"})");
+  ASSERT_EQ(st2, 201);
+  EXPECT_EQ(s.call("POST", "/api/users", admin, R"({"username":"ines","password":"ines-pass-1","role":"instructor"})").first, 201);
+
+  const std::string ana = s.login("ana", "ana-pass-1");
+  const std::string ines = s.login("ines", "ines-pass-1");
+  const std::string a_id = std::to_string(p1["id"].get<int64_t>()), b_id = std::to_string(p2["id"].get<int64_t>());
+  EXPECT_EQ(s.call("GET", "/api/pupils/" + a_id + "/history", ana).first, 200);   // her own
+  EXPECT_EQ(error_code(s.call("GET", "/api/pupils/" + b_id + "/history", ana).second), "forbidden");
+  EXPECT_EQ(s.call("GET", "/api/pupils", ana).first, 403);                        // no list for pupils
+  EXPECT_EQ(s.call("GET", "/api/pupils?search=ben", ines).second.size(), 1u);      // case-insensitive search
+  EXPECT_EQ(s.call("POST", "/api/users", ines, R"({"username":"x","password":"xxxxxxxx","role":"admin"})").first, 403);
+  EXPECT_EQ(error_code(s.call("GET", "/api/pupils").second), "unauthenticated");
+  // A licence: only an examiner or admin issues it, and re-evaluation falls due 3 years on.
+  EXPECT_EQ(s.call("POST", "/api/pupils/" + a_id + "/licence", ines).first, 403);
+  auto [stl, lic] = s.call("POST", "/api/pupils/" + a_id + "/licence", admin);
+  ASSERT_EQ(stl, 201) << lic;
+  EXPECT_EQ(std::stoi(lic["reevaluation_due"].get<std::string>().substr(0, 4)), std::stoi(lic["issued_at"].get<std::string>().substr(0, 4)) + 3);
+  EXPECT_EQ(s.call("GET", "/api/pupils/" + a_id + "/history", ana).second["reevaluation_overdue"], false);
+  EXPECT_EQ(s.call("GET", "/api/pupils", "not-a-token").first, 401);
+}
+
+TEST(Server, TokensExpire) {
+  Server s(18102, 102, "ttl", {"--token-ttl", "1"});
+  const std::string admin = s.login("admin", kAdminPassword);
+  EXPECT_EQ(s.call("GET", "/api/pupils", admin).first, 200);
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  EXPECT_EQ(error_code(s.call("GET", "/api/pupils", admin).second), "unauthenticated");
+}
+
+TEST(Server, BadRequestsGetTheDocumentedErrorAndTheServerStaysUp) {
+  Server s(18103, 103, "bad");
+  const std::string admin = s.login("admin", kAdminPassword);
+  EXPECT_EQ(error_code(s.call("POST", "/api/pupils", admin, "{not json").second), "bad_json");
+  EXPECT_EQ(error_code(s.call("POST", "/api/pupils", admin, R"({"name": 5})").second), "bad_request");
+  EXPECT_EQ(error_code(s.call("POST", "/api/pupils", admin, R"({"email": "a@b"})").second), "bad_request");
+  EXPECT_EQ(error_code(s.call("POST", "/api/pupils", admin, "[1,2]").second), "bad_request");
+  EXPECT_EQ(s.call("POST", "/api/pupils", admin, std::string(2 << 20, 'x')).first, 413);
+  EXPECT_EQ(error_code(s.call("GET", "/api/pupils/999999", admin).second), "not_found");
+  EXPECT_EQ(error_code(s.call("GET", "/api/sessions/s-999999", admin).second), "not_found");
+  EXPECT_EQ(error_code(s.call("GET", "/api/nothing-here", admin).second), "not_found");
+  EXPECT_EQ(error_code(s.call("POST", "/api/sessions", admin, R"({"pupil_id": 1, "cab_id": "c1", "scenario": "nope"})").second), "not_found");
+  EXPECT_EQ(error_code(s.call("POST", "/api/sessions", admin, R"({"pupil_id": "one"})").second), "bad_request");
+  EXPECT_EQ(s.call("GET", "/api/health").first, 200);
+  EXPECT_TRUE(s.proc->running());
+}
+
+TEST(Server, ScriptedSessionEndsAndItsEventsAreStoredOnce) {
+  Server s(18104, 104, "session");
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json pupil = s.call("POST", "/api/pupils", admin, R"({"name":"Carla"})").second;
+  auto [st, sess] = s.call("POST", "/api/sessions", admin,
+                           json{{"pupil_id", pupil["id"]}, {"cab_id", "cabA"}, {"scenario", "manoeuvre_1"}, {"time_limit_s", 3}}.dump());
+  ASSERT_EQ(st, 201) << sess;
+  EXPECT_EQ(s.call("POST", "/api/sessions", admin, json{{"pupil_id", pupil["id"]}, {"cab_id", "cabA"}, {"scenario", "manoeuvre_1"}}.dump()).first, 409);
+  Process c = cab(s, "cabA", short_script(s.dir, 1.0));
+  const json done = s.wait_session(admin, sess["id"], 30);
+  EXPECT_EQ(done["state"], "ended") << done;
+  ASSERT_EQ(done["events"].size(), 1u) << done;  // the cab went silent after 1 s: one dead-man stop
+  EXPECT_EQ(done["events"][0]["kind"], "deadman");
+  const json h = s.call("GET", "/api/pupils/" + std::to_string(pupil["id"].get<int64_t>()) + "/history", admin).second;
+  EXPECT_EQ(h["sessions"].size(), 1u);
+  // The worker process outlives its final status by a moment; then the fleet lets it go.
+  size_t workers = 1;
+  for (int i = 0; i < 50 && workers > 0; ++i) {
+    workers = s.call("GET", "/api/fleet", admin).second["workers"].size();
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  EXPECT_EQ(workers, 0u);
+}
+
+TEST(Server, AKilledWorkerFailsItsSessionAndNothingElse) {
+  Server s(18105, 105, "kill");
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json pupil = s.call("POST", "/api/pupils", admin, R"({"name":"Dan"})").second;
+  const json a = s.call("POST", "/api/sessions", admin, json{{"pupil_id", pupil["id"]}, {"cab_id", "k1"}, {"scenario", "manoeuvre_1"}, {"time_limit_s", 6}}.dump()).second;
+  const json b = s.call("POST", "/api/sessions", admin, json{{"pupil_id", pupil["id"]}, {"cab_id", "k2"}, {"scenario", "manoeuvre_1"}, {"time_limit_s", 6}}.dump()).second;
+  Process c1 = cab(s, "k1", kData + "/manoeuvres/manoeuvre_1.csv");
+  Process c2 = cab(s, "k2", kData + "/manoeuvres/manoeuvre_1.csv");
+  int pid = 0;
+  for (int i = 0; i < 100 && pid == 0; ++i) {
+    const json fleet = s.call("GET", "/api/fleet", admin).second;  // a local: the loop must not walk a temporary
+    for (const auto& w : fleet["workers"])
+      if (w["session"] == a["id"] && !w["sim_time_s"].is_null() && w["sim_time_s"].get<double>() > 1.0) pid = w["pid"];
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  ASSERT_GT(pid, 0);
+  kill(pid, SIGKILL);
+  const json fa = s.wait_session(admin, a["id"], 10);
+  EXPECT_EQ(fa["state"], "failed");
+  EXPECT_EQ(fa["reason"], "worker killed by signal 9");
+  EXPECT_TRUE(fa["mark"].is_null());  // never passed
+  const json fb = s.wait_session(admin, b["id"], 20);
+  EXPECT_EQ(fb["state"], "ended") << fb;
+}
+
+TEST(Server, RestartMidSessionLosesAndDoublesNoEvent) {
+  Server s(18106, 106, "restart");
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json pupil = s.call("POST", "/api/pupils", admin, R"({"name":"Eva"})").second;
+  const json sess = s.call("POST", "/api/sessions", admin, json{{"pupil_id", pupil["id"]}, {"cab_id", "r1"}, {"scenario", "manoeuvre_1"}, {"time_limit_s", 7}}.dump()).second;
+  // A cab that drives in bursts: every silence gives a dead-man event, every burst a resume.
+  const std::string script = s.dir + "/bursts.csv";
+  {
+    std::ofstream f(script);
+    for (double t = 0; t < 6.5; t += 0.02)
+      if (std::fmod(t, 1.5) < 0.6) f << t << ",0,0.2,0,0,0,0\n";
+  }
+  Process c = cab(s, "r1", script);
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+  s.proc->signal(SIGKILL);
+  s.proc->wait(5);
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // events happen while no server listens
+  s.start();
+  const std::string admin2 = s.login("admin", kAdminPassword);  // tokens do not outlive the server
+  const json done = s.wait_session(admin2, sess["id"], 30);
+  EXPECT_EQ(done["state"], "ended") << done;
+  std::set<int64_t> seqs;
+  for (const auto& e : done["events"]) EXPECT_TRUE(seqs.insert(e["seq"].get<int64_t>()).second) << "doubled " << e;
+  ASSERT_GE(seqs.size(), 5u) << done;
+  EXPECT_EQ(*seqs.rbegin(), static_cast<int64_t>(seqs.size()));  // 1..N: none lost
+}
