@@ -130,7 +130,7 @@ int main(int argc, char** argv) {
       }
       if (!scenario_out.empty()) {
         json sc = {{"truck", "trucks/linde_e16c.json"}, {"start", {{"x_m", 0}, {"y_m", 0}, {"yaw_deg", 0}}},
-                   {"manoeuvre", number}, {"load", nullptr}};
+                   {"manoeuvre", number}, {"load", nullptr}, {"duration_s", spec.duration_s}};
         if (spec.load)
           sc["load"] = {{"mass_kg", spec.load->mass_kg}, {"lateral_m", spec.load->cog_m.y()},
                         {"cog_height_m", 2.0}};
