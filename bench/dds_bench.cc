@@ -77,6 +77,13 @@ void round_trip(int domain, int samples) {
   std::printf("target p99 < 5000 us: %s\n\n", pct(0.99) < 5000 ? "met" : "NOT MET");
 }
 
+// The cab id of the k-th worker of a fleet run.
+std::string fleet_cab(int k) {
+  std::string id = "f";
+  id += std::to_string(k);
+  return id;
+}
+
 // The longest a 1 ms sleep takes while `running` is set: the host's scheduling stalls.
 void stall_probe(const std::atomic<bool>& running, double& worst_ms) {
   auto prev = Clock::now();
@@ -93,10 +100,10 @@ bool fleet(int domain, int n, double seconds, double period_ms) {
   double baseline_ms = 0;
   std::thread probe(stall_probe, std::cref(probing), std::ref(baseline_ms));
   std::vector<std::unique_ptr<Process>> workers;
-  for (int k = 0; k < n; ++k) workers.push_back(spawn_worker(domain, "f" + std::to_string(k), seconds));
+  for (int k = 0; k < n; ++k) workers.push_back(spawn_worker(domain, fleet_cab(k), seconds));
   dds::Participant p(dds::DomainSettings::resolve(domain, ""));
   std::vector<std::unique_ptr<dds::Writer<fk_Controls>>> writers;
-  for (int k = 0; k < n; ++k) writers.push_back(std::make_unique<dds::Writer<fk_Controls>>(p, dds::cab_partition("f" + std::to_string(k))));
+  for (int k = 0; k < n; ++k) writers.push_back(std::make_unique<dds::Writer<fk_Controls>>(p, dds::cab_partition(fleet_cab(k))));
   for (auto& w : writers)
     for (int i = 0; i < 1000 && w->matched() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   const auto start = Clock::now();
@@ -105,7 +112,7 @@ bool fleet(int domain, int n, double seconds, double period_ms) {
   while (!all_done) {  // 50 Hz to every cab until every worker has ended its session
     const double t = std::chrono::duration<double>(Clock::now() - start).count();
     ++seq;
-    for (int k = 0; k < n; ++k) writers[k]->write(sample("f" + std::to_string(k), seq, t));
+    for (int k = 0; k < n; ++k) writers[k]->write(sample(fleet_cab(k), seq, t));
     std::this_thread::sleep_until(start + std::chrono::milliseconds(20 * seq));
     all_done = std::none_of(workers.begin(), workers.end(), [](auto& w) { return w->running(); });
     if (t > seconds + 30) break;
