@@ -317,6 +317,13 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
     e.Q.noalias() += Jw.transpose() * (c.rolling_torque_N_m * axle);
   }
 
+  // The scene pushing back where the truck touches it (contacts, held for the tick).
+  for (const ExternalForce& f : env.external_forces) {
+    const int frame = f.body == TruckBody::kChassis ? kChassisFrame : f.body == TruckBody::kMast ? kMastFrame : kCarriageFrame;
+    point_jacobian(tree, e.kin, frame, f.point_m, Jv, Jw);
+    e.Q.noalias() += Jv.transpose() * f.force_N;
+  }
+
   // Drive torque (section 6) and brake torque (section 8) act between chassis and front wheels,
   // so they are generalised forces on the wheels' relative spin coordinates alone.
   const double M = x[StateIndex::kTorque];
@@ -497,6 +504,26 @@ bool TruckDynamics::settle_static(StateVector& x) const {
   derivative(x, DriverInputs{}, dx, &out);
   for (const WheelContact& c : out.wheels) if (!c.on_ground) return false;
   return true;
+}
+
+CoordVector coordinates(const StateVector& x) { return coords(x); }
+
+BodyPoses body_poses(const TruckParams& truck, const CoordVector& q) {
+  const Tree tree = build_tree(truck);
+  Kinematics k;
+  forward_kinematics(tree, q, CoordVector::Zero(), k);
+  auto pose = [&](int frame, const Vector3d& origin_offset) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = k.f[frame].R;
+    T.translation() = k.f[frame].p + k.f[frame].R * origin_offset;
+    return T;
+  };
+  BodyPoses p;
+  p.chassis = pose(kChassisFrame, -truck.chassis_cog_geometry_m);
+  p.mast = pose(kMastFrame, Vector3d::Zero());
+  p.carriage = pose(kCarriageFrame, Vector3d::Zero());
+  for (int w = 0; w < kNumWheels; ++w) p.wheels[w] = pose(kWheelFrame[w], Vector3d::Zero());
+  return p;
 }
 
 }  // namespace forklift

@@ -214,6 +214,9 @@ Outputs Simulation::outputs() const {
   return out;
 }
 
+void Simulation::set_external_forces(const std::vector<ExternalForce>& forces) {
+  impl_->dynamics.environment().external_forces = forces;
+}
 void Simulation::attach_load(const Load& load) {
   impl_->dynamics.attach_load(load);
   impl_->restart();

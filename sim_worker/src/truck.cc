@@ -160,6 +160,8 @@ TruckParams load_truck(const std::string& path) {
   c.fy_alpha0_rad = r.positive("ground_contact.fy_alpha0_deg") * kDeg;
   c.rolling_resistance_N_m_s = r.non_negative("ground_contact.rolling_resistance_N_m_s");
   c.slip_angle_speed_floor_m_s = r.positive("ground_contact.slip_angle_speed_floor_m_s");
+  t.scene_contact.stiffness_N_m = r.non_negative("scene_contact.stiffness_N_m");
+  t.scene_contact.damping_N_s_m = r.non_negative("scene_contact.damping_N_s_m");
 
   DriveParams& d = t.drive;
   d.drive_torque_max_N_m = r.positive("drive.drive_torque_max_N_m");

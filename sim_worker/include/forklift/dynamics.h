@@ -6,6 +6,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <array>
 #include <optional>
 #include <vector>
@@ -39,12 +40,23 @@ class Ground {
   std::vector<Ramp> ramps_;
 };
 
+// A force from the scene on one of the truck's rigid bodies at a world point: a contact pushing
+// back (the collision module finds the contacts; the session turns them into these).
+enum class TruckBody { kChassis, kMast, kCarriage };
+struct ExternalForce {
+  TruckBody body = TruckBody::kChassis;
+  Eigen::Vector3d point_m = Eigen::Vector3d::Zero();  // world
+  Eigen::Vector3d force_N = Eigen::Vector3d::Zero();  // world
+};
+
 struct Environment {
   Ground ground;
   Eigen::Vector3d gravity_m_s2{0, 0, -9.81};  // world frame; a tilt table tilts this vector
   // Chocks: when set, each wheel's contact point is held to its anchor by a stiff horizontal
   // spring instead of the tyre's Fx and Fy (the tilt-table test, where sliding is prevented).
   std::optional<std::array<Eigen::Vector2d, kNumWheels>> chock_anchors_m;
+  // Held from one physics tick to the next: the scene's push-back on the truck.
+  std::vector<ExternalForce> external_forces;
 };
 
 // What the truck's controller is asked for, in physical units. Out-of-range values are clamped
@@ -94,6 +106,18 @@ struct Outputs {
   double total_mass_kg = 0;
   Eigen::Vector3d cog_m = Eigen::Vector3d::Zero();  // whole truck and load, world
 };
+
+// World poses of the truck's rigid parts at coordinates q, for the scene, collision and renderer.
+// chassis: origin at the geometry frame's origin (ground below the middle of the front axle when
+// the truck stands level), axes of the chassis; mast: origin at the tilt pivot; carriage: origin at
+// the fork heel (forks along +x, their top face at z = 0); wheels: at each wheel centre, y the axle.
+struct BodyPoses {
+  Eigen::Isometry3d chassis, mast, carriage;
+  std::array<Eigen::Isometry3d, kNumWheels> wheels;
+};
+BodyPoses body_poses(const TruckParams& truck, const CoordVector& q);
+// The 13 coordinates held in a state vector (the driven ones from their filters).
+CoordVector coordinates(const StateVector& x);
 
 class TruckDynamics {
  public:

@@ -66,6 +66,9 @@ class Simulation {
   const StateVector& state() const;
   Outputs outputs() const;  // evaluated at the current state and inputs
 
+  // The scene's push-back on the truck, held until changed (Environment::external_forces).
+  void set_external_forces(const std::vector<ExternalForce>& forces);
+
   // Section 5, at run time: change the carriage's mass and restart the integrator's history.
   void attach_load(const Load& load);
   void release_load();

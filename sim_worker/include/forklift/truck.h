@@ -52,6 +52,13 @@ struct ContactParams {
   double slip_angle_speed_floor_m_s = 0;
 };
 
+// How fixed scene objects (racks, walls, docks, lorries) push back on the truck where it is inside
+// them: a penalty force k depth + c speed-into along the contact normal (collision module).
+struct SceneContactParams {
+  double stiffness_N_m = 0;
+  double damping_N_s_m = 0;
+};
+
 struct DriveParams {
   double drive_torque_max_N_m = 0;  // total, at full accelerator
   double brake_torque_max_N_m = 0;  // per front wheel, at full pedal
@@ -84,6 +91,7 @@ struct TruckParams {
   double fork_face_from_pivot_m = 0;       // fork_heel_from_pivot_m.x()
   MastLimits limits;
   ContactParams contact;
+  SceneContactParams scene_contact;
   DriveParams drive;
   double steer_bandwidth_rad_s = 0;
   double lever_bandwidth_rad_s = 0;
