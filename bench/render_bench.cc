@@ -1,0 +1,195 @@
+// forklift-bench-render: frames per second of the off-screen Graphic Engine on the full
+// warehouse, beside a baseline frame in the same run, and the cost of a frame's JPEG.
+//
+// Design: one Renderer per (view, size), created outside the timed loop; each iteration renders
+// a complete frame and reads it back into an Image (what the worker publishes). The truck
+// creeps forward a centimetre a frame so nothing is ever the same frame twice.
+//   baseline    a frame that only clears and reads back (a scene with neither floor nor
+//               objects, no truck: zero draw calls), so frame rows read as ratios to it
+//   frame       driver and chase views at 640x480 and 1280x720 (and plan at 640x480)
+//   jpeg        encode_jpeg of a 640x480 driver frame at quality 85 (the worker's stream)
+// Wall time is what counts (llvmpipe renders on its own threads), so every row uses real time.
+// LP_NUM_THREADS (llvmpipe's rasteriser threads; default: one per core) is read when the
+// first context is made: set it in the environment to compare 1 and 2 threads.
+//
+//   forklift-bench-render [--scenario=FILE] [Google Benchmark flags]
+//   LP_NUM_THREADS=1 forklift-bench-render --benchmark_repetitions=5   (medians in the summary)
+//
+// After the table: the frame/baseline ratios and the 60 fps target at 640x480.
+#include <benchmark/benchmark.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <set>
+#include <string>
+#include <unistd.h>
+
+#include "forklift/render.h"
+
+using namespace forklift;
+
+namespace {
+
+std::string g_scenario;
+
+// The scene and the truck standing at the scenario's start, loaded once.
+struct World {
+  Scene scene;
+  TruckParams truck;
+  TruckShape shape;
+  StateVector rest = StateVector::Zero();
+};
+
+const World& world() {
+  static const World w = [] {
+    World w;
+    w.scene = load_scene(g_scenario, FORKLIFT_DATA_DIR);
+    w.truck = load_truck(w.scene.scenario.truck_file);
+    w.shape = load_truck_shape(w.scene.scenario.truck_file, FORKLIFT_DATA_DIR);
+    Environment env;
+    env.ground = w.scene.ground;
+    TruckDynamics dynamics(w.truck, env);
+    w.rest = dynamics.rest_state(w.scene.scenario.x_m, w.scene.scenario.y_m, w.scene.scenario.yaw_rad);
+    dynamics.settle_static(w.rest);
+    return w;
+  }();
+  return w;
+}
+
+// The state of frame i: the truck 1 cm further along its heading per frame, forks at 0.3 m.
+RenderState frame_state(const World& w, int64_t i) {
+  RenderState s;
+  s.q = coordinates(w.rest);
+  const double d = 0.01 * double(i % 200);
+  s.q[kX] += d * std::cos(s.q[kAwc]);
+  s.q[kY] += d * std::sin(s.q[kAwc]);
+  s.q[kS] = 0.3;
+  return s;
+}
+
+void BM_Baseline(benchmark::State& state, int width, int height) {
+  Renderer r(Scene{}, TruckShape{}, TruckParams{}, width, height);
+  const RenderState s;
+  for (auto _ : state) benchmark::DoNotOptimize(r.render(s, View::kDriver).rgb.data());
+  state.counters["fps"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate);
+}
+
+void BM_Frame(benchmark::State& state, View view, int width, int height) {
+  const World* w = nullptr;
+  try {
+    w = &world();
+  } catch (const std::exception& e) {
+    state.SkipWithError(e.what());
+    return;
+  }
+  Renderer r(w->scene, w->shape, w->truck, width, height);
+  int64_t i = 0;
+  for (auto _ : state) benchmark::DoNotOptimize(r.render(frame_state(*w, i++), view).rgb.data());
+  state.counters["fps"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate);
+}
+
+void BM_JpegEncode(benchmark::State& state, int width, int height) {
+  const World* w = nullptr;
+  try {
+    w = &world();
+  } catch (const std::exception& e) {
+    state.SkipWithError(e.what());
+    return;
+  }
+  Renderer r(w->scene, w->shape, w->truck, width, height);
+  const Image image = r.render(frame_state(*w, 0), View::kDriver);
+  size_t bytes = 0;
+  for (auto _ : state) {
+    const std::vector<uint8_t> jpeg = encode_jpeg(image, 85);
+    bytes = jpeg.size();
+    benchmark::DoNotOptimize(jpeg.data());
+  }
+  state.counters["bytes"] = double(bytes);
+}
+
+// Keeps each row's mean real time per iteration for the summary.
+class Recorder : public benchmark::ConsoleReporter {
+ public:
+  Recorder() : ConsoleReporter(isatty(fileno(stdout)) ? OO_ColorTabular : OO_Tabular) {}
+  std::map<std::string, double> ms;
+  std::set<std::string> medians;
+  void ReportRuns(const std::vector<Run>& runs) override {
+    // One figure per row: the median when repetitions are asked for, else the single run.
+    for (const Run& run : runs) {
+      if (run.error_occurred) continue;
+      const bool median = run.run_type == Run::RT_Aggregate && run.aggregate_name == "median";
+      if (median || (run.run_type == Run::RT_Iteration && !medians.count(run.run_name.function_name)))
+        ms[run.run_name.function_name] = run.GetAdjustedRealTime();  // in the row's unit: ms
+      if (median) medians.insert(run.run_name.function_name);
+    }
+    ConsoleReporter::ReportRuns(runs);
+  }
+};
+
+std::string default_scenario() {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::path(FORKLIFT_DATA_DIR) / "scenarios";
+  for (const char* name : {"practical_exam.json", "warehouse.json"})
+    if (fs::exists(dir / name)) return (dir / name).string();
+  return (dir / "practical_exam.json").string();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // Our one flag, taken out before Google Benchmark sees the rest.
+  g_scenario = default_scenario();
+  int kept = 1;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strncmp(argv[i], "--scenario=", 11) == 0)
+      g_scenario = argv[i] + 11;
+    else
+      argv[kept++] = argv[i];
+  }
+  argc = kept;
+  benchmark::Initialize(&argc, argv);
+  auto timed = [](benchmark::internal::Benchmark* b) { b->UseRealTime()->Unit(benchmark::kMillisecond); };
+  for (auto [w, h] : {std::pair{640, 480}, {1280, 720}}) {
+    const std::string size = std::to_string(w) + "x" + std::to_string(h);
+    timed(benchmark::RegisterBenchmark(("baseline/" + size).c_str(), BM_Baseline, w, h));
+    for (View v : {View::kDriver, View::kChase, View::kPlan}) {
+      if (v == View::kPlan && w != 640) continue;
+      timed(benchmark::RegisterBenchmark(("frame/" + std::string(view_name(v)) + "/" + size).c_str(), BM_Frame, v, w, h));
+    }
+  }
+  timed(benchmark::RegisterBenchmark("jpeg_encode/640x480", BM_JpegEncode, 640, 480));
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 2;
+
+  const char* threads = std::getenv("LP_NUM_THREADS");
+  std::printf("scenario %s, LP_NUM_THREADS=%s\n", g_scenario.c_str(), threads ? threads : "(default: one per core)");
+  Recorder recorder;
+  benchmark::RunSpecifiedBenchmarks(&recorder);
+  benchmark::Shutdown();
+
+  // Ratios to the baseline of the same size, and the target.
+  auto row = [&](const std::string& name) {
+    auto it = recorder.ms.find(name);
+    return it == recorder.ms.end() ? -1.0 : it->second;
+  };
+  std::printf("\n%-24s %9s %8s %10s\n", "frame", "ms", "fps", "x baseline");
+  for (const char* size : {"640x480", "1280x720"}) {
+    const double base = row(std::string("baseline/") + size);
+    for (const char* view : {"driver", "chase", "plan"}) {
+      const std::string name = std::string("frame/") + view + "/" + size;
+      const double t = row(name);
+      if (t > 0)
+        std::printf("%-24s %9.2f %8.1f %10.2f\n", name.c_str(), t, 1e3 / t, base > 0 ? t / base : 0.0);
+    }
+  }
+  const double jpeg = row("jpeg_encode/640x480");
+  if (jpeg > 0) std::printf("%-24s %9.2f\n", "jpeg_encode/640x480", jpeg);
+  const double worst = std::max(row("frame/driver/640x480"), row("frame/chase/640x480"));
+  if (worst > 0)
+    std::printf("target 60 fps at 640x480 (driver and chase, read-back included): %s (%.1f fps worst)\n",
+                worst <= 1e3 / 60 ? "met" : "NOT MET", 1e3 / worst);
+  return 0;
+}

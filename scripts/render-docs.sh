@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Renders every shipped scenario (data/scenarios/*.json) into docs/scenarios/: the driver's
+# view at its start pose (<name>.png) and a plan view of the whole floor (<name>_plan.png),
+# 640x480 each, and writes docs/scenarios/README.md with one line per scenario.
+# Needs forklift-render built (build/bin/, or FORKLIFT_RENDER=path/to/forklift-render).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+render=${FORKLIFT_RENDER:-build/bin/forklift-render}
+if [ ! -x "$render" ]; then
+  echo "render-docs.sh: $render not found: build it first (cmake --build build --target forklift-render)" >&2
+  exit 1
+fi
+out=docs/scenarios
+mkdir -p "$out"
+readme=$out/README.md
+{
+  echo "# Shipped scenarios, as the renderer draws them"
+  echo
+  echo "Made by \`scripts/render-docs.sh\` with \`forklift-render\` (640x480): for each scenario in"
+  echo "\`data/scenarios/\`, the driver's view from the start pose and a plan view of the whole floor"
+  echo "(world x to the right, y up). Run the script again after changing a scenario or a mesh."
+  echo
+} >"$readme"
+for scenario in data/scenarios/*.json; do
+  name=$(basename "$scenario" .json)
+  "$render" --scenario "$scenario" --view driver --out "$out/$name.png" >/dev/null
+  "$render" --scenario "$scenario" --view plan --out "$out/${name}_plan.png" >/dev/null
+  summary=$("$render" --scenario "$scenario" --describe)
+  summary=${summary%.}
+  echo "- **$name**: $summary. [driver's view]($name.png), [plan](${name}_plan.png)" >>"$readme"
+  echo "render-docs.sh: $name"
+done

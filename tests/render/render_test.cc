@@ -1,0 +1,550 @@
+// The Graphic Engine: what a still shows where (regions and colours with tolerance, never exact
+// pixels), image sizes, PNG and JPEG round trips, and the forklift-render tool as a child.
+//
+// Scenes are built here from boxes: a red rack, a blue pallet, a simple truck whose carriage
+// has no forks of its own (so the renderer makes them from the shape's fork dimensions).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+
+#include "forklift/render.h"
+#include "support/process.h"
+
+namespace forklift {
+namespace {
+
+namespace fs = std::filesystem;
+using Eigen::AlignedBox3d;
+using Eigen::Vector2d;
+using Eigen::Vector3d;
+using Eigen::Vector3f;
+
+const std::string kDataDir = FORKLIFT_DATA_DIR;
+const std::string kBinDir = FORKLIFT_BIN_DIR;
+
+// ---- fixtures: meshes made of boxes ---------------------------------------------------------
+
+struct BoxSpec {
+  std::string name;
+  AlignedBox3d box;
+  Vector3f colour;
+};
+
+MeshPart box_part(const BoxSpec& spec) {
+  MeshPart part;
+  part.name = spec.name;
+  part.colour = spec.colour;
+  part.bounds = spec.box;
+  const Vector3d c = spec.box.center(), h = 0.5 * spec.box.sizes();
+  for (int axis = 0; axis < 3; ++axis)
+    for (int sign : {1, -1}) {
+      int u = (axis + 1) % 3, v = (axis + 2) % 3;
+      if (sign < 0) std::swap(u, v);
+      const uint32_t base = uint32_t(part.positions.size());
+      for (auto [su, sv] : {std::pair{-1, -1}, {1, -1}, {1, 1}, {-1, 1}}) {
+        Vector3d p = c;
+        p[axis] += sign * h[axis];
+        p[u] += su * h[u];
+        p[v] += sv * h[v];
+        Vector3f n = Vector3f::Zero();
+        n[axis] = float(sign);
+        part.positions.push_back(p.cast<float>());
+        part.normals.push_back(n);
+      }
+      part.triangles.insert(part.triangles.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
+    }
+  return part;
+}
+
+std::shared_ptr<const Mesh> box_mesh(const std::vector<BoxSpec>& boxes, const std::string& source = "test") {
+  auto mesh = std::make_shared<Mesh>();
+  mesh->source = source;
+  for (const BoxSpec& b : boxes) {
+    mesh->parts.push_back(box_part(b));
+    mesh->bounds.extend(b.box);
+  }
+  return mesh;
+}
+
+AlignedBox3d box(double x0, double y0, double z0, double x1, double y1, double z1) {
+  return AlignedBox3d(Vector3d(x0, y0, z0), Vector3d(x1, y1, z1));
+}
+
+const Vector3f kRackRed{0.85f, 0.22f, 0.10f};
+const Vector3f kPalletBlue{0.10f, 0.25f, 0.85f};
+
+Eigen::Isometry3d pose_at(double x, double y, double yaw = 0) {
+  Eigen::Isometry3d p = Eigen::Isometry3d::Identity();
+  p.translation() = Vector3d(x, y, 0);
+  p.linear() = Eigen::AngleAxisd(yaw, Vector3d::UnitZ()).toRotationMatrix();
+  return p;
+}
+
+// A 3 m wide, 2.5 m high, 1 m deep red rack at (x, y).
+SceneObject rack_at(double x, double y) {
+  SceneObject o;
+  o.id = "R1";
+  o.kind = ObjectKind::kRack;
+  o.pose = pose_at(x, y);
+  o.mesh = box_mesh({{"frame", box(-0.5, -1.5, 0, 0.5, 1.5, 2.5), kRackRed}});
+  return o;
+}
+
+SceneObject pallet_at(const std::string& id, double x, double y) {
+  SceneObject o;
+  o.id = id;
+  o.kind = ObjectKind::kPallet;
+  o.pose = pose_at(x, y);
+  o.mesh = box_mesh({{"deck", box(-0.6, -0.4, 0, 0.6, 0.4, 0.144), kPalletBlue}}, "pallet");
+  PalletSpec spec;
+  spec.load_size_m = Vector3d(1.0, 0.7, 0.8);
+  o.pallet = spec;
+  return o;
+}
+
+Scene floor_scene() {
+  Scene s;
+  s.name = "test";
+  s.floor = Eigen::AlignedBox2d(Vector2d(-25, -25), Vector2d(25, 25));
+  return s;
+}
+
+// A truck drawn with boxes in the frames BodyPoses documents (dimensions of the E16c class).
+TruckShape test_truck_shape() {
+  TruckShape shape;
+  const Vector3f yellow{0.95f, 0.75f, 0.10f}, grey{0.35f, 0.35f, 0.38f}, black{0.08f, 0.08f, 0.08f};
+  shape.chassis = box_mesh({{"body", box(-1.75, -0.5, 0.25, -0.05, 0.5, 1.1), yellow},
+                            {"roof", box(-1.4, -0.5, 2.1, -0.2, 0.5, 2.15), grey}});
+  // Mast frame: origin at the tilt pivot; two uprights and a crossbar, open in the middle.
+  shape.mast = box_mesh({{"upright_l", box(0, 0.30, -0.3, 0.1, 0.40, 2.0), grey},
+                         {"upright_r", box(0, -0.40, -0.3, 0.1, -0.30, 2.0), grey},
+                         {"crossbar", box(0, -0.40, 1.9, 0.1, 0.40, 2.0), grey}});
+  // Carriage frame: origin at the fork heel; the plate behind the forks' shanks. No forks.
+  shape.carriage = box_mesh({{"plate", box(-0.12, -0.45, -0.05, -0.04, 0.45, 0.45), grey}});
+  shape.front_wheel = box_mesh({{"tyre", box(-0.228, -0.09, -0.228, 0.228, 0.09, 0.228), black}});
+  shape.rear_wheel = box_mesh({{"tyre", box(-0.19, -0.06, -0.19, 0.19, 0.06, 0.19), black}});
+  return shape;
+}
+
+const TruckParams& truck() {
+  static const TruckParams t = load_truck(kDataDir + "/trucks/linde_e16c.json");
+  return t;
+}
+
+// The truck at rest at (x, y, yaw), forks at `lift`.
+RenderState truck_at(double x, double y, double yaw, double lift = 0) {
+  TruckDynamics dynamics(truck());
+  StateVector s = dynamics.rest_state(x, y, yaw, 0, 0, lift);
+  dynamics.settle_static(s);
+  RenderState state;
+  state.q = coordinates(s);
+  return state;
+}
+
+// ---- image measurements ---------------------------------------------------------------------
+
+using PixelTest = std::function<bool(const uint8_t*)>;
+
+bool reddish(const uint8_t* p) { return p[0] > 60 && p[0] > 1.8 * p[1] && p[0] > 2.5 * p[2]; }
+bool bluish(const uint8_t* p) { return p[2] > 60 && p[2] > 1.8 * p[0] && p[2] > 1.3 * p[1]; }
+// The forks: dark and neutral (the lit floor is far brighter).
+bool fork_dark(const uint8_t* p) {
+  const int hi = std::max({p[0], p[1], p[2]}), lo = std::min({p[0], p[1], p[2]});
+  return hi < 70 && hi - lo < 20;
+}
+
+// Fraction of pixels in [x0, x1) x [y0, y1) (fractions of the image size) passing `test`.
+double fraction(const Image& im, double x0, double y0, double x1, double y1, const PixelTest& test) {
+  int n = 0, hit = 0;
+  for (int y = int(y0 * im.height); y < int(y1 * im.height); ++y)
+    for (int x = int(x0 * im.width); x < int(x1 * im.width); ++x, ++n) hit += test(im.pixel(x, y));
+  return n ? double(hit) / n : 0;
+}
+
+// Mean x (fraction of the width) of the pixels passing `test`; -1 if none.
+double centroid_x(const Image& im, const PixelTest& test) {
+  double sum = 0;
+  long n = 0;
+  for (int y = 0; y < im.height; ++y)
+    for (int x = 0; x < im.width; ++x)
+      if (test(im.pixel(x, y))) sum += x, ++n;
+  return n ? sum / n / im.width : -1;
+}
+
+// Where a world point lands in the picture (pixels), with the renderer's camera model:
+// perspective, vertical field of view, square pixels.
+Vector2d project(const Camera& c, int width, int height, const Vector3d& p) {
+  const Vector3d f = (c.target - c.eye).normalized();
+  const Vector3d s = f.cross(c.up).normalized();
+  const Vector3d u = s.cross(f);
+  const Vector3d d = p - c.eye;
+  const double t = std::tan(0.5 * c.fov_y_deg * M_PI / 180.0), aspect = double(width) / height;
+  return Vector2d((0.5 + 0.5 * d.dot(s) / (d.dot(f) * t * aspect)) * width,
+                  (0.5 - 0.5 * d.dot(u) / (d.dot(f) * t)) * height);
+}
+
+int count_around(const Image& im, const Vector2d& centre, int radius, const PixelTest& test) {
+  int hit = 0;
+  for (int y = int(centre.y()) - radius; y <= int(centre.y()) + radius; ++y)
+    for (int x = int(centre.x()) - radius; x <= int(centre.x()) + radius; ++x)
+      if (x >= 0 && y >= 0 && x < im.width && y < im.height) hit += test(im.pixel(x, y));
+  return hit;
+}
+
+std::string temp_path(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("forklift_render_test_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  return (dir / name).string();
+}
+
+// With FORKLIFT_RENDER_TEST_DUMP=dir set, the stills the tests look at are written there.
+void dump(const std::string& name, const Image& im) {
+  if (const char* dir = std::getenv("FORKLIFT_RENDER_TEST_DUMP")) write_png(std::string(dir) + "/" + name + ".png", im);
+}
+
+// ---- the driver's view ----------------------------------------------------------------------
+
+TEST(Renderer, RackAheadFillsTheMiddleOfTheDriversView) {
+  Scene scene = floor_scene();
+  scene.objects.push_back(rack_at(6.5, 0));
+  Renderer r(scene, test_truck_shape(), truck());
+  const Image& ahead = r.render(truck_at(0, 0, 0), View::kDriver);
+  dump("rack_ahead", ahead);
+  EXPECT_GT(fraction(ahead, 0.40, 0.35, 0.60, 0.55, reddish), 0.9);
+
+  const Image& behind = r.render(truck_at(0, 0, M_PI), View::kDriver);
+  dump("rack_behind", behind);
+  EXPECT_LT(fraction(behind, 0.0, 0.0, 1.0, 1.0, reddish), 0.01);
+}
+
+TEST(Renderer, RackToOneSideAppearsOnThatSide) {
+  // y is left: a rack at +y shows in the left half, at -y in the right half.
+  for (double side : {1.0, -1.0}) {
+    Scene scene = floor_scene();
+    scene.objects.push_back(rack_at(6.5, side * 3.5));
+    Renderer r(scene, test_truck_shape(), truck());
+    const Image& im = r.render(truck_at(0, 0, 0), View::kDriver);
+    dump(side > 0 ? "rack_left" : "rack_right", im);
+    const double cx = centroid_x(im, reddish);
+    ASSERT_GE(cx, 0) << "rack not seen at y = " << side * 3.5;
+    if (side > 0)
+      EXPECT_LT(cx, 0.4);
+    else
+      EXPECT_GT(cx, 0.6);
+    EXPECT_LT(fraction(im, 0.45, 0.35, 0.55, 0.55, reddish), 0.05);
+  }
+}
+
+TEST(Renderer, TwoRenderersInOneThreadKeepTheirOwnScenes) {
+  Scene with_rack = floor_scene();
+  with_rack.objects.push_back(rack_at(6.5, 0));
+  Renderer a(with_rack, test_truck_shape(), truck());
+  Renderer b(floor_scene(), test_truck_shape(), truck(), 320, 240);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_GT(fraction(a.render(truck_at(0, 0, 0), View::kDriver), 0.40, 0.35, 0.60, 0.55, reddish), 0.9);
+    const Image& im = b.render(truck_at(0, 0, 0), View::kDriver);
+    EXPECT_EQ(im.width, 320);
+    EXPECT_LT(fraction(im, 0, 0, 1, 1, reddish), 0.01);
+  }
+  // One destroyed, the other carries on; a new one after it works too.
+  { Renderer c(with_rack, TruckShape{}, truck()); }
+  EXPECT_GT(fraction(a.render(truck_at(0, 0, 0), View::kDriver), 0.40, 0.35, 0.60, 0.55, reddish), 0.9);
+  Renderer d(with_rack, test_truck_shape(), truck());
+  EXPECT_GT(fraction(d.render(truck_at(0, 0, 0), View::kDriver), 0.40, 0.35, 0.60, 0.55, reddish), 0.9);
+}
+
+TEST(Renderer, ImageHasTheRequestedSize) {
+  Scene scene = floor_scene();
+  scene.objects.push_back(rack_at(6.5, 0));
+  for (auto [w, h] : {std::pair{640, 480}, {1280, 720}}) {
+    Renderer r(scene, test_truck_shape(), truck(), w, h);
+    EXPECT_EQ(r.width(), w);
+    EXPECT_EQ(r.height(), h);
+    const Image& im = r.render(truck_at(0, 0, 0), View::kDriver);
+    EXPECT_EQ(im.width, w);
+    EXPECT_EQ(im.height, h);
+    EXPECT_EQ(im.rgb.size(), size_t(w) * h * 3);
+    EXPECT_GT(fraction(im, 0.40, 0.35, 0.60, 0.55, reddish), 0.9) << w << "x" << h;
+  }
+}
+
+TEST(Renderer, RowsRunTopToBottom) {
+  // A camera 1.5 m above an empty floor looking level, away from the truck: sky above, floor below.
+  Renderer r(floor_scene(), test_truck_shape(), truck());
+  Camera level;
+  level.eye = Vector3d(0, 0, 1.5);
+  level.target = Vector3d(-1, 0, 1.5);
+  const Image& im = r.render(truck_at(0, 0, 0), level);
+  dump("level_camera", im);
+  auto sky = [](const uint8_t* p) { return p[2] > 180 && p[2] > p[0] + 20; };
+  EXPECT_GT(fraction(im, 0.0, 0.0, 1.0, 0.05, sky), 0.9);
+  EXPECT_LT(fraction(im, 0.0, 0.9, 1.0, 1.0, sky), 0.01);
+}
+
+TEST(Renderer, SizeOutOfRangeThrows) {
+  EXPECT_THROW(Renderer(floor_scene(), test_truck_shape(), truck(), 0, 480), std::invalid_argument);
+  EXPECT_THROW(Renderer(floor_scene(), test_truck_shape(), truck(), 640, -1), std::invalid_argument);
+}
+
+TEST(Renderer, NoTruckMeshDrawsTheSceneAlone) {
+  Scene scene = floor_scene();
+  scene.objects.push_back(rack_at(6.5, 0));
+  Renderer r(scene, TruckShape{}, truck());
+  for (View v : {View::kDriver, View::kChase, View::kPlan}) {
+    const Image& im = r.render(truck_at(0, 0, 0), v);
+    dump(std::string("no_truck_") + view_name(v), im);
+    EXPECT_GT(fraction(im, 0, 0, 1, 1, reddish), 0.0003) << view_name(v);
+  }
+  // An empty scene (no floor box, no objects) and an all-zero truck must not crash either.
+  Renderer empty(Scene{}, TruckShape{}, TruckParams{});
+  EXPECT_EQ(empty.render(RenderState{}, View::kPlan).width, 640);
+}
+
+// ---- the chase view: the forks ---------------------------------------------------------------
+
+TEST(Renderer, ForksAreVisibleInTheChaseView) {
+  const TruckShape shape = test_truck_shape();
+  Renderer r(floor_scene(), shape, truck());
+  const RenderState state = truck_at(0, 0, 0.3);
+  const BodyPoses poses = body_poses(truck(), state.q);
+  const Image& im = r.render(state, View::kChase);
+  dump("chase_forks", im);
+  const Camera cam = view_camera(View::kChase, poses, shape, floor_scene());
+  // The middle of each fork's blade, in the carriage frame, then in the picture.
+  for (double side : {-0.5, 0.5}) {
+    const Vector3d mid = poses.carriage * Vector3d(0.6 * shape.fork_length_m, side * shape.fork_centres_y_m, -0.02);
+    const Vector2d px = project(cam, im.width, im.height, mid);
+    ASSERT_TRUE(px.x() > 0 && px.y() > 0 && px.x() < im.width && px.y() < im.height) << px.transpose();
+    EXPECT_GE(count_around(im, px, 3, fork_dark), 10) << "fork at y " << side * shape.fork_centres_y_m
+                                                      << " not at pixel " << px.transpose();
+  }
+  // With the forks lifted 1.5 m the floor shows where they were.
+  const RenderState lifted = truck_at(0, 0, 0.3, 1.5);
+  const Image& up = r.render(lifted, View::kChase);
+  dump("chase_forks_lifted", up);
+  const Vector2d px = project(cam, up.width, up.height, poses.carriage * Vector3d(0.9, 0.18, -0.02));
+  EXPECT_LE(count_around(up, px, 2, fork_dark), 3);
+}
+
+// ---- pallets and loads ----------------------------------------------------------------------
+
+TEST(Renderer, PalletsAreDrawnWhereTheStatePutsThem) {
+  Scene scene = floor_scene();
+  scene.objects.push_back(pallet_at("P1", 5, 0));
+  Renderer r(scene, test_truck_shape(), truck());
+  auto brownish = [](const uint8_t* p) { return p[0] > 80 && p[0] > p[1] + 15 && p[1] > p[2] + 15; };
+
+  // Empty pallet list: where the scene puts it, straight ahead, with its load on top.
+  RenderState state = truck_at(0, 0, 0);
+  const Image& a = r.render(state, View::kDriver);
+  dump("pallet_scene_pose", a);
+  const double centre = centroid_x(a, bluish);
+  EXPECT_NEAR(centre, 0.5, 0.05);
+  EXPECT_GT(fraction(a, 0, 0, 1, 1, brownish), 0.01);  // the load box
+
+  // Moved 3 m to the left by the pallet state.
+  PalletState moved;
+  moved.id = "P1";
+  moved.pose = pose_at(5, 3);
+  state.pallets.push_back(moved);
+  PalletState unknown;  // ids the scene does not have are ignored
+  unknown.id = "nope";
+  state.pallets.push_back(unknown);
+  const Image& b = r.render(state, View::kDriver);
+  dump("pallet_moved", b);
+  EXPECT_LT(centroid_x(b, bluish), 0.35);
+}
+
+// ---- the plan view and the floor's paint ----------------------------------------------------
+
+TEST(Renderer, PlanViewShowsConcaveWalkwayStriped) {
+  Scene scene = floor_scene();
+  // An L-shaped (concave) walkway: the notch at (5..10, 5..10) is bare floor.
+  Zone walkway;
+  walkway.id = "W1";
+  walkway.kind = "walkway";
+  walkway.polygon = {{0, 0}, {10, 0}, {10, 5}, {5, 5}, {5, 10}, {0, 10}};
+  scene.zones.push_back(walkway);
+  const TruckShape shape = test_truck_shape();
+  Renderer r(scene, shape, truck());
+  const RenderState state = truck_at(-15, -15, 0);
+  const Image& im = r.render(state, View::kPlan);
+  dump("plan_walkway", im);
+  const Camera cam = view_camera(View::kPlan, body_poses(truck(), state.q), shape, scene);
+  auto painted = [](const uint8_t* p) {
+    const bool green = p[1] > p[0] + 30 && p[1] > p[2] + 20;
+    const bool yellow = p[0] > 150 && p[1] > 120 && p[2] < 80;
+    return green || yellow;
+  };
+  auto green = [](const uint8_t* p) { return p[1] > p[0] + 30 && p[1] > p[2] + 20; };
+  auto yellow = [](const uint8_t* p) { return p[0] > 150 && p[1] > 120 && p[2] < 80; };
+  int inside = 0, greens = 0, yellows = 0;
+  for (Vector2d p : {Vector2d(2, 2), Vector2d(8, 2), Vector2d(2, 8), Vector2d(3, 4)}) {
+    const Vector2d px = project(cam, im.width, im.height, Vector3d(p.x(), p.y(), 0));
+    inside += count_around(im, px, 4, painted);
+    greens += count_around(im, px, 4, green);
+    yellows += count_around(im, px, 4, yellow);
+  }
+  EXPECT_GT(inside, 4 * 81 * 3 / 4);
+  EXPECT_GT(greens, 40);
+  EXPECT_GT(yellows, 40);
+  const Vector2d notch = project(cam, im.width, im.height, Vector3d(7.5, 7.5, 0));
+  EXPECT_EQ(count_around(im, notch, 4, painted), 0);
+}
+
+TEST(Views, NamesRoundTripAndUnknownThrows) {
+  for (View v : {View::kDriver, View::kChase, View::kPlan}) EXPECT_EQ(parse_view(view_name(v)), v);
+  EXPECT_THROW(parse_view("cockpit"), std::invalid_argument);
+}
+
+TEST(Views, DriverLooksForwardFromTheEye) {
+  const TruckShape shape = test_truck_shape();
+  const RenderState state = truck_at(2, 3, M_PI / 2);  // facing +y
+  const BodyPoses poses = body_poses(truck(), state.q);
+  const Camera c = view_camera(View::kDriver, poses, shape, floor_scene());
+  EXPECT_LT((c.eye - poses.chassis * shape.eye_m).norm(), 1e-9);
+  const Vector3d dir = (c.target - c.eye).normalized();
+  EXPECT_GT(dir.y(), 0.9);
+  EXPECT_LT(dir.z(), -0.05);  // a little down
+  const Camera chase = view_camera(View::kChase, poses, shape, floor_scene());
+  EXPECT_LT(chase.eye.y(), poses.chassis.translation().y());  // behind
+  EXPECT_GT(chase.eye.z(), 2.0);                              // above
+}
+
+// ---- image files ----------------------------------------------------------------------------
+
+Image rendered_still() {
+  Scene scene = floor_scene();
+  scene.objects.push_back(rack_at(6.5, 1));
+  scene.objects.push_back(pallet_at("P1", 4, -1.5));
+  Renderer r(scene, test_truck_shape(), truck());
+  return r.render(truck_at(0, 0, 0.1), View::kChase);
+}
+
+TEST(Images, PngRoundTripIsExact) {
+  const Image im = rendered_still();
+  const std::string path = temp_path("still.png");
+  write_png(path, im);
+  const Image back = read_png(path);
+  EXPECT_EQ(back.width, im.width);
+  EXPECT_EQ(back.height, im.height);
+  EXPECT_TRUE(back.rgb == im.rgb);
+}
+
+TEST(Images, PngErrorsNameTheFile) {
+  try {
+    read_png("/nonexistent/dir/none.png");
+    FAIL() << "no exception";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/dir/none.png"), std::string::npos) << e.what();
+  }
+  try {
+    write_png("/nonexistent/dir/out.png", rendered_still());
+    FAIL() << "no exception";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/dir/out.png"), std::string::npos) << e.what();
+  }
+  const std::string junk = temp_path("junk.png");
+  std::ofstream(junk) << "not a png";
+  EXPECT_THROW(read_png(junk), std::runtime_error);
+  Image bad;
+  bad.width = 4;
+  bad.height = 4;  // no pixels
+  EXPECT_THROW(write_png(temp_path("bad.png"), bad), std::runtime_error);
+}
+
+TEST(Images, JpegRoundTripIsClose) {
+  const Image im = rendered_still();
+  const std::vector<uint8_t> jpeg = encode_jpeg(im, 90);
+  EXPECT_LT(jpeg.size(), im.rgb.size() / 5);  // it does compress
+  const Image back = decode_jpeg(jpeg.data(), jpeg.size());
+  ASSERT_EQ(back.width, im.width);
+  ASSERT_EQ(back.height, im.height);
+  double error = 0;
+  for (size_t i = 0; i < im.rgb.size(); ++i) error += std::abs(int(im.rgb[i]) - int(back.rgb[i]));
+  EXPECT_LT(error / im.rgb.size(), 3.0);
+}
+
+TEST(Images, CorruptJpegThrows) {
+  const std::vector<uint8_t> jpeg = encode_jpeg(rendered_still());
+  std::vector<uint8_t> garbage(2000);
+  for (size_t i = 0; i < garbage.size(); ++i) garbage[i] = uint8_t(i * 131 + 7);
+  EXPECT_THROW(decode_jpeg(garbage.data(), garbage.size()), std::runtime_error);
+  EXPECT_THROW(decode_jpeg(jpeg.data(), jpeg.size() / 2), std::runtime_error);  // truncated
+  EXPECT_THROW(decode_jpeg(jpeg.data(), 0), std::runtime_error);
+  EXPECT_THROW(decode_jpeg(nullptr, 100), std::runtime_error);
+  Image empty;
+  EXPECT_THROW(encode_jpeg(empty), std::runtime_error);
+}
+
+// ---- the forklift-render tool ---------------------------------------------------------------
+
+std::string shipped_scenario() {
+  const fs::path dir = fs::path(kDataDir) / "scenarios";
+  if (fs::exists(dir / "practical_exam.json")) return (dir / "practical_exam.json").string();
+  std::vector<std::string> all;
+  if (fs::is_directory(dir))
+    for (const auto& e : fs::directory_iterator(dir))
+      if (e.path().extension() == ".json") all.push_back(e.path().string());
+  std::sort(all.begin(), all.end());
+  return all.empty() ? "" : all.front();
+}
+
+int run_tool(const std::vector<std::string>& args, const std::string& name) {
+  std::vector<std::string> argv = {kBinDir + "/forklift-render"};
+  argv.insert(argv.end(), args.begin(), args.end());
+  Process p(argv, temp_path(name));
+  return p.wait(120);
+}
+
+TEST(Tool, WritesAPngOfAShippedScenario) {
+  const std::string scenario = shipped_scenario();
+  ASSERT_FALSE(scenario.empty()) << "no scenario in " << kDataDir << "/scenarios";
+  for (const std::string view : {"driver", "plan"}) {
+    const std::string out = temp_path("tool_" + view + ".png");
+    fs::remove(out);
+    ASSERT_EQ(run_tool({"--scenario", scenario, "--view", view, "--size", "320x240", "--out", out}, "tool_" + view), 0)
+        << scenario;
+    const Image im = read_png(out);
+    EXPECT_EQ(im.width, 320);
+    EXPECT_EQ(im.height, 240);
+  }
+  const std::string out = temp_path("tool_pose.png");
+  EXPECT_EQ(run_tool({"--scenario", scenario, "--pose", "1.5,-2,90", "--fork-height", "0.5", "--view", "chase",
+                      "--out", out},
+                     "tool_pose"),
+            0);
+  EXPECT_EQ(read_png(out).width, 640);
+
+  // --describe prints one line about the scenario (for the docs script) and writes nothing.
+  const std::string prefix = temp_path("tool_describe");
+  std::vector<std::string> argv = {kBinDir + "/forklift-render", "--scenario", scenario, "--describe"};
+  Process p(argv, prefix);
+  ASSERT_EQ(p.wait(60), 0);
+  std::ifstream in(prefix + ".out");
+  std::string line;
+  std::getline(in, line);
+  EXPECT_FALSE(line.empty());
+}
+
+TEST(Tool, BadInputExitsWithTwo) {
+  const std::string scenario = shipped_scenario();
+  ASSERT_FALSE(scenario.empty());
+  const std::string out = temp_path("tool_bad.png");
+  EXPECT_EQ(run_tool({"--scenario", scenario, "--pose", "1,2", "--out", out}, "bad1"), 2);
+  EXPECT_EQ(run_tool({"--scenario", scenario, "--pose", "a,b,c", "--out", out}, "bad2"), 2);
+  EXPECT_EQ(run_tool({"--scenario", scenario, "--pose", "1,2,nan", "--out", out}, "bad3"), 2);
+  EXPECT_EQ(run_tool({"--scenario", scenario, "--view", "cockpit", "--out", out}, "bad4"), 2);
+  EXPECT_EQ(run_tool({"--scenario", scenario, "--size", "640by480", "--out", out}, "bad5"), 2);
+  EXPECT_EQ(run_tool({"--scenario", scenario, "--fork-height", "-1", "--out", out}, "bad6"), 2);
+  EXPECT_EQ(run_tool({"--scenario", "/nonexistent/scenario.json", "--out", out}, "bad7"), 2);
+  EXPECT_EQ(run_tool({"--out", out}, "bad8"), 2);  // no scenario
+  EXPECT_EQ(run_tool({"--scenario", scenario}, "bad9"), 2);  // no --out
+  EXPECT_FALSE(fs::exists(out));
+}
+
+}  // namespace
+}  // namespace forklift
