@@ -8,8 +8,10 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
+#include "evaluate.h"
 #include "figures.h"
 #include "forklift/manoeuvre.h"
+#include "forklift/scene.h"
 #include "forklift/stability.h"
 
 using namespace forklift;
@@ -101,7 +103,31 @@ int main(int argc, char** argv) {
   tilt->add_option("--load-mass", load_mass, "load on the forks, kg")->check(CLI::Range(0.0, 20000.0));
   tilt->add_option("--load-height", load_height, "height of the load's CoG above the floor, m")->check(CLI::Range(0.0, 10.0));
 
+  // meshes: the warehouse's and the truck's meshes (data/meshes/ holds this output)
+  auto* meshes = app.add_subcommand("meshes", "write every shipped mesh (OBJ + MTL, built from boxes) into a directory");
+  std::string meshes_out;
+  meshes->add_option("--out", meshes_out, "directory to write (created if missing)")->required();
+
+  // evaluate: a scripted session offline, its events and mark (evaluate.cc)
+  EvaluateOptions evaluate_options;
+  auto* evaluate = add_evaluate_command(app, evaluate_options);
+
   CLI11_PARSE(app, argc, argv);
+
+  if (*evaluate) return evaluate_main(evaluate_options, FORKLIFT_DATA_DIR);
+
+  if (*meshes) {
+    try {
+      std::filesystem::create_directories(meshes_out);
+      json files = json::array();
+      for (const std::string& f : write_meshes(meshes_out)) files.push_back(f);
+      std::cout << json{{"out", meshes_out}, {"meshes", files}}.dump(2) << std::endl;
+      return 0;
+    } catch (const std::exception& e) {
+      std::cerr << "forklift-sim: " << e.what() << '\n';
+      return 2;
+    }
+  }
 
   try {
     const TruckParams truck = load_truck(truck_file);

@@ -1,0 +1,347 @@
+// Shared fixtures of the evaluation tests: a session ticking 1 ms exactly as the worker and
+// `forklift-sim evaluate` do (inputs, dynamics, collision and pallet handling, evaluation), driven
+// by small closed-loop drivers that speak the cab's normalised controls, and the scenes of
+// tests/evaluation/scenes/.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "forklift/collision.h"
+#include "forklift/evaluation.h"
+#include "forklift/scene.h"
+#include "forklift/session.h"
+
+namespace evt {
+
+using namespace forklift;
+using Eigen::Vector2d;
+using Eigen::Vector3d;
+
+inline std::string data(const std::string& rel) { return std::string(FORKLIFT_DATA_DIR) + "/" + rel; }
+inline std::string scene_file(const std::string& name) { return std::string(EVAL_TEST_DIR) + "/scenes/" + name; }
+
+inline const Rules& rules() {
+  static const Rules r = load_rules(data("evaluation/rules.json"));
+  return r;
+}
+
+inline Scene scene(const std::string& name) { return load_scene(scene_file(name), FORKLIFT_DATA_DIR); }
+
+// The cab's controls, normalised as in protocol/idl/Forklift.idl.
+using Controls = ControlSample;
+
+inline double wrap(double a) { return std::atan2(std::sin(a), std::cos(a)); }
+
+struct Session {
+  static constexpr double kTick = 1e-3;
+  Scene scene;
+  TruckParams truck;
+  TruckShape shape;
+  std::unique_ptr<TruckDynamics> dynamics;
+  std::unique_ptr<Simulation> sim;
+  std::unique_ptr<Warehouse> warehouse;
+  std::unique_ptr<Evaluator> evaluator;
+  std::vector<EvaluationEvent> events;
+  Controls c;                         // held until changed
+  DriverInputs u;
+  bool deadman = false;
+  int64_t ticks = 0;
+  std::vector<std::pair<int64_t, Controls>> script;  // every change, for writing a cab script
+  std::optional<Score> score;
+
+  // The truck settled at the scene's start pose (or `start`: x, y, yaw in degrees) with the
+  // scene's load, as evaluate.cc and the worker start it.
+  explicit Session(Scene s, Mode mode = Mode::kTraining, std::optional<Vector3d> start = std::nullopt,
+                   const Rules& r = rules())
+      : scene(std::move(s)) {
+    if (start) {
+      scene.scenario.x_m = start->x();
+      scene.scenario.y_m = start->y();
+      scene.scenario.yaw_rad = start->z() * M_PI / 180;
+    }
+    truck = load_truck(scene.scenario.truck_file);
+    shape = load_truck_shape(scene.scenario.truck_file, FORKLIFT_DATA_DIR);
+    Environment env;
+    env.ground = scene.ground;
+    dynamics = std::make_unique<TruckDynamics>(truck, env);
+    if (scene.scenario.load) dynamics->attach_load(*scene.scenario.load);
+    const Scenario& sc = scene.scenario;
+    StateVector x0 = dynamics->rest_state(sc.x_m, sc.y_m, sc.yaw_rad, 0, 0, sc.lift_m, 0);
+    if (!dynamics->settle_static(x0)) throw std::runtime_error("the truck does not stand at the start");
+    sim = std::make_unique<Simulation>(*dynamics, x0, IntegratorOptions{});
+    warehouse = std::make_unique<Warehouse>(scene, shape, truck);
+    evaluator = std::make_unique<Evaluator>(r, scene, truck, shape, mode);
+  }
+
+  double t() const { return sim->time(); }
+  const StateVector& x() const { return sim->state(); }
+  CoordVector q() const { return coordinates(x()); }
+  BodyPoses poses() const { return body_poses(truck, q()); }
+  double v() const {
+    const double yaw = x()[kAwc];
+    return std::cos(yaw) * x()[StateIndex::kQdot + kX] + std::sin(yaw) * x()[StateIndex::kQdot + kY];
+  }
+  double yaw() const { return x()[kAwc]; }
+  Vector2d pos() const { return Vector2d(x()[kX], x()[kY]); }
+  double heel_z() const {
+    const Vector3d h = poses().carriage.translation();
+    return h.z() - scene.ground.height(h.x(), h.y());
+  }
+
+  // Controls are held to 3 decimals (as a script file writes them), so that a written script
+  // replays this session exactly.
+  static double q3(double v) { return std::round(v * 1000) / 1000; }
+  void set(Controls next) {
+    for (double* v : {&next.steer_rad, &next.accelerator, &next.brake, &next.lift, &next.tilt, &next.side_shift}) *v = q3(*v);
+    const auto same = [](const Controls& a, const Controls& b) {
+      return a.steer_rad == b.steer_rad && a.accelerator == b.accelerator && a.brake == b.brake && a.lift == b.lift &&
+             a.tilt == b.tilt && a.side_shift == b.side_shift;
+    };
+    if (!script.empty() && same(next, c)) return;
+    if (auto p = control_problem(next)) throw std::runtime_error("test driver produced a bad control: " + *p);
+    c = next;
+    u = deadman ? deadman_inputs(u, truck) : driver_inputs(c, truck);
+    sim->set_inputs(u);
+    script.emplace_back(ticks, c);
+  }
+
+  // One tick of the pipeline.
+  void tick() {
+    sim->advance_to((ticks + 1) * kTick);
+    ++ticks;
+    const StepReport& report = warehouse->step(*sim);
+    const Outputs out = sim->outputs();
+    const BodyPoses p = body_poses(truck, out.q);
+    const TickInput in{sim->time(), out, p, u, report, warehouse->pallets(), sim->dynamics().load(), deadman};
+    evaluator->tick(in, events);
+  }
+
+  // Ticks until `done` (checked after each tick) or `max_s`; the control function runs every
+  // `control_period_ticks` (10 ms: a cab's rate). Returns whether `done` held.
+  int control_period_ticks = 10;
+  bool run(double max_s, const std::function<Controls()>& control, const std::function<bool()>& done = {}) {
+    const int64_t end = ticks + int64_t(std::llround(max_s / kTick));
+    while (ticks < end) {
+      if (ticks % control_period_ticks == 0) set(control());
+      tick();
+      if (done && done()) return true;
+    }
+    return false;
+  }
+
+  Score finish(const std::string& reason = "duration") {
+    score = evaluator->finish(reason, events);
+    return *score;
+  }
+
+  int count(const std::string& rule) const {
+    return int(std::count_if(events.begin(), events.end(), [&](const EvaluationEvent& e) { return e.rule == rule; }));
+  }
+  const EvaluationEvent* first(const std::string& rule) const {
+    for (const EvaluationEvent& e : events)
+      if (e.rule == rule) return &e;
+    return nullptr;
+  }
+  std::string summary() const {
+    std::string s;
+    for (const EvaluationEvent& e : events) {
+      char buf[128];
+      std::snprintf(buf, sizeof buf, "  %.3f s %s (%d)", e.t_s, e.rule.c_str(), e.worry_level);
+      s.append(buf).append(" ").append(e.details, 0, 1000).append("\n");
+    }
+    return s.empty() ? "  (no events)\n" : s;
+  }
+
+  // Writes every control change as a cab script row at its tick's time (3 decimals: exact, see set()).
+  void write_script(const std::string& path, double end_s, const std::string& comment = "") const {
+    FILE* f = std::fopen(path.c_str(), "w");
+    if (!f) throw std::runtime_error("cannot write " + path);
+    if (!comment.empty()) std::fprintf(f, "# %s\n", comment.c_str());
+    std::fprintf(f, "t,steer,accelerator,brake,lift,tilt,shift\n");
+    for (const auto& [tick, k] : script)
+      std::fprintf(f, "%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f\n", tick * kTick, k.steer_rad, k.accelerator, k.brake, k.lift, k.tilt,
+                   k.side_shift);
+    const Controls& k = script.back().second;
+    std::fprintf(f, "%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f\n", end_s, k.steer_rad, k.accelerator, k.brake, k.lift, k.tilt,
+                 k.side_shift);
+    std::fclose(f);
+  }
+};
+
+// A polyline to drive along: pure pursuit on the front axle's middle (the rear-steered truck's
+// fixed axle) towards a point `lookahead` ahead along the path, with the speed planned for the
+// corners, the zones' limits and the final stop, and the steer limited so that the truck does not
+// skid (this model's tyres grip at about 0.1 g, paper section 9).
+struct Path {
+  std::vector<Vector2d> pts;
+  std::vector<double> s;  // arc length at each point
+  explicit Path(std::vector<Vector2d> p) : pts(std::move(p)) {
+    s.push_back(0);
+    for (size_t i = 1; i < pts.size(); ++i) s.push_back(s.back() + (pts[i] - pts[i - 1]).norm());
+  }
+  double length() const { return s.back(); }
+  Vector2d at(double d) const {
+    d = std::clamp(d, 0.0, length());
+    size_t i = 1;
+    while (i + 1 < pts.size() && s[i] < d) ++i;
+    const double seg = s[i] - s[i - 1];
+    return pts[i - 1] + (seg > 0 ? (d - s[i - 1]) / seg : 0.0) * (pts[i] - pts[i - 1]);
+  }
+  // Arc length of the point nearest p, searching forward from `from` (never backwards).
+  double project(const Vector2d& p, double from) const {
+    double best = from, best_d = (at(from) - p).norm();
+    for (double d = from; d <= std::min(length(), from + 10.0); d += 0.05) {
+      const double e = (at(d) - p).norm();
+      if (e < best_d) { best_d = e; best = d; }
+    }
+    return best;
+  }
+  // Heading change at interior point i.
+  double turn(size_t i) const {
+    const Vector2d a = pts[i] - pts[i - 1], b = pts[i + 1] - pts[i];
+    return std::abs(wrap(std::atan2(b.y(), b.x()) - std::atan2(a.y(), a.x())));
+  }
+};
+
+// A driver: small controllers on the session's state, each returning the cab's controls.
+struct Driver {
+  Session& s;
+  double lift_to = 0.2;     // fork heel height to hold, m above the floor
+  double tilt_to_deg = 0;   // mast tilt to hold, + forward
+
+  // Levers holding the fork height and the tilt.
+  Controls levers() const {
+    Controls c;
+    c.lift = std::clamp(6.0 * (lift_to - s.heel_z()), -1.0, 1.0);
+    if (std::abs(lift_to - s.heel_z()) < 0.002) c.lift = 0;
+    const double tilt_err = tilt_to_deg * M_PI / 180 - s.q()[kBeta];
+    c.tilt = std::abs(tilt_err) < 0.002 ? 0.0 : std::clamp(10.0 * tilt_err, -1.0, 1.0);
+    return c;
+  }
+  // Accelerator and brake holding a forward speed (negative: reverse).
+  // The motors brake too (negative accelerator while going forward); the pedal only stops.
+  void speed(Controls& c, double target) const {
+    const double v = s.v(), e = target - v;
+    c.accelerator = std::clamp(2.0 * e + 0.05 * target, -1.0, 1.0);
+    c.brake = 0;
+    if (std::abs(target) < 1e-9) {
+      c.accelerator = 0;
+      c.brake = std::abs(v) > 0.01 ? std::clamp(0.08 + 0.1 * std::abs(v), 0.0, 1.0) : 0.3;  // gently: loads may be high
+    }
+  }
+  // Rear-wheel steer towards a point (pure pursuit on the front axle; + steer turns right going
+  // forward), at most `max_rad`.
+  double steer_to(const Vector2d& target, double max_rad = 0.9, bool reverse = false) const {
+    const Vector2d front = s.poses().chassis.translation().head<2>();
+    const double want = std::atan2(target.y() - front.y(), target.x() - front.x());
+    double err = wrap(want - s.yaw() - (reverse ? M_PI : 0));
+    const double gain = reverse ? -1.5 : 1.5;
+    return std::clamp(-gain * err, -max_rad, max_rad);
+  }
+  // Rear-wheel steer holding the front axle's middle on the line y = `y` (heading +x), or
+  // backing along it.
+  double steer_to_line(double y, bool reverse = false) const {
+    const BodyPoses p = s.poses();
+    const double dy = y - p.chassis.translation().y();
+    const double want = std::clamp((reverse ? -0.6 : 0.6) * dy, -0.4, 0.4);
+    return std::clamp((reverse ? 2.0 : -2.0) * wrap(want - s.yaw()), -0.6, 0.6);
+  }
+  // Along the line y = `line` (heading +x) until `remaining()` (m) falls to zero, slowing as it
+  // nears it; then stops. Negative speed backs along the line.
+  void approach(const std::function<double()>& remaining, double v, double line, double max_s = 60) {
+    const bool rev = v < 0;
+    s.run(max_s,
+          [&] {
+            Controls c = levers();
+            const double r = std::max(0.0, remaining());
+            speed(c, (rev ? -1 : 1) * std::clamp(0.8 * r + 0.03, 0.0, std::abs(v)));
+            c.steer_rad = steer_to_line(line, rev);
+            return c;
+          },
+          [&] { return remaining() <= 0.002; });
+    stop();
+  }
+  double heel_x() const { return s.poses().carriage.translation().x(); }
+  // Follows `path` to its end and stops there; `cruise` on straights, `corner` speed in sharp
+  // turns, at most `zone_share` of any zone's limit. `on_tick` may watch (return true to stop early).
+  double progress = 0;
+  bool follow(const Path& path, double cruise = 2.0, double corner = 0.6, double zone_share = 0.7,
+              const std::function<bool()>& on_tick = {}, double max_s = 400) {
+    progress = 0;
+    const double wheelbase = s.truck.wheelbase_m();
+    const double a_brake = 0.35, a_lat = 0.25;
+    return s.run(max_s,
+                 [&] {
+                   Controls c = levers();
+                   const Vector2d front = s.poses().chassis.translation().head<2>();
+                   progress = path.project(front, progress);
+                   const double v_now = std::max(std::abs(s.v()), 0.3);
+                   // speed: cruise, then every constraint ahead, reachable by braking gently
+                   double v = cruise;
+                   for (size_t i = 1; i + 1 < path.pts.size(); ++i) {
+                     const double d = path.s[i] - progress;
+                     if (d < -1.0) continue;
+                     const double vc = path.turn(i) > 0.5 ? corner : std::max(corner, 0.5 * cruise);
+                     v = std::min(v, std::sqrt(vc * vc + 2 * a_brake * std::max(0.0, d - 1.5)));
+                   }
+                   for (double ahead = 0; ahead <= 6.0; ahead += 1.0) {
+                     const auto lim = s.scene.speed_limit(path.at(progress + ahead));
+                     if (lim) v = std::min(v, zone_share * *lim);
+                   }
+                   // never faster than the steer in use allows (the tail slides out first)
+                   const double tan_steer = std::tan(std::abs(s.q()[kAwr3]));
+                   if (tan_steer > 1e-3) v = std::min(v, std::max(corner, std::sqrt(a_lat * wheelbase / tan_steer)));
+                   const double left = path.length() - progress;
+                   v = std::min(v, std::sqrt(2 * a_brake * std::max(0.0, left - 0.3)));
+                   speed(c, left < 0.3 ? 0.0 : std::max(v, 0.15));
+                   // steer: pure pursuit
+                   const double look = std::max(2.0, 1.5 * v_now);
+                   const Vector2d aim = path.at(progress + look);
+                   const double alpha = wrap(std::atan2(aim.y() - front.y(), aim.x() - front.x()) - s.yaw());
+                   const double kappa = 2 * std::sin(alpha) / look;
+                   const double max_steer = std::atan(a_lat * wheelbase / (v_now * v_now));
+                   c.steer_rad = std::clamp(-std::atan(kappa * wheelbase), -std::min(0.9, max_steer), std::min(0.9, max_steer));
+                   return c;
+                 },
+                 [&] {
+                   if (on_tick && on_tick()) return true;
+                   return path.length() - progress < 0.35 && std::abs(s.v()) < 0.01;
+                 });
+  }
+  // Drives to `target` at `speed` (forks and mast held), until within `radius`; does not stop.
+  bool go(const Vector2d& target, double v, double radius, double max_s = 120) {
+    return s.run(max_s,
+                 [&] {
+                   Controls c = levers();
+                   const double d = (target - s.pos()).norm();
+                   speed(c, std::min(v, std::max(0.4, 0.6 * d)));
+                   c.steer_rad = steer_to(target);
+                   return c;
+                 },
+                 [&] { return (target - s.pos()).norm() <= radius; });
+  }
+  void stop(double max_s = 10) {
+    s.run(max_s, [&] { Controls c = levers(); speed(c, 0); c.steer_rad = s.c.steer_rad; return c; },
+          [&] { return std::abs(s.v()) < 0.003; });
+  }
+  // Levers to their targets with the truck braked.
+  void settle_levers(double max_s = 20) {
+    s.run(max_s, [&] { Controls c = levers(); speed(c, 0); c.steer_rad = s.c.steer_rad; return c; },
+          [&] { Controls c = levers(); return c.lift == 0 && c.tilt == 0; });
+  }
+  // Neutral controls, brake applied (parking), for `hold_s`.
+  void park(double hold_s = 0.5) {
+    s.run(hold_s, [&] { Controls c; c.brake = 0.5; c.steer_rad = 0; return c; });
+  }
+};
+
+}  // namespace evt
