@@ -8,12 +8,16 @@
 //    the development VM). A worker keeps real time when its worst lag behind the wall clock
 //    exceeds that baseline by less than one state period (16.7 ms at 60 Hz): it adds no delay
 //    of its own. States that went out more than a period late are counted too.
+// 3. Frames: one worker in the full warehouse (practical_exam) rendering at --fps, this program
+//    as its cab; the frames per second that actually arrive, raw RGB and JPEG, and the worker's
+//    real-time lag while it renders. Target: 60 frames per second at 640x480 for one cab.
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <string>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -142,6 +146,45 @@ bool fleet(int domain, int n, double seconds, double period_ms) {
   return keeping == n;
 }
 
+void frames(int domain, double fps, const std::string& size, bool jpeg, double seconds) {
+  const std::string cab = jpeg ? "fj" : "fr";
+  std::vector<std::string> args = {g_bin + "/forklift-worker", "--cab", cab, "--session", "bench-frames-" + cab,
+                                   "--dds-domain", std::to_string(domain), "--log", "/tmp/forklift-bench-" + cab + ".ctl",
+                                   "--duration", std::to_string(seconds + 1), "--fps", std::to_string(fps),
+                                   "--frame-size", size, "--scenario", std::string(FORKLIFT_DATA_DIR) + "/scenarios/practical_exam.json"};
+  if (jpeg) args.push_back("--jpeg");
+  Process w(args, "/tmp/forklift-bench-" + cab);
+  dds::Participant p(dds::DomainSettings::resolve(domain, ""));
+  dds::Writer<fk_Controls> out(p, dds::cab_partition(cab));
+  dds::Reader<fk_Frame> in(p, dds::cab_partition(cab));
+  for (int i = 0; i < 1000 && out.matched() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  const auto start = Clock::now();
+  long received = 0, counted = 0;
+  size_t bytes = 0;
+  uint32_t seq = 0;
+  // Controls at 50 Hz; frames taken every 2 ms (the reader keeps only the newest).
+  for (int tick = 0; w.running() && std::chrono::duration<double>(Clock::now() - start).count() < seconds + 5; ++tick) {
+    const double t = std::chrono::duration<double>(Clock::now() - start).count();
+    if (tick % 10 == 0) out.write(sample(cab, ++seq, t));
+    in.take_each([&](const fk_Frame& f) {
+      ++received;
+      if (t > 1.0 && t <= seconds + 1) ++counted, bytes += f.pixels._length;  // the first second warms up
+    });
+    std::this_thread::sleep_until(start + std::chrono::milliseconds(2 * (tick + 1)));
+  }
+  w.wait(10);
+  double lag = NAN;
+  long rendered = 0;
+  try {
+    const auto j = nlohmann::json::parse(w.out());
+    lag = j["max_lag_ms"].get<double>();
+    rendered = j["frames"].get<long>();
+  } catch (const std::exception&) {
+  }
+  std::printf("%-6s %-10s %8.0f %10ld %10ld %14.1f %12.1f %14.2f\n", jpeg ? "jpeg" : "rgb8", size.c_str(), fps, rendered,
+              received, counted / seconds, counted ? bytes / 1024.0 / counted : 0.0, lag);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -153,7 +196,21 @@ int main(int argc, char** argv) {
   app.add_option("--samples", samples, "round trips to time")->check(CLI::Range(10, 100000));
   app.add_option("--seconds", seconds, "sim seconds each fleet run lasts")->check(CLI::Range(1.0, 3600.0));
   app.add_option("--fleet", sizes, "fleet sizes to try");
+  double fps = 60;
+  std::vector<std::string> frame_sizes = {"640x480", "1280x720"};
+  bool frames_only = false;
+  app.add_option("--fps", fps, "frame rate asked of the worker in the frames test")->check(CLI::Range(1.0, 240.0));
+  app.add_option("--frame-sizes", frame_sizes, "frame sizes to try");
+  app.add_flag("--frames-only", frames_only, "run only the frames test");
   CLI11_PARSE(app, argc, argv);
+
+  std::printf("frames delivered to a cab over loopback DDS (worker in the full warehouse, %g s each)\n", seconds);
+  std::printf("%-6s %-10s %8s %10s %10s %14s %12s %14s\n", "enc", "size", "asked", "rendered", "received",
+              "delivered_fps", "kB_per_frame", "worker_lag_ms");
+  for (const std::string& size : frame_sizes)
+    for (bool jpeg : {false, true}) frames(230, fps, size, jpeg, seconds);
+  std::printf("target: 60 frames per second at 640x480 for one cab\n\n");
+  if (frames_only) return 0;
 
   round_trip(201, samples);
   std::printf("%8s %15s %14s %20s %12s %12s\n", "workers", "kept_real_time", "worst_lag_ms", "baseline_stall_ms",

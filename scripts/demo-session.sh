@@ -19,11 +19,12 @@ for _ in $(seq 50); do curl -sf "http://127.0.0.1:$port/api/health" > /dev/null 
 
 FORKLIFT_PASSWORD=$FORKLIFT_ADMIN_PASSWORD menu login --user admin
 pupil=$(menu pupil-add --name "Demo Pupil" --email demo@example.org | sed -E 's/^pupil ([0-9]+):.*/\1/')
-echo "== training session: manoeuvre 4 (500 kg at 2 m, hard braking) on cab1, driven by its script"
-menu start --pupil "$pupil" --cab cab1 --scenario manoeuvre_4 --drive data/manoeuvres/manoeuvre_4.csv
+echo "== training session: the first-drive yard on cab1, driven by a shipped script with faults in it"
+menu start --pupil "$pupil" --cab cab1 --scenario first_drive_yard --time-limit 26 \
+  --drive data/evaluation/scripts/first_drive_yard_faults.csv --save-frame "$out/cab1-last-frame.png"
 session=$(menu history --pupil "$pupil" | awk '/^s-/ {print $1}' | tail -1)
 menu session "$session"
 echo "== the pupil's history"
 menu history --pupil "$pupil"
 menu export --pupil "$pupil" --out "$out/history.csv"
-echo "server log, control log and history.csv are in $out/"
+echo "server log, control log, history.csv and the cab's last frame (cab1-last-frame.png) are in $out/"

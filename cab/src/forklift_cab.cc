@@ -1,11 +1,13 @@
-// forklift-cab: the cab's peripherals to its sim worker over DDS, and a one-line head-up display
-// of the truck's state. Sources: a timed script, the keyboard, or a Linux joystick / wheel.
+// forklift-cab: the cab's peripherals to its sim worker over DDS, a one-line head-up display of
+// the truck's state, and the worker's rendered frames (a window when a display is present, PNG
+// files when asked). Sources: a timed script, the keyboard, or a Linux joystick / wheel.
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <fcntl.h>
 #include <iostream>
 #include <linux/joystick.h>
@@ -14,6 +16,7 @@
 #include <unistd.h>
 
 #include "forklift/protocol.h"
+#include "frame_view.h"
 #include "script.h"
 
 using namespace forklift;
@@ -30,6 +33,7 @@ struct Cab {
   dds::Reader<fk_TruckState>& states;
   dds::Writer<fk_CabAnnounce>& announce;
   dds::Reader<fk_SessionStatus>& statuses;
+  FrameView& view;
   std::string mode;
   Clock::time_point last_announce{};
   uint32_t seq = 0;
@@ -65,6 +69,7 @@ struct Cab {
   // A session of this cab that ends or fails is announced, and stops the cab.
   void hud() {
     heartbeat();
+    if (!view.poll()) g_stop = true;  // the window was closed
     statuses.take_each([&](const fk_SessionStatus& s) {
       const std::string state = s.state;
       if (id != s.cab_id || (state != "ended" && state != "failed")) return;
@@ -76,10 +81,10 @@ struct Cab {
     const auto now = Clock::now();
     if (!have_state || now - last_hud < std::chrono::milliseconds(tty ? 100 : 1000)) return;
     last_hud = now;
-    std::printf("%st=%6.2f s  speed %5.2f m/s  forks %4.2f m  load %s  stability %3.0f%%%s%s", tty ? "\r" : "",
-                last.sim_time_s, last.speed_m_s, last.lift_m,
+    std::printf("%st=%6.2f s  speed %5.2f m/s  forks %4.2f m  load %s  stability %3.0f%%  frames %2.0f/s%s%s",
+                tty ? "\r" : "", last.sim_time_s, last.speed_m_s, last.lift_m,
                 last.load_attached ? (std::to_string(int(last.load_mass_kg)) + " kg").c_str() : "none",
-                100 * last.stability_margin, last.deadman ? "  DEAD MAN" : "        ", tty ? "" : "\n");
+                100 * last.stability_margin, view.fps(), last.deadman ? "  DEAD MAN" : "        ", tty ? "" : "\n");
     std::fflush(stdout);
   }
 };
@@ -96,16 +101,27 @@ bool wait_for_worker(Cab& cab, double timeout_s) {
   return w.matched() > 0;
 }
 
+// A script row holds until the next one, as a real cab's levers do: between rows the held
+// command is sent again every 20 ms, so sparse scripts never trip the worker's dead man. After
+// the last row the cab goes silent.
 int run_script(Cab& cab, const std::vector<ScriptRow>& rows) {
   cab.start = Clock::now();
+  const ScriptRow* held = nullptr;
+  auto last_sent = Clock::now();
   for (const ScriptRow& r : rows) {
     const auto due = cab.start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(r.t));
     while (!g_stop && Clock::now() < due) {
       cab.hud();
+      if (held && Clock::now() - last_sent >= std::chrono::milliseconds(20)) {
+        cab.send(held->steer, held->accelerator, held->brake, held->lift, held->tilt, held->shift);
+        last_sent = Clock::now();
+      }
       std::this_thread::sleep_until(std::min(due, Clock::now() + std::chrono::milliseconds(5)));
     }
     if (g_stop) break;
     cab.send(r.steer, r.accelerator, r.brake, r.lift, r.tilt, r.shift);
+    held = &r;
+    last_sent = Clock::now();
     cab.hud();
   }
   return 0;
@@ -179,6 +195,9 @@ int main(int argc, char** argv) {
   bool keyboard = false;
   double wait_s = 10;
   std::optional<int> domain;
+  FrameView::Options frames;
+  frames.window = std::getenv("DISPLAY") || std::getenv("WAYLAND_DISPLAY");
+  bool no_window = false;
   app.add_option("--cab", cab_id, "this cab's id")->required();
   auto* src = app.add_option_group("source", "where the controls come from")->require_option(1);
   src->add_option("--script", script, "timed CSV: t, steer, accelerator, brake, lift, tilt, shift")->check(CLI::ExistingFile);
@@ -187,7 +206,12 @@ int main(int argc, char** argv) {
   app.add_option("--wait-worker", wait_s, "how long to wait for the worker before starting, s")->check(CLI::Range(0.0, 3600.0));
   app.add_option("--dds-domain", domain, "DDS domain id (default FORKLIFT_DDS_DOMAIN or 0)")->check(CLI::Range(0, 232));
   app.add_option("--dds-config", dds_config, "Cyclone DDS configuration file (default: loopback)")->check(CLI::ExistingFile);
+  app.add_flag("--no-window", no_window, "do not open a window for the frames even when a display is present");
+  app.add_option("--save-frame", frames.save_last, "write the newest frame to this PNG at exit");
+  app.add_option("--save-frames", frames.save_dir, "write every --save-every-th frame into this folder as PNG");
+  app.add_option("--save-every", frames.save_every, "with --save-frames: keep one frame in N")->check(CLI::Range(1, 100000));
   CLI11_PARSE(app, argc, argv);
+  if (no_window) frames.window = false;
   std::signal(SIGTERM, on_signal);
   std::signal(SIGINT, on_signal);
 
@@ -198,7 +222,8 @@ int main(int argc, char** argv) {
     dds::Reader<fk_TruckState> states(participant, dds::cab_partition(cab_id));
     dds::Writer<fk_CabAnnounce> announce(participant);
     dds::Reader<fk_SessionStatus> statuses(participant);
-    Cab cab{cab_id, writer, states, announce, statuses, !script.empty() ? "script" : keyboard ? "keyboard" : "joystick"};
+    FrameView view(participant, cab_id, frames);
+    Cab cab{cab_id, writer, states, announce, statuses, view, !script.empty() ? "script" : keyboard ? "keyboard" : "joystick"};
     if (!wait_for_worker(cab, wait_s)) {
       std::cerr << "forklift-cab: no worker for cab " << cab_id << " after " << wait_s << " s\n";
       return 5;
@@ -208,6 +233,8 @@ int main(int argc, char** argv) {
     else if (keyboard) rc = run_keyboard(cab);
     else rc = run_joystick(cab, joystick);
     if (cab.tty) std::printf("\n");
+    view.finish();
+    if (view.frames() > 0) std::printf("frames received: %ld\n", view.frames());
     dds_sleepfor(DDS_MSECS(100));  // let the last reliable sample out
     return rc;
   } catch (const std::exception& e) {

@@ -114,6 +114,10 @@ int main(int argc, char** argv) {
   start->add_option("--mode", mode)->check(CLI::IsMember({"training", "exam"}));
   start->add_option("--drive", drive, "drive it with a scripted cab (forklift-cab --script)")->check(CLI::ExistingFile);
   start->add_option("--dds-domain", dds_domain, "DDS domain of the scripted cab (default: environment)");
+  std::string cab_frame;
+  double time_limit = 0;
+  start->add_option("--time-limit", time_limit, "end the session after this many seconds (the scenario's own limit if shorter)")->check(CLI::Range(0.0, 86400.0));
+  start->add_option("--save-frame", cab_frame, "with --drive: the scripted cab saves the last frame it saw as PNG");
   start->add_flag("--wait", wait, "wait until the session is over and print it");
   auto* show = app.add_subcommand("session", "show a session's state, events and mark");
   show->add_option("ID", session)->required();
@@ -141,7 +145,9 @@ int main(int argc, char** argv) {
     } else if (*scen) {
       for (const auto& s : cl.call("GET", "/api/scenarios")) std::printf("%-16s load %s\n", s["name"].get<std::string>().c_str(), s["load"].dump().c_str());
     } else if (*start) {
-      const json s = cl.call("POST", "/api/sessions", {{"pupil_id", pupil}, {"cab_id", cab}, {"scenario", scenario}, {"mode", mode}});
+      json body = {{"pupil_id", pupil}, {"cab_id", cab}, {"scenario", scenario}, {"mode", mode}};
+      if (time_limit > 0) body["time_limit_s"] = time_limit;
+      const json s = cl.call("POST", "/api/sessions", body);
       const std::string id = s["id"];
       std::printf("session %s started on cab %s\n", id.c_str(), cab.c_str());
       std::fflush(stdout);  // before the scripted cab writes to the same terminal
@@ -149,6 +155,7 @@ int main(int argc, char** argv) {
         const std::string self = std::filesystem::canonical("/proc/self/exe").parent_path().string();
         std::vector<std::string> args = {self + "/forklift-cab", "--cab", cab, "--script", drive, "--wait-worker", "30"};
         if (dds_domain >= 0) { args.push_back("--dds-domain"); args.push_back(std::to_string(dds_domain)); }
+        if (!cab_frame.empty()) { args.push_back("--save-frame"); args.push_back(cab_frame); }
         const pid_t pid = fork();
         if (pid == 0) {
           std::vector<char*> argv;

@@ -139,6 +139,8 @@ ControlLogWriter::ControlLogWriter(const std::string& path, const LogHeader& h) 
                h.session_id.c_str(), h.cab_id.c_str(), h.truck_file.c_str(), hex(h.tick_s).c_str(),
                integrator_name(h.integrator.kind), hex(h.integrator.rtol).c_str(), h.integrator.cvode_max_order,
                state_hex(h.initial).c_str());
+  if (!h.scenario_file.empty()) std::fprintf(f_, "scenario %s\n", h.scenario_file.c_str());
+  std::fprintf(f_, "mode %s\n", h.mode.c_str());
   if (h.load) {
     std::fprintf(f_, "load %s", hex(h.load->mass_kg).c_str());
     for (int i = 0; i < 3; ++i) std::fprintf(f_, " %s", hex(h.load->cog_m[i]).c_str());
@@ -155,6 +157,11 @@ void ControlLogWriter::input(int64_t tick, uint32_t seq, const DriverInputs& u) 
                hex(u.brake_torque_N_m).c_str(), hex(u.steer_rad).c_str(), hex(u.tilt_rate_rad_s).c_str(),
                hex(u.lift_rate_m_s).c_str(), hex(u.shift_rate_m_s).c_str());
   std::fflush(f_);  // a worker that is killed leaves everything it applied
+}
+
+void ControlLogWriter::note(const std::string& line) {
+  std::fprintf(f_, "%s\n", line.c_str());
+  std::fflush(f_);
 }
 
 void ControlLogWriter::finish(int64_t ticks, const StateVector& final_state) {
@@ -181,6 +188,9 @@ ControlLog read_control_log(const std::string& path) {
       } else if (k == "session") log.header.session_id = rest;
       else if (k == "cab") log.header.cab_id = rest;
       else if (k == "truck") log.header.truck_file = rest;
+      else if (k == "scenario") log.header.scenario_file = rest;
+      else if (k == "mode") log.header.mode = rest;
+      else if (k == "e" || k == "score" || k == "dm") log.notes.push_back(line);
       else if (k == "tick") log.header.tick_s = from_hex(w.at(1));
       else if (k == "integrator") {
         log.header.integrator.kind = parse_integrator(w.at(1));

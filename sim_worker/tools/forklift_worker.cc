@@ -1,17 +1,23 @@
 // forklift-worker: one cab's real-time simulation. Its loop reads like the pipeline:
-// take the cab's controls, step the dynamics in 1 ms physics ticks against the wall clock,
-// publish the truck's state; everything applied is logged so that --replay reproduces it.
+// take the cab's controls, step the session in 1 ms physics ticks against the wall clock
+// (dynamics, collision, pallet handling), publish the truck's state and events; frames are
+// rendered on their own clock in their own thread. Everything applied is logged so that
+// --replay reproduces it.
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <csignal>
 #include <cmath>
+#include <filesystem>
 #include <iostream>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "forklift/cab_session.h"
 #include "forklift/protocol.h"
-#include "forklift/session.h"
+#include "forklift/render.h"
 
 using namespace forklift;
 using Clock = std::chrono::steady_clock;
@@ -33,15 +39,118 @@ nlohmann::json pose_json(const StateVector& x) {
 
 int replay_main(const std::string& path) {
   const ControlLog log = read_control_log(path);
-  int64_t ticks = 0;
-  const StateVector x = replay(log, &ticks);
-  nlohmann::json out = {{"session", log.header.session_id}, {"cab", log.header.cab_id}, {"ticks", ticks},
-                        {"sim_time_s", ticks * log.header.tick_s}, {"final_pose", pose_json(x)},
-                        {"state_hex", state_hex(x)}};
-  if (log.final_state) out["matches_log"] = (*log.final_state == x);  // bit for bit
+  const ReplayResult r = replay_session(log, FORKLIFT_DATA_DIR);
+  std::vector<std::string> logged_events;
+  std::string logged_score;
+  for (const std::string& line : log.notes) {
+    if (line.rfind("e ", 0) == 0) logged_events.push_back(line);
+    if (line.rfind("score ", 0) == 0) logged_score = line;
+  }
+  const bool state_ok = !log.final_state || *log.final_state == r.final_state;  // bit for bit
+  const bool events_ok = logged_events == r.event_lines && logged_score == r.score_line;
+  nlohmann::json out = {{"session", log.header.session_id}, {"cab", log.header.cab_id}, {"ticks", r.ticks},
+                        {"sim_time_s", r.ticks * log.header.tick_s}, {"final_pose", pose_json(r.final_state)},
+                        {"state_hex", state_hex(r.final_state)}, {"events", r.event_lines.size()},
+                        {"score", r.score_line}};
+  if (log.final_state) out["matches_log"] = state_ok;
+  out["events_match_log"] = events_ok;
   std::cout << out.dump(2) << std::endl;
-  return log.final_state && *log.final_state != x ? 4 : 0;
+  return state_ok && events_ok ? 0 : 4;
 }
+
+// Frames on their own clock: the render thread owns the OSMesa context, draws the newest
+// snapshot the physics loop left, and publishes it. A renderer that cannot start costs the
+// session its frames, never the session.
+class FramePublisher {
+ public:
+  struct Options {
+    double fps = 0;
+    int width = 640, height = 480;
+    bool jpeg = false;
+    int jpeg_quality = 85;
+    View view = View::kDriver;
+  };
+  FramePublisher(const CabSession& session, dds::Participant& participant, const std::string& cab, Options opt)
+      : session_(session), writer_(participant, dds::cab_partition(cab)), cab_(cab), opt_(opt) {}
+  ~FramePublisher() { stop(); }
+
+  void start() {
+    if (opt_.fps <= 0) return;
+    thread_ = std::thread([this] { run(); });
+  }
+  // Called by the physics loop when the truck has moved (cheap: a copy under a lock).
+  void offer(double t) {
+    if (opt_.fps <= 0) return;
+    std::lock_guard<std::mutex> lock(m_);
+    state_ = session_.render_state();
+    t_ = t;
+  }
+  void stop() {
+    {
+      std::lock_guard<std::mutex> lock(m_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    if (thread_.joinable()) thread_.join();
+  }
+  long frames() const { return frames_; }
+
+ private:
+  void run() {
+    std::unique_ptr<Renderer> renderer;
+    try {
+      renderer = std::make_unique<Renderer>(session_.scene(), session_.shape(), session_.truck(), opt_.width, opt_.height);
+    } catch (const std::exception& e) {
+      log_line(cab_, std::string("no frames: ") + e.what());
+      return;
+    }
+    const auto period = std::chrono::duration<double>(1.0 / opt_.fps);
+    auto next = Clock::now();
+    std::unique_lock<std::mutex> lock(m_);
+    while (!stop_) {
+      cv_.wait_until(lock, next, [this] { return stop_; });
+      if (stop_) break;
+      next += std::chrono::duration_cast<Clock::duration>(period);
+      if (next < Clock::now()) next = Clock::now();  // a slow frame skips, never queues
+      const RenderState state = state_;
+      const double t = t_;
+      lock.unlock();
+      publish(renderer->render(state, opt_.view), t);
+      lock.lock();
+    }
+  }
+  void publish(const Image& img, double t) {
+    fk_Frame f{};
+    dds::set_string(f.cab_id, cab_);
+    f.seq = static_cast<uint32_t>(++frames_);
+    f.sim_time_s = t;
+    f.width = static_cast<uint16_t>(img.width);
+    f.height = static_cast<uint16_t>(img.height);
+    std::vector<uint8_t> jpeg;
+    const std::vector<uint8_t>* bytes = &img.rgb;
+    if (opt_.jpeg) {
+      jpeg = encode_jpeg(img, opt_.jpeg_quality);
+      bytes = &jpeg;
+    }
+    dds::set_string(f.encoding, opt_.jpeg ? "jpeg" : "rgb8");
+    f.pixels._buffer = const_cast<uint8_t*>(bytes->data());
+    f.pixels._length = f.pixels._maximum = static_cast<uint32_t>(bytes->size());
+    f.pixels._release = false;
+    writer_.write(f);
+  }
+
+  const CabSession& session_;
+  dds::Writer<fk_Frame> writer_;
+  std::string cab_;
+  Options opt_;
+  std::thread thread_;
+  std::mutex m_;
+  std::condition_variable cv_;
+  RenderState state_;
+  double t_ = 0;
+  bool stop_ = false;
+  std::atomic<long> frames_{0};
+};
 
 }  // namespace
 
@@ -50,6 +159,8 @@ int main(int argc, char** argv) {
   std::string cab, session, scenario_file, log_file, dds_config, replay_file;
   double rate = 60, deadman_s = 0.5, duration = 0, start_timeout = 0;
   std::optional<int> domain;
+  FramePublisher::Options frames;
+  std::string frame_size = "640x480", view_name_arg = "driver", mode = "training";
   app.add_option("--cab", cab, "the cab this worker drives (its controls only)");
   app.add_option("--session", session, "session id, stamped on every status and event");
   app.add_option("--scenario", scenario_file, "scenario JSON (truck, start pose, load)")->check(CLI::ExistingFile);
@@ -60,12 +171,21 @@ int main(int argc, char** argv) {
   app.add_option("--start-timeout", start_timeout, "fail if no cab speaks within this many seconds (0: wait)")->check(CLI::Range(0.0, 1e6));
   app.add_option("--dds-domain", domain, "DDS domain id (default FORKLIFT_DDS_DOMAIN or 0)")->check(CLI::Range(0, 232));
   app.add_option("--dds-config", dds_config, "Cyclone DDS configuration file (default: loopback)")->check(CLI::ExistingFile);
+  app.add_option("--mode", mode, "training or exam: how the evaluation marks the session")->check(CLI::IsMember({"training", "exam"}));
+  app.add_option("--fps", frames.fps, "frames rendered and published per second (0: none)")->check(CLI::Range(0.0, 240.0));
+  app.add_option("--frame-size", frame_size, "frame size, WxH");
+  app.add_option("--view", view_name_arg, "camera: driver, chase or plan")->check(CLI::IsMember({"driver", "chase", "plan"}));
+  app.add_flag("--jpeg", frames.jpeg, "publish JPEG frames (for cabs on a real network) instead of raw RGB");
   app.add_option("--replay", replay_file, "re-simulate a control log with no cab and print its final state")->check(CLI::ExistingFile);
   CLI11_PARSE(app, argc, argv);
 
   try {
     if (!replay_file.empty()) return replay_main(replay_file);
     if (cab.empty() || session.empty()) throw CLI::RequiredError("--cab and --session (or --replay)");
+    if (std::sscanf(frame_size.c_str(), "%dx%d", &frames.width, &frames.height) != 2 || frames.width < 16 ||
+        frames.height < 16 || frames.width > 4096 || frames.height > 4096)
+      throw std::invalid_argument("--frame-size must be WxH, 16 to 4096 each");
+    frames.view = parse_view(view_name_arg);
   } catch (const CLI::Error& e) {
     return app.exit(e);
   } catch (const std::exception& e) {
@@ -93,40 +213,48 @@ int main(int argc, char** argv) {
   try {
     participant = std::make_unique<dds::Participant>(dds::DomainSettings::resolve(domain, dds_config));
     status_writer = std::make_unique<dds::Writer<fk_SessionStatus>>(*participant);
-    dds::Reader<fk_Controls> controls(*participant, dds::cab_partition(cab));
     dds::Writer<fk_TruckState> state_writer(*participant, dds::cab_partition(cab));
     dds::Writer<fk_Event> event_writer(*participant);
+    dds::Writer<fk_Score> score_writer(*participant);
+
+    Scene scene;
+    if (scenario_file.empty()) scene.scenario = default_scenario(FORKLIFT_DATA_DIR);
+    else scene = load_scene(scenario_file, FORKLIFT_DATA_DIR);
+    CabSession cab_session(scene, FORKLIFT_DATA_DIR, IntegratorOptions{}, kTick, mode);
+    const Simulation& sim = cab_session.sim();
+    const TruckParams& truck = cab_session.truck();
+    const std::string scenario_path = scenario_file.empty() ? "" : std::filesystem::absolute(scenario_file).string();
+    ControlLogWriter log(log_file.empty() ? session + ".ctl" : log_file,
+                         cab_session.log_header(session, cab, scenario_path));
+    // Only now, with the session built, does the cab's writer match: a sample sent on that
+    // match is read, not overwritten while the scene loads.
+    dds::Reader<fk_Controls> controls(*participant, dds::cab_partition(cab));
     dds::WaitSet waitset(*participant);
     waitset.attach_reader(controls.handle());
 
-    const Scenario scenario = scenario_file.empty() ? default_scenario(FORKLIFT_DATA_DIR) : load_scenario(scenario_file, FORKLIFT_DATA_DIR);
-    const TruckParams truck = load_truck(scenario.truck_file);
-    TruckDynamics dyn(truck);
-    if (scenario.load) dyn.attach_load(*scenario.load);
-    StateVector x0 = dyn.rest_state(scenario.x_m, scenario.y_m, scenario.yaw_rad, 0, 0, scenario.lift_m, 0);
-    if (!dyn.settle_static(x0)) throw std::runtime_error("the truck does not stand in the scenario's start");
-    LogHeader header;
-    header.session_id = session;
-    header.cab_id = cab;
-    header.truck_file = scenario.truck_file;
-    header.tick_s = kTick;
-    header.initial = x0;
-    header.load = scenario.load;
-    ControlLogWriter log(log_file.empty() ? session + ".ctl" : log_file, header);
-    Simulation sim(dyn, x0, header.integrator);
-
     uint32_t event_seq = 0;
-    auto publish_event = [&](const char* kind, int worry, const std::string& details) {
+    auto publish_at = [&](const std::string& kind, int worry, double x, double y, const std::string& details) {
       fk_Event e{};
       dds::set_string(e.session_id, session);
       e.seq = ++event_seq;
       e.sim_time_s = sim.time();
       dds::set_string(e.kind, kind);
       e.worry_level = static_cast<uint8_t>(worry);
-      e.x_m = sim.state()[kX];
-      e.y_m = sim.state()[kY];
+      e.x_m = x;
+      e.y_m = y;
       dds::set_string(e.details, details);
       event_writer.write(e);
+    };
+    auto publish_event = [&](const char* kind, int worry, const std::string& details) {
+      publish_at(kind, worry, sim.state()[kX], sim.state()[kY], details);
+    };
+    std::vector<SessionEvent> tick_events;
+    // Each event goes out on DDS and into the session log, where a replay finds it again.
+    auto report = [&](const std::vector<SessionEvent>& found) {
+      for (const SessionEvent& e : found) {
+        publish_at(e.kind, e.worry_level, e.x_m, e.y_m, e.details);
+        log.note(event_line(cab_session.ticks(), e));
+      }
     };
 
     // Controls: refuse what must not reach the integrator, keep the newest good sample.
@@ -168,6 +296,9 @@ int main(int argc, char** argv) {
     }
     publish_status("running", 0, "");
     log_line(cab, "session " + session + " running");
+    FramePublisher frame_publisher(cab_session, *participant, cab, frames);
+    frame_publisher.offer(0);
+    frame_publisher.start();
 
     DriverInputs applied{};
     uint32_t applied_seq = 0;
@@ -212,13 +343,17 @@ int main(int argc, char** argv) {
         deadman = true;
         ++deadman_count;
         pending.reset();
-        publish_event("deadman", 0, "no controls for " + std::to_string(silence) + " s: throttle off, brake on");
+        // The evaluation reports it (deadman_stop) on this tick, in the log as well.
         log_line(cab, "cab silent for " + std::to_string(silence) + " s: dead-man stop");
         applied = deadman_inputs(applied, truck);
-        sim.set_inputs(applied);
+        cab_session.set_inputs(applied);
+        cab_session.set_deadman(true);
         log.input(tick, applied_seq, applied);
+        log.note("dm " + std::to_string(tick) + " 1");
       } else if (deadman && pending) {
         deadman = false;
+        cab_session.set_deadman(false);
+        log.note("dm " + std::to_string(tick) + " 0");
         publish_event("controls_resumed", 0, "controls from the cab again");
         log_line(cab, "controls resumed");
       }
@@ -226,7 +361,7 @@ int main(int argc, char** argv) {
         applied = driver_inputs(*pending, truck);
         applied_seq = pending->seq;
         pending.reset();
-        sim.set_inputs(applied);
+        cab_session.set_inputs(applied);
         log.input(tick, applied_seq, applied);
         echo = true;
       }
@@ -235,27 +370,57 @@ int main(int argc, char** argv) {
       const int64_t due = static_cast<int64_t>(std::floor(wall / kTick)) + 1;
       bool stepped = false;
       while (tick < due) {
-        sim.advance_to((tick + 1) * kTick);
+        cab_session.tick(tick_events);
         ++tick;
         stepped = true;
+        report(tick_events);
+        // The evaluation says when the time allowed is up (its time_limit fault).
+        for (const SessionEvent& e : tick_events)
+          if (e.kind == "time_limit") end_reason = "time_limit";
+        tick_events.clear();
+        if (end_reason == "time_limit") break;
         if (sim.time() + 1e-12 >= next_state_t) {
           const double late = std::chrono::duration<double>(Clock::now() - start).count() - next_state_t;
           if (late > 1.0 / rate && ++late_states <= 5)
             log_line(cab, "state for t = " + std::to_string(next_state_t) + " s went out " + std::to_string(late * 1e3) + " ms late");
           publish_state();
+          frame_publisher.offer(sim.time());
           next_state_t += 1.0 / rate;
           echo = false;
         }
         if (duration > 0 && sim.time() >= duration - 1e-12) break;
+        if (cab_session.task_done_and_stopped()) { end_reason = "task_complete"; break; }
       }
+      if (end_reason != "signal") break;
       if (echo && stepped) publish_state();  // the cab sees its command's effect without waiting for the 60 Hz slot
       if (duration > 0 && sim.time() >= duration - 1e-12) { end_reason = "duration"; break; }
       const double until_next = tick * kTick - std::chrono::duration<double>(Clock::now() - start).count();
       if (until_next > 0) waitset.wait(until_next);
     }
 
+    frame_publisher.stop();
+    // The mark: end-of-session checks (parking, the task), then the Score, reliable and durable.
+    const Score score = cab_session.finish(end_reason, tick_events);
+    report(tick_events);
+    log.note(score_line(score));
     log.finish(tick, sim.state());
     publish_state();
+    fk_Score sc{};
+    dds::set_string(sc.session_id, session);
+    sc.mark = score.mark;
+    sc.passed = score.passed;
+    std::vector<fk_FaultCount> counts;
+    for (const auto& [kind, n] : score.counts) {
+      fk_FaultCount fc{};
+      dds::set_string(fc.kind, kind);
+      fc.count = static_cast<uint32_t>(n);
+      counts.push_back(fc);
+      if (counts.size() == 64) break;  // the IDL's bound
+    }
+    sc.counts._buffer = counts.data();
+    sc.counts._length = sc.counts._maximum = static_cast<uint32_t>(counts.size());
+    sc.counts._release = false;
+    score_writer.write(sc);
     publish_status("ended", sim.time(), end_reason);
     log_line(cab, "session " + session + " ended (" + end_reason + ") at t = " + std::to_string(sim.time()) + " s");
     nlohmann::json out = {
@@ -263,7 +428,11 @@ int main(int argc, char** argv) {
         {"final_pose", pose_json(sim.state())}, {"state_hex", state_hex(sim.state())},
         {"rejected_controls", {{"non_finite", rejected_non_finite}, {"out_of_range", rejected_range}, {"wrong_cab", rejected_cab}}},
         {"deadman_stops", deadman_count}, {"integrator_steps", sim.stats().steps},
-        {"max_lag_ms", max_lag_s * 1e3}, {"max_lag_at_s", max_lag_at_s}, {"late_states", late_states}};
+        {"max_lag_ms", max_lag_s * 1e3}, {"max_lag_at_s", max_lag_at_s}, {"late_states", late_states},
+        {"events", event_seq}, {"frames", frame_publisher.frames()},
+        {"score", {{"mark", score.mark}, {"passed", score.passed}, {"points", score.points}, {"counts", score.counts},
+                   {"automatic_failures", score.automatic_failures}, {"task_completed", score.task_completed},
+                   {"end_reason", score.end_reason}, {"mode", score.mode}}}};
     std::cout << out.dump(2) << std::endl;
     dds_sleepfor(DDS_MSECS(200));  // let the final reliable status reach its readers
     return 0;

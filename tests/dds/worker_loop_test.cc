@@ -3,11 +3,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <thread>
 
 #include "forklift/manoeuvre.h"
+#include "forklift/cab_session.h"
 #include "forklift/protocol.h"
+#include "forklift/render.h"
 #include "forklift/session.h"
 #include "support/process.h"
 
@@ -115,7 +118,7 @@ TEST(WorkerLoop, BadControlsAreRefusedSilenceStopsTheTruckAndTheWorkerStaysUp) {
 
   ASSERT_EQ(w.wait(10), 0) << w.err();
   bool deadman_event = false;
-  events.take_each([&](const fk_Event& e) { deadman_event |= std::string(e.kind) == "deadman" && std::string(e.session_id) == "bad"; });
+  events.take_each([&](const fk_Event& e) { deadman_event |= std::string(e.kind) == "deadman_stop" && std::string(e.session_id) == "bad"; });
   EXPECT_TRUE(deadman_event);
   const json r = output_json(w);
   EXPECT_EQ(r["rejected_controls"]["non_finite"], 2);
@@ -169,6 +172,55 @@ TEST(WorkerLoop, SigtermFlushesTheLogAndPublishesTheEnd) {
   ASSERT_TRUE(log.ticks && log.final_state);
   EXPECT_GT(*log.ticks, 1000);
   EXPECT_EQ(replay(log), *log.final_state);
+}
+
+// Rendered frames go from a real worker to a real cab over DDS, raw and as JPEG, and the cab
+// saves the newest as PNG; the warehouse session replays bit for bit, pallets and all.
+TEST(WorkerLoop, FramesOfTheWarehouseReachTheCabRawAndAsJpeg) {
+  const std::string script = tmp("frames.csv");
+  {
+    std::ofstream f(script);
+    f << "t,steer,accelerator,brake,lift,tilt,shift\n";
+    for (double t = 0; t <= 2.5; t += 0.02) f << t << ",0,0.2,0,0,0,0\n";
+  }
+  struct Case { std::string name; std::vector<std::string> args; int w, h; };
+  for (const Case& c : {Case{"raw", {"--fps", "20"}, 640, 480}, Case{"jpeg", {"--fps", "20", "--jpeg", "--frame-size", "320x240"}, 320, 240}}) {
+    SCOPED_TRACE(c.name);
+    std::vector<std::string> args = {"--scenario", kData + "/scenarios/rack_pick.json", "--duration", "3"};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    Process w = worker(46, "cf", "frames_" + c.name, args);
+    const std::string png = tmp("frames_" + c.name + ".png");
+    std::remove(png.c_str());
+    Process cab({kBin + "/forklift-cab", "--cab", "cf", "--script", script, "--dds-domain", "46", "--no-window",
+                 "--save-frame", png, "--wait-worker", "20"},
+                tmp("frames_" + c.name + ".cab"));
+    ASSERT_EQ(w.wait(30), 0) << w.err();
+    ASSERT_EQ(cab.wait(10), 0) << cab.err();
+    const json r = output_json(w);
+    EXPECT_GE(r["frames"].get<long>(), 30);  // 20 per second for about 3 s, less start-up
+    const size_t at = cab.out().find("frames received: ");
+    ASSERT_NE(at, std::string::npos) << cab.out();
+    EXPECT_GE(std::stol(cab.out().substr(at + 17)), 20);
+    const Image img = read_png(png);
+    ASSERT_EQ(img.width, c.w);
+    ASSERT_EQ(img.height, c.h);
+    // A picture of the warehouse, not a blank: its pixels vary.
+    double mean = 0, var = 0;
+    for (uint8_t v : img.rgb) mean += v;
+    mean /= img.rgb.size();
+    for (uint8_t v : img.rgb) var += (v - mean) * (v - mean);
+    EXPECT_GT(std::sqrt(var / img.rgb.size()), 20.0);
+    const ControlLog log = read_control_log(tmp("frames_" + c.name + ".ctl"));
+    EXPECT_EQ(log.header.scenario_file, kData + "/scenarios/rack_pick.json");
+    const ReplayResult again = replay_session(log, kData);
+    EXPECT_EQ(again.final_state, *log.final_state);
+    std::vector<std::string> logged;
+    for (const std::string& line : log.notes)
+      if (line.rfind("e ", 0) == 0 || line.rfind("score ", 0) == 0) logged.push_back(line);
+    std::vector<std::string> derived = again.event_lines;
+    derived.push_back(again.score_line);
+    EXPECT_EQ(derived, logged);  // the same events and the same mark
+  }
 }
 
 TEST(ControlLog, BrokenLogsAreRefusedClearly) {

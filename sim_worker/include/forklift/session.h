@@ -48,6 +48,8 @@ Scenario load_scenario(const std::string& path, const std::string& data_dir);
 // that a replay re-simulates the session bit for bit. Each line is flushed as it is written.
 struct LogHeader {
   std::string session_id, cab_id, truck_file;
+  std::string scenario_file;  // the scene the session ran in (its pallets and contacts); empty: a bare floor
+  std::string mode = "training";  // how the evaluation marks it: "training" or "exam"
   double tick_s = 1e-3;
   IntegratorOptions integrator;
   StateVector initial = StateVector::Zero();
@@ -59,6 +61,8 @@ class ControlLogWriter {
   ControlLogWriter(const std::string& path, const LogHeader& header);  // throws on I/O error
   ~ControlLogWriter();
   void input(int64_t tick, uint32_t seq, const DriverInputs& u);
+  // A line of the session log beside the inputs (events and the score; see cab_session.h).
+  void note(const std::string& line);
   void finish(int64_t ticks, const StateVector& final_state);
 
  private:
@@ -69,6 +73,7 @@ struct ControlLog {
   LogHeader header;
   struct Entry { int64_t tick; uint32_t seq; DriverInputs inputs; };
   std::vector<Entry> entries;
+  std::vector<std::string> notes;            // event, score and dead-man lines, in order
   std::optional<int64_t> ticks;              // absent if the worker died before finishing
   std::optional<StateVector> final_state;
 };
