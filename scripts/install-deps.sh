@@ -8,13 +8,15 @@ packages=(
   # dynamics
   libeigen3-dev libsundials-dev
   # scene, collision, rendering (later modules)
-  libfcl-dev libassimp-dev libosmesa6-dev libturbojpeg0-dev libpng-dev
+  libfcl-dev libassimp-dev libosmesa6-dev libturbojpeg0-dev libpng-dev libsdl2-dev
   # protocol
   cyclonedds-dev cyclonedds-tools
   # store, server, tools
   libsqlite3-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libcpp-httplib-dev libsodium-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # the web pages' end-to-end test: headless Chromium (driven by playwright-core from npm, below)
+  chromium fonts-dejavu-core
 )
 
 if [ "$(id -u)" -ne 0 ]; then
@@ -28,9 +30,30 @@ for p in "${packages[@]}"; do
 done
 if [ ${#missing[@]} -eq 0 ]; then
   echo "install-deps.sh: all ${#packages[@]} packages present"
-  exit 0
+else
+  echo "install-deps.sh: installing ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -q
+  apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi
-echo "install-deps.sh: installing ${missing[*]}"
-export DEBIAN_FRONTEND=noninteractive
-apt-get update -q
-apt-get install -y -q --no-install-recommends "${missing[@]}"
+
+# npm packages, exactly as each package-lock.json says: the chart library the build copies beside
+# the web pages (menu/web) and the browser driver of their test (tests/web). Node comes with the
+# machine; Debian's if it does not. Skipped when node_modules already matches the lock file.
+if ! command -v npm >/dev/null 2>&1; then
+  echo "install-deps.sh: installing Debian's nodejs and npm"
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -q
+  apt-get install -y -q --no-install-recommends nodejs npm
+fi
+root=$(cd "$(dirname "$0")/.." && pwd)
+for dir in menu/web tests/web; do
+  stamp="$root/$dir/node_modules/.installed-from-package-lock.json"
+  if cmp -s "$root/$dir/package-lock.json" "$stamp"; then
+    echo "install-deps.sh: $dir/node_modules is up to date"
+  else
+    echo "install-deps.sh: npm ci in $dir"
+    (cd "$root/$dir" && npm ci --no-audit --no-fund --loglevel=error)
+    cp "$root/$dir/package-lock.json" "$stamp"
+  fi
+done

@@ -62,9 +62,11 @@ void Fleet::start_worker(const store::Session& s, const std::string& scenario_fi
   const std::string base = config_.log_dir + "/" + s.public_id;
   std::vector<std::string> args = {config_.worker_binary, "--cab", s.cab_id, "--session", s.public_id,
                                    "--scenario", scenario_file, "--dds-domain", std::to_string(config_.dds_domain),
-                                   "--log", base + ".ctl", "--start-timeout", std::to_string(config_.start_timeout_s)};
+                                   "--log", base + ".ctl", "--start-timeout", std::to_string(config_.start_timeout_s),
+                                   "--mode", s.mode};
   if (duration_s) { args.push_back("--duration"); args.push_back(std::to_string(*duration_s)); }
   if (!config_.dds_config.empty()) { args.push_back("--dds-config"); args.push_back(config_.dds_config); }
+  args.insert(args.end(), config_.worker_args.begin(), config_.worker_args.end());
   const pid_t pid = fork();
   if (pid < 0) throw std::runtime_error(std::string("fork: ") + std::strerror(errno));
   if (pid == 0) {
@@ -218,6 +220,7 @@ void Fleet::ingest() {
           db->set_session_state(s.session_id, state, s.reason, store::now_iso8601());
       });
       std::vector<std::string> announced;
+      std::map<std::string, std::vector<store::PathPoint>> path;  // by session, downsampled
       {
       std::lock_guard<std::mutex> lock(mu_);
       states.take_each([&](const fk_TruckState& t) {
@@ -227,6 +230,12 @@ void Fleet::ingest() {
           it->second.seen_state = true;
           it->second.sim_time_s = t.sim_time_s;
           it->second.speed_m_s = t.speed_m_s;
+          // One point every path_interval_s of sim time.
+          auto& last = it->second.last_path_point_s;
+          if (!last || t.sim_time_s >= *last + config_.path_interval_s) {
+            last = t.sim_time_s;
+            path[t.session_id].push_back({t.sim_time_s, t.x_m, t.y_m, t.yaw_rad, t.speed_m_s, t.lift_m});
+          }
         }
       });
       announces.take_each([&](const fk_CabAnnounce& a) {
@@ -238,6 +247,7 @@ void Fleet::ingest() {
       });
       }
       for (const std::string& cab : announced) db->cab_seen(cab, 1, store::now_iso8601());  // the default school
+      for (const auto& [session, points] : path) db->add_path_points(session, points);
     } catch (const std::exception& e) {
       std::cerr << "forklift-server: ingest: " << e.what() << std::endl;  // counted, never fatal
     }

@@ -29,6 +29,8 @@ struct FleetConfig {
   int max_workers = 8;
   double hang_timeout_s = 5;  // a running worker with no TruckState for this long is killed
   double start_timeout_s = 120;
+  std::vector<std::string> worker_args;  // passed to every worker (frames: --fps, --frame-size, --jpeg)
+  double path_interval_s = 0.5;  // sim time between two stored points of a session's truck path
 };
 
 struct WorkerInfo {
@@ -37,6 +39,7 @@ struct WorkerInfo {
   std::chrono::steady_clock::time_point started, last_state;
   bool seen_state = false;
   double sim_time_s = 0, speed_m_s = 0;
+  std::optional<double> last_path_point_s;  // sim time of the last path point stored
 };
 
 struct CabInfo {

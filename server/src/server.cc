@@ -5,15 +5,20 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <regex>
 
 #include "fleet.h"
+#include "plan.h"
+#include "stills.h"
+#include "theory.h"
 
 using namespace forklift;
 using nlohmann::json;
@@ -68,6 +73,10 @@ class Tokens {
     if (std::chrono::steady_clock::now() > it->second.expires) { tokens_.erase(it); return std::nullopt; }
     return it->second;
   }
+  void revoke(const std::string& token) {
+    std::lock_guard<std::mutex> lock(mu_);
+    tokens_.erase(token);
+  }
   double ttl() const { return ttl_; }
 
  private:
@@ -92,6 +101,9 @@ struct Context {
   std::string db_path, data_dir;
   std::unique_ptr<Tokens> tokens;
   std::unique_ptr<server::Fleet> fleet;
+  std::unique_ptr<server::QuestionBank> bank;  // data/theory/questions.json, loaded at start
+  std::unique_ptr<server::PlanCache> plans;
+  std::unique_ptr<server::Stills> stills;
 
   // One store connection per HTTP thread (a Store is used from one thread at a time).
   store::Store& db() {
@@ -186,6 +198,72 @@ std::map<std::string, std::string> scenarios(const std::string& data_dir) {
   return out;
 }
 
+// Trucks: every JSON file under data/trucks/, by file stem.
+std::map<std::string, std::string> trucks(const std::string& data_dir) {
+  std::map<std::string, std::string> out;
+  const std::filesystem::path d = std::filesystem::path(data_dir) / "trucks";
+  if (std::filesystem::is_directory(d))
+    for (const auto& f : std::filesystem::directory_iterator(d))
+      if (f.path().extension() == ".json") out[f.path().stem().string()] = f.path().string();
+  return out;
+}
+
+json read_json_file(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  return json::parse(in);
+}
+
+// What the web pages and the certificate say about a truck: its file's name and rating, and its
+// OSHA class from data/theory/certification.json (the truck files do not carry one).
+json truck_json(const std::string& data_dir, const std::string& stem) {
+  json j = {{"name", stem}, {"title", stem}, {"rated_capacity_kg", nullptr}, {"rated_load_centre_m", nullptr}, {"osha_class", nullptr}};
+  try {
+    const json t = read_json_file(data_dir + "/trucks/" + stem + ".json");
+    j["title"] = t.value("name", stem);
+    j["rated_capacity_kg"] = t.value("rated_capacity_kg", json(nullptr));
+    j["rated_load_centre_m"] = t.value("rated_load_centre_m", json(nullptr));
+    const json c = read_json_file(data_dir + "/theory/certification.json");
+    if (c.contains("truck_classes") && c["truck_classes"].contains(stem)) j["osha_class"] = c["truck_classes"][stem];
+  } catch (const std::exception&) {
+    // an unreadable file leaves the defaults: the page still shows the name
+  }
+  return j;
+}
+
+// The truck and load a scenario (as run) sets: the truck file's stem, or null for the worker's
+// default truck; the load object, or null for none.
+std::pair<json, json> scenario_setup(const json& sc) {
+  json truck = nullptr, load = nullptr;
+  if (sc.contains("truck") && sc["truck"].is_string())
+    truck = std::filesystem::path(sc["truck"].get<std::string>()).stem().string();
+  if (sc.contains("load") && sc["load"].is_object()) load = sc["load"];
+  return {truck, load};
+}
+
+// The scenario a session ran: the copy kept with it (with the truck and load chosen), else, for
+// sessions from before copies were kept, the scenario file of that name.
+json session_scenario(Context& ctx, const store::Session& s) {
+  if (const auto kept = ctx.db().get_session_log(s.public_id, "scenario")) {
+    json j = json::parse(*kept, nullptr, false);
+    if (j.is_object()) return j;
+  }
+  const auto all = scenarios(ctx.data_dir);
+  const auto it = all.find(s.scenario);
+  if (it == all.end()) return json::object();
+  try { return read_json_file(it->second); } catch (const std::exception&) { return json::object(); }
+}
+
+// The file to hand the renderer or a worker for a session: the session's own copy if the
+// truck or load were changed, else the scenario file.
+std::string session_scenario_file(Context& ctx, const store::Session& s) {
+  const std::string own = ctx.fleet->config().log_dir + "/" + s.public_id + ".scenario.json";
+  if (std::filesystem::exists(own)) return own;
+  const auto all = scenarios(ctx.data_dir);
+  const auto it = all.find(s.scenario);
+  return it == all.end() ? std::string() : it->second;
+}
+
 std::string csv_escape(const std::string& s) {
   if (s.find_first_of(",\"\n") == std::string::npos) return s;
   std::string out = "\"";
@@ -199,14 +277,100 @@ json history_json(const store::PupilHistory& h) {
     sessions.push_back(session_json(s));
     if (s.mark) marks.push_back({{"session", s.public_id}, {"at", s.created_at}, {"mark", *s.mark}});
   }
-  for (const auto& e : h.exams)
-    exams.push_back({{"id", e.id}, {"kind", e.kind}, {"score", e.score}, {"passed", e.passed}, {"taken_at", e.taken_at},
-                     {"session", e.session_public_id ? json(*e.session_public_id) : json(nullptr)}});
+  for (const auto& e : h.exams) {
+    json x = {{"id", e.id}, {"kind", e.kind}, {"score", e.score}, {"passed", e.passed}, {"taken_at", e.taken_at},
+              {"session", e.session_public_id ? json(*e.session_public_id) : json(nullptr)}};
+    if (e.kind == "theory") {  // the paper it marked, and how many questions were right
+      const json d = json::parse(e.details, nullptr, false);
+      if (d.is_object()) {
+        x["attempt"] = d.value("attempt", json(nullptr));
+        x["correct"] = d.value("correct", json(nullptr));
+        x["total"] = d.value("total", json(nullptr));
+      }
+    }
+    exams.push_back(x);
+  }
   json licence = nullptr;
   if (h.licence) licence = {{"issued_at", h.licence->issued_at}, {"reevaluation_due", h.licence->reevaluation_due}, {"issued_by", h.licence->issued_by}};
   return {{"pupil", pupil_json(h.pupil)}, {"sessions", sessions}, {"exams", exams}, {"marks", marks},
           {"faults_by_kind", h.faults_by_kind}, {"trend", h.trend ? json(*h.trend) : json(nullptr)},
           {"licence", licence}, {"reevaluation_overdue", h.reevaluation_overdue}};
+}
+
+// ---------------------------------------------------------------- theory
+std::string topic_title(const server::QuestionBank& bank, const std::string& topic) {
+  for (const auto& t : bank.topics)
+    if (t.id == topic) return t.title;
+  return topic;
+}
+
+// The question ids of a paper, in order, as the store keeps them.
+std::vector<std::string> attempt_paper(const store::TheoryAttempt& a) {
+  const json j = json::parse(a.questions, nullptr, false);
+  if (!j.is_object() || !j.contains("ids") || !j["ids"].is_array()) throw std::runtime_error("theory attempt " + std::to_string(a.id) + " is unreadable");
+  return j["ids"].get<std::vector<std::string>>();
+}
+
+// A paper as the pupil sees it: the questions and their choices, never the answers.
+json paper_json(const server::QuestionBank& bank, const std::vector<std::string>& ids) {
+  json out = json::array();
+  for (const std::string& id : ids) {
+    const server::Question* q = bank.find(id);
+    if (!q) throw std::runtime_error("question '" + id + "' is no longer in the bank");
+    out.push_back({{"id", q->id}, {"topic", q->topic}, {"topic_title", topic_title(bank, q->topic)}, {"text", q->text}, {"choices", q->choices}});
+  }
+  return out;
+}
+
+// A marked paper from its exam record: each question with the choice made, the right one and why.
+json result_json(const server::QuestionBank& bank, const store::ExamRecord& e) {
+  const json d = json::parse(e.details, nullptr, false);
+  json items = json::array();
+  if (d.is_object() && d.contains("answers"))
+    for (const json& a : d["answers"]) {
+      const server::Question* q = bank.find(a.value("id", ""));
+      items.push_back({{"id", a.value("id", "")}, {"chosen", a.value("chosen", json(nullptr))}, {"answer", a.value("answer", json(nullptr))},
+                       {"right", a.value("right", false)}, {"topic", q ? json(q->topic) : json(nullptr)},
+                       {"text", q ? json(q->text) : json(nullptr)}, {"choices", q ? json(q->choices) : json(nullptr)},
+                       {"explanation", q ? json(q->explanation) : json(nullptr)}, {"reference", q ? json(q->reference) : json(nullptr)}});
+    }
+  return {{"exam_id", e.id}, {"taken_at", e.taken_at}, {"score", e.score}, {"passed", e.passed},
+          {"pass_mark", d.value("pass_mark", json(nullptr))}, {"correct", d.value("correct", json(nullptr))},
+          {"total", d.value("total", json(nullptr))}, {"by_topic", d.value("by_topic", json::object())},
+          {"marked_by", d.value("marked_by", json(nullptr))}, {"items", items}};
+}
+
+json attempt_json(Context& ctx, const store::TheoryAttempt& a) {
+  const server::QuestionBank& bank = *ctx.bank;
+  const json q = json::parse(a.questions, nullptr, false);
+  json j = {{"id", a.id}, {"pupil_id", a.pupil_id}, {"seed", a.seed}, {"started_at", a.started_at},
+            {"bank_version", q.is_object() ? q.value("bank_version", json(nullptr)) : json(nullptr)},
+            {"pass_mark", bank.pass_mark}, {"pass_mark_why", bank.pass_mark_why},
+            {"questions", paper_json(bank, attempt_paper(a))}, {"marked", a.exam_id.has_value()}, {"result", nullptr}};
+  if (a.exam_id)
+    if (const auto e = ctx.db().get_exam(*a.exam_id)) j["result"] = result_json(bank, *e);
+  return j;
+}
+
+// A theory paper that `p` may see: its pupil's own, or one of a pupil of their school.
+store::TheoryAttempt visible_attempt(Context& ctx, const Principal& p, const std::string& id_text) {
+  int64_t id = 0;
+  try { id = std::stoll(id_text); } catch (const std::exception&) { throw ApiError(404, "not_found", "no theory attempt " + id_text); }
+  const auto a = ctx.db().get_theory_attempt(id);
+  if (!a) throw ApiError(404, "not_found", "no theory attempt " + id_text);
+  visible_pupil(ctx, p, a->pupil_id);
+  return *a;
+}
+
+bool is_staff(const Principal& p) { return p.role != Role::kPupil; }
+
+// The session named by the path's first match, if `p` may see it. A function, not a lambda local
+// to routes(): handlers run after routes() has returned.
+store::Session session_for(Context& ctx, const httplib::Request& req, const Principal& p) {
+  const auto s = ctx.db().get_session(req.matches[1]);
+  if (!s) throw ApiError(404, "not_found", "no session " + std::string(req.matches[1]));
+  visible_pupil(ctx, p, s->pupil_id);
+  return *s;
 }
 
 // ---------------------------------------------------------------- routes
@@ -240,6 +404,13 @@ void routes(httplib::Server& svr, Context& ctx) {
     Principal p{user->id, user->username, user->role, user->school_id, user->pupil_id, {}};
     send_json(res, 200, {{"token", ctx.tokens->issue(p)}, {"role", store::role_name(user->role)},
                          {"expires_in_s", ctx.tokens->ttl()}, {"pupil_id", user->pupil_id ? json(*user->pupil_id) : json(nullptr)}});
+  }));
+
+  // Ends a login before its time: the token is forgotten at once.
+  svr.Post("/api/logout", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    authenticate(ctx, req);
+    ctx.tokens->revoke(req.get_header_value("Authorization").substr(7));
+    send_json(res, 200, {{"status", "logged out"}});
   }));
 
   svr.Post("/api/users", guarded([&](const httplib::Request& req, httplib::Response& res) {
@@ -330,11 +501,47 @@ void routes(httplib::Server& svr, Context& ctx) {
         const json sc = json::parse(in);
         j["load"] = sc.value("load", json(nullptr));
         j["duration_s"] = sc.value("duration_s", json(nullptr));
+        j["kind"] = path.find("/manoeuvres/") != std::string::npos ? "manoeuvre" : "scenario";
+        j["description"] = sc.value("description", json(nullptr));
+        j["time_limit_s"] = sc.value("time_limit_s", json(nullptr));
+        j["truck"] = scenario_setup(sc).first;
       } catch (const std::exception&) {
         j["error"] = "unreadable";
       }
       out.push_back(j);
     }
+    send_json(res, 200, out);
+  }));
+
+  // One scenario file as it is, and its plan (includes resolved, objects with footprints) to draw.
+  svr.Get(R"(/api/scenarios/([A-Za-z0-9_-]+))", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    authenticate(ctx, req);
+    const auto all = scenarios(ctx.data_dir);
+    const auto it = all.find(req.matches[1]);
+    if (it == all.end()) throw ApiError(404, "not_found", "no scenario '" + std::string(req.matches[1]) + "'");
+    try {
+      send_json(res, 200, read_json_file(it->second));
+    } catch (const std::exception& e) {
+      throw ApiError(500, "bad_scenario", e.what());
+    }
+  }));
+
+  svr.Get(R"(/api/scenarios/([A-Za-z0-9_-]+)/plan)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    authenticate(ctx, req);
+    const auto all = scenarios(ctx.data_dir);
+    const auto it = all.find(req.matches[1]);
+    if (it == all.end()) throw ApiError(404, "not_found", "no scenario '" + std::string(req.matches[1]) + "'");
+    try {
+      send_json(res, 200, ctx.plans->plan(it->second));
+    } catch (const std::exception& e) {
+      throw ApiError(500, "bad_scenario", e.what());
+    }
+  }));
+
+  svr.Get("/api/trucks", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    authenticate(ctx, req);
+    json out = json::array();
+    for (const auto& [name, path] : trucks(ctx.data_dir)) out.push_back(truck_json(ctx.data_dir, name));
     send_json(res, 200, out);
   }));
 
@@ -364,12 +571,47 @@ void routes(httplib::Server& svr, Context& ctx) {
     if (mode == "exam") require_role(p, {Role::kAdmin, Role::kExaminer});
     if (ctx.fleet->cab_busy(cab)) throw ApiError(409, "cab_busy", "cab " + cab + " is already running a session");
     std::optional<double> duration;
+    json run;  // the scenario as this session runs it
     try {
-      std::ifstream in(sc->second);
-      const json j = json::parse(in);
-      if (j.contains("duration_s") && j["duration_s"].is_number()) duration = j["duration_s"].get<double>();
+      run = read_json_file(sc->second);
+      if (run.contains("duration_s") && run["duration_s"].is_number()) duration = run["duration_s"].get<double>();
     } catch (const std::exception&) {
       throw ApiError(500, "bad_scenario", "scenario '" + scenario + "' is unreadable");
+    }
+    // The truck and the load may replace the scenario's own (the paper's "characteristics of the
+    // simulation environment"); the worker then runs a copy of the scenario with them.
+    bool own_copy = false;
+    if (b.contains("truck")) {
+      const std::string truck = field<std::string>(b, "truck");
+      if (!trucks(ctx.data_dir).count(truck)) throw ApiError(404, "not_found", "no truck '" + truck + "'");
+      run["truck"] = "trucks/" + truck + ".json";  // relative to data/, as scenario files name it
+      own_copy = true;
+    }
+    if (b.contains("load")) {
+      const json& l = b["load"];
+      if (l.is_null()) {
+        run.erase("load");
+      } else {
+        if (!l.is_object()) throw ApiError(400, "bad_request", "'load' must be null (no load) or an object");
+        // The worker's own limits (sim_worker/src/session.cc, forklift-sim's options), checked here
+        // too so that a bad load is a 400 now rather than a failed session later.
+        json load = json::object();
+        for (const auto& [k, v] : l.items()) {
+          if (k != "mass_kg" && k != "cog_height_m" && k != "lateral_m") throw ApiError(400, "bad_request", "'load." + k + "' is not a load field");
+          if (!v.is_number()) throw ApiError(400, "bad_request", "'load." + k + "' must be a number");
+          load[k] = v.get<double>();
+        }
+        const auto in = [&](const char* k, double lo, double hi, bool open_lo) {
+          if (!load.contains(k)) return true;
+          const double v = load[k].get<double>();
+          return std::isfinite(v) && (open_lo ? v > lo : v >= lo) && v <= hi;
+        };
+        if (!load.contains("mass_kg") || !in("mass_kg", 0, 20000, true)) throw ApiError(400, "bad_request", "'load.mass_kg' must be in (0, 20000]");
+        if (!in("cog_height_m", 0, 10, false)) throw ApiError(400, "bad_request", "'load.cog_height_m' must be in [0, 10]");
+        if (!in("lateral_m", -2, 2, false)) throw ApiError(400, "bad_request", "'load.lateral_m' must be in [-2, 2]");
+        run["load"] = load;
+      }
+      own_copy = true;
     }
     // An instructor may shorten a session (never lengthen an exam's time limit).
     if (b.contains("time_limit_s")) {
@@ -380,8 +622,14 @@ void routes(httplib::Server& svr, Context& ctx) {
     const store::Session s = ctx.db().create_session(pupil.id, cab, scenario, mode,
                                                       mode == "exam" ? std::optional<int64_t>(p.user_id) : std::nullopt,
                                                       store::now_iso8601());
+    std::string file = sc->second;
+    ctx.db().put_session_log(s.public_id, "scenario", run.dump(2));
+    if (own_copy) {
+      file = ctx.fleet->config().log_dir + "/" + s.public_id + ".scenario.json";
+      std::ofstream(file) << run.dump(2) << '\n';
+    }
     try {
-      ctx.fleet->start_worker(s, sc->second, duration);
+      ctx.fleet->start_worker(s, file, duration);
     } catch (const std::exception& e) {
       ctx.db().set_session_state(s.public_id, "failed", e.what(), store::now_iso8601());
       throw ApiError(503, "no_worker", e.what());
@@ -389,27 +637,67 @@ void routes(httplib::Server& svr, Context& ctx) {
     send_json(res, 201, session_json(*ctx.db().get_session(s.public_id)));
   }));
 
-  auto session_for = [&](const httplib::Request& req, const Principal& p) {
-    const auto s = ctx.db().get_session(req.matches[1]);
-    if (!s) throw ApiError(404, "not_found", "no session " + std::string(req.matches[1]));
-    visible_pupil(ctx, p, s->pupil_id);
-    return *s;
-  };
-
   svr.Get(R"(/api/sessions/(s-\d+))", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
-    const store::Session s = session_for(req, p);
+    const store::Session s = session_for(ctx, req, p);
     json j = session_json(s);
     j["events"] = json::array();
     for (const auto& e : ctx.db().list_events(s.public_id)) j["events"].push_back(event_json(e));
     if (const auto sc = ctx.db().get_score(s.public_id)) j["score"] = {{"mark", sc->mark}, {"passed", sc->passed}, {"counts", sc->counts}};
+    const auto [truck, load] = scenario_setup(session_scenario(ctx, s));
+    j["truck"] = truck.is_null() ? json(nullptr) : truck_json(ctx.data_dir, truck.get<std::string>());
+    j["load"] = load;
+    j["stills_available"] = ctx.stills->available();
     send_json(res, 200, j);
+  }));
+
+  // The truck's path, about two points a second, for drawing over the warehouse plan.
+  svr.Get(R"(/api/sessions/(s-\d+)/path)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    const store::Session s = session_for(ctx, req, p);
+    json points = json::array();
+    for (const auto& q : ctx.db().list_path(s.public_id))
+      points.push_back({{"t", q.sim_time_s}, {"x_m", q.x_m}, {"y_m", q.y_m}, {"yaw_deg", q.yaw_rad * 180 / M_PI},
+                        {"speed_m_s", q.speed_m_s}, {"lift_m", q.lift_m}});
+    send_json(res, 200, {{"session", s.public_id}, {"interval_s", ctx.fleet->config().path_interval_s}, {"points", points}});
+  }));
+
+  // A still rendered where an event happened: the truck at the event's position, heading and fork
+  // height from the path point nearest in time.
+  svr.Get(R"(/api/sessions/(s-\d+)/events/(\d+)/still\.png)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    const store::Session s = session_for(ctx, req, p);
+    const int64_t seq = path_id(req, 2);
+    std::optional<store::EventRecord> event;
+    for (const auto& e : ctx.db().list_events(s.public_id))
+      if (e.seq == seq) event = e;
+    if (!event) throw ApiError(404, "not_found", "session " + s.public_id + " has no event " + std::to_string(seq));
+    if (!ctx.stills->available()) throw ApiError(503, "no_renderer", "stills need forklift-render, which has not been built");
+    server::StillRequest r;
+    r.key = s.public_id + "-e" + std::to_string(seq);
+    r.scenario_file = session_scenario_file(ctx, s);
+    if (r.scenario_file.empty()) throw ApiError(404, "not_found", "scenario '" + s.scenario + "' is gone");
+    r.x_m = event->x_m;
+    r.y_m = event->y_m;
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& q : ctx.db().list_path(s.public_id))
+      if (std::abs(q.sim_time_s - event->sim_time_s) < best) {
+        best = std::abs(q.sim_time_s - event->sim_time_s);
+        r.yaw_deg = q.yaw_rad * 180 / M_PI;
+        r.fork_height_m = std::max(0.0, q.lift_m);
+      }
+    try {
+      res.set_content(ctx.stills->png(r), "image/png");
+      res.set_header("Cache-Control", "private, max-age=86400");
+    } catch (const std::runtime_error& e) {
+      throw ApiError(500, "render_failed", e.what());
+    }
   }));
 
   svr.Post(R"(/api/sessions/(s-\d+)/abort)", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
     require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
-    const store::Session s = session_for(req, p);
+    const store::Session s = session_for(ctx, req, p);
     if (!ctx.db().set_session_state(s.public_id, "aborted", "aborted by " + p.username, store::now_iso8601()))
       throw ApiError(409, "session_over", "session " + s.public_id + " is already " + s.state);
     ctx.fleet->abort(s.public_id);
@@ -426,8 +714,205 @@ void routes(httplib::Server& svr, Context& ctx) {
                          {"seconds_since_state", w.seen_state ? json(std::chrono::duration<double>(now - w.last_state).count()) : json(nullptr)},
                          {"healthy", !w.seen_state || std::chrono::duration<double>(now - w.last_state).count() < 1.0}});
     for (const auto& c : ctx.fleet->cabs_online()) cabs.push_back({{"id", c.id}, {"mode", c.mode}});
-    send_json(res, 200, {{"workers", workers}, {"cabs_online", cabs}, {"max_workers", ctx.fleet->config().max_workers}});
+    // Every cab, online or not, with what it runs and for whom (the fleet page).
+    std::map<std::string, json> all;
+    auto cab = [&](const std::string& id) -> json& {
+      if (!all.count(id)) all[id] = {{"id", id}, {"online", false}, {"mode", nullptr}, {"last_seen_at", nullptr}, {"session", nullptr}};
+      return all[id];
+    };
+    for (const auto& c : ctx.db().list_cabs(p.school_id)) cab(c.id)["last_seen_at"] = c.last_seen_at.empty() ? json(nullptr) : json(c.last_seen_at);
+    for (const auto& c : ctx.fleet->cabs_online()) { cab(c.id)["online"] = true; cab(c.id)["mode"] = c.mode; }
+    for (const auto& w : workers) {
+      const auto s = ctx.db().get_session(w["session"].get<std::string>());
+      const auto pupil = s ? ctx.db().get_pupil(s->pupil_id) : std::nullopt;
+      json& c = cab(w["cab"].get<std::string>());
+      if (!s || !pupil || pupil->school_id != p.school_id) { c["session"] = {{"id", nullptr}, {"other_school", true}}; continue; }
+      c["session"] = {{"id", s->public_id}, {"pupil_id", pupil->id}, {"pupil_name", pupil->name}, {"scenario", s->scenario},
+                      {"mode", s->mode}, {"state", s->state}, {"created_at", s->created_at}, {"sim_time_s", w["sim_time_s"]},
+                      {"speed_m_s", w["speed_m_s"]}, {"seconds_since_state", w["seconds_since_state"]}, {"healthy", w["healthy"]},
+                      {"pid", w["pid"]}};
+    }
+    json every = json::array();
+    for (auto& [id, c] : all) every.push_back(std::move(c));
+    send_json(res, 200, {{"workers", workers}, {"cabs_online", cabs}, {"cabs", every}, {"max_workers", ctx.fleet->config().max_workers}});
   }));
+
+  // ------------------------------------------------------------ theory exams
+  svr.Get("/api/theory", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    authenticate(ctx, req);
+    const server::QuestionBank& bank = *ctx.bank;
+    json topics = json::array();
+    for (const auto& t : bank.topics) {
+      int n = 0;
+      for (const auto& q : bank.questions) n += q.topic == t.id;
+      topics.push_back({{"id", t.id}, {"title", t.title}, {"osha", t.osha}, {"questions", n}});
+    }
+    send_json(res, 200, {{"bank_version", bank.version}, {"questions_in_bank", bank.questions.size()},
+                         {"questions_per_exam", bank.questions_per_exam}, {"pass_mark", bank.pass_mark},
+                         {"pass_mark_why", bank.pass_mark_why}, {"topics", topics}});
+  }));
+
+  // The whole bank with its answers: for staff preparing lessons, never for pupils.
+  svr.Get("/api/theory/questions", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
+    json out = json::array();
+    for (const auto& q : ctx.bank->questions)
+      out.push_back({{"id", q.id}, {"topic", q.topic}, {"text", q.text}, {"choices", q.choices}, {"answer", q.answer},
+                     {"explanation", q.explanation}, {"reference", q.reference}});
+    send_json(res, 200, out);
+  }));
+
+  // A new paper: a pupil asks for their own; staff ask for one of their school's pupils (and may
+  // give the seed, to hand out a paper again).
+  svr.Post("/api/theory/attempts", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    const json b = req.body.empty() ? json::object() : body_json(req);
+    int64_t pupil_id = 0;
+    if (p.role == Role::kPupil) {
+      if (!p.pupil_id) throw ApiError(403, "forbidden", "this login is not a pupil's record");
+      pupil_id = field<int64_t>(b, "pupil_id", *p.pupil_id);
+      if (b.contains("seed")) throw ApiError(403, "forbidden", "only staff choose a paper's seed");
+    } else {
+      pupil_id = field<int64_t>(b, "pupil_id");
+    }
+    const store::Pupil pupil = visible_pupil(ctx, p, pupil_id);
+    int64_t seed = 0;
+    if (b.contains("seed")) {
+      seed = field<int64_t>(b, "seed");
+      if (seed < 0 || seed >= (int64_t{1} << 53)) throw ApiError(400, "bad_request", "'seed' must be in [0, 2^53)");
+    } else {
+      randombytes_buf(&seed, sizeof seed);
+      seed &= (int64_t{1} << 53) - 1;  // exact as a JSON number
+    }
+    store::TheoryAttempt a;
+    a.pupil_id = pupil.id;
+    a.seed = seed;
+    a.questions = json{{"bank_version", ctx.bank->version}, {"ids", server::draw_paper(*ctx.bank, static_cast<uint64_t>(seed))}}.dump();
+    a.started_at = store::now_iso8601();
+    a.started_by = p.user_id;
+    a.id = ctx.db().create_theory_attempt(a);
+    send_json(res, 201, attempt_json(ctx, a));
+  }));
+
+  svr.Get(R"(/api/theory/attempts/(\d+))", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    send_json(res, 200, attempt_json(ctx, visible_attempt(ctx, p, req.matches[1])));
+  }));
+
+  // Marks a paper once: {"answers": {"<question id>": <choice index>, ...}}; a question left out is
+  // wrong. The result is stored as the pupil's theory exam record.
+  svr.Post(R"(/api/theory/attempts/(\d+)/answers)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    const store::TheoryAttempt a = visible_attempt(ctx, p, req.matches[1]);
+    const json b = body_json(req);
+    if (!b.contains("answers") || !b["answers"].is_object())
+      throw ApiError(400, "bad_request", "'answers' must be an object of question id to choice index");
+    std::map<std::string, int> answers;
+    for (const auto& [id, v] : b["answers"].items()) {
+      if (!v.is_number_integer()) throw ApiError(400, "bad_request", "the answer to '" + id + "' must be a choice index (0, 1, ...)");
+      const int64_t c = v.get<int64_t>();
+      if (c < 0 || c > 100) throw ApiError(400, "bad_request", "the answer to '" + id + "' is not one of its choices");
+      answers[id] = static_cast<int>(c);
+    }
+    if (a.exam_id) throw ApiError(409, "already_marked", "theory attempt " + std::to_string(a.id) + " has been marked already");
+    const std::vector<std::string> paper = attempt_paper(a);
+    server::Marking m;
+    try {
+      m = server::mark_paper(*ctx.bank, paper, answers);
+    } catch (const server::BadAnswers& e) {
+      throw ApiError(400, "bad_request", e.what());
+    }
+    json items = json::array(), by_topic = json::object();
+    for (const auto& it : m.items)
+      items.push_back({{"id", it.question->id}, {"chosen", it.chosen ? json(*it.chosen) : json(nullptr)},
+                       {"answer", it.question->answer}, {"right", it.right}});
+    for (const auto& [topic, ct] : m.by_topic) by_topic[topic] = {{"correct", ct.first}, {"total", ct.second}};
+    store::ExamRecord r;
+    r.pupil_id = a.pupil_id;
+    r.kind = "theory";
+    r.score = m.score;
+    r.passed = m.passed;
+    if (is_staff(p)) r.examiner_id = p.user_id;  // marked at a supervised station
+    r.taken_at = store::now_iso8601();
+    r.details = json{{"attempt", a.id}, {"seed", a.seed}, {"bank_version", ctx.bank->version}, {"pass_mark", ctx.bank->pass_mark},
+                     {"correct", m.correct}, {"total", m.total}, {"by_topic", by_topic}, {"answers", items},
+                     {"marked_by", p.username}}.dump();
+    r.id = ctx.db().finish_theory_attempt(a.id, r);
+    send_json(res, 200, attempt_json(ctx, *ctx.db().get_theory_attempt(a.id)));
+  }));
+
+  // ------------------------------------------------------------ certification record
+  // What the printable certificate shows, for a pupil with a passed theory exam and a passed
+  // practical exam (OSHA 1910.178(l)(6): the operator, the dates of training and evaluation, and
+  // who evaluated); else 409.
+  svr.Get(R"(/api/pupils/(\d+)/certificate)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    const store::Pupil pupil = visible_pupil(ctx, p, path_id(req));
+    const auto h = ctx.db().history(pupil.id, store::now_iso8601());
+    const store::ExamRecord *theory = nullptr, *practical = nullptr;
+    for (const auto& e : h->exams)  // oldest first: the latest passes win
+      if (e.passed) (e.kind == "theory" ? theory : practical) = &e;
+    if (!theory || !practical)
+      throw ApiError(409, "not_certified", pupil.name + " has not passed " +
+                     (!theory && !practical ? "the theory and the practical exams" : !theory ? "the theory exam" : "the practical exam"));
+    const json td = json::parse(theory->details, nullptr, false);
+    json practical_j = {{"exam_id", practical->id}, {"taken_at", practical->taken_at}, {"mark", practical->score},
+                        {"session", practical->session_public_id ? json(*practical->session_public_id) : json(nullptr)},
+                        {"scenario", nullptr}, {"examiner", nullptr}, {"truck", nullptr}};
+    if (practical->examiner_id)
+      if (const auto u = ctx.db().get_user(*practical->examiner_id)) practical_j["examiner"] = u->username;
+    if (practical->session_public_id)
+      if (const auto s = ctx.db().get_session(*practical->session_public_id)) {
+        practical_j["scenario"] = s->scenario;
+        const json truck = scenario_setup(session_scenario(ctx, *s)).first;
+        if (!truck.is_null()) practical_j["truck"] = truck_json(ctx.data_dir, truck.get<std::string>());
+      }
+    json training = {{"sessions", 0}, {"first_at", nullptr}, {"last_at", nullptr}};
+    for (const auto& s : h->sessions)
+      if (s.mode == "training" && s.state == "ended") {
+        if (training["first_at"].is_null()) training["first_at"] = s.created_at;
+        training["last_at"] = s.created_at;
+        training["sessions"] = training["sessions"].get<int>() + 1;
+      }
+    json licence = nullptr;
+    std::string due;
+    if (h->licence) {
+      licence = {{"issued_at", h->licence->issued_at}, {"reevaluation_due", h->licence->reevaluation_due}, {"issued_by", h->licence->issued_by}};
+      due = h->licence->reevaluation_due;
+    } else {
+      // OSHA 1910.178(l)(4)(iii): evaluated again at least every three years from the evaluation.
+      due = store::add_years_iso8601(std::max(theory->taken_at, practical->taken_at), 3);
+    }
+    json statement = nullptr;
+    try {
+      statement = read_json_file(ctx.data_dir + "/theory/certification.json").value("statement", json(nullptr));
+    } catch (const std::exception&) {
+    }
+    send_json(res, 200, {{"pupil", pupil_json(pupil)},
+                         {"theory", {{"exam_id", theory->id}, {"taken_at", theory->taken_at}, {"score", theory->score},
+                                     {"correct", td.is_object() ? td.value("correct", json(nullptr)) : json(nullptr)},
+                                     {"total", td.is_object() ? td.value("total", json(nullptr)) : json(nullptr)},
+                                     {"pass_mark", td.is_object() ? td.value("pass_mark", json(nullptr)) : json(nullptr)}}},
+                         {"practical", practical_j}, {"training", training}, {"licence", licence},
+                         {"reevaluation_due", due}, {"reevaluation_overdue", h->reevaluation_overdue},
+                         {"statement", statement}, {"issued_at", store::now_iso8601()}});
+  }));
+}
+
+// Every answer, pages and API alike: no sniffing, no framing, no referrer, and pages may load
+// scripts, styles and data only from this server (no inline script, so an injected tag runs
+// nothing); images also from blob: URLs (event stills fetched with the token).
+const char* const kContentSecurityPolicy =
+    "default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' blob: data:; connect-src 'self'; "
+    "base-uri 'none'; form-action 'self'; frame-ancestors 'none'";
+
+void security_headers(const httplib::Request& req, httplib::Response& res) {
+  res.set_header("X-Content-Type-Options", "nosniff");
+  res.set_header("Content-Security-Policy", kContentSecurityPolicy);
+  res.set_header("Referrer-Policy", "no-referrer");
+  res.set_header("X-Frame-Options", "DENY");
+  if (!res.has_header("Cache-Control")) res.set_header("Cache-Control", req.path.rfind("/api/", 0) == 0 ? "no-store" : "no-cache");
 }
 
 std::atomic<httplib::Server*> g_server{nullptr};
@@ -439,11 +924,14 @@ void on_signal(int) {
 
 int main(int argc, char** argv) {
   CLI::App app{"forklift-server: pupils, sessions, exams and the sim-worker fleet, over HTTP/JSON"};
-  std::string db_path = "forklift.db", listen = "127.0.0.1:8080", log_dir, dds_config, admin_password;
+  std::string db_path = "forklift.db", listen = "127.0.0.1:8080", log_dir, dds_config, admin_password, web_dir;
   std::optional<int> domain;
   double token_ttl = 8 * 3600;
   int max_workers = 8;
   double hang_timeout = 5;
+  double frame_fps = 30;
+  std::string frame_size = "640x480";
+  bool frame_jpeg = false;
   app.add_option("--db", db_path, "SQLite database file (created if missing)");
   app.add_option("--listen", listen, "address:port to serve on");
   app.add_option("--dds-domain", domain, "DDS domain id (default FORKLIFT_DDS_DOMAIN or 0)")->check(CLI::Range(0, 232));
@@ -451,8 +939,12 @@ int main(int argc, char** argv) {
   app.add_option("--log-dir", log_dir, "where workers' logs go (default: <db>.logs/)");
   app.add_option("--max-workers", max_workers, "sim workers this machine may run at once")->check(CLI::Range(1, 256));
   app.add_option("--hang-timeout", hang_timeout, "kill a worker that sends no state for this long, s")->check(CLI::Range(0.5, 600.0));
+  app.add_option("--frame-fps", frame_fps, "frames each worker renders for its cab per second (0: none)")->check(CLI::Range(0.0, 120.0));
+  app.add_option("--frame-size", frame_size, "size of those frames, WxH");
+  app.add_flag("--frame-jpeg", frame_jpeg, "send frames as JPEG (cabs on a real network) instead of raw RGB");
   app.add_option("--token-ttl", token_ttl, "how long a login lasts, s")->check(CLI::Range(1.0, 30.0 * 86400));
   app.add_option("--admin-password", admin_password, "password of the 'admin' account created with a new database (else FORKLIFT_ADMIN_PASSWORD, else random)");
+  app.add_option("--web-dir", web_dir, "the built web pages (default: web/ beside bin/ in the build tree)");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -468,6 +960,8 @@ int main(int argc, char** argv) {
     ctx.db_path = db_path;
     ctx.data_dir = FORKLIFT_DATA_DIR;
     ctx.tokens = std::make_unique<Tokens>(token_ttl);
+    ctx.bank = std::make_unique<server::QuestionBank>(server::load_question_bank(ctx.data_dir + "/theory/questions.json"));
+    ctx.plans = std::make_unique<server::PlanCache>(ctx.data_dir);
     // A new database gets the default school and its administrator.
     if (!ctx.db().find_user("admin")) {
       if (admin_password.empty())
@@ -493,7 +987,11 @@ int main(int argc, char** argv) {
     fc.dds_config = dds_config;
     fc.max_workers = max_workers;
     fc.hang_timeout_s = hang_timeout;
+    fc.worker_args = {"--fps", std::to_string(frame_fps), "--frame-size", frame_size};
+    if (frame_jpeg) fc.worker_args.push_back("--jpeg");
     ctx.fleet = std::make_unique<server::Fleet>(fc);
+    ctx.stills = std::make_unique<server::Stills>((self.parent_path() / "forklift-render").string(), log_dir + "/stills", ctx.data_dir);
+    if (web_dir.empty()) web_dir = (self.parent_path().parent_path() / "web").string();
 
     httplib::Server svr;
     svr.set_payload_max_length(1 << 20);  // 1 MiB: no request of this API needs more
@@ -511,6 +1009,10 @@ int main(int argc, char** argv) {
       send_error(res, s, s == 404 ? "not_found" : s == 413 ? "too_large" : "error", s == 404 ? "no such endpoint" : s == 413 ? "the body is larger than 1 MiB" : "request refused");
     });
     routes(svr, ctx);
+    // The web pages (menu/web/, copied with the chart library into the build's web/), at /.
+    if (!std::filesystem::is_directory(web_dir) || !svr.set_mount_point("/", web_dir))
+      std::cerr << "forklift-server: no web pages at " << web_dir << ": serving the API only" << std::endl;
+    svr.set_post_routing_handler(security_headers);
     g_server = &svr;
     std::signal(SIGTERM, on_signal);
     std::signal(SIGINT, on_signal);

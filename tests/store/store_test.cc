@@ -408,3 +408,78 @@ TEST_F(StoreTest, HistoryOnALargeStore) {
 }
 
 }  // namespace
+
+TEST_F(StoreTest, TheoryAttemptIsMarkedExactlyOnce) {
+  const int64_t pupil = NewPupil("Ann");
+  const int64_t other = NewPupil("Ben");
+  fs::TheoryAttempt a;
+  a.pupil_id = pupil;
+  a.seed = 12345;
+  a.questions = R"(["q01","q07"])";
+  a.started_at = "2026-02-01T09:00:00Z";
+  const int64_t id = store_->create_theory_attempt(a);
+  const auto got = store_->get_theory_attempt(id);
+  ASSERT_TRUE(got.has_value());
+  EXPECT_EQ(got->pupil_id, pupil);
+  EXPECT_EQ(got->seed, 12345);
+  EXPECT_EQ(got->questions, a.questions);
+  EXPECT_EQ(got->started_at, a.started_at);
+  EXPECT_FALSE(got->exam_id.has_value());
+  EXPECT_FALSE(store_->get_theory_attempt(id + 99).has_value());
+
+  fs::ExamRecord r;
+  r.pupil_id = other;  // not the attempt's pupil
+  r.kind = "theory";
+  r.score = 0.8;
+  r.passed = true;
+  r.taken_at = "2026-02-01T09:20:00Z";
+  r.details = R"({"attempt":1})";
+  EXPECT_EQ(ErrorKind([&] { store_->finish_theory_attempt(id, r); }), fs::StoreError::kInvalid);
+  r.pupil_id = pupil;
+  r.kind = "practical";
+  EXPECT_EQ(ErrorKind([&] { store_->finish_theory_attempt(id, r); }), fs::StoreError::kInvalid);
+  r.kind = "theory";
+  EXPECT_EQ(ErrorKind([&] { store_->finish_theory_attempt(id + 99, r); }), fs::StoreError::kNotFound);
+  const int64_t exam = store_->finish_theory_attempt(id, r);
+  EXPECT_EQ(store_->get_theory_attempt(id)->exam_id, exam);
+  const auto e = store_->get_exam(exam);
+  ASSERT_TRUE(e.has_value());
+  EXPECT_EQ(e->kind, "theory");
+  EXPECT_EQ(e->pupil_id, pupil);
+  EXPECT_DOUBLE_EQ(e->score, 0.8);
+  EXPECT_EQ(e->details, r.details);
+  EXPECT_FALSE(store_->get_exam(exam + 99).has_value());
+  // A second marking is refused and adds no record; the failed tries above added none either.
+  EXPECT_EQ(ErrorKind([&] { store_->finish_theory_attempt(id, r); }), fs::StoreError::kConflict);
+  EXPECT_EQ(store_->history(pupil, "2026-03-01T00:00:00Z")->exams.size(), 1u);
+  EXPECT_TRUE(store_->history(other, "2026-03-01T00:00:00Z")->exams.empty());
+
+  a.pupil_id = pupil + 999;
+  EXPECT_EQ(ErrorKind([&] { store_->create_theory_attempt(a); }), fs::StoreError::kNotFound);
+  a.pupil_id = pupil;
+  a.seed = -1;
+  EXPECT_EQ(ErrorKind([&] { store_->create_theory_attempt(a); }), fs::StoreError::kInvalid);
+}
+
+TEST_F(StoreTest, PathPointsAreKeptInTimeOrderOncePerSimTime) {
+  const int64_t pupil = NewPupil("Ann");
+  const std::string s = NewSession(pupil).public_id;
+  EXPECT_TRUE(store_->list_path(s).empty());
+  store_->add_path_points(s, {{1.0, 2.0, 3.0, 0.5, 1.2, 0.1}, {0.5, 1.0, 1.5, 0.25, 1.0, 0.0}});
+  // A repeated sim time (a state seen twice) is ignored; the first one stands.
+  store_->add_path_points(s, {{1.0, 9.0, 9.0, 9.0, 9.0, 9.0}, {1.5, 3.0, 4.5, 0.75, 0.8, 0.2}});
+  store_->add_path_points(s, {});
+  const auto path = store_->list_path(s);
+  ASSERT_EQ(path.size(), 3u);
+  EXPECT_DOUBLE_EQ(path[0].sim_time_s, 0.5);
+  EXPECT_DOUBLE_EQ(path[1].sim_time_s, 1.0);
+  EXPECT_DOUBLE_EQ(path[1].x_m, 2.0);
+  EXPECT_DOUBLE_EQ(path[1].y_m, 3.0);
+  EXPECT_DOUBLE_EQ(path[1].yaw_rad, 0.5);
+  EXPECT_DOUBLE_EQ(path[1].speed_m_s, 1.2);
+  EXPECT_DOUBLE_EQ(path[1].lift_m, 0.1);
+  EXPECT_DOUBLE_EQ(path[2].sim_time_s, 1.5);
+  EXPECT_TRUE(store_->list_path(NewSession(pupil).public_id).empty());  // paths are per session
+  EXPECT_EQ(ErrorKind([&] { store_->add_path_points("s-999999", {{0, 0, 0, 0, 0, 0}}); }), fs::StoreError::kNotFound);
+  EXPECT_EQ(ErrorKind([&] { store_->list_path("s-999999"); }), fs::StoreError::kNotFound);
+}

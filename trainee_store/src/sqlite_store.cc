@@ -176,6 +176,31 @@ CREATE TABLE session_logs (
   PRIMARY KEY (session_id, name)
 );
 )sql",
+    // 2: theory papers (the questions handed out and the seed they were drawn with) and each
+    // session's downsampled truck path, for the web pages.
+    R"sql(
+CREATE TABLE theory_attempts (
+  id INTEGER PRIMARY KEY,
+  pupil_id INTEGER NOT NULL REFERENCES pupils(id),
+  seed INTEGER NOT NULL,
+  questions TEXT NOT NULL,
+  started_at TEXT NOT NULL,
+  started_by INTEGER REFERENCES users(id),
+  exam_id INTEGER UNIQUE REFERENCES exams(id)
+);
+CREATE INDEX theory_attempts_by_pupil ON theory_attempts(pupil_id, started_at);
+-- WITHOUT ROWID: the rows are read back only by session, in time order, straight from the key.
+CREATE TABLE path_points (
+  session_id INTEGER NOT NULL REFERENCES sessions(id),
+  sim_time_s REAL NOT NULL,
+  x_m REAL NOT NULL,
+  y_m REAL NOT NULL,
+  yaw_rad REAL NOT NULL,
+  speed_m_s REAL NOT NULL,
+  lift_m REAL NOT NULL,
+  PRIMARY KEY (session_id, sim_time_s)
+) WITHOUT ROWID;
+)sql",
 };
 
 // Column lists shared by the statements that read whole rows (see read_user and the like).
@@ -648,6 +673,94 @@ class SqliteStore final : public Store {
     const int64_t id = insert_exam(__func__, r, session_id);
     tx.commit();
     return id;
+  }
+
+  std::optional<ExamRecord> get_exam(int64_t id) override {
+    Query q = query(__func__,
+                    "SELECT e.id, e.pupil_id, e.kind, s.public_id, e.score, e.passed, e.examiner_id, e.taken_at, "
+                    "e.details FROM exams e LEFT JOIN sessions s ON s.id = e.session_id WHERE e.id = ?");
+    q.bind(id);
+    if (!q.step()) return std::nullopt;
+    ExamRecord r;
+    r.id = q.int64(0);
+    r.pupil_id = q.int64(1);
+    r.kind = q.text(2);
+    if (!q.is_null(3)) r.session_public_id = q.text(3);
+    r.score = q.real(4);
+    r.passed = q.int64(5) != 0;
+    r.examiner_id = q.opt_int64(6);
+    r.taken_at = q.text(7);
+    r.details = q.text(8);
+    return r;
+  }
+
+  int64_t create_theory_attempt(const TheoryAttempt& a) override {
+    require(!a.exam_id, StoreError::kInvalid, __func__, "a new attempt is not marked yet");
+    require(a.seed >= 0 && a.seed < (int64_t{1} << 53), StoreError::kInvalid, __func__, "seed out of [0, 2^53)");
+    require(!a.questions.empty(), StoreError::kInvalid, __func__, "no questions");
+    Query q = query(__func__,
+                    "INSERT INTO theory_attempts(pupil_id, seed, questions, started_at, started_by) VALUES (?, ?, ?, ?, ?)");
+    q.bind(a.pupil_id).bind(a.seed).bind(a.questions).bind(a.started_at.empty() ? now_iso8601() : a.started_at);
+    q.bind(a.started_by).run();
+    return sqlite3_last_insert_rowid(db());
+  }
+
+  std::optional<TheoryAttempt> get_theory_attempt(int64_t id) override {
+    Query q = query(__func__,
+                    "SELECT id, pupil_id, seed, questions, started_at, started_by, exam_id FROM theory_attempts "
+                    "WHERE id = ?");
+    q.bind(id);
+    if (!q.step()) return std::nullopt;
+    return TheoryAttempt{q.int64(0), q.int64(1), q.int64(2), q.text(3), q.text(4), q.opt_int64(5), q.opt_int64(6)};
+  }
+
+  int64_t finish_theory_attempt(int64_t attempt_id, const ExamRecord& r) override {
+    FullSync full_sync(db(), __func__);
+    Transaction tx(db(), __func__, Transaction::kWrite);
+    const std::optional<TheoryAttempt> a = get_theory_attempt(attempt_id);
+    require(a.has_value(), StoreError::kNotFound, __func__, "no theory attempt " + std::to_string(attempt_id));
+    require(r.kind == "theory" && !r.session_public_id, StoreError::kInvalid, __func__,
+            "a theory attempt is marked with a theory record without a session");
+    require(r.pupil_id == a->pupil_id, StoreError::kInvalid, __func__,
+            "attempt " + std::to_string(attempt_id) + " is not pupil " + std::to_string(r.pupil_id) + "'s");
+    require(!a->exam_id, StoreError::kConflict, __func__,
+            "attempt " + std::to_string(attempt_id) + " was already marked");
+    const int64_t exam = insert_exam(__func__, r, std::nullopt);
+    // The guard repeats the check above in the statement itself, so that two connections cannot
+    // both mark one attempt.
+    query(__func__, "UPDATE theory_attempts SET exam_id = ? WHERE id = ? AND exam_id IS NULL")
+        .bind(exam)
+        .bind(attempt_id)
+        .run();
+    require(sqlite3_changes(db()) > 0, StoreError::kConflict, __func__,
+            "attempt " + std::to_string(attempt_id) + " was already marked");
+    tx.commit();
+    return exam;
+  }
+
+  void add_path_points(const std::string& session_public_id, const std::vector<PathPoint>& points) override {
+    if (points.empty()) return;
+    Transaction tx(db(), __func__, Transaction::kWrite);  // one commit for the lot
+    const int64_t session_id = require_session(__func__, session_public_id).id;
+    for (const PathPoint& p : points) {
+      Query q = query(__func__,
+                      "INSERT INTO path_points(session_id, sim_time_s, x_m, y_m, yaw_rad, speed_m_s, lift_m) "
+                      "VALUES (?, ?, ?, ?, ?, ?, ?) ON CONFLICT (session_id, sim_time_s) DO NOTHING");
+      q.bind(session_id).bind(p.sim_time_s).bind(p.x_m).bind(p.y_m).bind(p.yaw_rad).bind(p.speed_m_s).bind(p.lift_m);
+      q.run();
+    }
+    tx.commit();
+  }
+
+  std::vector<PathPoint> list_path(const std::string& session_public_id) override {
+    const int64_t session_id = require_session(__func__, session_public_id).id;
+    Query q = query(__func__,
+                    "SELECT sim_time_s, x_m, y_m, yaw_rad, speed_m_s, lift_m FROM path_points "
+                    "WHERE session_id = ? ORDER BY sim_time_s");
+    q.bind(session_id);
+    std::vector<PathPoint> points;
+    while (q.step()) points.push_back(PathPoint{q.real(0), q.real(1), q.real(2), q.real(3), q.real(4), q.real(5)});
+    return points;
   }
 
   int64_t add_licence(int64_t pupil_id, const std::string& issued_at, const std::string& issued_by) override {

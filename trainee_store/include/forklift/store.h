@@ -1,5 +1,5 @@
 // The trainee store: pupils, users and roles, cabs, sessions, events, scores, theory and practical
-// exam records, licence records and session logs. One narrow interface; SQLite is the embedded
+// exam records, licence records, session logs, theory papers and truck paths. One narrow interface; SQLite is the embedded
 // default (one file, WAL, foreign keys, versioned migrations at open), and every SQL statement
 // lives in the backend's source so that a PostgreSQL backend can follow.
 //
@@ -110,6 +110,28 @@ struct LicenceRecord {
   std::string issued_by;         // username
 };
 
+// One point of a session's truck path, downsampled from the worker's TruckState (the server keeps
+// about two a second). World frame: x, y on the floor, metres; yaw in radians, + turning left.
+struct PathPoint {
+  double sim_time_s = 0;
+  double x_m = 0, y_m = 0;  // chassis CoG
+  double yaw_rad = 0;
+  double speed_m_s = 0;     // along the heading
+  double lift_m = 0;        // fork lift
+};
+
+// A theory exam as handed out: the questions drawn (in order) from the bank with `seed`, so that
+// the same bank and seed give the same paper. Marked once: `exam_id` then names its ExamRecord.
+struct TheoryAttempt {
+  int64_t id = 0;
+  int64_t pupil_id = 0;
+  int64_t seed = 0;                  // in [0, 2^53): exact in JSON
+  std::string questions;             // JSON text, opaque to the store (the question ids in order)
+  std::string started_at;
+  std::optional<int64_t> started_by;  // the user who asked for the paper
+  std::optional<int64_t> exam_id;     // set when marked
+};
+
 // Everything about one pupil, aggregated by the store.
 struct PupilHistory {
   Pupil pupil;
@@ -171,6 +193,23 @@ class Store {
   virtual std::optional<ScoreRecord> get_score(const std::string& session_public_id) = 0;
 
   virtual int64_t add_exam(const ExamRecord& r) = 0;  // id ignored; synchronous=FULL
+  virtual std::optional<ExamRecord> get_exam(int64_t id) = 0;  // nullopt if no such exam
+
+  // A theory paper handed out (id ignored, exam_id must be empty; kNotFound for an unknown pupil
+  // or user). Returns its id.
+  virtual int64_t create_theory_attempt(const TheoryAttempt& a) = 0;
+  virtual std::optional<TheoryAttempt> get_theory_attempt(int64_t id) = 0;
+  // Marks an attempt exactly once: adds `r` (kind "theory", the attempt's pupil) as its exam record
+  // and links it, in one transaction written with synchronous=FULL. kNotFound for an unknown
+  // attempt, kInvalid if `r` is not a theory record of the attempt's pupil, kConflict if the
+  // attempt was already marked. Returns the exam record's id.
+  virtual int64_t finish_theory_attempt(int64_t attempt_id, const ExamRecord& r) = 0;
+
+  // Appends points to a session's truck path; a point at a sim time already stored is ignored
+  // (a restarted ingest may see the same state twice). kNotFound for an unknown session.
+  virtual void add_path_points(const std::string& session_public_id, const std::vector<PathPoint>& points) = 0;
+  // The session's path in sim-time order (empty if none was stored); kNotFound for an unknown session.
+  virtual std::vector<PathPoint> list_path(const std::string& session_public_id) = 0;
   virtual int64_t add_licence(int64_t pupil_id, const std::string& issued_at, const std::string& issued_by) = 0;
 
   // The session's control log and session log, stored as text.

@@ -1,0 +1,176 @@
+// Shared by every page: the login (kept in sessionStorage, never in a URL), calls to /api/ with
+// its bearer token, elements built from data as text only (never HTML from data), the top bar
+// by role, and small formatters. Pages are plain scripts loaded with `defer`; no framework.
+'use strict';
+
+const FL = (() => {
+  const KEY = 'forklift.login';
+  const STAFF = ['admin', 'instructor', 'examiner'];
+
+  function login() {
+    try {
+      const l = JSON.parse(sessionStorage.getItem(KEY));
+      if (l && l.token && l.expires_at > Date.now()) return l;
+    } catch (e) {
+      // unreadable: treated as logged out
+    }
+    return null;
+  }
+
+  function setLogin(l) { sessionStorage.setItem(KEY, JSON.stringify(l)); }
+  function clearLogin() { sessionStorage.removeItem(KEY); }
+
+  class ApiError extends Error {
+    constructor(status, code, message) {
+      super(message);
+      this.status = status;
+      this.code = code;
+    }
+  }
+
+  // One call to the API. JSON in and out (a Blob for anything else); throws ApiError with the
+  // server's error code and message. A 401 on a page that needs a login goes back to the login.
+  async function api(method, path, body) {
+    const l = login();
+    const headers = { Accept: 'application/json' };
+    if (l) headers.Authorization = 'Bearer ' + l.token;
+    const init = { method, headers, cache: 'no-store' };
+    if (body !== undefined) {
+      headers['Content-Type'] = 'application/json';
+      init.body = JSON.stringify(body);
+    }
+    let res;
+    try {
+      res = await fetch('/api' + path, init);
+    } catch (e) {
+      throw new ApiError(0, 'network', 'the server cannot be reached');
+    }
+    const type = res.headers.get('Content-Type') || '';
+    const data = type.includes('application/json') ? await res.json() : await res.blob();
+    if (!res.ok) {
+      const err = data && data.error ? data.error : { code: 'error', message: res.statusText };
+      if (res.status === 401 && l) {
+        clearLogin();
+        location.assign('index.html?expired=1');
+      }
+      throw new ApiError(res.status, err.code, err.message);
+    }
+    return data;
+  }
+
+  // An element: attributes (class, for, aria-*, ...) set as attributes, `on*` functions as
+  // listeners, children as nodes or text. Text from data always goes in as text nodes.
+  function build(ns, tag, attrs, children) {
+    const e = ns ? document.createElementNS(ns, tag) : document.createElement(tag);
+    for (const [k, v] of Object.entries(attrs || {})) {
+      if (v === null || v === undefined || v === false) continue;
+      if (k.startsWith('on') && typeof v === 'function') e.addEventListener(k.slice(2), v);
+      else if (k === 'text') e.textContent = String(v);
+      else e.setAttribute(k, v === true ? '' : String(v));
+    }
+    for (const c of children.flat()) {
+      if (c === null || c === undefined || c === false) continue;
+      e.append(c instanceof Node ? c : document.createTextNode(String(c)));
+    }
+    return e;
+  }
+  const el = (tag, attrs, ...children) => build(null, tag, attrs, children);
+  const SVG = 'http://www.w3.org/2000/svg';
+  const svg = (tag, attrs, ...children) => build(SVG, tag, attrs, children);
+
+  function clear(node) {
+    while (node.firstChild) node.removeChild(node.firstChild);
+    return node;
+  }
+
+  const isStaff = (l) => !!l && STAFF.includes(l.role);
+
+  // The login this page needs, or back to the login page (which returns here afterwards).
+  function requireLogin(roles) {
+    const l = login();
+    if (!l) {
+      location.replace('index.html?next=' + encodeURIComponent(location.pathname.replace(/^\//, '') + location.search));
+      throw new Error('not logged in');
+    }
+    if (roles && !roles.includes(l.role)) {
+      location.replace(homeOf(l));
+      throw new Error('not for this role');
+    }
+    topBar(l);
+    return l;
+  }
+
+  function homeOf(l) {
+    return isStaff(l) ? 'fleet.html' : 'pupil.html?id=' + encodeURIComponent(l.pupil_id);
+  }
+
+  // The top bar: the pages of this role, who is logged in, and a log-out button.
+  function topBar(l) {
+    const header = document.getElementById('top');
+    if (!header) return;
+    const here = location.pathname.split('/').pop() || 'index.html';
+    const links = isStaff(l)
+      ? [['fleet.html', 'Fleet'], ['pupils.html', 'Pupils'], ['start.html', 'Start a session'], ['theory.html', 'Theory exam']]
+      : [['pupil.html?id=' + encodeURIComponent(l.pupil_id), 'My record'], ['theory.html', 'Theory exam'],
+         ['certificate.html?pupil=' + encodeURIComponent(l.pupil_id), 'Certificate']];
+    const list = el('ul', {},
+      links.map(([href, label]) => el('li', {},
+        el('a', { href, 'aria-current': href.split('?')[0] === here ? 'page' : null }, label))));
+    clear(header).append(
+      el('a', { class: 'skip', href: '#main' }, 'Skip to content'),
+      el('span', { class: 'brand' }, 'Forklift school'),
+      el('nav', { 'aria-label': 'Pages' }, list),
+      el('span', { class: 'who' }, `${l.username} (${l.role})`),
+      el('button', { type: 'button', class: 'link', onclick: logout }, 'Log out'));
+  }
+
+  async function logout() {
+    try { await api('POST', '/logout'); } catch (e) { /* the token is dropped here anyway */ }
+    clearLogin();
+    location.assign('index.html');
+  }
+
+  function param(name) { return new URLSearchParams(location.search).get(name); }
+
+  // ISO-8601 UTC from the server, shown in the reader's time zone.
+  function dateTime(iso) {
+    if (!iso) return '';
+    const d = new Date(iso);
+    if (isNaN(d)) return iso;
+    const p = (n) => String(n).padStart(2, '0');
+    return `${d.getFullYear()}-${p(d.getMonth() + 1)}-${p(d.getDate())} ${p(d.getHours())}:${p(d.getMinutes())}`;
+  }
+  function day(iso) { return iso ? dateTime(iso).slice(0, 10) : ''; }
+  function pct(x) { return x === null || x === undefined ? '' : `${Math.round(x * 1000) / 10} %`; }
+  function num(x, digits = 1) { return x === null || x === undefined ? '' : Number(x).toFixed(digits); }
+
+  const WORRY = { 0: 'information', 1: 'minor', 3: 'medium', 5: 'serious' };
+  function worryName(level) { return WORRY[level] || `level ${level}`; }
+
+  // A message in a live region: errors are announced, and never built from HTML.
+  function say(node, text, kind = 'error') {
+    clear(node).append(el('p', { class: kind, role: kind === 'error' ? 'alert' : 'status' }, text));
+  }
+
+  function describeError(e) {
+    return e instanceof ApiError && e.status ? `${e.message} (${e.code})` : String(e.message || e);
+  }
+
+  // Runs `fn` now and every `ms` until `stop()` returns true; errors are shown, not fatal.
+  function poll(fn, ms, stop) {
+    let timer = null;
+    const tick = async () => {
+      try {
+        await fn();
+      } catch (e) {
+        console.warn(e);
+      }
+      if (!stop || !stop()) timer = setTimeout(tick, ms);
+    };
+    tick();
+    return () => clearTimeout(timer);
+  }
+
+  return { api, ApiError, login, setLogin, clearLogin, el, svg, clear, requireLogin, homeOf, isStaff, param,
+           dateTime, day, pct, num, worryName, say, describeError, poll, STAFF };
+})();

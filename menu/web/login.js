@@ -1,0 +1,36 @@
+// The login page: POST /api/login, keep the token for this browser tab, go on by role (or to
+// the page that sent us here, if it is one of ours).
+'use strict';
+(() => {
+  const { api, setLogin, login, homeOf, say, describeError, param } = FL;
+  const message = document.getElementById('message');
+  if (param('expired')) say(message, 'Your login has expired: please log in again.', 'warn');
+
+  // Only our own pages, never another site: "pupil.html?id=3" yes, "//evil.example" no.
+  function safeNext() {
+    const next = param('next');
+    return next && /^[a-z]+\.html(\?[A-Za-z0-9=&%._-]*)?$/.test(next) ? next : null;
+  }
+
+  const already = login();
+  if (already && !param('expired')) location.replace(safeNext() || homeOf(already));
+
+  document.getElementById('login').addEventListener('submit', async (ev) => {
+    ev.preventDefault();
+    const username = document.getElementById('username').value.trim();
+    const password = document.getElementById('password').value;
+    if (!username || !password) {
+      say(message, 'Enter your user name and password.');
+      return;
+    }
+    try {
+      const r = await api('POST', '/login', { username, password });
+      const l = { token: r.token, role: r.role, pupil_id: r.pupil_id, username,
+                  expires_at: Date.now() + r.expires_in_s * 1000 };
+      setLogin(l);
+      location.assign(safeNext() || homeOf(l));
+    } catch (e) {
+      say(message, e.code === 'bad_credentials' ? 'Unknown user or wrong password.' : describeError(e));
+    }
+  });
+})();

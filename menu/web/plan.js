@@ -1,0 +1,134 @@
+// The warehouse plan in SVG, from GET /api/scenarios/{name}/plan: floor, zones, objects by their
+// footprints, the marked route and task, and over it the truck's path and the session's events
+// where they happened. World x to the right, y up (the SVG's y runs down, so it is flipped here);
+// one SVG unit is one metre. A manoeuvre has no layout: its path is drawn on a grid.
+'use strict';
+
+const FLPlan = (() => {
+  const { svg, clear } = FL;
+
+  const OBJECT_FILL = { rack: '#4a6fa5', pallet: '#b07d48', wall: '#444', door: '#d9d9d9', dock: '#9aa5b1',
+                        lorry: '#2f6b3b', cone: '#f28c28', obstacle: '#7b8794', pedestrian: '#8e44ad' };
+  const ZONE_FILL = { walkway: '#fff3a3', corner: '#e8eef5', dock: '#e3e7eb', ramp: '#dbeafe' };
+  const WORRY_FILL = { 0: '#8c959f', 1: '#d4a72c', 3: '#e16f24', 5: '#b42318' };
+
+  function corners(o) {
+    const [x0, y0, x1, y1] = o.footprint_m || [-0.3, -0.3, 0.3, 0.3];
+    const a = (o.yaw_deg || 0) * Math.PI / 180, c = Math.cos(a), s = Math.sin(a);
+    return [[x0, y0], [x1, y0], [x1, y1], [x0, y1]].map(([x, y]) => [o.x_m + c * x - s * y, o.y_m + s * x + c * y]);
+  }
+
+  function niceStep(span) {
+    for (const s of [0.5, 1, 2, 5, 10, 20, 50, 100]) if (span / s <= 14) return s;
+    return 200;
+  }
+
+  // Draws into `container`; returns { select(seq) } to mark one event as the current one.
+  function draw(container, { plan, path, events, title, onEvent }) {
+    const pts = [];
+    const objects = plan ? plan.objects || [] : [];
+    // A manoeuvre's floor is a large default with nothing on it: the path sets the bounds then.
+    const floor = plan && plan.floor_m && objects.length ? plan.floor_m : null;
+    if (floor) pts.push([floor[0], floor[1]], [floor[2], floor[3]]);
+    for (const o of objects) pts.push(...corners(o));
+    if (plan && plan.route) pts.push(...plan.route.points);
+    if (plan && plan.start) pts.push([plan.start.x_m, plan.start.y_m]);
+    for (const p of path) pts.push([p.x_m, p.y_m]);
+    for (const e of events) pts.push([e.x_m, e.y_m]);
+    if (pts.length === 0) pts.push([0, 0]);
+    let minX = Math.min(...pts.map((p) => p[0])), maxX = Math.max(...pts.map((p) => p[0]));
+    let minY = Math.min(...pts.map((p) => p[1])), maxY = Math.max(...pts.map((p) => p[1]));
+    // at least 10 m across, and a margin
+    const grow = (lo, hi) => { const m = Math.max(0, 10 - (hi - lo)) / 2 + 1.5; return [lo - m, hi + m]; };
+    [minX, maxX] = grow(minX, maxX);
+    [minY, maxY] = grow(minY, maxY);
+    const W = maxX - minX, H = maxY - minY, u = Math.max(W, H) / 120;
+    const X = (x) => +(x - minX).toFixed(3), Y = (y) => +(maxY - y).toFixed(3);
+    const poly = (ps) => ps.map(([x, y]) => `${X(x)},${Y(y)}`).join(' ');
+
+    const root = svg('svg', { class: 'plan', viewBox: `0 0 ${W.toFixed(3)} ${H.toFixed(3)}`, role: 'img',
+                              'aria-labelledby': 'plan-title plan-desc', id: 'plan-svg' });
+    const last = path[path.length - 1];
+    root.append(svg('title', { id: 'plan-title' }, title),
+                svg('desc', { id: 'plan-desc' }, path.length === 0 ? 'No truck path has been recorded.'
+                  : `The truck's path, ${path.length} points over ${last.t.toFixed(1)} s, ending at x ${last.x_m.toFixed(1)} m, y ${last.y_m.toFixed(1)} m; ${events.length} events marked.`));
+
+    // the floor and its zones
+    if (floor) {
+      const [x0, y0, x1, y1] = floor;
+      root.append(svg('rect', { x: X(x0), y: Y(y1), width: x1 - x0, height: y1 - y0, fill: '#f6f6f1', stroke: '#bbb', 'stroke-width': u * 0.2 }));
+    }
+    for (const z of plan ? plan.zones || [] : []) {
+      const fill = ZONE_FILL[z.kind];
+      if (fill) root.append(svg('polygon', { points: poly(z.polygon), fill, opacity: 0.8 }, svg('title', {}, `${z.id}: ${z.kind}, ${z.speed_limit_m_s} m/s`)));
+    }
+    // a grid, every `step` metres
+    const step = niceStep(Math.max(W, H));
+    const grid = svg('g', { stroke: '#d0d7de', 'stroke-width': u * 0.12 });
+    for (let x = Math.ceil(minX / step) * step; x <= maxX; x += step) grid.append(svg('line', { x1: X(x), y1: 0, x2: X(x), y2: H }));
+    for (let y = Math.ceil(minY / step) * step; y <= maxY; y += step) grid.append(svg('line', { x1: 0, y1: Y(y), x2: W, y2: Y(y) }));
+    root.append(grid);
+    // a scale bar
+    root.append(svg('g', {}, svg('line', { x1: u * 2, y1: H - u * 2, x2: u * 2 + step, y2: H - u * 2, stroke: '#222', 'stroke-width': u * 0.4 }),
+                    svg('text', { x: u * 2, y: H - u * 3, 'font-size': u * 2.6, fill: '#222' }, `${step} m`)));
+
+    // the objects
+    for (const o of objects) {
+      root.append(svg('polygon', { points: poly(corners(o)), fill: OBJECT_FILL[o.kind] || '#888', stroke: '#222', 'stroke-width': u * 0.1,
+                                   'data-object': o.id }, svg('title', {}, `${o.id} (${o.kind})`)));
+    }
+    // the route and the task
+    if (plan && plan.route && plan.route.points.length > 1) {
+      if (plan.route.width_m > 0)
+        root.append(svg('polyline', { points: poly(plan.route.points), fill: 'none', stroke: '#2da44e', 'stroke-opacity': 0.12,
+                                      'stroke-width': plan.route.width_m, 'stroke-linejoin': 'round', 'stroke-linecap': 'round' }));
+      root.append(svg('polyline', { points: poly(plan.route.points), fill: 'none', stroke: '#555', 'stroke-width': u * 0.3,
+                                    'stroke-dasharray': `${u * 1.5} ${u}` }, svg('title', {}, 'The marked route')));
+    }
+    for (const s of plan && plan.task ? plan.task.steps : []) {
+      if (s.kind === 'pass')
+        root.append(svg('line', { x1: X(s.gate_a[0]), y1: Y(s.gate_a[1]), x2: X(s.gate_b[0]), y2: Y(s.gate_b[1]), stroke: '#2da44e',
+                                  'stroke-width': u * 0.5 }, svg('title', {}, s.description)));
+      else if (s.point)
+        root.append(svg('circle', { cx: X(s.point[0]), cy: Y(s.point[1]), r: Math.max(s.radius_m || 0, u), fill: 'none', stroke: '#2da44e',
+                                    'stroke-width': u * 0.4, 'stroke-dasharray': `${u} ${u * 0.6}` }, svg('title', {}, s.description)));
+    }
+    // the start, the path and where the truck ended
+    const arrow = (x, y, yawDeg, fill, label) => {
+      const a = yawDeg * Math.PI / 180, L = u * 3;
+      const tip = [x + Math.cos(a) * L, y + Math.sin(a) * L];
+      const l = [x + Math.cos(a + 2.5) * L * 0.6, y + Math.sin(a + 2.5) * L * 0.6];
+      const r = [x + Math.cos(a - 2.5) * L * 0.6, y + Math.sin(a - 2.5) * L * 0.6];
+      return svg('polygon', { points: poly([tip, l, r]), fill, stroke: '#fff', 'stroke-width': u * 0.2 }, svg('title', {}, label));
+    };
+    if (plan && plan.start) root.append(arrow(plan.start.x_m, plan.start.y_m, plan.start.yaw_deg || 0, '#57606a', 'Start'));
+    if (path.length > 1)
+      root.append(svg('polyline', { id: 'truck-path', points: poly(path.map((p) => [p.x_m, p.y_m])), fill: 'none', stroke: '#0b5cad',
+                                    'stroke-width': u * 0.6, 'stroke-linejoin': 'round', 'data-points': path.length },
+                      svg('title', {}, "The truck's path")));
+    if (last) root.append(arrow(last.x_m, last.y_m, last.yaw_deg, '#0b5cad', `The truck at t = ${last.t.toFixed(1)} s`));
+
+    // the events, numbered as in the timeline
+    const marks = new Map();
+    for (const e of events) {
+      const g = svg('g', { class: 'event', 'data-seq': e.seq, 'aria-hidden': 'true' },
+        svg('circle', { cx: X(e.x_m), cy: Y(e.y_m), r: u * 1.6, fill: WORRY_FILL[e.worry_level] || '#555', stroke: '#fff', 'stroke-width': u * 0.2 }),
+        svg('text', { x: X(e.x_m), y: Y(e.y_m) + u * 0.8, 'text-anchor': 'middle', 'font-size': u * 2.2, fill: '#fff', 'font-weight': 700 }, e.seq),
+        svg('title', {}, `${e.seq}: ${e.kind} (${FL.worryName(e.worry_level)}) at t = ${e.sim_time_s.toFixed(1)} s`));
+      if (onEvent) g.addEventListener('click', () => onEvent(e.seq));
+      marks.set(e.seq, g);
+      root.append(g);
+    }
+
+    clear(container).append(root);
+    return {
+      select(seq) {
+        for (const [s, g] of marks) g.classList.toggle('current', s === seq);
+        const g = marks.get(seq);
+        if (g) root.append(g);  // on top
+      },
+    };
+  }
+
+  return { draw };
+})();

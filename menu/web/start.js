@@ -1,0 +1,111 @@
+// Scenario choice: pupil, scenario, truck, load and cab; POST /api/sessions starts it, and the
+// page follows the session until it ends, with an abort button.
+'use strict';
+(() => {
+  const { api, el, clear, requireLogin, say, describeError, num, param } = FL;
+  const me = requireLogin(FL.STAFF);
+  const $ = (id) => document.getElementById(id);
+  const message = $('message');
+  let scenarios = [], trucks = [], session = null;
+
+  function loadText(l) {
+    return l ? `${num(l.mass_kg, 0)} kg, centre of gravity ${num(l.cog_height_m ?? 0.6, 2)} m up` : 'no load';
+  }
+
+  function aboutScenario() {
+    const s = scenarios.find((x) => x.name === $('scenario').value);
+    if (!s) return;
+    const bits = [];
+    if (s.description) bits.push(s.description);
+    if (s.time_limit_s || s.duration_s) bits.push(`Time: ${s.time_limit_s || s.duration_s} s.`);
+    $('scenario-about').textContent = bits.join(' ');
+    $('load-scenario-about').textContent = `(${loadText(s.load)})`;
+  }
+
+  function aboutTruck() {
+    const t = trucks.find((x) => x.name === $('truck').value);
+    const s = scenarios.find((x) => x.name === $('scenario').value);
+    const shown = t || trucks.find((x) => s && x.name === s.truck);
+    $('truck-about').textContent = shown ? `${shown.title}: rated ${shown.rated_capacity_kg} kg at a ${shown.rated_load_centre_m} m load centre${shown.osha_class ? `; ${shown.osha_class}` : ''}.` : '';
+  }
+
+  function customLoad() {
+    const on = $('load-custom').checked;
+    for (const id of ['mass', 'height', 'lateral']) $(id).disabled = !on;
+  }
+
+  async function follow() {
+    if (!session) return;
+    try {
+      const s = await api('GET', `/sessions/${encodeURIComponent(session)}`);
+      const over = ['ended', 'failed', 'aborted'].includes(s.state);
+      $('started-status').textContent = `Session ${s.id} for pupil ${s.pupil_id} on cab ${s.cab_id}: ${s.state}${s.reason ? ` (${s.reason})` : ''}.`;
+      $('abort').hidden = over;
+      if (over) { session = null; $('start-button').disabled = false; return; }
+    } catch (e) {
+      say(message, describeError(e));
+    }
+    setTimeout(follow, 1000);
+  }
+
+  $('abort').addEventListener('click', async () => {
+    if (!session) return;
+    try { await api('POST', `/sessions/${encodeURIComponent(session)}/abort`); } catch (e) { say(message, describeError(e)); }
+  });
+
+  $('start').addEventListener('submit', async (ev) => {
+    ev.preventDefault();
+    clear(message);
+    const body = { pupil_id: Number($('pupil').value), scenario: $('scenario').value, cab_id: $('cab').value.trim(), mode: $('mode').value };
+    if (!body.pupil_id) { say(message, 'Choose a pupil (add one on the Pupils page).'); return; }
+    if (!/^[A-Za-z0-9_-]{1,32}$/.test(body.cab_id)) { say(message, 'Name the cab: 1-32 letters, digits, - or _.'); $('cab').focus(); return; }
+    if ($('truck').value) body.truck = $('truck').value;
+    if ($('load-none').checked) body.load = null;
+    if ($('load-custom').checked) body.load = { mass_kg: Number($('mass').value), cog_height_m: Number($('height').value), lateral_m: Number($('lateral').value) };
+    if ($('limit').value) body.time_limit_s = Number($('limit').value);
+    try {
+      const s = await api('POST', '/sessions', body);
+      session = s.id;
+      $('started').hidden = false;
+      $('started-heading').textContent = `Session ${s.id}`;
+      $('started-link').href = `session.html?id=${encodeURIComponent(s.id)}`;
+      $('start-button').disabled = true;
+      follow();
+    } catch (e) {
+      say(message, describeError(e));
+    }
+  });
+
+  async function init() {
+    try {
+      const [pupils, sc, tr, fleet] = await Promise.all([api('GET', '/pupils?limit=1000'), api('GET', '/scenarios'), api('GET', '/trucks'), api('GET', '/fleet')]);
+      scenarios = sc;
+      trucks = tr;
+      const want = param('pupil');
+      $('pupil').append(el('option', { value: '' }, pupils.length ? 'choose a pupil' : 'no pupils yet'),
+        ...pupils.map((p) => el('option', { value: p.id, selected: String(p.id) === want }, p.name)));
+      const group = (kind, label) => el('optgroup', { label }, sc.filter((s) => s.kind === kind).map((s) => el('option', { value: s.name }, s.name)));
+      $('scenario').append(group('scenario', 'Warehouse and yard scenarios'), group('manoeuvre', "The paper's manoeuvres"));
+      $('truck').append(el('option', { value: '' }, 'as the scenario sets it'), ...tr.map((t) => el('option', { value: t.name }, t.title)));
+      const cabs = fleet.cabs;
+      $('cab-list').append(...cabs.map((c) => el('option', { value: c.id }, `${c.id}: ${c.online ? 'online' : 'offline'}${c.session ? ', busy' : ''}`)));
+      const free = cabs.find((c) => c.online && !c.session);
+      if (free) $('cab').value = free.id;
+      $('cab-about').textContent = cabs.length ? `Online now: ${cabs.filter((c) => c.online).map((c) => c.id + (c.session ? ' (busy)' : '')).join(', ') || 'none'}.`
+                                               : 'No cab has announced itself yet; a session waits for its cab to connect.';
+      if (me.role === 'instructor') {
+        $('mode').querySelector('option[value="exam"]').disabled = true;
+        $('mode-about').textContent = 'Practical exams are started by an examiner or an administrator.';
+      }
+    } catch (e) {
+      say(message, describeError(e));
+    }
+    $('scenario').addEventListener('change', () => { aboutScenario(); aboutTruck(); });
+    $('truck').addEventListener('change', () => { $('truck').dataset.touched = '1'; aboutTruck(); });
+    for (const r of document.querySelectorAll('input[name="load"]')) r.addEventListener('change', customLoad);
+    aboutScenario();
+    aboutTruck();
+    customLoad();
+  }
+  init();
+})();
