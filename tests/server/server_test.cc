@@ -10,72 +10,17 @@
 #include <thread>
 
 #include "support/process.h"
+#include "support/server.h"
 
 using nlohmann::json;
+using forklift_test::Server;
+using forklift_test::error_code;
+using forklift_test::kAdminPassword;
 
 namespace {
 
 const std::string kBin = FORKLIFT_BIN_DIR;
 const std::string kData = FORKLIFT_DATA_DIR;
-const std::string kAdminPassword = "admin-pass-1";
-
-struct Server {
-  int port, domain;
-  std::string dir, db;
-  std::unique_ptr<Process> proc;
-
-  Server(int port_, int domain_, const std::string& name, std::vector<std::string> extra = {})
-      : port(port_), domain(domain_), dir(testing::TempDir() + "/server-" + name) {
-    std::filesystem::remove_all(dir);
-    std::filesystem::create_directories(dir);
-    db = dir + "/forklift.db";
-    start(extra);
-  }
-  void start(std::vector<std::string> extra = {}) {
-    std::vector<std::string> args = {kBin + "/forklift-server", "--db", db, "--listen", "127.0.0.1:" + std::to_string(port),
-                                     "--dds-domain", std::to_string(domain), "--admin-password", kAdminPassword};
-    args.insert(args.end(), extra.begin(), extra.end());
-    proc = std::make_unique<Process>(args, dir + "/server-" + std::to_string(std::rand()));
-    httplib::Client c("127.0.0.1", port);
-    for (int i = 0; i < 200; ++i) {
-      if (auto r = c.Get("/api/health"); r && r->status == 200) return;
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    }
-    ADD_FAILURE() << "server did not come up: " << proc->err();
-  }
-  httplib::Client client() const { return httplib::Client("127.0.0.1", port); }
-
-  // Status and JSON body of one request.
-  std::pair<int, json> call(const std::string& method, const std::string& path, const std::string& token = "",
-                            const std::string& body = "") const {
-    auto c = client();
-    httplib::Headers h;
-    if (!token.empty()) h.emplace("Authorization", "Bearer " + token);
-    auto r = method == "GET" ? c.Get(path, h) : c.Post(path, h, body, "application/json");
-    if (!r) return {0, nullptr};
-    json j;
-    try { j = json::parse(r->body); } catch (...) { j = r->body; }
-    return {r->status, j};
-  }
-  std::string login(const std::string& user, const std::string& pw) const {
-    auto [status, j] = call("POST", "/api/login", "", json{{"username", user}, {"password", pw}}.dump());
-    EXPECT_EQ(status, 200) << j;
-    return status == 200 ? j["token"].get<std::string>() : "";
-  }
-  json wait_session(const std::string& token, const std::string& id, double seconds) const {
-    json s;
-    for (int i = 0; i < seconds * 10; ++i) {
-      s = call("GET", "/api/sessions/" + id, token).second;
-      const std::string st = s.value("state", "");
-      if (st == "ended" || st == "failed" || st == "aborted") break;
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    }
-    return s;
-  }
-};
-
-std::string error_code(const json& j) { return j.is_object() && j.contains("error") ? j["error"].value("code", "") : ""; }
-
 // A cab script: driving for `drive_s`, then silent, so the worker's dead man fires.
 std::string short_script(const std::string& dir, double drive_s) {
   const std::string path = dir + "/short.csv";

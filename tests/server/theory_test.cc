@@ -11,9 +11,12 @@
 #include <thread>
 
 #include "support/process.h"
+#include "support/server.h"
 #include "theory.h"
 
 using nlohmann::json;
+using forklift_test::Server;
+using forklift_test::error_code;
 namespace fs = forklift::server;
 
 namespace {
@@ -135,45 +138,6 @@ TEST(QuestionBank, MarkingCountsWholeQuestionsAgainstThePassMark) {
 
 // ---------------------------------------------------------------- over HTTP
 
-struct Server {
-  int port, domain;
-  std::string dir;
-  std::unique_ptr<Process> proc;
-
-  Server(int port_, int domain_, const std::string& name) : port(port_), domain(domain_), dir(testing::TempDir() + "/theory-" + name) {
-    std::filesystem::remove_all(dir);
-    std::filesystem::create_directories(dir);
-    proc = std::make_unique<Process>(std::vector<std::string>{kBin + "/forklift-server", "--db", dir + "/forklift.db", "--listen",
-                                                              "127.0.0.1:" + std::to_string(port), "--dds-domain", std::to_string(domain),
-                                                              "--admin-password", "admin-pass-1"},
-                                     dir + "/server");
-    httplib::Client c("127.0.0.1", port);
-    for (int i = 0; i < 200; ++i) {
-      if (auto r = c.Get("/api/health"); r && r->status == 200) return;
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    }
-    ADD_FAILURE() << "server did not come up: " << proc->err();
-  }
-  std::pair<int, json> call(const std::string& method, const std::string& path, const std::string& token = "",
-                            const std::string& body = "") const {
-    httplib::Client c("127.0.0.1", port);
-    httplib::Headers h;
-    if (!token.empty()) h.emplace("Authorization", "Bearer " + token);
-    auto r = method == "GET" ? c.Get(path, h) : c.Post(path, h, body, "application/json");
-    if (!r) return {0, nullptr};
-    json j;
-    try { j = json::parse(r->body); } catch (...) { j = r->body; }
-    return {r->status, j};
-  }
-  std::string login(const std::string& user, const std::string& pw) const {
-    auto [status, j] = call("POST", "/api/login", "", json{{"username", user}, {"password", pw}}.dump());
-    EXPECT_EQ(status, 200) << j;
-    return status == 200 ? j["token"].get<std::string>() : "";
-  }
-};
-
-std::string error_code(const json& j) { return j.is_object() && j.contains("error") ? j["error"].value("code", "") : ""; }
-
 // The right answers to a paper, from the bank on disk.
 json right_answers(const json& attempt) {
   const fs::QuestionBank bank = fs::load_question_bank(kBankFile);
@@ -187,7 +151,7 @@ json right_answers(const json& attempt) {
 class TheoryApi : public testing::Test {
  protected:
   void Start(int port, const std::string& name) {
-    s = std::make_unique<Server>(port, port - 18000, name);
+    s = std::make_unique<Server>(port, port - 18000, "theory-" + name);  // its own folder, apart from server_test's
     admin = s->login("admin", "admin-pass-1");
     ana_id = s->call("POST", "/api/pupils", admin, R"({"name":"Ana","username":"ana","password":"ana-pass-1"})").second["id"];
     ben_id = s->call("POST", "/api/pupils", admin, R"({"name":"Ben","username":"ben","password":"ben-pass-1"})").second["id"];
