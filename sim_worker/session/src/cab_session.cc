@@ -1,11 +1,9 @@
 #include "forklift/cab_session.h"
 
-#include <cinttypes>
 #include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <sstream>
-#include <set>
 #include <stdexcept>
 #include <utility>
 
