@@ -37,6 +37,23 @@ std::vector<std::string> RawQuery(const std::string& path, const std::string& sq
   return rows;
 }
 
+// Runs `sql` on a separate writable raw connection to `path`; returns SQLite's error message, or
+// "" if it succeeded.
+std::string RawExec(const std::string& path, const std::string& sql) {
+  sqlite3* db = nullptr;
+  std::string error;
+  if (sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READWRITE, nullptr) != SQLITE_OK) {
+    error = sqlite3_errmsg(db);
+  } else {
+    sqlite3_busy_timeout(db, 5000);
+    char* message = nullptr;
+    if (sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &message) != SQLITE_OK) error = message ? message : "failed";
+    sqlite3_free(message);
+  }
+  sqlite3_close(db);
+  return error;
+}
+
 // Calls `f` and returns the kind of StoreError it throws; fails the test if it throws nothing.
 template <class F>
 std::optional<fs::StoreError::Kind> ErrorKind(F f) {
@@ -482,4 +499,148 @@ TEST_F(StoreTest, PathPointsAreKeptInTimeOrderOncePerSimTime) {
   EXPECT_TRUE(store_->list_path(NewSession(pupil).public_id).empty());  // paths are per session
   EXPECT_EQ(ErrorKind([&] { store_->add_path_points("s-999999", {{0, 0, 0, 0, 0, 0}}); }), fs::StoreError::kNotFound);
   EXPECT_EQ(ErrorKind([&] { store_->list_path("s-999999"); }), fs::StoreError::kNotFound);
+}
+
+// ---------------------------------------------------------------- audit log
+
+namespace {
+
+fs::AuditRecord Audit(int64_t pupil, const std::string& action, const std::string& details = "{}") {
+  fs::AuditRecord r;
+  r.actor = {std::nullopt, "server"};
+  r.pupil_id = pupil;
+  r.action = action;
+  r.details = details;
+  return r;
+}
+
+}  // namespace
+
+TEST_F(StoreTest, UpdatePupilChangesNameAndEmail) {
+  const int64_t pupil = NewPupil("Ann");
+  store_->update_pupil(pupil, "Ann Driver", "ann@example.org");
+  EXPECT_EQ(store_->get_pupil(pupil)->name, "Ann Driver");
+  EXPECT_EQ(store_->get_pupil(pupil)->email, "ann@example.org");
+  EXPECT_EQ(ErrorKind([&] { store_->update_pupil(pupil + 99, "Nobody", ""); }), fs::StoreError::kNotFound);
+  EXPECT_EQ(ErrorKind([&] { store_->update_pupil(pupil, "", ""); }), fs::StoreError::kInvalid);
+  EXPECT_EQ(store_->get_pupil(pupil)->name, "Ann Driver");
+}
+
+TEST_F(StoreTest, AuditRowsRoundTripNewestFirstPerPupilSchoolOrAll) {
+  const int64_t ann = NewPupil("Ann"), bob = NewPupil("Bob");
+  const int64_t other_school = store_->create_school("Other school");
+  const int64_t cid = store_->create_pupil(other_school, "Cid", "");
+  const int64_t ines = store_->create_user("ines", "h", fs::Role::kInstructor, school_);
+  fs::AuditRecord edit = Audit(ann, "pupil_edited", R"({"before":{"name":"A"},"after":{"name":"Ann"}})");
+  edit.actor = {ines, "ines"};
+  edit.at = "2026-01-01T10:00:00Z";
+  const int64_t first = store_->add_audit(edit);
+  store_->add_audit(Audit(bob, "pupil_created"));
+  store_->add_audit(Audit(ann, "licence_issued"));
+  store_->add_audit(Audit(cid, "pupil_created"));
+
+  const auto anns = store_->list_audit({ann, std::nullopt}, 10, 0);
+  ASSERT_EQ(anns.size(), 2u);
+  EXPECT_EQ(anns[0].action, "licence_issued");  // newest first
+  EXPECT_EQ(anns[1].id, first);
+  EXPECT_EQ(anns[1].actor.user_id, ines);
+  EXPECT_EQ(anns[1].actor.name, "ines");
+  EXPECT_EQ(anns[1].at, "2026-01-01T10:00:00Z");
+  EXPECT_EQ(anns[1].details, edit.details);
+  EXPECT_FALSE(anns[0].at.empty());  // stamped now
+  EXPECT_FALSE(anns[0].actor.user_id.has_value());
+
+  EXPECT_EQ(store_->list_audit({std::nullopt, school_}, 10, 0).size(), 3u);  // not Cid's
+  const auto all = store_->list_audit({}, 10, 0);
+  ASSERT_EQ(all.size(), 4u);
+  EXPECT_EQ(all[0].pupil_id, cid);
+  const auto page = store_->list_audit({}, 2, 1);
+  ASSERT_EQ(page.size(), 2u);
+  EXPECT_EQ(page[0].id, all[1].id);
+  EXPECT_EQ(page[1].id, all[2].id);
+}
+
+TEST_F(StoreTest, AuditRowsAreValidated) {
+  const int64_t ann = NewPupil("Ann");
+  fs::AuditRecord no_actor = Audit(ann, "pupil_created");
+  no_actor.actor.name = "";
+  EXPECT_EQ(ErrorKind([&] { store_->add_audit(no_actor); }), fs::StoreError::kInvalid);
+  EXPECT_EQ(ErrorKind([&] { store_->add_audit(Audit(ann, "")); }), fs::StoreError::kInvalid);
+  EXPECT_EQ(ErrorKind([&] { store_->add_audit(Audit(ann, "x", "not json")); }), fs::StoreError::kInvalid);
+  EXPECT_EQ(ErrorKind([&] { store_->add_audit(Audit(ann, "x", "[1]")); }), fs::StoreError::kInvalid);
+  EXPECT_EQ(ErrorKind([&] { store_->add_audit(Audit(ann + 99, "x")); }), fs::StoreError::kNotFound);
+  fs::AuditRecord ghost = Audit(ann, "x");
+  ghost.actor.user_id = 4242;
+  EXPECT_EQ(ErrorKind([&] { store_->add_audit(ghost); }), fs::StoreError::kNotFound);
+  EXPECT_EQ(ErrorKind([&] { store_->list_audit({}, -1, 0); }), fs::StoreError::kInvalid);
+  EXPECT_TRUE(store_->list_audit({}, 10, 0).empty());
+}
+
+TEST_F(StoreTest, AuditLogRefusesUpdateAndDeleteFromAnyConnection) {
+  const int64_t ann = NewPupil("Ann");
+  store_->add_audit(Audit(ann, "pupil_created"));
+  EXPECT_NE(RawExec(path_, "UPDATE audit_log SET actor = 'mallory'").find("append-only"), std::string::npos);
+  EXPECT_NE(RawExec(path_, "DELETE FROM audit_log").find("append-only"), std::string::npos);
+  EXPECT_EQ(RawQuery(path_, "SELECT actor FROM audit_log"), std::vector<std::string>{"server"});
+  EXPECT_EQ(RawExec(path_, "INSERT INTO audit_log(at, actor, pupil_id, action, details) "
+                           "VALUES ('2026-01-01T00:00:00Z', 'server', " + std::to_string(ann) + ", 'x', '{}')"),
+            "");  // appending is what it is for
+}
+
+TEST_F(StoreTest, AnAuditRowInAFailedBatchIsUndoneWithItsChange) {
+  const int64_t ann = NewPupil("Ann");
+  EXPECT_THROW(store_->batch([&] {
+    store_->update_pupil(ann, "Ann Driver", "");
+    store_->add_audit(Audit(ann, "pupil_edited"));
+    throw std::runtime_error("refused later");
+  }), std::runtime_error);
+  EXPECT_EQ(store_->get_pupil(ann)->name, "Ann");
+  EXPECT_TRUE(store_->list_audit({ann, std::nullopt}, 10, 0).empty());
+}
+
+TEST_F(StoreTest, AuditedScoreAndStateWriteOneRowOnlyWhenTheyChangeSomething) {
+  const int64_t ann = NewPupil("Ann");
+  const fs::Session s = NewSession(ann, "exam");
+  const fs::Actor worker{std::nullopt, "worker"};
+  EXPECT_TRUE(store_->set_score_audited(fs::ScoreRecord{s.public_id, 82.5, true, {{"collision", 2}}},
+                                        "2026-01-01T10:05:00Z", worker));
+  EXPECT_FALSE(store_->set_score_audited(fs::ScoreRecord{s.public_id, 10, false, {}}, "2026-01-01T10:06:00Z", worker));
+  EXPECT_TRUE(store_->set_session_state_audited(s.public_id, "ended", "duration", "2026-01-01T10:07:00Z", worker));
+  EXPECT_FALSE(store_->set_session_state_audited(s.public_id, "failed", "late", "2026-01-01T10:08:00Z", worker));
+  EXPECT_EQ(store_->get_session(s.public_id)->state, "ended");
+
+  const auto rows = store_->list_audit({ann, std::nullopt}, 10, 0);
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_EQ(rows[0].action, "session_ended");
+  EXPECT_EQ(rows[0].actor.name, "worker");
+  EXPECT_EQ(rows[0].at, "2026-01-01T10:07:00Z");
+  EXPECT_EQ(rows[0].details,
+            R"({"session":")" + s.public_id + R"(","from":"starting","to":"ended","reason":"duration"})");
+  EXPECT_EQ(rows[1].action, "session_scored");
+  const std::string exam_id = RawQuery(path_, "SELECT id FROM exams").at(0);
+  EXPECT_EQ(rows[1].details, R"({"session":")" + s.public_id +
+                                 R"(","mode":"exam","mark":82.5,"passed":true,"counts":{"collision":2},"exam_id":)" +
+                                 exam_id + "}");
+  EXPECT_EQ(ErrorKind([&] { store_->set_session_state_audited("s-999999", "ended", "", "2026-01-01T10:00:00Z", worker); }),
+            fs::StoreError::kNotFound);
+}
+
+TEST_F(StoreTest, ExamChainAppendsInOrderOncePerSessionAndRefusesEdits) {
+  const int64_t ann = NewPupil("Ann");
+  const fs::Session a = NewSession(ann, "exam"), b = NewSession(ann, "exam");
+  EXPECT_FALSE(store_->last_chain_entry());
+  store_->append_chain_entry({1, a.public_id, R"({"entry_hash":"aa"})"});
+  // A gap, a repeat of seq 1 and a second entry for the same session are all refused.
+  EXPECT_THROW(store_->append_chain_entry({3, b.public_id, "{}"}), fs::StoreError);
+  EXPECT_THROW(store_->append_chain_entry({1, b.public_id, "{}"}), fs::StoreError);
+  EXPECT_THROW(store_->append_chain_entry({2, a.public_id, "{}"}), fs::StoreError);
+  EXPECT_THROW(store_->append_chain_entry({2, "s-999999", "{}"}), fs::StoreError);
+  store_->append_chain_entry({2, b.public_id, R"({"entry_hash":"bb"})"});
+  EXPECT_EQ(store_->last_chain_entry()->session_public_id, b.public_id);
+  EXPECT_EQ(store_->get_chain_entry(a.public_id)->entry, R"({"entry_hash":"aa"})");
+  ASSERT_EQ(store_->list_chain().size(), 2u);
+  EXPECT_EQ(store_->list_chain()[1].seq, 2);
+  EXPECT_NE(RawExec(path_, "UPDATE exam_chain SET entry = '{}'").find("append-only"), std::string::npos);
+  EXPECT_NE(RawExec(path_, "DELETE FROM exam_chain").find("append-only"), std::string::npos);
+  EXPECT_EQ(store_->list_chain().size(), 2u);
 }

@@ -201,11 +201,52 @@ CREATE TABLE path_points (
   PRIMARY KEY (session_id, sim_time_s)
 ) WITHOUT ROWID;
 )sql",
+    // 3: the audit log of changes to pupils' records (remote licence exams must be traceable).
+    // Append-only: the triggers refuse any UPDATE or DELETE, from this program or any other.
+    R"sql(
+CREATE TABLE audit_log (
+  id INTEGER PRIMARY KEY,
+  at TEXT NOT NULL,
+  actor_user_id INTEGER REFERENCES users(id),
+  actor TEXT NOT NULL CHECK (actor <> ''),
+  pupil_id INTEGER NOT NULL REFERENCES pupils(id),
+  action TEXT NOT NULL CHECK (action <> ''),
+  details TEXT NOT NULL CHECK (json_valid(details) AND json_type(details) = 'object')
+);
+CREATE INDEX audit_log_by_pupil ON audit_log(pupil_id, id);
+CREATE TRIGGER audit_log_no_update BEFORE UPDATE ON audit_log
+BEGIN
+  SELECT RAISE(ABORT, 'audit_log is append-only');
+END;
+CREATE TRIGGER audit_log_no_delete BEFORE DELETE ON audit_log
+BEGIN
+  SELECT RAISE(ABORT, 'audit_log is append-only');
+END;
+)sql",
+    // 4: the hash chain of practical exams (server/src/exam_evidence.cc): one entry per exam, in
+    // order, each naming the previous one's hash. Append-only like the audit log; the entries
+    // themselves make any edit made around the triggers detectable (forklift-menu verify).
+    R"sql(
+CREATE TABLE exam_chain (
+  seq INTEGER PRIMARY KEY CHECK (seq >= 1),
+  session_id INTEGER NOT NULL UNIQUE REFERENCES sessions(id),
+  entry TEXT NOT NULL CHECK (json_valid(entry))
+);
+CREATE TRIGGER exam_chain_no_update BEFORE UPDATE ON exam_chain
+BEGIN
+  SELECT RAISE(ABORT, 'exam_chain is append-only');
+END;
+CREATE TRIGGER exam_chain_no_delete BEFORE DELETE ON exam_chain
+BEGIN
+  SELECT RAISE(ABORT, 'exam_chain is append-only');
+END;
+)sql",
 };
 
 // Column lists shared by the statements that read whole rows (see read_user and the like).
 #define USER_COLUMNS "id, username, password_hash, role, school_id, pupil_id"
 #define PUPIL_COLUMNS "id, school_id, name, email, created_at"
+#define AUDIT_COLUMNS "id, at, actor_user_id, actor, pupil_id, action, details"
 #define SESSION_COLUMNS \
   "id, public_id, pupil_id, cab_id, scenario, mode, state, reason, examiner_id, created_at, ended_at, mark, passed"
 
@@ -414,6 +455,10 @@ Session read_session(const Query& q) {
   return s;
 }
 
+AuditRecord read_audit(const Query& q) {
+  return AuditRecord{q.int64(0), q.text(1), Actor{q.opt_int64(2), q.text(3)}, q.int64(4), q.text(5), q.text(6)};
+}
+
 class SqliteStore final : public Store {
  public:
   explicit SqliteStore(const std::string& path) {
@@ -488,6 +533,12 @@ class SqliteStore final : public Store {
   }
 
   std::optional<Pupil> get_pupil(int64_t id) override { return pupil(__func__, id); }
+
+  void update_pupil(int64_t id, const std::string& name, const std::string& email) override {
+    require(!name.empty(), StoreError::kInvalid, __func__, "empty pupil name");
+    query(__func__, "UPDATE pupils SET name = ?, email = ? WHERE id = ?").bind(name).bind(email).bind(id).run();
+    require(sqlite3_changes(db()) > 0, StoreError::kNotFound, __func__, "no pupil " + std::to_string(id));
+  }
 
   std::vector<Pupil> list_pupils(int64_t school_id, const std::string& search, int limit, int offset) override {
     require(limit >= 0 && offset >= 0, StoreError::kInvalid, __func__, "negative limit or offset");
@@ -789,6 +840,105 @@ class SqliteStore final : public Store {
                     "WHERE s.public_id = ? AND l.name = ?");
     q.bind(session_public_id).bind(name);
     return q.step() ? std::optional(q.text(0)) : std::nullopt;
+  }
+
+  void append_chain_entry(const ChainEntry& e) override {
+    const int64_t session_id = require_session(__func__, e.session_public_id).id;
+    const auto last = last_chain_entry();
+    require(e.seq == (last ? last->seq + 1 : 1), StoreError::kConflict, __func__,
+            "chain entry " + std::to_string(e.seq) + " does not follow the last one");
+    require(!get_chain_entry(e.session_public_id), StoreError::kConflict, __func__,
+            "session " + e.session_public_id + " is already chained");
+    Query q = query(__func__, "INSERT INTO exam_chain(seq, session_id, entry) VALUES (?, ?, ?)");
+    q.bind(e.seq).bind(session_id).bind(e.entry).run();
+  }
+
+  std::optional<ChainEntry> last_chain_entry() override {
+    Query q = query(__func__, "SELECT c.seq, s.public_id, c.entry FROM exam_chain c "
+                              "JOIN sessions s ON s.id = c.session_id ORDER BY c.seq DESC LIMIT 1");
+    return one_chain_entry(q);
+  }
+
+  std::optional<ChainEntry> get_chain_entry(const std::string& session_public_id) override {
+    Query q = query(__func__, "SELECT c.seq, s.public_id, c.entry FROM exam_chain c "
+                              "JOIN sessions s ON s.id = c.session_id WHERE s.public_id = ?");
+    q.bind(session_public_id);
+    return one_chain_entry(q);
+  }
+
+  static std::optional<ChainEntry> one_chain_entry(Query& q) {
+    if (!q.step()) return std::nullopt;
+    return ChainEntry{q.int64(0), q.text(1), q.text(2)};
+  }
+
+  std::vector<ChainEntry> list_chain() override {
+    Query q = query(__func__, "SELECT c.seq, s.public_id, c.entry FROM exam_chain c JOIN sessions s ON s.id = c.session_id ORDER BY c.seq");
+    std::vector<ChainEntry> out;
+    while (q.step()) out.push_back({q.int64(0), q.text(1), q.text(2)});
+    return out;
+  }
+
+  int64_t add_audit(const AuditRecord& r) override {
+    require(!r.actor.name.empty(), StoreError::kInvalid, __func__, "empty actor");
+    require(!r.action.empty(), StoreError::kInvalid, __func__, "empty action");
+    Query q = query(__func__,
+                    "INSERT INTO audit_log(at, actor_user_id, actor, pupil_id, action, details) VALUES (?, ?, ?, ?, ?, ?)");
+    q.bind(r.at.empty() ? now_iso8601() : r.at).bind(r.actor.user_id).bind(r.actor.name).bind(r.pupil_id);
+    q.bind(r.action).bind(r.details).run();
+    return sqlite3_last_insert_rowid(db());
+  }
+
+  std::vector<AuditRecord> list_audit(const AuditScope& scope, int limit, int offset) override {
+    require(limit >= 0 && offset >= 0, StoreError::kInvalid, __func__, "negative limit or offset");
+    // One statement per scope, so that each reads its rows straight from an index.
+    Query q = scope.pupil_id    ? query(__func__, "SELECT " AUDIT_COLUMNS " FROM audit_log WHERE pupil_id = ? "
+                                                  "ORDER BY id DESC LIMIT ? OFFSET ?")
+              : scope.school_id ? query(__func__, "SELECT " AUDIT_COLUMNS " FROM audit_log WHERE pupil_id IN "
+                                                  "(SELECT id FROM pupils WHERE school_id = ?) ORDER BY id DESC LIMIT ? OFFSET ?")
+                                : query(__func__, "SELECT " AUDIT_COLUMNS " FROM audit_log ORDER BY id DESC LIMIT ? OFFSET ?");
+    if (scope.pupil_id || scope.school_id) q.bind(scope.pupil_id ? *scope.pupil_id : *scope.school_id);
+    q.bind(limit).bind(offset);
+    std::vector<AuditRecord> rows;
+    while (q.step()) rows.push_back(read_audit(q));
+    return rows;
+  }
+
+  bool set_score_audited(const ScoreRecord& s, const std::string& now, const Actor& actor) override {
+    FullSync full_sync(db(), __func__);
+    Transaction tx(db(), __func__, Transaction::kWrite);
+    if (!set_score(s, now)) return false;
+    const Session session = require_session(__func__, s.session_public_id);
+    // The details from the rows just written, so that they say what was stored.
+    Query q = query(__func__,
+                    "INSERT INTO audit_log(at, actor_user_id, actor, pupil_id, action, details) "
+                    "SELECT ?, ?, ?, s.pupil_id, 'session_scored', json_object('session', s.public_id, "
+                    "'mode', s.mode, 'mark', sc.mark, 'passed', json(CASE WHEN sc.passed THEN 'true' ELSE 'false' END), "
+                    "'counts', (SELECT json_group_object(kind, count) FROM score_counts WHERE session_id = s.id), "
+                    "'exam_id', (SELECT id FROM exams WHERE session_id = s.id)) "
+                    "FROM sessions s JOIN scores sc ON sc.session_id = s.id WHERE s.id = ?");
+    q.bind(now).bind(actor.user_id).bind(actor.name).bind(session.id).run();
+    tx.commit();
+    return true;
+  }
+
+  bool set_session_state_audited(const std::string& public_id, const std::string& state, const std::string& reason,
+                                 const std::string& now, const Actor& actor) override {
+    Transaction tx(db(), __func__, Transaction::kWrite);
+    const Session before = require_session(__func__, public_id);
+    if (!set_session_state(public_id, state, reason, now)) return false;
+    AuditRecord r;
+    r.at = now;
+    r.actor = actor;
+    r.pupil_id = before.pupil_id;
+    r.action = "session_" + state;
+    {
+      Query q = query(__func__, "SELECT json_object('session', ?, 'from', ?, 'to', ?, 'reason', ?)");
+      q.bind(public_id).bind(before.state).bind(state).bind(reason).step();
+      r.details = q.text(0);
+    }
+    add_audit(r);
+    tx.commit();
+    return true;
   }
 
   std::optional<PupilHistory> history(int64_t pupil_id, const std::string& now) override {

@@ -1,5 +1,6 @@
 // The trainee store: pupils, users and roles, cabs, sessions, events, scores, theory and practical
-// exam records, licence records, session logs, theory papers and truck paths. One narrow interface; SQLite is the embedded
+// exam records, licence records, session logs, theory papers, truck paths and the audit log of
+// changes to pupils' records. One narrow interface; SQLite is the embedded
 // default (one file, WAL, foreign keys, versioned migrations at open), and every SQL statement
 // lives in the backend's source so that a PostgreSQL backend can follow.
 //
@@ -132,6 +133,37 @@ struct TheoryAttempt {
   std::optional<int64_t> exam_id;     // set when marked
 };
 
+// Who made a change: a user, or a part of the platform writing on its own ("worker", "server").
+struct Actor {
+  std::optional<int64_t> user_id;  // none for automatic writes
+  std::string name;                // the username, or "worker" / "server"
+};
+
+// One row of the audit log: a change to a pupil's record, who made it, and what changed.
+struct AuditRecord {
+  int64_t id = 0;
+  std::string at;  // ISO-8601; empty when adding: now
+  Actor actor;
+  int64_t pupil_id = 0;
+  std::string action;          // e.g. "pupil_created", "pupil_edited", "session_started"
+  std::string details = "{}";  // a JSON object as text (an edit's before and after)
+};
+
+// One entry of the exam hash chain: JSON text made and checked by the server's evidence code
+// (security/include/forklift/evidence.h), opaque to the store.
+struct ChainEntry {
+  int64_t seq = 0;  // from 1, without gaps
+  std::string session_public_id;
+  std::string entry;
+};
+
+// Which audit rows to list: one pupil's (pupil_id set), else every pupil's of one school
+// (school_id set), else all.
+struct AuditScope {
+  std::optional<int64_t> pupil_id;
+  std::optional<int64_t> school_id;
+};
+
 // Everything about one pupil, aggregated by the store.
 struct PupilHistory {
   Pupil pupil;
@@ -164,6 +196,8 @@ class Store {
 
   virtual int64_t create_pupil(int64_t school_id, const std::string& name, const std::string& email) = 0;
   virtual std::optional<Pupil> get_pupil(int64_t id) = 0;
+  // Replaces a pupil's name and email; kNotFound for an unknown pupil, kInvalid for an empty name.
+  virtual void update_pupil(int64_t id, const std::string& name, const std::string& email) = 0;
   // Pupils of a school whose name contains `search` (case-insensitive; empty: all), by name.
   virtual std::vector<Pupil> list_pupils(int64_t school_id, const std::string& search, int limit, int offset) = 0;
 
@@ -215,6 +249,29 @@ class Store {
   // The session's control log and session log, stored as text.
   virtual void put_session_log(const std::string& session_public_id, const std::string& name, const std::string& text) = 0;
   virtual std::optional<std::string> get_session_log(const std::string& session_public_id, const std::string& name) = 0;
+
+  // The exam hash chain, append-only (the schema refuses UPDATE and DELETE). kConflict unless
+  // seq follows the last entry's and the session has none yet; kNotFound for an unknown session.
+  virtual void append_chain_entry(const ChainEntry& e) = 0;
+  virtual std::optional<ChainEntry> last_chain_entry() = 0;
+  virtual std::optional<ChainEntry> get_chain_entry(const std::string& session_public_id) = 0;
+  virtual std::vector<ChainEntry> list_chain() = 0;  // in order
+
+  // The audit log, append-only: the schema itself refuses UPDATE and DELETE on it. Add a row in
+  // the same batch() as the change it records, so that both commit or neither. kNotFound for an
+  // unknown pupil or actor user; kInvalid for an empty actor name or action, or details that are
+  // not a JSON object. Returns the row's id.
+  virtual int64_t add_audit(const AuditRecord& r) = 0;
+  // Rows in `scope`, newest first.
+  virtual std::vector<AuditRecord> list_audit(const AuditScope& scope, int limit, int offset) = 0;
+
+  // set_score and set_session_state with their audit row ("session_scored"; "session_<state>",
+  // with the state before and after) in one transaction, for writers outside the HTTP API (the
+  // DDS ingest: actor {nullopt, "worker"}). The row is written only when the call changes
+  // something; the return value is the plain call's.
+  virtual bool set_score_audited(const ScoreRecord& s, const std::string& now, const Actor& actor) = 0;
+  virtual bool set_session_state_audited(const std::string& public_id, const std::string& state,
+                                         const std::string& reason, const std::string& now, const Actor& actor) = 0;
 
   // PupilHistory for `pupil_id`, with overdue computed against `now`; nullopt if no such pupil.
   virtual std::optional<PupilHistory> history(int64_t pupil_id, const std::string& now) = 0;
