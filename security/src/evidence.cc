@@ -1,0 +1,677 @@
+#include "forklift/evidence.h"
+
+#include <openssl/crypto.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <optional>
+#include <stdexcept>
+
+#include "crypto.h"
+
+namespace forklift::security {
+
+using nlohmann::json;
+
+namespace {
+
+using namespace detail;
+
+constexpr const char* kSignatureFormat = "forklift-exam-log-signature/1";
+const std::string kFirstPrevHash(64, '0');
+constexpr int kMaxChainProblems = 20;  // a rewritten chain would otherwise list every entry
+
+std::string log_message(const std::string& session, const std::string& cab, const std::string& log_sha256) {
+  return "forklift-exam-log/1\n" + session + "\n" + cab + "\n" + log_sha256 + "\n";
+}
+
+// dump() sorts object keys, which makes it the canonical form both sides hash.
+std::string entry_hash_of(const std::string& prev_hash, const json& record, const std::string& log_sha256,
+                          const std::string& log_signature) {
+  return sha256_hex(prev_hash + "\n" + record.dump() + "\n" + log_sha256 + "\n" + log_signature + "\n");
+}
+
+// A key and the certificate(s) that go with it, read from their files and checked to belong together.
+struct Signer {
+  PkeyPtr key;
+  std::vector<X509Ptr> certs;
+};
+
+Signer load_signer(const std::string& key_file, const std::string& cert_file, const std::string& who) {
+  Signer s;
+  {
+    std::string pem = read_file(key_file, who + " key");
+    struct Wipe {  // the key's text should not linger in freed memory
+      std::string& s;
+      ~Wipe() { OPENSSL_cleanse(s.data(), s.size()); }
+    } wipe{pem};
+    s.key = parse_private_key(pem, who + " key file '" + key_file + "'");
+  }
+  s.certs = parse_certificates(read_file(cert_file, who + " certificate"));
+  if (s.certs.empty()) throw std::runtime_error(who + " certificate file '" + cert_file + "' holds no PEM certificate");
+  if (EVP_PKEY_eq(X509_get0_pubkey(s.certs[0].get()), s.key.get()) != 1) {
+    openssl_error();  // drain
+    throw std::runtime_error(who + " key file '" + key_file + "' does not match the certificate in '" + cert_file +
+                             "'");
+  }
+  return s;
+}
+
+// A string for a report line: quoted and escaped, so that odd bytes cannot forge a line.
+std::string show(const std::string& s) {
+  const std::string q = json(s).dump(-1, ' ', false, json::error_handler_t::replace);
+  return q.size() <= 90 ? q : q.substr(0, 80) + "...\"";
+}
+
+std::string count(size_t n, const std::string& one, const std::string& many) {
+  return std::to_string(n) + " " + (n == 1 ? one : many);
+}
+
+std::string show_double(double v) {
+  char buf[80];
+  std::snprintf(buf, sizeof buf, "%.17g (%a)", v, v);
+  return buf;
+}
+
+const json* field(const json& obj, const char* key) {
+  if (!obj.is_object()) return nullptr;
+  const auto it = obj.find(key);
+  return it == obj.end() ? nullptr : &*it;
+}
+
+const std::string* string_field(const json& obj, const char* key) {
+  const json* f = field(obj, key);
+  return f && f->is_string() ? f->get_ptr<const std::string*>() : nullptr;
+}
+
+// Strict integer and double parsing for log fields: the whole word or nothing.
+std::optional<long long> parse_int(const std::string& w) {
+  if (w.empty()) return std::nullopt;
+  char* end = nullptr;
+  errno = 0;
+  const long long v = std::strtoll(w.c_str(), &end, 10);
+  if (errno || *end != '\0') return std::nullopt;
+  return v;
+}
+
+std::optional<double> parse_double(const std::string& w) {
+  if (w.empty()) return std::nullopt;
+  char* end = nullptr;
+  const double v = std::strtod(w.c_str(), &end);  // reads the log's %a exactly
+  if (*end != '\0') return std::nullopt;
+  return v;
+}
+
+std::vector<std::string> words(std::string_view line) {
+  std::vector<std::string> out;
+  size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
+    const size_t start = i;
+    while (i < line.size() && line[i] != ' ' && line[i] != '\t' && line[i] != '\r') ++i;
+    if (i > start) out.emplace_back(line.substr(start, i - start));
+  }
+  return out;
+}
+
+// What the control log says about the exam (the lines that the record must agree with).
+struct LogFacts {
+  struct Event {
+    std::string kind;
+    long long worry = 0;
+  };
+  std::vector<std::string> sessions, cabs;  // every "session"/"cab" line's value
+  std::vector<Event> events;
+  struct Score {
+    double mark = 0;
+    bool passed = false;
+  };
+  std::vector<Score> scores;
+  std::vector<std::string> malformed;  // descriptions of e/score lines that do not parse
+};
+
+LogFacts read_log(const std::string& text) {
+  LogFacts f;
+  size_t n = 0;
+  for (size_t pos = 0; pos < text.size();) {
+    const size_t nl = text.find('\n', pos);
+    const std::string_view line = std::string_view(text).substr(pos, nl == std::string::npos ? nl : nl - pos);
+    pos = nl == std::string::npos ? text.size() : nl + 1;
+    ++n;
+    const std::vector<std::string> w = words(line);
+    if (w.empty()) continue;
+    const std::string where = "log line " + std::to_string(n);
+    if (w[0] == "session" || w[0] == "cab") {
+      // The reader takes the rest of the line after "<key> ".
+      const std::string rest(line.size() > w[0].size() ? line.substr(w[0].size() + 1) : std::string_view());
+      (w[0] == "session" ? f.sessions : f.cabs).push_back(rest);
+    } else if (w[0] == "e" || w[0] == "w") {  // the evaluation's events and the worker's own, in order
+      const auto tick = w.size() == 4 ? parse_int(w[1]) : std::nullopt;
+      const auto worry = w.size() == 4 ? parse_int(w[3]) : std::nullopt;
+      if (!tick || !worry)
+        f.malformed.push_back(where + " is not '" + w[0] + " <tick> <kind> <worry>'");
+      else
+        f.events.push_back({w[2], *worry});
+    } else if (w[0] == "score") {
+      const auto mark = w.size() >= 4 ? parse_double(w[1]) : std::nullopt;
+      const bool passed_ok = w.size() >= 4 && (w[2] == "0" || w[2] == "1");
+      if (!mark || !passed_ok || !parse_int(w[3]))
+        f.malformed.push_back(where + " is not 'score <mark> <0|1> <points> <reason>'");
+      else
+        f.scores.push_back({*mark, w[2] == "1"});
+    }
+  }
+  return f;
+}
+
+// The top-level keys in which two records differ, for a report line.
+std::string differing_keys(const json& a, const json& b) {
+  if (!a.is_object() || !b.is_object()) return "its whole value";
+  std::string keys;
+  auto note = [&keys](const std::string& k) { keys += (keys.empty() ? "" : ", ") + k; };
+  for (const auto& [k, v] : a.items())
+    if (!b.contains(k) || b.at(k) != v) note(k);
+  for (const auto& [k, v] : b.items())
+    if (!a.contains(k)) note(k);
+  return keys.empty() ? "nothing visible" : keys;
+}
+
+class Verifier {
+ public:
+  Verifier(const std::string& ca_pem, const std::string& crl_pem, bool require_server_signatures)
+      : ca_(ca_pem), crl_(crl_pem), require_signed_(require_server_signatures) {}
+
+  VerifyReport report;
+
+  void run(const json& ev) {
+    if (!ev.is_object()) return problem(std::string("evidence is not a JSON object but ") + ev.type_name());
+    const std::string* session = string_field(ev, "session");
+    const json* record = field(ev, "record");
+    const std::string* log = string_field(ev, "log");
+    const json* sig = field(ev, "signature");
+    const json* chain = field(ev, "chain");
+    if (!session) problem("evidence has no string \"session\"");
+    if (record && !record->is_object()) record = nullptr;
+    if (!record) problem("evidence has no object \"record\"");
+    if (!log) problem("evidence has no string \"log\" (the control log)");
+    if (sig && !sig->is_object()) sig = nullptr;
+    if (!sig) problem("evidence has no object \"signature\" (the log signature)");
+    if (chain && !chain->is_array()) chain = nullptr;
+    if (!chain) problem("evidence has no array \"chain\"");
+
+    if (record) {
+      rec_session_ = string_field(*record, "session");
+      rec_cab_ = string_field(*record, "cab");
+      if (!rec_session_) problem("record has no string \"session\"");
+      if (!rec_cab_) problem("record has no string \"cab\"");
+    }
+    if (session && rec_session_ && *session != *rec_session_)
+      problem("evidence is for session " + show(*session) + " but its record is session " + show(*rec_session_));
+
+    if (sig) check_signature(*sig, log);
+    if (log && record) check_log(*log, *record);
+    if (chain) check_chain(*chain, session ? session : rec_session_, record);
+  }
+
+  void problem(const std::string& line) { report.problems.push_back(line); }
+
+ private:
+  void pass(const std::string& line) { report.passed.push_back(line); }
+
+  void check_signature(const json& sig, const std::string* log) {
+    const std::string* format = string_field(sig, "format");
+    if (!format || *format != kSignatureFormat)
+      problem("signature format is " + (format ? show(*format) : std::string("missing")) + ", expected " +
+              show(kSignatureFormat));
+    const std::string* s_session = string_field(sig, "session");
+    const std::string* s_cab = string_field(sig, "cab");
+    sig_sha_ = string_field(sig, "log_sha256");
+    sig_b64_ = string_field(sig, "signature");
+    const std::string* s_cert = string_field(sig, "signer_certificate");
+    for (const auto& [name, value] : {std::pair{"session", s_session},
+                                      {"cab", s_cab},
+                                      {"log_sha256", sig_sha_},
+                                      {"signature", sig_b64_},
+                                      {"signer_certificate", s_cert}})
+      if (!value) problem(std::string("signature has no string \"") + name + "\"");
+
+    if (s_session && s_cab && rec_session_ && rec_cab_) {
+      if (*s_session == *rec_session_ && *s_cab == *rec_cab_)
+        pass("signature names the record's session " + show(*s_session) + " and cab " + show(*s_cab));
+      else
+        problem("signature is for session " + show(*s_session) + " on cab " + show(*s_cab) +
+                " but the record is session " + show(*rec_session_) + " on cab " + show(*rec_cab_));
+    }
+
+    std::vector<X509Ptr> certs = s_cert ? parse_certificates(*s_cert) : std::vector<X509Ptr>();
+    if (s_cert && certs.empty()) problem("signer_certificate is not a PEM certificate");
+    if (!certs.empty()) {
+      std::string why;
+      if (chains_to_ca(certs, ca_, crl_, &why))
+        pass(std::string("signer certificate is issued by the school CA") +
+             (crl_.empty() ? "" : " and not revoked by its CRL"));
+      else
+        problem("signer certificate is not accepted by the school CA: " + why);
+      if (rec_cab_) {
+        const std::string want = "worker." + *rec_cab_;
+        try {
+          const std::string cn = common_name(certs[0].get());
+          if (cn == want)
+            pass("signer certificate's common name " + show(cn) + " is the record's cab's worker");
+          else
+            problem("signer certificate's common name is " + show(cn) + ", expected " + show(want) +
+                    " for the record's cab");
+        } catch (const std::exception& e) {
+          problem(std::string("signer certificate: ") + e.what() + ", expected " + show(want));
+        }
+      }
+    }
+
+    if (log && sig_sha_) {
+      const std::string h = sha256_hex(*log);
+      if (h == *sig_sha_)
+        pass("log SHA-256 " + h + " equals the signature's log_sha256");
+      else
+        problem("log SHA-256 is " + h + " but the signature's log_sha256 is " + show(*sig_sha_) +
+                ": the log is not the one signed");
+    }
+
+    if (s_session && s_cab && sig_sha_ && sig_b64_ && !certs.empty()) {
+      const std::optional<std::string> der = base64_decode(*sig_b64_);
+      EVP_PKEY* key = X509_get0_pubkey(certs[0].get());
+      std::string why;
+      if (!der)
+        problem("log signature is not base64");
+      else if (!key)
+        problem("signer certificate's public key is unreadable: " + openssl_error());
+      else if (s_session->find('\n') != std::string::npos || s_cab->find('\n') != std::string::npos)
+        problem("signature's session or cab contains a line break, which would make the signed message ambiguous");
+      else if (verify_sha256(key, log_message(*s_session, *s_cab, *sig_sha_), *der, &why))
+        pass("log signature verifies with the signer certificate's key over its session, cab and log SHA-256");
+      else
+        problem("log signature does not verify with the signer certificate's key over session " + show(*s_session) +
+                ", cab " + show(*s_cab) + " and log_sha256 " + show(*sig_sha_) + ": " + why);
+    }
+  }
+
+  void check_log(const std::string& text, const json& record) {
+    const LogFacts f = read_log(text);
+    for (const std::string& m : f.malformed) problem(m);
+
+    // Header: exactly one session and one cab line, the record's.
+    bool header_ok = true;
+    auto header = [&](const char* key, const std::vector<std::string>& values, const std::string* want) {
+      if (values.size() != 1) {
+        problem("log has " + std::to_string(values.size()) + " \"" + key + "\" header lines, expected one");
+        header_ok = false;
+      } else if (want && values[0] != *want) {
+        problem(std::string("log header ") + key + " is " + show(values[0]) + " but the record's " + key + " is " +
+                show(*want));
+        header_ok = false;
+      }
+    };
+    header("session", f.sessions, rec_session_);
+    header("cab", f.cabs, rec_cab_);
+    if (header_ok && rec_session_ && rec_cab_)
+      pass("log header session " + show(*rec_session_) + " and cab " + show(*rec_cab_) + " match the record");
+
+    // Score: the mark exactly (the log writes it in %a) and pass/fail.
+    const json* mark = field(record, "mark");
+    const json* passed = field(record, "passed");
+    std::optional<bool> rec_passed;
+    if (passed && passed->is_boolean())
+      rec_passed = passed->get<bool>();
+    else if (passed && passed->is_number_integer() && (*passed == 0 || *passed == 1))
+      rec_passed = *passed == 1;
+    if (!mark || !mark->is_number()) problem("record has no numeric \"mark\"");
+    if (!rec_passed) problem("record has no boolean \"passed\"");
+    if (f.scores.size() != 1) {
+      problem("log has " + std::to_string(f.scores.size()) + " score lines, expected one");
+    } else if (mark && mark->is_number() && rec_passed) {
+      const LogFacts::Score& s = f.scores[0];
+      const double rec_mark = mark->get<double>();
+      bool ok = true;
+      if (s.mark != rec_mark) {
+        problem("log score mark " + show_double(s.mark) + " differs from the record's mark " + show_double(rec_mark));
+        ok = false;
+      }
+      if (s.passed != *rec_passed) {
+        problem(std::string("log score says ") + (s.passed ? "passed" : "failed") + " but the record's passed is " +
+                (*rec_passed ? "true" : "false"));
+        ok = false;
+      }
+      if (ok)
+        pass("log score mark " + show_double(s.mark) + " and passed " + (s.passed ? "true" : "false") +
+             " match the record");
+    }
+
+    // Events: the same (kind, worry) in the same order.
+    const json* events = field(record, "events");
+    if (!events || !events->is_array()) return problem("record has no array \"events\"");
+    std::vector<LogFacts::Event> rec_events;
+    for (size_t i = 0; i < events->size(); ++i) {
+      const json& e = (*events)[i];
+      const std::string* kind = string_field(e, "kind");
+      const json* worry = field(e, "worry");
+      if (!kind || !worry || !worry->is_number_integer())
+        return problem("record event " + std::to_string(i + 1) + " has no string \"kind\" and integer \"worry\"");
+      rec_events.push_back({*kind, worry->get<long long>()});
+    }
+    bool same = rec_events.size() == f.events.size();
+    for (size_t i = 0; i < std::min(rec_events.size(), f.events.size()); ++i) {
+      const LogFacts::Event& l = f.events[i];
+      const LogFacts::Event& r = rec_events[i];
+      if (l.kind != r.kind || l.worry != r.worry) {
+        problem("event " + std::to_string(i + 1) + " differs: the log has " + show(l.kind) + " worry " +
+                std::to_string(l.worry) + ", the record " + show(r.kind) + " worry " + std::to_string(r.worry));
+        same = false;
+        break;  // after one difference, the rest is shifted and says nothing new
+      }
+    }
+    if (rec_events.size() != f.events.size())
+      problem("log has " + std::to_string(f.events.size()) + " events, the record " +
+              std::to_string(rec_events.size()));
+    if (same)
+      pass("log's " + std::to_string(f.events.size()) + " events match the record's events (kind, worry, order)");
+  }
+
+  void chain_problem(const std::string& line) {
+    if (++chain_problems_ <= kMaxChainProblems) problem(line);
+  }
+
+  // The server certificate of a chain entry: issued by the CA, named "server" or "server.*". Cached by PEM,
+  // since one certificate signs many entries.
+  struct ServerCert {
+    std::string problem;  // empty when accepted
+    PkeyPtr key;          // null when unreadable
+  };
+  const ServerCert& server_cert(const std::string& pem) {
+    const auto found = server_certs_.find(pem);
+    if (found != server_certs_.end()) return found->second;
+    ServerCert& c = server_certs_[pem];
+    std::vector<X509Ptr> certs = parse_certificates(pem);
+    if (certs.empty()) {
+      c.problem = "is not a PEM certificate";
+      return c;
+    }
+    c.key.reset(X509_get_pubkey(certs[0].get()));
+    std::string why;
+    if (!chains_to_ca(certs, ca_, crl_, &why)) c.problem = "is not accepted by the school CA: " + why;
+    try {
+      const std::string cn = common_name(certs[0].get());
+      if (cn != "server" && cn.rfind("server.", 0) != 0)
+        c.problem += (c.problem.empty() ? "" : "; ") + std::string("has common name ") + show(cn) +
+                     ", not \"server\" or \"server.*\"";
+    } catch (const std::exception& e) {
+      c.problem += (c.problem.empty() ? "" : "; ") + std::string(e.what());
+    }
+    if (!c.key) c.problem += (c.problem.empty() ? "" : "; ") + std::string("has an unreadable public key");
+    openssl_error();  // drain
+    return c;
+  }
+
+  void check_chain(const json& chain, const std::string* session, const json* record) {
+    std::string prev = kFirstPrevHash;
+    bool prev_known = true;
+    bool links_ok = true;
+    bool signatures_ok = true;
+    size_t signed_entries = 0;
+    std::vector<size_t> mine;  // the session's entries
+    for (size_t i = 0; i < chain.size(); ++i) {
+      const json& e = chain[i];
+      const std::string label = "chain entry " + std::to_string(i + 1);
+      if (!e.is_object()) {
+        chain_problem(label + " is not a JSON object");
+        links_ok = prev_known = false;
+        continue;
+      }
+      const json* seq = field(e, "seq");
+      const std::string* e_session = string_field(e, "session");
+      const json* e_record = field(e, "record");
+      if (e_record && !e_record->is_object()) e_record = nullptr;
+      const std::string* e_sha = string_field(e, "log_sha256");
+      const std::string* e_sig = string_field(e, "log_signature");
+      const std::string* e_prev = string_field(e, "prev_hash");
+      const std::string* e_hash = string_field(e, "entry_hash");
+      std::string missing;
+      for (const auto& [name, ok] : {std::pair{"session", e_session != nullptr},
+                                     {"record (object)", e_record != nullptr},
+                                     {"log_sha256", e_sha != nullptr},
+                                     {"log_signature", e_sig != nullptr},
+                                     {"prev_hash", e_prev != nullptr},
+                                     {"entry_hash", e_hash != nullptr}})
+        if (!ok) missing += (missing.empty() ? "" : ", ") + std::string(name);
+      if (!missing.empty()) {
+        chain_problem(label + " lacks " + missing);
+        links_ok = false;
+      }
+      if (!seq || !seq->is_number_integer() || *seq != static_cast<int64_t>(i + 1)) {
+        chain_problem(label + " has seq " + (seq ? seq->dump() : std::string("missing")) + ", expected " +
+                      std::to_string(i + 1));
+        links_ok = false;
+      }
+      const std::string named = label + (e_session ? " (session " + show(*e_session) + ")" : "");
+      if (e_session && session && *e_session == *session) mine.push_back(i);
+      if (e_session && e_record) {
+        const std::string* r = string_field(*e_record, "session");
+        if (!r || *r != *e_session) {
+          chain_problem(named + "'s record is for session " + (r ? show(*r) : std::string("(none)")));
+          links_ok = false;
+        }
+      }
+
+      if (e_prev && prev_known && *e_prev != prev) {
+        chain_problem(named + "'s prev_hash " + show(*e_prev) +
+                      (i == 0 ? " is not 64 zeros"
+                              : " does not link to the entry_hash " + prev + " of entry " + std::to_string(i)));
+        links_ok = false;
+      }
+      if (e_prev && e_record && e_sha && e_sig && e_hash) {
+        try {
+          const std::string computed = entry_hash_of(*e_prev, *e_record, *e_sha, *e_sig);
+          if (computed != *e_hash) {
+            chain_problem(named + "'s entry_hash does not recompute (stored " + show(*e_hash) + ", computed " +
+                          computed + "): its record, log_sha256 or log_signature was changed");
+            links_ok = false;
+          }
+        } catch (const std::exception& x) {  // invalid UTF-8 in the record
+          chain_problem(named + "'s record cannot be hashed: " + x.what());
+          links_ok = false;
+        }
+      }
+      prev_known = e_hash != nullptr;
+      if (e_hash) prev = *e_hash;
+
+      const json* ss = field(e, "server_signature");
+      if (!ss || ss->is_null()) {
+        // Unsigned entries can be re-hashed by anyone with the database: a secured school signs all.
+        if (require_signed_) {
+          chain_problem(named + " is not server-signed");
+          signatures_ok = false;
+        }
+        continue;
+      }
+      ++signed_entries;
+      const std::string* pem = string_field(e, "server_certificate");
+      const std::optional<std::string> der = ss->is_string() ? base64_decode(ss->get<std::string>()) : std::nullopt;
+      std::string why;
+      if (!der) {
+        chain_problem(named + "'s server_signature is not a base64 string");
+        signatures_ok = false;
+      } else if (!pem) {
+        chain_problem(named + " is server-signed but has no string server_certificate");
+        signatures_ok = false;
+      } else if (const ServerCert& c = server_cert(*pem); !c.problem.empty()) {
+        chain_problem(named + "'s server certificate " + c.problem);
+        signatures_ok = false;
+        if (c.key && e_hash && !verify_sha256(c.key.get(), *e_hash, *der, &why))
+          chain_problem(named + "'s server_signature does not verify over its entry_hash either: " + why);
+      } else if (!e_hash) {
+        signatures_ok = false;  // already reported as lacking
+      } else if (!verify_sha256(c.key.get(), *e_hash, *der, &why)) {
+        chain_problem(named + "'s server_signature does not verify over its entry_hash " + show(*e_hash) + ": " + why);
+        signatures_ok = false;
+      }
+    }
+    if (chain_problems_ > kMaxChainProblems)
+      problem("chain: " + std::to_string(chain_problems_ - kMaxChainProblems) + " further chain problems not listed");
+
+    if (chain.empty())
+      problem("chain is empty");
+    else if (links_ok)
+      pass("chain of " + count(chain.size(), "entry", "entries") +
+           ": each prev_hash links and each entry_hash recomputes");
+    if (signed_entries == 0 && !chain.empty())
+      pass("chain: no entry is server-signed, so there is no server signature to check");
+    else if (signed_entries && signatures_ok)
+      pass("chain: all " + count(signed_entries, "server signature", "server signatures") +
+           " verify with server certificates issued by the school CA");
+
+    if (!session) return;
+    if (mine.size() != 1) {
+      std::string seqs;
+      for (size_t i : mine) seqs += (seqs.empty() ? "" : ", ") + std::to_string(i + 1);
+      return problem("session " + show(*session) + " has " + std::to_string(mine.size()) + " chain entries" +
+                     (seqs.empty() ? "" : " (" + seqs + ")") + ", expected exactly one");
+    }
+    const size_t k = mine[0];
+    const std::string label = "chain entry " + std::to_string(k + 1);
+    pass("session " + show(*session) + " has exactly one chain entry (seq " + std::to_string(k + 1) + ")");
+    const json& e = chain[k];
+    const json* e_record = field(e, "record");
+    if (record && e_record) {
+      if (*e_record == *record)
+        pass(label + "'s record equals the current record");
+      else
+        problem(label + "'s record differs from the current record in: " + differing_keys(*e_record, *record));
+    }
+    const std::string* e_sha = string_field(e, "log_sha256");
+    const std::string* e_sig = string_field(e, "log_signature");
+    if (e_sha && sig_sha_ && e_sig && sig_b64_) {
+      if (*e_sha == *sig_sha_ && *e_sig == *sig_b64_) {
+        pass(label + "'s log_sha256 and log_signature equal the signature file's");
+      } else {
+        if (*e_sha != *sig_sha_)
+          problem(label + "'s log_sha256 " + show(*e_sha) + " differs from the signature file's " + show(*sig_sha_));
+        if (*e_sig != *sig_b64_) problem(label + "'s log_signature differs from the signature file's");
+      }
+    }
+  }
+
+  const std::string& ca_;
+  const std::string& crl_;
+  const bool require_signed_;
+  const std::string* rec_session_ = nullptr;
+  const std::string* rec_cab_ = nullptr;
+  const std::string* sig_sha_ = nullptr;
+  const std::string* sig_b64_ = nullptr;
+  int chain_problems_ = 0;
+  std::map<std::string, ServerCert> server_certs_;
+};
+
+}  // namespace
+
+std::string sha256_hex(std::string_view bytes) {
+  unsigned char md[EVP_MAX_MD_SIZE];
+  unsigned int len = 0;
+  if (EVP_Digest(bytes.data(), bytes.size(), md, &len, EVP_sha256(), nullptr) != 1)
+    throw std::runtime_error("SHA-256 failed: " + openssl_error());
+  static const char digits[] = "0123456789abcdef";
+  std::string hex;
+  hex.reserve(2 * len);
+  for (unsigned int i = 0; i < len; ++i) {
+    hex += digits[md[i] >> 4];
+    hex += digits[md[i] & 15];
+  }
+  return hex;
+}
+
+json sign_exam_log(const std::string& session, const std::string& cab, const std::string& log_text,
+                   const std::string& key_pem_file, const std::string& cert_pem_file) {
+  // The message is newline-separated: a newline inside a field could shift it into the next one.
+  if (session.empty() || cab.empty() || session.find('\n') != std::string::npos || cab.find('\n') != std::string::npos)
+    throw std::runtime_error("sign_exam_log: session and cab must be non-empty single lines");
+  const Signer s = load_signer(key_pem_file, cert_pem_file, "worker");
+  const std::string log_sha256 = sha256_hex(log_text);
+  const std::string signature = sign_sha256(s.key.get(), log_message(session, cab, log_sha256));
+  return {{"format", kSignatureFormat},
+          {"session", session},
+          {"cab", cab},
+          {"log_sha256", log_sha256},
+          {"signature", base64_encode(signature)},
+          {"signer_certificate", to_pem(s.certs)}};
+}
+
+json make_chain_entry(int64_t seq, const std::string& prev_hash, const json& record, const std::string& log_sha256,
+                      const std::string& log_signature_b64, const std::string& server_key_file,
+                      const std::string& server_cert_file) {
+  if (seq < 1) throw std::runtime_error("make_chain_entry: seq must be 1 or more, not " + std::to_string(seq));
+  if (!is_hex_sha256(prev_hash))
+    throw std::runtime_error("make_chain_entry: prev_hash is not 64 lower-case hex digits");
+  if (seq == 1 && prev_hash != kFirstPrevHash)
+    throw std::runtime_error("make_chain_entry: seq 1 needs a prev_hash of 64 zeros");
+  const std::string* session = string_field(record, "session");
+  if (!session) throw std::runtime_error("make_chain_entry: the record has no string \"session\"");
+  if (!is_hex_sha256(log_sha256))
+    throw std::runtime_error("make_chain_entry: log_sha256 is not 64 lower-case hex digits");
+  if (!base64_decode(log_signature_b64)) throw std::runtime_error("make_chain_entry: log_signature is not base64");
+  std::string entry_hash;
+  try {
+    entry_hash = entry_hash_of(prev_hash, record, log_sha256, log_signature_b64);
+  } catch (const json::exception& e) {
+    throw std::runtime_error(std::string("make_chain_entry: the record cannot be serialised: ") + e.what());
+  }
+  json entry = {{"seq", seq},
+                {"session", *session},
+                {"record", record},
+                {"log_sha256", log_sha256},
+                {"log_signature", log_signature_b64},
+                {"prev_hash", prev_hash},
+                {"entry_hash", entry_hash},
+                {"server_signature", nullptr},
+                {"server_certificate", nullptr}};
+  if (!server_key_file.empty()) {
+    const Signer s = load_signer(server_key_file, server_cert_file, "server");
+    entry["server_signature"] = base64_encode(sign_sha256(s.key.get(), entry_hash));
+    entry["server_certificate"] = to_pem(s.certs);
+  }
+  return entry;
+}
+
+std::string certificate_common_name(const std::string& cert_pem) {
+  const std::vector<X509Ptr> certs = parse_certificates(cert_pem);
+  if (certs.empty()) throw std::runtime_error("certificate_common_name: not a PEM certificate");
+  return common_name(certs[0].get());
+}
+
+bool certificate_issued_by(const std::string& cert_pem, const std::string& ca_pem, const std::string& crl_pem,
+                           std::string* why) {
+  try {
+    const std::vector<X509Ptr> certs = parse_certificates(cert_pem);
+    if (certs.empty()) {
+      if (why) *why = "not a PEM certificate";
+      return false;
+    }
+    return chains_to_ca(certs, ca_pem, crl_pem, why);
+  } catch (const std::exception& e) {
+    if (why) *why = e.what();
+    return false;
+  }
+}
+
+VerifyReport verify_exam_evidence(const json& evidence, const std::string& ca_pem, const std::string& crl_pem,
+                                  bool require_server_signatures) {
+  Verifier v(ca_pem, crl_pem, require_server_signatures);
+  try {
+    v.run(evidence);
+  } catch (const std::exception& e) {  // out of memory and the like: still a report, never a throw
+    v.problem(std::string("evidence could not be checked: ") + e.what());
+  }
+  v.report.ok = v.report.problems.empty();
+  return std::move(v.report);
+}
+
+}  // namespace forklift::security
