@@ -13,6 +13,8 @@ packages=(
   cyclonedds-dev cyclonedds-tools
   # store, server, tools
   libsqlite3-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libcpp-httplib-dev libsodium-dev
+  # secured exams: the school's certificate authority, exam-log signatures, the loopback capture test
+  openssl libssl-dev tcpdump
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # the web pages' end-to-end test: headless Chromium (driven by playwright-core from npm, below)

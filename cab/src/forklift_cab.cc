@@ -42,6 +42,7 @@ struct Cab {
   bool tty = isatty(STDOUT_FILENO);
   fk_TruckState last{};
   bool have_state = false;
+  std::string session{};  // the session this cab drives, once the worker has said
 
   void send(double steer, double accel, double brake, double lift, double tilt, double shift, bool horn = false) {
     fk_Controls c{};
@@ -70,14 +71,19 @@ struct Cab {
   void hud() {
     heartbeat();
     if (!view.poll()) g_stop = true;  // the window was closed
+    states.take_each([&](const fk_TruckState& s) { last = s; have_state = true; });
     statuses.take_each([&](const fk_SessionStatus& s) {
       const std::string state = s.state;
-      if (id != s.cab_id || (state != "ended" && state != "failed")) return;
+      if (id != s.cab_id) return;
+      // Statuses are durable: a cab started later also hears of this cab's past sessions. Only
+      // the session it drives (named by the worker's "waiting"/"running" or its truck state) counts.
+      if (state == "waiting" || state == "running") session = s.session_id;
+      if (session.empty() && have_state) session = last.session_id;
+      if (s.session_id != session || (state != "ended" && state != "failed")) return;
       std::printf("%ssession %s %s%s%s\n", tty ? "\n" : "", s.session_id, state.c_str(), s.reason[0] ? ": " : "", s.reason);
       std::fflush(stdout);
-      if (state == "failed") g_stop = true;
+      g_stop = true;  // over: the cab goes back to its menu
     });
-    states.take_each([&](const fk_TruckState& s) { last = s; have_state = true; });
     const auto now = Clock::now();
     if (!have_state || now - last_hud < std::chrono::milliseconds(tty ? 100 : 1000)) return;
     last_hud = now;
@@ -191,7 +197,7 @@ int run_joystick(Cab& cab, const std::string& dev) {
 
 int main(int argc, char** argv) {
   CLI::App app{"forklift-cab: a cab's controls to its sim worker, and a head-up display"};
-  std::string cab_id, script, joystick, dds_config;
+  std::string cab_id, script, joystick, dds_config, security_dir, identity;
   bool keyboard = false;
   double wait_s = 10;
   std::optional<int> domain;
@@ -206,6 +212,8 @@ int main(int argc, char** argv) {
   app.add_option("--wait-worker", wait_s, "how long to wait for the worker before starting, s")->check(CLI::Range(0.0, 3600.0));
   app.add_option("--dds-domain", domain, "DDS domain id (default FORKLIFT_DDS_DOMAIN or 0)")->check(CLI::Range(0, 232));
   app.add_option("--dds-config", dds_config, "Cyclone DDS configuration file (default: loopback)")->check(CLI::ExistingFile);
+  app.add_option("--security", security_dir, "the school's DDS Security folder (scripts/forklift-pki.sh; default FORKLIFT_SECURITY_DIR)");
+  app.add_option("--identity", identity, "this cab's identity in it (default cab.<cab>)");
   app.add_flag("--no-window", no_window, "do not open a window for the frames even when a display is present");
   app.add_option("--save-frame", frames.save_last, "write the newest frame to this PNG at exit");
   app.add_option("--save-frames", frames.save_dir, "write every --save-every-th frame into this folder as PNG");
@@ -217,11 +225,15 @@ int main(int argc, char** argv) {
 
   try {
     const std::vector<ScriptRow> rows = script.empty() ? std::vector<ScriptRow>{} : read_script(script);
-    dds::Participant participant(dds::DomainSettings::resolve(domain, dds_config));
-    dds::Writer<fk_Controls> writer(participant, dds::cab_partition(cab_id));
-    dds::Reader<fk_TruckState> states(participant, dds::cab_partition(cab_id));
-    dds::Writer<fk_CabAnnounce> announce(participant);
-    dds::Reader<fk_SessionStatus> statuses(participant);
+    if (identity.empty()) identity = "cab." + cab_id;
+    dds::Participant participant(dds::DomainSettings::resolve(domain, dds_config, security_dir, identity));
+    // Everything this cab sends or reads lives in its own partition: with DDS Security its
+    // permissions allow nothing else.
+    const std::string own = dds::cab_partition(cab_id);
+    dds::Writer<fk_Controls> writer(participant, own);
+    dds::Reader<fk_TruckState> states(participant, own);
+    dds::Writer<fk_CabAnnounce> announce(participant, own);
+    dds::Reader<fk_SessionStatus> statuses(participant, own);
     FrameView view(participant, cab_id, frames);
     Cab cab{cab_id, writer, states, announce, statuses, view, !script.empty() ? "script" : keyboard ? "keyboard" : "joystick"};
     if (!wait_for_worker(cab, wait_s)) {

@@ -1,5 +1,7 @@
 #include "forklift/protocol.h"
 
+#include <unistd.h>
+
 #include <cstdlib>
 #include <vector>
 
@@ -7,7 +9,8 @@ namespace forklift::dds {
 
 std::string cab_partition(const std::string& cab_id) { return "cab." + cab_id; }
 
-DomainSettings DomainSettings::resolve(std::optional<int> domain_flag, const std::string& config_flag) {
+DomainSettings DomainSettings::resolve(std::optional<int> domain_flag, const std::string& config_flag,
+                                       const std::string& security_dir_flag, const std::string& identity) {
   DomainSettings s;
   if (domain_flag) {
     s.domain_id = static_cast<uint32_t>(*domain_flag);
@@ -21,12 +24,61 @@ DomainSettings DomainSettings::resolve(std::optional<int> domain_flag, const std
   } else {
     s.config_uri = "file://" FORKLIFT_DDS_CONFIG;
   }
+  std::string dir = security_dir_flag;
+  if (dir.empty())
+    if (const char* env = std::getenv("FORKLIFT_SECURITY_DIR")) dir = env;
+  if (!dir.empty() && !identity.empty()) {  // no identity: a program that takes no part in security
+    s.security = SecurityFiles{dir, identity};
+    s.security->check();
+  }
   return s;
 }
 
-dds_entity_t check(dds_entity_t e, const char* what) {
-  if (e < 0) throw std::runtime_error(std::string("DDS: cannot create ") + what + ": " + dds_strretcode(e));
+void SecurityFiles::check() const {
+  for (const std::string& f : {ca(), governance(), crl(), certificate(), private_key(), permissions()})
+    if (access(f.c_str(), R_OK) != 0)
+      throw std::runtime_error("DDS Security: cannot read " + f + " (make it with scripts/forklift-pki.sh)");
+  const std::string revoked = dir + "/identities/" + identity + "/REVOKED";
+  if (access(revoked.c_str(), F_OK) == 0) throw std::runtime_error("DDS Security: identity " + identity + " is revoked");
+}
+
+namespace {
+
+// The participant's security properties (DDS Security 1.1, section 9, plus Cyclone's CRL).
+// Per participant rather than in the XML configuration, so that the server, its workers and a
+// test's cabs can share one configuration file and each have its own identity.
+void set_security(dds_qos_t* q, const SecurityFiles& f) {
+  const std::string plugins = FORKLIFT_DDS_SECURITY_PLUGIN_DIR;
+  const std::pair<const char*, std::string> props[] = {
+      {"dds.sec.auth.library.path", plugins + "/libdds_security_auth.so"},
+      {"dds.sec.auth.library.init", "init_authentication"},
+      {"dds.sec.auth.library.finalize", "finalize_authentication"},
+      {"dds.sec.crypto.library.path", plugins + "/libdds_security_crypto.so"},
+      {"dds.sec.crypto.library.init", "init_crypto"},
+      {"dds.sec.crypto.library.finalize", "finalize_crypto"},
+      {"dds.sec.access.library.path", plugins + "/libdds_security_ac.so"},
+      {"dds.sec.access.library.init", "init_access_control"},
+      {"dds.sec.access.library.finalize", "finalize_access_control"},
+      {"dds.sec.auth.identity_ca", "file:" + f.ca()},
+      {"dds.sec.auth.identity_certificate", "file:" + f.certificate()},
+      {"dds.sec.auth.private_key", "file:" + f.private_key()},
+      {"org.eclipse.cyclonedds.sec.auth.crl", "file:" + f.crl()},
+      {"dds.sec.access.permissions_ca", "file:" + f.ca()},
+      {"dds.sec.access.governance", "file:" + f.governance()},
+      {"dds.sec.access.permissions", "file:" + f.permissions()},
+  };
+  for (const auto& [name, value] : props) dds_qset_prop(q, name, value.c_str());
+}
+
+}  // namespace
+
+dds_entity_t check(dds_entity_t e, const std::string& what) {
+  if (e < 0) throw std::runtime_error("DDS: cannot create " + what + ": " + dds_strretcode(e));
   return e;
+}
+
+std::string endpoint_name(const char* topic, const std::string& partition) {
+  return std::string(topic) + (partition.empty() ? " in the default partition" : " in partition " + partition);
 }
 
 dds_qos_t* make_qos(QosKind kind, const std::string& partition) {
@@ -53,7 +105,14 @@ dds_qos_t* make_qos(QosKind kind, const std::string& partition) {
 Participant::Participant(const DomainSettings& settings) {
   // Cyclone reads its configuration from CYCLONEDDS_URI when the domain is first created.
   setenv("CYCLONEDDS_URI", settings.config_uri.c_str(), 1);
-  handle_ = check(dds_create_participant(settings.domain_id, nullptr, nullptr), "participant");
+  dds_qos_t* qos = dds_create_qos();
+  if (settings.security) set_security(qos, *settings.security);
+  handle_ = dds_create_participant(settings.domain_id, qos, nullptr);
+  dds_delete_qos(qos);
+  if (handle_ < 0 && settings.security)
+    throw std::runtime_error("DDS Security: identity " + settings.security->identity +
+                             " refused (certificate, key, permissions or governance invalid for this CA): " + dds_strretcode(handle_));
+  check(handle_, "participant");
 }
 
 Participant::~Participant() { dds_delete(handle_); }

@@ -190,7 +190,7 @@ ControlLog read_control_log(const std::string& path) {
       else if (k == "truck") log.header.truck_file = rest;
       else if (k == "scenario") log.header.scenario_file = rest;
       else if (k == "mode") log.header.mode = rest;
-      else if (k == "e" || k == "score" || k == "dm") log.notes.push_back(line);
+      else if (k == "e" || k == "w" || k == "score" || k == "dm") log.notes.push_back(line);
       else if (k == "tick") log.header.tick_s = from_hex(w.at(1));
       else if (k == "integrator") {
         log.header.integrator.kind = parse_integrator(w.at(1));

@@ -10,12 +10,15 @@
 #include <csignal>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <thread>
 
 #include "forklift/cab_session.h"
+#include "forklift/evidence.h"
 #include "forklift/protocol.h"
 #include "forklift/render.h"
 
@@ -152,11 +155,22 @@ class FramePublisher {
   std::atomic<long> frames_{0};
 };
 
+// Writes <log>.sig: the log's hash signed with this worker's identity key.
+void sign_log(const std::string& log_file, const std::string& session, const std::string& cab, const dds::SecurityFiles& id) {
+  std::ifstream in(log_file, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  const nlohmann::json sig = security::sign_exam_log(session, cab, text.str(), id.private_key(), id.certificate());
+  std::ofstream out(log_file + ".sig");
+  out << sig.dump(2) << '\n';
+  if (!out) throw std::runtime_error("cannot write " + log_file + ".sig");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"forklift-worker: the real-time simulation of one cab's truck"};
-  std::string cab, session, scenario_file, log_file, dds_config, replay_file;
+  std::string cab, session, scenario_file, log_file, dds_config, replay_file, security_dir, identity;
   double rate = 60, deadman_s = 0.5, duration = 0, start_timeout = 0;
   std::optional<int> domain;
   FramePublisher::Options frames;
@@ -171,6 +185,8 @@ int main(int argc, char** argv) {
   app.add_option("--start-timeout", start_timeout, "fail if no cab speaks within this many seconds (0: wait)")->check(CLI::Range(0.0, 1e6));
   app.add_option("--dds-domain", domain, "DDS domain id (default FORKLIFT_DDS_DOMAIN or 0)")->check(CLI::Range(0, 232));
   app.add_option("--dds-config", dds_config, "Cyclone DDS configuration file (default: loopback)")->check(CLI::ExistingFile);
+  app.add_option("--security", security_dir, "the school's DDS Security folder (scripts/forklift-pki.sh; default FORKLIFT_SECURITY_DIR)");
+  app.add_option("--identity", identity, "this worker's identity in it (default worker.<cab>)");
   app.add_option("--mode", mode, "training or exam: how the evaluation marks the session")->check(CLI::IsMember({"training", "exam"}));
   app.add_option("--fps", frames.fps, "frames rendered and published per second (0: none)")->check(CLI::Range(0.0, 240.0));
   app.add_option("--frame-size", frame_size, "frame size, WxH");
@@ -186,6 +202,7 @@ int main(int argc, char** argv) {
         frames.height < 16 || frames.width > 4096 || frames.height > 4096)
       throw std::invalid_argument("--frame-size must be WxH, 16 to 4096 each");
     frames.view = parse_view(view_name_arg);
+    if (identity.empty()) identity = "worker." + cab;
   } catch (const CLI::Error& e) {
     return app.exit(e);
   } catch (const std::exception& e) {
@@ -198,7 +215,8 @@ int main(int argc, char** argv) {
 
   // Set-up failures are reported as a failed session when DDS is up, and always on stderr.
   std::unique_ptr<dds::Participant> participant;
-  std::unique_ptr<dds::Writer<fk_SessionStatus>> status_writer;
+  // The session's status goes to the server (default partition) and to the cab (its own).
+  std::unique_ptr<dds::Writer<fk_SessionStatus>> status_writer, cab_status_writer;
   auto publish_status = [&](const char* state, double t, const std::string& reason) {
     if (!status_writer) return;
     fk_SessionStatus s{};
@@ -208,11 +226,24 @@ int main(int argc, char** argv) {
     s.sim_time_s = t;
     dds::set_string(s.reason, reason);
     status_writer->write(s);
+    if (cab_status_writer) cab_status_writer->write(s);
   };
 
+  dds::DomainSettings dds_settings;
   try {
-    participant = std::make_unique<dds::Participant>(dds::DomainSettings::resolve(domain, dds_config));
+    dds_settings = dds::DomainSettings::resolve(domain, dds_config, security_dir, identity);
+    // A licence exam's result must be trusted: authenticated cab, encrypted traffic.
+    if (mode == "exam" && !dds_settings.secure())
+      throw std::runtime_error("exam mode needs DDS Security: give --security DIR (see scripts/forklift-pki.sh)");
+  } catch (const std::exception& e) {
+    std::cerr << "forklift-worker: " << e.what() << '\n';
+    return 2;
+  }
+
+  try {
+    participant = std::make_unique<dds::Participant>(dds_settings);
     status_writer = std::make_unique<dds::Writer<fk_SessionStatus>>(*participant);
+    cab_status_writer = std::make_unique<dds::Writer<fk_SessionStatus>>(*participant, dds::cab_partition(cab));
     dds::Writer<fk_TruckState> state_writer(*participant, dds::cab_partition(cab));
     dds::Writer<fk_Event> event_writer(*participant);
     dds::Writer<fk_Score> score_writer(*participant);
@@ -224,8 +255,8 @@ int main(int argc, char** argv) {
     const Simulation& sim = cab_session.sim();
     const TruckParams& truck = cab_session.truck();
     const std::string scenario_path = scenario_file.empty() ? "" : std::filesystem::absolute(scenario_file).string();
-    ControlLogWriter log(log_file.empty() ? session + ".ctl" : log_file,
-                         cab_session.log_header(session, cab, scenario_path));
+    if (log_file.empty()) log_file = session + ".ctl";
+    ControlLogWriter log(log_file, cab_session.log_header(session, cab, scenario_path));
     // Only now, with the session built, does the cab's writer match: a sample sent on that
     // match is read, not overwritten while the scene loads.
     dds::Reader<fk_Controls> controls(*participant, dds::cab_partition(cab));
@@ -355,6 +386,7 @@ int main(int argc, char** argv) {
         cab_session.set_deadman(false);
         log.note("dm " + std::to_string(tick) + " 0");
         publish_event("controls_resumed", 0, "controls from the cab again");
+        log.note("w " + std::to_string(tick) + " controls_resumed 0");  // a worker event, not the evaluation's
         log_line(cab, "controls resumed");
       }
       if (pending) {  // applied at the start of the next physics tick
@@ -404,6 +436,9 @@ int main(int argc, char** argv) {
     report(tick_events);
     log.note(score_line(score));
     log.finish(tick, sim.state());
+    // With an identity, the worker signs the finished log (controls, events, score) before the
+    // score goes out: the server chains it into the exam records (forklift-menu verify).
+    if (dds_settings.secure()) sign_log(log_file, session, cab, *dds_settings.security);
     publish_state();
     fk_Score sc{};
     dds::set_string(sc.session_id, session);

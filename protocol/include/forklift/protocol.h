@@ -60,12 +60,32 @@ template <> struct Topic<fk_SessionStatus> {
 // The partition that carries one cab's controls, state and frames.
 std::string cab_partition(const std::string& cab_id);
 
+// DDS Security with Cyclone's own plugins: the school's folder made by scripts/forklift-pki.sh
+// (CA, signed governance, CRL) and one identity in it (certificate, key, signed permissions),
+// named "<kind>.<id>": cab.cab1, worker.cab1, server.main.
+struct SecurityFiles {
+  std::string dir;
+  std::string identity;
+  std::string ca() const { return dir + "/ca.pem"; }
+  std::string governance() const { return dir + "/governance.p7s"; }
+  std::string crl() const { return dir + "/crl.pem"; }
+  std::string certificate() const { return dir + "/identities/" + identity + "/cert.pem"; }
+  std::string private_key() const { return dir + "/identities/" + identity + "/key.pem"; }
+  std::string permissions() const { return dir + "/identities/" + identity + "/permissions.p7s"; }
+  // Throws std::runtime_error naming the first file missing, or if the identity is revoked.
+  void check() const;
+};
+
 // Where a program's DDS settings come from: flag, else environment, else the repository's
-// loopback configuration and domain 0.
+// loopback configuration and domain 0. Security: --security DIR, else FORKLIFT_SECURITY_DIR,
+// else none; the identity is the program's own unless given (none given: no security).
 struct DomainSettings {
   uint32_t domain_id = 0;
   std::string config_uri;  // as CYCLONEDDS_URI takes it
-  static DomainSettings resolve(std::optional<int> domain_flag, const std::string& config_flag);
+  std::optional<SecurityFiles> security;
+  bool secure() const { return security.has_value(); }
+  static DomainSettings resolve(std::optional<int> domain_flag, const std::string& config_flag,
+                                const std::string& security_dir_flag = "", const std::string& identity = "");
 };
 
 // Copies a std::string into a bounded IDL string (char[N]), truncating if need be.
@@ -97,7 +117,9 @@ class Participant {
   dds_entity_t handle_;
 };
 
-dds_entity_t check(dds_entity_t e, const char* what);
+dds_entity_t check(dds_entity_t e, const std::string& what);
+// "fk_Controls in partition cab.cab1": what a refused reader or writer was for.
+std::string endpoint_name(const char* topic, const std::string& partition);
 
 template <typename T>
 class Writer {
@@ -105,7 +127,7 @@ class Writer {
   Writer(Participant& p, const std::string& partition = "") {
     dds_qos_t* qos = make_qos(Topic<T>::qos, partition);
     pub_ = check(dds_create_publisher(p.handle(), qos, nullptr), "publisher");
-    writer_ = check(dds_create_writer(pub_, p.topic<T>(), qos, nullptr), "writer");
+    writer_ = check(dds_create_writer(pub_, p.topic<T>(), qos, nullptr), "writer for " + endpoint_name(Topic<T>::name, partition));
     dds_delete_qos(qos);
   }
   ~Writer() { dds_delete(pub_); }
@@ -129,7 +151,7 @@ class Reader {
   Reader(Participant& p, const std::string& partition = "") {
     dds_qos_t* qos = make_qos(Topic<T>::qos, partition);
     sub_ = check(dds_create_subscriber(p.handle(), qos, nullptr), "subscriber");
-    reader_ = check(dds_create_reader(sub_, p.topic<T>(), qos, nullptr), "reader");
+    reader_ = check(dds_create_reader(sub_, p.topic<T>(), qos, nullptr), "reader for " + endpoint_name(Topic<T>::name, partition));
     dds_delete_qos(qos);
   }
   ~Reader() { dds_delete(sub_); }

@@ -73,7 +73,7 @@ struct ControlLog {
   LogHeader header;
   struct Entry { int64_t tick; uint32_t seq; DriverInputs inputs; };
   std::vector<Entry> entries;
-  std::vector<std::string> notes;            // event, score and dead-man lines, in order
+  std::vector<std::string> notes;            // event ("e" evaluation, "w" worker), score and dead-man lines, in order
   std::optional<int64_t> ticks;              // absent if the worker died before finishing
   std::optional<StateVector> final_state;
 };
