@@ -1,6 +1,7 @@
 // forklift-menu: the command-line side of the Menu Structure, a client of forklift-server's API
 // for the cab station and for scripting. The login token is kept in ~/.forklift-token (or
-// --token-file) so that later commands need no password.
+// --token-file) so that later commands need no password. An https:// server must prove itself with
+// a certificate signed by --ca (or FORKLIFT_CA, else one of the system's CAs).
 #include <httplib.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -12,17 +13,22 @@
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <thread>
+
+#include "forklift/evidence.h"
 
 using nlohmann::json;
 
 namespace {
 
 struct Client {
-  std::string server, token_file;
+  std::string server, token_file, ca;
 
   httplib::Client http() const {
     httplib::Client c(server);
+    if (!ca.empty()) c.set_ca_cert_path(ca);
+    c.enable_server_certificate_verification(true);  // httplib's default, relied on: never talk to an impostor
     c.set_connection_timeout(5);
     c.set_read_timeout(30);
     return c;
@@ -40,7 +46,7 @@ struct Client {
     httplib::Headers h;
     if (auth) h.emplace("Authorization", "Bearer " + token());
     httplib::Result r = method == "GET" ? c.Get(path, h) : c.Post(path, h, body.is_null() ? "" : body.dump(), "application/json");
-    if (!r) throw std::runtime_error("cannot reach " + server + " (" + httplib::to_string(r.error()) + ")");
+    if (!r) throw std::runtime_error(unreachable(r.error()));
     json j;
     try { j = json::parse(r->body); } catch (...) { j = r->body; }
     if (r->status >= 400) {
@@ -52,8 +58,20 @@ struct Client {
   std::string get_text(const std::string& path) const {
     auto c = http();
     auto r = c.Get(path, {{"Authorization", "Bearer " + token()}});
-    if (!r || r->status >= 400) throw std::runtime_error("export failed");
+    if (!r) throw std::runtime_error(unreachable(r.error()));
+    if (r->status >= 400) throw std::runtime_error("export failed (" + std::to_string(r->status) + ")");
     return r->body;
+  }
+  // Why a request got no answer, saying what to do about it.
+  std::string unreachable(httplib::Error e) const {
+    switch (e) {
+      case httplib::Error::SSLServerVerification:
+        return "refusing " + server + ": its certificate cannot be verified" + (ca.empty() ? "" : " with the CA in " + ca) +
+               " (give the CA that signed it with --ca FILE or FORKLIFT_CA)";
+      case httplib::Error::SSLLoadingCerts: return "cannot load the CA certificates" + (ca.empty() ? std::string() : " in " + ca);
+      case httplib::Error::SSLConnection: return "no TLS connection with " + server + " (does it serve https?)";
+      default: return "cannot reach " + server + " (" + httplib::to_string(e) + ")";
+    }
   }
 };
 
@@ -80,6 +98,64 @@ void print_history(const json& h) {
               h["licence"].is_null() ? "none" : ("due " + fmt(h["licence"]["reevaluation_due"])).c_str(), fmt(h["reevaluation_overdue"]).c_str());
 }
 
+// Prints the session's live state once a second (and keeps its newest frame) until it is over.
+int follow_session(const Client& cl, const std::string& id, const std::string& frame_file, double seconds) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds > 0 ? seconds : 1e9);
+  uint32_t saved = 0;
+  while (std::chrono::steady_clock::now() < until) {
+    const json s = cl.call("GET", "/api/sessions/" + id);
+    const std::string state = s["state"];
+    if (state != "waiting" && state != "running" && state != "starting") {
+      std::printf("session %s %s %s  mark %s\n", id.c_str(), state.c_str(), fmt(s["reason"]).c_str(), fmt(s["mark"]).c_str());
+      return 0;
+    }
+    if (state != "starting") {
+      const json v = cl.call("GET", "/api/sessions/" + id + "/live");
+      const json& t = v["state"];
+      if (t.is_null()) std::printf("session %s %s: waiting for the cab\n", id.c_str(), state.c_str());
+      else
+        std::printf("session %s t=%7.2f s  speed %5.2f m/s  forks %4.2f m  load %s  stability %3.0f%%%s\n", id.c_str(),
+                    t["sim_time_s"].get<double>(), t["speed_m_s"].get<double>(), t["lift_m"].get<double>(),
+                    t["load_attached"].get<bool>() ? (fmt(t["load_mass_kg"], 0) + " kg").c_str() : "none",
+                    100 * t["stability_margin"].get<double>(), t["deadman"].get<bool>() ? "  DEAD MAN" : "");
+      if (!frame_file.empty() && v["frame_available"].get<bool>() && v["frame_seq"].get<uint32_t>() != saved) {
+        std::ofstream(frame_file, std::ios::binary) << cl.get_text("/api/sessions/" + id + "/live/frame.jpg");
+        saved = v["frame_seq"].get<uint32_t>();
+      }
+      std::fflush(stdout);
+    }
+    std::this_thread::sleep_for(std::chrono::seconds(1));
+  }
+  return 0;
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot read " + path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Fetches the exam's evidence and checks it here, against the school's CA: the server is not
+// trusted to say its own records are intact. Exit 0 if intact, 3 if not.
+int verify_exam(const Client& cl, const std::string& id, const std::string& ca_file, const std::string& crl_file) {
+  const json evidence = cl.call("GET", "/api/sessions/" + id + "/evidence");
+  const auto report = forklift::security::verify_exam_evidence(evidence, read_file(ca_file), crl_file.empty() ? "" : read_file(crl_file),
+                                                               /*require_server_signatures=*/true);
+  for (const std::string& line : report.passed) std::printf("ok    %s\n", line.c_str());
+  for (const std::string& line : report.problems) std::printf("FAIL  %s\n", line.c_str());
+  if (report.ok) {
+    const json& r = evidence["record"];
+    std::printf("verified: exam %s of pupil %s, mark %s, %s, examiner %s: record, log and signatures intact\n", id.c_str(),
+                fmt(r["pupil_id"]).c_str(), fmt(r["mark"]).c_str(), r["passed"] == true ? "passed" : "not passed", fmt(r["examiner"]).c_str());
+    return 0;
+  }
+  std::printf("NOT VERIFIED: exam %s has %zu problem(s): its stored record or log was changed after the exam\n", id.c_str(),
+              report.problems.size());
+  return 3;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -89,7 +165,10 @@ int main(int argc, char** argv) {
   cl.server = "http://127.0.0.1:8080";
   const char* home = std::getenv("HOME");
   cl.token_file = std::string(home ? home : ".") + "/.forklift-token";
-  app.add_option("--server", cl.server, "the server's base URL");
+  app.add_option("--server", cl.server, "the server's base URL, http:// or https://");
+  app.add_option("--ca", cl.ca, "PEM file of the CA that signed an https server's certificate (default: the system's CAs)")
+      ->envname("FORKLIFT_CA")
+      ->check(CLI::ExistingFile);
   app.add_option("--token-file", cl.token_file, "where the login token is kept");
 
   std::string username, password, name, email, search, cab, scenario, mode = "training", drive, session, out;
@@ -126,6 +205,24 @@ int main(int argc, char** argv) {
   auto* exp = app.add_subcommand("export", "a pupil's history as CSV");
   exp->add_option("--pupil", pupil)->required();
   exp->add_option("--out", out, "file (default: stdout)");
+  // Remote exams: follow one live, abort it, and check a finished one's evidence.
+  std::string school_ca, school_crl, frame_file;
+  double follow_s = 0;
+  const char* sec_dir = std::getenv("FORKLIFT_SECURITY_DIR");
+  if (sec_dir) {
+    school_ca = std::string(sec_dir) + "/ca.pem";
+    if (std::filesystem::exists(std::string(sec_dir) + "/crl.pem")) school_crl = std::string(sec_dir) + "/crl.pem";
+  }
+  auto* follow = app.add_subcommand("follow", "follow a running session: the truck's state once a second, the newest frame");
+  follow->add_option("ID", session)->required();
+  follow->add_option("--frame", frame_file, "keep the newest frame in this JPEG file");
+  follow->add_option("--seconds", follow_s, "stop after this long (default: when the session is over)")->check(CLI::Range(0.0, 86400.0));
+  auto* abort_cmd = app.add_subcommand("abort", "abort a running session");
+  abort_cmd->add_option("ID", session)->required();
+  auto* verify = app.add_subcommand("verify", "check a practical exam's record, log and signatures against the school's CA");
+  verify->add_option("ID", session)->required();
+  verify->add_option("--school-ca", school_ca, "the school's CA certificate (default $FORKLIFT_SECURITY_DIR/ca.pem)")->check(CLI::ExistingFile);
+  verify->add_option("--crl", school_crl, "the school's revocation list (default $FORKLIFT_SECURITY_DIR/crl.pem)")->check(CLI::ExistingFile);
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -190,6 +287,14 @@ int main(int argc, char** argv) {
     } else if (*exp) {
       const std::string csv = cl.get_text("/api/pupils/" + std::to_string(pupil) + "/history.csv");
       if (out.empty()) std::cout << csv; else std::ofstream(out) << csv;
+    } else if (*follow) {
+      return follow_session(cl, session, frame_file, follow_s);
+    } else if (*abort_cmd) {
+      const json s = cl.call("POST", "/api/sessions/" + session + "/abort");
+      std::printf("session %s %s: %s\n", fmt(s["id"]).c_str(), fmt(s["state"]).c_str(), fmt(s["reason"]).c_str());
+    } else if (*verify) {
+      if (school_ca.empty()) throw std::runtime_error("verify needs the school's CA: --school-ca FILE or FORKLIFT_SECURITY_DIR");
+      return verify_exam(cl, session, school_ca, school_crl);
     }
     return 0;
   } catch (const std::exception& e) {

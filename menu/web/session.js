@@ -3,7 +3,7 @@
 // exists. While the session runs, the page refreshes every two seconds.
 'use strict';
 (() => {
-  const { api, el, clear, requireLogin, say, describeError, dateTime, num, param, isStaff, worryName } = FL;
+  const { api, el, clear, requireLogin, say, describeError, dateTime, num, param, isStaff, worryName, pct } = FL;
   const me = requireLogin();
   const id = param('id');
   const message = document.getElementById('message');
@@ -157,11 +157,54 @@
     return s;
   }
 
+  // Live follow for staff (the remote examiner): the truck's state and the cab's view, twice a
+  // second while the session runs. The frame comes as a blob (the token never goes in a URL).
+  let liveUrl = null, liveBusy = false;
+  async function live(s) {
+    const box = document.getElementById('live');
+    const running = isStaff(me) && (s.state === 'waiting' || s.state === 'running');
+    box.hidden = !running;
+    if (!running || liveBusy) return;
+    liveBusy = true;
+    try {
+      const v = await api('GET', `/sessions/${encodeURIComponent(s.id)}/live`);
+      const dl = clear(document.getElementById('live-state'));
+      if (v.state) {
+        fact(dl, 'Time', `${num(v.state.sim_time_s)} s`);
+        fact(dl, 'Speed', `${num(v.state.speed_m_s, 2)} m/s`);
+        fact(dl, 'Forks', `${num(v.state.lift_m, 2)} m`);
+        fact(dl, 'Load', v.state.load_attached ? `${num(v.state.load_mass_kg, 0)} kg` : 'none');
+        fact(dl, 'Stability', pct(v.state.stability_margin));
+        if (v.state.deadman) fact(dl, 'Dead man', badge('failed', 'cab silent: truck stopped'));
+      } else {
+        fact(dl, 'Truck', 'waiting for the cab');
+      }
+      if (!v.frame_available && !liveUrl) fact(dl, 'View', el('span', { class: 'muted' }, 'no frames from this cab\'s worker'));
+      if (v.frame_available) {
+        const blob = await api('GET', `/sessions/${encodeURIComponent(s.id)}/live/frame.jpg`);
+        const old = liveUrl;
+        liveUrl = URL.createObjectURL(blob);
+        const img = document.getElementById('live-frame');
+        img.src = liveUrl;
+        img.hidden = false;
+        if (old) URL.revokeObjectURL(old);
+      }
+    } catch (e) {
+      console.warn(e);
+    } finally {
+      liveBusy = false;
+    }
+  }
+
   if (!id) { say(message, 'Which session? Open this page from a pupil or the fleet.'); return; }
+  let shown = null;  // the session as last fetched
+  FL.poll(async () => { if (shown) await live(shown); }, 500, () => shown && TERMINAL.includes(shown.state));
   // Until the session is over, and then a little longer for its mark (the score follows the end).
   let done = false, endedAt = null;
   FL.poll(async () => {
     const s = await refresh();
+    if (s) shown = s;
+    if (s && TERMINAL.includes(s.state)) live(s);  // hides the panel
     if (!s || !TERMINAL.includes(s.state)) return;
     endedAt = endedAt || Date.now();
     done = s.mark !== null || Date.now() - endedAt > 30000;

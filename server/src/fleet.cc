@@ -1,5 +1,9 @@
 #include "fleet.h"
 
+#include "exam_evidence.h"
+
+#include "forklift/render.h"
+
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -15,6 +19,10 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// Who the audit log names for what workers report over DDS.
+const store::Actor kWorker{std::nullopt, "worker"};
+const store::Actor kServer{std::nullopt, "server"};  // the supervisor's own findings
+
 bool terminal(const std::string& state) { return state == "ended" || state == "failed" || state == "aborted"; }
 
 std::string slurp(const std::string& path) {
@@ -27,7 +35,8 @@ std::string slurp(const std::string& path) {
 }  // namespace
 
 Fleet::Fleet(FleetConfig config) : config_(std::move(config)) {
-  participant_ = std::make_unique<dds::Participant>(dds::DomainSettings::resolve(config_.dds_domain, config_.dds_config));
+  participant_ = std::make_unique<dds::Participant>(
+      dds::DomainSettings::resolve(config_.dds_domain, config_.dds_config, config_.security_dir, config_.identity));
   status_writer_ = std::make_unique<dds::Writer<fk_SessionStatus>>(*participant_);
   // A restarted server adopts the sessions still open: their workers keep running on their own
   // and keep reporting over DDS; without a child pid they are supervised by their heartbeat.
@@ -59,6 +68,11 @@ void Fleet::start_worker(const store::Session& s, const std::string& scenario_fi
     throw std::runtime_error("this machine already runs " + std::to_string(workers_.size()) + " workers (the limit)");
   for (const auto& [id, w] : workers_)
     if (w.cab == s.cab_id) throw std::runtime_error("cab " + s.cab_id + " is running session " + id);
+  if (secure()) {
+    // The worker's identity must exist before it is spawned: a clear refusal now, not a failed
+    // session later. The cab's identity is the cab's business (it lives on the cab).
+    dds::SecurityFiles{config_.security_dir, "worker." + s.cab_id}.check();
+  }
   const std::string base = config_.log_dir + "/" + s.public_id;
   std::vector<std::string> args = {config_.worker_binary, "--cab", s.cab_id, "--session", s.public_id,
                                    "--scenario", scenario_file, "--dds-domain", std::to_string(config_.dds_domain),
@@ -66,6 +80,7 @@ void Fleet::start_worker(const store::Session& s, const std::string& scenario_fi
                                    "--mode", s.mode};
   if (duration_s) { args.push_back("--duration"); args.push_back(std::to_string(*duration_s)); }
   if (!config_.dds_config.empty()) { args.push_back("--dds-config"); args.push_back(config_.dds_config); }
+  if (secure()) { args.push_back("--security"); args.push_back(config_.security_dir); }
   args.insert(args.end(), config_.worker_args.begin(), config_.worker_args.end());
   const pid_t pid = fork();
   if (pid < 0) throw std::runtime_error(std::string("fork: ") + std::strerror(errno));
@@ -126,11 +141,66 @@ void Fleet::publish_status(const std::string& session, const std::string& cab, c
   dds::set_string(s.state, state);
   dds::set_string(s.reason, reason);
   status_writer_->write(s);
+  // The cab reads its own partition only.
+  std::lock_guard<std::mutex> lock(mu_);
+  auto& w = cab_status_writers_[cab];
+  if (!w) w = std::make_unique<dds::Writer<fk_SessionStatus>>(*participant_, dds::cab_partition(cab));
+  w->write(s);
+}
+
+std::optional<LiveView> Fleet::follow(const std::string& session) {
+  std::lock_guard<std::mutex> lock(mu_);
+  const auto w = workers_.find(session);
+  if (w == workers_.end()) return std::nullopt;
+  Followed& f = followed_[w->second.cab];
+  if (!f.frames) f.frames = std::make_unique<dds::Reader<fk_Frame>>(*participant_, dds::cab_partition(w->second.cab));
+  f.last_asked = Clock::now();
+  LiveView v = f.view;
+  if (const auto st = latest_state_.find(session); st != latest_state_.end()) {
+    v.state = st->second;
+    v.have_state = true;
+  }
+  return v;
+}
+
+void Fleet::take_followed_frames() {
+  constexpr auto kFollowIdle = std::chrono::seconds(10);
+  std::lock_guard<std::mutex> lock(mu_);
+  for (auto it = followed_.begin(); it != followed_.end();) {
+    if (Clock::now() - it->second.last_asked > kFollowIdle) { it = followed_.erase(it); continue; }
+    LiveView& v = it->second.view;
+    // Keep-last-1 readers: at most a few samples wait here; encode only the newest. `head` keeps
+    // the scalars only: its pixel buffer is returned to DDS with the loan.
+    std::vector<uint8_t> pixels;
+    fk_Frame head{};
+    const bool got = it->second.frames->take_each([&](const fk_Frame& f) {
+      head = f;
+      pixels.assign(f.pixels._buffer, f.pixels._buffer + f.pixels._length);
+    }) > 0;
+    if (got) {
+      try {
+        if (std::string(head.encoding) == "jpeg") {
+          v.jpeg = std::move(pixels);
+        } else if (std::string(head.encoding) == "rgb8" && pixels.size() == size_t(head.width) * head.height * 3) {
+          Image img;
+          img.width = head.width;
+          img.height = head.height;
+          img.rgb = std::move(pixels);
+          v.jpeg = encode_jpeg(img, 80);
+        }
+        v.frame_seq = head.seq;
+        v.frame_sim_time_s = head.sim_time_s;
+      } catch (const std::exception& e) {
+        std::cerr << "forklift-server: frame from cab " << it->first << ": " << e.what() << std::endl;
+      }
+    }
+    ++it;
+  }
 }
 
 void Fleet::fail(store::Store& db, const std::string& session, const std::string& cab, const std::string& reason) {
   // Never a pass: a session whose worker died is failed with the reason, and the cab is told.
-  if (db.set_session_state(session, "failed", reason, store::now_iso8601())) {
+  if (db.set_session_state_audited(session, "failed", reason, store::now_iso8601(), kServer)) {
     std::cerr << "forklift-server: session " << session << " failed: " << reason << std::endl;
     publish_status(session, cab, "failed", reason);
   }
@@ -138,6 +208,7 @@ void Fleet::fail(store::Store& db, const std::string& session, const std::string
 
 void Fleet::supervise() {
   auto db = store::Store::open_sqlite(config_.db_path);
+  std::vector<std::pair<std::string, Clock::time_point>> to_chain;  // ended exams, until when to wait
   while (!stop_) {
     std::vector<std::pair<WorkerInfo, std::string>> finished;  // worker, failure reason ("" if clean)
     {
@@ -165,13 +236,23 @@ void Fleet::supervise() {
           reason = "worker lost across a server restart";
           done = true;
         }
-        if (done) { finished.push_back({w, reason}); it = workers_.erase(it); } else ++it;
+        if (done) {
+          finished.push_back({w, reason});
+          latest_state_.erase(it->first);
+          it = workers_.erase(it);
+        } else {
+          ++it;
+        }
       }
     }
     for (const auto& [w, reason] : finished) {
       const std::string base = config_.log_dir + "/" + w.session;
       db->put_session_log(w.session, "control", slurp(base + ".ctl"));
       db->put_session_log(w.session, "worker", slurp(base + ".err"));
+      if (std::ifstream(base + ".ctl.sig")) {
+        db->put_session_log(w.session, "signature", slurp(base + ".ctl.sig"));
+        to_chain.push_back({w.session, Clock::now() + std::chrono::seconds(15)});
+      }
       if (!reason.empty()) {
         fail(*db, w.session, w.cab, reason);
       } else {
@@ -182,11 +263,29 @@ void Fleet::supervise() {
           const std::string err = slurp(base + ".err");
           const bool gave_up = err.find("no controls within") != std::string::npos;
           if (gave_up) fail(*db, w.session, w.cab, "the cab never spoke");
-          else db->set_session_state(w.session, "ended", "worker exited", store::now_iso8601());
+          else db->set_session_state_audited(w.session, "ended", "worker exited", store::now_iso8601(), kServer);
         }
       }
     }
+    chain_ended_exams(*db, to_chain);
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+}
+
+void Fleet::chain_ended_exams(store::Store& db, std::vector<std::pair<std::string, Clock::time_point>>& pending) {
+  const dds::SecurityFiles me{config_.security_dir, config_.identity};
+  for (auto it = pending.begin(); it != pending.end();) {
+    const bool late = Clock::now() > it->second;
+    ChainResult r = ChainResult::kNotSignable;
+    try {
+      // Its score and events come over DDS and may still be on their way.
+      r = chain_exam(db, it->first, secure() ? me.private_key() : "", secure() ? me.certificate() : "", late);
+    } catch (const std::exception& e) {
+      std::cerr << "forklift-server: cannot chain exam " << it->first << ": " << e.what() << std::endl;
+    }
+    if (r == ChainResult::kNotReady && !late) { ++it; continue; }
+    if (r == ChainResult::kNotReady) std::cerr << "forklift-server: exam " << it->first << " never got its score: not chained" << std::endl;
+    it = pending.erase(it);
   }
 }
 
@@ -196,7 +295,7 @@ void Fleet::ingest() {
   dds::Reader<fk_Score> scores(*participant_);
   dds::Reader<fk_SessionStatus> statuses(*participant_);
   dds::Reader<fk_TruckState> states(*participant_, "cab.*");
-  dds::Reader<fk_CabAnnounce> announces(*participant_);
+  dds::Reader<fk_CabAnnounce> announces(*participant_, "cab.*");
   dds::WaitSet ws(*participant_);
   for (dds_entity_t r : {events.handle(), scores.handle(), statuses.handle(), states.handle(), announces.handle()})
     ws.attach_reader(r);
@@ -211,13 +310,13 @@ void Fleet::ingest() {
         if (!db->get_session(s.session_id)) return;
         store::ScoreRecord r{s.session_id, s.mark, s.passed, {}};
         for (uint32_t i = 0; i < s.counts._length; ++i) r.counts[s.counts._buffer[i].kind] = int(s.counts._buffer[i].count);
-        db->set_score(r, store::now_iso8601());
+        db->set_score_audited(r, store::now_iso8601(), kWorker);
       });
       statuses.take_each([&](const fk_SessionStatus& s) {
         const std::string state = s.state;
         if (!db->get_session(s.session_id)) return;
         if (state == "waiting" || state == "running" || state == "ended" || state == "failed")
-          db->set_session_state(s.session_id, state, s.reason, store::now_iso8601());
+          db->set_session_state_audited(s.session_id, state, s.reason, store::now_iso8601(), kWorker);
       });
       std::vector<std::string> announced;
       std::map<std::string, std::vector<store::PathPoint>> path;  // by session, downsampled
@@ -226,6 +325,7 @@ void Fleet::ingest() {
       states.take_each([&](const fk_TruckState& t) {
         auto it = workers_.find(t.session_id);
         if (it != workers_.end()) {
+          latest_state_[t.session_id] = t;
           it->second.last_state = Clock::now();
           it->second.seen_state = true;
           it->second.sim_time_s = t.sim_time_s;
@@ -246,6 +346,7 @@ void Fleet::ingest() {
         announced.push_back(c.id);
       });
       }
+      take_followed_frames();
       for (const std::string& cab : announced) db->cab_seen(cab, 1, store::now_iso8601());  // the default school
       for (const auto& [session, points] : path) db->add_path_points(session, points);
     } catch (const std::exception& e) {

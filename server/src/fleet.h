@@ -26,6 +26,8 @@ struct FleetConfig {
   std::string log_dir;        // worker logs and control logs
   int dds_domain = 0;
   std::string dds_config;     // empty: default resolution
+  std::string security_dir;   // the school's DDS Security folder; empty: no security (training only)
+  std::string identity = "server.main";  // the server's identity in it
   int max_workers = 8;
   double hang_timeout_s = 5;  // a running worker with no TruckState for this long is killed
   double start_timeout_s = 120;
@@ -40,6 +42,15 @@ struct WorkerInfo {
   bool seen_state = false;
   double sim_time_s = 0, speed_m_s = 0;
   std::optional<double> last_path_point_s;  // sim time of the last path point stored
+};
+
+// What an examiner following a session sees: the newest truck state and rendered frame.
+struct LiveView {
+  fk_TruckState state{};
+  bool have_state = false;
+  std::vector<uint8_t> jpeg;  // the newest frame, JPEG-encoded; empty until one arrives
+  uint32_t frame_seq = 0;
+  double frame_sim_time_s = 0;
 };
 
 struct CabInfo {
@@ -62,17 +73,36 @@ class Fleet {
   std::vector<CabInfo> cabs_online(double within_s = 3.0);
   bool cab_busy(const std::string& cab);
   const FleetConfig& config() const { return config_; }
+  bool secure() const { return !config_.security_dir.empty(); }
+
+  // Live follow: the session's newest state and frame. Asking subscribes to the cab's frames
+  // (until nobody has asked for kFollowIdle); the first frame arrives a moment later.
+  // nullopt if the session has no running worker here.
+  std::optional<LiveView> follow(const std::string& session);
 
  private:
   void supervise();  // thread: reap exits, detect hangs
   void ingest();     // thread: DDS -> store
   void fail(store::Store& db, const std::string& session, const std::string& cab, const std::string& reason);
   void publish_status(const std::string& session, const std::string& cab, const char* state, const std::string& reason);
+  void take_followed_frames();  // ingest thread
+  // Appends the ended exams whose score has arrived to the hash chain; keeps the others until
+  // their deadline (supervisor thread).
+  void chain_ended_exams(store::Store& db, std::vector<std::pair<std::string, std::chrono::steady_clock::time_point>>& pending);
+
+  struct Followed {  // a cab whose frames an examiner watches
+    std::unique_ptr<dds::Reader<fk_Frame>> frames;
+    std::chrono::steady_clock::time_point last_asked;
+    LiveView view;
+  };
 
   FleetConfig config_;
   std::mutex mu_;
   std::map<std::string, WorkerInfo> workers_;  // by session
   std::map<std::string, CabInfo> cabs_;
+  std::map<std::string, fk_TruckState> latest_state_;  // by session
+  std::map<std::string, Followed> followed_;            // by cab
+  std::map<std::string, std::unique_ptr<dds::Writer<fk_SessionStatus>>> cab_status_writers_;  // by cab
   std::unique_ptr<dds::Participant> participant_;
   std::unique_ptr<dds::Writer<fk_SessionStatus>> status_writer_;
   std::atomic<bool> stop_{false};

@@ -5,8 +5,10 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <cerrno>
 #include <cmath>
 #include <csignal>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -15,6 +17,8 @@
 #include <random>
 #include <regex>
 
+#include "auth.h"
+#include "exam_evidence.h"
 #include "fleet.h"
 #include "plan.h"
 #include "stills.h"
@@ -22,6 +26,7 @@
 
 using namespace forklift;
 using nlohmann::json;
+using server::Principal;
 using store::Role;
 
 namespace {
@@ -43,48 +48,6 @@ void send_error(httplib::Response& res, int status, const std::string& code, con
 }
 
 // ---------------------------------------------------------------- auth
-struct Principal {
-  int64_t user_id = 0;
-  std::string username;
-  Role role = Role::kPupil;
-  int64_t school_id = 0;
-  std::optional<int64_t> pupil_id;
-  std::chrono::steady_clock::time_point expires;
-};
-
-class Tokens {
- public:
-  explicit Tokens(double ttl_s) : ttl_(ttl_s) {}
-  std::string issue(const Principal& p) {
-    unsigned char raw[32];
-    randombytes_buf(raw, sizeof raw);
-    char hex[65];
-    sodium_bin2hex(hex, sizeof hex, raw, sizeof raw);
-    Principal q = p;
-    q.expires = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(ttl_));
-    std::lock_guard<std::mutex> lock(mu_);
-    tokens_[hex] = q;
-    return hex;
-  }
-  std::optional<Principal> check(const std::string& token) {
-    std::lock_guard<std::mutex> lock(mu_);
-    auto it = tokens_.find(token);
-    if (it == tokens_.end()) return std::nullopt;
-    if (std::chrono::steady_clock::now() > it->second.expires) { tokens_.erase(it); return std::nullopt; }
-    return it->second;
-  }
-  void revoke(const std::string& token) {
-    std::lock_guard<std::mutex> lock(mu_);
-    tokens_.erase(token);
-  }
-  double ttl() const { return ttl_; }
-
- private:
-  double ttl_;
-  std::mutex mu_;
-  std::map<std::string, Principal> tokens_;
-};
-
 // Argon2id, libsodium's interactive limits: memory-hard, about 0.1 s per hash here.
 std::string hash_password(const std::string& pw) {
   char out[crypto_pwhash_STRBYTES];
@@ -96,10 +59,20 @@ bool verify_password(const std::string& hash, const std::string& pw) {
   return crypto_pwhash_str_verify(hash.c_str(), pw.c_str(), pw.size()) == 0;
 }
 
+// The options' defaults: logins and their failures.
+constexpr double kDefaultTokenTtlS = 8 * 3600;
+constexpr int kDefaultLoginAttempts = 5;
+constexpr double kDefaultLoginWindowS = 60;
+// Unless given, an address may fail this many times as many logins as one username: the cab
+// stations of a school often reach the server through one address.
+constexpr int kAddressAttemptsPerUserAttempt = 4;
+constexpr size_t kMinPasswordLength = 8;
+
 // ---------------------------------------------------------------- context
 struct Context {
   std::string db_path, data_dir;
-  std::unique_ptr<Tokens> tokens;
+  std::unique_ptr<server::Tokens> tokens;
+  std::unique_ptr<server::LoginThrottle> logins;
   std::unique_ptr<server::Fleet> fleet;
   std::unique_ptr<server::QuestionBank> bank;  // data/theory/questions.json, loaded at start
   std::unique_ptr<server::PlanCache> plans;
@@ -117,9 +90,10 @@ struct Context {
 Principal authenticate(Context& ctx, const httplib::Request& req) {
   const std::string h = req.get_header_value("Authorization");
   if (h.rfind("Bearer ", 0) != 0) throw ApiError(401, "unauthenticated", "log in first: Authorization: Bearer <token>");
-  const auto p = ctx.tokens->check(h.substr(7));
-  if (!p) throw ApiError(401, "unauthenticated", "the token is unknown or has expired: log in again");
-  return *p;
+  const auto c = ctx.tokens->check(h.substr(7));
+  if (c.expired) throw ApiError(401, "token_expired", "this login has expired: log in again");
+  if (!c.principal) throw ApiError(401, "unauthenticated", "the token is unknown or was logged out: log in again");
+  return *c.principal;
 }
 
 void require_role(const Principal& p, std::initializer_list<Role> roles) {
@@ -170,6 +144,62 @@ int64_t path_id(const httplib::Request& req, int i = 1) {
 
 json pupil_json(const store::Pupil& p) {
   return {{"id", p.id}, {"name", p.name}, {"email", p.email}, {"created_at", p.created_at}};
+}
+
+// The fields of a pupil that staff may edit, as an audit row shows them before and after.
+json pupil_fields(const store::Pupil& p) { return {{"name", p.name}, {"email", p.email}}; }
+
+void check_pupil_name(const std::string& name) {
+  if (name.empty() || name.size() > 200) throw ApiError(400, "bad_request", "'name' must have 1-200 characters");
+}
+
+// The hash of the body's new "password", hashed before any write lock is taken (0.1 s).
+std::string new_password_hash(const json& b) {
+  const std::string pw = field<std::string>(b, "password");
+  if (pw.size() < kMinPasswordLength)
+    throw ApiError(400, "bad_request", "passwords have at least " + std::to_string(kMinPasswordLength) + " characters");
+  return hash_password(pw);
+}
+
+// A whole-number query parameter clamped to [0, hi], or `dflt` when absent.
+int query_int(const httplib::Request& req, const char* key, int dflt, int hi) {
+  if (!req.has_param(key)) return dflt;
+  try {
+    return std::clamp(std::stoi(req.get_param_value(key)), 0, hi);
+  } catch (const std::exception&) {
+    throw ApiError(400, "bad_request", std::string("'") + key + "' must be a number");
+  }
+}
+
+// ---------------------------------------------------------------- audit
+// Writers that are not a logged-in user.
+const store::Actor kServerActor{std::nullopt, "server"};
+
+store::Actor actor_of(const Principal& p) { return {p.user_id, p.username}; }
+
+// Records a change `p` made to a pupil's record. Call it inside the db.batch() that makes the
+// change, so that the change and its row commit together or not at all.
+void audit(store::Store& db, const Principal& p, int64_t pupil_id, const std::string& action, const json& details) {
+  store::AuditRecord r;
+  r.actor = actor_of(p);
+  r.pupil_id = pupil_id;
+  r.action = action;
+  r.details = details.dump();
+  db.add_audit(r);
+}
+
+json audit_json(const store::AuditRecord& r) {
+  return {{"id", r.id}, {"at", r.at}, {"actor_user_id", r.actor.user_id ? json(*r.actor.user_id) : json(nullptr)},
+          {"actor", r.actor.name}, {"pupil_id", r.pupil_id}, {"action", r.action},
+          {"details", json::parse(r.details, nullptr, false)}};
+}
+
+// One page of audit rows, newest first, from the request's limit and offset.
+json audit_page(store::Store& db, const store::AuditScope& scope, const httplib::Request& req) {
+  json out = json::array();
+  for (const auto& r : db.list_audit(scope, query_int(req, "limit", 100, 1000), query_int(req, "offset", 0, 1 << 30)))
+    out.push_back(audit_json(r));
+  return out;
 }
 
 json session_json(const store::Session& s) {
@@ -271,7 +301,8 @@ std::string csv_escape(const std::string& s) {
   return out + "\"";
 }
 
-json history_json(const store::PupilHistory& h) {
+// `examiners`: usernames of the users who examined, by id (the exam records name them).
+json history_json(const store::PupilHistory& h, const std::map<int64_t, std::string>& examiners = {}) {
   json sessions = json::array(), exams = json::array(), marks = json::array();
   for (const auto& s : h.sessions) {
     sessions.push_back(session_json(s));
@@ -279,7 +310,8 @@ json history_json(const store::PupilHistory& h) {
   }
   for (const auto& e : h.exams) {
     json x = {{"id", e.id}, {"kind", e.kind}, {"score", e.score}, {"passed", e.passed}, {"taken_at", e.taken_at},
-              {"session", e.session_public_id ? json(*e.session_public_id) : json(nullptr)}};
+              {"session", e.session_public_id ? json(*e.session_public_id) : json(nullptr)},
+              {"examiner", e.examiner_id && examiners.count(*e.examiner_id) ? json(examiners.at(*e.examiner_id)) : json(nullptr)}};
     if (e.kind == "theory") {  // the paper it marked, and how many questions were right
       const json d = json::parse(e.details, nullptr, false);
       if (d.is_object()) {
@@ -366,6 +398,18 @@ bool is_staff(const Principal& p) { return p.role != Role::kPupil; }
 
 // The session named by the path's first match, if `p` may see it. A function, not a lambda local
 // to routes(): handlers run after routes() has returned.
+store::Session session_for(Context& ctx, const httplib::Request& req, const Principal& p);
+
+// The session of the request, for staff, with what the fleet sees of it now (live follow).
+std::pair<store::Session, server::LiveView> followed(Context& ctx, const httplib::Request& req) {
+  const Principal p = authenticate(ctx, req);
+  require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
+  const store::Session s = session_for(ctx, req, p);
+  const auto v = ctx.fleet->follow(s.public_id);
+  if (!v) throw ApiError(409, "not_running", "session " + s.public_id + " has no running worker (" + s.state + ")");
+  return {s, *v};
+}
+
 store::Session session_for(Context& ctx, const httplib::Request& req, const Principal& p) {
   const auto s = ctx.db().get_session(req.matches[1]);
   if (!s) throw ApiError(404, "not_found", "no session " + std::string(req.matches[1]));
@@ -398,9 +442,19 @@ void routes(httplib::Server& svr, Context& ctx) {
 
   svr.Post("/api/login", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const json b = body_json(req);
-    const auto user = ctx.db().find_user(field<std::string>(b, "username"));
-    if (!user || !verify_password(user->password_hash, field<std::string>(b, "password")))
+    const std::string username = field<std::string>(b, "username"), password = field<std::string>(b, "password");
+    // Checked before the password, so that a locked-out guesser learns nothing from it.
+    if (const int wait_s = ctx.logins->retry_after(username, req.remote_addr)) {
+      res.set_header("Retry-After", std::to_string(wait_s));
+      throw ApiError(429, "too_many_attempts",
+                     "too many failed logins for this user or from this address: try again in " + std::to_string(wait_s) + " s");
+    }
+    const auto user = ctx.db().find_user(username);
+    if (!user || !verify_password(user->password_hash, password)) {
+      ctx.logins->failed(username, req.remote_addr);
       throw ApiError(401, "bad_credentials", "unknown user or wrong password");
+    }
+    ctx.logins->succeeded(username);
     Principal p{user->id, user->username, user->role, user->school_id, user->pupil_id, {}};
     send_json(res, 200, {{"token", ctx.tokens->issue(p)}, {"role", store::role_name(user->role)},
                          {"expires_in_s", ctx.tokens->ttl()}, {"pupil_id", user->pupil_id ? json(*user->pupil_id) : json(nullptr)}});
@@ -419,23 +473,24 @@ void routes(httplib::Server& svr, Context& ctx) {
     const json b = body_json(req);
     const auto role = store::parse_role(field<std::string>(b, "role"));
     if (!role) throw ApiError(400, "bad_request", "'role' must be admin, instructor, examiner or pupil");
-    const std::string pw = field<std::string>(b, "password");
-    if (pw.size() < 8) throw ApiError(400, "bad_request", "passwords have at least 8 characters");
+    const std::string username = field<std::string>(b, "username");
+    const std::string hash = new_password_hash(b);
     std::optional<int64_t> pupil;
     if (*role == Role::kPupil) pupil = visible_pupil(ctx, p, field<int64_t>(b, "pupil_id")).id;
-    const int64_t id = ctx.db().create_user(field<std::string>(b, "username"), hash_password(pw), *role, p.school_id, pupil);
+    int64_t id = 0;
+    ctx.db().batch([&] {
+      id = ctx.db().create_user(username, hash, *role, p.school_id, pupil);
+      if (pupil) audit(ctx.db(), p, *pupil, "login_created", {{"user_id", id}, {"username", username}});
+    });
     send_json(res, 201, {{"id", id}});
   }));
 
   svr.Get("/api/pupils", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
     require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
-    auto num = [&](const char* k, int dflt, int hi) {
-      if (!req.has_param(k)) return dflt;
-      try { return std::clamp(std::stoi(req.get_param_value(k)), 0, hi); } catch (...) { throw ApiError(400, "bad_request", std::string("'") + k + "' must be a number"); }
-    };
     json out = json::array();
-    for (const auto& pupil : ctx.db().list_pupils(p.school_id, req.get_param_value("search"), num("limit", 100, 1000), num("offset", 0, 1 << 30)))
+    for (const auto& pupil : ctx.db().list_pupils(p.school_id, req.get_param_value("search"), query_int(req, "limit", 100, 1000),
+                                                  query_int(req, "offset", 0, 1 << 30)))
       out.push_back(pupil_json(pupil));
     send_json(res, 200, out);
   }));
@@ -445,15 +500,57 @@ void routes(httplib::Server& svr, Context& ctx) {
     require_role(p, {Role::kAdmin, Role::kInstructor});
     const json b = body_json(req);
     const std::string name = field<std::string>(b, "name");
-    if (name.empty() || name.size() > 200) throw ApiError(400, "bad_request", "'name' must have 1-200 characters");
-    const int64_t id = ctx.db().create_pupil(p.school_id, name, field<std::string>(b, "email", std::string()));
+    check_pupil_name(name);
+    const std::string email = field<std::string>(b, "email", std::string());
     // Optionally the pupil's own login, so they can see their records and take theory exams.
+    std::optional<std::string> username, hash;
     if (b.contains("username")) {
-      const std::string pw = field<std::string>(b, "password");
-      if (pw.size() < 8) throw ApiError(400, "bad_request", "passwords have at least 8 characters");
-      ctx.db().create_user(field<std::string>(b, "username"), hash_password(pw), Role::kPupil, p.school_id, id);
+      username = field<std::string>(b, "username");
+      hash = new_password_hash(b);
     }
+    int64_t id = 0;
+    ctx.db().batch([&] {
+      id = ctx.db().create_pupil(p.school_id, name, email);
+      if (username) ctx.db().create_user(*username, *hash, Role::kPupil, p.school_id, id);
+      audit(ctx.db(), p, id, "pupil_created", {{"name", name}, {"email", email}, {"username", username ? json(*username) : json(nullptr)}});
+    });
     send_json(res, 201, pupil_json(*ctx.db().get_pupil(id)));
+  }));
+
+  // Corrects a pupil's name or email; the audit row keeps both versions. No change, no row.
+  svr.Patch(R"(/api/pupils/(\d+))", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    require_role(p, {Role::kAdmin, Role::kInstructor});
+    const json b = body_json(req);
+    for (const auto& [key, value] : b.items())
+      if (key != "name" && key != "email") throw ApiError(400, "bad_request", "'" + key + "' cannot be edited: only name and email");
+    store::Pupil after;
+    ctx.db().batch([&] {  // read inside, so that the "before" recorded is the version replaced
+      const store::Pupil before = visible_pupil(ctx, p, path_id(req));
+      after = before;
+      after.name = field<std::string>(b, "name", before.name);
+      after.email = field<std::string>(b, "email", before.email);
+      check_pupil_name(after.name);
+      if (after.name == before.name && after.email == before.email) return;
+      ctx.db().update_pupil(after.id, after.name, after.email);
+      audit(ctx.db(), p, after.id, "pupil_edited", {{"before", pupil_fields(before)}, {"after", pupil_fields(after)}});
+    });
+    send_json(res, 200, pupil_json(after));
+  }));
+
+  // Every change to one pupil's record, newest first: staff of the pupil's school.
+  svr.Get(R"(/api/pupils/(\d+)/audit)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
+    const store::Pupil pupil = visible_pupil(ctx, p, path_id(req));
+    send_json(res, 200, audit_page(ctx.db(), {pupil.id, std::nullopt}, req));
+  }));
+
+  // Every change to the records of the school's pupils, newest first: admin only.
+  svr.Get("/api/audit", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    require_role(p, {Role::kAdmin});
+    send_json(res, 200, audit_page(ctx.db(), {std::nullopt, p.school_id}, req));
   }));
 
   svr.Get(R"(/api/pupils/(\d+))", guarded([&](const httplib::Request& req, httplib::Response& res) {
@@ -464,7 +561,12 @@ void routes(httplib::Server& svr, Context& ctx) {
   svr.Get(R"(/api/pupils/(\d+)/history)", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
     const store::Pupil pupil = visible_pupil(ctx, p, path_id(req));
-    send_json(res, 200, history_json(*ctx.db().history(pupil.id, store::now_iso8601())));
+    const store::PupilHistory h = *ctx.db().history(pupil.id, store::now_iso8601());
+    std::map<int64_t, std::string> examiners;
+    for (const auto& e : h.exams)
+      if (e.examiner_id && !examiners.count(*e.examiner_id))
+        if (const auto u = ctx.db().get_user(*e.examiner_id)) examiners[*e.examiner_id] = u->username;
+    send_json(res, 200, history_json(h, examiners));
   }));
 
   svr.Get(R"(/api/pupils/(\d+)/history\.csv)", guarded([&](const httplib::Request& req, httplib::Response& res) {
@@ -487,8 +589,13 @@ void routes(httplib::Server& svr, Context& ctx) {
     const Principal p = authenticate(ctx, req);
     require_role(p, {Role::kAdmin, Role::kExaminer});
     const store::Pupil pupil = visible_pupil(ctx, p, path_id(req));
-    ctx.db().add_licence(pupil.id, store::now_iso8601(), p.username);
-    send_json(res, 201, history_json(*ctx.db().history(pupil.id, store::now_iso8601()))["licence"]);
+    json licence;
+    ctx.db().batch([&] {
+      ctx.db().add_licence(pupil.id, store::now_iso8601(), p.username);
+      licence = history_json(*ctx.db().history(pupil.id, store::now_iso8601()))["licence"];
+      audit(ctx.db(), p, pupil.id, "licence_issued", licence);
+    });
+    send_json(res, 201, licence);
   }));
 
   svr.Get("/api/scenarios", guarded([&](const httplib::Request& req, httplib::Response& res) {
@@ -568,7 +675,12 @@ void routes(httplib::Server& svr, Context& ctx) {
     const auto sc = all.find(scenario);
     if (sc == all.end()) throw ApiError(404, "not_found", "no scenario '" + scenario + "'");
     const std::string mode = field<std::string>(b, "mode", std::string("training"));
-    if (mode == "exam") require_role(p, {Role::kAdmin, Role::kExaminer});
+    if (mode == "exam") {
+      require_role(p, {Role::kAdmin, Role::kExaminer});
+      // A licence exam's result must be trusted: authenticated cab, encrypted traffic, signed log.
+      if (!ctx.fleet->secure())
+        throw ApiError(409, "security_required", "exams need DDS Security: start the server with --security DIR (scripts/forklift-pki.sh)");
+    }
     if (ctx.fleet->cab_busy(cab)) throw ApiError(409, "cab_busy", "cab " + cab + " is already running a session");
     std::optional<double> duration;
     json run;  // the scenario as this session runs it
@@ -619,11 +731,17 @@ void routes(httplib::Server& svr, Context& ctx) {
       if (!(limit > 0 && limit <= 24 * 3600)) throw ApiError(400, "bad_request", "'time_limit_s' must be in (0, 86400]");
       duration = duration ? std::min(*duration, limit) : limit;
     }
-    const store::Session s = ctx.db().create_session(pupil.id, cab, scenario, mode,
-                                                      mode == "exam" ? std::optional<int64_t>(p.user_id) : std::nullopt,
-                                                      store::now_iso8601());
+    store::Session s;
+    ctx.db().batch([&] {
+      s = ctx.db().create_session(pupil.id, cab, scenario, mode, mode == "exam" ? std::optional<int64_t>(p.user_id) : std::nullopt,
+                                  store::now_iso8601());
+      ctx.db().put_session_log(s.public_id, "scenario", run.dump(2));
+      const auto [truck, load] = scenario_setup(run);
+      audit(ctx.db(), p, pupil.id, "session_started",
+            {{"session", s.public_id}, {"mode", mode}, {"cab", cab}, {"scenario", scenario},
+             {"time_limit_s", duration ? json(*duration) : json(nullptr)}, {"truck", truck}, {"load", load}});
+    });
     std::string file = sc->second;
-    ctx.db().put_session_log(s.public_id, "scenario", run.dump(2));
     if (own_copy) {
       file = ctx.fleet->config().log_dir + "/" + s.public_id + ".scenario.json";
       std::ofstream(file) << run.dump(2) << '\n';
@@ -631,7 +749,7 @@ void routes(httplib::Server& svr, Context& ctx) {
     try {
       ctx.fleet->start_worker(s, file, duration);
     } catch (const std::exception& e) {
-      ctx.db().set_session_state(s.public_id, "failed", e.what(), store::now_iso8601());
+      ctx.db().set_session_state_audited(s.public_id, "failed", e.what(), store::now_iso8601(), kServerActor);
       throw ApiError(503, "no_worker", e.what());
     }
     send_json(res, 201, session_json(*ctx.db().get_session(s.public_id)));
@@ -698,10 +816,40 @@ void routes(httplib::Server& svr, Context& ctx) {
     const Principal p = authenticate(ctx, req);
     require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
     const store::Session s = session_for(ctx, req, p);
-    if (!ctx.db().set_session_state(s.public_id, "aborted", "aborted by " + p.username, store::now_iso8601()))
+    if (!ctx.db().set_session_state_audited(s.public_id, "aborted", "aborted by " + p.username, store::now_iso8601(), actor_of(p)))
       throw ApiError(409, "session_over", "session " + s.public_id + " is already " + s.state);
     ctx.fleet->abort(s.public_id);
     send_json(res, 200, session_json(*ctx.db().get_session(s.public_id)));
+  }));
+
+  // Live follow (the remote examiner): the newest truck state, and whether a frame is there to
+  // fetch from /live/frame.jpg. Asking keeps the server subscribed to the cab's frames.
+  svr.Get(R"(/api/sessions/(s-\d+)/live)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const auto [s, v] = followed(ctx, req);
+    json state = nullptr;
+    if (v.have_state) {
+      const fk_TruckState& t = v.state;
+      state = {{"sim_time_s", t.sim_time_s}, {"x_m", t.x_m}, {"y_m", t.y_m}, {"yaw_deg", t.yaw_rad * 180 / M_PI},
+               {"speed_m_s", t.speed_m_s}, {"lift_m", t.lift_m}, {"tilt_deg", t.tilt_rad * 180 / M_PI},
+               {"load_attached", t.load_attached}, {"load_mass_kg", t.load_mass_kg}, {"stability_margin", t.stability_margin},
+               {"deadman", t.deadman}, {"applied_control_sequence", t.applied_control_sequence}};
+    }
+    send_json(res, 200, {{"session", s.public_id}, {"state", state}, {"frame_available", !v.jpeg.empty()},
+                         {"frame_seq", v.frame_seq}, {"frame_sim_time_s", v.frame_sim_time_s}});
+  }));
+
+  svr.Get(R"(/api/sessions/(s-\d+)/live/frame\.jpg)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const auto [s, v] = followed(ctx, req);
+    if (v.jpeg.empty()) throw ApiError(404, "no_frame", "no frame from cab " + s.cab_id + " yet (the worker renders none, or it is starting)");
+    res.set_content(std::string(v.jpeg.begin(), v.jpeg.end()), "image/jpeg");
+  }));
+
+  // A chained exam's evidence, for `forklift-menu verify`, which checks it against the school's CA.
+  svr.Get(R"(/api/sessions/(s-\d+)/evidence)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
+    const store::Session s = session_for(ctx, req, p);
+    send_json(res, 200, server::exam_evidence(ctx.db(), s));
   }));
 
   svr.Get("/api/fleet", guarded([&](const httplib::Request& req, httplib::Response& res) {
@@ -791,7 +939,10 @@ void routes(httplib::Server& svr, Context& ctx) {
     a.questions = json{{"bank_version", ctx.bank->version}, {"ids", server::draw_paper(*ctx.bank, static_cast<uint64_t>(seed))}}.dump();
     a.started_at = store::now_iso8601();
     a.started_by = p.user_id;
-    a.id = ctx.db().create_theory_attempt(a);
+    ctx.db().batch([&] {
+      a.id = ctx.db().create_theory_attempt(a);
+      audit(ctx.db(), p, a.pupil_id, "theory_paper_handed_out", {{"attempt", a.id}, {"seed", a.seed}, {"bank_version", ctx.bank->version}});
+    });
     send_json(res, 201, attempt_json(ctx, a));
   }));
 
@@ -838,7 +989,11 @@ void routes(httplib::Server& svr, Context& ctx) {
     r.details = json{{"attempt", a.id}, {"seed", a.seed}, {"bank_version", ctx.bank->version}, {"pass_mark", ctx.bank->pass_mark},
                      {"correct", m.correct}, {"total", m.total}, {"by_topic", by_topic}, {"answers", items},
                      {"marked_by", p.username}}.dump();
-    r.id = ctx.db().finish_theory_attempt(a.id, r);
+    ctx.db().batch([&] {
+      r.id = ctx.db().finish_theory_attempt(a.id, r);
+      audit(ctx.db(), p, a.pupil_id, "theory_marked",
+            {{"attempt", a.id}, {"exam_id", r.id}, {"score", m.score}, {"passed", m.passed}, {"correct", m.correct}, {"total", m.total}});
+    });
     send_json(res, 200, attempt_json(ctx, *ctx.db().get_theory_attempt(a.id)));
   }));
 
@@ -915,6 +1070,25 @@ void security_headers(const httplib::Request& req, httplib::Response& res) {
   if (!res.has_header("Cache-Control")) res.set_header("Cache-Control", req.path.rfind("/api/", 0) == 0 ? "no-store" : "no-cache");
 }
 
+// Fails with a message naming the option when `path` cannot be read (httplib would only say no).
+void require_readable(const std::string& option, const std::string& path) {
+  std::ifstream in(path);
+  char c;
+  if (!in || !in.get(c)) throw std::runtime_error(option + " " + path + ": cannot read it (" + std::strerror(errno) + ")");
+}
+
+// HTTPS with the certificate and key when both are given, else plain HTTP.
+std::unique_ptr<httplib::Server> make_http_server(const std::string& cert, const std::string& key) {
+  if (cert.empty() != key.empty()) throw std::runtime_error("--tls-cert and --tls-key go together: give both or neither");
+  if (cert.empty()) return std::make_unique<httplib::Server>();
+  require_readable("--tls-cert", cert);
+  require_readable("--tls-key", key);
+  auto svr = std::make_unique<httplib::SSLServer>(cert.c_str(), key.c_str());
+  if (!svr->is_valid())
+    throw std::runtime_error("--tls-cert " + cert + " and --tls-key " + key + " are not a PEM certificate and its private key");
+  return svr;
+}
+
 std::atomic<httplib::Server*> g_server{nullptr};
 void on_signal(int) {
   if (auto* s = g_server.load()) s->stop();
@@ -926,7 +1100,10 @@ int main(int argc, char** argv) {
   CLI::App app{"forklift-server: pupils, sessions, exams and the sim-worker fleet, over HTTP/JSON"};
   std::string db_path = "forklift.db", listen = "127.0.0.1:8080", log_dir, dds_config, admin_password, web_dir;
   std::optional<int> domain;
-  double token_ttl = 8 * 3600;
+  double token_ttl = kDefaultTokenTtlS;
+  std::string tls_cert, tls_key, security_dir, identity = "server.main";
+  server::LoginThrottle::Limits login_limits{kDefaultLoginAttempts, 0, kDefaultLoginWindowS};
+  std::optional<int> login_address_attempts;
   int max_workers = 8;
   double hang_timeout = 5;
   double frame_fps = 30;
@@ -943,12 +1120,25 @@ int main(int argc, char** argv) {
   app.add_option("--frame-size", frame_size, "size of those frames, WxH");
   app.add_flag("--frame-jpeg", frame_jpeg, "send frames as JPEG (cabs on a real network) instead of raw RGB");
   app.add_option("--token-ttl", token_ttl, "how long a login lasts, s")->check(CLI::Range(1.0, 30.0 * 86400));
+  app.add_option("--tls-cert", tls_cert, "serve HTTPS with this PEM certificate (chain); needs --tls-key");
+  app.add_option("--tls-key", tls_key, "the PEM private key of --tls-cert");
+  app.add_option("--login-attempts", login_limits.per_user, "failed logins of one username within --login-window before it is locked out for the window")
+      ->check(CLI::Range(1, 1000));
+  app.add_option("--login-address-attempts", login_address_attempts,
+                 "failed logins from one client address within --login-window before it is locked out (default 4 x --login-attempts)")
+      ->check(CLI::Range(1, 100000));
+  app.add_option("--login-window", login_limits.window_s, "the window of --login-attempts, and the lockout, s")->check(CLI::Range(1.0, 86400.0));
+  app.add_option("--security", security_dir, "the school's DDS Security folder (scripts/forklift-pki.sh; default FORKLIFT_SECURITY_DIR): "
+                 "needed for exams")->envname("FORKLIFT_SECURITY_DIR");
+  app.add_option("--identity", identity, "the server's identity in it");
   app.add_option("--admin-password", admin_password, "password of the 'admin' account created with a new database (else FORKLIFT_ADMIN_PASSWORD, else random)");
   app.add_option("--web-dir", web_dir, "the built web pages (default: web/ beside bin/ in the build tree)");
   CLI11_PARSE(app, argc, argv);
 
   try {
     if (sodium_init() < 0) throw std::runtime_error("libsodium failed to initialise");
+    const std::unique_ptr<httplib::Server> svr = make_http_server(tls_cert, tls_key);  // first: a bad flag changes nothing
+    login_limits.per_address = login_address_attempts.value_or(kAddressAttemptsPerUserAttempt * login_limits.per_user);
     const auto colon = listen.rfind(':');
     if (colon == std::string::npos) throw std::runtime_error("--listen must be address:port");
     const std::string host = listen.substr(0, colon);
@@ -959,7 +1149,8 @@ int main(int argc, char** argv) {
     Context ctx;
     ctx.db_path = db_path;
     ctx.data_dir = FORKLIFT_DATA_DIR;
-    ctx.tokens = std::make_unique<Tokens>(token_ttl);
+    ctx.tokens = std::make_unique<server::Tokens>(token_ttl);
+    ctx.logins = std::make_unique<server::LoginThrottle>(login_limits);
     ctx.bank = std::make_unique<server::QuestionBank>(server::load_question_bank(ctx.data_dir + "/theory/questions.json"));
     ctx.plans = std::make_unique<server::PlanCache>(ctx.data_dir);
     // A new database gets the default school and its administrator.
@@ -985,6 +1176,8 @@ int main(int argc, char** argv) {
     fc.log_dir = log_dir;
     fc.dds_domain = dds::DomainSettings::resolve(domain, dds_config).domain_id;
     fc.dds_config = dds_config;
+    fc.security_dir = security_dir;
+    fc.identity = identity;
     fc.max_workers = max_workers;
     fc.hang_timeout_s = hang_timeout;
     fc.worker_args = {"--fps", std::to_string(frame_fps), "--frame-size", frame_size};
@@ -993,32 +1186,31 @@ int main(int argc, char** argv) {
     ctx.stills = std::make_unique<server::Stills>((self.parent_path() / "forklift-render").string(), log_dir + "/stills", ctx.data_dir);
     if (web_dir.empty()) web_dir = (self.parent_path().parent_path() / "web").string();
 
-    httplib::Server svr;
-    svr.set_payload_max_length(1 << 20);  // 1 MiB: no request of this API needs more
+    svr->set_payload_max_length(1 << 20);  // 1 MiB: no request of this API needs more
     // Headers and body go out as separate writes; without this, Nagle and delayed ACKs hold each
     // keep-alive answer for 40 ms.
-    svr.set_tcp_nodelay(true);
-    svr.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
+    svr->set_tcp_nodelay(true);
+    svr->set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
       std::string what = "internal error";
       try { std::rethrow_exception(ep); } catch (const std::exception& e) { what = e.what(); } catch (...) {}
       send_error(res, 500, "internal", what);
     });
-    svr.set_error_handler([](const httplib::Request&, httplib::Response& res) {
+    svr->set_error_handler([](const httplib::Request&, httplib::Response& res) {
       if (!res.body.empty()) return;
       const int s = res.status;
       send_error(res, s, s == 404 ? "not_found" : s == 413 ? "too_large" : "error", s == 404 ? "no such endpoint" : s == 413 ? "the body is larger than 1 MiB" : "request refused");
     });
-    routes(svr, ctx);
+    routes(*svr, ctx);
     // The web pages (menu/web/, copied with the chart library into the build's web/), at /.
-    if (!std::filesystem::is_directory(web_dir) || !svr.set_mount_point("/", web_dir))
+    if (!std::filesystem::is_directory(web_dir) || !svr->set_mount_point("/", web_dir))
       std::cerr << "forklift-server: no web pages at " << web_dir << ": serving the API only" << std::endl;
-    svr.set_post_routing_handler(security_headers);
-    g_server = &svr;
+    svr->set_post_routing_handler(security_headers);
+    g_server = svr.get();
     std::signal(SIGTERM, on_signal);
     std::signal(SIGINT, on_signal);
-    if (!svr.bind_to_port(host, port)) throw std::runtime_error("cannot listen on " + listen);
-    std::cerr << "forklift-server: listening on http://" << listen << " (db " << db_path << ", DDS domain " << fc.dds_domain << ")" << std::endl;
-    svr.listen_after_bind();
+    if (!svr->bind_to_port(host, port)) throw std::runtime_error("cannot listen on " + listen);
+    std::cerr << "forklift-server: listening on " << (tls_cert.empty() ? "http://" : "https://") << listen << " (db " << db_path << ", DDS domain " << fc.dds_domain << ")" << std::endl;
+    svr->listen_after_bind();
     g_server = nullptr;
     return 0;
   } catch (const std::exception& e) {

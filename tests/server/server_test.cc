@@ -65,13 +65,7 @@ TEST(Server, LoginRolesAndVisibility) {
   EXPECT_EQ(s.call("GET", "/api/pupils", "not-a-token").first, 401);
 }
 
-TEST(Server, TokensExpire) {
-  Server s(18102, 102, "ttl", {"--token-ttl", "1"});
-  const std::string admin = s.login("admin", kAdminPassword);
-  EXPECT_EQ(s.call("GET", "/api/pupils", admin).first, 200);
-  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
-  EXPECT_EQ(error_code(s.call("GET", "/api/pupils", admin).second), "unauthenticated");
-}
+// Token expiry (token_expired) is in http_security_test.cc.
 
 TEST(Server, BadRequestsGetTheDocumentedErrorAndTheServerStaysUp) {
   Server s(18103, 103, "bad");

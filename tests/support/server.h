@@ -1,5 +1,6 @@
 // A real forklift-server for a test: its own loopback port, DDS domain and SQLite file in a
-// fresh folder, and small helpers for its JSON API.
+// fresh folder, and small helpers for its JSON API (over https when given the CA of the server's
+// certificate, whose --tls-cert and --tls-key then go in `extra`).
 #pragma once
 
 #include <gtest/gtest.h>
@@ -26,10 +27,11 @@ struct Server {
 
   int port, domain;
   std::string dir, db;
+  std::string ca;  // empty: plain http
   std::unique_ptr<Process> proc;
 
-  Server(int port_, int domain_, const std::string& name, std::vector<std::string> extra = {})
-      : port(port_), domain(domain_), dir(testing::TempDir() + "/server-" + name) {
+  Server(int port_, int domain_, const std::string& name, std::vector<std::string> extra = {}, std::string ca_file = {})
+      : port(port_), domain(domain_), dir(testing::TempDir() + "/server-" + name), ca(std::move(ca_file)) {
     std::filesystem::remove_all(dir);
     std::filesystem::create_directories(dir);
     db = dir + "/forklift.db";
@@ -40,14 +42,19 @@ struct Server {
                                      "--dds-domain", std::to_string(domain), "--admin-password", kAdminPassword};
     args.insert(args.end(), extra.begin(), extra.end());
     proc = std::make_unique<Process>(args, dir + "/server-" + std::to_string(std::rand()));
-    httplib::Client c("127.0.0.1", port);
+    httplib::Client c = client();
     for (int i = 0; i < 200; ++i) {
       if (auto r = c.Get("/api/health"); r && r->status == 200) return;
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
     ADD_FAILURE() << "server did not come up: " << proc->err();
   }
-  httplib::Client client() const { return httplib::Client("127.0.0.1", port); }
+  std::string url() const { return (ca.empty() ? "http://127.0.0.1:" : "https://127.0.0.1:") + std::to_string(port); }
+  httplib::Client client() const {
+    httplib::Client c(url());
+    if (!ca.empty()) c.set_ca_cert_path(ca);
+    return c;
+  }
 
   // Status and JSON body of one request.
   std::pair<int, json> call(const std::string& method, const std::string& path, const std::string& token = "",
@@ -55,7 +62,9 @@ struct Server {
     auto c = client();
     httplib::Headers h;
     if (!token.empty()) h.emplace("Authorization", "Bearer " + token);
-    auto r = method == "GET" ? c.Get(path, h) : c.Post(path, h, body, "application/json");
+    auto r = method == "GET"     ? c.Get(path, h)
+             : method == "PATCH" ? c.Patch(path, h, body, "application/json")
+                                 : c.Post(path, h, body, "application/json");
     if (!r) return {0, nullptr};
     json j;
     try { j = json::parse(r->body); } catch (...) { j = r->body; }

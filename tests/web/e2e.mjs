@@ -103,8 +103,15 @@ const base = `http://127.0.0.1:${port}`;
 const adminPassword = 'web-admin-pass';
 const serverBin = path.join(args.bin, 'forklift-server');
 const cabBin = path.join(args.bin, 'forklift-cab');
+// The school's DDS Security material (exams need it): a CA, the two cabs with their workers, the server.
+const pki = path.join(out, 'pki');
+const pkiTool = path.join(path.dirname(args.data), 'scripts', 'forklift-pki.sh');
+fs.rmSync(pki, { recursive: true, force: true });
+execFileSync(pkiTool, ['init', pki, '--school', 'Web School'], { stdio: 'ignore' });
+for (const cab of ['webcab1', 'webcab2']) execFileSync(pkiTool, ['add-cab', pki, cab], { stdio: 'ignore' });
+execFileSync(pkiTool, ['issue', pki, 'server', 'main'], { stdio: 'ignore' });
 const serverArgs = ['--db', path.join(out, 'forklift.db'), '--listen', `127.0.0.1:${port}`, '--dds-domain', String(domain),
-                    '--admin-password', adminPassword, '--log-dir', path.join(out, 'logs')];
+                    '--admin-password', adminPassword, '--log-dir', path.join(out, 'logs'), '--security', pki];
 if (supports(serverBin, '--frame-fps')) serverArgs.push('--frame-fps', '0');  // no cab video: two cores are shared
 const server = start('server', serverBin, serverArgs);
 
@@ -214,9 +221,10 @@ try {
   // Two cab stations: webcab1 for a training drive in the warehouse, webcab2 for a practical exam
   // on the paper's manoeuvre 1 with its shipped script (a drive the evaluator passes).
   const noWindow = supports(cabBin, '--no-window') ? ['--no-window'] : [];
-  start('cab', cabBin, ['--cab', 'webcab1', '--script', script, '--dds-domain', String(domain), '--wait-worker', '90', ...noWindow]);
+  start('cab', cabBin, ['--cab', 'webcab1', '--script', script, '--dds-domain', String(domain), '--wait-worker', '90',
+                        '--security', pki, ...noWindow]);
   start('cab2', cabBin, ['--cab', 'webcab2', '--script', path.join(args.data, 'manoeuvres', 'manoeuvre_1.csv'),
-                         '--dds-domain', String(domain), '--wait-worker', '90', ...noWindow]);
+                         '--dds-domain', String(domain), '--wait-worker', '90', '--security', pki, ...noWindow]);
 
   await step('the cabs come on line', async () => {
     for (let i = 0; i < 100; i++) {
@@ -246,7 +254,15 @@ try {
     sessionId = (await page.textContent('#started-status')).match(/s-\d+/)[0];
     // The practical exam on the other cab, through the API as the menu would start it.
     examId = (await api('POST', '/sessions', adminToken, { pupil_id: pupilId, cab_id: 'webcab2', scenario: 'manoeuvre_1',
-                                                            mode: 'exam', time_limit_s: 8 })).id;
+                                                            mode: 'exam', time_limit_s: 15 })).id;
+  });
+
+  await step('follow the exam live, as a remote examiner', async () => {
+    await page.goto(`${base}/session.html?id=${examId}`);
+    await page.waitForFunction(() => !document.getElementById('live').hidden
+                                     && /Speed/.test(document.getElementById('live-state').textContent));
+    check(/Abort/.test(await page.textContent('#actions')), 'the examiner can abort it');
+    await shot('session-live');
   });
 
   await step('watch them run on the fleet page', async () => {
@@ -278,7 +294,8 @@ try {
     if (s.mark === null) {
       const counts = {};
       for (const e of s.events) if (e.worry_level > 0) counts[e.kind] = (counts[e.kind] || 0) + 1;
-      const argv = ['--session', id, '--mark', String(fallbackMark), '--passed', '1', '--dds-domain', String(domain)];
+      const argv = ['--session', id, '--mark', String(fallbackMark), '--passed', '1', '--dds-domain', String(domain),
+                    '--security', pki, '--identity', `worker.${s.cab_id}`];
       for (const [k, n] of Object.entries(counts)) argv.push('--count', `${k}=${n}`);
       execFileSync(args.score, argv, { stdio: 'inherit', timeout: 30000 });
       for (let i = 0; i < 50 && s.mark === null; i++) { await sleep(100); s = await api('GET', `/sessions/${id}`, adminToken); }

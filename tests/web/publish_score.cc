@@ -23,10 +23,13 @@ int main(int argc, char** argv) {
   app.add_option("--passed", passed, "1 if passed")->required();
   app.add_option("--dds-domain", domain, "DDS domain id")->required();
   app.add_option("--count", counts, "faults of a kind, kind=n");
+  std::string security_dir, identity;
+  app.add_option("--security", security_dir, "DDS Security folder (a secured server hears only identities of its school)");
+  app.add_option("--identity", identity, "the identity to publish as (a worker's: worker.<cab>)");
   CLI11_PARSE(app, argc, argv);
   try {
     using namespace forklift;
-    dds::Participant participant(dds::DomainSettings::resolve(domain, ""));
+    dds::Participant participant(dds::DomainSettings::resolve(domain, "", security_dir, identity));
     dds::Writer<fk_Score> writer(participant);
     // The server's reader must be matched, else a volatile hand-over could miss it.
     for (int i = 0; i < 200 && writer.matched() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));

@@ -1,0 +1,123 @@
+#include "auth.h"
+
+#include <sodium.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace forklift::server {
+
+namespace {
+
+// Below this many entries a throttle table is never pruned: a sweep would cost more than it frees.
+constexpr size_t kMinPruneAt = 1024;
+
+Clock::duration seconds(double s) {
+  return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- Tokens
+
+Tokens::Tokens(double ttl_s, size_t remember_expired) : ttl_(ttl_s), remember_expired_(remember_expired) {}
+
+std::string Tokens::issue(const Principal& p) {
+  unsigned char raw[32];
+  randombytes_buf(raw, sizeof raw);
+  char hex[65];
+  sodium_bin2hex(hex, sizeof hex, raw, sizeof raw);
+  const auto now = Clock::now();
+  Principal q = p;
+  q.expires = now + seconds(ttl_);
+  std::lock_guard<std::mutex> lock(mu_);
+  retire_expired(now);
+  live_[hex] = q;
+  by_expiry_.emplace_back(q.expires, hex);
+  return hex;
+}
+
+Tokens::Check Tokens::check(const std::string& token) {
+  std::lock_guard<std::mutex> lock(mu_);
+  retire_expired(Clock::now());
+  const auto it = live_.find(token);
+  if (it != live_.end()) return {it->second, false};
+  return {std::nullopt, expired_.count(token) > 0};
+}
+
+void Tokens::revoke(const std::string& token) {
+  std::lock_guard<std::mutex> lock(mu_);
+  live_.erase(token);
+}
+
+void Tokens::retire_expired(Clock::time_point now) {
+  while (!by_expiry_.empty() && by_expiry_.front().first < now) {
+    const std::string token = std::move(by_expiry_.front().second);
+    by_expiry_.pop_front();
+    if (live_.erase(token) == 0 || remember_expired_ == 0) continue;  // logged out meanwhile
+    expired_.insert(token);
+    expired_order_.push_back(token);
+    if (expired_order_.size() > remember_expired_) {
+      expired_.erase(expired_order_.front());
+      expired_order_.pop_front();
+    }
+  }
+}
+
+// ---------------------------------------------------------------- LoginThrottle
+
+LoginThrottle::LoginThrottle(Limits limits)
+    : limits_(limits), window_(seconds(limits.window_s)), prune_at_users_(kMinPruneAt), prune_at_addresses_(kMinPruneAt) {}
+
+int LoginThrottle::retry_after(const std::string& user, const std::string& address) {
+  const auto now = Clock::now();
+  std::lock_guard<std::mutex> lock(mu_);
+  const auto wait = std::max(locked_for(users_, user, now), locked_for(addresses_, address, now));
+  return static_cast<int>(std::ceil(std::chrono::duration<double>(wait).count()));
+}
+
+void LoginThrottle::failed(const std::string& user, const std::string& address) {
+  const auto now = Clock::now();
+  std::lock_guard<std::mutex> lock(mu_);
+  fail(users_, user, limits_.per_user, now);
+  fail(addresses_, address, limits_.per_address, now);
+  // Amortised: a sweep only once a table has doubled since the last one.
+  if (users_.size() > prune_at_users_) {
+    prune(users_, now);
+    prune_at_users_ = std::max(kMinPruneAt, 2 * users_.size());
+  }
+  if (addresses_.size() > prune_at_addresses_) {
+    prune(addresses_, now);
+    prune_at_addresses_ = std::max(kMinPruneAt, 2 * addresses_.size());
+  }
+}
+
+void LoginThrottle::succeeded(const std::string& user) {
+  std::lock_guard<std::mutex> lock(mu_);
+  users_.erase(user);
+}
+
+void LoginThrottle::fail(Table& table, const std::string& key, int limit, Clock::time_point now) {
+  Entry& e = table[key];
+  while (!e.failures.empty() && e.failures.front() <= now - window_) e.failures.pop_front();
+  e.failures.push_back(now);
+  if (static_cast<int>(e.failures.size()) < limit) return;
+  e.locked_until = now + window_;
+  e.failures.clear();  // the lockout is the penalty; afterwards the count starts again
+}
+
+Clock::duration LoginThrottle::locked_for(const Table& table, const std::string& key, Clock::time_point now) const {
+  const auto it = table.find(key);
+  if (it == table.end() || it->second.locked_until <= now) return Clock::duration::zero();
+  return it->second.locked_until - now;
+}
+
+void LoginThrottle::prune(Table& table, Clock::time_point now) {
+  for (auto it = table.begin(); it != table.end();) {
+    const Entry& e = it->second;
+    const bool idle = e.locked_until <= now && (e.failures.empty() || e.failures.back() <= now - window_);
+    it = idle ? table.erase(it) : std::next(it);
+  }
+}
+
+}  // namespace forklift::server

@@ -1,0 +1,359 @@
+// The HTTP side of trusted remote exams, on real forklift-server processes over real HTTP(S) on
+// loopback: expired tokens, roles, login rate limiting, the audit log of pupils' records (read
+// back through the API and straight from the SQLite file), and TLS with certificates made here
+// by the openssl CLI, for the server and for forklift-menu.
+#include <gtest/gtest.h>
+#include <httplib.h>
+#include <sqlite3.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "support/process.h"
+#include "support/server.h"
+
+using nlohmann::json;
+using forklift_test::Server;
+using forklift_test::error_code;
+using forklift_test::kAdminPassword;
+
+namespace {
+
+const std::string kBin = FORKLIFT_BIN_DIR;
+const std::string kOpenssl = OPENSSL_CLI;
+const std::string kScenario = "manoeuvre_1";
+
+// ---------------------------------------------------------------- helpers
+
+struct Finished {
+  int code;
+  std::string out, err;
+};
+
+// Runs a program to its end; its output is captured under `dir`.
+Finished run(const std::vector<std::string>& args, const std::string& dir, double timeout_s = 60) {
+  static int runs = 0;
+  std::filesystem::create_directories(dir);
+  Process p(args, dir + "/run-" + std::to_string(++runs));
+  const int code = p.wait(timeout_s);
+  return {code, p.out(), p.err()};
+}
+
+bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+// A test CA and a server certificate it signed for IP 127.0.0.1 (what the test servers listen on).
+struct Pki {
+  std::string ca, cert, key;  // PEM: the CA's certificate; the server's certificate and key
+};
+
+void openssl(std::vector<std::string> args, const std::string& dir) {
+  args.insert(args.begin(), kOpenssl);
+  const Finished f = run(args, dir);
+  ASSERT_EQ(f.code, 0) << "openssl " << args[1] << " failed (is the openssl CLI installed?): " << f.err;
+}
+
+Pki make_pki(const std::string& dir, const std::string& name) {
+  const std::string base = dir + "/" + name;
+  const Pki k{base + "-ca.pem", base + "-server.pem", base + "-server.key"};
+  const std::vector<std::string> new_key = {"-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes"};
+  auto with_key = [&](std::vector<std::string> args) {
+    args.insert(args.begin() + 1, new_key.begin(), new_key.end());
+    return args;
+  };
+  openssl(with_key({"req", "-x509", "-keyout", base + "-ca.key", "-out", k.ca, "-days", "2", "-subj", "/CN=" + name + " test CA",
+                    "-addext", "basicConstraints=critical,CA:TRUE", "-addext", "keyUsage=critical,keyCertSign"}),
+          dir);
+  openssl(with_key({"req", "-keyout", k.key, "-out", base + ".csr", "-subj", "/CN=127.0.0.1"}), dir);
+  std::ofstream(base + ".ext") << "subjectAltName=IP:127.0.0.1\nbasicConstraints=CA:FALSE\nextendedKeyUsage=serverAuth\n";
+  openssl({"x509", "-req", "-in", base + ".csr", "-CA", k.ca, "-CAkey", base + "-ca.key", "-CAcreateserial", "-out", k.cert,
+           "-days", "2", "-extfile", base + ".ext"},
+          dir);
+  return k;
+}
+
+std::vector<std::string> tls_args(const Pki& k) { return {"--tls-cert", k.cert, "--tls-key", k.key}; }
+
+// forklift-menu against `s` with its own token file; `args` are the global options, then the command.
+Finished menu(const Server& s, std::vector<std::string> args) {
+  args.insert(args.begin(), {kBin + "/forklift-menu", "--server", s.url(), "--token-file", s.dir + "/menu-token"});
+  return run(args, s.dir, 30);
+}
+
+int login_status(const Server& s, const std::string& user, const std::string& password) {
+  return s.call("POST", "/api/login", "", json{{"username", user}, {"password", password}}.dump()).first;
+}
+
+// A new pupil with their own login; returns the pupil's id.
+int64_t add_pupil(const Server& s, const std::string& token, const std::string& name, const std::string& user,
+                  const std::string& password) {
+  auto [status, p] = s.call("POST", "/api/pupils", token, json{{"name", name}, {"username", user}, {"password", password}}.dump());
+  EXPECT_EQ(status, 201) << p;
+  return status == 201 ? p["id"].get<int64_t>() : 0;
+}
+
+// A new staff account; returns its user id.
+int64_t add_user(const Server& s, const std::string& admin, const std::string& user, const std::string& role) {
+  auto [status, u] = s.call("POST", "/api/users", admin, json{{"username", user}, {"password", user + "-pass-1"}, {"role", role}}.dump());
+  EXPECT_EQ(status, 201) << u;
+  return status == 201 ? u["id"].get<int64_t>() : 0;
+}
+
+json session_body(int64_t pupil, const std::string& cab, const std::string& mode) {
+  return {{"pupil_id", pupil}, {"cab_id", cab}, {"scenario", kScenario}, {"mode", mode}, {"time_limit_s", 30}};
+}
+
+// The oldest audit row with `action` in `rows` (as the API lists them: newest first).
+json audit_row(const json& rows, const std::string& action) {
+  for (auto it = rows.rbegin(); it != rows.rend(); ++it)
+    if ((*it)["action"] == action) return *it;
+  ADD_FAILURE() << "no '" << action << "' row in " << rows.dump(1);
+  return json::object();
+}
+
+// Runs `sql` on its own connection to the server's database file; SQLite's error, or "".
+std::string exec_sql(const std::string& db_path, const std::string& sql) {
+  sqlite3* db = nullptr;
+  std::string error;
+  if (sqlite3_open_v2(db_path.c_str(), &db, SQLITE_OPEN_READWRITE, nullptr) == SQLITE_OK) {
+    sqlite3_busy_timeout(db, 5000);
+    char* message = nullptr;
+    if (sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &message) != SQLITE_OK) error = message ? message : "failed";
+    sqlite3_free(message);
+  } else {
+    error = sqlite3_errmsg(db);
+  }
+  sqlite3_close(db);
+  return error;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- tokens and roles
+
+TEST(HttpSecurity, AnExpiredTokenIsRefusedAsExpiredAndAnUnknownOneAsUnauthenticated) {
+  Server s(18121, 121, "sec-ttl", {"--token-ttl", "1"});
+  const std::string admin = s.login("admin", kAdminPassword);
+  const std::string logged_out = s.login("admin", kAdminPassword);
+  EXPECT_EQ(s.call("GET", "/api/pupils", admin).first, 200);
+  EXPECT_EQ(s.call("POST", "/api/logout", logged_out).first, 200);
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+
+  auto [status, body] = s.call("GET", "/api/pupils", admin);
+  EXPECT_EQ(status, 401);
+  EXPECT_EQ(error_code(body), "token_expired") << body;
+  EXPECT_EQ(error_code(s.call("GET", "/api/pupils", admin).second), "token_expired");  // still known as expired
+  EXPECT_EQ(error_code(s.call("GET", "/api/pupils", logged_out).second), "unauthenticated");
+  EXPECT_EQ(error_code(s.call("GET", "/api/pupils", "0123456789abcdef").second), "unauthenticated");
+  EXPECT_EQ(s.call("GET", "/api/pupils", s.login("admin", kAdminPassword)).first, 200);  // a new login works
+}
+
+TEST(HttpSecurity, WrongRolesAreRefusedWith403AndChangeNothing) {
+  Server s(18122, 122, "sec-roles");
+  const std::string admin = s.login("admin", kAdminPassword);
+  const int64_t ana_id = add_pupil(s, admin, "Ana", "ana", "ana-pass-1");
+  add_user(s, admin, "ines", "instructor");
+  const std::string ana = s.login("ana", "ana-pass-1"), ines = s.login("ines", "ines-pass-1");
+  const std::string pupil_path = "/api/pupils/" + std::to_string(ana_id);
+
+  auto [st1, b1] = s.call("POST", "/api/sessions", ana, session_body(ana_id, "roles1", "training").dump());
+  EXPECT_EQ(st1, 403);
+  EXPECT_EQ(error_code(b1), "forbidden");
+  auto [st2, b2] = s.call("POST", "/api/sessions", ines, session_body(ana_id, "roles1", "exam").dump());
+  EXPECT_EQ(st2, 403);  // exams are started by examiners
+  EXPECT_EQ(error_code(b2), "forbidden");
+  EXPECT_EQ(s.call("GET", pupil_path + "/history", admin).second["sessions"].size(), 0u);
+
+  EXPECT_EQ(s.call("GET", "/api/audit", ines).first, 403);
+  EXPECT_EQ(s.call("GET", "/api/audit", admin).first, 200);
+  EXPECT_EQ(s.call("GET", pupil_path + "/audit", ana).first, 403);  // not even their own
+  EXPECT_EQ(s.call("GET", pupil_path + "/audit", ines).first, 200);
+  EXPECT_EQ(s.call("PATCH", pupil_path, ana, R"({"name":"Queen Ana"})").first, 403);
+  EXPECT_EQ(s.call("GET", pupil_path, admin).second["name"], "Ana");
+}
+
+// ---------------------------------------------------------------- login rate limiting
+
+TEST(HttpSecurity, FailedLoginsLockOutTheUsernameUntilTheWindowPasses) {
+  constexpr int kWindowS = 5;  // --login-attempts stays at its default, 5
+  Server s(18123, 123, "sec-throttle-user", {"--login-window", std::to_string(kWindowS)});
+  const std::string admin = s.login("admin", kAdminPassword);
+  add_pupil(s, admin, "Ana", "ana", "ana-pass-1");
+  add_user(s, admin, "ben", "instructor");
+
+  // A successful login forgets the failures before it.
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(login_status(s, "ana", "wrong"), 401);
+  EXPECT_EQ(login_status(s, "ana", "ana-pass-1"), 200);
+  for (int attempt = 1; attempt <= 5; ++attempt) EXPECT_EQ(login_status(s, "ana", "wrong"), 401) << "attempt " << attempt;
+
+  // The 6th attempt is refused, right password or not, with when to try again.
+  auto c = s.client();
+  auto r = c.Post("/api/login", json{{"username", "ana"}, {"password", "ana-pass-1"}}.dump(), "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 429);
+  EXPECT_EQ(error_code(json::parse(r->body)), "too_many_attempts");
+  const int retry_after = std::stoi("0" + r->get_header_value("Retry-After"));
+  EXPECT_GE(retry_after, 1);
+  EXPECT_LE(retry_after, kWindowS);
+  EXPECT_EQ(login_status(s, "ana", "wrong"), 429);
+
+  EXPECT_EQ(login_status(s, "ben", "ben-pass-1"), 200);  // another user, same address: unaffected
+  std::this_thread::sleep_for(std::chrono::milliseconds(kWindowS * 1000 + 300));
+  EXPECT_EQ(login_status(s, "ana", "ana-pass-1"), 200);
+}
+
+TEST(HttpSecurity, FailedLoginsFromOneAddressLockOutEveryUsername) {
+  Server s(18124, 124, "sec-throttle-address", {"--login-attempts", "100", "--login-address-attempts", "3"});
+  for (const char* guess : {"ghost1", "ghost2", "ghost3"}) EXPECT_EQ(login_status(s, guess, "wrong"), 401) << guess;
+  auto [status, body] = s.call("POST", "/api/login", "", json{{"username", "admin"}, {"password", kAdminPassword}}.dump());
+  EXPECT_EQ(status, 429);
+  EXPECT_EQ(error_code(body), "too_many_attempts");
+}
+
+// ---------------------------------------------------------------- audit log
+
+TEST(HttpSecurity, EveryChangeToAPupilIsAuditedWithItsActorAndTheLogIsAppendOnly) {
+  Server s(18125, 125, "sec-audit");
+  const std::string admin = s.login("admin", kAdminPassword);
+  const int64_t ines_id = add_user(s, admin, "ines", "instructor");
+  add_user(s, admin, "eve", "examiner");
+  const std::string ines = s.login("ines", "ines-pass-1"), eve = s.login("eve", "eve-pass-1");
+
+  auto [st, created] = s.call("POST", "/api/pupils", ines,
+                              R"({"name":"Ann","email":"ann@old.example","username":"ann","password":"ann-pass-1"})");
+  ASSERT_EQ(st, 201) << created;
+  const int64_t id = created["id"];
+  const std::string path = "/api/pupils/" + std::to_string(id);
+  const std::string edit = R"({"name":"Ann Driver","email":"ann@new.example"})";
+  auto [st_edit, edited] = s.call("PATCH", path, ines, edit);
+  EXPECT_EQ(st_edit, 200) << edited;
+  EXPECT_EQ(edited["name"], "Ann Driver");
+  EXPECT_EQ(s.call("PATCH", path, ines, edit).first, 200);  // no change: no row
+  EXPECT_EQ(error_code(s.call("PATCH", path, ines, R"({"name":""})").second), "bad_request");
+  EXPECT_EQ(error_code(s.call("PATCH", path, ines, R"({"school_id":2})").second), "bad_request");
+  EXPECT_EQ(s.call("POST", path + "/licence", eve).first, 201);
+  auto [st_sess, session] = s.call("POST", "/api/sessions", ines, session_body(id, "audit1", "training").dump());
+  ASSERT_EQ(st_sess, 201) << session;
+  EXPECT_EQ(s.call("POST", "/api/sessions/" + session["id"].get<std::string>() + "/abort", ines).first, 200);
+  const std::string ann = s.login("ann", "ann-pass-1");
+  auto [st_paper, paper] = s.call("POST", "/api/theory/attempts", ann, "{}");
+  ASSERT_EQ(st_paper, 201) << paper;
+  EXPECT_EQ(s.call("POST", "/api/theory/attempts/" + std::to_string(paper["id"].get<int64_t>()) + "/answers", ann,
+                   R"({"answers":{}})").first, 200);
+
+  auto [st_audit, rows] = s.call("GET", path + "/audit", ines);
+  ASSERT_EQ(st_audit, 200) << rows;
+  ASSERT_TRUE(rows.is_array());
+  const json made = audit_row(rows, "pupil_created"), changed = audit_row(rows, "pupil_edited"),
+             licence = audit_row(rows, "licence_issued"), started = audit_row(rows, "session_started"),
+             aborted = audit_row(rows, "session_aborted"), handed = audit_row(rows, "theory_paper_handed_out"),
+             marked = audit_row(rows, "theory_marked");
+  EXPECT_EQ(std::count_if(rows.begin(), rows.end(), [](const json& r) { return r["action"] == "pupil_edited"; }), 1);
+  EXPECT_EQ(made["actor"], "ines");
+  EXPECT_EQ(made["actor_user_id"], ines_id);
+  EXPECT_EQ(made["pupil_id"], id);
+  EXPECT_EQ(made["details"]["username"], "ann");
+  EXPECT_EQ(changed["details"]["before"], json({{"name", "Ann"}, {"email", "ann@old.example"}}));
+  EXPECT_EQ(changed["details"]["after"], json({{"name", "Ann Driver"}, {"email", "ann@new.example"}}));
+  EXPECT_EQ(licence["actor"], "eve");
+  EXPECT_FALSE(licence["details"].value("reevaluation_due", "").empty());
+  EXPECT_EQ(started["actor"], "ines");
+  EXPECT_EQ(started["details"]["session"], session["id"]);
+  EXPECT_EQ(started["details"]["mode"], "training");
+  EXPECT_EQ(started["details"]["cab"], "audit1");
+  EXPECT_EQ(started["details"]["scenario"], kScenario);
+  EXPECT_EQ(aborted["actor"], "ines");
+  EXPECT_EQ(aborted["details"]["to"], "aborted");
+  EXPECT_EQ(handed["actor"], "ann");
+  EXPECT_EQ(marked["details"]["passed"], false);  // no answers given
+  // In the order they were made.
+  const std::vector<json> in_order = {made, changed, licence, started, aborted, handed, marked};
+  for (size_t i = 1; i < in_order.size(); ++i) EXPECT_LT(in_order[i - 1]["id"], in_order[i]["id"]) << in_order[i];
+
+  // The school's whole log, for the admin, paged.
+  const json all = s.call("GET", "/api/audit", admin).second;
+  ASSERT_EQ(all.size(), rows.size());  // only Ann has records
+  const json page = s.call("GET", "/api/audit?limit=2&offset=1", admin).second;
+  ASSERT_EQ(page.size(), 2u);
+  EXPECT_EQ(page[0], all[1]);
+
+  // Straight into the file: the table refuses to be rewritten or emptied.
+  EXPECT_TRUE(contains(exec_sql(s.db, "UPDATE audit_log SET actor = 'mallory'"), "append-only"));
+  EXPECT_TRUE(contains(exec_sql(s.db, "DELETE FROM audit_log"), "append-only"));
+  EXPECT_EQ(s.call("GET", path + "/audit", ines).second, rows);
+}
+
+// ---------------------------------------------------------------- TLS
+
+TEST(HttpSecurity, HttpsAnswersOnlyClientsThatTrustItsCa) {
+  const std::string dir = testing::TempDir() + "/sec-tls-pki";
+  const Pki school = make_pki(dir, "school"), other = make_pki(dir, "other");
+  Server s(18126, 126, "sec-tls", tls_args(school), school.ca);
+  EXPECT_TRUE(contains(s.proc->err(), "listening on https://127.0.0.1:18126")) << s.proc->err();
+  const std::string admin = s.login("admin", kAdminPassword);
+  EXPECT_EQ(s.call("GET", "/api/pupils", admin).first, 200);
+
+  httplib::Client plain("127.0.0.1", s.port);
+  const auto r_plain = plain.Get("/api/health");
+  EXPECT_FALSE(r_plain) << "plain HTTP got an answer: " << r_plain->status << " " << r_plain->body;
+
+  httplib::Client stranger(s.url());
+  stranger.set_ca_cert_path(other.ca);
+  const auto r_stranger = stranger.Get("/api/health");
+  EXPECT_FALSE(r_stranger);
+  EXPECT_EQ(r_stranger.error(), httplib::Error::SSLServerVerification);
+  EXPECT_TRUE(s.proc->running());
+}
+
+TEST(HttpSecurity, MenuTalksHttpsWithTheCaFromTheFlagOrTheEnvironment) {
+  const std::string dir = testing::TempDir() + "/sec-menu-pki";
+  const Pki school = make_pki(dir, "school"), other = make_pki(dir, "other");
+  Server s(18127, 127, "sec-menu", tls_args(school), school.ca);
+  unsetenv("FORKLIFT_CA");
+
+  const Finished login = menu(s, {"--ca", school.ca, "login", "--user", "admin", "--password", kAdminPassword});
+  EXPECT_EQ(login.code, 0) << login.err;
+  EXPECT_TRUE(contains(login.out, "logged in as admin")) << login.out;
+  const Finished added = menu(s, {"--ca", school.ca, "pupil-add", "--name", "Tess"});
+  EXPECT_EQ(added.code, 0) << added.err;
+
+  for (const std::vector<std::string>& untrusted : {std::vector<std::string>{"pupils"}, {"--ca", other.ca, "pupils"}}) {
+    const Finished refused = menu(s, untrusted);
+    EXPECT_EQ(refused.code, 2);
+    EXPECT_TRUE(contains(refused.err, "certificate cannot be verified")) << refused.err;
+    EXPECT_FALSE(contains(refused.out, "Tess"));
+  }
+
+  setenv("FORKLIFT_CA", school.ca.c_str(), 1);
+  const Finished listed = menu(s, {"pupils"});
+  unsetenv("FORKLIFT_CA");
+  EXPECT_EQ(listed.code, 0) << listed.err;
+  EXPECT_TRUE(contains(listed.out, "Tess")) << listed.out;
+}
+
+TEST(HttpSecurity, BadTlsOptionsStopTheServerWithAClearMessage) {
+  const std::string dir = testing::TempDir() + "/sec-bad-tls";
+  std::filesystem::remove_all(dir);
+  const Pki school = make_pki(dir, "school"), other = make_pki(dir, "other");
+  const std::string db = dir + "/never.db";
+  auto start = [&](std::vector<std::string> tls) {
+    std::vector<std::string> args = {kBin + "/forklift-server", "--db", db, "--listen", "127.0.0.1:18128", "--dds-domain", "128"};
+    args.insert(args.end(), tls.begin(), tls.end());
+    return run(args, dir, 20);
+  };
+  const Finished cert_only = start({"--tls-cert", school.cert});
+  EXPECT_EQ(cert_only.code, 2);
+  EXPECT_TRUE(contains(cert_only.err, "--tls-key")) << cert_only.err;
+  const Finished missing = start({"--tls-cert", dir + "/nope.pem", "--tls-key", school.key});
+  EXPECT_EQ(missing.code, 2);
+  EXPECT_TRUE(contains(missing.err, dir + "/nope.pem: cannot read")) << missing.err;
+  const Finished mismatched = start({"--tls-cert", school.cert, "--tls-key", other.key});
+  EXPECT_EQ(mismatched.code, 2);
+  EXPECT_TRUE(contains(mismatched.err, "not a PEM certificate and its private key")) << mismatched.err;
+  EXPECT_FALSE(std::filesystem::exists(db));  // refused before touching anything
+}
