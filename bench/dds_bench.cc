@@ -11,6 +11,9 @@
 // 3. Frames: one worker in the full warehouse (practical_exam) rendering at --fps, this program
 //    as its cab; the frames per second that actually arrive, raw RGB and JPEG, and the worker's
 //    real-time lag while it renders. Target: 60 frames per second at 640x480 for one cab.
+// With --secure, the round trip and the frames run twice, in clear and under DDS Security (a school
+// CA made for the run by scripts/forklift-pki.sh): the cost of authentication and encryption,
+// measured against the clear run in the same process.
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <atomic>
@@ -32,13 +35,23 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 std::string g_bin;
+std::string g_security;  // the school folder while a secured run is measured; empty in clear
+
+// The worker's and this cab's DDS Security arguments for cab `cab` (none in clear).
+std::vector<std::string> worker_security() {
+  return g_security.empty() ? std::vector<std::string>{} : std::vector<std::string>{"--security", g_security};
+}
+dds::DomainSettings cab_settings(int domain, const std::string& cab) {
+  return dds::DomainSettings::resolve(domain, "", g_security, g_security.empty() ? "" : "cab." + cab);
+}
+const char* mode_name() { return g_security.empty() ? "clear" : "secured"; }
 
 std::unique_ptr<Process> spawn_worker(int domain, const std::string& cab, double seconds) {
   const std::string tag = "/tmp/forklift-bench-" + cab + "-" + std::to_string(domain);
-  return std::make_unique<Process>(
-      std::vector<std::string>{g_bin + "/forklift-worker", "--cab", cab, "--session", "bench-" + cab, "--dds-domain",
-                               std::to_string(domain), "--log", tag + ".ctl", "--duration", std::to_string(seconds)},
-      tag);
+  std::vector<std::string> args = {g_bin + "/forklift-worker", "--cab", cab, "--session", "bench-" + cab, "--dds-domain",
+                                   std::to_string(domain), "--log", tag + ".ctl", "--duration", std::to_string(seconds)};
+  for (const std::string& a : worker_security()) args.push_back(a);
+  return std::make_unique<Process>(args, tag);
 }
 
 fk_Controls sample(const std::string& cab, uint32_t seq, double t) {
@@ -53,7 +66,7 @@ fk_Controls sample(const std::string& cab, uint32_t seq, double t) {
 
 void round_trip(int domain, int samples) {
   auto w = spawn_worker(domain, "rt", 1e5);
-  dds::Participant p(dds::DomainSettings::resolve(domain, ""));
+  dds::Participant p(cab_settings(domain, "rt"));
   dds::Writer<fk_Controls> out(p, dds::cab_partition("rt"));
   dds::Reader<fk_TruckState> in(p, dds::cab_partition("rt"));
   dds::WaitSet ws(p);
@@ -76,8 +89,8 @@ void round_trip(int domain, int samples) {
   w->wait(5);
   std::sort(rtt.begin(), rtt.end());
   auto pct = [&](double q) { return rtt.empty() ? NAN : rtt[std::min(rtt.size() - 1, size_t(q * rtt.size()))]; };
-  std::printf("round trip control -> applied state, %zu of %d samples answered (us): min %.0f  p50 %.0f  p99 %.0f  max %.0f\n",
-              rtt.size(), samples, rtt.empty() ? NAN : rtt.front(), pct(0.5), pct(0.99), rtt.empty() ? NAN : rtt.back());
+  std::printf("round trip control -> applied state, %s, %zu of %d samples answered (us): min %.0f  p50 %.0f  p99 %.0f  max %.0f\n",
+              mode_name(), rtt.size(), samples, rtt.empty() ? NAN : rtt.front(), pct(0.5), pct(0.99), rtt.empty() ? NAN : rtt.back());
   std::printf("target p99 < 5000 us: %s\n\n", pct(0.99) < 5000 ? "met" : "NOT MET");
 }
 
@@ -153,8 +166,9 @@ void frames(int domain, double fps, const std::string& size, bool jpeg, double s
                                    "--duration", std::to_string(seconds + 1), "--fps", std::to_string(fps),
                                    "--frame-size", size, "--scenario", std::string(FORKLIFT_DATA_DIR) + "/scenarios/practical_exam.json"};
   if (jpeg) args.push_back("--jpeg");
+  for (const std::string& a : worker_security()) args.push_back(a);
   Process w(args, "/tmp/forklift-bench-" + cab);
-  dds::Participant p(dds::DomainSettings::resolve(domain, ""));
+  dds::Participant p(cab_settings(domain, cab));
   dds::Writer<fk_Controls> out(p, dds::cab_partition(cab));
   dds::Reader<fk_Frame> in(p, dds::cab_partition(cab));
   for (int i = 0; i < 1000 && out.matched() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
@@ -181,7 +195,7 @@ void frames(int domain, double fps, const std::string& size, bool jpeg, double s
     rendered = j["frames"].get<long>();
   } catch (const std::exception&) {
   }
-  std::printf("%-6s %-10s %8.0f %10ld %10ld %14.1f %12.1f %14.2f\n", jpeg ? "jpeg" : "rgb8", size.c_str(), fps, rendered,
+  std::printf("%-8s %-6s %-10s %8.0f %10ld %10ld %14.1f %12.1f %14.2f\n", mode_name(), jpeg ? "jpeg" : "rgb8", size.c_str(), fps, rendered,
               received, counted / seconds, counted ? bytes / 1024.0 / counted : 0.0, lag);
 }
 
@@ -202,17 +216,41 @@ int main(int argc, char** argv) {
   app.add_option("--fps", fps, "frame rate asked of the worker in the frames test")->check(CLI::Range(1.0, 240.0));
   app.add_option("--frame-sizes", frame_sizes, "frame sizes to try");
   app.add_flag("--frames-only", frames_only, "run only the frames test");
+  bool secure = false;
+  app.add_flag("--secure", secure, "run the round trip and the frames in clear and under DDS Security");
   CLI11_PARSE(app, argc, argv);
+  std::vector<std::string> modes = {""};
+  if (secure) {
+    // A school folder of the run's own, with identities for the cabs this program plays.
+    const std::string dir = "/tmp/forklift-bench-pki";
+    const std::string pki = std::string(FORKLIFT_SOURCE_DIR) + "/scripts/forklift-pki.sh";
+    const std::string cmd = "rm -rf " + dir + " && " + pki + " init " + dir + " && " + pki + " add-cab " + dir + " rt && " + pki +
+                            " add-cab " + dir + " fr && " + pki + " add-cab " + dir + " fj";
+    if (std::system(("(" + cmd + ") > /dev/null").c_str()) != 0) {
+      std::fprintf(stderr, "forklift-bench-dds: cannot make the school folder (%s)\n", cmd.c_str());
+      return 2;
+    }
+    modes.push_back(dir);
+  }
 
   std::printf("frames delivered to a cab over loopback DDS (worker in the full warehouse, %g s each)\n", seconds);
-  std::printf("%-6s %-10s %8s %10s %10s %14s %12s %14s\n", "enc", "size", "asked", "rendered", "received",
+  std::printf("%-8s %-6s %-10s %8s %10s %10s %14s %12s %14s\n", "dds", "enc", "size", "asked", "rendered", "received",
               "delivered_fps", "kB_per_frame", "worker_lag_ms");
   for (const std::string& size : frame_sizes)
-    for (bool jpeg : {false, true}) frames(230, fps, size, jpeg, seconds);
+    for (bool jpeg : {false, true})
+      for (const std::string& m : modes) {
+        g_security = m;
+        frames(m.empty() ? 230 : 199, fps, size, jpeg, seconds);  // governance covers domains 0-230
+      }
+  g_security.clear();
   std::printf("target: 60 frames per second at 640x480 for one cab\n\n");
   if (frames_only) return 0;
 
-  round_trip(201, samples);
+  for (const std::string& m : modes) {
+    g_security = m;
+    round_trip(m.empty() ? 201 : 200, samples);
+  }
+  g_security.clear();
   std::printf("%8s %15s %14s %20s %12s %12s\n", "workers", "kept_real_time", "worst_lag_ms", "baseline_stall_ms",
               "late_states", "on_time_pct");
   int sustained = 0;
