@@ -209,6 +209,8 @@ void Fleet::fail(store::Store& db, const std::string& session, const std::string
 void Fleet::supervise() {
   auto db = store::Store::open_sqlite(config_.db_path);
   std::vector<std::pair<std::string, Clock::time_point>> to_chain;  // ended exams, until when to wait
+  // Exams whose worker ended while this server was down, or just before it stopped.
+  for (const std::string& s : db->unchained_signed_exams()) to_chain.push_back({s, Clock::now() + std::chrono::seconds(15)});
   while (!stop_) {
     std::vector<std::pair<WorkerInfo, std::string>> finished;  // worker, failure reason ("" if clean)
     {

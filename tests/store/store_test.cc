@@ -640,6 +640,12 @@ TEST_F(StoreTest, ExamChainAppendsInOrderOncePerSessionAndRefusesEdits) {
   EXPECT_EQ(store_->get_chain_entry(a.public_id)->entry, R"({"entry_hash":"aa"})");
   ASSERT_EQ(store_->list_chain().size(), 2u);
   EXPECT_EQ(store_->list_chain()[1].seq, 2);
+  EXPECT_TRUE(store_->unchained_signed_exams().empty()) << "neither has a signed log";
+  const fs::Session c = NewSession(ann, "exam"), d = NewSession(ann, "training");
+  store_->put_session_log(c.public_id, "signature", "{}");
+  store_->put_session_log(d.public_id, "signature", "{}");
+  store_->put_session_log(a.public_id, "signature", "{}");
+  EXPECT_EQ(store_->unchained_signed_exams(), std::vector<std::string>{c.public_id}) << "only the exam not yet chained";
   EXPECT_NE(RawExec(path_, "UPDATE exam_chain SET entry = '{}'").find("append-only"), std::string::npos);
   EXPECT_NE(RawExec(path_, "DELETE FROM exam_chain").find("append-only"), std::string::npos);
   EXPECT_EQ(store_->list_chain().size(), 2u);

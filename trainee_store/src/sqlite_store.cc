@@ -866,6 +866,15 @@ class SqliteStore final : public Store {
     return one_chain_entry(q);
   }
 
+  std::vector<std::string> unchained_signed_exams() override {
+    Query q = query(__func__,
+                    "SELECT s.public_id FROM sessions s JOIN session_logs l ON l.session_id = s.id AND l.name = 'signature' "
+                    "LEFT JOIN exam_chain c ON c.session_id = s.id WHERE s.mode = 'exam' AND c.seq IS NULL ORDER BY s.id");
+    std::vector<std::string> out;
+    while (q.step()) out.push_back(q.text(0));
+    return out;
+  }
+
   static std::optional<ChainEntry> one_chain_entry(Query& q) {
     if (!q.step()) return std::nullopt;
     return ChainEntry{q.int64(0), q.text(1), q.text(2)};
