@@ -112,7 +112,8 @@ for (const cab of ['webcab1', 'webcab2']) execFileSync(pkiTool, ['add-cab', pki,
 execFileSync(pkiTool, ['issue', pki, 'server', 'main'], { stdio: 'ignore' });
 const serverArgs = ['--db', path.join(out, 'forklift.db'), '--listen', `127.0.0.1:${port}`, '--dds-domain', String(domain),
                     '--admin-password', adminPassword, '--log-dir', path.join(out, 'logs'), '--security', pki];
-if (supports(serverBin, '--frame-fps')) serverArgs.push('--frame-fps', '0');  // no cab video: two cores are shared
+// A little cab video, for the examiner's live view: two cores are shared.
+if (supports(serverBin, '--frame-fps')) serverArgs.push('--frame-fps', '4', '--frame-size', '480x360');
 const server = start('server', serverBin, serverArgs);
 
 async function api(method, p, token, body) {
@@ -261,6 +262,9 @@ try {
     await page.goto(`${base}/session.html?id=${examId}`);
     await page.waitForFunction(() => !document.getElementById('live').hidden
                                      && /Speed/.test(document.getElementById('live-state').textContent));
+    // The cab's view as the worker renders it, fetched with the token and shown from a blob.
+    await page.waitForFunction(() => { const i = document.getElementById('live-frame'); return !i.hidden && i.complete && i.naturalWidth === 480; },
+                               null, { timeout: 30000 });
     check(/Abort/.test(await page.textContent('#actions')), 'the examiner can abort it');
     await shot('session-live');
   });
