@@ -273,6 +273,15 @@ int main(int argc, char** argv) {
           if (st == "ended" || st == "failed" || st == "aborted") break;
           std::this_thread::sleep_for(std::chrono::milliseconds(200));
         }
+        // Over is not yet free: the worker still writes its log (and signs it) before it exits, and
+        // until then the cab cannot start another session.
+        for (int i = 0; i < 100; ++i) {
+          bool busy = false;
+          for (const auto& c : cl.call("GET", "/api/cabs"))
+            if (c["id"] == cab) busy = c["busy"].get<bool>();
+          if (!busy) break;
+          std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        }
         std::printf("session %s: %s %s\n", id.c_str(), fmt(cur["state"]).c_str(), fmt(cur["reason"]).c_str());
       }
     } else if (*show) {

@@ -165,36 +165,51 @@ std::optional<LiveView> Fleet::follow(const std::string& session) {
 
 void Fleet::take_followed_frames() {
   constexpr auto kFollowIdle = std::chrono::seconds(10);
-  std::lock_guard<std::mutex> lock(mu_);
-  for (auto it = followed_.begin(); it != followed_.end();) {
-    if (Clock::now() - it->second.last_asked > kFollowIdle) { it = followed_.erase(it); continue; }
-    LiveView& v = it->second.view;
-    // Keep-last-1 readers: at most a few samples wait here; encode only the newest. `head` keeps
-    // the scalars only: its pixel buffer is returned to DDS with the loan.
+  struct Newest {
+    std::string cab;
+    fk_Frame head{};  // the scalars only: its pixel buffer went back to DDS with the loan
     std::vector<uint8_t> pixels;
-    fk_Frame head{};
-    const bool got = it->second.frames->take_each([&](const fk_Frame& f) {
-      head = f;
-      pixels.assign(f.pixels._buffer, f.pixels._buffer + f.pixels._length);
-    }) > 0;
-    if (got) {
-      try {
-        if (std::string(head.encoding) == "jpeg") {
-          v.jpeg = std::move(pixels);
-        } else if (std::string(head.encoding) == "rgb8" && pixels.size() == size_t(head.width) * head.height * 3) {
-          Image img;
-          img.width = head.width;
-          img.height = head.height;
-          img.rgb = std::move(pixels);
-          v.jpeg = encode_jpeg(img, 80);
-        }
-        v.frame_seq = head.seq;
-        v.frame_sim_time_s = head.sim_time_s;
-      } catch (const std::exception& e) {
-        std::cerr << "forklift-server: frame from cab " << it->first << ": " << e.what() << std::endl;
-      }
+  };
+  std::vector<Newest> taken;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    for (auto it = followed_.begin(); it != followed_.end();) {
+      if (Clock::now() - it->second.last_asked > kFollowIdle) { it = followed_.erase(it); continue; }
+      // Keep-last-1 readers: at most a few samples wait here; only the newest is kept.
+      Newest n{it->first, {}, {}};
+      if (it->second.frames->take_each([&](const fk_Frame& f) {
+            n.head = f;
+            n.pixels.assign(f.pixels._buffer, f.pixels._buffer + f.pixels._length);
+          }) > 0)
+        taken.push_back(std::move(n));
+      ++it;
     }
-    ++it;
+  }
+  // Encoding takes a millisecond or two: outside the lock that the HTTP threads share.
+  for (Newest& n : taken) {
+    std::vector<uint8_t> jpeg;
+    try {
+      if (std::string(n.head.encoding) == "jpeg") {
+        jpeg = std::move(n.pixels);
+      } else if (std::string(n.head.encoding) == "rgb8" && n.pixels.size() == size_t(n.head.width) * n.head.height * 3) {
+        Image img;
+        img.width = n.head.width;
+        img.height = n.head.height;
+        img.rgb = std::move(n.pixels);
+        jpeg = encode_jpeg(img, 80);
+      } else {
+        continue;  // not a frame this server can show
+      }
+    } catch (const std::exception& e) {
+      std::cerr << "forklift-server: frame from cab " << n.cab << ": " << e.what() << std::endl;
+      continue;
+    }
+    std::lock_guard<std::mutex> lock(mu_);
+    const auto it = followed_.find(n.cab);
+    if (it == followed_.end()) continue;
+    it->second.view.jpeg = std::move(jpeg);
+    it->second.view.frame_seq = n.head.seq;
+    it->second.view.frame_sim_time_s = n.head.sim_time_s;
   }
 }
 
