@@ -8,8 +8,6 @@ using nlohmann::json;
 
 namespace {
 
-bool terminal(const std::string& state) { return state == "ended" || state == "failed" || state == "aborted"; }
-
 // Events the worker published, as its log lists them: "e" (the evaluation's) and "w" (its own).
 size_t logged_events(const std::string& log) {
   size_t n = 0;
@@ -54,9 +52,11 @@ ChainResult chain_exam(store::Store& db, const std::string& session, const std::
   if (!s || s->mode != "exam") return ChainResult::kNotSignable;
   if (db.get_chain_entry(session)) return ChainResult::kAlreadyChained;
   const auto sig_text = db.get_session_log(session, "signature");
+  if (!sig_text || sig_text->empty()) return ChainResult::kNotSignable;
+  // The supervisor asks again every 50 ms while the score is on its way: the log is read only after.
+  if (!store::is_terminal(s->state) || !db.get_score(session)) return ChainResult::kNotReady;
   const auto log = db.get_session_log(session, "control");
-  if (!sig_text || !log || sig_text->empty()) return ChainResult::kNotSignable;
-  if (!terminal(s->state) || !db.get_score(session)) return ChainResult::kNotReady;
+  if (!log) return ChainResult::kNotSignable;
   if (!anyway && db.list_events(session).size() < logged_events(*log)) return ChainResult::kNotReady;
   const json sig = json::parse(*sig_text);
   const auto last = db.last_chain_entry();

@@ -23,8 +23,6 @@ using Clock = std::chrono::steady_clock;
 const store::Actor kWorker{std::nullopt, "worker"};
 const store::Actor kServer{std::nullopt, "server"};  // the supervisor's own findings
 
-bool terminal(const std::string& state) { return state == "ended" || state == "failed" || state == "aborted"; }
-
 std::string slurp(const std::string& path) {
   std::ifstream in(path);
   std::stringstream s;
@@ -156,10 +154,8 @@ std::optional<LiveView> Fleet::follow(const std::string& session) {
   if (!f.frames) f.frames = std::make_unique<dds::Reader<fk_Frame>>(*participant_, dds::cab_partition(w->second.cab));
   f.last_asked = Clock::now();
   LiveView v = f.view;
-  if (const auto st = latest_state_.find(session); st != latest_state_.end()) {
-    v.state = st->second;
-    v.have_state = true;
-  }
+  v.state = w->second.last;
+  v.have_state = w->second.seen_state;
   return v;
 }
 
@@ -255,7 +251,6 @@ void Fleet::supervise() {
         }
         if (done) {
           finished.push_back({w, reason});
-          latest_state_.erase(it->first);
           it = workers_.erase(it);
         } else {
           ++it;
@@ -276,7 +271,7 @@ void Fleet::supervise() {
         // A clean exit normally follows the worker's own "ended" status; if it was lost, the
         // session still ends, but as ended, which carries no mark and so is never a pass.
         const auto s = db->get_session(w.session);
-        if (s && !terminal(s->state)) {
+        if (s && !store::is_terminal(s->state)) {
           const std::string err = slurp(base + ".err");
           const bool gave_up = err.find("no controls within") != std::string::npos;
           if (gave_up) fail(*db, w.session, w.cab, "the cab never spoke");
@@ -342,11 +337,9 @@ void Fleet::ingest() {
       states.take_each([&](const fk_TruckState& t) {
         auto it = workers_.find(t.session_id);
         if (it != workers_.end()) {
-          latest_state_[t.session_id] = t;
+          it->second.last = t;
           it->second.last_state = Clock::now();
           it->second.seen_state = true;
-          it->second.sim_time_s = t.sim_time_s;
-          it->second.speed_m_s = t.speed_m_s;
           // One point every path_interval_s of sim time.
           auto& last = it->second.last_path_point_s;
           if (!last || t.sim_time_s >= *last + config_.path_interval_s) {

@@ -40,7 +40,7 @@ struct WorkerInfo {
   pid_t pid = 0;  // 0 if the worker is not our child (adopted after a server restart)
   std::chrono::steady_clock::time_point started, last_state;
   bool seen_state = false;
-  double sim_time_s = 0, speed_m_s = 0;
+  fk_TruckState last{};  // the newest TruckState, when seen_state
   std::optional<double> last_path_point_s;  // sim time of the last path point stored
 };
 
@@ -100,7 +100,6 @@ class Fleet {
   std::mutex mu_;
   std::map<std::string, WorkerInfo> workers_;  // by session
   std::map<std::string, CabInfo> cabs_;
-  std::map<std::string, fk_TruckState> latest_state_;  // by session
   std::map<std::string, Followed> followed_;            // by cab
   std::map<std::string, std::unique_ptr<dds::Writer<fk_SessionStatus>>> cab_status_writers_;  // by cab
   std::unique_ptr<dds::Participant> participant_;

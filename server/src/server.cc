@@ -858,7 +858,7 @@ void routes(httplib::Server& svr, Context& ctx) {
     json workers = json::array(), cabs = json::array();
     const auto now = std::chrono::steady_clock::now();
     for (const auto& w : ctx.fleet->workers())
-      workers.push_back({{"session", w.session}, {"cab", w.cab}, {"pid", w.pid}, {"sim_time_s", w.sim_time_s}, {"speed_m_s", w.speed_m_s},
+      workers.push_back({{"session", w.session}, {"cab", w.cab}, {"pid", w.pid}, {"sim_time_s", w.last.sim_time_s}, {"speed_m_s", w.last.speed_m_s},
                          {"seconds_since_state", w.seen_state ? json(std::chrono::duration<double>(now - w.last_state).count()) : json(nullptr)},
                          {"healthy", !w.seen_state || std::chrono::duration<double>(now - w.last_state).count() < 1.0}});
     for (const auto& c : ctx.fleet->cabs_online()) cabs.push_back({{"id", c.id}, {"mode", c.mode}});

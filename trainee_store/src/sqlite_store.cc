@@ -31,6 +31,8 @@ std::optional<Role> parse_role(const std::string& name) {
   return std::nullopt;
 }
 
+bool is_terminal(const std::string& state) { return state == "ended" || state == "failed" || state == "aborted"; }
+
 std::string now_iso8601() {
   const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
   std::tm utc{};
@@ -249,8 +251,6 @@ END;
 #define AUDIT_COLUMNS "id, at, actor_user_id, actor, pupil_id, action, details"
 #define SESSION_COLUMNS \
   "id, public_id, pupil_id, cab_id, scenario, mode, state, reason, examiner_id, created_at, ended_at, mark, passed"
-
-bool is_terminal(const std::string& state) { return state == "ended" || state == "failed" || state == "aborted"; }
 
 bool is_state(const std::string& state) {
   return state == "starting" || state == "waiting" || state == "running" || is_terminal(state);

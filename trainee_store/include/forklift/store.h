@@ -280,6 +280,9 @@ class Store {
   virtual std::optional<PupilHistory> history(int64_t pupil_id, const std::string& now) = 0;
 };
 
+// Whether a session in `state` is over (ended, failed or aborted): such a session never changes.
+bool is_terminal(const std::string& state);
+
 // ISO-8601 UTC time of the system clock, and the date `years` after an ISO time.
 std::string now_iso8601();
 std::string add_years_iso8601(const std::string& iso, int years);
