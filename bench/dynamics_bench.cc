@@ -27,11 +27,16 @@ struct Row {
 int main(int argc, char** argv) {
   CLI::App app{"forklift-bench-dynamics: integrators on manoeuvres 4 and 17 (paper Table 1)"};
   int repeat = 5;
-  std::string truck_file = std::string(FORKLIFT_DATA_DIR) + "/trucks/linde_e16c.json";
+  // Both shipped trucks by default: the paper's (its Table 1) and the training truck.
+  std::vector<std::string> truck_files = {std::string(FORKLIFT_DATA_DIR) + "/trucks/simucel_paper.json",
+                                          std::string(FORKLIFT_DATA_DIR) + "/trucks/linde_e16c.json"};
   app.add_option("--repeat", repeat, "runs per row; the median wall time is reported")->check(CLI::Range(1, 1000));
-  app.add_option("--truck", truck_file, "truck data file")->check(CLI::ExistingFile);
+  app.add_option("--truck", truck_files, "truck data files (one table each)")->check(CLI::ExistingFile);
   CLI11_PARSE(app, argc, argv);
+  bool ok = true;
+  for (const std::string& truck_file : truck_files) {
   const TruckParams truck = load_truck(truck_file);
+  std::printf("%s%s\n", truck_file == truck_files.front() ? "" : "\n", truck.name.c_str());
 
   // The paper's Table 1 (steps for 20 s): ode45 287004 / 15289, ode23s 245 / 261, rk4 20000 / 20000.
   const std::vector<Row> rows = {
@@ -45,7 +50,6 @@ int main(int argc, char** argv) {
 
   std::printf("%-4s %-7s %-22s %8s %9s %10s %10s %12s %11s\n", "man", "integr", "paper (method: steps)", "steps",
               "rhs", "wall_ms", "x_realtime", "us_per_rhs", "err_cm");
-  bool ok = true;
   for (const Row& row : rows) {
     IntegratorOptions o;
     o.kind = row.kind;
@@ -69,8 +73,9 @@ int main(int argc, char** argv) {
       if (row.manoeuvre == 4) ok &= (20.0 / wall >= 1000) && err_cm <= 1.0;
     }
   }
-  std::printf("\ntargets (CVODE BDF): <= 500 steps on manoeuvres 4 and 17; manoeuvre 4 >= 1000x real time and within "
-              "1 cm of the rtol 1e-10 run: %s\n",
+  }
+  std::printf("\ntargets (CVODE BDF, every truck): <= 500 steps on manoeuvres 4 and 17; manoeuvre 4 >= 1000x real time "
+              "and within 1 cm of the rtol 1e-10 run: %s\n",
               ok ? "met" : "NOT MET");
   return ok ? 0 : 1;
 }

@@ -69,7 +69,7 @@ struct Run {
     truck = load_truck(scene.scenario.truck_file);
     shape = load_truck_shape(scene.scenario.truck_file, kData);
     for (const ScriptRow& row : read_script(script)) {
-      const ControlSample c{0, row.steer, row.accelerator, row.brake, row.lift, row.tilt, row.shift, false};
+      const ControlSample c{0, row.steer, row.accelerator, row.brake, row.lift, row.tilt, row.shift, false, row.parking_brake};
       changes.push_back({int64_t(std::ceil(row.t / kTick - 1e-6)), driver_inputs(c, truck)});
     }
     end = std::min<int64_t>(changes.back().tick + 1, int64_t(max_s / kTick));

@@ -44,13 +44,14 @@ struct Cab {
   bool have_state = false;
   std::string session{};  // the session this cab drives, once the worker has said
 
-  void send(double steer, double accel, double brake, double lift, double tilt, double shift, bool horn = false) {
+  void send(double steer, double accel, double brake, double lift, double tilt, double shift, bool horn = false,
+            bool parking_brake = false) {
     fk_Controls c{};
     dds::set_string(c.cab_id, id);
     c.seq = ++seq;
     c.cab_time_s = std::chrono::duration<double>(Clock::now() - start).count();
     c.steer_rad = steer; c.accelerator = accel; c.brake = brake;
-    c.lift = lift; c.tilt = tilt; c.side_shift = shift; c.horn = horn;
+    c.lift = lift; c.tilt = tilt; c.side_shift = shift; c.horn = horn; c.parking_brake = parking_brake;
     writer.write(c);
   }
 
@@ -119,13 +120,13 @@ int run_script(Cab& cab, const std::vector<ScriptRow>& rows) {
     while (!g_stop && Clock::now() < due) {
       cab.hud();
       if (held && Clock::now() - last_sent >= std::chrono::milliseconds(20)) {
-        cab.send(held->steer, held->accelerator, held->brake, held->lift, held->tilt, held->shift);
+        cab.send(held->steer, held->accelerator, held->brake, held->lift, held->tilt, held->shift, false, held->parking_brake);
         last_sent = Clock::now();
       }
       std::this_thread::sleep_until(std::min(due, Clock::now() + std::chrono::milliseconds(5)));
     }
     if (g_stop) break;
-    cab.send(r.steer, r.accelerator, r.brake, r.lift, r.tilt, r.shift);
+    cab.send(r.steer, r.accelerator, r.brake, r.lift, r.tilt, r.shift, false, r.parking_brake);
     held = &r;
     last_sent = Clock::now();
     cab.hud();
@@ -133,7 +134,8 @@ int run_script(Cab& cab, const std::vector<ScriptRow>& rows) {
   return 0;
 }
 
-// Keyboard: arrows drive and steer, space brakes, w/s lift, a/d tilt, q/e side-shift, h horn, x quits.
+// Keyboard: arrows drive and steer, space brakes, w/s lift, a/d tilt, q/e side-shift, h horn,
+// p sets or releases the parking brake, x quits.
 // Commands decay back to neutral when keys are released (no key-up events in a terminal).
 int run_keyboard(Cab& cab) {
   termios saved{};
@@ -143,9 +145,10 @@ int run_keyboard(Cab& cab) {
   raw.c_cc[VMIN] = 0;
   raw.c_cc[VTIME] = 0;
   tcsetattr(STDIN_FILENO, TCSANOW, &raw);
-  std::fprintf(stderr, "arrows: drive/steer, space: brake, w/s: lift, a/d: tilt, q/e: side-shift, h: horn, x: quit\n");
+  std::fprintf(stderr, "arrows: drive/steer, space: brake, w/s: lift, a/d: tilt, q/e: side-shift, h: horn, "
+                       "p: parking brake, x: quit\n");
   double steer = 0, accel = 0, brake = 0, lift = 0, tilt = 0, shift = 0;
-  bool horn = false;
+  bool horn = false, parking = false;
   while (!g_stop) {
     char buf[16];
     const ssize_t n = read(STDIN_FILENO, buf, sizeof buf);
@@ -158,6 +161,7 @@ int run_keyboard(Cab& cab) {
       else if (c == 'a') tilt = -1; else if (c == 'd') tilt = 1;
       else if (c == 'q') shift = 1; else if (c == 'e') shift = -1;
       else if (c == 'h') horn = true;
+      else if (c == 'p') parking = !parking;
       else if (c == '\033' && i + 2 < n && buf[i + 1] == '[') {
         const char k = buf[i + 2];
         i += 2;
@@ -167,7 +171,7 @@ int run_keyboard(Cab& cab) {
         if (k == 'C') steer = std::max(-1.5, steer - 0.1);
       }
     }
-    cab.send(steer, accel, brake, lift, tilt, shift, horn);
+    cab.send(steer, accel, brake, lift, tilt, shift, horn, parking);
     cab.hud();
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }

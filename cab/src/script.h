@@ -1,5 +1,6 @@
-// A timed control script: CSV rows "t, steer, accelerator, brake, lift, tilt, shift" (seconds,
-// radians, and the normalised commands of protocol/idl/Forklift.idl), optional header line.
+// A timed control script: CSV rows "t, steer, accelerator, brake, lift, tilt, shift[, parking]"
+// (seconds, radians, and the normalised commands of protocol/idl/Forklift.idl; parking 0 or 1,
+// the parking brake, 0 when the column is absent), optional header line.
 #pragma once
 #include <string>
 #include <vector>
@@ -8,6 +9,7 @@ namespace forklift {
 
 struct ScriptRow {
   double t = 0, steer = 0, accelerator = 0, brake = 0, lift = 0, tilt = 0, shift = 0;
+  bool parking_brake = false;
 };
 
 // Throws std::runtime_error with the file and line number on a malformed row or times that go

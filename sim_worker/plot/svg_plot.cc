@@ -13,17 +13,24 @@ namespace forklift::plot {
 namespace {
 
 // Layout in pixels. The right margin holds the legend so it never covers data.
-constexpr double kTitleH = 40;    // figure title band
+constexpr double kTitleH = 40;    // figure title band (its first line)
+constexpr double kSubtitleH = 16; // each further line of the title
 constexpr double kBottomH = 50;   // x tick labels and x label under the last panel
 constexpr double kLeft = 80;      // y tick labels and y label
 constexpr double kRight = 230;    // legend
 constexpr double kPanelTop = 24;  // panel title above each plot area
 constexpr double kPanelGap = 12;  // space below each plot area
 
-// Tableau 10: distinct and readable in print; series beyond 10 also get dashes.
+// Tableau 10: distinct and readable in print.
 constexpr const char* kPalette[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd",
                                     "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"};
 constexpr size_t kPaletteSize = sizeof(kPalette) / sizeof(kPalette[0]);
+// Dashes as well as colours, so a curve drawn over an identical one leaves gaps the one
+// below shows through. 7 is coprime with the palette's 10: (colour, dash) pairs repeat only
+// after 70 series. Round caps lengthen each dash by the stroke width (1.5), hence the 0.5s.
+constexpr const char* kDashes[] = {"",    "7,6",        "0.5,4.5",         "10,4,0.5,4",
+                                   "3,4", "14,4,4,4", "0.5,3,0.5,3,8,3"};
+constexpr size_t kDashCount = sizeof(kDashes) / sizeof(kDashes[0]);
 
 // Fixed, limited precision keeps files small (and locale-independent digits).
 std::string num(double v, int prec = 2) {
@@ -133,7 +140,20 @@ void text(std::string& out, double x, double y, const std::string& s, const char
          "\" font-size=\"" + std::to_string(size) + "\"" + extra + ">" + escape(s) + "</text>\n";
 }
 
+// The y range a panel shows: the data's, widened about its middle to the panel's minimum
+// span so noise on a near-constant value stays a flat line (see Panel::min_span).
+void widen_to_min_span(double& lo, double& hi, double min_span) {
+  const double need = std::max(min_span, kMinRelativeSpan * std::max(std::fabs(lo), std::fabs(hi)));
+  if (!(hi - lo < need) || !std::isfinite(need)) return;
+  const double mid = 0.5 * (lo + hi);
+  lo = mid - 0.5 * need;
+  hi = mid + 0.5 * need;
+}
+
 }  // namespace
+
+std::string dash_pattern(size_t index) { return kDashes[index % kDashCount]; }
+size_t dash_pattern_count() { return kDashCount; }
 
 std::vector<double> nice_ticks(double lo, double hi, int target) {
   if (!std::isfinite(lo)) lo = std::isfinite(hi) ? hi : 0.0;
@@ -185,22 +205,43 @@ void write_svg(const std::string& path, const std::string& title, const std::str
                const std::vector<double>& x, const std::vector<Panel>& panels, int width,
                int panel_height) {
   // Validate everything before touching the file system.
-  if (x.empty()) throw std::invalid_argument("write_svg: x is empty");
+  auto xs_of = [&](const Series& s) -> const std::vector<double>& { return s.x.empty() ? x : s.x; };
+  bool any_x = !x.empty();
   for (const Panel& panel : panels)
-    for (const Series& s : panel.series)
-      if (s.y.size() != x.size())
+    for (const Series& s : panel.series) {
+      if (s.x.empty() && x.empty())
+        throw std::invalid_argument("write_svg: series '" + s.label + "' in panel '" + panel.title +
+                                    "' has no x values of its own and the shared x is empty");
+      if (s.y.size() != xs_of(s).size())
         throw std::invalid_argument("write_svg: series '" + s.label + "' in panel '" +
                                     panel.title + "' has " + std::to_string(s.y.size()) +
-                                    " values but x has " + std::to_string(x.size()));
+                                    " values but its x has " + std::to_string(xs_of(s).size()));
+      any_x = any_x || !s.x.empty();
+    }
+  if (!any_x) throw std::invalid_argument("write_svg: x is empty");
+
+  std::vector<std::string> title_lines;
+  for (size_t b = 0;;) {
+    const size_t e = title.find('\n', b);
+    title_lines.push_back(title.substr(b, e == std::string::npos ? e : e - b));
+    if (e == std::string::npos) break;
+    b = e + 1;
+  }
+  const double title_h = kTitleH + kSubtitleH * static_cast<double>(title_lines.size() - 1);
 
   const double W = std::max(width, 400), PH = std::max(panel_height, 100);
-  const double H = kTitleH + PH * static_cast<double>(panels.size()) + kBottomH;
+  const double H = title_h + PH * static_cast<double>(panels.size()) + kBottomH;
   const double plot_l = kLeft, plot_r = W - kRight, plot_w = plot_r - plot_l;
 
   // The shared x axis hugs the data: no empty margins on a time axis.
   double xlo = std::numeric_limits<double>::infinity(), xhi = -xlo;
-  for (double v : x)
-    if (std::isfinite(v)) xlo = std::min(xlo, v), xhi = std::max(xhi, v);
+  auto cover_x = [&](const std::vector<double>& v) {
+    for (double t : v)
+      if (std::isfinite(t)) xlo = std::min(xlo, t), xhi = std::max(xhi, t);
+  };
+  cover_x(x);
+  for (const Panel& panel : panels)
+    for (const Series& s : panel.series) cover_x(s.x);
   if (xlo > xhi) xlo = 0, xhi = 1;  // no finite x at all: nothing will be drawn anyway
   std::vector<double> xt = nice_ticks(xlo, xhi, std::max(2, static_cast<int>(plot_w / 100)));
   if (!(xhi > xlo)) {
@@ -219,19 +260,24 @@ void write_svg(const std::string& path, const std::string& title, const std::str
          num(H, 0) + "\" viewBox=\"0 0 " + num(W, 0) + ' ' + num(H, 0) +
          "\" font-family=\"Helvetica, Arial, sans-serif\">\n";
   out += "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
-  text(out, 10, 26, title, "start", 15, " font-weight=\"bold\"");  // long titles stay on the page
+  text(out, 10, 26, title_lines[0], "start", 15, " font-weight=\"bold\"");  // long titles stay on the page
+  for (size_t li = 1; li < title_lines.size(); ++li)
+    text(out, 10, 26 + kSubtitleH * static_cast<double>(li), title_lines[li], "start", 12);
 
   for (size_t pi = 0; pi < panels.size(); ++pi) {
     const Panel& panel = panels[pi];
-    const double top = kTitleH + PH * static_cast<double>(pi) + kPanelTop;
-    const double bottom = kTitleH + PH * static_cast<double>(pi + 1) - kPanelGap;
+    const double top = title_h + PH * static_cast<double>(pi) + kPanelTop;
+    const double bottom = title_h + PH * static_cast<double>(pi + 1) - kPanelGap;
 
     double ylo = std::numeric_limits<double>::infinity(), yhi = -ylo;
-    for (const Series& s : panel.series)
-      for (size_t i = 0; i < x.size(); ++i)
-        if (std::isfinite(s.y[i]) && std::isfinite(x[i]))
+    for (const Series& s : panel.series) {
+      const std::vector<double>& sx = xs_of(s);
+      for (size_t i = 0; i < sx.size(); ++i)
+        if (std::isfinite(s.y[i]) && std::isfinite(sx[i]))
           ylo = std::min(ylo, s.y[i]), yhi = std::max(yhi, s.y[i]);
+    }
     if (ylo > yhi) ylo = 0, yhi = 1;  // empty panel: still draw a labelled frame
+    widen_to_min_span(ylo, yhi, panel.min_span);
     const std::vector<double> yt =
         nice_ticks(ylo, yhi, std::max(2, static_cast<int>((bottom - top) / 35)));
     const double ystep = yt.size() > 1 ? yt[1] - yt[0] : 1.0;
@@ -261,18 +307,19 @@ void write_svg(const std::string& path, const std::string& title, const std::str
     for (size_t si = 0; si < panel.series.size(); ++si) {
       const Series& s = panel.series[si];
       const std::string colour = kPalette[si % kPaletteSize];
-      const std::string dash = si >= kPaletteSize ? " stroke-dasharray=\"6,3\"" : "";
+      const std::string pattern = dash_pattern(si);
+      const std::string dash = pattern.empty() ? "" : " stroke-dasharray=\"" + pattern + "\"";
       out += "<g class=\"series\" fill=\"none\" stroke=\"" + colour + "\" stroke-width=\"1.5\"" +
              dash + " stroke-linejoin=\"round\" stroke-linecap=\"round\">\n<title>" +
              escape(s.label) + "</title>\n";
-      add_polylines(out, x, s.y, mx, my);
+      add_polylines(out, xs_of(s), s.y, mx, my);
       out += "</g>\n";
-      // Legend entry in the right margin.
+      // Legend entry in the right margin, long enough to show a whole dash cycle.
       const double ly = top + 10 + 16 * static_cast<double>(si);
-      out += "<line x1=\"" + num(plot_r + 12) + "\" y1=\"" + num(ly) + "\" x2=\"" +
-             num(plot_r + 34) + "\" y2=\"" + num(ly) + "\" stroke=\"" + colour +
-             "\" stroke-width=\"2\"" + dash + "/>\n";
-      text(out, plot_r + 40, ly + 4, s.label, "start", 12);
+      out += "<line class=\"legend\" x1=\"" + num(plot_r + 10) + "\" y1=\"" + num(ly) +
+             "\" x2=\"" + num(plot_r + 44) + "\" y2=\"" + num(ly) + "\" stroke=\"" + colour +
+             "\" stroke-width=\"1.5\" stroke-linecap=\"round\"" + dash + "/>\n";
+      text(out, plot_r + 50, ly + 4, s.label, "start", 12);
     }
     out += "</g>\n";
   }

@@ -201,7 +201,12 @@ struct Evaluation {
   std::array<Body, 6> body;
   MassMatrix M;
   CoordVector Q;  // applied generalised forces minus the velocity-product terms
+  CoordVector Q_applied;  // the part of Q from every force but gravity
+  std::array<Eigen::Vector2d, kNumWheels> tyre_rate;  // bristle deflection rates (kBristle)
+  std::array<double, 2> brake_stick_rate;              // brake bristle rates (front wheels)
 };
+
+double sq(double v) { return v * v; }
 
 }  // namespace
 
@@ -254,6 +259,8 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
   e.body = bodies(t, load);
   e.M.setZero();
   e.Q.setZero();
+  CoordVector& Qa = e.Q_applied;
+  Qa.setZero();
   Jac Jv, Jw;
   double mass = 0;
   Vector3d mass_moment = Vector3d::Zero();
@@ -271,61 +278,131 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
     mass += b.mass;
     mass_moment += b.mass * c;
   }
+  // Motor rotors and gears spin with the front wheels relative to the chassis (section 6's two
+  // motors): their inertia, reflected through the gear ratio, sits on the wheels' own coordinates.
+  e.M(kAvr1, kAvr1) += t.drive.drivetrain_inertia_kg_m2;
+  e.M(kAvr2, kAvr2) += t.drive.drivetrain_inertia_kg_m2;
 
   // Ground-to-wheel forces, section 7, each applied at its contact point to the wheel.
   const ContactParams& cp = t.contact;
+  const bool bristle = cp.tyre == TyreModel::kBristle;
   std::array<WheelContact, kNumWheels> wc{};
   for (int w = 0; w < kNumWheels; ++w) {
     const FrameState& F = e.kin.f[kWheelFrame[w]];
     WheelContact& c = wc[w];
+    const double radius = t.wheels[w].radius_m;
     double h;
     Vector3d n;
     ground_under(env.ground, F.p, h, n);
-    const double height_over_ground = (F.p - Vector3d(F.p.x(), F.p.y(), h)).dot(n);
-    c.penetration_m = t.wheels[w].radius_m - height_over_ground;
-    c.contact_point_m = F.p - height_over_ground * n;
     const Vector3d axle = F.R.col(1);
-    const Vector3d xw = axle.cross(n).normalized(), yw = n.cross(xw);
+    const double height_over_ground = (F.p - Vector3d(F.p.x(), F.p.y(), h)).dot(n);
+    // The disc's lowest point lies the radius times the cosine of the camber below its centre, a
+    // little to one side: a wheel lying on its side reaches no lower than its centre.
+    const Vector3d down = -(n - n.dot(axle) * axle);
+    const double reach = radius * down.norm();
+    c.penetration_m = reach - height_over_ground;
+    c.contact_point_m = F.p - height_over_ground * n;
+    if (reach > 1e-9 * radius) c.contact_point_m += radius * down / down.norm() + reach * n;
+    const Vector3d rolling = axle.cross(n);
+    const bool upright = rolling.norm() > 1e-6;  // a wheel lying flat has no rolling direction
+    const Vector3d xw = upright ? Vector3d(rolling.normalized()) : Vector3d(F.R.col(0)), yw = n.cross(xw);
     const Vector3d vs = F.v + F.w.cross(c.contact_point_m - F.p);  // VS: the contact point on the wheel
     c.slip_x_m_s = vs.dot(xw);
     c.slip_y_m_s = vs.dot(yw);
     const double vwx = F.v.dot(xw), vwy = F.v.dot(yw);
     const double vfloor = cp.slip_angle_speed_floor_m_s;
-    c.slip_angle_rad = sign(vwy) * std::atan(std::abs(vwy) / std::sqrt(vwx * vwx + vfloor * vfloor));
+    c.slip_angle_rad = sign(vwy) * std::atan(std::abs(vwy) / std::sqrt(vwx * vwx + vfloor * vfloor + 1e-12));
     if (c.penetration_m > 0) {
       // eq (7); the damper may not pull the wheel into the ground.
       c.fz_N = std::max(0.0, cp.stiffness_N_m * c.penetration_m - cp.damping_N_s_m * F.v.dot(n));
     }
     c.on_ground = c.fz_N > 0;
+    e.tyre_rate[w].setZero();
+    double stribeck = 0, mu = 0;
+    if (bristle) {
+      // The averaged LuGre brush: the deflection z builds with the slip and relaxes while sliding
+      // (|v| / g) and while rolling (over the relaxation length), so it is a spring at rest.
+      const Eigen::Vector2d z = x.segment<2>(StateIndex::kTyre + 2 * w);
+      const double v = std::hypot(c.slip_x_m_s, c.slip_y_m_s);
+      stribeck = std::exp(-sq(v / cp.stribeck_speed_m_s));
+      mu = cp.mu_sliding + (cp.mu_static - cp.mu_sliding) * stribeck;
+      const double relax = std::abs(F.w.dot(axle) * radius) / cp.relaxation_length_m;
+      e.tyre_rate[w] = Eigen::Vector2d(c.slip_x_m_s - (cp.bristle_stiffness_x_per_m * v / mu + relax) * z.x(),
+                                       c.slip_y_m_s - (cp.bristle_stiffness_y_per_m * v / mu + relax) * z.y());
+    }
     Vector3d force = c.fz_N * n;
     if (env.chock_anchors_m) {
       const Eigen::Vector2d dp = c.contact_point_m.head<2>() - (*env.chock_anchors_m)[w];
       constexpr double kChockStiffness = 2e6, kChockDamping = 2e4;  // a rigid chock, numerically soft
       force.head<2>() += -kChockStiffness * dp - kChockDamping * vs.head<2>();
-    } else if (c.on_ground) {
-      c.fx_N = std::clamp(-c.fz_N * cp.fx_slip_gain_s_m * c.slip_x_m_s, -cp.fx_max_N, cp.fx_max_N);  // eq (8)
-      const double a0 = cp.fy_alpha0_rad;  // eq (10)
-      c.fy_N = std::abs(c.slip_angle_rad) <= a0 ? -cp.fy_mu * c.fz_N * std::sin(M_PI * c.slip_angle_rad / (2 * a0))
-                                                : -cp.fy_mu * c.fz_N * sign(c.slip_angle_rad);
+    } else if (c.on_ground && upright) {
+      if (bristle) {
+        const Eigen::Vector2d z = x.segment<2>(StateIndex::kTyre + 2 * w), zd = e.tyre_rate[w];
+        const double damping = cp.bristle_damping_s_m * stribeck;  // damps sticking, not sliding
+        c.fx_N = -c.fz_N * (cp.bristle_stiffness_x_per_m * z.x() + damping * zd.x());
+        c.fy_N = -c.fz_N * (cp.bristle_stiffness_y_per_m * z.y() + damping * zd.y());
+        c.friction_use = std::hypot(c.fx_N, c.fy_N) / (mu * c.fz_N);
+      } else {
+        c.fx_N = std::clamp(-c.fz_N * cp.fx_slip_gain_s_m * c.slip_x_m_s, -cp.fx_max_N, cp.fx_max_N);  // eq (8)
+        const double a0 = cp.fy_alpha0_rad;  // eq (10)
+        c.fy_N = std::abs(c.slip_angle_rad) <= a0 ? -cp.fy_mu * c.fz_N * std::sin(M_PI * c.slip_angle_rad / (2 * a0))
+                                                  : -cp.fy_mu * c.fz_N * sign(c.slip_angle_rad);
+      }
       force += c.fx_N * xw + c.fy_N * yw;
     }
     point_jacobian(tree, e.kin, kWheelFrame[w], c.contact_point_m, Jv, Jw);
-    e.Q.noalias() += Jv.transpose() * force;
-    // eq (6), rolling resistance, a torque from the ground on the wheel; it fades in with the
-    // first 1000 N of load so that it vanishes, continuously, as the wheel leaves the ground.
-    c.rolling_torque_N_m = -cp.rolling_resistance_N_m_s * qd[kAvr1 + w] * std::min(1.0, c.fz_N / 1000.0);
-    e.Q.noalias() += Jw.transpose() * (c.rolling_torque_N_m * axle);
+    Qa.noalias() += Jv.transpose() * force;
+    // eq (6), rolling resistance, a torque from the ground on the wheel; the viscous part fades in
+    // with the first 1000 N of load so that it vanishes, continuously, as the wheel leaves the
+    // ground; the Coulomb part is proportional to the load.
+    const double spin = qd[kAvr1 + w];
+    c.rolling_torque_N_m = -cp.rolling_resistance_N_m_s * spin * std::min(1.0, c.fz_N / 1000.0) -
+                           cp.rolling_resistance_coefficient * c.fz_N * radius *
+                               std::tanh(spin / cp.rolling_resistance_speed_rad_s);
+    Qa.noalias() += Jw.transpose() * (c.rolling_torque_N_m * axle);
+  }
+
+  // The body on the ground: a tipped truck rests on its guard, counterweight, mast or forks.
+  const BodyGroundContact& bc = t.body_contact;
+  int touching = 0;
+  double deepest = 0;
+  auto touch = [&](int frame, const Vector3d& local) {
+    const FrameState& F = e.kin.f[frame];
+    const Vector3d p = F.p + F.R * local;
+    double h;
+    Vector3d n;
+    ground_under(env.ground, p, h, n);
+    const double pen = (Vector3d(p.x(), p.y(), h) - p).dot(n);
+    if (pen <= 0) return;
+    ++touching;
+    deepest = std::max(deepest, pen);
+    const Vector3d v = F.v + F.w.cross(p - F.p);
+    const double vn = v.dot(n);
+    const double fn = std::max(0.0, bc.stiffness_N_m * pen - bc.damping_N_s_m * vn);  // never pulls
+    const Vector3d vt = v - vn * n;
+    const Vector3d f = fn * n - bc.mu * fn / std::sqrt(vt.squaredNorm() + sq(bc.friction_speed_m_s)) * vt;
+    point_jacobian(tree, e.kin, frame, p, Jv, Jw);
+    Qa.noalias() += Jv.transpose() * f;
+  };
+  if (bc.stiffness_N_m > 0) {
+    for (const BodyContactPoint& p : bc.points)
+      touch(p.body == 0 ? kChassisFrame : p.body == 1 ? kMastFrame : kCarriageFrame, p.point_m);
+    if (load && load->mass_kg > 0 && load->size_m.minCoeff() > 0)
+      for (int k = 0; k < 8; ++k)
+        touch(kCarriageFrame, load->cog_m + 0.5 * Vector3d(k & 1 ? 1 : -1, k & 2 ? 1 : -1, k & 4 ? 1 : -1)
+                                                     .cwiseProduct(load->size_m));
   }
 
   // The scene pushing back where the truck touches it (contacts, held for the tick).
   for (const ExternalForce& f : env.external_forces) {
     const int frame = f.body == TruckBody::kChassis ? kChassisFrame : f.body == TruckBody::kMast ? kMastFrame : kCarriageFrame;
     point_jacobian(tree, e.kin, frame, f.point_m, Jv, Jw);
-    e.Q.noalias() += Jv.transpose() * f.force_N;
+    Qa.noalias() += Jv.transpose() * f.force_N;
   }
 
   // Drive torque (section 6) and brake torque (section 8) act between chassis and front wheels,
   // so they are generalised forces on the wheels' relative spin coordinates alone.
+  const DriveParams& dp = t.drive;
   const double M = x[StateIndex::kTorque];
   const double phi_c = std::atan(2 * t.wheelbase_m() / t.front_track_m());
   double m1, m2;
@@ -337,13 +414,31 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
     const double den = std::abs(m1 * w1) + std::abs(m2 * w2);
     if (den > 1e-12) { m1 = std::abs(M) * m1 * w1 / den; m2 = std::abs(M) * m2 * w2 / den; }
   }
-  wc[kFrontLeft].drive_torque_N_m = m1;
-  wc[kFrontRight].drive_torque_N_m = m2;
+  const double forward_speed = std::cos(q[kAwc]) * qd[kX] + std::sin(q[kAwc]) * qd[kY];
+  // The speed governor: full torque up to the band below the cap, none at it, braking above.
+  const double governor =
+      std::isfinite(dp.speed_max_m_s)
+          ? std::clamp((dp.speed_max_m_s - sign(M) * forward_speed) / dp.speed_governor_band_m_s, -1.0, 1.0)
+          : 1.0;
+  wc[kFrontLeft].drive_torque_N_m = m1 * governor;
+  wc[kFrontRight].drive_torque_N_m = m2 * governor;
   const double b = std::max(0.0, x[StateIndex::kBrake]);
   for (int w : {kFrontLeft, kFrontRight}) {
-    wc[w].brake_torque_N_m = -b * std::tanh(qd[kAvr1 + w] / t.drive.brake_fade_speed_rad_s);
-    e.Q[kAvr1 + w] += wc[w].drive_torque_N_m + wc[w].brake_torque_N_m;
+    const double spin = qd[kAvr1 + w];
+    double& drive = wc[w].drive_torque_N_m;
+    drive = std::clamp(drive, -dp.motor_torque_max_N_m, dp.motor_torque_max_N_m);
+    if (drive * spin > 0) drive = sign(drive) * std::min(std::abs(drive), dp.motor_power_max_W / std::abs(spin));
+    if (dp.brake_stick_angle_rad > 0) {
+      const double s = x[StateIndex::kBrakeStick + w];
+      e.brake_stick_rate[w] = (spin - std::abs(spin) * s) / dp.brake_stick_angle_rad;
+      wc[w].brake_torque_N_m = -b * (s + dp.brake_stick_damping_s * e.brake_stick_rate[w]);
+    } else {
+      e.brake_stick_rate[w] = 0;
+      wc[w].brake_torque_N_m = -b * std::tanh(spin / dp.brake_fade_speed_rad_s);
+    }
+    Qa[kAvr1 + w] += drive + wc[w].brake_torque_N_m;
   }
+  e.Q += Qa;
 
   if (out) {
     out->q = q;
@@ -351,8 +446,10 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
     out->wheels = wc;
     out->total_mass_kg = mass;
     out->cog_m = mass_moment / mass;
-    const double yaw = q[kAwc];
-    out->forward_speed_m_s = std::cos(yaw) * qd[kX] + std::sin(yaw) * qd[kY];
+    out->forward_speed_m_s = forward_speed;
+    out->body_points_on_ground = touching;
+    out->body_penetration_max_m = deepest;
+    out->applied_power_W = Qa.dot(qd);
   }
 }
 
@@ -384,16 +481,25 @@ bool TruckDynamics::derivative(const StateVector& x, const DriverInputs& u, Stat
   // Driven coordinates: third-order filters so that z, z', z'' stay continuous (section 12).
   const MastLimits& lim = truck_.limits;
   Eigen::Vector4d zdd;
-  const double ws = truck_.steer_bandwidth_rad_s, wl = truck_.lever_bandwidth_rad_s;
-  const double steer_max = 88.0 * M_PI / 180.0;
+  const SteerParams& steer = truck_.steer;
+  const double ws = steer.bandwidth_rad_s, wl = truck_.lever_bandwidth_rad_s;
   for (int d = 0; d < kNumDriven; ++d) {
     const int i = StateIndex::kDriven + 3 * d;
     const double z = x[i], zd = x[i + 1], za = x[i + 2];
     dx[i] = zd;
     dx[i + 1] = za;
     if (d == 0) {  // steer, driven by position
-      const double target = std::clamp(u.steer_rad, -steer_max, steer_max);
-      dx[i + 2] = ws * ws * ws * (target - z) - 3 * ws * ws * zd - 3 * ws * za;
+      const double target = std::clamp(u.steer_rad, -steer.max_rad, steer.max_rad);
+      if (std::isfinite(steer.rate_max_rad_s)) {
+        // A rate-limited servo: the rate asked for is the position error times ws / 8 (a gain
+        // that keeps the loop's three poles real, so the wheel never overshoots an end stop),
+        // clamped to the limit; the rate follows it through a critically damped filter, whose
+        // non-negative impulse response keeps |z'| within the limit too.
+        const double rate = std::clamp(ws / 8 * (target - z), -steer.rate_max_rad_s, steer.rate_max_rad_s);
+        dx[i + 2] = ws * ws * (rate - zd) - 2 * ws * za;
+      } else {
+        dx[i + 2] = ws * ws * ws * (target - z) - 3 * ws * ws * zd - 3 * ws * za;
+      }
     } else {  // tilt, lift, side-shift, driven by velocity
       double rate = 0;
       // Each band is about a third of a second of travel at full rate, long beside the filter's
@@ -419,9 +525,13 @@ bool TruckDynamics::derivative(const StateVector& x, const DriverInputs& u, Stat
   // First-order lags on the drive and brake demands (section 8).
   const DriveParams& dp = truck_.drive;
   const double torque = std::clamp(u.drive_torque_N_m, -dp.drive_torque_max_N_m, dp.drive_torque_max_N_m);
-  const double brake = std::clamp(u.brake_torque_N_m, 0.0, dp.brake_torque_max_N_m);
+  double brake = std::clamp(u.brake_torque_N_m, 0.0, dp.brake_torque_max_N_m);
+  if (u.parking_brake) brake = std::max(brake, dp.parking_brake_torque_N_m);
   dx[StateIndex::kTorque] = (torque - x[StateIndex::kTorque]) / dp.torque_lag_s;
   dx[StateIndex::kBrake] = (brake - x[StateIndex::kBrake]) / dp.brake_lag_s;
+  for (int w = 0; w < kNumWheels; ++w) dx.segment<2>(StateIndex::kTyre + 2 * w) = e.tyre_rate[w];
+  dx[StateIndex::kBrakeStick] = e.brake_stick_rate[0];
+  dx[StateIndex::kBrakeStick + 1] = e.brake_stick_rate[1];
 
   if (out) {
     out->qddot.head<kNumDynamic>() = qdd;
@@ -429,11 +539,12 @@ bool TruckDynamics::derivative(const StateVector& x, const DriverInputs& u, Stat
     // Eq (14) with the actuator's sign: the force it must apply to follow z''.
     out->driven_force = e.M.bottomLeftCorner<kNumDriven, kNumDynamic>() * qdd +
                         e.M.bottomRightCorner<kNumDriven, kNumDriven>() * zdd - e.Q.tail<kNumDriven>();
+    out->applied_power_W += out->driven_force.dot(out->qdot.tail<kNumDriven>());
   }
   return dx.allFinite();
 }
 
-double TruckDynamics::energy(const StateVector& x) const {
+double TruckDynamics::energy(const StateVector& x, bool with_ground_springs) const {
   Evaluation e;
   Outputs out;
   evaluate(truck_, env_, load_, x, e, &out);
@@ -443,8 +554,9 @@ double TruckDynamics::energy(const StateVector& x) const {
     const FrameState& F = e.kin.f[b.frame];
     energy -= b.mass * env_.gravity_m_s2.dot(F.p + F.R * b.cog);
   }
-  for (const WheelContact& c : out.wheels)
-    if (c.penetration_m > 0) energy += 0.5 * truck_.contact.stiffness_N_m * c.penetration_m * c.penetration_m;
+  if (with_ground_springs)
+    for (const WheelContact& c : out.wheels)
+      if (c.penetration_m > 0) energy += 0.5 * truck_.contact.stiffness_N_m * c.penetration_m * c.penetration_m;
   return energy;
 }
 
@@ -474,12 +586,15 @@ bool TruckDynamics::settle_static(StateVector& x) const {
   auto residual = [&](const StateVector& s) {
     Evaluation e;
     evaluate(truck_, env_, load_, s, e, nullptr);
-    // Solve for accelerations so the residual is well scaled (m/s^2, rad/s^2).
-    Eigen::VectorXd r(n);
-    const Eigen::Matrix<double, kNumDynamic, 1> a =
-        e.M.topLeftCorner<kNumDynamic, kNumDynamic>().llt().solve(e.Q.head<kNumDynamic>());
-    for (int i = 0; i < n; ++i) r[i] = a[free[i]];
-    return r;
+    // Accelerations of the free coordinates with every other one held (wheels locked, and the
+    // truck held in place unless chocked), so the residual is well scaled (m/s^2, rad/s^2).
+    Eigen::MatrixXd Mff(n, n);
+    Eigen::VectorXd Qf(n);
+    for (int i = 0; i < n; ++i) {
+      Qf[i] = e.Q[free[i]];
+      for (int j = 0; j < n; ++j) Mff(i, j) = e.M(free[i], free[j]);
+    }
+    return Eigen::VectorXd(Mff.llt().solve(Qf));
   };
   for (int iter = 0; iter < 100; ++iter) {
     const Eigen::VectorXd r = residual(x);

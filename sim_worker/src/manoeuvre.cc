@@ -158,8 +158,9 @@ ManoeuvreResult run_manoeuvre(const TruckParams& truck, int number, const Integr
     r.max_pitch_deg = std::max(r.max_pitch_deg, pitch);
     r.max_roll_deg = std::max(r.max_roll_deg, roll);
     for (int w = 0; w < kNumWheels; ++w) r.min_fz_N[w] = std::min(r.min_fz_N[w], s.out.wheels[w].fz_N);
-    if (spec.brake_onset_s && !r.stop_time_s && t > *spec.brake_onset_s && std::abs(s.out.forward_speed_m_s) < 0.05)
-      r.stop_time_s = t - *spec.brake_onset_s;
+    for (ManoeuvreResult::StopTime& stop : r.stop_times)
+      if (spec.brake_onset_s && !stop.s && t > *spec.brake_onset_s && std::abs(s.out.forward_speed_m_s) < stop.below_m_s)
+        stop.s = t - *spec.brake_onset_s;
     if (std::max(pitch, roll) > 20) r.tipped_over = true;
     r.samples.push_back(std::move(s));
   };

@@ -36,6 +36,7 @@ DriverInputs driver_inputs(const ControlSample& c, const TruckParams& t) {
   u.lift_rate_m_s = c.lift * t.limits.lift_rate_max_m_s;
   u.tilt_rate_rad_s = c.tilt * t.limits.tilt_rate_max_rad_s;
   u.shift_rate_m_s = c.side_shift * t.limits.side_shift_rate_max_m_s;
+  u.parking_brake = c.parking_brake;
   return u;
 }
 
@@ -126,7 +127,8 @@ std::string state_hex(const StateVector& x) {
 
 StateVector parse_state_hex(const std::string& text) {
   const std::vector<std::string> w = split(text);
-  if (w.size() != StateIndex::kSize) throw std::runtime_error("a state needs 32 numbers, got " + std::to_string(w.size()));
+  if (w.size() != StateIndex::kSize)
+    throw std::runtime_error("a state needs " + std::to_string(StateIndex::kSize) + " numbers, got " + std::to_string(w.size()));
   StateVector x;
   for (int i = 0; i < StateIndex::kSize; ++i) x[i] = from_hex(w[i]);
   return x;
@@ -145,6 +147,7 @@ ControlLogWriter::ControlLogWriter(const std::string& path, const LogHeader& h) 
     std::fprintf(f_, "load %s", hex(h.load->mass_kg).c_str());
     for (int i = 0; i < 3; ++i) std::fprintf(f_, " %s", hex(h.load->cog_m[i]).c_str());
     for (int i = 0; i < 9; ++i) std::fprintf(f_, " %s", hex(h.load->inertia_kg_m2(i / 3, i % 3)).c_str());
+    for (int i = 0; i < 3; ++i) std::fprintf(f_, " %s", hex(h.load->size_m[i]).c_str());
     std::fprintf(f_, "\n");
   }
   std::fflush(f_);
@@ -153,9 +156,9 @@ ControlLogWriter::ControlLogWriter(const std::string& path, const LogHeader& h) 
 ControlLogWriter::~ControlLogWriter() { std::fclose(f_); }
 
 void ControlLogWriter::input(int64_t tick, uint32_t seq, const DriverInputs& u) {
-  std::fprintf(f_, "i %" PRId64 " %u %s %s %s %s %s %s\n", tick, seq, hex(u.drive_torque_N_m).c_str(),
+  std::fprintf(f_, "i %" PRId64 " %u %s %s %s %s %s %s %d\n", tick, seq, hex(u.drive_torque_N_m).c_str(),
                hex(u.brake_torque_N_m).c_str(), hex(u.steer_rad).c_str(), hex(u.tilt_rate_rad_s).c_str(),
-               hex(u.lift_rate_m_s).c_str(), hex(u.shift_rate_m_s).c_str());
+               hex(u.lift_rate_m_s).c_str(), hex(u.shift_rate_m_s).c_str(), u.parking_brake ? 1 : 0);
   std::fflush(f_);  // a worker that is killed leaves everything it applied
 }
 
@@ -198,18 +201,23 @@ ControlLog read_control_log(const std::string& path) {
         log.header.integrator.cvode_max_order = std::stoi(w.at(3));
       } else if (k == "init") { log.header.initial = parse_state_hex(rest); has_init = true; }
       else if (k == "load") {
-        if (w.size() != 14) throw std::runtime_error("load needs 13 numbers");
+        if (w.size() != 14 && w.size() != 17) throw std::runtime_error("load needs 13 or 16 numbers");
         Load l;
         l.mass_kg = from_hex(w[1]);
         for (int i = 0; i < 3; ++i) l.cog_m[i] = from_hex(w[2 + i]);
         for (int i = 0; i < 9; ++i) l.inertia_kg_m2(i / 3, i % 3) = from_hex(w[5 + i]);
+        if (w.size() == 17) for (int i = 0; i < 3; ++i) l.size_m[i] = from_hex(w[14 + i]);
         log.header.load = l;
       } else if (k == "i") {
-        if (w.size() != 9) throw std::runtime_error("an input line needs 8 fields");
+        if (w.size() != 9 && w.size() != 10) throw std::runtime_error("an input line needs 8 or 9 fields");
         ControlLog::Entry e;
         e.tick = std::stoll(w[1]);
         e.seq = static_cast<uint32_t>(std::stoul(w[2]));
         e.inputs = {from_hex(w[3]), from_hex(w[4]), from_hex(w[5]), from_hex(w[6]), from_hex(w[7]), from_hex(w[8])};
+        if (w.size() == 10) {
+          if (w[9] != "0" && w[9] != "1") throw std::runtime_error("the parking brake is 0 or 1");
+          e.inputs.parking_brake = w[9] == "1";
+        }
         if (!log.entries.empty() && e.tick < log.entries.back().tick) throw std::runtime_error("ticks go backwards");
         log.entries.push_back(e);
       } else if (k == "end") log.ticks = std::stoll(w.at(1));

@@ -41,6 +41,8 @@ StateVector tolerance_scale() {
   s.segment<3>(StateIndex::kQdot + kAvr1).setConstant(10.0); // rad/s
   for (int d = 0; d < kNumDriven; ++d) s.segment<3>(StateIndex::kDriven + 3 * d) << 0.1, 1.0, 10.0;
   s[StateIndex::kTorque] = s[StateIndex::kBrake] = 100.0;    // N m
+  s.segment<2 * kNumWheels>(StateIndex::kTyre).setConstant(0.01);  // m, a bristle at full grip: mu / sigma0
+  s.segment<2>(StateIndex::kBrakeStick).setConstant(1.0);          // a brake bristle at full torque
   return s;
 }
 

@@ -17,6 +17,18 @@ class Reader {
  public:
   Reader(const std::string& path, const json& root) : path_(path), root_(root) {}
 
+  bool has(const std::string& dotted) const {
+    const json* j = &root_;
+    size_t start = 0;
+    while (true) {
+      size_t dot = dotted.find('.', start);
+      std::string key = dotted.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
+      if (!j->is_object() || !j->contains(key)) return false;
+      j = &(*j)[key];
+      if (dot == std::string::npos) return true;
+      start = dot + 1;
+    }
+  }
   const json& node(const std::string& dotted) const {
     const json* j = &root_;
     size_t start = 0;
@@ -151,15 +163,40 @@ TruckParams load_truck(const std::string& path) {
   t.chassis.cog_m = Eigen::Vector3d::Zero();
   t.chassis.inertia_kg_m2 = r.inertia("chassis.inertia_kg_m2");
 
+  // Optional keys: absent, a force law keeps the paper's form (section 7-8) or has no limit.
+  auto optional = [&](const std::string& key, double fallback, bool positive) {
+    if (!r.has(key)) return fallback;
+    return positive ? r.positive(key) : r.non_negative(key);
+  };
   ContactParams& c = t.contact;
   c.stiffness_N_m = r.positive("ground_contact.vertical_stiffness_N_m");
   c.damping_N_s_m = r.non_negative("ground_contact.vertical_damping_N_s_m");
-  c.fx_slip_gain_s_m = r.non_negative("ground_contact.fx_slip_gain_s_m");
-  c.fx_max_N = r.non_negative("ground_contact.fx_max_N");
-  c.fy_mu = r.non_negative("ground_contact.fy_mu");
-  c.fy_alpha0_rad = r.positive("ground_contact.fy_alpha0_deg") * kDeg;
-  c.rolling_resistance_N_m_s = r.non_negative("ground_contact.rolling_resistance_N_m_s");
-  c.slip_angle_speed_floor_m_s = r.positive("ground_contact.slip_angle_speed_floor_m_s");
+  const std::string tyre = r.has("ground_contact.tyre_model") && r.node("ground_contact.tyre_model").is_string()
+                               ? r.node("ground_contact.tyre_model").get<std::string>() : "paper";
+  if (tyre == "paper") {
+    c.tyre = TyreModel::kPaper;
+    c.fx_slip_gain_s_m = r.non_negative("ground_contact.fx_slip_gain_s_m");
+    c.fx_max_N = r.non_negative("ground_contact.fx_max_N");
+    c.fy_mu = r.non_negative("ground_contact.fy_mu");
+    c.fy_alpha0_rad = r.positive("ground_contact.fy_alpha0_deg") * kDeg;
+    c.slip_angle_speed_floor_m_s = r.positive("ground_contact.slip_angle_speed_floor_m_s");
+  } else if (tyre == "bristle") {
+    c.tyre = TyreModel::kBristle;
+    c.mu_static = r.positive("ground_contact.mu_static");
+    c.mu_sliding = r.positive("ground_contact.mu_sliding");
+    if (c.mu_sliding > c.mu_static) r.fail("ground_contact.mu_sliding", "must not exceed mu_static");
+    c.stribeck_speed_m_s = r.positive("ground_contact.stribeck_speed_m_s");
+    c.bristle_stiffness_x_per_m = r.positive("ground_contact.bristle_stiffness_x_per_m");
+    c.bristle_stiffness_y_per_m = r.positive("ground_contact.bristle_stiffness_y_per_m");
+    c.bristle_damping_s_m = r.non_negative("ground_contact.bristle_damping_s_m");
+    c.relaxation_length_m = r.positive("ground_contact.relaxation_length_m");
+    c.slip_angle_speed_floor_m_s = 0.05;  // only for reporting the slip angle at rest
+  } else {
+    r.fail("ground_contact.tyre_model", "must be \"paper\" or \"bristle\"");
+  }
+  c.rolling_resistance_N_m_s = optional("ground_contact.rolling_resistance_N_m_s", 0, false);
+  c.rolling_resistance_coefficient = optional("ground_contact.rolling_resistance_coefficient", 0, false);
+  c.rolling_resistance_speed_rad_s = optional("ground_contact.rolling_resistance_speed_rad_s", 0.1, true);
   t.scene_contact.stiffness_N_m = r.non_negative("scene_contact.stiffness_N_m");
   t.scene_contact.damping_N_s_m = r.non_negative("scene_contact.damping_N_s_m");
 
@@ -168,10 +205,46 @@ TruckParams load_truck(const std::string& path) {
   d.brake_torque_max_N_m = r.positive("drive.brake_torque_max_N_m");
   d.torque_lag_s = r.positive("drive.torque_lag_s");
   d.brake_lag_s = r.positive("drive.brake_lag_s");
-  d.brake_fade_speed_rad_s = r.positive("drive.brake_fade_speed_rad_s");
+  d.brake_stick_angle_rad = optional("drive.brake_stick_angle_deg", 0, true) * kDeg;
+  if (d.brake_stick_angle_rad > 0) d.brake_stick_damping_s = r.non_negative("drive.brake_stick_damping_s");
+  else d.brake_fade_speed_rad_s = r.positive("drive.brake_fade_speed_rad_s");
+  d.parking_brake_torque_N_m = optional("drive.parking_brake_torque_N_m", 0, false);
+  d.motor_torque_max_N_m = optional("drive.motor_torque_max_N_m", INFINITY, true);
+  d.motor_power_max_W = optional("drive.motor_power_max_kW", INFINITY, true) * 1e3;
+  d.speed_max_m_s = optional("drive.speed_max_km_h", INFINITY, true) / 3.6;
+  d.speed_governor_band_m_s = optional("drive.speed_governor_band_km_h", 1.0, true) / 3.6;
+  d.drivetrain_inertia_kg_m2 = optional("drive.drivetrain_inertia_kg_m2", 0, false);
 
-  t.steer_bandwidth_rad_s = r.positive("driven_coordinate_filters.steer_bandwidth_rad_s");
+  t.steer.bandwidth_rad_s = r.positive("driven_coordinate_filters.steer_bandwidth_rad_s");
+  t.steer.max_rad = r.positive("steering.max_deg") * kDeg;
+  if (t.steer.max_rad > M_PI / 2) r.fail("steering.max_deg", "must not exceed 90");
+  t.steer.rate_max_rad_s = optional("steering.rate_max_deg_s", INFINITY, true) * kDeg;
   t.lever_bandwidth_rad_s = r.positive("driven_coordinate_filters.lever_bandwidth_rad_s");
+  t.operator_seat_m = r.has("operator_seat_m") ? r.vec3("operator_seat_m") : Eigen::Vector3d(chassis_cog);
+
+  // Body-to-ground contact points, in the frame each body's pose gives (chassis: geometry frame).
+  if (r.has("body_ground_contact")) {
+    BodyGroundContact& bc = t.body_contact;
+    bc.stiffness_N_m = r.positive("body_ground_contact.stiffness_N_m");
+    bc.damping_N_s_m = r.non_negative("body_ground_contact.damping_N_s_m");
+    bc.mu = r.non_negative("body_ground_contact.mu");
+    bc.friction_speed_m_s = optional("body_ground_contact.friction_speed_m_s", 0.01, true);
+    const json& pts = r.node("body_ground_contact.points");
+    if (!pts.is_object() || pts.empty()) r.fail("body_ground_contact.points", "must be an object of named points");
+    for (const auto& [name, v] : pts.items()) {
+      const std::string key = "body_ground_contact.points." + name;
+      if (!v.is_object() || !v.contains("body") || !v["body"].is_string()) r.fail(key, "needs a \"body\"");
+      const std::string body = v["body"].get<std::string>();
+      BodyContactPoint p;
+      p.name = name;
+      p.point_m = r.vec3(key + ".at_m");
+      if (body == "chassis") { p.body = 0; p.point_m -= chassis_cog; }
+      else if (body == "mast") p.body = 1;
+      else if (body == "carriage") p.body = 2;
+      else r.fail(key + ".body", "must be chassis, mast or carriage");
+      bc.points.push_back(p);
+    }
+  }
   return t;
 }
 
@@ -184,7 +257,27 @@ Load box_load(double mass_kg, double length_m, double width_m, double height_m,
   l.inertia_kg_m2 = Eigen::Vector3d(k * (width_m * width_m + height_m * height_m),
                                     k * (length_m * length_m + height_m * height_m),
                                     k * (length_m * length_m + width_m * width_m)).asDiagonal();
+  l.size_m = Eigen::Vector3d(length_m, width_m, height_m);
   return l;
+}
+
+TruckParams with_chassis_mass(const TruckParams& truck, double mass_kg, const Eigen::Vector3d& at_geometry_m) {
+  TruckParams t = truck;
+  const Eigen::Vector3d old_cog = truck.chassis_cog_geometry_m;
+  const double m0 = truck.chassis.mass_kg, m = m0 + mass_kg;
+  const Eigen::Vector3d cog = (m0 * old_cog + mass_kg * at_geometry_m) / m;
+  const Eigen::Vector3d shift = old_cog - cog;  // chassis-frame offsets move by this
+  auto parallel = [](double mass, const Eigen::Vector3d& d) {
+    return mass * (d.squaredNorm() * Eigen::Matrix3d::Identity() - d * d.transpose());
+  };
+  t.chassis.mass_kg = m;
+  t.chassis.inertia_kg_m2 = truck.chassis.inertia_kg_m2 + parallel(m0, old_cog - cog) + parallel(mass_kg, at_geometry_m - cog);
+  t.chassis_cog_geometry_m = cog;
+  t.service_mass_kg += mass_kg;
+  for (WheelParams& w : t.wheels) w.centre_m += shift;
+  t.mast_pivot_m += shift;
+  for (BodyContactPoint& p : t.body_contact.points) if (p.body == 0) p.point_m += shift;
+  return t;
 }
 
 }  // namespace forklift

@@ -62,7 +62,7 @@ std::vector<Change> script_changes(const std::string& path, const TruckParams& t
   for (size_t i = 0; i < rows.size(); ++i) {
     const ScriptRow& r = rows[i];
     if (!std::isfinite(r.t) || r.t < 0) throw std::runtime_error(path + ": row " + std::to_string(i + 1) + ": bad time");
-    const ControlSample c{uint32_t(i + 1), r.steer, r.accelerator, r.brake, r.lift, r.tilt, r.shift, false};
+    const ControlSample c{uint32_t(i + 1), r.steer, r.accelerator, r.brake, r.lift, r.tilt, r.shift, false, r.parking_brake};
     if (const auto problem = control_problem(c))
       throw std::runtime_error(path + ": row " + std::to_string(i + 1) + " (t = " + std::to_string(r.t) + " s): " + *problem);
     out.push_back({int64_t(std::ceil(r.t / kTick - 1e-6)), c.seq, driver_inputs(c, truck)});
@@ -114,7 +114,9 @@ int evaluate_main(const EvaluateOptions& o, const std::string& data_dir) {
     }
     if (scenario_file.empty()) throw std::runtime_error("evaluate needs --scenario (the log names none)");
     scene = load_scene(scenario_file, data_dir);
+    if (log && !o.truck.empty()) throw std::runtime_error("--truck cannot change a replay: the log names the truck it ran");
     if (log) scene->scenario.truck_file = log->header.truck_file;
+    if (!o.truck.empty()) scene->scenario.truck_file = o.truck;
     truck = load_truck(scene->scenario.truck_file);
     shape = load_truck_shape(scene->scenario.truck_file, data_dir);
     rules = load_rules(o.rules.empty() ? data_dir + "/evaluation/rules.json" : o.rules);

@@ -8,6 +8,7 @@ namespace forklift {
 
 struct EvaluateOptions {
   std::string scenario, script, replay, mode = "training", out_log, rules, integrator = "cvode";
+  std::string truck;  // instead of the scenario's (not with --replay: the log names its own)
   double duration_s = -1;  // negative: the script's (or the log's) own end
 };
 

@@ -295,7 +295,7 @@ int main(int argc, char** argv) {
     bool have_cab = false;
     auto take_controls = [&] {
       controls.take_each([&](const fk_Controls& c) {
-        ControlSample s{c.seq, c.steer_rad, c.accelerator, c.brake, c.lift, c.tilt, c.side_shift, c.horn};
+        ControlSample s{c.seq, c.steer_rad, c.accelerator, c.brake, c.lift, c.tilt, c.side_shift, c.horn, c.parking_brake};
         if (cab != c.cab_id) {
           ++rejected_cab;
           log_line(cab, "rejected control " + std::to_string(c.seq) + " from cab '" + std::string(c.cab_id) + "'");

@@ -28,7 +28,7 @@ TEST(Collision, ClearAisleHasNoContacts) {
                                 wall("W", box(12, -4, 0, 12.2, 4, 3))});
   TruckDynamics d(truck());
   Driven run(scene, truck_shape(), settled(d, 0, 0, 0, 0.1));
-  run.run(5.0, [] { DriverInputs u; u.drive_torque_N_m = 300; return u; });
+  run.run(5.0, [] { DriverInputs u; u.drive_torque_N_m = 420; return u; });
   // By the end the truck is between the racks (their span: x 2.65 to 5.35): front axle and
   // mast well inside, the forks near the far end.
   EXPECT_GT(run.poses().chassis.translation().x(), 3.5);
@@ -185,7 +185,7 @@ TEST(ShippedWarehouse, AisleAIsClear) {
   const Scene& scene = shipped_warehouse();
   TruckDynamics d(truck());
   Driven run(scene, shipped_shape(), settled(d, 9.5, 26.15, 0, 0.1));
-  run.run(7.0, [] { DriverInputs u; u.drive_torque_N_m = 300; return u; });
+  run.run(7.0, [] { DriverInputs u; u.drive_torque_N_m = 420; return u; });
   EXPECT_GT(run.poses().chassis.translation().x(), 17.0);  // the whole truck among the racks
   EXPECT_TRUE(run.contacts.empty()) << run.contacts[0].second.truck_part << " with " << run.contacts[0].second.object_id;
 }

@@ -159,7 +159,10 @@ inline double forward_speed(const StateVector& x) {
 inline DriverInputs hold_speed(double target, double v) {
   DriverInputs u;
   const double e = target - v;
-  u.drive_torque_N_m = std::clamp(3000.0 * e, -900.0, 900.0);
+  // Proportional, plus the torque the unladen truck's rolling resistance takes at the wheels.
+  const TruckParams& t = truck();
+  const double rolling = t.contact.rolling_resistance_coefficient * t.service_mass_kg * 9.81 * t.wheels[kFrontLeft].radius_m;
+  u.drive_torque_N_m = std::clamp(3000.0 * e + (target > 0 ? rolling : target < 0 ? -rolling : 0.0), -900.0, 900.0);
   if (std::abs(target) < 1e-9 && std::abs(v) > 0.02) { u.drive_torque_N_m = 0; u.brake_torque_N_m = 400; }
   return u;
 }

@@ -58,7 +58,7 @@ bool wait_matched(dds::Writer<fk_Controls>& w, double s) {
 }  // namespace
 
 TEST(WorkerLoop, ScriptedCabDrivesManoeuvre17LikeTheOfflineModelAndReplaysExactly) {
-  Process w = worker(41, "c17", "m17", {"--duration", "20"});
+  Process w = worker(41, "c17", "m17", {"--duration", "20", "--scenario", kData + "/manoeuvres/manoeuvre_17.json"});
   Process cab({kBin + "/forklift-cab", "--cab", "c17", "--script", kData + "/manoeuvres/manoeuvre_17.csv", "--dds-domain", "41"},
               tmp("m17.cab"));
   ASSERT_EQ(cab.wait(40), 0) << cab.err();
@@ -69,7 +69,7 @@ TEST(WorkerLoop, ScriptedCabDrivesManoeuvre17LikeTheOfflineModelAndReplaysExactl
 
   // Tolerance: the cab's 100 Hz samples land on 1 ms ticks up to a few ms late, and the worker's
   // integrator lands on every tick; measured differences are a few cm.
-  const ManoeuvreResult offline = run_manoeuvre(load_truck(kData + "/trucks/linde_e16c.json"), 17, {}, 0);
+  const ManoeuvreResult offline = run_manoeuvre(load_truck(kData + "/trucks/simucel_paper.json"), 17, {}, 0);
   const double dx = live["final_pose"]["x"].get<double>() - offline.final_pose.x();
   const double dy = live["final_pose"]["y"].get<double>() - offline.final_pose.y();
   EXPECT_LT(std::hypot(dx, dy), 0.25);
@@ -80,6 +80,27 @@ TEST(WorkerLoop, ScriptedCabDrivesManoeuvre17LikeTheOfflineModelAndReplaysExactl
   const json again = output_json(rp);
   EXPECT_EQ(again["matches_log"], true);
   EXPECT_EQ(again["state_hex"], live["state_hex"]);  // bit for bit
+}
+
+TEST(WorkerLoop, TheCabSetsTheParkingBrakeAndTheLogKeepsIt) {
+  // A script's eighth column is the parking brake: the truck drives off, is parked, and stays.
+  const std::string script = tmp("park.csv");
+  std::ofstream(script) << "t,steer,accelerator,brake,lift,tilt,shift,parking\n0,0,0.3,0,0,0,0,0\n2,0,0,0,0,0,0,1\n5,0,0,0,0,0,0,1\n";
+  Process w = worker(49, "c49", "park", {"--duration", "5"});
+  Process cab({kBin + "/forklift-cab", "--cab", "c49", "--script", script, "--dds-domain", "49", "--no-window"}, tmp("park.cab"));
+  ASSERT_EQ(cab.wait(30), 0) << cab.err();
+  ASSERT_EQ(w.wait(10), 0) << w.err();
+  const ControlLog log = read_control_log(tmp("park.ctl"));
+  ASSERT_FALSE(log.entries.empty());
+  EXPECT_FALSE(log.entries.front().inputs.parking_brake);
+  EXPECT_TRUE(log.entries.back().inputs.parking_brake);
+  ASSERT_TRUE(log.final_state);
+  const StateVector& x = *log.final_state;
+  EXPECT_GT(x[kX], 0.3);                                                               // it drove off
+  EXPECT_LT(std::hypot(x[StateIndex::kQdot + kX], x[StateIndex::kQdot + kY]), 1e-3);  // and is held
+  Process rp({kBin + "/forklift-worker", "--replay", tmp("park.ctl")}, tmp("park.replay"));
+  ASSERT_EQ(rp.wait(30), 0) << rp.err();
+  EXPECT_EQ(output_json(rp)["matches_log"], true);
 }
 
 TEST(WorkerLoop, BadControlsAreRefusedSilenceStopsTheTruckAndTheWorkerStaysUp) {
@@ -228,7 +249,7 @@ TEST(ControlLog, BrokenLogsAreRefusedClearly) {
   std::ofstream(path) << "forklift-control-log 1\ninit 1 2 3\n";
   Process rp({kBin + "/forklift-worker", "--replay", path}, tmp("broken.replay"));
   EXPECT_EQ(rp.wait(10), 2);
-  EXPECT_NE(rp.err().find("broken.ctl:2: a state needs 32 numbers"), std::string::npos) << rp.err();
+  EXPECT_NE(rp.err().find("broken.ctl:2: a state needs 40 numbers"), std::string::npos) << rp.err();
 }
 
 TEST(Controls, RangesAndMapping) {

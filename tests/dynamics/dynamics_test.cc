@@ -94,7 +94,7 @@ TEST(MassMatrix, SymmetricPositiveDefiniteAtRandomStates) {
 namespace {
 // Energy after `seconds` of free motion from a bouncing, rolling, yawing start.
 std::pair<double, double> energy_drift(double damping, double seconds) {
-  TruckParams t = shipped_truck();
+  TruckParams t = paper_truck();
   t.contact.damping_N_s_m = damping;
   t.contact.fx_slip_gain_s_m = 0;
   t.contact.fy_mu = 0;
@@ -144,7 +144,7 @@ TEST(GroundForces, NoForceOffTheGroundAndFreeFall) {
 
 TEST(GroundForces, LongitudinalForceSaturatesAtFxMax) {
   // A locked wheel sliding at 3 m/s: eq (8) asks for k Fz sx, well above 4500 N.
-  TruckDynamics d(shipped_truck());
+  TruckDynamics d(paper_truck());
   StateVector x = settled(d);
   x[StateIndex::kQdot + kX] = 3.0;
   const Outputs o = eval(d, x);
@@ -152,15 +152,15 @@ TEST(GroundForces, LongitudinalForceSaturatesAtFxMax) {
   EXPECT_NEAR(o.wheels[kRear].slip_x_m_s, 3.0, 1e-9);
   // Rolling freely at the same speed there is no slip and no force. The contact point is below
   // the centre by the compressed radius, so that is the rolling radius.
-  const double rolling_radius = shipped_truck().wheels[kFrontLeft].radius_m - o.wheels[kFrontLeft].penetration_m;
+  const double rolling_radius = paper_truck().wheels[kFrontLeft].radius_m - o.wheels[kFrontLeft].penetration_m;
   x[StateIndex::kQdot + kAvr1] = 3.0 / rolling_radius;
   EXPECT_NEAR(eval(d, x).wheels[kFrontLeft].fx_N, 0.0, 1.0);
 }
 
 TEST(GroundForces, LateralForceFollowsEq10AndSurvivesReversing) {
-  TruckDynamics d(shipped_truck());
+  TruckDynamics d(paper_truck());
   StateVector x = settled(d);
-  const double mu = shipped_truck().contact.fy_mu;
+  const double mu = paper_truck().contact.fy_mu;
   for (double vx : {2.0, -2.0}) {  // forward and reversing: the same slip angle, no 180 deg flip
     x[StateIndex::kQdot + kX] = vx;
     x[StateIndex::kQdot + kY] = 2.0 * std::tan(3.0 * M_PI / 180);  // 3 deg of side slip to the left
@@ -214,7 +214,7 @@ TEST(TorqueSplit, WeightedByEachWheelsShareOfFz) {
 }
 
 TEST(Braking, OpposesRotationAndFadesToZeroAtStandstill) {
-  TruckDynamics d(shipped_truck());
+  TruckDynamics d(paper_truck());
   StateVector x = settled(d);
   x[StateIndex::kBrake] = 1000;
   for (double spin : {5.0, -5.0, 0.0, 0.05}) {
@@ -246,7 +246,7 @@ TEST(Braking, PedalStepReachesTheWheelThroughAFirstOrderLag) {
 }
 
 TEST(DrivenCoordinates, SteerFollowsWithoutJumpInReactionForce) {
-  TruckDynamics d(shipped_truck());
+  TruckDynamics d(paper_truck());
   Simulation sim(d, settled(d), {});
   const Outputs before = sim.outputs();
   DriverInputs u;
@@ -332,7 +332,8 @@ TEST(Ground, TruckDrivesUpARamp) {
   Environment env;
   env.ground = Ground({ramp});
   TruckDynamics d(shipped_truck(), env);
-  StateVector x = d.rest_state(0, 0, 0);
+  // Forks carried 15 cm up, as a driver travels: lowered, their tips would dig into the ramp.
+  StateVector x = d.rest_state(0, 0, 0, 0, 0, 0.15);
   ASSERT_TRUE(d.settle_static(x));
   Simulation sim(d, x, {});
   DriverInputs u;

@@ -20,7 +20,7 @@ const ManoeuvreResult& run(int n, IntegratorKind kind = IntegratorKind::kCvodeBd
   if (it == cache.end()) {
     IntegratorOptions o;
     o.kind = kind;
-    it = cache.emplace(key, run_manoeuvre(shipped_truck(), n, o, 0.002)).first;
+    it = cache.emplace(key, run_manoeuvre(paper_truck(), n, o, 0.002)).first;
   }
   return it->second;
 }
@@ -31,14 +31,14 @@ const Sample& at(const ManoeuvreResult& r, double t) {
 }
 
 double static_rear_fz(int n) {
-  const ManoeuvreSpec m = manoeuvre(n, shipped_truck());
-  return static_report(shipped_truck(), m.load, m.lift_m).fz_N[kRear];
+  const ManoeuvreSpec m = manoeuvre(n, paper_truck());
+  return static_report(paper_truck(), m.load, m.lift_m).fz_N[kRear];
 }
 
 }  // namespace
 
 TEST(Manoeuvre, UnknownNumberIsRefused) {
-  EXPECT_THROW(manoeuvre(6, shipped_truck()), std::invalid_argument);
+  EXPECT_THROW(manoeuvre(6, paper_truck()), std::invalid_argument);
 }
 
 TEST(Manoeuvre, StartingTorqueAcceleratesWithoutSlidingTheWheels) {
@@ -54,15 +54,24 @@ TEST(Manoeuvre, StartingTorqueAcceleratesWithoutSlidingTheWheels) {
   EXPECT_LT(at(m2, 1).out.q[kAvc], m2.samples.front().out.q[kAvc]);
 }
 
-TEST(Manoeuvre, HardBrakingLiftsTheRearWheel) {
+// The time from brake onset until the forward speed falls below `threshold` (0.05 or 0.1 m/s).
+double stop_time(const ManoeuvreResult& r, double threshold) {
+  for (const ManoeuvreResult::StopTime& stop : r.stop_times)
+    if (stop.below_m_s == threshold) return stop.s.value_or(INFINITY);
+  ADD_FAILURE() << "no stop time below " << threshold;
+  return NAN;
+}
+
+TEST(Manoeuvre, HardBrakingUnloadsTheRearWheelAndStopsInAboutOneAndAHalfSeconds) {
   // Manoeuvre 4: "the rear wheel looses contact with the ground and the time spent for braking is
-  // 1.5 seconds. The pitch angle reaches a maximum value of 1 deg."
+  // 1.5 seconds. The pitch angle reaches a maximum value of 1 deg." Its load falls to zero; it
+  // rises less than 2 mm, so we claim the unloading, not a visible lift. The paper does not say
+  // when it counts the truck as stopped: below 0.1 m/s it matches (below 0.05 m/s it takes 2 s).
   const ManoeuvreResult& r = run(4);
-  EXPECT_TRUE(r.rear_wheel_lifted);
+  EXPECT_EQ(r.min_fz_N[kRear], 0.0);
   EXPECT_FALSE(r.tipped_over);
-  ASSERT_TRUE(r.stop_time_s);
-  EXPECT_GT(*r.stop_time_s, 1.2);
-  EXPECT_LT(*r.stop_time_s, 2.5);
+  EXPECT_NEAR(stop_time(r, 0.1), 1.5, 0.15 * 1.5);
+  EXPECT_GT(stop_time(r, 0.05), stop_time(r, 0.1));
   EXPECT_GT(r.max_pitch_deg, 0.5);
   EXPECT_LT(r.max_pitch_deg, 1.5);
   // The front tyres slide: Fx reaches Fx max just after the brake comes on.
@@ -71,14 +80,13 @@ TEST(Manoeuvre, HardBrakingLiftsTheRearWheel) {
   EXPECT_DOUBLE_EQ(strongest, -4500.0);
 }
 
-TEST(Manoeuvre, GentlerBrakingNearlyLiftsItAndTakesLonger) {
+TEST(Manoeuvre, GentlerBrakingNearlyLiftsItAndTakesTwoSeconds) {
   // Manoeuvre 5: "the wheel nearly looses contact and spends 2 seconds for braking".
   const ManoeuvreResult &r5 = run(5), &r4 = run(4);
-  EXPECT_FALSE(r5.rear_wheel_lifted);
+  EXPECT_GT(r5.min_fz_N[kRear], 0.0);
   EXPECT_LT(r5.min_fz_N[kRear], 0.6 * static_rear_fz(5));
-  ASSERT_TRUE(r5.stop_time_s);
-  EXPECT_GT(*r5.stop_time_s, *r4.stop_time_s + 0.2);
-  EXPECT_LT(*r5.stop_time_s, 3.2);
+  EXPECT_NEAR(stop_time(r5, 0.1), 2.0, 0.15 * 2.0);
+  EXPECT_GT(stop_time(r5, 0.1), stop_time(r4, 0.1) + 0.2);
 }
 
 TEST(Manoeuvre, OuterWheelCarriesMoreWhenTurning) {
@@ -107,7 +115,7 @@ TEST(Manoeuvre, SharpTurnWithUnbalancedLoadSaturatesTheFrontTyres) {
   // Manoeuvre 15: both front slip angles exceed alpha0, Fy saturates, and the right wheel
   // almost loses contact.
   const ManoeuvreResult& r = run(15);
-  const double a0 = shipped_truck().contact.fy_alpha0_rad, mu = shipped_truck().contact.fy_mu;
+  const double a0 = paper_truck().contact.fy_alpha0_rad, mu = paper_truck().contact.fy_mu;
   for (int w : {kFrontLeft, kFrontRight}) {
     bool passed = false, saturated = false;
     for (const Sample& s : r.samples) {
@@ -135,7 +143,6 @@ TEST(Manoeuvre, IntegratorsAgreeOnTheZigZag) {
     EXPECT_LT(std::abs(r->final_pose.z() - bdf.final_pose.z()) * kDeg, 1.5);
     EXPECT_NEAR(r->max_roll_deg, bdf.max_roll_deg, 0.05);
   }
-  EXPECT_EQ(rk.stats.steps, 20000);  // the paper's rk4 row: 1 ms for 20 s
 }
 
 TEST(Manoeuvre, StiffnessDependsOnTheForcing) {
@@ -144,4 +151,38 @@ TEST(Manoeuvre, StiffnessDependsOnTheForcing) {
   const long dp4 = run(4, IntegratorKind::kDopri5).stats.steps, dp17 = run(17, IntegratorKind::kDopri5).stats.steps;
   EXPECT_GT(dp4, 2 * dp17);
   EXPECT_LT(run(4).stats.steps, dp4 / 5);
+}
+
+TEST(Manoeuvre, WorkEnergyBalanceClosesWithEveryForceOn) {
+  // d(kinetic + gravitational energy)/dt is the power of every other force: tyres, ground
+  // springs and dampers, rolling resistance, drive and brakes, and the actuators on the driven
+  // coordinates. Integrated (Simpson, 0.5 ms) along a tightly solved run, it must account for the
+  // energy's change to 1e-4 of the largest change on the way, on both trucks.
+  for (const TruckParams* truck : {&paper_truck(), &shipped_truck()})
+    for (int n : {4, 15, 17}) {
+      SCOPED_TRACE(truck->name + ", manoeuvre " + std::to_string(n));
+      const ManoeuvreSpec spec = manoeuvre(n, *truck);
+      TruckDynamics dyn(*truck);
+      if (spec.load) dyn.attach_load(*spec.load);
+      StateVector x0 = dyn.rest_state(0, 0, 0, 0, 0, spec.lift_m, 0);
+      ASSERT_TRUE(dyn.settle_static(x0));
+      IntegratorOptions o;
+      o.rtol = 1e-9;
+      Simulation sim(dyn, x0, o);
+      sim.set_input_schedule(spec.inputs);
+      const double e0 = dyn.energy(x0, false), h = 5e-4;
+      double work = 0, peak = 0, p_prev = sim.outputs().applied_power_W;
+      for (int k = 1; k <= int(std::llround(spec.duration_s / (2 * h))); ++k) {
+        const double t0 = 2 * (k - 1) * h;
+        sim.advance_to(t0 + h, 20.0);
+        const double p_mid = sim.outputs().applied_power_W;
+        sim.advance_to(t0 + 2 * h, 20.0);
+        const double p_end = sim.outputs().applied_power_W;
+        work += h / 3 * (p_prev + 4 * p_mid + p_end);
+        p_prev = p_end;
+        peak = std::max(peak, std::abs(dyn.energy(sim.state(), false) - e0));
+      }
+      ASSERT_GT(peak, 100.0);  // the truck did work: a kilojoule-scale balance
+      EXPECT_NEAR(dyn.energy(sim.state(), false) - e0, work, 1e-4 * peak);
+    }
 }

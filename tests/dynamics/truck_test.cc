@@ -4,6 +4,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "forklift/stability.h"
 #include "test_truck.h"
 
 using namespace forklift;
@@ -30,23 +31,37 @@ std::string load_error(const std::string& path) {
 
 }  // namespace
 
-TEST(Truck, ShippedFileGivesTheClassGeometryAndMass) {
-  const TruckParams& t = shipped_truck();
-  double mass = t.chassis.mass_kg + t.mast.mass_kg + t.carriage.mass_kg;
-  for (const WheelParams& w : t.wheels) mass += w.mass_kg;
-  EXPECT_NEAR(mass, 3200.0, 1e-9);
-  EXPECT_NEAR(t.wheelbase_m(), 1.25, 1e-12);
-  EXPECT_NEAR(t.front_track_m(), 0.90, 1e-12);
-  EXPECT_DOUBLE_EQ(t.contact.stiffness_N_m, 1.2e6);  // section 9
-  EXPECT_DOUBLE_EQ(t.contact.fx_max_N, 4500);
-  EXPECT_NEAR(t.contact.fy_alpha0_rad, 7.5 * M_PI / 180, 1e-15);
-  // Positions are converted to the chassis frame: the chassis CoG is its origin.
-  EXPECT_NEAR(t.wheels[kFrontLeft].centre_m.x(), 0.75, 1e-12);
+TEST(Truck, ShippedFilesGiveTheClassGeometryAndAxleLoads) {
+  for (const TruckParams* t : {&shipped_truck(), &paper_truck()}) {
+    SCOPED_TRACE(t->name);
+    EXPECT_NEAR(t->wheelbase_m(), 1.25, 1e-12);
+    EXPECT_NEAR(t->front_track_m(), 0.90, 1e-12);
+    // Positions are converted to the chassis frame: the chassis CoG is its origin.
+    EXPECT_NEAR(t->wheels[kFrontLeft].centre_m.x(), -t->chassis_cog_geometry_m.x(), 1e-12);
+    // Unladen axle loads within the class's data sheets (about 1.5 t front, 1.6-1.7 t rear).
+    const StaticReport r = static_report(*t, std::nullopt, 0);
+    const double front_kg = (r.fz_N[kFrontLeft] + r.fz_N[kFrontRight]) / 9.81, rear_kg = r.fz_N[kRear] / 9.81;
+    EXPECT_GT(front_kg, 1400);
+    EXPECT_LT(front_kg, 1750);
+    EXPECT_GT(rear_kg, 1450);
+    EXPECT_LT(rear_kg, 1800);
+  }
+  const TruckParams& p = paper_truck();  // section 9
+  EXPECT_EQ(p.contact.tyre, TyreModel::kPaper);
+  EXPECT_DOUBLE_EQ(p.contact.stiffness_N_m, 1.2e6);
+  EXPECT_DOUBLE_EQ(p.contact.fx_max_N, 4500);
+  EXPECT_DOUBLE_EQ(p.contact.fy_mu, 0.1);
+  EXPECT_NEAR(p.contact.fy_alpha0_rad, 7.5 * M_PI / 180, 1e-15);
+  EXPECT_EQ(shipped_truck().contact.tyre, TyreModel::kBristle);
 }
 
 TEST(Truck, MissingKeyIsNamed) {
-  const std::string p = write_variant("missing", [](nlohmann::json& j) { j["ground_contact"].erase("fx_max_N"); });
-  EXPECT_NE(load_error(p).find("ground_contact.fx_max_N' is missing"), std::string::npos) << load_error(p);
+  std::string p = write_variant("missing", [](nlohmann::json& j) { j["ground_contact"].erase("mu_static"); });
+  EXPECT_NE(load_error(p).find("ground_contact.mu_static' is missing"), std::string::npos) << load_error(p);
+  p = write_variant("tyre", [](nlohmann::json& j) { j["ground_contact"]["tyre_model"] = "magic"; });
+  EXPECT_NE(load_error(p).find("tyre_model"), std::string::npos) << load_error(p);
+  p = write_variant("point", [](nlohmann::json& j) { j["body_ground_contact"]["points"]["x"] = {{"body", "wheel"}, {"at_m", {0, 0, 0}}}; });
+  EXPECT_NE(load_error(p).find("must be chassis, mast or carriage"), std::string::npos) << load_error(p);
 }
 
 TEST(Truck, ImpossibleValuesAreRefused) {

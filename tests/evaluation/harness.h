@@ -245,7 +245,20 @@ struct Driver {
     const double want = std::atan2(target.y() - front.y(), target.x() - front.x());
     double err = wrap(want - s.yaw() - (reverse ? M_PI : 0));
     const double gain = reverse ? -1.5 : 1.5;
-    return std::clamp(-gain * err, -max_rad, max_rad);
+    const double limit = std::min(max_rad, clean_steer_max());
+    return smooth(std::clamp(-gain * err, -limit, limit));
+  }
+  // The steer at which a truck gripping the floor turns at a clean driver's lateral
+  // acceleration (0.4 m/s^2, half the evaluation's limit) at the present speed.
+  // A clean driver turns the wheel smoothly: the steer asked for moves from the last one at
+  // most 0.5 rad/s (the rear-steered truck's tail swings out when the wheel is thrown over).
+  double smooth(double steer) const {
+    const double step = 0.5 * s.control_period_ticks * Session::kTick;
+    return std::clamp(steer, s.c.steer_rad - step, s.c.steer_rad + step);
+  }
+  double clean_steer_max() const {
+    const double v = std::max(std::abs(s.v()), 0.3);
+    return std::atan(0.4 * s.truck.wheelbase_m() / (v * v));
   }
   // Rear-wheel steer holding the front axle's middle on the line y = `y` (heading +x), or
   // backing along it.
@@ -253,7 +266,8 @@ struct Driver {
     const BodyPoses p = s.poses();
     const double dy = y - p.chassis.translation().y();
     const double want = std::clamp((reverse ? -0.6 : 0.6) * dy, -0.4, 0.4);
-    return std::clamp((reverse ? 2.0 : -2.0) * wrap(want - s.yaw()), -0.6, 0.6);
+    const double limit = std::min(0.6, clean_steer_max());
+    return smooth(std::clamp((reverse ? 2.0 : -2.0) * wrap(want - s.yaw()), -limit, limit));
   }
   // Along the line y = `line` (heading +x) until `remaining()` (m) falls to zero, slowing as it
   // nears it; then stops. Negative speed backs along the line.
@@ -271,6 +285,12 @@ struct Driver {
     stop();
   }
   double heel_x() const { return s.poses().carriage.translation().x(); }
+  // Never faster than the steer in use allows a clean driver (lateral acceleration `a_lat`,
+  // m/s^2: v^2 tan(steer) / wheelbase), nor slower than `floor`.
+  double steer_speed_limit(double floor, double a_lat) const {
+    const double tan_steer = std::tan(std::abs(s.q()[kAwr3]));
+    return tan_steer > 1e-3 ? std::max(floor, std::sqrt(a_lat * s.truck.wheelbase_m() / tan_steer)) : INFINITY;
+  }
   // Follows `path` to its end and stops there; `cruise` on straights, `corner` speed in sharp
   // turns, at most `zone_share` of any zone's limit. `on_tick` may watch (return true to stop early).
   double progress = 0;
@@ -297,9 +317,7 @@ struct Driver {
                      const auto lim = s.scene.speed_limit(path.at(progress + ahead));
                      if (lim) v = std::min(v, zone_share * *lim);
                    }
-                   // never faster than the steer in use allows (the tail slides out first)
-                   const double tan_steer = std::tan(std::abs(s.q()[kAwr3]));
-                   if (tan_steer > 1e-3) v = std::min(v, std::max(corner, std::sqrt(a_lat * wheelbase / tan_steer)));
+                   v = std::min(v, steer_speed_limit(corner, a_lat));
                    const double left = path.length() - progress;
                    v = std::min(v, std::sqrt(2 * a_brake * std::max(0.0, left - 0.3)));
                    speed(c, left < 0.3 ? 0.0 : std::max(v, 0.15));
@@ -309,7 +327,7 @@ struct Driver {
                    const double alpha = wrap(std::atan2(aim.y() - front.y(), aim.x() - front.x()) - s.yaw());
                    const double kappa = 2 * std::sin(alpha) / look;
                    const double max_steer = std::atan(a_lat * wheelbase / (v_now * v_now));
-                   c.steer_rad = std::clamp(-std::atan(kappa * wheelbase), -std::min(0.9, max_steer), std::min(0.9, max_steer));
+                   c.steer_rad = smooth(std::clamp(-std::atan(kappa * wheelbase), -std::min(0.9, max_steer), std::min(0.9, max_steer)));
                    return c;
                  },
                  [&] {
@@ -323,7 +341,7 @@ struct Driver {
                  [&] {
                    Controls c = levers();
                    const double d = (target - s.pos()).norm();
-                   speed(c, std::min(v, std::max(0.4, 0.6 * d)));
+                   speed(c, std::min({v, std::max(0.4, 0.6 * d), steer_speed_limit(0.4, 0.5)}));
                    c.steer_rad = steer_to(target);
                    return c;
                  },

@@ -366,3 +366,170 @@ TEST(WriteSvg, ConstantPanelGetsSensibleRange) {
     }
   }
 }
+
+namespace {
+
+// The attribute `name` of every <g class="series"> element, in order ("" where absent).
+std::vector<std::string> SeriesAttr(const std::string& svg, const std::string& name) {
+  std::vector<std::string> values;
+  for (size_t p = svg.find("<g class=\"series\""); p != std::string::npos;
+       p = svg.find("<g class=\"series\"", p + 1)) {
+    const std::string tag = svg.substr(p, svg.find('>', p) - p);
+    const size_t a = tag.find(" " + name + "=\"");
+    values.push_back(a == std::string::npos ? "" : tag.substr(a + name.size() + 3, tag.find('"', a + name.size() + 3) - (a + name.size() + 3)));
+  }
+  return values;
+}
+
+// Smallest and largest y pixel over the given polylines.
+std::pair<double, double> PixelRangeY(const std::vector<std::vector<XY>>& lines) {
+  double lo = 1e9, hi = -1e9;
+  for (const auto& l : lines)
+    for (const XY& p : l) lo = std::min(lo, p.y), hi = std::max(hi, p.y);
+  return {lo, hi};
+}
+
+}  // namespace
+
+TEST(WriteSvg, NearConstantDataGetsMinimumSpan) {
+  // A wheel's Fz wobbling by 1e-6 N around 15 kN, and a slip ratio of numerical noise: both
+  // must draw as flat lines mid-panel, not as noise stretched to the panel's full height.
+  const auto x = Linspace(0, 20, 2001);
+  std::vector<double> fz, slip, genuine;
+  for (size_t i = 0; i < x.size(); ++i) {
+    fz.push_back(15000 + 1e-6 * std::sin(7 * x[i]));
+    slip.push_back(1e-12 * std::cos(3 * x[i]));
+    genuine.push_back(15000 + 50 * std::sin(x[i]));  // 100 N of 15 kN: above the relative span
+  }
+  const std::string path = TempPath("min_span.svg");
+  fp::write_svg(path, "noise", "t (s)", x,
+                {{"Fz", "Fz (N)", {{"rear", fz}}, 1.0},
+                 {"slip", "slip ratio (-)", {{"front_left", slip}}, 1e-3},
+                 {"no absolute floor", "Fz (N)", {{"rear", fz}}},
+                 {"genuine variation", "Fz (N)", {{"rear", genuine}}, 1.0}});
+  const std::string svg = ReadFile(path);
+  const auto areas = PlotAreas(svg);
+  const auto lines = Polylines(svg);
+  ASSERT_EQ(areas.size(), 4u);
+  ASSERT_EQ(lines.size(), 4u);
+  for (size_t i = 0; i < 3; ++i) {
+    SCOPED_TRACE(i);
+    const auto [lo, hi] = PixelRangeY({lines[i]});
+    EXPECT_LT(hi - lo, 0.5) << "noise drawn at a visible height";
+    // Widened about the data's middle: the line sits well inside the frame.
+    EXPECT_GT(lo, areas[i].y + 0.25 * areas[i].h);
+    EXPECT_LT(hi, areas[i].y + 0.75 * areas[i].h);
+  }
+  // Real variation still fills most of the panel.
+  const auto [lo, hi] = PixelRangeY({lines[3]});
+  EXPECT_GT(hi - lo, 0.5 * areas[3].h);
+
+  // The tick labels of the Fz panel span at least kMinRelativeSpan x 15 kN (15 N), whatever
+  // its absolute floor says; those of the slip panel at least its floor.
+  std::vector<double> labels;
+  const std::regex re("text-anchor=\"end\" font-size=\"11\">([-0-9.e+]+)<");
+  for (auto it = std::sregex_iterator(svg.begin(), svg.end(), re); it != std::sregex_iterator(); ++it)
+    labels.push_back(std::stod((*it)[1]));
+  ASSERT_GE(labels.size(), 4u);
+  double fz_lo = 1e18, fz_hi = -1e18, slip_lo = 1e18, slip_hi = -1e18;
+  for (double v : labels) {
+    if (v > 1000) fz_lo = std::min(fz_lo, v), fz_hi = std::max(fz_hi, v);
+    else if (std::fabs(v) < 1) slip_lo = std::min(slip_lo, v), slip_hi = std::max(slip_hi, v);
+  }
+  EXPECT_GE(fz_hi - fz_lo, fp::kMinRelativeSpan * 15000 * 0.999);
+  EXPECT_GE(slip_hi - slip_lo, 1e-3 * 0.999);
+  EXPECT_LE(slip_hi - slip_lo, 1e-2);  // sensible: about the floor, not a unit range
+}
+
+TEST(WriteSvg, SeriesDifferInColourAndDash) {
+  // Two identical curves (a left and a right wheel on a straight run) must both show.
+  const auto x = Linspace(0, 10, 200);
+  std::vector<fp::Series> series;
+  for (int i = 0; i < 12; ++i) {
+    fp::Series s{"s" + std::to_string(i), {}};
+    for (double t : x) s.y.push_back(std::sin(t) + (i < 2 ? 0 : 0.1 * i));
+    series.push_back(s);
+  }
+  const std::string path = TempPath("dashes.svg");
+  fp::write_svg(path, "dashes", "t (s)", x, {{"p", "v", series}});
+  const std::string svg = ReadFile(path);
+  const auto colours = SeriesAttr(svg, "stroke");
+  const auto dashes = SeriesAttr(svg, "stroke-dasharray");
+  ASSERT_EQ(colours.size(), 12u);
+  ASSERT_EQ(dashes.size(), 12u);
+  EXPECT_EQ(dashes[0], "") << "the first series is solid";
+  for (size_t i = 0; i < 12; ++i)
+    for (size_t j = i + 1; j < 12; ++j) {
+      // Within a palette cycle both differ; beyond it at least the pair differs.
+      if (j < std::min<size_t>(fp::dash_pattern_count(), 10)) {
+        EXPECT_NE(colours[i], colours[j]) << i << " " << j;
+        EXPECT_NE(dashes[i], dashes[j]) << i << " " << j;
+      }
+      EXPECT_FALSE(colours[i] == colours[j] && dashes[i] == dashes[j]) << i << " " << j;
+    }
+  for (size_t i = 0; i < fp::dash_pattern_count(); ++i)
+    for (size_t j = i + 1; j < fp::dash_pattern_count(); ++j) EXPECT_NE(fp::dash_pattern(i), fp::dash_pattern(j));
+  EXPECT_GE(fp::dash_pattern_count(), 4u);
+
+  // Each series has a legend entry drawn in its own colour and dash.
+  for (size_t i = 0; i < 12; ++i) {
+    EXPECT_NE(svg.find(">s" + std::to_string(i) + "<"), std::string::npos) << i;
+    const std::string dash = dashes[i].empty() ? "" : " stroke-dasharray=\"" + dashes[i] + "\"";
+    EXPECT_NE(svg.find("stroke=\"" + colours[i] + "\" stroke-width=\"1.5\" stroke-linecap=\"round\"" + dash + "/>"),
+              std::string::npos)
+        << "legend of series " << i;
+  }
+  EXPECT_EQ(Count(svg, "<line class=\"legend\""), 12u);
+}
+
+TEST(WriteSvg, SeriesWithTheirOwnSampleTimes) {
+  // Two runs overlaid: one sampled every 2 ms for 20 s, one every 5 ms that stopped at 12 s.
+  const auto t_full = Linspace(0, 20, 10001), t_short = Linspace(0, 12, 2401);
+  fp::Series full{"full run", {}, t_full}, stopped{"stopped early", {}, t_short};
+  for (double t : t_full) full.y.push_back(t);
+  for (double t : t_short) stopped.y.push_back(20 - t);
+  const std::string path = TempPath("own_x.svg");
+  fp::write_svg(path, "overlay", "t (s)", {}, {{"p", "v", {full, stopped}}});
+  const std::string svg = ReadFile(path);
+  const auto areas = PlotAreas(svg);
+  const auto lines = Polylines(svg);
+  ASSERT_EQ(areas.size(), 1u);
+  ASSERT_EQ(lines.size(), 2u);
+  const Rect& a = areas[0];
+  // The x axis covers the union, 0-20 s; the short run ends at 12 s, 60% across.
+  EXPECT_NEAR(lines[0].front().x, a.x, 0.01);
+  EXPECT_NEAR(lines[0].back().x, a.x + a.w, 0.01);
+  EXPECT_NEAR(lines[1].front().x, a.x, 0.01);
+  EXPECT_NEAR(lines[1].back().x, a.x + 0.6 * a.w, 0.01);
+  // Both on the same y scale: at t = 0 one is at 0 (bottom), the other at 20 (top).
+  EXPECT_NEAR(lines[0].front().y, a.y + a.h, 0.01);
+  EXPECT_NEAR(lines[1].front().y, a.y, 0.01);
+  // Decimation works per series on its own x.
+  EXPECT_LE(static_cast<double>(lines[0].size()), 2 * a.w + 4);
+
+  // Own x beside a shared x: the axis covers both.
+  const std::vector<double> shared = Linspace(0, 5, 11);
+  fp::write_svg(path, "mixed", "t (s)", shared,
+                {{"p", "v", {{"shared", std::vector<double>(11, 1.0)}, {"own", {1, 2}, {2, 30}}}}});
+  const auto lines2 = Polylines(ReadFile(path));
+  ASSERT_EQ(lines2.size(), 2u);
+  EXPECT_LT(lines2[0].back().x, lines2[1].back().x);
+
+  // A series' y must match its own x; a series without one needs the shared x.
+  EXPECT_THROW(fp::write_svg(path, "t", "x", {}, {{"p", "v", {{"s", {1, 2, 3}, {0, 1}}}}}), std::invalid_argument);
+  EXPECT_THROW(fp::write_svg(path, "t", "x", {}, {{"p", "v", {{"own", {1, 2}, {0, 1}}, {"shared", {1, 2}}}}}),
+               std::invalid_argument);
+  EXPECT_THROW(fp::write_svg(path, "t", "x", {}, {{"p", "v", {}}}), std::invalid_argument);
+}
+
+TEST(WriteSvg, SubtitleLinesPushPanelsDown) {
+  const std::vector<double> x{0, 1, 2};
+  const std::string one = TempPath("title1.svg"), three = TempPath("title3.svg");
+  fp::write_svg(one, "Figure", "t", x, {{"p", "v", {{"s", {1, 2, 3}}}}});
+  fp::write_svg(three, "Figure\nmanoeuvre 1: a & b\nmanoeuvre 2", "t", x, {{"p", "v", {{"s", {1, 2, 3}}}}});
+  const std::string svg = ReadFile(three);
+  EXPECT_NE(svg.find(">manoeuvre 1: a &amp; b</text>"), std::string::npos);
+  EXPECT_NE(svg.find(">manoeuvre 2</text>"), std::string::npos);
+  EXPECT_EQ(svg.find("Figure\n"), std::string::npos);
+  EXPECT_GT(PlotAreas(svg)[0].y, PlotAreas(ReadFile(one))[0].y + 20);
+}

@@ -68,6 +68,7 @@ struct DriverInputs {
   double tilt_rate_rad_s = 0;   // mast tilt lever, + forward
   double lift_rate_m_s = 0;     // lift lever, + up
   double shift_rate_m_s = 0;    // side-shift lever, + left
+  bool parking_brake = false;   // holds the front wheels with the truck's parking-brake torque
 };
 
 // Layout of the ODE state vector.
@@ -77,7 +78,9 @@ struct StateIndex {
   static constexpr int kDriven = 18;    // per driven coordinate d (0..3): z, z', z'' at kDriven + 3 d
   static constexpr int kTorque = 30;    // drive torque after the lag, N m
   static constexpr int kBrake = 31;     // brake torque per wheel after the lag, N m
-  static constexpr int kSize = 32;
+  static constexpr int kTyre = 32;      // bristle deflection of wheel w: x at kTyre + 2 w, y next, m
+  static constexpr int kBrakeStick = 38;  // front wheel w's brake bristle s (0 left, 1 right), -1..1
+  static constexpr int kSize = 40;
 };
 using StateVector = Eigen::Matrix<double, StateIndex::kSize, 1>;
 using CoordVector = Eigen::Matrix<double, kNumCoords, 1>;
@@ -92,6 +95,7 @@ struct WheelContact {
   double slip_x_m_s = 0, slip_y_m_s = 0;  // sx, sy: contact point velocity on the wheel axes
   double slip_angle_rad = 0;              // alpha, eq (9)
   double drive_torque_N_m = 0, brake_torque_N_m = 0, rolling_torque_N_m = 0;
+  double friction_use = 0;  // |(Fx, Fy)| / (mu Fz): 1 sliding (bristle tyre; 0 off the ground)
 };
 
 // Everything the evaluator computes beside the derivative, for output and tests.
@@ -105,6 +109,12 @@ struct Outputs {
   double forward_speed_m_s = 0;  // chassis CoG velocity along the heading
   double total_mass_kg = 0;
   Eigen::Vector3d cog_m = Eigen::Vector3d::Zero();  // whole truck and load, world
+  // Body parts on the ground (a tipped truck): how many touch, and the deepest into the floor.
+  int body_points_on_ground = 0;
+  double body_penetration_max_m = 0;
+  // Power of every force but gravity (ground, tyres, brakes, drive, scene, actuators), W: the
+  // rate of change of kinetic plus gravitational energy (a work-energy balance closes on it).
+  double applied_power_W = 0;
 };
 
 // World poses of the truck's rigid parts at coordinates q, for the scene, collision and renderer.
@@ -146,7 +156,8 @@ class TruckDynamics {
 
   // Kinetic + gravitational + ground-spring energy (J): conserved when there is no friction,
   // damping or torque and the driven coordinates are still.
-  double energy(const StateVector& x) const;
+  // Without the ground springs: kinetic + gravitational only, whose rate is Outputs::applied_power_W.
+  double energy(const StateVector& x, bool with_ground_springs = true) const;
 
   // A state at rest at (x, y, yaw) with the driven coordinates given, wheels at their free
   // radius above the ground (not yet settled: see settle_static).

@@ -47,7 +47,13 @@ struct ManoeuvreResult {
   double max_roll_deg = 0;
   std::array<double, kNumWheels> min_fz_N{};
   bool rear_wheel_lifted = false;
-  std::optional<double> stop_time_s;  // brake onset until forward speed < 0.05 m/s
+  // Brake onset until the forward speed falls below each threshold: the paper does not say when
+  // it counts the truck as stopped, so both usual readings are kept.
+  struct StopTime {
+    double below_m_s = 0;
+    std::optional<double> s;
+  };
+  std::array<StopTime, 2> stop_times{{{0.05, {}}, {0.1, {}}}};
   Eigen::Vector3d final_pose = Eigen::Vector3d::Zero();  // x (m), y (m), yaw (rad)
   bool tipped_over = false;     // roll or pitch beyond 20 deg: the run stops there
   std::vector<Sample> samples;

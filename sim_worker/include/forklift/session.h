@@ -17,6 +17,7 @@ struct ControlSample {
   uint32_t seq = 0;
   double steer_rad = 0, accelerator = 0, brake = 0, lift = 0, tilt = 0, side_shift = 0;
   bool horn = false;
+  bool parking_brake = false;
 };
 
 // Why a sample must not reach the integrator, or nullopt if it is fine: a non-finite value or

@@ -6,7 +6,9 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <cmath>
 #include <string>
+#include <vector>
 
 namespace forklift {
 
@@ -41,15 +43,48 @@ struct WheelParams {
   double transverse_inertia_kg_m2 = 0;
 };
 
+// How the tyre's Fx and Fy arise from the contact's slip (section 7).
+enum class TyreModel {
+  kPaper,    // eqs (8)-(10): Fx from the slip speed, Fy from the slip angle; nothing sticks at rest
+  kBristle,  // an averaged LuGre brush: the contact sticks below the friction limit (it holds a
+             // braked truck on a slope), gives slip-proportional forces when rolling, and slides
+             // at mu Fz on a friction circle (Canudas de Wit et al. 2003, the lumped LuGre tyre)
+};
+
 struct ContactParams {
   double stiffness_N_m = 0;           // K, eq (7)
   double damping_N_s_m = 0;           // C, eq (7)
+  TyreModel tyre = TyreModel::kPaper;
+  // kPaper
   double fx_slip_gain_s_m = 0;        // k, eq (8)
   double fx_max_N = 0;                // eq (8)
   double fy_mu = 0;                   // mu, eq (10)
   double fy_alpha0_rad = 0;           // alpha0, eq (10)
-  double rolling_resistance_N_m_s = 0;  // k of eq (6)
   double slip_angle_speed_floor_m_s = 0;
+  // kBristle: F_i = -Fz (sigma0_i z_i + sigma1 z_i'), z_i' = v_i - (sigma0_i |v| / g(|v|) + |w r| / L) z_i,
+  // g(v) = mu_sliding + (mu_static - mu_sliding) exp(-(v / v_stribeck)^2); v the contact's slip velocity.
+  double mu_static = 0, mu_sliding = 0, stribeck_speed_m_s = 0;
+  double bristle_stiffness_x_per_m = 0, bristle_stiffness_y_per_m = 0;  // sigma0, per unit Fz
+  double bristle_damping_s_m = 0;                                         // sigma1, per unit Fz
+  double relaxation_length_m = 0;                                         // L: slip stiffness = sigma0 L
+  // Rolling resistance: the paper's viscous k of eq (6), and a Coulomb part C_rr Fz r (smoothed
+  // through zero over `rolling_resistance_speed_rad_s`) that brings a coasting truck to rest.
+  double rolling_resistance_N_m_s = 0;
+  double rolling_resistance_coefficient = 0;
+  double rolling_resistance_speed_rad_s = 0.1;
+};
+
+// Parts of the body that meet the ground when the truck tips (chassis corners, overhead guard,
+// counterweight, mast, fork tips; and the corners of a load): penalty contact with friction.
+struct BodyContactPoint {
+  int body = 0;                                       // 0 chassis, 1 mast, 2 carriage (TruckBody order)
+  Eigen::Vector3d point_m = Eigen::Vector3d::Zero();  // chassis frame / from the mast pivot / from the fork heel
+  std::string name;
+};
+struct BodyGroundContact {
+  double stiffness_N_m = 0, damping_N_s_m = 0, mu = 0;
+  double friction_speed_m_s = 0.01;  // the friction's smoothing through zero slip
+  std::vector<BodyContactPoint> points;
 };
 
 // How fixed scene objects (racks, walls, docks, lorries) push back on the truck where it is inside
@@ -64,7 +99,30 @@ struct DriveParams {
   double brake_torque_max_N_m = 0;  // per front wheel, at full pedal
   double torque_lag_s = 0;
   double brake_lag_s = 0;
+  // The paper's brake (section 8): T = -b tanh(w / w_fade), nothing at standstill. Used when
+  // brake_stick_angle_rad is 0.
   double brake_fade_speed_rad_s = 0;
+  // A brake that holds: friction in the brake and drivetrain as a bristle of angular compliance
+  // phi: T = -b (s + tau s'), s' = (w - |w| s) / phi, so |T| <= b sliding and a spring at rest.
+  double brake_stick_angle_rad = 0;
+  double brake_stick_damping_s = 0;    // tau
+  double parking_brake_torque_N_m = 0; // per front wheel, when the parking brake is set
+  // Traction drive (one motor per front wheel): torque and power limits per motor and a speed
+  // governor that fades the torque out over the last `speed_governor_band_m_s` before the cap
+  // (and brakes above it). Infinite where the data file sets none: the paper's free torque.
+  double motor_torque_max_N_m = INFINITY;
+  double motor_power_max_W = INFINITY;
+  double speed_max_m_s = INFINITY;
+  double speed_governor_band_m_s = 0.3;
+  double drivetrain_inertia_kg_m2 = 0;  // motor and gears reflected to each front wheel's spin
+};
+
+// The steering actuator: end stops, and a rate limit at the wheel. Without a rate limit the
+// rear-wheel angle follows the cab through the paper's smoothing filter alone.
+struct SteerParams {
+  double max_rad = 0;
+  double rate_max_rad_s = INFINITY;
+  double bandwidth_rad_s = 0;
 };
 
 struct MastLimits {
@@ -93,8 +151,11 @@ struct TruckParams {
   ContactParams contact;
   SceneContactParams scene_contact;
   DriveParams drive;
-  double steer_bandwidth_rad_s = 0;
+  SteerParams steer;
+  BodyGroundContact body_contact;
   double lever_bandwidth_rad_s = 0;
+  // The seated driver's reference point (geometry frame) where ISO 22915's 98 kg operator sits.
+  Eigen::Vector3d operator_seat_m = Eigen::Vector3d::Zero();
 
   double wheelbase_m() const;    // L: front axle to rear axle
   double front_track_m() const;  // H: between the front wheels
@@ -111,11 +172,17 @@ struct Load {
   Eigen::Vector3d cog_m = Eigen::Vector3d::Zero();  // from the fork face at the heel of the forks
                                                     // (x forward along the forks, y left, z up)
   Eigen::Matrix3d inertia_kg_m2 = Eigen::Matrix3d::Zero();  // about its CoG
+  // Its bounding box about the CoG, carriage axes (0: unknown): its corners meet the ground in a tip.
+  Eigen::Vector3d size_m = Eigen::Vector3d::Zero();
 };
 
 // A uniform box load: mass, size (l along the forks, w, h), CoG at its centre, resting on the
 // forks with its centre `load_centre_m` ahead of the fork face and offset `lateral_m` left.
 Load box_load(double mass_kg, double length_m, double width_m, double height_m,
               double load_centre_m, double lateral_m);
+
+// The truck with a mass added rigidly to its chassis at `at_geometry_m` (ISO 22915's operator):
+// the chassis CoG, the chassis-frame offsets and the inertia move accordingly.
+TruckParams with_chassis_mass(const TruckParams& truck, double mass_kg, const Eigen::Vector3d& at_geometry_m);
 
 }  // namespace forklift
