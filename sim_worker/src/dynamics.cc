@@ -208,6 +208,10 @@ struct Evaluation {
 
 double sq(double v) { return v * v; }
 
+int frame_of(TruckBody body) {
+  return body == TruckBody::kChassis ? kChassisFrame : body == TruckBody::kMast ? kMastFrame : kCarriageFrame;
+}
+
 }  // namespace
 
 Ground::Ground(std::vector<Ramp> ramps) : ramps_(std::move(ramps)) {}
@@ -386,7 +390,7 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
   };
   if (bc.stiffness_N_m > 0) {
     for (const BodyContactPoint& p : bc.points)
-      touch(p.body == 0 ? kChassisFrame : p.body == 1 ? kMastFrame : kCarriageFrame, p.point_m);
+      touch(frame_of(p.body), p.point_m);
     if (load && load->mass_kg > 0 && load->size_m.minCoeff() > 0)
       for (int k = 0; k < 8; ++k)
         touch(kCarriageFrame, load->cog_m + 0.5 * Vector3d(k & 1 ? 1 : -1, k & 2 ? 1 : -1, k & 4 ? 1 : -1)
@@ -395,8 +399,7 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
 
   // The scene pushing back where the truck touches it (contacts, held for the tick).
   for (const ExternalForce& f : env.external_forces) {
-    const int frame = f.body == TruckBody::kChassis ? kChassisFrame : f.body == TruckBody::kMast ? kMastFrame : kCarriageFrame;
-    point_jacobian(tree, e.kin, frame, f.point_m, Jv, Jw);
+    point_jacobian(tree, e.kin, frame_of(f.body), f.point_m, Jv, Jw);
     Qa.noalias() += Jv.transpose() * f.force_N;
   }
 

@@ -1,6 +1,7 @@
 // Section 11's manoeuvres. The paper gives their shape but not every number; where it does
 // not, the choice is written beside it.
 #include "forklift/manoeuvre.h"
+#include "forklift/stability.h"
 
 #include <algorithm>
 #include <chrono>
@@ -37,8 +38,7 @@ const std::vector<int>& manoeuvre_numbers() {
 }
 
 double lift_for_load_height(const TruckParams& truck, const Load& load, double height_m) {
-  const double heel_z = truck.chassis_cog_geometry_m.z() + truck.mast_pivot_m.z() + truck.fork_heel_from_pivot_m.z();
-  return height_m - heel_z - load.cog_m.z();
+  return lift_for_fork_height(truck, height_m - load.cog_m.z());  // the load's CoG is above the forks' top
 }
 
 ManoeuvreSpec manoeuvre(int n, const TruckParams& truck) {

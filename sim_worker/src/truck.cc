@@ -17,29 +17,24 @@ class Reader {
  public:
   Reader(const std::string& path, const json& root) : path_(path), root_(root) {}
 
-  bool has(const std::string& dotted) const {
+  // The value at a dotted key path, or null where any part of it is missing.
+  const json* find(const std::string& dotted) const {
     const json* j = &root_;
     size_t start = 0;
     while (true) {
       size_t dot = dotted.find('.', start);
       std::string key = dotted.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
-      if (!j->is_object() || !j->contains(key)) return false;
+      if (!j->is_object() || !j->contains(key)) return nullptr;
       j = &(*j)[key];
-      if (dot == std::string::npos) return true;
+      if (dot == std::string::npos) return j;
       start = dot + 1;
     }
   }
+  bool has(const std::string& dotted) const { return find(dotted) != nullptr; }
   const json& node(const std::string& dotted) const {
-    const json* j = &root_;
-    size_t start = 0;
-    while (true) {
-      size_t dot = dotted.find('.', start);
-      std::string key = dotted.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
-      if (!j->is_object() || !j->contains(key)) fail(dotted, "is missing");
-      j = &(*j)[key];
-      if (dot == std::string::npos) return *j;
-      start = dot + 1;
-    }
+    const json* j = find(dotted);
+    if (!j) fail(dotted, "is missing");
+    return *j;
   }
   double number(const std::string& key) const {
     const json& j = node(key);
@@ -171,15 +166,14 @@ TruckParams load_truck(const std::string& path) {
   ContactParams& c = t.contact;
   c.stiffness_N_m = r.positive("ground_contact.vertical_stiffness_N_m");
   c.damping_N_s_m = r.non_negative("ground_contact.vertical_damping_N_s_m");
-  const std::string tyre = r.has("ground_contact.tyre_model") && r.node("ground_contact.tyre_model").is_string()
-                               ? r.node("ground_contact.tyre_model").get<std::string>() : "paper";
+  const json* tyre_model = r.find("ground_contact.tyre_model");
+  const std::string tyre = !tyre_model ? "paper" : tyre_model->is_string() ? tyre_model->get<std::string>() : "?";
   if (tyre == "paper") {
     c.tyre = TyreModel::kPaper;
     c.fx_slip_gain_s_m = r.non_negative("ground_contact.fx_slip_gain_s_m");
     c.fx_max_N = r.non_negative("ground_contact.fx_max_N");
     c.fy_mu = r.non_negative("ground_contact.fy_mu");
     c.fy_alpha0_rad = r.positive("ground_contact.fy_alpha0_deg") * kDeg;
-    c.slip_angle_speed_floor_m_s = r.positive("ground_contact.slip_angle_speed_floor_m_s");
   } else if (tyre == "bristle") {
     c.tyre = TyreModel::kBristle;
     c.mu_static = r.positive("ground_contact.mu_static");
@@ -190,10 +184,10 @@ TruckParams load_truck(const std::string& path) {
     c.bristle_stiffness_y_per_m = r.positive("ground_contact.bristle_stiffness_y_per_m");
     c.bristle_damping_s_m = r.non_negative("ground_contact.bristle_damping_s_m");
     c.relaxation_length_m = r.positive("ground_contact.relaxation_length_m");
-    c.slip_angle_speed_floor_m_s = 0.05;  // only for reporting the slip angle at rest
   } else {
     r.fail("ground_contact.tyre_model", "must be \"paper\" or \"bristle\"");
   }
+  c.slip_angle_speed_floor_m_s = r.positive("ground_contact.slip_angle_speed_floor_m_s");
   c.rolling_resistance_N_m_s = optional("ground_contact.rolling_resistance_N_m_s", 0, false);
   c.rolling_resistance_coefficient = optional("ground_contact.rolling_resistance_coefficient", 0, false);
   c.rolling_resistance_speed_rad_s = optional("ground_contact.rolling_resistance_speed_rad_s", 0.1, true);
@@ -238,9 +232,9 @@ TruckParams load_truck(const std::string& path) {
       BodyContactPoint p;
       p.name = name;
       p.point_m = r.vec3(key + ".at_m");
-      if (body == "chassis") { p.body = 0; p.point_m -= chassis_cog; }
-      else if (body == "mast") p.body = 1;
-      else if (body == "carriage") p.body = 2;
+      if (body == "chassis") { p.body = TruckBody::kChassis; p.point_m -= chassis_cog; }
+      else if (body == "mast") p.body = TruckBody::kMast;
+      else if (body == "carriage") p.body = TruckBody::kCarriage;
       else r.fail(key + ".body", "must be chassis, mast or carriage");
       bc.points.push_back(p);
     }
@@ -276,7 +270,7 @@ TruckParams with_chassis_mass(const TruckParams& truck, double mass_kg, const Ei
   t.service_mass_kg += mass_kg;
   for (WheelParams& w : t.wheels) w.centre_m += shift;
   t.mast_pivot_m += shift;
-  for (BodyContactPoint& p : t.body_contact.points) if (p.body == 0) p.point_m += shift;
+  for (BodyContactPoint& p : t.body_contact.points) if (p.body == TruckBody::kChassis) p.point_m += shift;
   return t;
 }
 

@@ -42,7 +42,6 @@ class Ground {
 
 // A force from the scene on one of the truck's rigid bodies at a world point: a contact pushing
 // back (the collision module finds the contacts; the session turns them into these).
-enum class TruckBody { kChassis, kMast, kCarriage };
 struct ExternalForce {
   TruckBody body = TruckBody::kChassis;
   Eigen::Vector3d point_m = Eigen::Vector3d::Zero();  // world

@@ -74,10 +74,13 @@ struct ContactParams {
   double rolling_resistance_speed_rad_s = 0.1;
 };
 
+// The truck's rigid bodies that forces from the scene or the ground can act on.
+enum class TruckBody { kChassis, kMast, kCarriage };
+
 // Parts of the body that meet the ground when the truck tips (chassis corners, overhead guard,
 // counterweight, mast, fork tips; and the corners of a load): penalty contact with friction.
 struct BodyContactPoint {
-  int body = 0;                                       // 0 chassis, 1 mast, 2 carriage (TruckBody order)
+  TruckBody body = TruckBody::kChassis;
   Eigen::Vector3d point_m = Eigen::Vector3d::Zero();  // chassis frame / from the mast pivot / from the fork heel
   std::string name;
 };
