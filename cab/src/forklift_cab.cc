@@ -201,6 +201,7 @@ int run_joystick(Cab& cab, const std::string& dev) {
 
 int main(int argc, char** argv) {
   CLI::App app{"forklift-cab: a cab's controls to its sim worker, and a head-up display"};
+  app.set_version_flag("--version", FORKLIFT_VERSION);
   std::string cab_id, script, joystick, dds_config, security_dir, identity;
   bool keyboard = false;
   double wait_s = 10;
@@ -222,7 +223,11 @@ int main(int argc, char** argv) {
   app.add_option("--save-frame", frames.save_last, "write the newest frame to this PNG at exit");
   app.add_option("--save-frames", frames.save_dir, "write every --save-every-th frame into this folder as PNG");
   app.add_option("--save-every", frames.save_every, "with --save-frames: keep one frame in N")->check(CLI::Range(1, 100000));
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help and --version: 0; bad usage: 2, as every program
+  }
   if (no_window) frames.window = false;
   std::signal(SIGTERM, on_signal);
   std::signal(SIGINT, on_signal);

@@ -160,6 +160,7 @@ int verify_exam(const Client& cl, const std::string& id, const std::string& ca_f
 
 int main(int argc, char** argv) {
   CLI::App app{"forklift-menu: pupils, scenarios, sessions and histories through forklift-server"};
+  app.set_version_flag("--version", FORKLIFT_VERSION);
   app.require_subcommand(1);
   Client cl;
   cl.server = "http://127.0.0.1:8080";
@@ -223,7 +224,11 @@ int main(int argc, char** argv) {
   verify->add_option("ID", session)->required();
   verify->add_option("--school-ca", school_ca, "the school's CA certificate (default $FORKLIFT_SECURITY_DIR/ca.pem)")->check(CLI::ExistingFile);
   verify->add_option("--crl", school_crl, "the school's revocation list (default $FORKLIFT_SECURITY_DIR/crl.pem)")->check(CLI::ExistingFile);
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help and --version: 0; bad usage: 2, as every program
+  }
 
   try {
     if (*login) {

@@ -1098,6 +1098,7 @@ void on_signal(int) {
 
 int main(int argc, char** argv) {
   CLI::App app{"forklift-server: pupils, sessions, exams and the sim-worker fleet, over HTTP/JSON"};
+  app.set_version_flag("--version", FORKLIFT_VERSION);
   std::string db_path = "forklift.db", listen = "127.0.0.1:8080", log_dir, dds_config, admin_password, web_dir;
   std::optional<int> domain;
   double token_ttl = kDefaultTokenTtlS;
@@ -1133,7 +1134,11 @@ int main(int argc, char** argv) {
   app.add_option("--identity", identity, "the server's identity in it");
   app.add_option("--admin-password", admin_password, "password of the 'admin' account created with a new database (else FORKLIFT_ADMIN_PASSWORD, else random)");
   app.add_option("--web-dir", web_dir, "the built web pages (default: web/ beside bin/ in the build tree)");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help and --version: 0; bad usage: 2, as every program
+  }
 
   try {
     if (sodium_init() < 0) throw std::runtime_error("libsodium failed to initialise");

@@ -72,6 +72,7 @@ std::optional<Load> cli_load(const TruckParams& truck, double mass, double offse
 
 int main(int argc, char** argv) {
   CLI::App app{"forklift-sim: the SIMUCEL forklift truck model, offline"};
+  app.set_version_flag("--version", FORKLIFT_VERSION);
   app.require_subcommand(1);
   app.fallthrough();  // --truck before or after the command
   // The paper's manoeuvres run on the paper's truck, everything else on the training truck.
@@ -144,7 +145,11 @@ int main(int argc, char** argv) {
   EvaluateOptions evaluate_options;
   auto* evaluate = add_evaluate_command(app, evaluate_options);
 
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help and --version: 0; bad usage: 2, as every program
+  }
 
   if (*evaluate) {
     evaluate_options.truck = truck_file;

@@ -170,6 +170,7 @@ void sign_log(const std::string& log_file, const std::string& session, const std
 
 int main(int argc, char** argv) {
   CLI::App app{"forklift-worker: the real-time simulation of one cab's truck"};
+  app.set_version_flag("--version", FORKLIFT_VERSION);
   std::string cab, session, scenario_file, log_file, dds_config, replay_file, security_dir, identity;
   double rate = 60, deadman_s = 0.5, duration = 0, start_timeout = 0;
   std::optional<int> domain;
@@ -193,7 +194,11 @@ int main(int argc, char** argv) {
   app.add_option("--view", view_name_arg, "camera: driver, chase or plan")->check(CLI::IsMember({"driver", "chase", "plan"}));
   app.add_flag("--jpeg", frames.jpeg, "publish JPEG frames (for cabs on a real network) instead of raw RGB");
   app.add_option("--replay", replay_file, "re-simulate a control log with no cab and print its final state")->check(CLI::ExistingFile);
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help and --version: 0; bad usage: 2, as every program
+  }
 
   try {
     if (!replay_file.empty()) return replay_main(replay_file);

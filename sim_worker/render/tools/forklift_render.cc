@@ -83,6 +83,7 @@ std::string resolve(const std::string& path, const std::string& data_dir) {
 
 int run(int argc, char** argv) {
   CLI::App app{"forklift-render: one still of a scenario, as PNG"};
+  app.set_version_flag("--version", FORKLIFT_VERSION);
   std::string scenario_file, pose_text, view_text = "driver", size_text = "640x480", out_file;
   std::string data_dir = FORKLIFT_DATA_DIR;
   double fork_height_m = 0;
@@ -97,11 +98,8 @@ int run(int argc, char** argv) {
   app.add_option("--data-dir", data_dir, "where relative data paths are resolved");
   try {
     app.parse(argc, argv);
-  } catch (const CLI::CallForHelp& e) {
-    return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    app.exit(e);
-    return kUsageError;
+    return app.exit(e) == 0 ? 0 : kUsageError;  // --help and --version: 0
   }
 
   if (out_file.empty() && !describe) throw std::invalid_argument("--out FILE.png is required");

@@ -1,0 +1,82 @@
+// forklift-sim's model commands as a school or a vendor runs them: validate, tilt --iso,
+// static --grade, and --truck where it applies.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "support/process.h"
+
+using nlohmann::json;
+
+namespace {
+
+const std::string kSim = std::string(FORKLIFT_BIN_DIR) + "/forklift-sim";
+const std::string kPaper = std::string(FORKLIFT_DATA_DIR) + "/trucks/simucel_paper.json";
+
+struct SimRun {
+  int status;
+  std::string out, err;
+};
+SimRun sim(const std::vector<std::string>& args, const std::string& name) {
+  std::vector<std::string> all = {kSim};
+  all.insert(all.end(), args.begin(), args.end());
+  Process p(all, testing::TempDir() + "/sim_cli_" + name);
+  const int status = p.wait(60);
+  return {status, p.out(), p.err()};
+}
+
+}  // namespace
+
+TEST(SimCli, ValidateTellsAGoodTruckFileFromOneThatCannotHoldOnARamp) {
+  const SimRun good = sim({"validate", "--json"}, "validate_good");
+  ASSERT_EQ(good.status, 0) << good.err;
+  const json g = json::parse(good.out);
+  EXPECT_EQ(g["failed"], 0);
+  EXPECT_GE(g["checks"].size(), 35u);
+  for (const json& c : g["checks"]) EXPECT_TRUE(c["pass"].get<bool>()) << c.dump();
+
+  const SimRun paper = sim({"validate", "--truck", kPaper}, "validate_paper");  // --truck after the command too
+  EXPECT_EQ(paper.status, 3);
+  EXPECT_NE(paper.out.find("NO    unladen, 15 % grade"), std::string::npos) << paper.out;
+  EXPECT_NE(paper.out.find(" failed"), std::string::npos);
+}
+
+TEST(SimCli, TiltIsoPrintsTheFourTestsWithTheirMargins) {
+  const SimRun r = sim({"tilt", "--iso"}, "tilt_iso");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json j = json::parse(r.out);
+  ASSERT_EQ(j["tests"].size(), 4u);
+  for (const json& t : j["tests"]) {
+    EXPECT_NEAR(t["margin_deg"].get<double>(), t["critical_angle_deg"].get<double>() - t["required_deg"].get<double>(), 1e-9);
+    EXPECT_TRUE(t["pass"].get<bool>()) << t.dump();
+  }
+  EXPECT_EQ(j["tests"][3]["load_kg"], 0);  // lateral travelling is unladen
+}
+
+TEST(SimCli, StaticSettlesOnARampOnlyWithBrakesThatHold) {
+  const SimRun r = sim({"static", "--grade", "10"}, "static_grade");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json j = json::parse(r.out);
+  EXPECT_TRUE(j["settled"].get<bool>());
+  EXPECT_LT(j["drift_m"].get<double>(), 1e-3);
+  const SimRun paper = sim({"--truck", kPaper, "static", "--grade", "10"}, "static_paper");
+  EXPECT_EQ(paper.status, 3);
+  EXPECT_NE(paper.err.find("does not come to rest on this grade"), std::string::npos) << paper.err;
+  EXPECT_FALSE(json::parse(paper.out)["settled"].get<bool>());
+}
+
+TEST(SimCli, ManoeuvresRunOnThePaperTruckAndReportBothStopThresholds) {
+  const SimRun r = sim({"manoeuvre", "5"}, "manoeuvre5");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json stop = json::parse(r.out)["stop_time_s"];
+  EXPECT_NEAR(stop["below_0.1_m_s"].get<double>(), 2.0, 0.3);  // the paper's 2 s, on its truck
+  EXPECT_GT(stop["below_0.05_m_s"].get<double>(), stop["below_0.1_m_s"].get<double>());
+}
+
+TEST(SimCli, BadUsageIsRefusedWithStatusTwo) {
+  EXPECT_EQ(sim({"static", "--grade", "80"}, "grade_range").status, 2);
+  EXPECT_EQ(sim({"--truck", "/nonexistent.json", "validate"}, "no_truck").status, 2);
+  const SimRun meshes = sim({"meshes", "--out", testing::TempDir() + "/m", "--truck", kPaper}, "meshes_truck");
+  EXPECT_EQ(meshes.status, 2);
+  EXPECT_NE(meshes.err.find("do not depend on a truck file"), std::string::npos) << meshes.err;
+}
