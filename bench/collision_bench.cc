@@ -23,7 +23,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "forklift/collision.h"
+#include "forklift/collision/collision.h"
 
 using namespace forklift;
 

@@ -26,7 +26,7 @@
 #include <thread>
 #include <vector>
 
-#include "forklift/protocol.h"
+#include "forklift/protocol/protocol.h"
 #include "support/process.h"
 
 using namespace forklift;

@@ -10,7 +10,7 @@
 #include <cstdio>
 #include <vector>
 
-#include "forklift/manoeuvre.h"
+#include "forklift/dynamics/manoeuvre.h"
 
 using namespace forklift;
 

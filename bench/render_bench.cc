@@ -28,7 +28,7 @@
 #include <string>
 #include <unistd.h>
 
-#include "forklift/render.h"
+#include "forklift/render/render.h"
 
 using namespace forklift;
 

@@ -25,8 +25,8 @@
 #include <thread>
 #include <vector>
 
-#include "forklift/protocol.h"
-#include "forklift/store.h"
+#include "forklift/protocol/protocol.h"
+#include "forklift/store/store.h"
 #include "support/process.h"
 
 using namespace forklift;

@@ -15,9 +15,9 @@
 #include <thread>
 #include <unistd.h>
 
-#include "forklift/protocol.h"
+#include "forklift/protocol/protocol.h"
 #include "frame_view.h"
-#include "script.h"
+#include "forklift/script/script.h"
 
 using namespace forklift;
 using Clock = std::chrono::steady_clock;

@@ -6,8 +6,8 @@
 #include <memory>
 #include <string>
 
-#include "forklift/protocol.h"
-#include "forklift/render.h"
+#include "forklift/protocol/protocol.h"
+#include "forklift/image/image.h"
 
 namespace forklift {
 

@@ -16,7 +16,7 @@
 #include <sstream>
 #include <thread>
 
-#include "forklift/evidence.h"
+#include "forklift/security/evidence.h"
 
 using nlohmann::json;
 

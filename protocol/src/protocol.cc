@@ -1,4 +1,4 @@
-#include "forklift/protocol.h"
+#include "forklift/protocol/protocol.h"
 
 #include <unistd.h>
 

@@ -1,4 +1,4 @@
-#include "forklift/evidence.h"
+#include "forklift/security/evidence.h"
 
 #include <openssl/crypto.h>
 

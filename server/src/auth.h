@@ -13,7 +13,7 @@
 #include <unordered_map>
 #include <utility>
 
-#include "forklift/store.h"
+#include "forklift/store/store.h"
 
 namespace forklift::server {
 

@@ -1,6 +1,6 @@
 #include "exam_evidence.h"
 
-#include "forklift/evidence.h"
+#include "forklift/security/evidence.h"
 
 namespace forklift::server {
 

@@ -1,12 +1,12 @@
 // Tamper-evidence for practical exams, on the server's side: the exam record as the hash chain
 // covers it, appending an ended exam to the chain, and the evidence forklift-menu verify checks
-// (security/include/forklift/evidence.h has the formats and the checks).
+// (security/include/forklift/security/evidence.h has the formats and the checks).
 #pragma once
 
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "forklift/store.h"
+#include "forklift/store/store.h"
 
 namespace forklift::server {
 

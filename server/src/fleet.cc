@@ -2,7 +2,7 @@
 
 #include "exam_evidence.h"
 
-#include "forklift/render.h"
+#include "forklift/image/image.h"
 
 #include <fcntl.h>
 #include <signal.h>

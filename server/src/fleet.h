@@ -14,8 +14,8 @@
 #include <thread>
 #include <vector>
 
-#include "forklift/protocol.h"
-#include "forklift/store.h"
+#include "forklift/protocol/protocol.h"
+#include "forklift/store/store.h"
 
 namespace forklift::server {
 

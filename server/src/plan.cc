@@ -3,7 +3,7 @@
 #include <cmath>
 #include <filesystem>
 
-#include "forklift/scene.h"
+#include "forklift/scene/scene.h"
 
 namespace forklift::server {
 namespace {

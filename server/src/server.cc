@@ -705,7 +705,7 @@ void routes(httplib::Server& svr, Context& ctx) {
         run.erase("load");
       } else {
         if (!l.is_object()) throw ApiError(400, "bad_request", "'load' must be null (no load) or an object");
-        // The worker's own limits (sim_worker/src/session.cc, forklift-sim's options), checked here
+        // The worker's own limits (sim/scene/src/scenario.cc, forklift-sim's options), checked here
         // too so that a bad load is a 400 now rather than a failed session later.
         json load = json::object();
         for (const auto& [k, v] : l.items()) {

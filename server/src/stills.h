@@ -1,4 +1,4 @@
-// Stills at a session's events: `forklift-render` (sim_worker/render) draws the scenario from the
+// Stills at a session's events: `forklift-render` (render/) draws the scenario from the
 // truck's pose at that moment into a PNG, which is kept in a cache folder so that each still is
 // rendered once. The renderer runs as a child process: a crash or hang there costs one image,
 // never the server.

@@ -12,7 +12,7 @@
 #include <utility>
 #include <vector>
 
-#include "forklift/collision.h"
+#include "forklift/collision/collision.h"
 
 namespace fx {
 

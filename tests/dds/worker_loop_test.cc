@@ -7,11 +7,11 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "forklift/manoeuvre.h"
-#include "forklift/cab_session.h"
-#include "forklift/protocol.h"
-#include "forklift/render.h"
-#include "forklift/session.h"
+#include "forklift/dynamics/manoeuvre.h"
+#include "forklift/session/cab_session.h"
+#include "forklift/protocol/protocol.h"
+#include "forklift/image/image.h"
+#include "forklift/session/session_log.h"
 #include "support/process.h"
 
 using namespace forklift;
@@ -192,7 +192,7 @@ TEST(WorkerLoop, SigtermFlushesTheLogAndPublishesTheEnd) {
   const ControlLog log = read_control_log(tmp("term.ctl"));
   ASSERT_TRUE(log.ticks && log.final_state);
   EXPECT_GT(*log.ticks, 1000);
-  EXPECT_EQ(replay(log), *log.final_state);
+  EXPECT_EQ(replay_session(log, FORKLIFT_DATA_DIR).final_state, *log.final_state);
 }
 
 // Rendered frames go from a real worker to a real cab over DDS, raw and as JPEG, and the cab

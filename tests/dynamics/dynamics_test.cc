@@ -3,8 +3,8 @@
 #include <Eigen/Eigenvalues>
 #include <random>
 
-#include "forklift/simulation.h"
-#include "forklift/stability.h"
+#include "forklift/dynamics/simulation.h"
+#include "forklift/dynamics/stability.h"
 #include "test_truck.h"
 
 using namespace forklift;

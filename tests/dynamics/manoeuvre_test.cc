@@ -3,8 +3,8 @@
 
 #include <map>
 
-#include "forklift/manoeuvre.h"
-#include "forklift/stability.h"
+#include "forklift/dynamics/manoeuvre.h"
+#include "forklift/dynamics/stability.h"
 #include "test_truck.h"
 
 using namespace forklift;

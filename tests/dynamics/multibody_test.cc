@@ -1,4 +1,4 @@
-// Independent checks of the multibody core (sim_worker/src/dynamics.cc): the mass matrix, the
+// Independent checks of the multibody core (sim/dynamics/src/dynamics.cc): the mass matrix, the
 // velocity-product terms and gravity's generalised force, each against a computation that does not
 // use the model's Jacobians or its bias accelerations.
 //
@@ -28,7 +28,7 @@
 #include <random>
 #include <vector>
 
-#include "forklift/dynamics.h"
+#include "forklift/dynamics/dynamics.h"
 #include "test_truck.h"
 
 using namespace forklift;

@@ -1,7 +1,7 @@
 // Shared fixture data for the dynamics tests: the two shipped trucks.
 #pragma once
 #include <string>
-#include "forklift/truck.h"
+#include "forklift/dynamics/truck.h"
 
 // The calibrated training truck that pupils drive.
 inline const forklift::TruckParams& shipped_truck() {

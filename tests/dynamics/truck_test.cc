@@ -4,7 +4,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "forklift/stability.h"
+#include "forklift/dynamics/stability.h"
 #include "test_truck.h"
 
 using namespace forklift;

@@ -1,11 +1,11 @@
 // The training truck behaves as a real one where safety training needs it, and the paper's
 // truck, with its slip-speed tyres and free torque, visibly does not: `forklift-sim validate`'s
-// checks (sim_worker/src/validation.cc), each a closed form or a limit from a file or a standard.
+// checks (sim/dynamics/src/validation.cc), each a closed form or a limit from a file or a standard.
 #include <gtest/gtest.h>
 
 #include <map>
 
-#include "forklift/validation.h"
+#include "forklift/dynamics/validation.h"
 #include "test_truck.h"
 
 using namespace forklift;

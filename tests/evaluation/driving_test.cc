@@ -2,7 +2,7 @@
 // on tests/evaluation/scenes/zones.json: a straight route along y = 0 with a 2.8 m/s yard, a
 // 1.4 m/s walkway across it at x = 60 and a 1.4 m/s corner zone at x = 90.
 #include "evaluation/harness.h"
-#include "forklift/manoeuvre.h"  // lift_for_load_height
+#include "forklift/dynamics/manoeuvre.h"  // lift_for_load_height
 
 namespace {
 

@@ -15,10 +15,11 @@
 #include <string>
 #include <vector>
 
-#include "forklift/collision.h"
-#include "forklift/evaluation.h"
-#include "forklift/scene.h"
-#include "forklift/session.h"
+#include "forklift/collision/collision.h"
+#include "forklift/evaluation/evaluation.h"
+#include "forklift/scene/scene.h"
+#include "forklift/session/controls.h"
+#include "forklift/session/session_log.h"
 
 namespace evt {
 

@@ -1,6 +1,6 @@
 // The stability triangle's margin against hand-computed cases, and the capacity plate's rule.
 #include "evaluation/harness.h"
-#include "forklift/stability.h"
+#include "forklift/dynamics/stability.h"
 
 namespace {
 

@@ -1,4 +1,4 @@
-#include "svg_plot.h"
+#include "forklift/plot/svg_plot.h"
 
 #include <gtest/gtest.h>
 

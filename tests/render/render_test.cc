@@ -10,7 +10,7 @@
 #include <fstream>
 #include <functional>
 
-#include "forklift/render.h"
+#include "forklift/render/render.h"
 #include "support/process.h"
 
 namespace forklift {

@@ -9,8 +9,8 @@
 #include <set>
 #include <sstream>
 
-#include "forklift/dynamics.h"
-#include "forklift/scene.h"
+#include "forklift/dynamics/dynamics.h"
+#include "forklift/scene/scene.h"
 
 using namespace forklift;
 namespace fs = std::filesystem;

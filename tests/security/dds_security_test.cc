@@ -13,7 +13,7 @@
 #include <thread>
 #include <unistd.h>
 
-#include "forklift/render.h"
+#include "forklift/image/image.h"
 #include "support/process.h"
 #include "support/temp_dir.h"
 

@@ -1,7 +1,7 @@
 // Tamper-evidence for exam records: a school PKI made with the openssl CLI in a temporary folder, a realistic
 // control log and record, a 3-exam chain; the untouched evidence verifies and each kind of tampering is caught
 // by the check that names it.
-#include "forklift/evidence.h"
+#include "forklift/security/evidence.h"
 
 #include <gtest/gtest.h>
 #include <stdlib.h>
@@ -74,7 +74,7 @@ std::string Hex(double v) {
   return buf;
 }
 
-// A control log as forklift-worker writes it (sim_worker/src/session.cc, cab_session.cc).
+// A control log as forklift-worker writes it (sim/session/src/session_log.cc).
 std::string ControlLog(const std::string& session, const std::string& cab, double mark, bool passed) {
   std::string state;
   for (int i = 0; i < 32; ++i) {

@@ -1,4 +1,4 @@
-#include "forklift/store.h"
+#include "forklift/store/store.h"
 
 #include <gtest/gtest.h>
 #include <sqlite3.h>

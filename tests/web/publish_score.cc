@@ -9,7 +9,7 @@
 #include <thread>
 #include <vector>
 
-#include "forklift/protocol.h"
+#include "forklift/protocol/protocol.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"forklift-test-score: publish one Score over DDS"};

@@ -1,5 +1,5 @@
 // The SQLite backend of the trainee store. Every SQL statement of the store lives in this file.
-#include "forklift/store.h"
+#include "forklift/store/store.h"
 
 #include <sqlite3.h>
 

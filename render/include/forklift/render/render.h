@@ -1,0 +1,55 @@
+// The paper's Graphic Engine, off-screen: OSMesa (Mesa's software rasteriser; no display, no
+// GPU) draws the warehouse, the truck (chassis, mast, carriage, forks, wheels) and the pallets
+// with their loads, from the driver's seat or behind the truck for the instructor.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "forklift/image/image.h"
+#include "forklift/scene/scene.h"
+
+namespace forklift {
+
+enum class View { kDriver, kChase, kPlan };  // driver's eye; behind and above the truck; from above
+const char* view_name(View v);               // "driver", "chase", "plan"
+View parse_view(const std::string& name);    // throws std::invalid_argument
+
+struct Camera {
+  Eigen::Vector3d eye = Eigen::Vector3d::Zero(), target = Eigen::Vector3d::UnitX(), up = Eigen::Vector3d::UnitZ();
+  double fov_y_deg = 60;
+};
+
+// Where each view's camera is for the truck at these body poses.
+Camera view_camera(View view, const BodyPoses& poses, const TruckShape& shape, const Scene& scene);
+
+// Everything that moves, at one instant.
+struct RenderState {
+  CoordVector q = CoordVector::Zero();  // the truck's 13 coordinates
+  std::vector<PalletState> pallets;     // empty: every pallet where the scene puts it
+};
+
+class Renderer {
+ public:
+  // Creates the OSMesa context and uploads the scene's meshes once (batched: draw calls cost
+  // about 130 us each on llvmpipe). The context belongs to the calling thread: render from it.
+  // Throws std::runtime_error if OSMesa cannot make a context.
+  Renderer(const Scene& scene, const TruckShape& shape, const TruckParams& truck, int width = 640, int height = 480);
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  const Image& render(const RenderState& state, View view);
+  const Image& render(const RenderState& state, const Camera& camera);
+  int width() const;
+  int height() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace forklift

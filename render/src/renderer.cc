@@ -1,0 +1,367 @@
+// The off-screen Graphic Engine: one OSMesa context per Renderer, the static warehouse in one
+// vertex buffer drawn with one call, and every moving mesh (truck parts, pallets, loads)
+// drawn instanced, one call per distinct mesh. A frame is about ten draw calls whatever the
+// number of pallets (each costs about 130 us on llvmpipe).
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <map>
+#include <stdexcept>
+#include <unordered_map>
+
+#include "camera.h"
+#include "forklift/render/render.h"
+#include "geometry.h"
+#include "gl.h"
+#include "shaders.h"
+
+namespace forklift {
+namespace {
+
+using Eigen::Isometry3d;
+using Eigen::Vector3d;
+using Eigen::Vector3f;
+using render::Geometry;
+
+constexpr int kMaxSize = 8192;
+const Vector3f kSky{0.66f, 0.77f, 0.88f};
+const Vector3f kForkColour{0.17f, 0.17f, 0.18f};
+const Vector3f kLoadColour{0.74f, 0.56f, 0.34f};  // cardboard
+constexpr double kForkShankHeightM = 0.5;
+
+// A mesh on the GPU with this frame's instances (model matrices).
+struct GpuMesh {
+  gl::VertexArray vao;
+  gl::Buffer vertices, indices, instances;
+  GLsizei index_count = 0;
+  Eigen::AlignedBox3d bounds;  // in the mesh's frame
+  std::vector<Eigen::Matrix4f> transforms;
+
+  explicit GpuMesh(const Geometry& g) : bounds(g.bounds) {
+    vao = gl::make_vertex_array();
+    vertices = gl::make_buffer();
+    indices = gl::make_buffer();
+    instances = gl::make_buffer();
+    index_count = GLsizei(g.indices.size());
+    glBindVertexArray(vao.get());
+    glBindBuffer(GL_ARRAY_BUFFER, vertices.get());
+    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(g.vertices.size() * sizeof(render::Vertex)), g.vertices.data(),
+                 GL_STATIC_DRAW);
+    const GLsizei stride = sizeof(render::Vertex);
+    glEnableVertexAttribArray(0);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(offsetof(render::Vertex, position)));
+    glEnableVertexAttribArray(1);
+    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(offsetof(render::Vertex, normal)));
+    glEnableVertexAttribArray(2);
+    glVertexAttribPointer(2, 4, GL_UNSIGNED_BYTE, GL_TRUE, stride, reinterpret_cast<void*>(offsetof(render::Vertex, colour)));
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, indices.get());
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(g.indices.size() * sizeof(uint32_t)), g.indices.data(),
+                 GL_STATIC_DRAW);
+    glBindBuffer(GL_ARRAY_BUFFER, instances.get());
+    for (int column = 0; column < 4; ++column) {
+      const GLuint loc = GLuint(3 + column);
+      glEnableVertexAttribArray(loc);
+      glVertexAttribPointer(loc, 4, GL_FLOAT, GL_FALSE, sizeof(Eigen::Matrix4f),
+                            reinterpret_cast<void*>(sizeof(float) * 4 * column));  // column-major
+      glVertexAttribDivisor(loc, 1);
+    }
+    glBindVertexArray(0);
+    gl::check_error("uploading a mesh");
+  }
+
+  void add(const Eigen::Affine3d& model) { transforms.push_back(model.matrix().cast<float>()); }
+  void add(const Isometry3d& model) { transforms.push_back(model.matrix().cast<float>()); }
+
+  // Draws this frame's instances and forgets them.
+  void draw() {
+    if (transforms.empty() || index_count == 0) return;
+    glBindVertexArray(vao.get());
+    glBindBuffer(GL_ARRAY_BUFFER, instances.get());
+    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(transforms.size() * sizeof(Eigen::Matrix4f)), transforms.data(),
+                 GL_STREAM_DRAW);
+    glDrawElementsInstanced(GL_TRIANGLES, index_count, GL_UNSIGNED_INT, nullptr, GLsizei(transforms.size()));
+    transforms.clear();
+  }
+
+  // World bounds of this frame's instances.
+  void extend(Eigen::AlignedBox3d& box) const {
+    if (bounds.isEmpty()) return;
+    for (const Eigen::Matrix4f& m : transforms)
+      for (int i = 0; i < 8; ++i) {
+        const Vector3d c = bounds.corner(Eigen::AlignedBox3d::CornerType(i));
+        box.extend((m.cast<double>() * c.homogeneous()).head<3>());
+      }
+  }
+};
+
+// The carriage as drawn: its mesh and, unless the mesh has parts named "fork...", two forks
+// made from the shape's fork dimensions (carriage frame: fork heel at the origin, forks along
+// +x with their top face at z = 0).
+Geometry carriage_geometry(const TruckShape& shape) {
+  Geometry g;
+  g.add_mesh(*shape.carriage, Isometry3d::Identity());
+  for (const MeshPart& part : shape.carriage->parts)
+    if (part.name.rfind("fork", 0) == 0) return g;
+  const double t = shape.fork_thickness_m, w = shape.fork_width_m;
+  for (double side : {-0.5, 0.5}) {
+    const double y = side * shape.fork_centres_y_m;
+    g.add_box(Eigen::AlignedBox3d(Vector3d(-t, y - 0.5 * w, -t), Vector3d(shape.fork_length_m, y + 0.5 * w, 0)),
+              Isometry3d::Identity(), kForkColour);
+    g.add_box(Eigen::AlignedBox3d(Vector3d(-t, y - 0.5 * w, 0), Vector3d(0, y + 0.5 * w, kForkShankHeightM)),
+              Isometry3d::Identity(), kForkColour);
+  }
+  return g;
+}
+
+// The floor drawn: the scene's; without one, the objects' footprint and the start pose with a
+// margin; with neither floor nor objects, none (only sky: the benchmark's baseline frame).
+Eigen::AlignedBox2d floor_area(const Scene& scene) {
+  if (!scene.floor.isEmpty()) return scene.floor;
+  if (scene.objects.empty()) return {};
+  Eigen::AlignedBox2d area;
+  area.extend(Eigen::Vector2d(scene.scenario.x_m, scene.scenario.y_m));
+  for (const SceneObject& o : scene.objects) area.extend(o.pose.translation().head<2>());
+  return Eigen::AlignedBox2d(area.min().array() - 30.0, area.max().array() + 30.0);
+}
+
+}  // namespace
+
+struct Renderer::Impl {
+  Scene scene;  // a copy: the caller's scene may go before we do
+  TruckShape shape;
+  TruckParams truck;
+  int width, height;
+  OSMesaContext context = nullptr;
+  std::vector<uint8_t> framebuffer;  // RGBA, rows top to bottom (OSMESA_Y_UP = 0)
+  Image image;
+
+  gl::Program program;
+  GLint u_view_projection = -1, u_eye = -1;
+  std::unique_ptr<GpuMesh> static_batch;
+  std::vector<std::unique_ptr<GpuMesh>> meshes;  // moving meshes, each drawn once a frame
+  std::map<const Mesh*, GpuMesh*> by_mesh;
+  GpuMesh *chassis = nullptr, *mast = nullptr, *carriage = nullptr, *front_wheel = nullptr,
+          *rear_wheel = nullptr, *load_box = nullptr;
+
+  struct Pallet {
+    GpuMesh* mesh;
+    GpuMesh* load;  // the unit load box, scaled by load_size_m; null: no load
+    Isometry3d scene_pose;
+    double deck_height_m;
+    Vector3d load_size_m;
+  };
+  std::vector<Pallet> pallets;
+  std::unordered_map<std::string, size_t> pallet_index;
+  std::vector<Isometry3d> pallet_poses;  // this frame's
+
+  Impl(const Scene& s, const TruckShape& sh, const TruckParams& t, int w, int h)
+      : scene(s), shape(sh), truck(t), width(w), height(h) {
+    if (w <= 0 || h <= 0 || w > kMaxSize || h > kMaxSize)
+      throw std::invalid_argument("render size " + std::to_string(w) + "x" + std::to_string(h) +
+                                  " is outside 1..8192");
+    const int attributes[] = {OSMESA_FORMAT,        OSMESA_RGBA,         OSMESA_DEPTH_BITS,
+                              24,                   OSMESA_STENCIL_BITS, 0,
+                              OSMESA_PROFILE,       OSMESA_CORE_PROFILE, OSMESA_CONTEXT_MAJOR_VERSION,
+                              3,                    OSMESA_CONTEXT_MINOR_VERSION, 3,
+                              0};
+    context = OSMesaCreateContextAttribs(attributes, nullptr);
+    if (!context) throw std::runtime_error("OSMesa cannot create an OpenGL 3.3 core context");
+    framebuffer.resize(size_t(w) * h * 4);
+    image.width = w;
+    image.height = h;
+    image.rgb.resize(size_t(w) * h * 3);
+    try {
+      make_current();
+      OSMesaPixelStore(OSMESA_Y_UP, 0);  // rows top to bottom, as Image wants
+      upload();
+    } catch (...) {
+      release();
+      throw;
+    }
+  }
+
+  ~Impl() { release(); }
+
+  void release() {
+    if (!context) return;
+    OSMesaMakeCurrent(context, framebuffer.data(), GL_UNSIGNED_BYTE, width, height);
+    // GL objects go while their context is current.
+    static_batch.reset();
+    by_mesh.clear();
+    meshes.clear();
+    program.reset();
+    // Unbind before destroying, so a later context at the same address is never taken for
+    // one that is already current (make_current's shortcut).
+    OSMesaMakeCurrent(nullptr, nullptr, 0, 0, 0);
+    OSMesaDestroyContext(context);
+    context = nullptr;
+  }
+
+  void make_current() {
+    if (OSMesaGetCurrentContext() == context) return;
+    if (!OSMesaMakeCurrent(context, framebuffer.data(), GL_UNSIGNED_BYTE, width, height))
+      throw std::runtime_error("OSMesaMakeCurrent failed");
+    OSMesaPixelStore(OSMESA_Y_UP, 0);
+  }
+
+  GpuMesh* add_mesh(const Geometry& g) {
+    if (g.empty()) return nullptr;
+    meshes.push_back(std::make_unique<GpuMesh>(g));
+    return meshes.back().get();
+  }
+
+  // For a loaded pallet whose scene gives no load mesh: a unit box, x and y centred, z 0..1.
+  GpuMesh* unit_load_box() {
+    if (!load_box) {
+      Geometry g;
+      g.add_box(Eigen::AlignedBox3d(Vector3d(-0.5, -0.5, 0), Vector3d(0.5, 0.5, 1)), Isometry3d::Identity(),
+                kLoadColour);
+      load_box = add_mesh(g);
+    }
+    return load_box;
+  }
+
+  GpuMesh* mesh_for(const std::shared_ptr<const Mesh>& mesh) {
+    if (!mesh) return nullptr;
+    auto it = by_mesh.find(mesh.get());
+    if (it != by_mesh.end()) return it->second;
+    Geometry g;
+    g.add_mesh(*mesh, Isometry3d::Identity());
+    return by_mesh[mesh.get()] = add_mesh(g);
+  }
+
+  void upload() {
+    program = gl::make_program(render::kVertexShader, render::kFragmentShader);
+    u_view_projection = glGetUniformLocation(program.get(), "u_view_projection");
+    u_eye = glGetUniformLocation(program.get(), "u_eye");
+
+    // The truck's parts first (nearest the driver's and the chase camera: drawn first); wheels
+    // share a mesh when the shape does.
+    chassis = mesh_for(shape.chassis);
+    mast = mesh_for(shape.mast);
+    if (shape.carriage) carriage = add_mesh(carriage_geometry(shape));
+    front_wheel = mesh_for(shape.front_wheel);
+    rear_wheel = mesh_for(shape.rear_wheel);
+
+    // Everything that never moves, in world coordinates, in one buffer: objects before the
+    // floor they stand on (drawn in this order: see draw()).
+    Geometry world;
+    for (const SceneObject& o : scene.objects) {
+      if (o.kind == ObjectKind::kPallet) {
+        Pallet p{mesh_for(o.mesh), nullptr, o.pose, 0, Vector3d::Zero()};
+        if (o.pallet && (o.pallet->load_size_m.array() > 0).all()) {
+          p.load = o.load_mesh ? mesh_for(o.load_mesh) : unit_load_box();
+          p.deck_height_m = o.pallet->height_m;
+          p.load_size_m = o.pallet->load_size_m;
+        }
+        pallet_index[o.id] = pallets.size();
+        pallets.push_back(p);
+      } else if (o.mesh) {
+        world.add_mesh(*o.mesh, o.pose);
+      }
+    }
+    render::add_floor(scene, floor_area(scene), world);
+    if (!world.empty()) {
+      static_batch = std::make_unique<GpuMesh>(world);
+    }
+
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    // Geometry is wound counter-clockwise seen from outside (geometry.h): back faces are never
+    // seen, and culling them spares llvmpipe rasterising them.
+    glEnable(GL_CULL_FACE);
+    glCullFace(GL_BACK);
+    glFrontFace(GL_CCW);
+    gl::check_error("setting up the renderer");
+  }
+
+  // Where each pallet is this frame: the state's pose for the pallets it names, else the scene's.
+  void place_pallets(const RenderState& state) {
+    pallet_poses.resize(pallets.size());
+    for (size_t i = 0; i < pallets.size(); ++i) pallet_poses[i] = pallets[i].scene_pose;
+    for (const PalletState& p : state.pallets) {
+      auto it = pallet_index.find(p.id);
+      if (it != pallet_index.end()) pallet_poses[it->second] = p.pose;
+    }
+  }
+
+  const Image& draw(const RenderState& state, const BodyPoses& poses, const Camera& camera) {
+    make_current();
+
+    // This frame's instances (none left over from a frame that threw).
+    for (const auto& m : meshes) m->transforms.clear();
+    if (chassis) chassis->add(poses.chassis);
+    if (mast) mast->add(poses.mast);
+    if (carriage) carriage->add(poses.carriage);
+    if (front_wheel) {
+      front_wheel->add(poses.wheels[kFrontLeft]);
+      front_wheel->add(poses.wheels[kFrontRight]);
+    }
+    if (rear_wheel) rear_wheel->add(poses.wheels[kRear]);
+    place_pallets(state);
+    for (size_t i = 0; i < pallets.size(); ++i) {
+      const Pallet& p = pallets[i];
+      if (p.mesh) p.mesh->add(pallet_poses[i]);
+      if (p.load) {
+        Eigen::Affine3d m = pallet_poses[i] * Eigen::Translation3d(0, 0, p.deck_height_m);
+        m.scale(p.load_size_m);
+        p.load->add(m);
+      }
+    }
+
+    // Depth range from what is in the scene this frame.
+    Eigen::AlignedBox3d extent;
+    if (static_batch) extent.extend(static_batch->bounds);
+    for (const auto& m : meshes) m->extend(extent);
+
+    const Eigen::Matrix4f view_projection =
+        render::view_projection(camera, width, height, extent).cast<float>();
+    const Eigen::Vector3f eye = camera.eye.cast<float>();
+
+    glViewport(0, 0, width, height);
+    glClearColor(kSky.x(), kSky.y(), kSky.z(), 1.0f);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    glUseProgram(program.get());
+    glUniformMatrix4fv(u_view_projection, 1, GL_FALSE, view_projection.data());
+    glUniform3fv(u_eye, 1, eye.data());
+    // Nearest first, so llvmpipe's early depth test spares the pixels behind: the truck and
+    // the pallets, then the warehouse.
+    for (const auto& m : meshes) m->draw();
+    if (static_batch) {
+      static_batch->add(Isometry3d::Identity());
+      static_batch->draw();
+    }
+    glBindVertexArray(0);
+    glFinish();  // OSMesa copies the picture into `framebuffer` here
+    gl::check_error("rendering a frame");
+
+    // RGBA to RGB.
+    const uint8_t* src = framebuffer.data();
+    uint8_t* dst = image.rgb.data();
+    const size_t n = size_t(width) * height;
+    for (size_t i = 0; i < n; ++i, src += 4, dst += 3) {
+      dst[0] = src[0];
+      dst[1] = src[1];
+      dst[2] = src[2];
+    }
+    return image;
+  }
+};
+
+Renderer::Renderer(const Scene& scene, const TruckShape& shape, const TruckParams& truck, int width, int height)
+    : impl_(std::make_unique<Impl>(scene, shape, truck, width, height)) {}
+
+Renderer::~Renderer() = default;
+
+const Image& Renderer::render(const RenderState& state, View view) {
+  const BodyPoses poses = body_poses(impl_->truck, state.q);
+  return impl_->draw(state, poses, view_camera(view, poses, impl_->shape, impl_->scene));
+}
+
+const Image& Renderer::render(const RenderState& state, const Camera& camera) {
+  return impl_->draw(state, body_poses(impl_->truck, state.q), camera);
+}
+
+int Renderer::width() const { return impl_->width; }
+int Renderer::height() const { return impl_->height; }
+
+}  // namespace forklift

@@ -1,0 +1,74 @@
+// The paper's Collision module, with pallet handling: every physics tick the truck's parts
+// (chassis, overhead guard, mast, carriage, forks and the pallet it carries) are checked with
+// FCL against every scene object through a broad phase, and the pallets are picked up, set
+// down, slid along the forks or dropped as the truck moves them.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "forklift/scene/scene.h"
+#include "forklift/dynamics/simulation.h"
+
+namespace forklift {
+
+// One touching pair. Feeds the driver evaluation.
+struct Contact {
+  std::string truck_part;   // "chassis", "guard", "mast", "carriage", "fork_left", "fork_right", "load"
+  std::string object_id;    // the scene object struck (a pallet's id for pallets)
+  ObjectKind object_kind = ObjectKind::kObstacle;
+  Eigen::Vector3d point_m = Eigen::Vector3d::Zero();   // world
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();   // world, unit, from the object towards the truck
+  double depth_m = 0;                                  // penetration, >= 0
+  double relative_speed_m_s = 0;  // speed of the truck part's point into the object (along -normal), >= 0
+};
+
+struct HandlingEvent {
+  enum class Kind { kPickedUp, kSetDown, kSliding, kDropped };
+  Kind kind = Kind::kPickedUp;
+  std::string pallet;
+  std::string on_object;  // set down: the object it was set on ("" floor)
+  int level = 0;
+  Eigen::Vector3d where_m = Eigen::Vector3d::Zero();  // the pallet's centre, world
+};
+const char* handling_event_name(HandlingEvent::Kind kind);  // "picked_up", "set_down", "sliding", "dropped"
+
+struct StepReport {
+  std::vector<Contact> contacts;       // this tick's contacts (empty in a clear aisle)
+  std::vector<HandlingEvent> handling; // what happened to pallets this tick
+};
+
+class Warehouse {
+ public:
+  // Builds the collision shapes (one FCL box per solid mesh part) and the broad phase.
+  Warehouse(const Scene& scene, const TruckShape& shape, const TruckParams& truck);
+  ~Warehouse();
+  Warehouse(const Warehouse&) = delete;
+  Warehouse& operator=(const Warehouse&) = delete;
+
+  // Call after every physics tick. Moves the truck's shapes to the simulation's state, finds
+  // the contacts, makes fixed objects (racks, walls, doors, docks, lorries, obstacles) push back
+  // on the truck for the next tick (sim.set_external_forces, TruckParams::scene_contact), then
+  // handles pallets: forks inside a pallet's pockets that lift it make it
+  // the attached load (sim.attach_load: the model's runtime mass change); lowered onto a rack
+  // level, a lorry bed or the floor, it is released there (sim.release_load); while carried it
+  // slides along the forks when inertia and fork tilt overcome friction, and drops when its
+  // centre of gravity passes the fork tips. A fork tip striking a pallet outside its pockets is
+  // a contact, not a pick-up.
+  const StepReport& step(Simulation& sim);
+
+  // The contacts the truck would have at coordinates q, without handling (for tests and tools).
+  std::vector<Contact> contacts_at(const CoordVector& q);
+
+  const std::vector<PalletState>& pallets() const;
+  const PalletState* pallet(const std::string& id) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace forklift

@@ -1,0 +1,411 @@
+// The Warehouse: each tick, place the truck, find its contacts, then handle the pallets.
+#include <cmath>
+#include <stdexcept>
+
+#include "collision_world.h"
+#include "forklift/collision/collision.h"
+#include "pallet_handling.h"
+
+namespace forklift {
+namespace {
+
+using collision::Body;
+using Eigen::Isometry3d;
+using Eigen::Vector3d;
+
+// Step for the finite difference that turns the state's rates into body velocities.
+constexpr double kVelocityStepS = 1e-4;
+
+CoordVector rates(const StateVector& x) {
+  CoordVector qd;
+  qd.head<kNumDynamic>() = x.segment<kNumDynamic>(StateIndex::kQdot);
+  for (int d = 0; d < kNumDriven; ++d) qd[kNumDynamic + d] = x[StateIndex::kDriven + 3 * d + 1];
+  return qd;
+}
+
+// Linear velocity of the origin and angular velocity of one rigid body, world.
+struct Twist {
+  Vector3d origin = Vector3d::Zero(), v = Vector3d::Zero(), w = Vector3d::Zero();
+  Vector3d at(const Vector3d& p) const { return v + w.cross(p - origin); }
+};
+
+Twist twist(const Isometry3d& a, const Isometry3d& b, double h) {
+  Twist t;
+  t.origin = a.translation();
+  t.v = (b.translation() - a.translation()) / h;
+  const Eigen::AngleAxisd d(b.linear() * a.linear().transpose());
+  t.w = d.axis() * d.angle() / h;
+  return t;
+}
+
+Isometry3d yaw_pose(const Vector3d& at, double yaw) {
+  Isometry3d p = Isometry3d::Identity();
+  p.translation() = at;
+  p.linear() = Eigen::AngleAxisd(yaw, Vector3d::UnitZ()).toRotationMatrix();
+  return p;
+}
+
+double yaw_of(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }
+
+// The lowest corner of a pallet's underside, world z.
+double underside(const Isometry3d& pose, const PalletSpec& s) {
+  double z = 1e9;
+  for (double sx : {-0.5, 0.5})
+    for (double sy : {-0.5, 0.5}) z = std::min(z, (pose * Vector3d(sx * s.length_m, sy * s.width_m, 0)).z());
+  return z;
+}
+
+Isometry3d along_x(double s) {
+  Isometry3d t = Isometry3d::Identity();
+  t.translation().x() = s;
+  return t;
+}
+
+}  // namespace
+
+const char* handling_event_name(HandlingEvent::Kind kind) {
+  switch (kind) {
+    case HandlingEvent::Kind::kPickedUp: return "picked_up";
+    case HandlingEvent::Kind::kSetDown: return "set_down";
+    case HandlingEvent::Kind::kSliding: return "sliding";
+    case HandlingEvent::Kind::kDropped: return "dropped";
+  }
+  return "?";
+}
+
+struct Warehouse::Impl {
+  Scene scene;  // a copy: supports, ground and ids are read every tick
+  TruckParams truck;
+  std::array<collision::LocalBox, 2> forks;
+  double fork_tip_x = 0;  // the forks' tips, carriage frame
+
+  // Per pallet (index into these, not into scene.objects).
+  std::vector<int> pallet_objects;
+  std::vector<PalletState> states;
+  std::vector<bool> pick_armed, engaged;
+  std::vector<handling::Engagement> engagement;
+
+  std::unique_ptr<collision::CollisionWorld> world;
+
+  // The carried pallet.
+  int carried = -1;
+  Isometry3d rel = Isometry3d::Identity();  // carriage from pallet, before sliding
+  handling::Slide slide;
+  double min_slide_m = 0;
+  Vector3d attached_cog = Vector3d::Zero();  // Load.cog_m last given to the model
+  double pickup_underside_z = 0;
+  bool lifted_clear = false;
+  bool have_prev_v = false;
+  Vector3d prev_v = Vector3d::Zero();
+
+  bool have_time = false;
+  double last_time = 0;
+  StepReport report;
+  std::vector<collision::RawContact> raw;
+
+  Impl(const Scene& s, const TruckShape& shape, const TruckParams& t) : scene(s), truck(t) {
+    forks = collision::fork_boxes(shape);
+    for (const auto& f : forks) fork_tip_x = std::max(fork_tip_x, f.centre.translation().x() + f.half.x());
+    for (size_t i = 0; i < scene.objects.size(); ++i) {
+      const SceneObject& o = scene.objects[i];
+      // A pallet without a spec has no pockets to handle: it stays a static obstacle.
+      if (o.kind != ObjectKind::kPallet || !o.pallet || !o.collidable) continue;
+      pallet_objects.push_back(int(i));
+      PalletState st;
+      st.id = o.id;
+      st.pose = o.pose;
+      // Where the scenario file stood it; a scene built in code is searched for a support.
+      if (!o.rests_on.empty()) {
+        st.resting_on = o.rests_on;
+        st.level = o.rest_level;
+      } else {
+        rest_on_support(st);
+      }
+      states.push_back(st);
+    }
+    pick_armed.assign(states.size(), false);
+    engaged.assign(states.size(), false);
+    engagement.assign(states.size(), {});
+    world = std::make_unique<collision::CollisionWorld>(scene, shape, pallet_objects);
+  }
+
+  const PalletSpec& spec(int p) const { return *scene.objects[pallet_objects[p]].pallet; }
+
+  // What a pallet stands on, from where it is: the support within a few centimetres of its underside.
+  void rest_on_support(PalletState& st) const {
+    const Vector3d c = st.pose.translation();
+    double best = -1e9;
+    st.resting_on.clear();
+    st.level = 0;
+    for (const SceneObject& o : scene.objects) {
+      const Vector3d pl = o.pose.inverse() * c;
+      for (const Support& s : o.supports) {
+        if (!s.footprint.contains(pl.head<2>())) continue;
+        const double z = (o.pose * Vector3d(pl.x(), pl.y(), s.height_m)).z();
+        if (std::abs(c.z() - z) <= handling::kSupportWindowM && z > best) {
+          best = z;
+          st.resting_on = o.id;
+          st.level = s.level;
+        }
+      }
+    }
+  }
+
+  Isometry3d load_pose(const Isometry3d& carriage) const { return carriage * along_x(slide.slide_m) * rel; }
+
+  // Truck placed at q: engagement of the nearby pallets, then the contacts.
+  void place_and_collide(const BodyPoses& poses) {
+    world->place_truck(poses, carried >= 0 ? load_pose(poses.carriage) : Isometry3d::Identity());
+    std::fill(engaged.begin(), engaged.end(), false);
+    for (int p : world->nearby_pallets()) {
+      engagement[p] = handling::engagement(spec(p), states[p].pose.inverse() * poses.carriage, forks);
+      engaged[p] = engagement[p].engaged;
+    }
+    world->contacts(engaged, raw);
+  }
+
+  void to_contacts(const std::array<Twist, 3>* motion, const Vector3d& fork_x, std::vector<Contact>& out) const {
+    out.clear();
+    for (const collision::RawContact& r : raw) {
+      // A carried load a little into the surface below it rests there: just picked up, with the
+      // truck settling under the new weight, or being set down. Not a strike.
+      if (r.body == Body::kLoad && r.normal.z() > 0.9 && r.depth <= handling::kRestingTouchDepthM) continue;
+      Contact c;
+      c.truck_part = collision::part_name(r.part);
+      const SceneObject& o = scene.objects[r.object];
+      c.object_id = o.id;
+      c.object_kind = o.kind;
+      c.point_m = r.point;
+      c.normal = r.normal;
+      c.depth_m = r.depth;
+      if (motion) {
+        const int b = r.body == Body::kChassis ? 0 : r.body == Body::kMast ? 1 : 2;
+        Vector3d v = (*motion)[b].at(r.point);
+        if (r.body == Body::kLoad) v += slide.rate_m_s * fork_x;
+        c.relative_speed_m_s = std::max(0.0, -v.dot(r.normal));
+      }
+      out.push_back(std::move(c));
+    }
+  }
+
+  void event(HandlingEvent::Kind kind, int p, const std::string& on = "", int level = 0) {
+    report.handling.push_back({kind, states[p].id, on, level, states[p].pose.translation()});
+  }
+
+  void pick_up(Simulation& sim, int p, const Isometry3d& carriage) {
+    PalletState& st = states[p];
+    const PalletSpec& s = spec(p);
+    // Fixed to the carriage from now on, as it stands at this instant: its deck's underside has
+    // just met the forks' highest point, so nothing jumps. (Snapping it flat onto the forks
+    // would push one end into its support when the truck leans or the mast is tilted; the
+    // small relative tilt it keeps instead is undone when it is set down level.)
+    rel = carriage.inverse() * st.pose;
+    slide = {};
+    double min_x = 1e9;
+    for (double sx : {-0.5, 0.5})
+      for (double sy : {-0.5, 0.5}) min_x = std::min(min_x, (rel * Vector3d(sx * s.length_m, sy * s.width_m, 0)).x());
+    min_slide_m = std::min(0.0, -min_x);
+    pickup_underside_z = underside(st.pose, s);
+    lifted_clear = false;
+    have_prev_v = false;
+    const Load load = handling::pallet_load(s, rel);
+    sim.attach_load(load);
+    attached_cog = load.cog_m;
+    carried = p;
+    world->set_carried(p);
+    st.pose = load_pose(carriage);
+    st.on_forks = true;
+    st.dropped = false;
+    st.slide_m = 0;
+    st.resting_on.clear();
+    st.level = 0;
+    pick_armed[p] = false;
+    event(HandlingEvent::Kind::kPickedUp, p);
+  }
+
+  void put_down(Simulation& sim, const Isometry3d& pose, bool dropped, const std::string& on, int level) {
+    const int p = carried;
+    PalletState& st = states[p];
+    sim.release_load();
+    carried = -1;
+    world->set_carried(-1);
+    world->set_pallet_pose(p, pose);
+    st.pose = pose;
+    st.on_forks = false;
+    st.dropped = dropped;
+    st.resting_on = on;
+    st.level = level;
+    pick_armed[p] = false;  // the forks are still in its pockets, at its deck
+    event(dropped ? HandlingEvent::Kind::kDropped : HandlingEvent::Kind::kSetDown, p, on, level);
+  }
+
+  void handle_carried(Simulation& sim, double dt, const CoordVector& q, const BodyPoses& poses,
+                      const std::array<Twist, 3>& motion) {
+    PalletState& st = states[carried];
+    const PalletSpec& s = spec(carried);
+    const Isometry3d& C = poses.carriage;
+    const Vector3d fork_x = C.linear().col(0), fork_z = C.linear().col(2);
+    const Vector3d cog_local = handling::pallet_cog(s);
+
+    // Slide: the fork point under the pallet's CoG, its acceleration differenced over ticks.
+    const Vector3d cog_w = load_pose(C) * cog_local;
+    const Vector3d v = motion[2].at(cog_w);
+    if (dt > 0) {
+      if (have_prev_v) {
+        const Vector3d a = (v - prev_v) / dt;
+        const Vector3d g = sim.dynamics().environment().gravity_m_s2;
+        if (handling::slide_step(slide, (g - a).dot(fork_x), (a - g).dot(fork_z), s.friction_static,
+                                 s.friction_kinetic, dt, min_slide_m))
+          event(HandlingEvent::Kind::kSliding, carried);
+      }
+      prev_v = v;
+      have_prev_v = true;
+    }
+    const Isometry3d on_forks = along_x(slide.slide_m) * rel;
+    st.pose = C * on_forks;
+    st.slide_m = slide.slide_m;
+
+    // Dropped: its CoG past the fork tips, or the truck gone over.
+    const Vector3d cog_c = on_forks * cog_local;
+    if (cog_c.x() > fork_tip_x || std::abs(q[kAuc]) > handling::kTippedOverRad || std::abs(q[kAvc]) > handling::kTippedOverRad) {
+      const Vector3d c = st.pose * cog_local;
+      put_down(sim, yaw_pose(Vector3d(c.x(), c.y(), scene.ground.height(c.x(), c.y())), yaw_of(st.pose.linear())),
+               true, "", 0);
+      return;
+    }
+
+    // Set down: lowered onto a support under its centre, or onto the floor.
+    const double low = underside(st.pose, s);
+    if (low >= pickup_underside_z + handling::kLiftedClearM) lifted_clear = true;
+    const Vector3d centre = st.pose.translation();
+    const bool descending = motion[2].at(centre).z() + slide.rate_m_s * fork_x.z() < 0;
+    const bool may_land = descending && (lifted_clear || low <= pickup_underside_z - handling::kSinkM);
+    if (may_land) {
+      double best = -1e9;
+      const SceneObject* on = nullptr;
+      int level = 0;
+      for (const SceneObject& o : scene.objects) {
+        if (o.supports.empty()) continue;
+        const Vector3d pl = o.pose.inverse() * centre;
+        for (const Support& sp : o.supports) {
+          if (!sp.footprint.contains(pl.head<2>())) continue;
+          const double z = (o.pose * Vector3d(pl.x(), pl.y(), sp.height_m)).z();
+          if (low <= z + handling::kTouchM && low >= z - handling::kSupportWindowM && z > best) {
+            best = z;
+            on = &o;
+            level = sp.level;
+          }
+        }
+      }
+      const double floor = scene.ground.height(centre.x(), centre.y());
+      const bool on_floor = !on && low <= floor + handling::kTouchM;
+      if (on_floor) best = floor;
+      if (on || on_floor) {
+        put_down(sim, yaw_pose(Vector3d(centre.x(), centre.y(), best), yaw_of(st.pose.linear())), false,
+                 on ? on->id : "", level);
+        return;
+      }
+    }
+
+    // Still on the forks: tell the model when the CoG has moved.
+    if ((cog_c - attached_cog).norm() > handling::kReattachM) {
+      const Load load = handling::pallet_load(s, on_forks);
+      sim.attach_load(load);
+      attached_cog = load.cog_m;
+    }
+  }
+
+  void handle_free(Simulation& sim, const Isometry3d& carriage) {
+    for (int p : world->nearby_pallets()) {
+      const handling::Engagement& e = engagement[p];
+      const PalletSpec& s = spec(p);
+      if (!e.engaged) { pick_armed[p] = false; continue; }
+      if (e.fork_top_m <= s.pocket_top_m - handling::kPickArmClearanceM) pick_armed[p] = true;
+      // One load at a time: not while the truck carries one (a scenario's load included).
+      if (pick_armed[p] && e.fork_top_m > s.pocket_top_m && carried < 0 && !sim.dynamics().load()) {
+        pick_up(sim, p, carriage);
+        return;
+      }
+    }
+  }
+
+  // Fixed objects push back where the truck is inside them: a penalty force held for the next
+  // tick. Light ones (cones, pallets) and people get none: they would give way, and the
+  // evaluation counts the strike.
+  std::vector<ExternalForce> push;
+  void push_back(Simulation& sim) {
+    const bool pushed_before = !push.empty();
+    push.clear();
+    for (const Contact& c : report.contacts) {
+      switch (c.object_kind) {
+        case ObjectKind::kRack: case ObjectKind::kWall: case ObjectKind::kDoor:
+        case ObjectKind::kDock: case ObjectKind::kLorry: case ObjectKind::kObstacle: break;
+        default: continue;
+      }
+      const TruckBody body = c.truck_part == "chassis" || c.truck_part == "guard" ? TruckBody::kChassis
+                             : c.truck_part == "mast"                             ? TruckBody::kMast
+                                                                                  : TruckBody::kCarriage;
+      const SceneContactParams& k = truck.scene_contact;
+      const double f = k.stiffness_N_m * c.depth_m + k.damping_N_s_m * c.relative_speed_m_s;
+      push.push_back({body, c.point_m, f * c.normal});
+    }
+    if (pushed_before || !push.empty()) sim.set_external_forces(push);
+  }
+
+  const StepReport& step(Simulation& sim) {
+    report.contacts.clear();
+    report.handling.clear();
+    const double t = sim.time();
+    double dt = have_time ? t - last_time : 0.0;
+    if (dt < 0) {  // a simulation rewound: no acceleration across the jump
+      dt = 0;
+      have_prev_v = false;
+    }
+    have_time = true;
+    last_time = t;
+
+    const StateVector& x = sim.state();
+    const CoordVector q = coordinates(x);
+    const BodyPoses poses = body_poses(truck, q);
+    place_and_collide(poses);
+
+    // Body velocities, only when something needs them.
+    std::array<Twist, 3> motion;
+    const bool moving = !raw.empty() || carried >= 0;
+    if (moving) {
+      const double h = kVelocityStepS;
+      const BodyPoses ahead = body_poses(truck, q + h * rates(x));
+      motion = {twist(poses.chassis, ahead.chassis, h), twist(poses.mast, ahead.mast, h),
+                twist(poses.carriage, ahead.carriage, h)};
+    }
+    to_contacts(moving ? &motion : nullptr, poses.carriage.linear().col(0), report.contacts);
+    push_back(sim);
+
+    if (carried >= 0) handle_carried(sim, dt, q, poses, motion);
+    else handle_free(sim, poses.carriage);
+    return report;
+  }
+
+  std::vector<Contact> contacts_at(const CoordVector& q) {
+    const BodyPoses poses = body_poses(truck, q);
+    place_and_collide(poses);
+    std::vector<Contact> out;
+    to_contacts(nullptr, poses.carriage.linear().col(0), out);
+    return out;
+  }
+};
+
+Warehouse::Warehouse(const Scene& scene, const TruckShape& shape, const TruckParams& truck)
+    : impl_(std::make_unique<Impl>(scene, shape, truck)) {}
+Warehouse::~Warehouse() = default;
+
+const StepReport& Warehouse::step(Simulation& sim) { return impl_->step(sim); }
+std::vector<Contact> Warehouse::contacts_at(const CoordVector& q) { return impl_->contacts_at(q); }
+const std::vector<PalletState>& Warehouse::pallets() const { return impl_->states; }
+const PalletState* Warehouse::pallet(const std::string& id) const {
+  for (const PalletState& s : impl_->states)
+    if (s.id == id) return &s;
+  return nullptr;
+}
+
+}  // namespace forklift

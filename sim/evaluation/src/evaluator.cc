@@ -1,0 +1,702 @@
+// The Evaluator: every tick, the detectors in the order of the pipeline's outputs (contacts,
+// speed, forks and mast, accelerations and stability, pallet handling, route, task, time), each
+// turning a measured condition into at most one event per occurrence.
+#include <cinttypes>
+#include <cstdio>
+#include <cstdlib>
+#include <nlohmann/json.hpp>
+#include <unordered_map>
+
+#include "forklift/evaluation/evaluation.h"
+#include "forklift/dynamics/stability.h"
+#include "geometry.h"
+#include "rule_table.h"
+
+namespace forklift {
+
+using evaluation::Debounce;
+using evaluation::RuleKey;
+using nlohmann::json;
+namespace ev = evaluation;
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+// Our own bugs abort loudly (STYLE.md, three error tiers).
+[[noreturn]] void bug(const char* what) {
+  std::fprintf(stderr, "forklift evaluation: internal error: %s\n", what);
+  std::abort();
+}
+
+// Six significant digits for the details' JSON (the double nearest the short decimal, which the
+// JSON writer prints as that decimal); the values are reported, never reused.
+double round6(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return std::strtod(buf, nullptr);
+}
+
+}  // namespace
+
+Stability stability_margin(const Eigen::Vector3d& cog, const Eigen::Vector3d& g, const Eigen::Vector3d& front_left,
+                           const Eigen::Vector3d& front_right, const Eigen::Vector3d& rear) {
+  Stability s;
+  Eigen::Vector3d n = (front_right - front_left).cross(rear - front_left);
+  if (n.norm() <= 0) return s;
+  n.normalize();
+  if (n.z() < 0) n = -n;
+  const double ng = n.dot(g);
+  if (std::abs(ng) < 1e-9 * std::max(1.0, g.norm())) {  // gravity along the plane: no support at all
+    s.margin_m = -std::numeric_limits<double>::infinity();
+    s.fraction = -std::numeric_limits<double>::infinity();
+    return s;
+  }
+  // The CoG slid along g onto the triangle's plane.
+  const Eigen::Vector3d p = cog + g * (n.dot(front_left - cog) / ng);
+  const std::array<std::array<const Eigen::Vector3d*, 3>, 3> edges{{{&front_left, &front_right, &rear},
+                                                                    {&front_left, &rear, &front_right},
+                                                                    {&front_right, &rear, &front_left}}};
+  s.margin_m = std::numeric_limits<double>::infinity();
+  for (int e = 0; e < 3; ++e) {
+    const Eigen::Vector3d& a = *edges[e][0];
+    const Eigen::Vector3d& b = *edges[e][1];
+    const Eigen::Vector3d& o = *edges[e][2];
+    Eigen::Vector3d m = n.cross(b - a);
+    if (m.norm() <= 0) continue;
+    m.normalize();
+    if (m.dot(o - a) < 0) m = -m;  // towards the inside
+    const double d = m.dot(p - a);
+    if (d < s.margin_m) {
+      s.margin_m = d;
+      s.edge = e;
+    }
+  }
+  s.cog_projection_m = p.head<2>();
+  return s;
+}
+
+double derated_capacity_kg(const TruckParams& truck, double load_centre_m) {
+  if (load_centre_m <= truck.rated_load_centre_m) return truck.rated_capacity_kg;
+  return truck.rated_capacity_kg * truck.rated_load_centre_m / load_centre_m;
+}
+
+struct Evaluator::Impl {
+  // --- the model: constant after construction ---
+  Rules rules;
+  Scene scene;
+  TruckParams truck;
+  double fork_length_m, fork_thickness_m;
+  Mode mode;
+  std::array<const Rule*, ev::kNumRules> rule{};
+  double static_margin_m = 0;
+  std::array<RuleKey, int(ObjectKind::kPedestrian) + 1> collision_rule{};
+  std::unordered_map<std::string, int> object_index;  // scene object id -> index
+  struct ZoneInfo {
+    const Zone* zone;
+    RuleKey speed_rule;
+    bool near_counts;  // its limit applies within near_distance_m too (walkways)
+    bool walkway;      // a collision here is collision_in_walkway
+  };
+  std::vector<ZoneInfo> zones;
+
+  // --- the state: changes every tick ---
+  std::vector<EvaluationEvent> events;
+  int points = 0;
+  bool finished = false;
+  bool have_tick = false;
+  double last_t = 0;
+  Eigen::Vector3d accel = Eigen::Vector3d::Zero();  // filtered chassis acceleration, world
+  Stability stab;
+  double min_fraction = 1;
+
+  struct Episode {
+    bool active = false;
+    bool violent = false;
+    double last_contact_t = 0;
+    RuleKey rule = ev::kCollisionStructure;
+  };
+  std::vector<Episode> episodes;  // per scene object
+  std::vector<int> active_episodes;
+
+  std::array<Debounce, 3> speed;  // by kSpeedRules order
+  Debounce forks_high, forks_low, tilt_forward, turn, turn_raised, brake_raised, stability_warn, wheel_lift, off_route;
+  bool tipped = false, time_reported = false, deadman = false;
+
+  bool laden = false;
+  Debounce overload;
+  // Per Warehouse pallet, while on the forks: one slide occurrence runs from the slide passing
+  // slide_min_m beyond `ref` until it has stood still for clear_time_s.
+  struct Slide {
+    double ref = 0, last = 0, last_moved_t = 0;
+    bool active = false;
+  };
+  std::vector<Slide> slides;
+
+  size_t step = 0;
+  Eigen::Vector2d prev_pos = Eigen::Vector2d::Zero();
+
+  // the last tick, for finish()
+  double lift_s = 0, speed_m_s = 0;
+  DriverInputs last_inputs;
+  Eigen::Vector2d pos = Eigen::Vector2d::Zero();
+
+  Impl(const Rules& r, const Scene& s, const TruckParams& t, const TruckShape& shape, Mode m)
+      : rules(r), scene(s), truck(t), fork_length_m(shape.fork_length_m), fork_thickness_m(shape.fork_thickness_m), mode(m) {
+    // Rules from load_rules pass these checks; rules built or edited in code are checked here.
+    const auto scored = [&](double level) { return rules.scheme.points_by_worry_level.count(int(level)) > 0; };
+    for (int k = 0; k < ev::kNumRules; ++k) {
+      const char* id = ev::rule_specs()[k].id;
+      rule[k] = rules.find(id);
+      if (!rule[k]) throw RulesError(rules.file + ": rules: has no rule '" + id + "'");
+      for (const char* name : ev::rule_specs()[k].thresholds)
+        if (!rule[k]->thresholds.count(std::string_view(name)))
+          throw RulesError(rules.file + ": rule " + id + ": has no threshold " + name);
+      if (!scored(rule[k]->worry_level) ||
+          (rule[k]->thresholds.count("hard_impact_worry_level") && !scored(rule[k]->thresholds.at("hard_impact_worry_level"))))
+        throw RulesError(rules.file + ": rule " + id + ": a worry level the scheme does not score");
+    }
+    for (int k = 0; k <= int(ObjectKind::kPedestrian); ++k) {
+      bool found = false;
+      for (RuleKey key : ev::kObjectCollisionRules)
+        for (const std::string& a : rule[key]->applies_to)
+          if (a == object_kind_name(ObjectKind(k))) { collision_rule[k] = key; found = true; }
+      if (!found) throw RulesError(rules.file + ": rules: no collision rule applies to '" + object_kind_name(ObjectKind(k)) + "'");
+    }
+    for (size_t i = 0; i < scene.objects.size(); ++i) object_index.emplace(scene.objects[i].id, int(i));
+    episodes.resize(scene.objects.size());
+    active_episodes.reserve(scene.objects.size());
+    for (const Zone& z : scene.zones) {
+      ZoneInfo info{&z, ev::kSpeedOpenAisle, false, false};
+      bool found = false;
+      for (RuleKey key : ev::kSpeedRules)
+        for (const std::string& a : rule[key]->applies_to)
+          if (a == z.kind) { info.speed_rule = key; found = true; }
+      if (!found)
+        throw RulesError(rules.file + ": no speed rule applies to zone kind '" + z.kind + "' (zone " + z.id + " of " + scene.file + ")");
+      info.near_counts = info.speed_rule == ev::kSpeedNearWalkway;
+      for (const std::string& a : rule[ev::kCollisionInWalkway]->applies_to) info.walkway = info.walkway || a == z.kind;
+      zones.push_back(info);
+    }
+    // The reference: the unladen truck at rest on level ground, forks down.
+    const StaticReport st = static_report(truck, std::nullopt, 0.0);
+    const auto c3 = [&](int w) { return Eigen::Vector3d(st.wheel_contact_m[w].x(), st.wheel_contact_m[w].y(), 0.0); };
+    static_margin_m = stability_margin(st.cog_m, Eigen::Vector3d(0, 0, -9.81), c3(kFrontLeft), c3(kFrontRight), c3(kRear)).margin_m;
+    if (!(static_margin_m > 0)) throw std::runtime_error(truck.name + ": the unladen truck has no static stability margin");
+    events.reserve(64);
+    prev_pos = Eigen::Vector2d(scene.scenario.x_m, scene.scenario.y_m);
+  }
+
+  // A threshold (load_rules guarantees every name the rule table lists).
+  double th(RuleKey k, const char* name) const {
+    const auto it = rule[k]->thresholds.find(std::string_view(name));
+    if (it == rule[k]->thresholds.end()) bug("a threshold the rule table does not list");
+    return it->second;
+  }
+  int level_points(int level) const {
+    const auto it = rules.scheme.points_by_worry_level.find(level);
+    if (it == rules.scheme.points_by_worry_level.end()) bug("worry level without points (load_rules checks this)");
+    return it->second;
+  }
+
+  // Appends one event; `details` gets the rule's description and source.
+  void emit(RuleKey k, double t, const Eigen::Vector2d& where, json details, std::vector<EvaluationEvent>& out,
+            int level = -1) {
+    const Rule& r = *rule[k];
+    EvaluationEvent e;
+    e.seq = uint32_t(events.size() + 1);
+    e.t_s = t;
+    e.rule = r.id;
+    e.worry_level = level >= 0 ? level : r.worry_level;
+    e.points = level_points(e.worry_level);
+    e.automatic_fail = r.automatic_fail;
+    e.x_m = where.x();
+    e.y_m = where.y();
+    details["description"] = r.description;
+    details["source"] = r.source;
+    e.details = details.dump();
+    points += e.points;
+    events.push_back(e);
+    out.push_back(std::move(e));
+  }
+
+  // --- detectors ---
+
+  bool in_walkway(const Eigen::Vector2d& p) const {
+    for (const ZoneInfo& z : zones)
+      if (z.walkway && z.zone->contains(p)) return true;
+    return false;
+  }
+
+  void collisions(const TickInput& in, std::vector<EvaluationEvent>& out) {
+    const double violent = th(ev::kViolentCollision, "impact_speed_m_s");
+    for (const Contact& c : in.report.contacts) {
+      const auto it = object_index.find(c.object_id);
+      if (it == object_index.end()) continue;  // not a scene object (cannot happen with the Warehouse)
+      Episode& ep = episodes[it->second];
+      ep.last_contact_t = in.t_s;
+      const Eigen::Vector2d at = c.point_m.head<2>();
+      const double v = c.relative_speed_m_s;
+      // Built only for an event: a touch lasting many ticks allocates nothing.
+      const auto details = [&] {
+        return json{{"object", c.object_id},
+                    {"object_kind", object_kind_name(c.object_kind)},
+                    {"truck_part", c.truck_part},
+                    {"measured", {{"impact_speed_m_s", round6(v)}, {"depth_m", round6(c.depth_m)}}}};
+      };
+      if (!ep.active) {
+        json d = details();
+        ep.active = true;
+        ep.violent = false;
+        active_episodes.push_back(it->second);
+        RuleKey k = collision_rule[int(c.object_kind)];
+        const bool fork = c.truck_part == "fork_left" || c.truck_part == "fork_right";
+        if (k == ev::kCollisionPallet && fork) k = ev::kForkStrikePallet;
+        if (k != ev::kCollisionPedestrian && v >= violent) {
+          k = ev::kViolentCollision;
+          ep.violent = true;
+          d["thresholds"] = {{"impact_speed_m_s", violent}};
+        } else if (k != ev::kCollisionPedestrian && (in_walkway(at) || in_walkway(in.out.q.head<2>()))) {
+          k = ev::kCollisionInWalkway;
+          d["zone"] = "walkway";
+        }
+        int level = -1;
+        if (rule[k]->thresholds.count("hard_impact_speed_m_s")) {
+          const double hard = th(k, "hard_impact_speed_m_s");
+          d["thresholds"] = {{"hard_impact_speed_m_s", hard}};
+          if (v >= hard) {
+            level = int(th(k, "hard_impact_worry_level"));
+            d["grade"] = "hard impact";
+          } else {
+            d["grade"] = "touch";
+          }
+        }
+        ep.rule = k;
+        emit(k, in.t_s, at, std::move(d), out, level);
+      } else if (!ep.violent && ep.rule != ev::kCollisionPedestrian && v >= violent) {
+        ep.violent = true;
+        json d = details();
+        d["thresholds"] = {{"impact_speed_m_s", violent}};
+        emit(ev::kViolentCollision, in.t_s, at, std::move(d), out);
+      }
+    }
+    // Episodes end after clear_time_s without a contact with that object.
+    for (size_t i = 0; i < active_episodes.size();) {
+      Episode& ep = episodes[active_episodes[i]];
+      const double clear = rule[ep.rule]->thresholds.count("clear_time_s") ? th(ep.rule, "clear_time_s")
+                                                                            : th(ev::kCollisionStructure, "clear_time_s");
+      if (in.t_s - ep.last_contact_t >= clear) {
+        ep.active = false;
+        active_episodes[i] = active_episodes.back();
+        active_episodes.pop_back();
+      } else {
+        ++i;
+      }
+    }
+  }
+
+  void speeding(const TickInput& in, double v, std::vector<EvaluationEvent>& out) {
+    const Eigen::Vector2d p = in.out.q.head<2>();
+    const double near = th(ev::kSpeedNearWalkway, "near_distance_m");
+    const ZoneInfo* gov = nullptr;
+    for (const ZoneInfo& z : zones) {
+      if (gov && z.zone->speed_limit_m_s > gov->zone->speed_limit_m_s) continue;
+      bool in_zone = z.zone->contains(p);
+      if (!in_zone && z.near_counts) in_zone = ev::polyline_distance(p, z.zone->polygon, true) <= near;
+      if (!in_zone) continue;
+      if (!gov || z.zone->speed_limit_m_s < gov->zone->speed_limit_m_s ||
+          rule[z.speed_rule]->worry_level > rule[gov->speed_rule]->worry_level)
+        gov = &z;
+    }
+    for (size_t i = 0; i < ev::kSpeedRules.size(); ++i) {
+      const RuleKey k = ev::kSpeedRules[i];
+      bool on = false;
+      if (gov && gov->speed_rule == k) {
+        const double limit = gov->zone->speed_limit_m_s;
+        on = speed[i].active() ? v > limit : v > limit + th(k, "over_limit_m_s");
+      }
+      if (speed[i].update(on, in.t_s, th(k, "min_duration_s"), th(k, "clear_time_s")))
+        emit(k, in.t_s, p,
+             {{"zone", gov->zone->id},
+              {"zone_kind", gov->zone->kind},
+              {"measured", {{"speed_m_s", round6(v)}}},
+              {"thresholds", {{"speed_limit_m_s", gov->zone->speed_limit_m_s}, {"over_limit_m_s", th(k, "over_limit_m_s")}}}},
+             out);
+    }
+  }
+
+  void forks_and_mast(const TickInput& in, double v, double heel_height, std::vector<EvaluationEvent>& out) {
+    const Eigen::Isometry3d& C = in.poses.carriage;
+    const Eigen::Vector2d p = in.out.q.head<2>();
+    // The forks' underside at the heel and at the tips, above the floor below each.
+    double clearance = std::numeric_limits<double>::infinity();
+    for (double x : {0.0, fork_length_m}) {
+      const Eigen::Vector3d b = C * Eigen::Vector3d(x, 0, -fork_thickness_m);
+      clearance = std::min(clearance, b.z() - scene.ground.height(b.x(), b.y()));
+    }
+    const double speed = std::abs(v);
+    {
+      const RuleKey k = ev::kTravelForksHigh;
+      const bool on = speed >= th(k, "travel_speed_min_m_s") && heel_height > th(k, "fork_height_max_m");
+      if (forks_high.update(on, in.t_s, th(k, "min_duration_s"), th(k, "clear_time_s")))
+        emit(k, in.t_s, p,
+             {{"measured", {{"fork_height_m", round6(heel_height)}, {"speed_m_s", round6(speed)}}},
+              {"thresholds", {{"fork_height_max_m", th(k, "fork_height_max_m")}, {"travel_speed_min_m_s", th(k, "travel_speed_min_m_s")}}}},
+             out);
+    }
+    {
+      const RuleKey k = ev::kTravelForksLow;
+      const bool on = speed >= th(k, "travel_speed_min_m_s") && clearance < th(k, "fork_clearance_min_m");
+      if (forks_low.update(on, in.t_s, th(k, "min_duration_s"), th(k, "clear_time_s")))
+        emit(k, in.t_s, p,
+             {{"measured", {{"fork_clearance_m", round6(clearance)}, {"speed_m_s", round6(speed)}}},
+              {"thresholds", {{"fork_clearance_min_m", th(k, "fork_clearance_min_m")}, {"travel_speed_min_m_s", th(k, "travel_speed_min_m_s")}}}},
+             out);
+    }
+    {
+      const RuleKey k = ev::kTravelTiltedForwardLaden;
+      const double tilt_deg = in.out.q[kBeta] / kDeg;
+      const bool on = laden && speed >= th(k, "travel_speed_min_m_s") && tilt_deg > th(k, "tilt_forward_max_deg");
+      if (tilt_forward.update(on, in.t_s, th(k, "min_duration_s"), th(k, "clear_time_s")))
+        emit(k, in.t_s, p,
+             {{"measured", {{"tilt_forward_deg", round6(tilt_deg)}, {"speed_m_s", round6(speed)}}},
+              {"thresholds", {{"tilt_forward_max_deg", th(k, "tilt_forward_max_deg")}, {"travel_speed_min_m_s", th(k, "travel_speed_min_m_s")}}}},
+             out);
+    }
+  }
+
+  void dynamics(const TickInput& in, double v, double heel_height, std::vector<EvaluationEvent>& out) {
+    const Eigen::Vector2d p = in.out.q.head<2>();
+    const double yaw = in.out.q[kAwc];
+    const Eigen::Vector3d fwd(std::cos(yaw), std::sin(yaw), 0), left(-std::sin(yaw), std::cos(yaw), 0);
+    const double a_lat = accel.dot(left);
+    const double decel = std::abs(v) > 0.1 ? -accel.dot(fwd) * (v > 0 ? 1 : -1) : 0.0;
+    {
+      const RuleKey k = ev::kTurnAtSpeed;
+      const bool on = std::abs(a_lat) > th(k, "lateral_acceleration_max_m_s2");
+      if (turn.update(on, in.t_s, th(k, "min_duration_s"), th(k, "clear_time_s")))
+        emit(k, in.t_s, p,
+             {{"measured", {{"lateral_acceleration_m_s2", round6(a_lat)}, {"speed_m_s", round6(v)}}},
+              {"thresholds", {{"lateral_acceleration_max_m_s2", th(k, "lateral_acceleration_max_m_s2")}}}},
+             out);
+    }
+    {
+      const RuleKey k = ev::kTurnAtSpeedLoadRaised;
+      const bool on = laden && heel_height > th(k, "raised_fork_height_m") && std::abs(a_lat) > th(k, "lateral_acceleration_max_m_s2");
+      if (turn_raised.update(on, in.t_s, th(k, "min_duration_s"), th(k, "clear_time_s")))
+        emit(k, in.t_s, p,
+             {{"measured", {{"lateral_acceleration_m_s2", round6(a_lat)}, {"fork_height_m", round6(heel_height)}, {"speed_m_s", round6(v)}}},
+              {"thresholds", {{"lateral_acceleration_max_m_s2", th(k, "lateral_acceleration_max_m_s2")}, {"raised_fork_height_m", th(k, "raised_fork_height_m")}}}},
+             out);
+    }
+    {
+      const RuleKey k = ev::kHarshBrakingLoadRaised;
+      const bool on = laden && heel_height > th(k, "raised_fork_height_m") && decel > th(k, "deceleration_max_m_s2");
+      if (brake_raised.update(on, in.t_s, th(k, "min_duration_s"), th(k, "clear_time_s")))
+        emit(k, in.t_s, p,
+             {{"measured", {{"deceleration_m_s2", round6(decel)}, {"fork_height_m", round6(heel_height)}, {"speed_m_s", round6(v)}}},
+              {"thresholds", {{"deceleration_max_m_s2", th(k, "deceleration_max_m_s2")}, {"raised_fork_height_m", th(k, "raised_fork_height_m")}}}},
+             out);
+    }
+    // The stability triangle, with the CoG projected along the apparent gravity.
+    const Outputs& o = in.out;
+    stab = stability_margin(o.cog_m, in.gravity_m_s2 - accel, o.wheels[kFrontLeft].contact_point_m,
+                            o.wheels[kFrontRight].contact_point_m, o.wheels[kRear].contact_point_m);
+    stab.fraction = stab.margin_m / static_margin_m;
+    min_fraction = std::min(min_fraction, stab.fraction);
+    {
+      const RuleKey k = ev::kStabilityWarning;
+      const bool on = stability_warn.active() ? stab.fraction < th(k, "clear_above_fraction")
+                                              : stab.fraction < th(k, "warn_below_fraction");
+      static const char* kEdges[] = {"front axle (tipping forward)", "left side (tipping left)", "right side (tipping right)"};
+      if (stability_warn.update(on, in.t_s, th(k, "min_duration_s"), th(k, "clear_time_s")))
+        emit(k, in.t_s, p,
+             {{"edge", stab.edge >= 0 ? kEdges[stab.edge] : "none"},
+              {"measured", {{"margin_m", round6(stab.margin_m)}, {"margin_fraction", round6(stab.fraction)}}},
+              {"thresholds", {{"warn_below_fraction", th(k, "warn_below_fraction")}, {"static_margin_m", round6(static_margin_m)}}}},
+             out);
+    }
+    {
+      const RuleKey k = ev::kWheelLift;
+      int lifted = -1;
+      for (int w = 0; w < kNumWheels; ++w)
+        if (o.wheels[w].fz_N < th(k, "wheel_load_min_N") && (lifted < 0 || o.wheels[w].fz_N < o.wheels[lifted].fz_N)) lifted = w;
+      if (wheel_lift.update(lifted >= 0, in.t_s, th(k, "min_duration_s"), th(k, "clear_time_s")))
+        emit(k, in.t_s, p,
+             {{"wheel", wheel_name(lifted)},
+              {"measured", {{"wheel_load_N", round6(o.wheels[lifted].fz_N)}, {"margin_fraction", round6(stab.fraction)}}},
+              {"thresholds", {{"wheel_load_min_N", th(k, "wheel_load_min_N")}}}},
+             out);
+    }
+    {
+      const RuleKey k = ev::kTipOver;
+      const double roll = o.q[kAuc] / kDeg, pitch = o.q[kAvc] / kDeg;
+      if (!tipped && std::max(std::abs(roll), std::abs(pitch)) > th(k, "roll_or_pitch_max_deg")) {
+        tipped = true;
+        emit(k, in.t_s, p,
+             {{"measured", {{"roll_deg", round6(roll)}, {"pitch_deg", round6(pitch)}}},
+              {"thresholds", {{"roll_or_pitch_max_deg", th(k, "roll_or_pitch_max_deg")}}}},
+             out);
+      }
+    }
+  }
+
+  // The load on the forks against the capacity plate: one event per occurrence (a load set down
+  // and taken again at once is the same one).
+  void capacity(const TickInput& in, std::vector<EvaluationEvent>& out) {
+    laden = bool(in.load);
+    const RuleKey k = ev::kOverload;
+    const double centre = laden ? in.load->cog_m.x() : 0.0;
+    const double cap = derated_capacity_kg(truck, centre);
+    const bool over = laden && in.load->mass_kg > cap * (1 + th(k, "tolerance_fraction"));
+    if (overload.update(over, in.t_s, 0.0, th(k, "clear_time_s")))
+      emit(k, in.t_s, in.out.q.head<2>(),
+           {{"measured", {{"load_mass_kg", round6(in.load->mass_kg)}, {"load_centre_m", round6(centre)}}},
+            {"thresholds", {{"capacity_at_load_centre_kg", round6(cap)}, {"rated_capacity_kg", truck.rated_capacity_kg},
+                            {"rated_load_centre_m", truck.rated_load_centre_m}, {"tolerance_fraction", th(k, "tolerance_fraction")}}}},
+           out);
+  }
+
+  // A set-down judged against the task's move step for that pallet. Returns whether it completed
+  // the current step.
+  bool judge_set_down(const TickInput& in, const HandlingEvent& h, std::vector<EvaluationEvent>& out) {
+    const std::vector<TaskStep>& steps = scene.task.steps;
+    size_t i = step;
+    while (i < steps.size() && !(steps[i].kind == "move" && steps[i].pallet == h.pallet)) ++i;
+    if (i == steps.size()) return false;  // not a pallet the rest of the task moves
+    const TaskStep& s = steps[i];
+    const Eigen::Vector2d at = h.where_m.head<2>();
+    const bool right_support = s.to_object.empty() ? h.on_object.empty() && s.area.contains(at)
+                                                   : h.on_object == s.to_object && h.level == s.to_level;
+    const double dist = (at - s.point).norm();
+    if (right_support && dist <= s.tolerance_m) return i == step;
+    emit(ev::kSetDownOffPlace, in.t_s, at,
+         {{"pallet", h.pallet},
+          {"step", i + 1},
+          {"expected", {{"object", s.to_object}, {"level", s.to_level}, {"point_m", {s.point.x(), s.point.y()}}}},
+          {"measured", {{"object", h.on_object}, {"level", h.level}, {"distance_m", round6(dist)}}},
+          {"thresholds", {{"tolerance_m", s.tolerance_m}}}},
+         out);
+    return false;
+  }
+
+  void unsafe_stack(const TickInput& in, const HandlingEvent& h, std::vector<EvaluationEvent>& out) {
+    if (h.on_object.empty()) return;
+    const SceneObject* on = scene.find(h.on_object);
+    const SceneObject* pallet = scene.find(h.pallet);
+    if (!on || !pallet || !pallet->pallet) return;
+    const Support* sup = nullptr;
+    for (const Support& s : on->supports)
+      if (s.level == h.level) sup = &s;
+    const PalletState* st = nullptr;
+    for (const PalletState& p : in.pallets)
+      if (p.id == h.pallet) st = &p;
+    if (!sup || !st) return;
+    double overhang = 0;
+    for (double sx : {-0.5, 0.5})
+      for (double sy : {-0.5, 0.5}) {
+        const Eigen::Vector3d c = on->pose.inverse() * (st->pose * Eigen::Vector3d(sx * pallet->pallet->length_m, sy * pallet->pallet->width_m, 0));
+        const double dx = std::max({sup->footprint.min().x() - c.x(), 0.0, c.x() - sup->footprint.max().x()});
+        const double dy = std::max({sup->footprint.min().y() - c.y(), 0.0, c.y() - sup->footprint.max().y()});
+        overhang = std::max(overhang, std::hypot(dx, dy));
+      }
+    const RuleKey k = ev::kUnsafeStacking;
+    if (overhang > th(k, "overhang_max_m"))
+      emit(k, in.t_s, h.where_m.head<2>(),
+           {{"pallet", h.pallet}, {"object", h.on_object}, {"level", h.level},
+            {"measured", {{"overhang_m", round6(overhang)}}}, {"thresholds", {{"overhang_max_m", th(k, "overhang_max_m")}}}},
+           out);
+  }
+
+  void handling(const TickInput& in, std::vector<EvaluationEvent>& out) {
+    const double steer_deg = in.out.q[kAwr3] / kDeg;
+    for (const HandlingEvent& h : in.report.handling) {
+      const Eigen::Vector2d at = h.where_m.head<2>();
+      switch (h.kind) {
+        case HandlingEvent::Kind::kPickedUp:
+        case HandlingEvent::Kind::kSetDown: {
+          const RuleKey k = ev::kWheelsNotStraightStacking;
+          if (std::abs(steer_deg) > th(k, "steer_max_deg"))
+            emit(k, in.t_s, at,
+                 {{"pallet", h.pallet}, {"when", handling_event_name(h.kind)},
+                  {"measured", {{"steer_deg", round6(steer_deg)}}}, {"thresholds", {{"steer_max_deg", th(k, "steer_max_deg")}}}},
+                 out);
+          if (h.kind == HandlingEvent::Kind::kSetDown) {
+            unsafe_stack(in, h, out);
+            if (judge_set_down(in, h, out)) ++step;
+          }
+          for (size_t p = 0; p < in.pallets.size() && p < slides.size(); ++p)
+            if (in.pallets[p].id == h.pallet) slides[p] = Slide{};
+          break;
+        }
+        case HandlingEvent::Kind::kDropped:
+          emit(ev::kLoadDropped, in.t_s, at, {{"pallet", h.pallet}}, out);
+          break;
+        case HandlingEvent::Kind::kSliding:
+          break;  // judged by how far it slid, below
+      }
+    }
+    if (slides.size() != in.pallets.size()) slides.assign(in.pallets.size(), Slide{});  // first tick only
+    const RuleKey k = ev::kLoadSlid;
+    for (size_t p = 0; p < in.pallets.size(); ++p) {
+      const PalletState& st = in.pallets[p];
+      Slide& sl = slides[p];
+      if (!st.on_forks) continue;
+      if (st.slide_m != sl.last) sl.last_moved_t = in.t_s;
+      sl.last = st.slide_m;
+      if (!sl.active && std::abs(st.slide_m - sl.ref) >= th(k, "slide_min_m")) {
+        sl.active = true;
+        emit(k, in.t_s, st.pose.translation().head<2>(),
+             {{"pallet", st.id}, {"measured", {{"slide_m", round6(st.slide_m)}, {"from_m", round6(sl.ref)}}},
+              {"thresholds", {{"slide_min_m", th(k, "slide_min_m")}}}},
+             out);
+      } else if (sl.active && in.t_s - sl.last_moved_t >= th(k, "clear_time_s")) {
+        sl.active = false;
+        sl.ref = st.slide_m;
+      }
+    }
+  }
+
+  void route(const TickInput& in, std::vector<EvaluationEvent>& out) {
+    const Route& r = scene.route;
+    if (r.width_m <= 0 || r.points.empty()) return;
+    const Eigen::Vector2d p = in.out.q.head<2>();
+    const double d = ev::polyline_distance(p, r.points, false);
+    const RuleKey k = ev::kOffRoute;
+    const double edge = 0.5 * r.width_m;
+    const bool on = off_route.active() ? d > edge : d > edge + th(k, "beyond_edge_m");
+    if (off_route.update(on, in.t_s, th(k, "min_duration_s"), th(k, "clear_time_s")))
+      emit(k, in.t_s, p,
+           {{"measured", {{"distance_from_route_m", round6(d)}}},
+            {"thresholds", {{"route_half_width_m", edge}, {"beyond_edge_m", th(k, "beyond_edge_m")}}}},
+           out);
+  }
+
+  // reach and pass steps, in order (move steps complete in handling()).
+  void task(const TickInput& in) {
+    const Eigen::Vector2d p = in.out.q.head<2>();
+    const std::vector<TaskStep>& steps = scene.task.steps;
+    while (step < steps.size()) {
+      const TaskStep& s = steps[step];
+      bool done = false;
+      if (s.kind == "reach") done = (p - s.point).norm() <= s.radius_m;
+      else if (s.kind == "pass") done = ev::crosses(prev_pos, p, s.gate_a, s.gate_b);
+      if (!done) break;
+      ++step;
+    }
+    prev_pos = p;
+  }
+
+  void tick(const TickInput& in, std::vector<EvaluationEvent>& out) {
+    if (finished) bug("Evaluator::tick after finish");
+    const Outputs& o = in.out;
+    const double dt = have_tick ? in.t_s - last_t : 0.0;
+    const double tau = rules.acceleration_filter_time_constant_s;
+    if (dt > 0) accel += (dt / (tau + dt)) * (o.qddot.head<3>() - accel);
+    have_tick = true;
+    last_t = in.t_s;
+
+    // A truck on its side is the end of the exam: nothing after it is the driver's to mark.
+    if (tipped) return;
+    const double v = o.forward_speed_m_s;
+    const double ground_speed = o.qdot.head<2>().norm();
+    const Eigen::Vector3d heel = in.poses.carriage.translation();
+    const double heel_height = heel.z() - scene.ground.height(heel.x(), heel.y());
+
+    capacity(in, out);
+    collisions(in, out);
+    speeding(in, ground_speed, out);
+    forks_and_mast(in, v, heel_height, out);
+    dynamics(in, v, heel_height, out);
+    handling(in, out);
+    route(in, out);
+    task(in);
+    if (scene.time_limit_s > 0 && !time_reported && in.t_s > scene.time_limit_s) {
+      time_reported = true;
+      emit(ev::kTimeLimit, in.t_s, o.q.head<2>(), {{"measured", {{"time_s", round6(in.t_s)}}}, {"thresholds", {{"time_limit_s", scene.time_limit_s}}}}, out);
+    }
+    if (in.deadman && !deadman) emit(ev::kDeadmanStop, in.t_s, o.q.head<2>(), json::object(), out);
+    deadman = in.deadman;
+
+    lift_s = o.q[kS];
+    speed_m_s = v;
+    last_inputs = in.inputs;
+    pos = o.q.head<2>();
+  }
+
+  Score finish(const std::string& reason, std::vector<EvaluationEvent>& out) {
+    if (finished) bug("Evaluator::finish called twice");
+    finished = true;
+    const Scheme& sc = rules.scheme;
+    const bool parking = std::find(sc.parking_checked_on_end.begin(), sc.parking_checked_on_end.end(), reason) !=
+                         sc.parking_checked_on_end.end();
+    if (parking && have_tick && !tipped) {
+      if (lift_s > th(ev::kParkedForksRaised, "lift_max_m"))
+        emit(ev::kParkedForksRaised, last_t, pos,
+             {{"measured", {{"lift_m", round6(lift_s)}}}, {"thresholds", {{"lift_max_m", th(ev::kParkedForksRaised, "lift_max_m")}}}}, out);
+      const RuleKey k = ev::kParkedControlsNotNeutral;
+      const double frac = th(k, "control_max_fraction");
+      const DriverInputs& u = last_inputs;
+      const MastLimits& lim = truck.limits;
+      json wrong = json::array();
+      if (std::abs(speed_m_s) > th(k, "speed_max_m_s")) wrong.push_back("still moving");
+      if (std::abs(u.drive_torque_N_m) > frac * truck.drive.drive_torque_max_N_m) wrong.push_back("accelerator");
+      if (u.brake_torque_N_m < frac * truck.drive.brake_torque_max_N_m) wrong.push_back("brake not set");
+      if (std::abs(u.lift_rate_m_s) > frac * lim.lift_rate_max_m_s) wrong.push_back("lift lever");
+      if (std::abs(u.tilt_rate_rad_s) > frac * lim.tilt_rate_max_rad_s) wrong.push_back("tilt lever");
+      if (std::abs(u.shift_rate_m_s) > frac * lim.side_shift_rate_max_m_s) wrong.push_back("side-shift lever");
+      if (!wrong.empty())
+        emit(k, last_t, pos,
+             {{"not_neutral", wrong},
+              {"measured", {{"speed_m_s", round6(speed_m_s)},
+                            {"accelerator", round6(u.drive_torque_N_m / truck.drive.drive_torque_max_N_m)},
+                            {"brake", round6(u.brake_torque_N_m / truck.drive.brake_torque_max_N_m)}}},
+              {"thresholds", {{"speed_max_m_s", th(k, "speed_max_m_s")}, {"control_max_fraction", frac}}}},
+             out);
+    }
+    const int total = int(scene.task.steps.size());
+    const bool complete = int(step) >= total;
+    if (!complete) {
+      json left = json::array();
+      for (size_t i = step; i < scene.task.steps.size(); ++i) left.push_back(scene.task.steps[i].description);
+      emit(ev::kTaskIncomplete, last_t, pos, {{"steps_done", step}, {"steps_total", total}, {"steps_left", left}}, out);
+    }
+
+    Score s;
+    s.end_reason = reason;
+    s.mode = mode_name(mode);
+    s.points = points;
+    s.mark = std::max(0.0, sc.mark_start - points);
+    s.task_completed = complete;
+    s.steps_done = int(step);
+    s.steps_total = total;
+    s.min_stability_fraction = min_fraction;
+    std::map<std::string, int> serious;
+    for (const EvaluationEvent& e : events) {
+      ++s.counts[e.rule];
+      if (e.automatic_fail && std::find(s.automatic_failures.begin(), s.automatic_failures.end(), e.rule) == s.automatic_failures.end())
+        s.automatic_failures.push_back(e.rule);
+      if (e.worry_level == sc.serious_worry_level) ++serious[e.rule];
+    }
+    for (const auto& [id, n] : serious)
+      if (n > sc.max_same_serious_fault) s.automatic_failures.push_back("repeated:" + id);
+    s.passed = s.points <= sc.fail_above_points && s.automatic_failures.empty() &&
+               (mode != Mode::kExam || !sc.task_required_in_exam || complete);
+    return s;
+  }
+};
+
+Evaluator::Evaluator(const Rules& rules, const Scene& scene, const TruckParams& truck, const TruckShape& shape, Mode mode)
+    : impl_(std::make_unique<Impl>(rules, scene, truck, shape, mode)) {}
+Evaluator::~Evaluator() = default;
+
+void Evaluator::tick(const TickInput& in, std::vector<EvaluationEvent>& out) { impl_->tick(in, out); }
+Score Evaluator::finish(const std::string& end_reason, std::vector<EvaluationEvent>& out) { return impl_->finish(end_reason, out); }
+const std::vector<EvaluationEvent>& Evaluator::events() const { return impl_->events; }
+const Stability& Evaluator::stability() const { return impl_->stab; }
+int Evaluator::points() const { return impl_->points; }
+bool Evaluator::task_completed() const { return impl_->step >= impl_->scene.task.steps.size(); }
+int Evaluator::steps_done() const { return int(impl_->step); }
+Mode Evaluator::mode() const { return impl_->mode; }
+
+}  // namespace forklift

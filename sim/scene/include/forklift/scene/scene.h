@@ -1,0 +1,184 @@
+// The warehouse (the paper's Virtual Scene): the objects a scenario file places, their meshes
+// loaded with assimp, the floor's ramps, the speed zones and walkways, the route and the task.
+// Loaded once per session and then const; what moves at run time (a pallet picked up and set
+// down elsewhere) is tracked by the pallet handler (collision.h), not here.
+//
+// Frames: world x, y on the floor, z up, metres. Every object has a local frame whose origin
+// lies on the floor (z = 0 of the object) at the middle of its footprint, x along its length.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "forklift/dynamics/dynamics.h"  // Ground, Ramp, TruckParams, BodyPoses
+#include "forklift/scene/scenario.h"  // Scenario (truck, start, load)
+
+namespace forklift {
+
+// Anything wrong with a scene, scenario or mesh file; the message names the file and the key.
+class SceneError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// One part of a mesh (an OBJ group, a glTF node): triangles in the owner's local frame.
+// Our meshes are built of boxes, one box per part, so a solid part's bounds are its collision
+// box exactly; parts named "mark_*" (floor paint, signs) are drawn but never collided.
+struct MeshPart {
+  std::string name;
+  std::vector<Eigen::Vector3f> positions;  // per vertex
+  std::vector<Eigen::Vector3f> normals;    // per vertex, unit
+  std::vector<uint32_t> triangles;         // 3 vertex indices per triangle
+  Eigen::Vector3f colour{0.7f, 0.7f, 0.7f};  // the material's diffuse RGB, 0..1
+  Eigen::AlignedBox3d bounds;              // of the positions, local frame
+  bool solid = true;                       // false for "mark_*" parts
+};
+
+struct Mesh {
+  std::string source;  // the file it was loaded from
+  std::vector<MeshPart> parts;
+  Eigen::AlignedBox3d bounds;
+};
+
+// Loads an OBJ or glTF file with assimp (triangulated, normals generated where missing).
+// Throws SceneError naming the file for a missing, unreadable or empty file.
+std::shared_ptr<const Mesh> load_mesh(const std::string& path);
+
+enum class ObjectKind { kRack, kPallet, kWall, kDoor, kDock, kLorry, kCone, kObstacle, kPedestrian };
+const char* object_kind_name(ObjectKind kind);  // "rack", "pallet", ... as in scenario files
+std::optional<ObjectKind> parse_object_kind(const std::string& name);
+
+// A surface a pallet can be set down on: a rack level's beams, a lorry's bed, a dock's top.
+// The floor (the ground) is always one and is not listed.
+struct Support {
+  std::string name;               // "level 2", "bed"
+  int level = 0;                  // racks: 1 = the first beam level above the floor; 0 otherwise
+  Eigen::AlignedBox2d footprint;  // local x, y
+  double height_m = 0;            // top of the surface above the object's local z = 0
+};
+
+// A pallet and what it carries. The local x axis is the fork-entry direction (forks enter
+// through the faces at x = +-length/2); pockets run the whole length.
+struct PalletSpec {
+  double length_m = 1.2, width_m = 0.8, height_m = 0.144;  // EUR pallet (EN 13698-1)
+  double pocket_bottom_m = 0.022, pocket_top_m = 0.122;    // above the pallet's underside
+  std::vector<Eigen::Vector2d> pockets_y_m;  // each pocket's lateral extent [min, max], local y
+  double pallet_mass_kg = 25;
+  double load_mass_kg = 0;
+  Eigen::Vector3d load_size_m = Eigen::Vector3d::Zero();  // box on the deck, centred; zero: none
+  double friction_static = 0.35, friction_kinetic = 0.3;  // pallet wood on the forks' steel
+};
+
+struct SceneObject {
+  std::string id;  // unique in the scene: "R2", "P3", "cone_4"
+  ObjectKind kind = ObjectKind::kObstacle;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  // world from local
+  std::shared_ptr<const Mesh> mesh;
+  std::vector<Support> supports;       // racks, lorries, docks
+  std::optional<PalletSpec> pallet;    // pallets
+  bool collidable = true;
+  // Added: pallets with a load (pallet->load_size_m not zero): the unit load box (meshes/
+  // load_box.obj, x and y in [-0.5, 0.5], z in [0, 1]) to scale by load_size_m and stand on the
+  // deck, centred; null otherwise.
+  std::shared_ptr<const Mesh> load_mesh;
+  // Added: pallets: the object and support level the pallet stands on at the start ("" and 0:
+  // the floor), as the scenario file's "on" and "level" give them.
+  std::string rests_on;
+  int rest_level = 0;
+};
+
+// Where a pallet is now (moved at run time by the Warehouse, collision.h; drawn by the renderer).
+struct PalletState {
+  std::string id;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  // world from the pallet's local frame
+  bool on_forks = false;
+  double slide_m = 0;        // how far it has slid along the forks since it was picked up (+ towards the tips)
+  bool dropped = false;      // fell off the forks; it lies where it fell
+  std::string resting_on;    // object id it stands on ("" for the floor)
+  int level = 0;             // the rack level it stands on (0: floor or a single support)
+};
+
+// A floor area with a speed limit: "aisle", "walkway" (marked pedestrian walkway), "corner",
+// "dock", "yard". Where zones overlap the lowest limit applies.
+struct Zone {
+  std::string id, kind;
+  std::vector<Eigen::Vector2d> polygon;  // world, counter-clockwise
+  double speed_limit_m_s = 0;
+  bool contains(const Eigen::Vector2d& p) const;
+};
+
+// The marked route: a polyline with a width; leaving it is a fault (evaluation).
+struct Route {
+  std::vector<Eigen::Vector2d> points;
+  double width_m = 0;  // zero: no route
+};
+
+// The task, as ordered steps. "reach": drive into a circle. "pass": go through a gate between
+// two points (slalom, doors). "move": take pallet `pallet` and set it down on `to_object`
+// (`to_level` for racks, 0 = the object's only support; to_object empty = the floor inside
+// `area`), within `tolerance_m` of the target's centre.
+struct TaskStep {
+  std::string kind;  // "reach", "pass", "move"
+  std::string description;
+  Eigen::Vector2d point = Eigen::Vector2d::Zero();
+  double radius_m = 0;
+  Eigen::Vector2d gate_a = Eigen::Vector2d::Zero(), gate_b = Eigen::Vector2d::Zero();
+  std::string pallet, to_object;
+  int to_level = 0;
+  Eigen::AlignedBox2d area;
+  double tolerance_m = 0.15;
+};
+
+struct Task {
+  std::string summary;  // one line a pupil reads: "Take P3 from R2 level 2 to dock bay 1"
+  std::vector<TaskStep> steps;
+};
+
+// The truck's shape for drawing and collision: a mesh per rigid part, each in the frame
+// BodyPoses gives for it (chassis: geometry frame; mast: tilt pivot; carriage: fork heel).
+// Wheel meshes are centred on the wheel, axle along y.
+struct TruckShape {
+  std::shared_ptr<const Mesh> chassis, mast, carriage, front_wheel, rear_wheel;
+  double fork_length_m = 1.0, fork_width_m = 0.1, fork_thickness_m = 0.04;
+  double fork_centres_y_m = 0.36;  // fork centre to fork centre; forks at +-half of it
+  // Driver's eye in the geometry frame (for the cab view).
+  Eigen::Vector3d eye_m = Eigen::Vector3d(-0.75, 0.0, 1.75);
+};
+
+struct Scene {
+  std::string file, name, description;
+  Scenario scenario;  // truck file, start pose, initial load (scenario.h)
+  Ground ground;      // ramps and dock plates
+  std::vector<SceneObject> objects;
+  std::vector<Zone> zones;
+  Route route;
+  Task task;
+  double time_limit_s = 0;  // zero: none
+  Eigen::AlignedBox2d floor;  // the warehouse floor drawn (world x, y)
+  // Added: the ramps `ground` is built from, for drawing (Ground does not expose them).
+  std::vector<Ramp> ramps;
+
+  const SceneObject* find(const std::string& id) const;  // nullptr if absent
+  // The lowest speed limit of the zones containing p, or nullopt outside every zone.
+  std::optional<double> speed_limit(const Eigen::Vector2d& p) const;
+};
+
+// Reads a scenario file (data/scenarios/*.json; format in data/scenarios/README.md) and the
+// meshes it names, relative to data_dir. A manoeuvre file (no "objects") is an empty floor.
+// Throws SceneError naming the file and the key.
+Scene load_scene(const std::string& path, const std::string& data_dir);
+
+// The truck's meshes and fork dimensions, from the truck file's "shape" section.
+TruckShape load_truck_shape(const std::string& truck_file, const std::string& data_dir);
+
+// Added: writes every mesh the data folder ships (OBJ + MTL, built from boxes) into `dir`, which
+// must exist; the same bytes every time. Returns the OBJ file names written ("rack.obj", ...).
+// `forklift-sim meshes --out DIR` calls it; data/meshes/ holds its output. Throws SceneError.
+std::vector<std::string> write_meshes(const std::string& dir);
+
+}  // namespace forklift

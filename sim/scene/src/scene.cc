@@ -1,0 +1,63 @@
+// The scene's small queries; loading lives in scene_file.cc and mesh.cc.
+#include "forklift/scene/scene.h"
+
+#include <array>
+#include <utility>
+
+namespace forklift {
+namespace {
+
+constexpr std::array<std::pair<ObjectKind, const char*>, 9> kKindNames{{
+    {ObjectKind::kRack, "rack"},
+    {ObjectKind::kPallet, "pallet"},
+    {ObjectKind::kWall, "wall"},
+    {ObjectKind::kDoor, "door"},
+    {ObjectKind::kDock, "dock"},
+    {ObjectKind::kLorry, "lorry"},
+    {ObjectKind::kCone, "cone"},
+    {ObjectKind::kObstacle, "obstacle"},
+    {ObjectKind::kPedestrian, "pedestrian"},
+}};
+
+}  // namespace
+
+const char* object_kind_name(ObjectKind kind) {
+  for (const auto& [k, name] : kKindNames)
+    if (k == kind) return name;
+  return "unknown";
+}
+
+std::optional<ObjectKind> parse_object_kind(const std::string& name) {
+  for (const auto& [k, n] : kKindNames)
+    if (name == n) return k;
+  return std::nullopt;
+}
+
+// Even-odd ray crossing; points on an edge may fall either way, which a speed limit tolerates.
+bool Zone::contains(const Eigen::Vector2d& p) const {
+  bool inside = false;
+  const size_t n = polygon.size();
+  for (size_t i = 0, j = n - 1; i < n; j = i++) {
+    const Eigen::Vector2d& a = polygon[i];
+    const Eigen::Vector2d& b = polygon[j];
+    if ((a.y() > p.y()) != (b.y() > p.y()) &&
+        p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x())
+      inside = !inside;
+  }
+  return inside;
+}
+
+const SceneObject* Scene::find(const std::string& id) const {
+  for (const SceneObject& o : objects)
+    if (o.id == id) return &o;
+  return nullptr;
+}
+
+std::optional<double> Scene::speed_limit(const Eigen::Vector2d& p) const {
+  std::optional<double> limit;
+  for (const Zone& z : zones)
+    if (z.contains(p) && (!limit || z.speed_limit_m_s < *limit)) limit = z.speed_limit_m_s;
+  return limit;
+}
+
+}  // namespace forklift

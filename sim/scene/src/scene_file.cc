@@ -1,0 +1,598 @@
+// Reading scenario files (format: data/scenarios/README.md) and the truck's shape section.
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+
+#include "forklift/scene/scene.h"
+#include "mesh_internal.h"
+
+namespace forklift {
+namespace {
+
+using nlohmann::json;
+constexpr double kDeg = M_PI / 180.0;
+// A file without "floor_m" (a manoeuvre on an empty floor) gets a square this far around the start.
+constexpr double kDefaultFloorHalfSize_m = 100.0;
+// Includes may nest this deep; deeper is taken for a cycle.
+constexpr int kMaxIncludeDepth = 8;
+// A pallet placed "on" a support may restate its z_m; it must agree to within this.
+constexpr double kHeightTolerance_m = 1e-6;
+
+[[noreturn]] void fail(const std::string& file, const std::string& key, const std::string& what) {
+  throw SceneError(file + ": '" + key + "' " + what);
+}
+
+std::string resolve(const std::string& data_dir, const std::string& rel) {
+  return (!rel.empty() && rel[0] == '/') ? rel : data_dir + "/" + rel;
+}
+
+json read_json(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw SceneError(path + ": cannot open file");
+  try {
+    return json::parse(in);
+  } catch (const json::exception& e) {
+    throw SceneError(path + ": not valid JSON: " + e.what());
+  }
+}
+
+// Typed access to one JSON node, failing with the file and the dotted key.
+class Node {
+ public:
+  Node(const json& j, std::string file, std::string key) : j_(j), file_(std::move(file)), key_(std::move(key)) {}
+
+  const json& raw() const { return j_; }
+  const std::string& file() const { return file_; }
+  const std::string& key() const { return key_; }
+  [[noreturn]] void fail(const std::string& what) const { forklift::fail(file_, key_, what); }
+
+  bool has(const char* name) const { return j_.is_object() && j_.contains(name) && !j_.at(name).is_null(); }
+  Node at(const char* name) const {
+    if (!j_.is_object()) fail("must be an object");
+    if (!has(name)) forklift::fail(file_, sub(name), "is missing");
+    return Node(j_.at(name), file_, sub(name));
+  }
+  Node at(size_t i) const { return Node(j_.at(i), file_, key_ + "[" + std::to_string(i) + "]"); }
+  size_t size() const { return j_.size(); }
+
+  void require_object() const {
+    if (!j_.is_object()) fail("must be an object");
+  }
+  size_t array(size_t min_size = 0) const {
+    if (!j_.is_array()) fail("must be an array");
+    if (j_.size() < min_size) fail("must have at least " + std::to_string(min_size) + " elements");
+    return j_.size();
+  }
+  double number() const {
+    if (!j_.is_number()) fail("is not a number");
+    const double v = j_.get<double>();
+    if (!std::isfinite(v)) fail("is not finite");
+    return v;
+  }
+  double non_negative() const {
+    const double v = number();
+    if (v < 0) fail("must not be negative");
+    return v;
+  }
+  double positive() const {
+    const double v = number();
+    if (v <= 0) fail("must be positive");
+    return v;
+  }
+  int integer() const {
+    if (!j_.is_number_integer()) fail("is not an integer");
+    return j_.get<int>();
+  }
+  std::string string() const {
+    if (!j_.is_string()) fail("is not a string");
+    return j_.get<std::string>();
+  }
+  bool boolean() const {
+    if (!j_.is_boolean()) fail("is not true or false");
+    return j_.get<bool>();
+  }
+  Eigen::VectorXd numbers(size_t n) const {
+    if (!j_.is_array() || j_.size() != n) fail("must be an array of " + std::to_string(n) + " numbers");
+    Eigen::VectorXd v(n);
+    for (size_t i = 0; i < n; ++i) v[i] = at(i).number();
+    return v;
+  }
+  Eigen::Vector2d vec2() const { return numbers(2); }
+  Eigen::Vector3d vec3() const { return numbers(3); }
+  // [xmin, ymin, xmax, ymax] with min <= max.
+  Eigen::AlignedBox2d box2() const {
+    const Eigen::VectorXd v = numbers(4);
+    if (v[0] > v[2] || v[1] > v[3]) fail("must be [xmin, ymin, xmax, ymax] with min <= max");
+    return Eigen::AlignedBox2d(Eigen::Vector2d(v[0], v[1]), Eigen::Vector2d(v[2], v[3]));
+  }
+
+  double number_or(const char* name, double def) const { return has(name) ? at(name).number() : def; }
+  double non_negative_or(const char* name, double def) const { return has(name) ? at(name).non_negative() : def; }
+  double positive_or(const char* name, double def) const { return has(name) ? at(name).positive() : def; }
+  std::string string_or(const char* name, const std::string& def) const { return has(name) ? at(name).string() : def; }
+
+  // Fails on keys not in `known` (comments start with "_").
+  void only(std::initializer_list<const char*> known) const {
+    require_object();
+    for (auto it = j_.begin(); it != j_.end(); ++it) {
+      if (!it.key().empty() && it.key()[0] == '_') continue;
+      if (std::none_of(known.begin(), known.end(), [&](const char* k) { return it.key() == k; }))
+        forklift::fail(file_, sub(it.key().c_str()), "is not a known key");
+    }
+  }
+
+ private:
+  std::string sub(const char* name) const { return key_.empty() ? std::string(name) : key_ + "." + name; }
+  const json& j_;
+  std::string file_, key_;
+};
+
+// The scenario after includes: plain keys (the last file to set one wins) and the concatenated
+// lists, each element remembering the file and key it came from.
+struct Merged {
+  struct Item {
+    json value;
+    std::string file, key;
+  };
+  std::map<std::string, Item> keys;
+  std::vector<Item> objects, zones, ramps;
+};
+
+const std::set<std::string> kTopKeys = {"name",   "description", "truck",        "start",
+                                        "load",   "include",     "objects",      "zones",
+                                        "ramps",  "route",       "task",         "time_limit_s",
+                                        "floor_m", "zone_speed_limits_m_s", "exclude_objects",
+                                        "manoeuvre", "duration_s"};
+
+// Read by load_scenario (scenario.h) from the scenario file itself.
+const std::set<std::string> kOwnKeys = {"truck", "start", "load", "manoeuvre", "duration_s"};
+
+void merge(const std::string& path, const std::string& data_dir, Merged& m, int depth) {
+  if (depth > kMaxIncludeDepth) throw SceneError(path + ": 'include' nested too deep (a cycle?)");
+  const json j = read_json(path);
+  if (!j.is_object()) throw SceneError(path + ": the top level must be a JSON object");
+  if (j.contains("include")) {
+    const Node inc(j.at("include"), path, "include");
+    const std::string target = resolve(data_dir, inc.string());
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(target, ec)) inc.fail("names a missing file " + target);
+    merge(target, data_dir, m, depth + 1);
+  }
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    const std::string& k = it.key();
+    if (k == "include" || (!k.empty() && k[0] == '_')) continue;
+    if (!kTopKeys.count(k)) fail(path, k, "is not a known key");
+    if (depth > 0 && kOwnKeys.count(k)) fail(path, k, "belongs in the scenario file itself, not in an included layout");
+    if (k == "objects" || k == "zones" || k == "ramps") {
+      const Node list(it.value(), path, k);
+      list.array();
+      auto& out = k == "objects" ? m.objects : k == "zones" ? m.zones : m.ramps;
+      for (size_t i = 0; i < list.size(); ++i) out.push_back({it.value()[i], path, k + "[" + std::to_string(i) + "]"});
+    } else if (k == "exclude_objects") {
+      const Node list(it.value(), path, k);
+      list.array();
+      for (size_t i = 0; i < list.size(); ++i) {
+        const std::string id = list.at(i).string();
+        auto found = std::find_if(m.objects.begin(), m.objects.end(), [&](const Merged::Item& o) {
+          return o.value.is_object() && o.value.contains("id") && o.value.at("id") == id;
+        });
+        if (found == m.objects.end()) list.at(i).fail("names no object '" + id + "' to exclude");
+        m.objects.erase(found);
+      }
+    } else {
+      m.keys[k] = {it.value(), path, k};
+    }
+  }
+}
+
+// Meshes loaded once per load_scene call, by path and scale.
+class MeshCache {
+ public:
+  std::shared_ptr<const Mesh> get(const std::string& path, const Eigen::Vector3d& scale) {
+    const auto key = std::make_tuple(path, scale.x(), scale.y(), scale.z());
+    auto it = cache_.find(key);
+    if (it != cache_.end()) return it->second;
+    auto mesh = load_mesh_scaled(path, scale);
+    cache_.emplace(key, mesh);
+    return mesh;
+  }
+
+ private:
+  std::map<std::tuple<std::string, double, double, double>, std::shared_ptr<const Mesh>> cache_;
+};
+
+Eigen::AlignedBox2d xy(const Eigen::AlignedBox3d& b) {
+  return Eigen::AlignedBox2d(b.min().head<2>(), b.max().head<2>());
+}
+
+// The pallet's dimensions and pockets as its mesh has them: the solid parts' bounds, and the
+// gaps between the "blocks_*" rows (y) in the blocks' height band.
+PalletSpec pallet_from_mesh(const Mesh& mesh) {
+  PalletSpec p;
+  Eigen::AlignedBox3d solid, blocks;
+  std::vector<Eigen::Vector2d> rows;
+  for (const MeshPart& part : mesh.parts) {
+    if (!part.solid) continue;
+    solid.extend(part.bounds);
+    if (part.name.rfind("blocks_", 0) == 0) {
+      blocks.extend(part.bounds);
+      rows.emplace_back(part.bounds.min().y(), part.bounds.max().y());
+    }
+  }
+  if (solid.isEmpty()) return p;
+  p.length_m = solid.sizes().x();
+  p.width_m = solid.sizes().y();
+  p.height_m = solid.sizes().z();
+  if (rows.size() >= 2) {
+    p.pocket_bottom_m = blocks.min().z() - solid.min().z();
+    p.pocket_top_m = blocks.max().z() - solid.min().z();
+    std::sort(rows.begin(), rows.end(), [](const auto& a, const auto& b) { return a.x() < b.x(); });
+    for (size_t i = 1; i < rows.size(); ++i)
+      if (rows[i].x() > rows[i - 1].y()) p.pockets_y_m.emplace_back(rows[i - 1].y(), rows[i].x());
+  }
+  return p;
+}
+
+PalletSpec read_pallet(const Node& n, PalletSpec p) {
+  n.only({"length_m", "width_m", "height_m", "pocket_bottom_m", "pocket_top_m", "pockets_y_m", "pallet_mass_kg",
+          "load_mass_kg", "load_size_m", "friction_static", "friction_kinetic"});
+  p.length_m = n.positive_or("length_m", p.length_m);
+  p.width_m = n.positive_or("width_m", p.width_m);
+  p.height_m = n.positive_or("height_m", p.height_m);
+  p.pocket_bottom_m = n.non_negative_or("pocket_bottom_m", p.pocket_bottom_m);
+  p.pocket_top_m = n.positive_or("pocket_top_m", p.pocket_top_m);
+  if (p.pocket_top_m <= p.pocket_bottom_m || p.pocket_top_m > p.height_m)
+    n.fail("pocket_top_m must lie above pocket_bottom_m and within height_m");
+  if (n.has("pockets_y_m")) {
+    const Node list = n.at("pockets_y_m");
+    list.array(1);
+    p.pockets_y_m.clear();
+    for (size_t i = 0; i < list.size(); ++i) {
+      const Eigen::Vector2d v = list.at(i).vec2();
+      if (v.x() >= v.y()) list.at(i).fail("must be [min, max] with min < max");
+      p.pockets_y_m.push_back(v);
+    }
+  }
+  p.pallet_mass_kg = n.positive_or("pallet_mass_kg", p.pallet_mass_kg);
+  p.load_mass_kg = n.non_negative_or("load_mass_kg", p.load_mass_kg);
+  if (n.has("load_size_m")) {
+    const Node s = n.at("load_size_m");
+    p.load_size_m = s.vec3();
+    if ((p.load_size_m.array() < 0).any()) s.fail("must not be negative");
+    const bool none = p.load_size_m.isZero(), all = (p.load_size_m.array() > 0).all();
+    if (!none && !all) s.fail("must be all positive (a load) or all zero (none)");
+  }
+  if (p.load_mass_kg > 0 && p.load_size_m.isZero()) n.fail("has load_mass_kg but no load_size_m");
+  p.friction_static = n.non_negative_or("friction_static", p.friction_static);
+  p.friction_kinetic = n.non_negative_or("friction_kinetic", p.friction_kinetic);
+  if (p.friction_kinetic > p.friction_static) n.fail("friction_kinetic must not exceed friction_static");
+  return p;
+}
+
+Support read_support(const Node& n, const Mesh& mesh) {
+  n.only({"name", "height_m", "footprint_m"});
+  Support s;
+  s.name = n.at("name").string();
+  s.height_m = n.at("height_m").non_negative();
+  s.footprint = n.has("footprint_m") ? n.at("footprint_m").box2() : xy(mesh.bounds);
+  return s;
+}
+
+// A pallet to stand on its "on" support once every object exists (the support may come later).
+struct PendingPlacement {
+  size_t index;
+  Node node;
+};
+
+SceneObject read_object(const Node& n, const std::string& data_dir, MeshCache& meshes) {
+  n.only({"id", "kind", "mesh", "x_m", "y_m", "z_m", "yaw_deg", "scale", "collidable", "levels_m",
+          "support_footprint_m", "supports", "pallet", "load_mesh", "on", "level"});
+  SceneObject o;
+  o.id = n.at("id").string();
+  if (o.id.empty()) n.at("id").fail("must not be empty");
+  const std::string kind = n.at("kind").string();
+  const auto k = parse_object_kind(kind);
+  if (!k) n.at("kind").fail("is an unknown kind '" + kind + "'");
+  o.kind = *k;
+  Eigen::Vector3d scale = Eigen::Vector3d::Ones();
+  if (n.has("scale")) {
+    scale = n.at("scale").vec3();
+    if ((scale.array() <= 0).any()) n.at("scale").fail("must be positive");
+  }
+  const std::string mesh_rel = n.string_or("mesh", std::string("meshes/") + kind + ".obj");
+  try {
+    o.mesh = meshes.get(resolve(data_dir, mesh_rel), scale);
+  } catch (const SceneError& e) {
+    n.fail(std::string("mesh: ") + e.what());
+  }
+  const double x = n.at("x_m").number(), y = n.at("y_m").number();
+  const double z = n.number_or("z_m", 0.0), yaw = n.number_or("yaw_deg", 0.0) * kDeg;
+  o.pose = Eigen::Translation3d(x, y, z) * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ());
+  if (n.has("collidable")) o.collidable = n.at("collidable").boolean();
+
+  if (o.kind == ObjectKind::kRack) {
+    const Node levels = n.at("levels_m");
+    levels.array(1);
+    const Eigen::AlignedBox2d footprint =
+        n.has("support_footprint_m") ? n.at("support_footprint_m").box2() : xy(o.mesh->bounds);
+    double below = 0;
+    for (size_t i = 0; i < levels.size(); ++i) {
+      const double h = levels.at(i).positive();
+      if (h <= below) levels.at(i).fail("must be above the level below");
+      below = h;
+      o.supports.push_back({"level " + std::to_string(i + 1), static_cast<int>(i + 1), footprint, h});
+    }
+  } else if (n.has("levels_m")) {
+    n.at("levels_m").fail("is for racks only");
+  }
+  if (n.has("supports")) {
+    if (o.kind == ObjectKind::kRack) n.at("supports").fail("racks take levels_m instead");
+    const Node list = n.at("supports");
+    list.array(1);
+    for (size_t i = 0; i < list.size(); ++i) o.supports.push_back(read_support(list.at(i), *o.mesh));
+  }
+
+  if (o.kind == ObjectKind::kPallet) {
+    PalletSpec spec = pallet_from_mesh(*o.mesh);
+    if (n.has("pallet")) spec = read_pallet(n.at("pallet"), spec);
+    if (spec.pockets_y_m.empty()) n.fail("the pallet has no pockets: its mesh has no blocks_* rows and pallet.pockets_y_m is not given");
+    if (!spec.load_size_m.isZero()) {
+      const std::string load_rel = n.string_or("load_mesh", "meshes/load_box.obj");
+      try {
+        o.load_mesh = meshes.get(resolve(data_dir, load_rel), Eigen::Vector3d::Ones());
+      } catch (const SceneError& e) {
+        n.fail(std::string("load_mesh: ") + e.what());
+      }
+    }
+    o.pallet = spec;
+  } else {
+    for (const char* key : {"pallet", "load_mesh", "on", "level"})
+      if (n.has(key)) n.at(key).fail("is for pallets only");
+  }
+  return o;
+}
+
+// Stands a pallet on the support its "on" and "level" name: z from the support's height, and
+// its centre must lie over the support's footprint.
+void place_on_support(SceneObject& pallet, const Node& n, const Scene& scene) {
+  const std::string on = n.at("on").string();
+  const SceneObject* target = scene.find(on);
+  if (!target) n.at("on").fail("names no object '" + on + "'");
+  if (target->supports.empty()) n.at("on").fail("names '" + on + "', which has no supports");
+  const Support* support = nullptr;
+  const int level = n.has("level") ? n.at("level").integer() : 0;
+  for (const Support& s : target->supports)
+    if (s.level == level) support = &s;
+  if (target->kind != ObjectKind::kRack && level == 0 && target->supports.size() != 1)
+    n.at("on").fail("names '" + on + "', which has several supports");
+  if (!support) forklift::fail(n.file(), n.key() + ".level", "is no level of '" + on + "'");
+  const Eigen::Vector3d centre = target->pose.inverse() * pallet.pose.translation();
+  if (!support->footprint.contains(centre.head<2>()))
+    n.fail("stands beside '" + on + "' " + support->name + ": its centre is off the support");
+  const double z = (target->pose * Eigen::Vector3d(centre.x(), centre.y(), support->height_m)).z();
+  if (n.has("z_m") && std::abs(n.at("z_m").number() - z) > kHeightTolerance_m)
+    n.at("z_m").fail("disagrees with the height of '" + on + "' " + support->name);
+  pallet.pose.translation().z() = z;
+  pallet.rests_on = on;
+  pallet.rest_level = support->level;
+}
+
+Zone read_zone(const Node& n, const Node* speed_limits) {
+  n.only({"id", "kind", "polygon", "rect", "speed_limit_m_s"});
+  Zone z;
+  z.id = n.at("id").string();
+  z.kind = n.at("kind").string();
+  if (n.has("polygon") == n.has("rect")) n.fail("needs exactly one of polygon and rect");
+  if (n.has("rect")) {
+    const Eigen::AlignedBox2d b = n.at("rect").box2();
+    z.polygon = {b.corner(Eigen::AlignedBox2d::BottomLeft), b.corner(Eigen::AlignedBox2d::BottomRight),
+                 b.corner(Eigen::AlignedBox2d::TopRight), b.corner(Eigen::AlignedBox2d::TopLeft)};
+  } else {
+    const Node poly = n.at("polygon");
+    poly.array(3);
+    for (size_t i = 0; i < poly.size(); ++i) z.polygon.push_back(poly.at(i).vec2());
+  }
+  double area2 = 0;
+  for (size_t i = 0, j = z.polygon.size() - 1; i < z.polygon.size(); j = i++)
+    area2 += z.polygon[j].x() * z.polygon[i].y() - z.polygon[i].x() * z.polygon[j].y();
+  if (!(std::abs(area2) > 0)) n.fail("has no area");
+  if (area2 < 0) std::reverse(z.polygon.begin(), z.polygon.end());  // stored counter-clockwise
+  if (n.has("speed_limit_m_s")) {
+    z.speed_limit_m_s = n.at("speed_limit_m_s").positive();
+  } else if (speed_limits && speed_limits->has(z.kind.c_str())) {
+    z.speed_limit_m_s = speed_limits->at(z.kind.c_str()).positive();
+  } else {
+    n.fail("has no speed_limit_m_s and zone_speed_limits_m_s has none for kind '" + z.kind + "'");
+  }
+  return z;
+}
+
+Ramp read_ramp(const Node& n) {
+  n.only({"id", "start_m", "heading_deg", "length_m", "width_m", "rise_m", "plateau_m"});
+  Ramp r;
+  r.start_m = n.at("start_m").vec2();
+  r.heading_rad = n.at("heading_deg").number() * kDeg;
+  r.length_m = n.at("length_m").positive();
+  r.width_m = n.at("width_m").positive();
+  r.rise_m = n.at("rise_m").number();
+  r.plateau_m = n.non_negative_or("plateau_m", 0.0);
+  return r;
+}
+
+TaskStep read_step(const Node& n, const Scene& scene) {
+  TaskStep s;
+  s.kind = n.at("kind").string();
+  if (s.kind == "reach") {
+    n.only({"kind", "description", "point", "radius_m"});
+    s.point = n.at("point").vec2();
+    s.radius_m = n.at("radius_m").positive();
+  } else if (s.kind == "pass") {
+    n.only({"kind", "description", "gate_a", "gate_b"});
+    s.gate_a = n.at("gate_a").vec2();
+    s.gate_b = n.at("gate_b").vec2();
+    if ((s.gate_a - s.gate_b).norm() <= 0) n.fail("gate_a and gate_b must differ");
+  } else if (s.kind == "move") {
+    n.only({"kind", "description", "pallet", "to_object", "to_level", "point", "area", "tolerance_m"});
+    s.pallet = n.at("pallet").string();
+    const SceneObject* p = scene.find(s.pallet);
+    if (!p || p->kind != ObjectKind::kPallet) n.at("pallet").fail("names no pallet '" + s.pallet + "'");
+    s.to_object = n.string_or("to_object", "");
+    s.to_level = n.has("to_level") ? n.at("to_level").integer() : 0;
+    if (s.to_object.empty()) {
+      if (!n.has("area")) n.fail("needs to_object or area");
+      s.area = n.at("area").box2();
+      if (s.to_level != 0) n.at("to_level").fail("must be 0 for the floor");
+      s.point = s.area.center();
+    } else {
+      const SceneObject* o = scene.find(s.to_object);
+      if (!o) n.at("to_object").fail("names no object '" + s.to_object + "'");
+      if (o->supports.empty()) n.at("to_object").fail("names '" + s.to_object + "', which has no supports");
+      const bool found = std::any_of(o->supports.begin(), o->supports.end(),
+                                     [&](const Support& sp) { return sp.level == s.to_level; });
+      if (!found) forklift::fail(n.file(), n.key() + ".to_level", "is no level of '" + s.to_object + "'");
+      if (o->kind != ObjectKind::kRack && o->supports.size() != 1)
+        n.at("to_object").fail("names '" + s.to_object + "', which has several supports");
+      if (n.has("area")) s.area = n.at("area").box2();
+      // The target's centre: the support footprint's middle unless a point is given.
+      const Support& sp = *std::find_if(o->supports.begin(), o->supports.end(),
+                                        [&](const Support& x) { return x.level == s.to_level; });
+      const Eigen::Vector2d c = sp.footprint.center();
+      s.point = (o->pose * Eigen::Vector3d(c.x(), c.y(), sp.height_m)).head<2>();
+    }
+    if (n.has("point")) s.point = n.at("point").vec2();
+    s.tolerance_m = n.positive_or("tolerance_m", s.tolerance_m);
+  } else {
+    n.at("kind").fail("is an unknown step kind '" + s.kind + "' (reach, pass, move)");
+  }
+  s.description = n.string_or("description", "");
+  return s;
+}
+
+}  // namespace
+
+Scene load_scene(const std::string& path, const std::string& data_dir) {
+  Merged m;
+  merge(path, data_dir, m, 0);
+  auto key = [&](const char* k) -> const Merged::Item* {
+    auto it = m.keys.find(k);
+    return it == m.keys.end() || it->second.value.is_null() ? nullptr : &it->second;
+  };
+  auto node = [](const Merged::Item& item) { return Node(item.value, item.file, item.key); };
+
+  Scene scene;
+  scene.file = path;
+  scene.name = key("name") ? node(*key("name")).string() : std::filesystem::path(path).stem().string();
+  if (key("description")) scene.description = node(*key("description")).string();
+  // load_scenario reads these; checked here first so that a bad one is named by its key.
+  if (key("truck")) node(*key("truck")).string();
+  if (key("start")) {
+    const Node st = node(*key("start"));
+    st.only({"x_m", "y_m", "yaw_deg"});
+    for (const char* k : {"x_m", "y_m", "yaw_deg"})
+      if (st.has(k)) st.at(k).number();
+  }
+  if (key("load")) {
+    const Node l = node(*key("load"));
+    l.only({"mass_kg", "lateral_m", "cog_height_m"});
+    l.at("mass_kg").positive();
+    for (const char* k : {"lateral_m", "cog_height_m"})
+      if (l.has(k)) l.at(k).number();
+  }
+  try {
+    scene.scenario = load_scenario(path, data_dir);
+  } catch (const SceneError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw SceneError(e.what());  // names the file already
+  }
+
+  for (const Merged::Item& item : m.ramps) scene.ramps.push_back(read_ramp(node(item)));
+  scene.ground = Ground(scene.ramps);
+
+  MeshCache meshes;
+  std::set<std::string> ids;
+  std::vector<PendingPlacement> placements;
+  for (const Merged::Item& item : m.objects) {
+    const Node n = node(item);
+    SceneObject o = read_object(n, data_dir, meshes);
+    if (!ids.insert(o.id).second) n.at("id").fail("repeats the id '" + o.id + "'");
+    if (o.kind == ObjectKind::kPallet && n.has("on")) placements.push_back({scene.objects.size(), n});
+    scene.objects.push_back(std::move(o));
+  }
+  for (const PendingPlacement& p : placements) place_on_support(scene.objects[p.index], p.node, scene);
+
+  std::optional<Node> limits;
+  if (key("zone_speed_limits_m_s")) {
+    limits.emplace(node(*key("zone_speed_limits_m_s")));
+    limits->require_object();
+  }
+  std::set<std::string> zone_ids;
+  for (const Merged::Item& item : m.zones) {
+    const Node n = node(item);
+    Zone z = read_zone(n, limits ? &*limits : nullptr);
+    if (!zone_ids.insert(z.id).second) n.at("id").fail("repeats the zone id '" + z.id + "'");
+    scene.zones.push_back(std::move(z));
+  }
+
+  if (key("route")) {
+    const Node r = node(*key("route"));
+    r.only({"width_m", "points"});
+    scene.route.width_m = r.at("width_m").non_negative();
+    const Node pts = r.at("points");
+    pts.array(2);
+    for (size_t i = 0; i < pts.size(); ++i) scene.route.points.push_back(pts.at(i).vec2());
+  }
+  if (key("task")) {
+    const Node t = node(*key("task"));
+    t.only({"summary", "steps"});
+    scene.task.summary = t.string_or("summary", "");
+    if (t.has("steps")) {
+      const Node steps = t.at("steps");
+      steps.array();
+      for (size_t i = 0; i < steps.size(); ++i) scene.task.steps.push_back(read_step(steps.at(i), scene));
+    }
+  }
+  if (key("time_limit_s")) scene.time_limit_s = node(*key("time_limit_s")).non_negative();
+  if (key("floor_m")) {
+    scene.floor = node(*key("floor_m")).box2();
+  } else {
+    const Eigen::Vector2d start(scene.scenario.x_m, scene.scenario.y_m);
+    const Eigen::Vector2d half = Eigen::Vector2d::Constant(kDefaultFloorHalfSize_m);
+    scene.floor = Eigen::AlignedBox2d(start - half, start + half);
+  }
+  return scene;
+}
+
+TruckShape load_truck_shape(const std::string& truck_file, const std::string& data_dir) {
+  const json root = read_json(truck_file);
+  const Node n = Node(root, truck_file, "").at("shape");
+  n.only({"chassis_mesh", "mast_mesh", "carriage_mesh", "front_wheel_mesh", "rear_wheel_mesh", "fork_length_m",
+          "fork_width_m", "fork_thickness_m", "fork_centres_y_m", "eye_m"});
+  TruckShape s;
+  auto mesh = [&](const char* key) {
+    const Node k = n.at(key);
+    try {
+      return load_mesh(resolve(data_dir, k.string()));
+    } catch (const SceneError& e) {
+      k.fail(e.what());
+    }
+  };
+  s.chassis = mesh("chassis_mesh");
+  s.mast = mesh("mast_mesh");
+  s.carriage = mesh("carriage_mesh");
+  s.front_wheel = mesh("front_wheel_mesh");
+  s.rear_wheel = mesh("rear_wheel_mesh");
+  s.fork_length_m = n.at("fork_length_m").positive();
+  s.fork_width_m = n.at("fork_width_m").positive();
+  s.fork_thickness_m = n.at("fork_thickness_m").positive();
+  s.fork_centres_y_m = n.at("fork_centres_y_m").positive();
+  if (s.fork_centres_y_m <= s.fork_width_m) n.at("fork_centres_y_m").fail("must exceed fork_width_m (the forks would overlap)");
+  s.eye_m = n.at("eye_m").vec3();
+  return s;
+}
+
+}  // namespace forklift

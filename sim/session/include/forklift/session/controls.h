@@ -1,0 +1,28 @@
+// The cab's controls onto the truck: refusing what must not reach the integrator, scaling the
+// normalised commands onto the truck's limits, and the dead-man response.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "forklift/dynamics/dynamics.h"
+
+namespace forklift {
+
+// One cab control sample, as received (protocol's fk_Controls without the strings).
+struct ControlSample {
+  uint32_t seq = 0;
+  double steer_rad = 0, accelerator = 0, brake = 0, lift = 0, tilt = 0, side_shift = 0;
+  bool horn = false;
+  bool parking_brake = false;
+};
+
+// Why a sample must not reach the integrator, or nullopt if it is fine: a non-finite value or
+// one outside its documented range (protocol/idl/Forklift.idl).
+std::optional<std::string> control_problem(const ControlSample& c);
+
+// Normalised cab commands onto the truck's limits.
+DriverInputs driver_inputs(const ControlSample& c, const TruckParams& truck);
+
+}  // namespace forklift

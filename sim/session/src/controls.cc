@@ -1,0 +1,43 @@
+#include "forklift/session/controls.h"
+
+#include <cmath>
+#include <sstream>
+
+namespace forklift {
+
+std::optional<std::string> control_problem(const ControlSample& c) {
+  struct Field { const char* name; double value, lo, hi; };
+  const Field fields[] = {{"steer_rad", c.steer_rad, -1.5, 1.5},  {"accelerator", c.accelerator, -1, 1},
+                          {"brake", c.brake, 0, 1},               {"lift", c.lift, -1, 1},
+                          {"tilt", c.tilt, -1, 1},                {"side_shift", c.side_shift, -1, 1}};
+  for (const Field& f : fields) {
+    if (!std::isfinite(f.value)) return std::string(f.name) + " is not finite";
+    if (f.value < f.lo || f.value > f.hi) {
+      std::ostringstream s;
+      s << f.name << " = " << f.value << " is outside [" << f.lo << ", " << f.hi << "]";
+      return s.str();
+    }
+  }
+  return std::nullopt;
+}
+
+DriverInputs driver_inputs(const ControlSample& c, const TruckParams& t) {
+  DriverInputs u;
+  u.drive_torque_N_m = c.accelerator * t.drive.drive_torque_max_N_m;
+  u.brake_torque_N_m = c.brake * t.drive.brake_torque_max_N_m;
+  u.steer_rad = c.steer_rad;
+  u.lift_rate_m_s = c.lift * t.limits.lift_rate_max_m_s;
+  u.tilt_rate_rad_s = c.tilt * t.limits.tilt_rate_max_rad_s;
+  u.shift_rate_m_s = c.side_shift * t.limits.side_shift_rate_max_m_s;
+  u.parking_brake = c.parking_brake;
+  return u;
+}
+
+DriverInputs deadman_inputs(const DriverInputs& last, const TruckParams& t) {
+  DriverInputs u;
+  u.steer_rad = last.steer_rad;
+  u.brake_torque_N_m = t.drive.brake_torque_max_N_m;
+  return u;
+}
+
+}  // namespace forklift

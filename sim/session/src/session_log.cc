@@ -1,0 +1,154 @@
+#include "forklift/session/session_log.h"
+
+#include <cinttypes>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <stdexcept>
+
+#include "forklift/dynamics/manoeuvre.h"
+
+namespace forklift {
+
+namespace {
+
+std::string hex(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%a", v);
+  return buf;
+}
+
+double from_hex(const std::string& s) {
+  char* end = nullptr;
+  const double v = std::strtod(s.c_str(), &end);
+  if (end == s.c_str() || *end != '\0') throw std::runtime_error("bad number '" + s + "' in control log");
+  return v;
+}
+
+std::vector<std::string> split(const std::string& line) {
+  std::istringstream in(line);
+  std::vector<std::string> out;
+  for (std::string w; in >> w;) out.push_back(w);
+  return out;
+}
+
+}  // namespace
+
+std::string state_hex(const StateVector& x) {
+  std::string s;
+  for (int i = 0; i < StateIndex::kSize; ++i) {
+    if (i) s += ' ';
+    s += hex(x[i]);
+  }
+  return s;
+}
+
+StateVector parse_state_hex(const std::string& text) {
+  const std::vector<std::string> w = split(text);
+  if (w.size() != StateIndex::kSize)
+    throw std::runtime_error("a state needs " + std::to_string(StateIndex::kSize) + " numbers, got " + std::to_string(w.size()));
+  StateVector x;
+  for (int i = 0; i < StateIndex::kSize; ++i) x[i] = from_hex(w[i]);
+  return x;
+}
+
+ControlLogWriter::ControlLogWriter(const std::string& path, const LogHeader& h) {
+  f_ = std::fopen(path.c_str(), "w");
+  if (!f_) throw std::runtime_error("cannot write control log " + path);
+  std::fprintf(f_, "forklift-control-log 1\nsession %s\ncab %s\ntruck %s\ntick %s\nintegrator %s %s %d\ninit %s\n",
+               h.session_id.c_str(), h.cab_id.c_str(), h.truck_file.c_str(), hex(h.tick_s).c_str(),
+               integrator_name(h.integrator.kind), hex(h.integrator.rtol).c_str(), h.integrator.cvode_max_order,
+               state_hex(h.initial).c_str());
+  if (!h.scenario_file.empty()) std::fprintf(f_, "scenario %s\n", h.scenario_file.c_str());
+  std::fprintf(f_, "mode %s\n", h.mode.c_str());
+  if (h.load) {
+    std::fprintf(f_, "load %s", hex(h.load->mass_kg).c_str());
+    for (int i = 0; i < 3; ++i) std::fprintf(f_, " %s", hex(h.load->cog_m[i]).c_str());
+    for (int i = 0; i < 9; ++i) std::fprintf(f_, " %s", hex(h.load->inertia_kg_m2(i / 3, i % 3)).c_str());
+    for (int i = 0; i < 3; ++i) std::fprintf(f_, " %s", hex(h.load->size_m[i]).c_str());
+    std::fprintf(f_, "\n");
+  }
+  std::fflush(f_);
+}
+
+ControlLogWriter::~ControlLogWriter() { std::fclose(f_); }
+
+void ControlLogWriter::input(int64_t tick, uint32_t seq, const DriverInputs& u) {
+  std::fprintf(f_, "i %" PRId64 " %u %s %s %s %s %s %s %d\n", tick, seq, hex(u.drive_torque_N_m).c_str(),
+               hex(u.brake_torque_N_m).c_str(), hex(u.steer_rad).c_str(), hex(u.tilt_rate_rad_s).c_str(),
+               hex(u.lift_rate_m_s).c_str(), hex(u.shift_rate_m_s).c_str(), u.parking_brake ? 1 : 0);
+  std::fflush(f_);  // a worker that is killed leaves everything it applied
+}
+
+void ControlLogWriter::note(const std::string& line) {
+  std::fprintf(f_, "%s\n", line.c_str());
+  std::fflush(f_);
+}
+
+void ControlLogWriter::finish(int64_t ticks, const StateVector& final_state) {
+  std::fprintf(f_, "end %" PRId64 "\nfinal %s\n", ticks, state_hex(final_state).c_str());
+  std::fflush(f_);
+}
+
+ControlLog read_control_log(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot open control log " + path);
+  ControlLog log;
+  std::string line;
+  int n = 0;
+  bool has_init = false;
+  while (std::getline(in, line)) {
+    ++n;
+    const std::vector<std::string> w = split(line);
+    if (w.empty()) continue;
+    try {
+      const std::string& k = w[0];
+      const std::string rest = line.size() > k.size() ? line.substr(k.size() + 1) : "";
+      if (n == 1) {
+        if (k != "forklift-control-log" || w.size() < 2 || w[1] != "1") throw std::runtime_error("not a control log");
+      } else if (k == "session") log.header.session_id = rest;
+      else if (k == "cab") log.header.cab_id = rest;
+      else if (k == "truck") log.header.truck_file = rest;
+      else if (k == "scenario") log.header.scenario_file = rest;
+      else if (k == "mode") log.header.mode = rest;
+      else if (k == "e" || k == "w" || k == "score" || k == "dm") log.notes.push_back(line);
+      else if (k == "tick") log.header.tick_s = from_hex(w.at(1));
+      else if (k == "integrator") {
+        log.header.integrator.kind = parse_integrator(w.at(1));
+        log.header.integrator.rtol = from_hex(w.at(2));
+        log.header.integrator.cvode_max_order = std::stoi(w.at(3));
+      } else if (k == "init") { log.header.initial = parse_state_hex(rest); has_init = true; }
+      else if (k == "load") {
+        if (w.size() != 14 && w.size() != 17) throw std::runtime_error("load needs 13 or 16 numbers");
+        Load l;
+        l.mass_kg = from_hex(w[1]);
+        for (int i = 0; i < 3; ++i) l.cog_m[i] = from_hex(w[2 + i]);
+        for (int i = 0; i < 9; ++i) l.inertia_kg_m2(i / 3, i % 3) = from_hex(w[5 + i]);
+        if (w.size() == 17) for (int i = 0; i < 3; ++i) l.size_m[i] = from_hex(w[14 + i]);
+        log.header.load = l;
+      } else if (k == "i") {
+        if (w.size() != 9 && w.size() != 10) throw std::runtime_error("an input line needs 8 or 9 fields");
+        ControlLog::Entry e;
+        e.tick = std::stoll(w[1]);
+        e.seq = static_cast<uint32_t>(std::stoul(w[2]));
+        e.inputs = {from_hex(w[3]), from_hex(w[4]), from_hex(w[5]), from_hex(w[6]), from_hex(w[7]), from_hex(w[8])};
+        if (w.size() == 10) {
+          if (w[9] != "0" && w[9] != "1") throw std::runtime_error("the parking brake is 0 or 1");
+          e.inputs.parking_brake = w[9] == "1";
+        }
+        if (!log.entries.empty() && e.tick < log.entries.back().tick) throw std::runtime_error("ticks go backwards");
+        log.entries.push_back(e);
+      } else if (k == "end") log.ticks = std::stoll(w.at(1));
+      else if (k == "final") log.final_state = parse_state_hex(rest);
+      else throw std::runtime_error("unknown record '" + k + "'");
+    } catch (const std::exception& e) {
+      throw std::runtime_error(path + ":" + std::to_string(n) + ": " + e.what());
+    }
+  }
+  if (n == 0 || !has_init) throw std::runtime_error(path + ": no header");
+  return log;
+}
+
+}  // namespace forklift

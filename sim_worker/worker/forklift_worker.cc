@@ -1,0 +1,486 @@
+// forklift-worker: one cab's real-time simulation. Its loop reads like the pipeline:
+// take the cab's controls, step the session in 1 ms physics ticks against the wall clock
+// (dynamics, collision, pallet handling), publish the truck's state and events; frames are
+// rendered on their own clock in their own thread. Everything applied is logged so that
+// --replay reproduces it.
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <csignal>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <thread>
+
+#include "forklift/dynamics/stability.h"
+#include "forklift/session/cab_session.h"
+#include "forklift/security/evidence.h"
+#include "forklift/protocol/protocol.h"
+#include "forklift/render/render.h"
+
+using namespace forklift;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+void on_signal(int) { g_stop = true; }
+
+constexpr double kTick = 1e-3;  // physics tick: controls are applied on tick boundaries
+
+void log_line(const std::string& cab, const std::string& text) {
+  std::cerr << "forklift-worker[" << cab << "]: " << text << std::endl;
+}
+
+nlohmann::json pose_json(const StateVector& x) {
+  return {{"x", x[kX]}, {"y", x[kY]}, {"yaw", x[kAwc] * 180 / M_PI}};
+}
+
+int replay_main(const std::string& path) {
+  const ControlLog log = read_control_log(path);
+  const ReplayResult r = replay_session(log, FORKLIFT_DATA_DIR);
+  std::vector<std::string> logged_events;
+  std::string logged_score;
+  for (const std::string& line : log.notes) {
+    if (line.rfind("e ", 0) == 0) logged_events.push_back(line);
+    if (line.rfind("score ", 0) == 0) logged_score = line;
+  }
+  const bool state_ok = !log.final_state || *log.final_state == r.final_state;  // bit for bit
+  const bool events_ok = logged_events == r.event_lines && logged_score == r.score_line;
+  nlohmann::json out = {{"session", log.header.session_id}, {"cab", log.header.cab_id}, {"ticks", r.ticks},
+                        {"sim_time_s", r.ticks * log.header.tick_s}, {"final_pose", pose_json(r.final_state)},
+                        {"state_hex", state_hex(r.final_state)}, {"events", r.event_lines.size()},
+                        {"score", r.score_line}};
+  if (log.final_state) out["matches_log"] = state_ok;
+  out["events_match_log"] = events_ok;
+  std::cout << out.dump(2) << std::endl;
+  return state_ok && events_ok ? 0 : 4;
+}
+
+// Frames on their own clock: the render thread owns the OSMesa context, draws the newest
+// snapshot the physics loop left, and publishes it. A renderer that cannot start costs the
+// session its frames, never the session.
+class FramePublisher {
+ public:
+  struct Options {
+    double fps = 0;
+    int width = 640, height = 480;
+    bool jpeg = false;
+    int jpeg_quality = 85;
+    View view = View::kDriver;
+  };
+  FramePublisher(const CabSession& session, dds::Participant& participant, const std::string& cab, Options opt)
+      : session_(session), writer_(participant, dds::cab_partition(cab)), cab_(cab), opt_(opt) {}
+  ~FramePublisher() { stop(); }
+
+  void start() {
+    if (opt_.fps <= 0) return;
+    thread_ = std::thread([this] { run(); });
+  }
+  // Called by the physics loop when the truck has moved (cheap: a copy under a lock).
+  void offer(double t) {
+    if (opt_.fps <= 0) return;
+    std::lock_guard<std::mutex> lock(m_);
+    state_ = session_.render_state();
+    t_ = t;
+  }
+  void stop() {
+    {
+      std::lock_guard<std::mutex> lock(m_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    if (thread_.joinable()) thread_.join();
+  }
+  long frames() const { return frames_; }
+
+ private:
+  void run() {
+    std::unique_ptr<Renderer> renderer;
+    try {
+      renderer = std::make_unique<Renderer>(session_.scene(), session_.shape(), session_.truck(), opt_.width, opt_.height);
+    } catch (const std::exception& e) {
+      log_line(cab_, std::string("no frames: ") + e.what());
+      return;
+    }
+    const auto period = std::chrono::duration<double>(1.0 / opt_.fps);
+    auto next = Clock::now();
+    std::unique_lock<std::mutex> lock(m_);
+    while (!stop_) {
+      cv_.wait_until(lock, next, [this] { return stop_; });
+      if (stop_) break;
+      next += std::chrono::duration_cast<Clock::duration>(period);
+      if (next < Clock::now()) next = Clock::now();  // a slow frame skips, never queues
+      const RenderState state = state_;
+      const double t = t_;
+      lock.unlock();
+      publish(renderer->render(state, opt_.view), t);
+      lock.lock();
+    }
+  }
+  void publish(const Image& img, double t) {
+    fk_Frame f{};
+    dds::set_string(f.cab_id, cab_);
+    f.seq = static_cast<uint32_t>(++frames_);
+    f.sim_time_s = t;
+    f.width = static_cast<uint16_t>(img.width);
+    f.height = static_cast<uint16_t>(img.height);
+    std::vector<uint8_t> jpeg;
+    const std::vector<uint8_t>* bytes = &img.rgb;
+    if (opt_.jpeg) {
+      jpeg = encode_jpeg(img, opt_.jpeg_quality);
+      bytes = &jpeg;
+    }
+    dds::set_string(f.encoding, opt_.jpeg ? "jpeg" : "rgb8");
+    f.pixels._buffer = const_cast<uint8_t*>(bytes->data());
+    f.pixels._length = f.pixels._maximum = static_cast<uint32_t>(bytes->size());
+    f.pixels._release = false;
+    writer_.write(f);
+  }
+
+  const CabSession& session_;
+  dds::Writer<fk_Frame> writer_;
+  std::string cab_;
+  Options opt_;
+  std::thread thread_;
+  std::mutex m_;
+  std::condition_variable cv_;
+  RenderState state_;
+  double t_ = 0;
+  bool stop_ = false;
+  std::atomic<long> frames_{0};
+};
+
+// Writes <log>.sig: the log's hash signed with this worker's identity key.
+void sign_log(const std::string& log_file, const std::string& session, const std::string& cab, const dds::SecurityFiles& id) {
+  std::ifstream in(log_file, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  const nlohmann::json sig = security::sign_exam_log(session, cab, text.str(), id.private_key(), id.certificate());
+  std::ofstream out(log_file + ".sig");
+  out << sig.dump(2) << '\n';
+  if (!out) throw std::runtime_error("cannot write " + log_file + ".sig");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"forklift-worker: the real-time simulation of one cab's truck"};
+  app.set_version_flag("--version", FORKLIFT_VERSION);
+  std::string cab, session, scenario_file, log_file, dds_config, replay_file, security_dir, identity;
+  double rate = 60, deadman_s = 0.5, duration = 0, start_timeout = 0;
+  std::optional<int> domain;
+  FramePublisher::Options frames;
+  std::string frame_size = "640x480", view_name_arg = "driver", mode = "training";
+  app.add_option("--cab", cab, "the cab this worker drives (its controls only)");
+  app.add_option("--session", session, "session id, stamped on every status and event");
+  app.add_option("--scenario", scenario_file, "scenario JSON (truck, start pose, load)")->check(CLI::ExistingFile);
+  app.add_option("--rate", rate, "TruckState rate, Hz")->check(CLI::Range(1.0, 1000.0));
+  app.add_option("--log", log_file, "control log to write (default: <session>.ctl in the current directory)");
+  app.add_option("--deadman-timeout", deadman_s, "silence after which the truck is stopped, s")->check(CLI::Range(0.05, 60.0));
+  app.add_option("--duration", duration, "end the session after this much sim time, s (0: run until signalled)")->check(CLI::Range(0.0, 1e6));
+  app.add_option("--start-timeout", start_timeout, "fail if no cab speaks within this many seconds (0: wait)")->check(CLI::Range(0.0, 1e6));
+  app.add_option("--dds-domain", domain, "DDS domain id (default FORKLIFT_DDS_DOMAIN or 0)")->check(CLI::Range(0, 232));
+  app.add_option("--dds-config", dds_config, "Cyclone DDS configuration file (default: loopback)")->check(CLI::ExistingFile);
+  app.add_option("--security", security_dir, "the school's DDS Security folder (scripts/forklift-pki.sh; default FORKLIFT_SECURITY_DIR)");
+  app.add_option("--identity", identity, "this worker's identity in it (default worker.<cab>)");
+  app.add_option("--mode", mode, "training or exam: how the evaluation marks the session")->check(CLI::IsMember({"training", "exam"}));
+  app.add_option("--fps", frames.fps, "frames rendered and published per second (0: none)")->check(CLI::Range(0.0, 240.0));
+  app.add_option("--frame-size", frame_size, "frame size, WxH");
+  app.add_option("--view", view_name_arg, "camera: driver, chase or plan")->check(CLI::IsMember({"driver", "chase", "plan"}));
+  app.add_flag("--jpeg", frames.jpeg, "publish JPEG frames (for cabs on a real network) instead of raw RGB");
+  app.add_option("--replay", replay_file, "re-simulate a control log with no cab and print its final state")->check(CLI::ExistingFile);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help and --version: 0; bad usage: 2, as every program
+  }
+
+  try {
+    if (!replay_file.empty()) return replay_main(replay_file);
+    if (cab.empty() || session.empty()) throw CLI::RequiredError("--cab and --session (or --replay)");
+    if (std::sscanf(frame_size.c_str(), "%dx%d", &frames.width, &frames.height) != 2 || frames.width < 16 ||
+        frames.height < 16 || frames.width > 4096 || frames.height > 4096)
+      throw std::invalid_argument("--frame-size must be WxH, 16 to 4096 each");
+    frames.view = parse_view(view_name_arg);
+    if (identity.empty()) identity = "worker." + cab;
+  } catch (const CLI::Error& e) {
+    return app.exit(e);
+  } catch (const std::exception& e) {
+    std::cerr << "forklift-worker: " << e.what() << '\n';
+    return 2;
+  }
+
+  std::signal(SIGTERM, on_signal);
+  std::signal(SIGINT, on_signal);
+
+  // Set-up failures are reported as a failed session when DDS is up, and always on stderr.
+  std::unique_ptr<dds::Participant> participant;
+  // The session's status goes to the server (default partition) and to the cab (its own).
+  std::unique_ptr<dds::Writer<fk_SessionStatus>> status_writer, cab_status_writer;
+  auto publish_status = [&](const char* state, double t, const std::string& reason) {
+    if (!status_writer) return;
+    fk_SessionStatus s{};
+    dds::set_string(s.session_id, session);
+    dds::set_string(s.cab_id, cab);
+    dds::set_string(s.state, state);
+    s.sim_time_s = t;
+    dds::set_string(s.reason, reason);
+    status_writer->write(s);
+    if (cab_status_writer) cab_status_writer->write(s);
+  };
+
+  dds::DomainSettings dds_settings;
+  try {
+    dds_settings = dds::DomainSettings::resolve(domain, dds_config, security_dir, identity);
+    // A licence exam's result must be trusted: authenticated cab, encrypted traffic.
+    if (mode == "exam" && !dds_settings.secure())
+      throw std::runtime_error("exam mode needs DDS Security: give --security DIR (see scripts/forklift-pki.sh)");
+  } catch (const std::exception& e) {
+    std::cerr << "forklift-worker: " << e.what() << '\n';
+    return 2;
+  }
+
+  try {
+    participant = std::make_unique<dds::Participant>(dds_settings);
+    status_writer = std::make_unique<dds::Writer<fk_SessionStatus>>(*participant);
+    cab_status_writer = std::make_unique<dds::Writer<fk_SessionStatus>>(*participant, dds::cab_partition(cab));
+    dds::Writer<fk_TruckState> state_writer(*participant, dds::cab_partition(cab));
+    dds::Writer<fk_Event> event_writer(*participant);
+    dds::Writer<fk_Score> score_writer(*participant);
+
+    Scene scene;
+    if (scenario_file.empty()) scene.scenario = default_scenario(FORKLIFT_DATA_DIR);
+    else scene = load_scene(scenario_file, FORKLIFT_DATA_DIR);
+    CabSession cab_session(scene, FORKLIFT_DATA_DIR, IntegratorOptions{}, kTick, mode);
+    const Simulation& sim = cab_session.sim();
+    const TruckParams& truck = cab_session.truck();
+    const std::string scenario_path = scenario_file.empty() ? "" : std::filesystem::absolute(scenario_file).string();
+    if (log_file.empty()) log_file = session + ".ctl";
+    ControlLogWriter log(log_file, cab_session.log_header(session, cab, scenario_path));
+    // Only now, with the session built, does the cab's writer match: a sample sent on that
+    // match is read, not overwritten while the scene loads.
+    dds::Reader<fk_Controls> controls(*participant, dds::cab_partition(cab));
+    dds::WaitSet waitset(*participant);
+    waitset.attach_reader(controls.handle());
+
+    uint32_t event_seq = 0;
+    auto publish_at = [&](const std::string& kind, int worry, double x, double y, const std::string& details) {
+      fk_Event e{};
+      dds::set_string(e.session_id, session);
+      e.seq = ++event_seq;
+      e.sim_time_s = sim.time();
+      dds::set_string(e.kind, kind);
+      e.worry_level = static_cast<uint8_t>(worry);
+      e.x_m = x;
+      e.y_m = y;
+      dds::set_string(e.details, details);
+      event_writer.write(e);
+    };
+    auto publish_event = [&](const char* kind, int worry, const std::string& details) {
+      publish_at(kind, worry, sim.state()[kX], sim.state()[kY], details);
+    };
+    std::vector<SessionEvent> tick_events;
+    // Each event goes out on DDS and into the session log, where a replay finds it again.
+    auto report = [&](const std::vector<SessionEvent>& found) {
+      for (const SessionEvent& e : found) {
+        publish_at(e.kind, e.worry_level, e.x_m, e.y_m, e.details);
+        log.note(event_line(cab_session.ticks(), e));
+      }
+    };
+
+    // Controls: refuse what must not reach the integrator, keep the newest good sample.
+    long rejected_non_finite = 0, rejected_range = 0, rejected_cab = 0;
+    std::optional<ControlSample> pending;
+    Clock::time_point last_valid{};
+    bool have_cab = false;
+    auto take_controls = [&] {
+      controls.take_each([&](const fk_Controls& c) {
+        ControlSample s{c.seq, c.steer_rad, c.accelerator, c.brake, c.lift, c.tilt, c.side_shift, c.horn, c.parking_brake};
+        if (cab != c.cab_id) {
+          ++rejected_cab;
+          log_line(cab, "rejected control " + std::to_string(c.seq) + " from cab '" + std::string(c.cab_id) + "'");
+          return;
+        }
+        if (const auto problem = control_problem(s)) {
+          ++(problem->find("finite") != std::string::npos ? rejected_non_finite : rejected_range);
+          log_line(cab, "rejected control " + std::to_string(c.seq) + ": " + *problem);
+          return;
+        }
+        pending = s;
+        last_valid = Clock::now();
+        have_cab = true;
+      });
+    };
+
+    // Waiting: the session's clock starts with the cab's first good sample.
+    publish_status("waiting", 0, "");
+    const Clock::time_point created = Clock::now();
+    while (!g_stop && !have_cab) {
+      waitset.wait(0.05);
+      take_controls();
+      if (start_timeout > 0 && std::chrono::duration<double>(Clock::now() - created).count() > start_timeout) {
+        publish_status("failed", 0, "no controls from cab " + cab + " within the start timeout");
+        log_line(cab, "no controls within " + std::to_string(start_timeout) + " s; giving up");
+        dds_sleepfor(DDS_MSECS(200));  // let the reliable status reach late readers
+        return 5;
+      }
+    }
+    publish_status("running", 0, "");
+    log_line(cab, "session " + session + " running");
+    FramePublisher frame_publisher(cab_session, *participant, cab, frames);
+    frame_publisher.offer(0);
+    frame_publisher.start();
+
+    DriverInputs applied{};
+    uint32_t applied_seq = 0;
+    bool deadman = false;
+    long deadman_count = 0;
+    int64_t tick = 0;
+    double next_state_t = 0;
+    const Clock::time_point start = Clock::now();
+    auto publish_state = [&] {
+      const Outputs o = sim.outputs();
+      fk_TruckState s{};
+      dds::set_string(s.cab_id, cab);
+      dds::set_string(s.session_id, session);
+      s.sim_time_s = sim.time();
+      s.x_m = o.q[kX]; s.y_m = o.q[kY]; s.z_m = o.q[kZ];
+      s.yaw_rad = o.q[kAwc]; s.roll_rad = o.q[kAuc]; s.pitch_rad = o.q[kAvc];
+      s.speed_m_s = o.forward_speed_m_s;
+      s.steer_rad = o.q[kAwr3]; s.tilt_rad = o.q[kBeta]; s.lift_m = o.q[kS]; s.side_shift_m = o.q[kR];
+      s.fz_front_left_N = o.wheels[kFrontLeft].fz_N;
+      s.fz_front_right_N = o.wheels[kFrontRight].fz_N;
+      s.fz_rear_N = o.wheels[kRear].fz_N;
+      s.load_attached = sim.dynamics().load().has_value();
+      s.load_mass_kg = s.load_attached ? sim.dynamics().load()->mass_kg : 0.0;
+      s.stability_margin = stability_margin(o);
+      s.applied_control_sequence = applied_seq;
+      s.deadman = deadman;
+      state_writer.write(s);
+    };
+
+    // Real-time health: how far the simulation fell behind the wall clock, and how many states
+    // went out more than one state period after they were due.
+    double max_lag_s = 0, max_lag_at_s = 0;
+    long late_states = 0;
+    bool echo = false;  // a newly applied control owes the cab a state
+    std::string end_reason = "signal";
+    while (!g_stop) {
+      take_controls();
+      const double wall = std::chrono::duration<double>(Clock::now() - start).count();
+      // Dead man: a silent cab gets throttle off and full brake, once, with an event.
+      const double silence = std::chrono::duration<double>(Clock::now() - last_valid).count();
+      if (!deadman && silence > deadman_s) {
+        deadman = true;
+        ++deadman_count;
+        pending.reset();
+        // The evaluation reports it (deadman_stop) on this tick, in the log as well.
+        log_line(cab, "cab silent for " + std::to_string(silence) + " s: dead-man stop");
+        applied = deadman_inputs(applied, truck);
+        cab_session.set_inputs(applied);
+        cab_session.set_deadman(true);
+        log.input(tick, applied_seq, applied);
+        log.note("dm " + std::to_string(tick) + " 1");
+      } else if (deadman && pending) {
+        deadman = false;
+        cab_session.set_deadman(false);
+        log.note("dm " + std::to_string(tick) + " 0");
+        publish_event("controls_resumed", 0, "controls from the cab again");
+        log.note("w " + std::to_string(tick) + " controls_resumed 0");  // a worker event, not the evaluation's
+        log_line(cab, "controls resumed");
+      }
+      if (pending) {  // applied at the start of the next physics tick
+        applied = driver_inputs(*pending, truck);
+        applied_seq = pending->seq;
+        pending.reset();
+        cab_session.set_inputs(applied);
+        log.input(tick, applied_seq, applied);
+        echo = true;
+      }
+      // Physics catches up with the wall clock, one tick at a time; how far behind it was first.
+      if (wall - sim.time() > max_lag_s) { max_lag_s = wall - sim.time(); max_lag_at_s = sim.time(); }
+      const int64_t due = static_cast<int64_t>(std::floor(wall / kTick)) + 1;
+      bool stepped = false;
+      while (tick < due) {
+        cab_session.tick(tick_events);
+        ++tick;
+        stepped = true;
+        report(tick_events);
+        // The evaluation says when the time allowed is up (its time_limit fault).
+        for (const SessionEvent& e : tick_events)
+          if (e.kind == "time_limit") end_reason = "time_limit";
+        tick_events.clear();
+        if (end_reason == "time_limit") break;
+        if (sim.time() + 1e-12 >= next_state_t) {
+          const double late = std::chrono::duration<double>(Clock::now() - start).count() - next_state_t;
+          if (late > 1.0 / rate && ++late_states <= 5)
+            log_line(cab, "state for t = " + std::to_string(next_state_t) + " s went out " + std::to_string(late * 1e3) + " ms late");
+          publish_state();
+          frame_publisher.offer(sim.time());
+          next_state_t += 1.0 / rate;
+          echo = false;
+        }
+        if (duration > 0 && sim.time() >= duration - 1e-12) break;
+        if (cab_session.task_done_and_stopped()) { end_reason = "task_complete"; break; }
+      }
+      if (end_reason != "signal") break;
+      if (echo && stepped) publish_state();  // the cab sees its command's effect without waiting for the 60 Hz slot
+      if (duration > 0 && sim.time() >= duration - 1e-12) { end_reason = "duration"; break; }
+      const double until_next = tick * kTick - std::chrono::duration<double>(Clock::now() - start).count();
+      if (until_next > 0) waitset.wait(until_next);
+    }
+
+    frame_publisher.stop();
+    // The mark: end-of-session checks (parking, the task), then the Score, reliable and durable.
+    const Score score = cab_session.finish(end_reason, tick_events);
+    report(tick_events);
+    log.note(score_line(score));
+    log.finish(tick, sim.state());
+    // With an identity, the worker signs the finished log (controls, events, score) before the
+    // score goes out: the server chains it into the exam records (forklift-menu verify).
+    if (dds_settings.secure()) sign_log(log_file, session, cab, *dds_settings.security);
+    publish_state();
+    fk_Score sc{};
+    dds::set_string(sc.session_id, session);
+    sc.mark = score.mark;
+    sc.passed = score.passed;
+    std::vector<fk_FaultCount> counts;
+    for (const auto& [kind, n] : score.counts) {
+      fk_FaultCount fc{};
+      dds::set_string(fc.kind, kind);
+      fc.count = static_cast<uint32_t>(n);
+      counts.push_back(fc);
+      if (counts.size() == 64) break;  // the IDL's bound
+    }
+    sc.counts._buffer = counts.data();
+    sc.counts._length = sc.counts._maximum = static_cast<uint32_t>(counts.size());
+    sc.counts._release = false;
+    score_writer.write(sc);
+    publish_status("ended", sim.time(), end_reason);
+    log_line(cab, "session " + session + " ended (" + end_reason + ") at t = " + std::to_string(sim.time()) + " s");
+    nlohmann::json out = {
+        {"session", session}, {"cab", cab}, {"sim_time_s", sim.time()}, {"ticks", tick},
+        {"final_pose", pose_json(sim.state())}, {"state_hex", state_hex(sim.state())},
+        {"rejected_controls", {{"non_finite", rejected_non_finite}, {"out_of_range", rejected_range}, {"wrong_cab", rejected_cab}}},
+        {"deadman_stops", deadman_count}, {"integrator_steps", sim.stats().steps},
+        {"max_lag_ms", max_lag_s * 1e3}, {"max_lag_at_s", max_lag_at_s}, {"late_states", late_states},
+        {"events", event_seq}, {"frames", frame_publisher.frames()},
+        {"score", {{"mark", score.mark}, {"passed", score.passed}, {"points", score.points}, {"counts", score.counts},
+                   {"automatic_failures", score.automatic_failures}, {"task_completed", score.task_completed},
+                   {"end_reason", score.end_reason}, {"mode", score.mode}}}};
+    std::cout << out.dump(2) << std::endl;
+    dds_sleepfor(DDS_MSECS(200));  // let the final reliable status reach its readers
+    return 0;
+  } catch (const std::exception& e) {
+    log_line(cab, std::string("failed: ") + e.what());
+    publish_status("failed", 0, e.what());
+    dds_sleepfor(DDS_MSECS(200));
+    return 3;
+  }
+}

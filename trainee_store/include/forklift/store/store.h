@@ -1,0 +1,290 @@
+// The trainee store: pupils, users and roles, cabs, sessions, events, scores, theory and practical
+// exam records, licence records, session logs, theory papers, truck paths and the audit log of
+// changes to pupils' records. One narrow interface; SQLite is the embedded
+// default (one file, WAL, foreign keys, versioned migrations at open), and every SQL statement
+// lives in the backend's source so that a PostgreSQL backend can follow.
+//
+// Contract: every call is atomic. Bad arguments (unknown ids, empty names, a mode that is not
+// "training" or "exam") throw StoreError with kind kInvalid or kNotFound; a duplicate unique value
+// (username, cab id) throws kConflict; I/O or database failure throws kIo. Times are ISO-8601 UTC
+// strings ("2026-11-23T10:30:00Z"). A Store object is used from one thread at a time; open one per
+// thread (SQLite's busy timeout lets them share the file).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace forklift::store {
+
+class StoreError : public std::runtime_error {
+ public:
+  enum Kind { kInvalid, kNotFound, kConflict, kIo };
+  StoreError(Kind kind, const std::string& what) : std::runtime_error(what), kind_(kind) {}
+  Kind kind() const { return kind_; }
+
+ private:
+  Kind kind_;
+};
+
+enum class Role { kAdmin, kInstructor, kExaminer, kPupil };
+const char* role_name(Role role);                          // "admin", "instructor", "examiner", "pupil"
+std::optional<Role> parse_role(const std::string& name);
+
+struct User {
+  int64_t id = 0;
+  std::string username;
+  std::string password_hash;  // opaque to the store (the server hashes)
+  Role role = Role::kPupil;
+  int64_t school_id = 0;
+  std::optional<int64_t> pupil_id;  // set for role pupil: the pupil record this login is
+};
+
+struct Pupil {
+  int64_t id = 0;
+  int64_t school_id = 0;
+  std::string name;
+  std::string email;  // may be empty
+  std::string created_at;
+};
+
+struct Cab {
+  std::string id;
+  int64_t school_id = 0;
+  std::string last_seen_at;  // empty if never seen
+};
+
+struct Session {
+  int64_t id = 0;
+  std::string public_id;  // the session id workers and DDS use, e.g. "s-000042"
+  int64_t pupil_id = 0;
+  std::string cab_id;
+  std::string scenario;
+  std::string mode;       // "training" or "exam"
+  std::string state;      // "starting", "waiting", "running", "ended", "failed", "aborted"
+  std::string reason;
+  std::optional<int64_t> examiner_id;  // a user
+  std::string created_at, ended_at;    // ended_at empty while open
+  std::optional<double> mark;
+  std::optional<bool> passed;
+};
+
+struct EventRecord {
+  std::string session_public_id;
+  int64_t seq = 0;  // per session, from 1
+  double sim_time_s = 0;
+  std::string kind;
+  int worry_level = 0;
+  double x_m = 0, y_m = 0;
+  std::string details;
+};
+
+struct ScoreRecord {
+  std::string session_public_id;
+  double mark = 0;
+  bool passed = false;
+  std::map<std::string, int> counts;  // faults by kind
+};
+
+struct ExamRecord {
+  int64_t id = 0;
+  int64_t pupil_id = 0;
+  std::string kind;  // "theory" or "practical"
+  std::optional<std::string> session_public_id;  // practical exams
+  double score = 0;  // theory: fraction correct in [0, 1]; practical: the mark
+  bool passed = false;
+  std::optional<int64_t> examiner_id;
+  std::string taken_at;
+  std::string details;  // JSON text, free form (e.g. the theory answers)
+};
+
+struct LicenceRecord {
+  int64_t id = 0;
+  int64_t pupil_id = 0;
+  std::string issued_at;
+  std::string reevaluation_due;  // issued_at + 3 years (OSHA 1910.178(l)(4))
+  std::string issued_by;         // username
+};
+
+// One point of a session's truck path, downsampled from the worker's TruckState (the server keeps
+// about two a second). World frame: x, y on the floor, metres; yaw in radians, + turning left.
+struct PathPoint {
+  double sim_time_s = 0;
+  double x_m = 0, y_m = 0;  // chassis CoG
+  double yaw_rad = 0;
+  double speed_m_s = 0;     // along the heading
+  double lift_m = 0;        // fork lift
+};
+
+// A theory exam as handed out: the questions drawn (in order) from the bank with `seed`, so that
+// the same bank and seed give the same paper. Marked once: `exam_id` then names its ExamRecord.
+struct TheoryAttempt {
+  int64_t id = 0;
+  int64_t pupil_id = 0;
+  int64_t seed = 0;                  // in [0, 2^53): exact in JSON
+  std::string questions;             // JSON text, opaque to the store (the question ids in order)
+  std::string started_at;
+  std::optional<int64_t> started_by;  // the user who asked for the paper
+  std::optional<int64_t> exam_id;     // set when marked
+};
+
+// Who made a change: a user, or a part of the platform writing on its own ("worker", "server").
+struct Actor {
+  std::optional<int64_t> user_id;  // none for automatic writes
+  std::string name;                // the username, or "worker" / "server"
+};
+
+// One row of the audit log: a change to a pupil's record, who made it, and what changed.
+struct AuditRecord {
+  int64_t id = 0;
+  std::string at;  // ISO-8601; empty when adding: now
+  Actor actor;
+  int64_t pupil_id = 0;
+  std::string action;          // e.g. "pupil_created", "pupil_edited", "session_started"
+  std::string details = "{}";  // a JSON object as text (an edit's before and after)
+};
+
+// One entry of the exam hash chain: JSON text made and checked by the server's evidence code
+// (security/include/forklift/security/evidence.h), opaque to the store.
+struct ChainEntry {
+  int64_t seq = 0;  // from 1, without gaps
+  std::string session_public_id;
+  std::string entry;
+};
+
+// Which audit rows to list: one pupil's (pupil_id set), else every pupil's of one school
+// (school_id set), else all.
+struct AuditScope {
+  std::optional<int64_t> pupil_id;
+  std::optional<int64_t> school_id;
+};
+
+// Everything about one pupil, aggregated by the store.
+struct PupilHistory {
+  Pupil pupil;
+  std::vector<Session> sessions;  // oldest first
+  std::vector<ExamRecord> exams;  // oldest first
+  std::map<std::string, int> faults_by_kind;  // over all their sessions' events with worry_level > 0
+  std::optional<double> trend;  // least-squares slope of mark per session over marked sessions (>= 2), else none
+  std::optional<LicenceRecord> licence;  // the latest
+  bool reevaluation_overdue = false;     // licence.reevaluation_due before `now`
+};
+
+class Store {
+ public:
+  // Opens (creating if need be) an SQLite database and applies pending migrations.
+  static std::unique_ptr<Store> open_sqlite(const std::string& path);
+  virtual ~Store() = default;
+
+  virtual int schema_version() = 0;
+
+  // Runs `writes` (calls on this Store) as one transaction: all of them or, if it throws, none
+  // (the exception propagates). For imports and bulk loads: one commit instead of one per row.
+  // Batches do not nest (kInvalid).
+  virtual void batch(const std::function<void()>& writes) = 0;
+
+  virtual int64_t create_school(const std::string& name) = 0;
+  virtual int64_t create_user(const std::string& username, const std::string& password_hash, Role role,
+                              int64_t school_id, std::optional<int64_t> pupil_id = std::nullopt) = 0;
+  virtual std::optional<User> find_user(const std::string& username) = 0;
+  virtual std::optional<User> get_user(int64_t id) = 0;
+
+  virtual int64_t create_pupil(int64_t school_id, const std::string& name, const std::string& email) = 0;
+  virtual std::optional<Pupil> get_pupil(int64_t id) = 0;
+  // Replaces a pupil's name and email; kNotFound for an unknown pupil, kInvalid for an empty name.
+  virtual void update_pupil(int64_t id, const std::string& name, const std::string& email) = 0;
+  // Pupils of a school whose name contains `search` (case-insensitive; empty: all), by name.
+  virtual std::vector<Pupil> list_pupils(int64_t school_id, const std::string& search, int limit, int offset) = 0;
+
+  // A cab announced itself (inserted if new, last_seen_at set to now).
+  virtual void cab_seen(const std::string& cab_id, int64_t school_id, const std::string& now) = 0;
+  virtual std::vector<Cab> list_cabs(int64_t school_id) = 0;
+
+  // New session in state "starting"; public_id assigned by the store ("s-" + zero-padded id).
+  virtual Session create_session(int64_t pupil_id, const std::string& cab_id, const std::string& scenario,
+                                 const std::string& mode, std::optional<int64_t> examiner_id, const std::string& now) = 0;
+  virtual std::optional<Session> get_session(const std::string& public_id) = 0;
+  virtual std::vector<Session> list_sessions_for_pupil(int64_t pupil_id) = 0;
+  // Sessions not yet ended, failed or aborted (a restarted server resumes supervising these).
+  virtual std::vector<Session> open_sessions() = 0;
+  // Moves a session to `state`. A session that is ended, failed or aborted never changes again:
+  // the call then returns false and changes nothing. Sets ended_at for those three states.
+  virtual bool set_session_state(const std::string& public_id, const std::string& state, const std::string& reason,
+                                 const std::string& now) = 0;
+
+  // Exactly once: a second event with the same (session, seq) is ignored and returns false.
+  virtual bool add_event(const EventRecord& e) = 0;
+  virtual std::vector<EventRecord> list_events(const std::string& session_public_id) = 0;
+  // Exactly once per session: the first score is kept, later ones return false. Also sets the
+  // session's mark and passed, and, for an exam session, adds its practical exam record. Written
+  // with synchronous=FULL (an exam result must survive a power cut).
+  virtual bool set_score(const ScoreRecord& s, const std::string& now) = 0;
+  virtual std::optional<ScoreRecord> get_score(const std::string& session_public_id) = 0;
+
+  virtual int64_t add_exam(const ExamRecord& r) = 0;  // id ignored; synchronous=FULL
+  virtual std::optional<ExamRecord> get_exam(int64_t id) = 0;  // nullopt if no such exam
+
+  // A theory paper handed out (id ignored, exam_id must be empty; kNotFound for an unknown pupil
+  // or user). Returns its id.
+  virtual int64_t create_theory_attempt(const TheoryAttempt& a) = 0;
+  virtual std::optional<TheoryAttempt> get_theory_attempt(int64_t id) = 0;
+  // Marks an attempt exactly once: adds `r` (kind "theory", the attempt's pupil) as its exam record
+  // and links it, in one transaction written with synchronous=FULL. kNotFound for an unknown
+  // attempt, kInvalid if `r` is not a theory record of the attempt's pupil, kConflict if the
+  // attempt was already marked. Returns the exam record's id.
+  virtual int64_t finish_theory_attempt(int64_t attempt_id, const ExamRecord& r) = 0;
+
+  // Appends points to a session's truck path; a point at a sim time already stored is ignored
+  // (a restarted ingest may see the same state twice). kNotFound for an unknown session.
+  virtual void add_path_points(const std::string& session_public_id, const std::vector<PathPoint>& points) = 0;
+  // The session's path in sim-time order (empty if none was stored); kNotFound for an unknown session.
+  virtual std::vector<PathPoint> list_path(const std::string& session_public_id) = 0;
+  virtual int64_t add_licence(int64_t pupil_id, const std::string& issued_at, const std::string& issued_by) = 0;
+
+  // The session's control log and session log, stored as text.
+  virtual void put_session_log(const std::string& session_public_id, const std::string& name, const std::string& text) = 0;
+  virtual std::optional<std::string> get_session_log(const std::string& session_public_id, const std::string& name) = 0;
+
+  // The exam hash chain, append-only (the schema refuses UPDATE and DELETE). kConflict unless
+  // seq follows the last entry's and the session has none yet; kNotFound for an unknown session.
+  virtual void append_chain_entry(const ChainEntry& e) = 0;
+  virtual std::optional<ChainEntry> last_chain_entry() = 0;
+  virtual std::optional<ChainEntry> get_chain_entry(const std::string& session_public_id) = 0;
+  virtual std::vector<ChainEntry> list_chain() = 0;  // in order
+  // Exam sessions with a signed log ("signature" session log) but no chain entry yet, oldest
+  // first: a server that stopped between a worker's exit and the chaining picks them up again.
+  virtual std::vector<std::string> unchained_signed_exams() = 0;
+
+  // The audit log, append-only: the schema itself refuses UPDATE and DELETE on it. Add a row in
+  // the same batch() as the change it records, so that both commit or neither. kNotFound for an
+  // unknown pupil or actor user; kInvalid for an empty actor name or action, or details that are
+  // not a JSON object. Returns the row's id.
+  virtual int64_t add_audit(const AuditRecord& r) = 0;
+  // Rows in `scope`, newest first.
+  virtual std::vector<AuditRecord> list_audit(const AuditScope& scope, int limit, int offset) = 0;
+
+  // set_score and set_session_state with their audit row ("session_scored"; "session_<state>",
+  // with the state before and after) in one transaction, for writers outside the HTTP API (the
+  // DDS ingest: actor {nullopt, "worker"}). The row is written only when the call changes
+  // something; the return value is the plain call's.
+  virtual bool set_score_audited(const ScoreRecord& s, const std::string& now, const Actor& actor) = 0;
+  virtual bool set_session_state_audited(const std::string& public_id, const std::string& state,
+                                         const std::string& reason, const std::string& now, const Actor& actor) = 0;
+
+  // PupilHistory for `pupil_id`, with overdue computed against `now`; nullopt if no such pupil.
+  virtual std::optional<PupilHistory> history(int64_t pupil_id, const std::string& now) = 0;
+};
+
+// Whether a session in `state` is over (ended, failed or aborted): such a session never changes.
+bool is_terminal(const std::string& state);
+
+// ISO-8601 UTC time of the system clock, and the date `years` after an ISO time.
+std::string now_iso8601();
+std::string add_years_iso8601(const std::string& iso, int years);
+
+}  // namespace forklift::store
