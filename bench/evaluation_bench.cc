@@ -1,10 +1,9 @@
 // forklift-bench-evaluation: what the driver evaluation adds to a 1 ms physics tick, beside the
 // dynamics and the collision step measured in the same run.
 //
-// Design: a scripted session runs the worker's pipeline tick by tick (inputs, Simulation::
-// advance_to, Warehouse::step, the evaluator's inputs (Simulation::outputs and body_poses),
-// Evaluator::tick); each stage is timed with the steady clock, and the session restarts when
-// its script ends. Two scenes:
+// Design: a scripted session runs the worker's step() tick by tick; each of its stages (dynamics,
+// collision and handling, the evaluator's inputs, the evaluation) is timed with the steady clock
+// through a StageObserver, and the session restarts when its script ends. Two scenes:
 //   yard       first_drive_yard with the shipped clean exam script (a 150 s drive over the
 //              ramp; 2 zones, a route, 5 task steps, a few objects)
 //   warehouse  practical_exam (the full warehouse: 13 zones, a 3 m route, about 70 objects)
@@ -21,84 +20,56 @@
 //   forklift-bench-evaluation [Google Benchmark flags, e.g. --benchmark_repetitions=5]
 #include <benchmark/benchmark.h>
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
 
-#include "forklift/collision/collision.h"
-#include "forklift/evaluation/evaluation.h"
-#include "forklift/scene/scene.h"
-#include "forklift/session/controls.h"
-#include "forklift/session/session_log.h"
-#include "forklift/script/script.h"
+#include "forklift/session/session.h"
 
 using namespace forklift;
 using Clock = std::chrono::steady_clock;
 
 namespace {
 
-constexpr double kTick = 1e-3;
 const std::string kData = FORKLIFT_DATA_DIR;
 
-struct Change {
-  int64_t tick;
-  DriverInputs u;
-};
-
-// One scripted session, restartable.
+// One scripted session through the session's own step(), restartable.
 struct Run {
-  Scene scene;
-  TruckParams truck;
-  TruckShape shape;
-  const Rules* rules;
-  std::vector<Change> changes;
+  SessionModel model;
+  std::vector<InputChange> changes;
   int64_t end = 0;
-  StateVector x0;
-  std::unique_ptr<TruckDynamics> dynamics;
-  std::unique_ptr<Simulation> sim;
-  std::unique_ptr<Warehouse> warehouse;
-  std::unique_ptr<Evaluator> evaluator;
-  int64_t tick = 0;
+  SessionState first, state;
+  std::unique_ptr<SessionWorkspace> ws;
   size_t next = 0;
-  DriverInputs u;
-  std::vector<EvaluationEvent> events;
+  SessionInputs held;
+  std::vector<SessionEvent> found;
+  size_t events = 0;
 
-  Run(const std::string& scenario, const std::string& script, double max_s, const Rules& r) : rules(&r) {
-    scene = load_scene(scenario, kData);
-    truck = load_truck(scene.scenario.truck_file);
-    shape = load_truck_shape(scene.scenario.truck_file, kData);
-    for (const ScriptRow& row : read_script(script)) {
-      const ControlSample c{0, row.steer, row.accelerator, row.brake, row.lift, row.tilt, row.shift, false, row.parking_brake};
-      changes.push_back({int64_t(std::ceil(row.t / kTick - 1e-6)), driver_inputs(c, truck)});
-    }
-    end = std::min<int64_t>(changes.back().tick + 1, int64_t(max_s / kTick));
-    Environment env;
-    env.ground = scene.ground;
-    TruckDynamics d(truck, env);
-    x0 = d.rest_state(scene.scenario.x_m, scene.scenario.y_m, scene.scenario.yaw_rad);
-    d.settle_static(x0);
+  Run(const std::string& scenario, const std::string& script, double max_s) {
+    SessionSpec spec;
+    spec.scenario_file = scenario;
+    spec.mode = "exam";
+    model = load_session_model(spec, kData);
+    changes = script_changes(script, model);
+    end = std::min<int64_t>(changes.back().tick + 1, int64_t(max_s / model.tick_s));
+    first = initial_state(model);
     restart();
   }
 
   void restart() {
-    Environment env;
-    env.ground = scene.ground;
-    dynamics = std::make_unique<TruckDynamics>(truck, env);
-    sim = std::make_unique<Simulation>(*dynamics, x0, IntegratorOptions{});
-    warehouse = std::make_unique<Warehouse>(scene, shape, truck);
-    evaluator = std::make_unique<Evaluator>(*rules, scene, truck, shape, Mode::kExam);
-    tick = 0;
+    state = first;
+    ws = std::make_unique<SessionWorkspace>(model);
     next = 0;
-    events.clear();
+    held = {};
+    events = 0;
+  }
+  void apply_inputs() {
+    while (next < changes.size() && changes[next].tick <= state.tick) held = changes[next++].inputs;
   }
 };
-
-const Rules& rules() {
-  static const Rules r = load_rules(kData + "/evaluation/rules.json");
-  return r;
-}
 
 struct Scenes {
   const char* name;
@@ -111,44 +82,41 @@ const std::string kScript = kData + "/evaluation/scripts/first_drive_yard_exam.c
 
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
+// Times each stage of step() with the steady clock.
+struct StageTimes : StageObserver {
+  Clock::time_point t0;
+  double last = 0, total = 0;
+  std::array<double, 4> sum{};
+  void begin(Stage) override { t0 = Clock::now(); }
+  void end(Stage s) override {
+    const double d = since(t0);
+    sum[size_t(s)] += d;
+    last += d;
+  }
+};
+
 void BM_Pipeline(benchmark::State& state, Scenes sc) {
-  Run run(sc.scenario, kScript, sc.max_s, rules());
-  double dyn = 0, col = 0, outs = 0, eval = 0;
+  Run run(sc.scenario, kScript, sc.max_s);
+  StageTimes times;
   for (auto _ : state) {
-    if (run.tick >= run.end) run.restart();  // a few milliseconds, once per session; not timed
-    while (run.next < run.changes.size() && run.changes[run.next].tick <= run.tick) {
-      run.u = run.changes[run.next++].u;
-      run.sim->set_inputs(run.u);
-    }
-    auto t0 = Clock::now();
-    run.sim->advance_to((run.tick + 1) * kTick);
-    const double t_dyn = since(t0);
-    t0 = Clock::now();
-    const StepReport& report = run.warehouse->step(*run.sim);
-    const double t_col = since(t0);
-    t0 = Clock::now();
-    const Outputs out = run.sim->outputs();
-    const BodyPoses poses = body_poses(run.truck, out.q);
-    const double t_out = since(t0);
-    const TickInput in{run.sim->time(), out, poses, run.u, report, run.warehouse->pallets(), run.sim->dynamics().load()};
-    t0 = Clock::now();
-    run.evaluator->tick(in, run.events);
-    const double t_eval = since(t0);
-    ++run.tick;
-    dyn += t_dyn;
-    col += t_col;
-    outs += t_out;
-    eval += t_eval;
-    state.SetIterationTime(t_dyn + t_col + t_out + t_eval);
+    if (run.state.tick >= run.end) run.restart();  // a few milliseconds, once per session; not timed
+    run.apply_inputs();
+    times.last = 0;
+    step(run.model, run.state, *run.ws, run.held, run.found, &times);
+    run.events += run.ws->evaluation_events().size();
+    run.found.clear();
+    state.SetIterationTime(times.last);
   }
   const auto per_tick = [&](double total) { return benchmark::Counter(total * 1e6, benchmark::Counter::kAvgIterations); };
+  const double dyn = times.sum[size_t(Stage::kDynamics)], col = times.sum[size_t(Stage::kCollision)];
+  const double eval = times.sum[size_t(Stage::kEvaluation)];
   state.counters["dynamics_us"] = per_tick(dyn);
   state.counters["collision_us"] = per_tick(col);
-  state.counters["outputs_us"] = per_tick(outs);
+  state.counters["outputs_us"] = per_tick(times.sum[size_t(Stage::kOutputs)]);
   state.counters["evaluation_us"] = per_tick(eval);
   state.counters["eval/dyn"] = eval / dyn;
   state.counters["eval/coll"] = eval / col;
-  state.counters["events"] = double(run.events.size());
+  state.counters["events"] = double(run.events);
 }
 
 // What a tick hands the evaluator, kept by value.
@@ -163,24 +131,25 @@ struct Recorded {
 };
 
 void BM_EvaluatorTick(benchmark::State& state, Scenes sc) {
-  Run run(sc.scenario, kScript, sc.max_s, rules());
+  Run run(sc.scenario, kScript, sc.max_s);
   std::vector<Recorded> rec;
   const int64_t n = std::min<int64_t>(20000, run.end);
   rec.reserve(n);
-  for (; run.tick < n; ++run.tick) {
-    while (run.next < run.changes.size() && run.changes[run.next].tick <= run.tick) run.sim->set_inputs(run.u = run.changes[run.next++].u);
-    run.sim->advance_to((run.tick + 1) * kTick);
-    const StepReport& report = run.warehouse->step(*run.sim);
-    const Outputs out = run.sim->outputs();
-    rec.push_back({run.sim->time(), out, body_poses(run.truck, out.q), run.u, report, run.warehouse->pallets(), run.sim->dynamics().load()});
+  while (run.state.tick < n) {
+    run.apply_inputs();
+    step(run.model, run.state, *run.ws, run.held, run.found);
+    run.found.clear();
+    rec.push_back({run.state.t_s, run.ws->outputs(), run.ws->poses(), run.held.driver, run.ws->report(),
+                   run.state.handling.pallets(), run.state.load});
   }
   size_t i = rec.size();
   std::unique_ptr<Evaluator> ev;
   std::vector<EvaluationEvent> events;
+  const SessionModel& m = run.model;
   for (auto _ : state) {
     if (i == rec.size()) {
       state.PauseTiming();
-      ev = std::make_unique<Evaluator>(rules(), run.scene, run.truck, run.shape, Mode::kExam);
+      ev = std::make_unique<Evaluator>(m.rules, m.scene, m.truck, m.shape, Mode::kExam);
       events.clear();
       i = 0;
       state.ResumeTiming();

@@ -4,6 +4,7 @@
 // rendered on their own clock in their own thread. Everything applied is logged so that
 // --replay reproduces it.
 #include <CLI/CLI.hpp>
+#include <cstdlib>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -18,10 +19,11 @@
 #include <thread>
 
 #include "forklift/dynamics/stability.h"
-#include "forklift/session/cab_session.h"
-#include "forklift/security/evidence.h"
 #include "forklift/protocol/protocol.h"
 #include "forklift/render/render.h"
+#include "forklift/security/evidence.h"
+#include "forklift/session/controls.h"
+#include "forklift/session/session.h"
 
 using namespace forklift;
 using Clock = std::chrono::steady_clock;
@@ -30,8 +32,6 @@ namespace {
 
 std::atomic<bool> g_stop{false};
 void on_signal(int) { g_stop = true; }
-
-constexpr double kTick = 1e-3;  // physics tick: controls are applied on tick boundaries
 
 void log_line(const std::string& cab, const std::string& text) {
   std::cerr << "forklift-worker[" << cab << "]: " << text << std::endl;
@@ -44,14 +44,8 @@ nlohmann::json pose_json(const StateVector& x) {
 int replay_main(const std::string& path) {
   const ControlLog log = read_control_log(path);
   const ReplayResult r = replay_session(log, FORKLIFT_DATA_DIR);
-  std::vector<std::string> logged_events;
-  std::string logged_score;
-  for (const std::string& line : log.notes) {
-    if (line.rfind("e ", 0) == 0) logged_events.push_back(line);
-    if (line.rfind("score ", 0) == 0) logged_score = line;
-  }
   const bool state_ok = !log.final_state || *log.final_state == r.final_state;  // bit for bit
-  const bool events_ok = logged_events == r.event_lines && logged_score == r.score_line;
+  const bool events_ok = log.event_lines == r.event_lines && log.score_line.value_or("") == r.score_line;
   nlohmann::json out = {{"session", log.header.session_id}, {"cab", log.header.cab_id}, {"ticks", r.ticks},
                         {"sim_time_s", r.ticks * log.header.tick_s}, {"final_pose", pose_json(r.final_state)},
                         {"state_hex", state_hex(r.final_state)}, {"events", r.event_lines.size()},
@@ -74,8 +68,8 @@ class FramePublisher {
     int jpeg_quality = 85;
     View view = View::kDriver;
   };
-  FramePublisher(const CabSession& session, dds::Participant& participant, const std::string& cab, Options opt)
-      : session_(session), writer_(participant, dds::cab_partition(cab)), cab_(cab), opt_(opt) {}
+  FramePublisher(const SessionModel& model, dds::Participant& participant, const std::string& cab, Options opt)
+      : model_(model), writer_(participant, dds::cab_partition(cab)), cab_(cab), opt_(opt) {}
   ~FramePublisher() { stop(); }
 
   void start() {
@@ -83,11 +77,12 @@ class FramePublisher {
     thread_ = std::thread([this] { run(); });
   }
   // Called by the physics loop when the truck has moved (cheap: a copy under a lock).
-  void offer(double t) {
+  void offer(const SessionState& s) {
     if (opt_.fps <= 0) return;
     std::lock_guard<std::mutex> lock(m_);
-    state_ = session_.render_state();
-    t_ = t;
+    state_.q = coordinates_of(s);
+    state_.pallets = s.handling.pallets();
+    t_ = s.t_s;
   }
   void stop() {
     {
@@ -103,7 +98,7 @@ class FramePublisher {
   void run() {
     std::unique_ptr<Renderer> renderer;
     try {
-      renderer = std::make_unique<Renderer>(session_.scene(), session_.shape(), session_.truck(), opt_.width, opt_.height);
+      renderer = std::make_unique<Renderer>(model_.scene, model_.shape, model_.truck, opt_.width, opt_.height);
     } catch (const std::exception& e) {
       log_line(cab_, std::string("no frames: ") + e.what());
       return;
@@ -143,7 +138,7 @@ class FramePublisher {
     writer_.write(f);
   }
 
-  const CabSession& session_;
+  const SessionModel& model_;
   dds::Writer<fk_Frame> writer_;
   std::string cab_;
   Options opt_;
@@ -155,6 +150,14 @@ class FramePublisher {
   bool stop_ = false;
   std::atomic<long> frames_{0};
 };
+
+// Session logs go to a configured folder, never the current one.
+std::string default_log_dir() {
+  if (const char* dir = std::getenv("FORKLIFT_LOG_DIR"); dir && *dir) return dir;
+  if (const char* state = std::getenv("XDG_STATE_HOME"); state && *state) return std::string(state) + "/forklift/sessions";
+  if (const char* home = std::getenv("HOME"); home && *home) return std::string(home) + "/.local/state/forklift/sessions";
+  return "/tmp/forklift-sessions";
+}
 
 // Writes <log>.sig: the log's hash signed with this worker's identity key.
 void sign_log(const std::string& log_file, const std::string& session, const std::string& cab, const dds::SecurityFiles& id) {
@@ -172,7 +175,7 @@ void sign_log(const std::string& log_file, const std::string& session, const std
 int main(int argc, char** argv) {
   CLI::App app{"forklift-worker: the real-time simulation of one cab's truck"};
   app.set_version_flag("--version", FORKLIFT_VERSION);
-  std::string cab, session, scenario_file, log_file, dds_config, replay_file, security_dir, identity;
+  std::string cab, session, scenario_file, log_file, log_dir = default_log_dir(), dds_config, replay_file, security_dir, identity;
   double rate = 60, deadman_s = 0.5, duration = 0, start_timeout = 0;
   std::optional<int> domain;
   FramePublisher::Options frames;
@@ -181,7 +184,8 @@ int main(int argc, char** argv) {
   app.add_option("--session", session, "session id, stamped on every status and event");
   app.add_option("--scenario", scenario_file, "scenario JSON (truck, start pose, load)")->check(CLI::ExistingFile);
   app.add_option("--rate", rate, "TruckState rate, Hz")->check(CLI::Range(1.0, 1000.0));
-  app.add_option("--log", log_file, "control log to write (default: <session>.ctl in the current directory)");
+  app.add_option("--log", log_file, "session log to write (default: <log-dir>/<session>.ctl)");
+  app.add_option("--log-dir", log_dir, "where session logs go (default: FORKLIFT_LOG_DIR, or ~/.local/state/forklift/sessions)");
   app.add_option("--deadman-timeout", deadman_s, "silence after which the truck is stopped, s")->check(CLI::Range(0.05, 60.0));
   app.add_option("--duration", duration, "end the session after this much sim time, s (0: run until signalled)")->check(CLI::Range(0.0, 1e6));
   app.add_option("--start-timeout", start_timeout, "fail if no cab speaks within this many seconds (0: wait)")->check(CLI::Range(0.0, 1e6));
@@ -254,15 +258,19 @@ int main(int argc, char** argv) {
     dds::Writer<fk_Event> event_writer(*participant);
     dds::Writer<fk_Score> score_writer(*participant);
 
-    Scene scene;
-    if (scenario_file.empty()) scene.scenario = default_scenario(FORKLIFT_DATA_DIR);
-    else scene = load_scene(scenario_file, FORKLIFT_DATA_DIR);
-    CabSession cab_session(scene, FORKLIFT_DATA_DIR, IntegratorOptions{}, kTick, mode);
-    const Simulation& sim = cab_session.sim();
-    const TruckParams& truck = cab_session.truck();
-    const std::string scenario_path = scenario_file.empty() ? "" : std::filesystem::absolute(scenario_file).string();
-    if (log_file.empty()) log_file = session + ".ctl";
-    ControlLogWriter log(log_file, cab_session.log_header(session, cab, scenario_path));
+    // The session: its model (loaded once), its state, the machinery that steps it.
+    SessionSpec spec;
+    spec.scenario_file = scenario_file;
+    spec.mode = mode;
+    const SessionModel model = load_session_model(spec, FORKLIFT_DATA_DIR);
+    SessionState state = initial_state(model);
+    SessionWorkspace workspace(model);
+    const TruckParams& truck = model.truck;
+    if (log_file.empty()) {
+      std::filesystem::create_directories(log_dir);
+      log_file = log_dir + "/" + session + ".ctl";
+    }
+    ControlLogWriter log(log_file, log_header(model, state, session, cab));
     // Only now, with the session built, does the cab's writer match: a sample sent on that
     // match is read, not overwritten while the scene loads.
     dds::Reader<fk_Controls> controls(*participant, dds::cab_partition(cab));
@@ -274,7 +282,7 @@ int main(int argc, char** argv) {
       fk_Event e{};
       dds::set_string(e.session_id, session);
       e.seq = ++event_seq;
-      e.sim_time_s = sim.time();
+      e.sim_time_s = state.t_s;
       dds::set_string(e.kind, kind);
       e.worry_level = static_cast<uint8_t>(worry);
       e.x_m = x;
@@ -283,14 +291,14 @@ int main(int argc, char** argv) {
       event_writer.write(e);
     };
     auto publish_event = [&](const char* kind, int worry, const std::string& details) {
-      publish_at(kind, worry, sim.state()[kX], sim.state()[kY], details);
+      publish_at(kind, worry, state.x[kX], state.x[kY], details);
     };
     std::vector<SessionEvent> tick_events;
     // Each event goes out on DDS and into the session log, where a replay finds it again.
     auto report = [&](const std::vector<SessionEvent>& found) {
       for (const SessionEvent& e : found) {
         publish_at(e.kind, e.worry_level, e.x_m, e.y_m, e.details);
-        log.note(event_line(cab_session.ticks(), e));
+        log.event(state.tick, e.kind, e.worry_level);
       }
     };
 
@@ -307,7 +315,7 @@ int main(int argc, char** argv) {
           log_line(cab, "rejected control " + std::to_string(c.seq) + " from cab '" + std::string(c.cab_id) + "'");
           return;
         }
-        if (const auto problem = control_problem(s)) {
+        if (const auto problem = control_problem(s, truck)) {
           ++(problem->find("finite") != std::string::npos ? rejected_non_finite : rejected_range);
           log_line(cab, "rejected control " + std::to_string(c.seq) + ": " + *problem);
           return;
@@ -327,29 +335,31 @@ int main(int argc, char** argv) {
       if (start_timeout > 0 && std::chrono::duration<double>(Clock::now() - created).count() > start_timeout) {
         publish_status("failed", 0, "no controls from cab " + cab + " within the start timeout");
         log_line(cab, "no controls within " + std::to_string(start_timeout) + " s; giving up");
+        // The log says so too: the server reads it there if the status is lost.
+        log.worker_event(0, kNoControlsEvent);
+        log.finish(0, state.x);
         dds_sleepfor(DDS_MSECS(200));  // let the reliable status reach late readers
         return 5;
       }
     }
     publish_status("running", 0, "");
     log_line(cab, "session " + session + " running");
-    FramePublisher frame_publisher(cab_session, *participant, cab, frames);
-    frame_publisher.offer(0);
+    FramePublisher frame_publisher(model, *participant, cab, frames);
+    frame_publisher.offer(state);
     frame_publisher.start();
 
     DriverInputs applied{};
     uint32_t applied_seq = 0;
     bool deadman = false;
     long deadman_count = 0;
-    int64_t tick = 0;
     double next_state_t = 0;
     const Clock::time_point start = Clock::now();
     auto publish_state = [&] {
-      const Outputs o = sim.outputs();
+      const Outputs& o = workspace.outputs();
       fk_TruckState s{};
       dds::set_string(s.cab_id, cab);
       dds::set_string(s.session_id, session);
-      s.sim_time_s = sim.time();
+      s.sim_time_s = state.t_s;
       s.x_m = o.q[kX]; s.y_m = o.q[kY]; s.z_m = o.q[kZ];
       s.yaw_rad = o.q[kAwc]; s.roll_rad = o.q[kAuc]; s.pitch_rad = o.q[kAvc];
       s.speed_m_s = o.forward_speed_m_s;
@@ -357,8 +367,8 @@ int main(int argc, char** argv) {
       s.fz_front_left_N = o.wheels[kFrontLeft].fz_N;
       s.fz_front_right_N = o.wheels[kFrontRight].fz_N;
       s.fz_rear_N = o.wheels[kRear].fz_N;
-      s.load_attached = sim.dynamics().load().has_value();
-      s.load_mass_kg = s.load_attached ? sim.dynamics().load()->mass_kg : 0.0;
+      s.load_attached = state.load.has_value();
+      s.load_mass_kg = s.load_attached ? state.load->mass_kg : 0.0;
       s.stability_margin = stability_margin(o);
       s.applied_control_sequence = applied_seq;
       s.deadman = deadman;
@@ -383,33 +393,28 @@ int main(int argc, char** argv) {
         // The evaluation reports it (deadman_stop) on this tick, in the log as well.
         log_line(cab, "cab silent for " + std::to_string(silence) + " s: dead-man stop");
         applied = deadman_inputs(applied, truck);
-        cab_session.set_inputs(applied);
-        cab_session.set_deadman(true);
-        log.input(tick, applied_seq, applied);
-        log.note("dm " + std::to_string(tick) + " 1");
+        log.input(state.tick, applied_seq, applied);
+        log.deadman(state.tick, true);
       } else if (deadman && pending) {
         deadman = false;
-        cab_session.set_deadman(false);
-        log.note("dm " + std::to_string(tick) + " 0");
+        log.deadman(state.tick, false);
         publish_event("controls_resumed", 0, "controls from the cab again");
-        log.note("w " + std::to_string(tick) + " controls_resumed 0");  // a worker event, not the evaluation's
+        log.worker_event(state.tick, "controls_resumed");  // the worker's, not the evaluation's
         log_line(cab, "controls resumed");
       }
       if (pending) {  // applied at the start of the next physics tick
         applied = driver_inputs(*pending, truck);
         applied_seq = pending->seq;
         pending.reset();
-        cab_session.set_inputs(applied);
-        log.input(tick, applied_seq, applied);
+        log.input(state.tick, applied_seq, applied);
         echo = true;
       }
       // Physics catches up with the wall clock, one tick at a time; how far behind it was first.
-      if (wall - sim.time() > max_lag_s) { max_lag_s = wall - sim.time(); max_lag_at_s = sim.time(); }
-      const int64_t due = static_cast<int64_t>(std::floor(wall / kTick)) + 1;
+      if (wall - state.t_s > max_lag_s) { max_lag_s = wall - state.t_s; max_lag_at_s = state.t_s; }
+      const int64_t due = static_cast<int64_t>(std::floor(wall / model.tick_s)) + 1;
       bool stepped = false;
-      while (tick < due) {
-        cab_session.tick(tick_events);
-        ++tick;
+      while (state.tick < due) {
+        step(model, state, workspace, {applied, deadman}, tick_events);
         stepped = true;
         report(tick_events);
         // The evaluation says when the time allowed is up (its time_limit fault).
@@ -417,31 +422,31 @@ int main(int argc, char** argv) {
           if (e.kind == "time_limit") end_reason = "time_limit";
         tick_events.clear();
         if (end_reason == "time_limit") break;
-        if (sim.time() + 1e-12 >= next_state_t) {
+        if (state.t_s + 1e-12 >= next_state_t) {
           const double late = std::chrono::duration<double>(Clock::now() - start).count() - next_state_t;
           if (late > 1.0 / rate && ++late_states <= 5)
             log_line(cab, "state for t = " + std::to_string(next_state_t) + " s went out " + std::to_string(late * 1e3) + " ms late");
           publish_state();
-          frame_publisher.offer(sim.time());
+          frame_publisher.offer(state);
           next_state_t += 1.0 / rate;
           echo = false;
         }
-        if (duration > 0 && sim.time() >= duration - 1e-12) break;
-        if (cab_session.task_done_and_stopped()) { end_reason = "task_complete"; break; }
+        if (duration > 0 && state.t_s >= duration - 1e-12) break;
+        if (task_done_and_stopped(model, state)) { end_reason = "task_complete"; break; }
       }
       if (end_reason != "signal") break;
       if (echo && stepped) publish_state();  // the cab sees its command's effect without waiting for the 60 Hz slot
-      if (duration > 0 && sim.time() >= duration - 1e-12) { end_reason = "duration"; break; }
-      const double until_next = tick * kTick - std::chrono::duration<double>(Clock::now() - start).count();
+      if (duration > 0 && state.t_s >= duration - 1e-12) { end_reason = "duration"; break; }
+      const double until_next = state.tick * model.tick_s - std::chrono::duration<double>(Clock::now() - start).count();
       if (until_next > 0) waitset.wait(until_next);
     }
 
     frame_publisher.stop();
     // The mark: end-of-session checks (parking, the task), then the Score, reliable and durable.
-    const Score score = cab_session.finish(end_reason, tick_events);
+    const Score score = finish(model, state, workspace, end_reason, tick_events);
     report(tick_events);
-    log.note(score_line(score));
-    log.finish(tick, sim.state());
+    log.score(score_line(score));
+    log.finish(state.tick, state.x);
     // With an identity, the worker signs the finished log (controls, events, score) before the
     // score goes out: the server chains it into the exam records (forklift-menu verify).
     if (dds_settings.secure()) sign_log(log_file, session, cab, *dds_settings.security);
@@ -462,13 +467,13 @@ int main(int argc, char** argv) {
     sc.counts._length = sc.counts._maximum = static_cast<uint32_t>(counts.size());
     sc.counts._release = false;
     score_writer.write(sc);
-    publish_status("ended", sim.time(), end_reason);
-    log_line(cab, "session " + session + " ended (" + end_reason + ") at t = " + std::to_string(sim.time()) + " s");
+    publish_status("ended", state.t_s, end_reason);
+    log_line(cab, "session " + session + " ended (" + end_reason + ") at t = " + std::to_string(state.t_s) + " s");
     nlohmann::json out = {
-        {"session", session}, {"cab", cab}, {"sim_time_s", sim.time()}, {"ticks", tick},
-        {"final_pose", pose_json(sim.state())}, {"state_hex", state_hex(sim.state())},
+        {"session", session}, {"cab", cab}, {"sim_time_s", state.t_s}, {"ticks", state.tick},
+        {"final_pose", pose_json(state.x)}, {"state_hex", state_hex(state.x)},
         {"rejected_controls", {{"non_finite", rejected_non_finite}, {"out_of_range", rejected_range}, {"wrong_cab", rejected_cab}}},
-        {"deadman_stops", deadman_count}, {"integrator_steps", sim.stats().steps},
+        {"deadman_stops", deadman_count}, {"integrator_steps", workspace.integrator_stats().steps},
         {"max_lag_ms", max_lag_s * 1e3}, {"max_lag_at_s", max_lag_at_s}, {"late_states", late_states},
         {"events", event_seq}, {"frames", frame_publisher.frames()},
         {"score", {{"mark", score.mark}, {"passed", score.passed}, {"points", score.points}, {"counts", score.counts},

@@ -8,7 +8,8 @@
 #include <thread>
 
 #include "forklift/dynamics/manoeuvre.h"
-#include "forklift/session/cab_session.h"
+#include "forklift/session/controls.h"
+#include "forklift/session/session.h"
 #include "forklift/protocol/protocol.h"
 #include "forklift/image/image.h"
 #include "forklift/session/session_log.h"
@@ -235,9 +236,8 @@ TEST(WorkerLoop, FramesOfTheWarehouseReachTheCabRawAndAsJpeg) {
     EXPECT_EQ(log.header.scenario_file, kData + "/scenarios/rack_pick.json");
     const ReplayResult again = replay_session(log, kData);
     EXPECT_EQ(again.final_state, *log.final_state);
-    std::vector<std::string> logged;
-    for (const std::string& line : log.notes)
-      if (line.rfind("e ", 0) == 0 || line.rfind("score ", 0) == 0) logged.push_back(line);
+    std::vector<std::string> logged = log.event_lines;
+    logged.push_back(log.score_line.value_or(""));
     std::vector<std::string> derived = again.event_lines;
     derived.push_back(again.score_line);
     EXPECT_EQ(derived, logged);  // the same events and the same mark
@@ -253,16 +253,27 @@ TEST(ControlLog, BrokenLogsAreRefusedClearly) {
 }
 
 TEST(Controls, RangesAndMapping) {
+  const TruckParams t = load_truck(kData + "/trucks/linde_e16c.json");
   ControlSample s;
-  EXPECT_FALSE(control_problem(s));
+  EXPECT_FALSE(control_problem(s, t));
   s.brake = -0.1;
-  EXPECT_EQ(*control_problem(s), "brake = -0.1 is outside [0, 1]");
+  EXPECT_EQ(*control_problem(s, t), "brake = -0.1 is outside [0, 1]");
   s.brake = 1;
   s.lift = NAN;
-  EXPECT_EQ(*control_problem(s), "lift is not finite");
+  EXPECT_EQ(*control_problem(s, t), "lift is not finite");
   s.lift = -1;
+  // The steer's range is the truck file's end stops (88 deg on this truck), not a number in code.
+  s.steer_rad = t.steer.max_rad;
+  EXPECT_FALSE(control_problem(s, t));
+  s.steer_rad = -t.steer.max_rad - 0.01;
+  EXPECT_NE(control_problem(s, t).value_or("").find("steer_rad = "), std::string::npos);
+  TruckParams narrow = t;
+  narrow.steer.max_rad = 1.0;
+  s.steer_rad = 1.2;
+  EXPECT_TRUE(control_problem(s, narrow));
+  EXPECT_FALSE(control_problem(s, t));
+  s.steer_rad = 0;
   s.accelerator = -0.5;
-  const TruckParams t = load_truck(kData + "/trucks/linde_e16c.json");
   const DriverInputs u = driver_inputs(s, t);
   EXPECT_DOUBLE_EQ(u.drive_torque_N_m, -0.5 * t.drive.drive_torque_max_N_m);
   EXPECT_DOUBLE_EQ(u.brake_torque_N_m, t.drive.brake_torque_max_N_m);

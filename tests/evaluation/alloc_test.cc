@@ -1,5 +1,5 @@
-// Evaluator::tick allocates nothing on a tick without an event (as Drake proves of its
-// evaluations): this binary counts every operator new made while the evaluator ticks.
+// The evaluation allocates nothing on a tick without an event (as Drake proves of its
+// evaluations): this binary counts every operator new made in the evaluation stage of step().
 #include <atomic>
 #include <cstdlib>
 #include <new>
@@ -35,12 +35,23 @@ namespace {
 
 using namespace evt;
 
-// Drives `seconds` along y = `lane` at `v` with the pipeline of Session::tick, counting the
-// allocations made inside Evaluator::tick only.
+// Counts the allocations made inside the evaluation stage of the session's step.
+struct CountEvaluation : StageObserver {
+  void begin(Stage s) override {
+    if (s == Stage::kEvaluation) { g_allocations = 0; g_counting = true; }
+  }
+  void end(Stage s) override {
+    if (s == Stage::kEvaluation) { g_counting = false; total += g_allocations; }
+  }
+  long total = 0;
+};
+
+// Drives `seconds` along y = `lane` at `v` through the session's step, counting the allocations
+// made by the evaluation only.
 long allocations_while_driving(Session& s, double lane, double v, double seconds) {
   Driver d{s};
   d.lift_to = 0.2;
-  long total = 0;
+  CountEvaluation counter;
   for (int64_t end = s.ticks + int64_t(seconds / Session::kTick); s.ticks < end;) {
     if (s.ticks % 10 == 0) {
       Controls c = d.levers();
@@ -48,19 +59,9 @@ long allocations_while_driving(Session& s, double lane, double v, double seconds
       c.steer_rad = d.steer_to_line(lane);
       s.set(c);
     }
-    s.sim->advance_to((s.ticks + 1) * Session::kTick);
-    ++s.ticks;
-    const StepReport& report = s.warehouse->step(*s.sim);
-    const Outputs out = s.sim->outputs();
-    const BodyPoses poses = body_poses(s.truck, out.q);
-    const TickInput in{s.sim->time(), out, poses, s.u, report, s.warehouse->pallets(), s.sim->dynamics().load()};
-    g_allocations = 0;
-    g_counting = true;
-    s.evaluator->tick(in, s.events);
-    g_counting = false;
-    total += g_allocations;
+    s.tick(&counter);
   }
-  return total;
+  return counter.total;
 }
 
 TEST(Allocation, ATickWithoutAnEventAllocatesNothing) {

@@ -259,7 +259,7 @@ TEST(Braking, GentleWithTheLoadRaisedIsClean) {
   EXPECT_EQ(s.count("harsh_braking_load_raised"), 0) << s.summary();
   EXPECT_EQ(s.count("wheel_lift"), 0) << s.summary();
   EXPECT_EQ(s.count("stability_warning"), 0) << s.summary();
-  EXPECT_GT(s.evaluator->finish("signal", s.events).min_stability_fraction, 0.2);
+  EXPECT_GT(s.finish("signal").min_stability_fraction, 0.2);
 }
 
 TEST(Stability, TipOverIsAnAutomaticFailureAndIsWarnedOfFirst) {
@@ -285,16 +285,16 @@ TEST(Stability, TheMarginIsLiveEveryTick) {
   Driver d{s};
   d.lift_to = s.heel_z();
   s.tick();
-  const Stability at_rest = s.evaluator->stability();
+  const Stability at_rest = s.stability();
   EXPECT_EQ(at_rest.edge, 0) << "a heavy load leaves the front axle the nearest edge";
   EXPECT_GT(at_rest.fraction, 0.2);
   EXPECT_LT(at_rest.fraction, 0.7);
   straight(s, d, 0.45, 8);  // creeping: the load may be high
   double lowest = 1;
   s.run(8.0, [&] { Controls c = d.levers(); c.brake = 0.1; return c; },
-        [&] { lowest = std::min(lowest, s.evaluator->stability().fraction); return false; });
+        [&] { lowest = std::min(lowest, s.stability().fraction); return false; });
   EXPECT_LT(lowest, at_rest.fraction - 0.02) << "braking moves the apparent CoG towards the front axle";
-  EXPECT_NEAR(s.evaluator->stability().fraction, at_rest.fraction, 0.02);  // at rest again
+  EXPECT_NEAR(s.stability().fraction, at_rest.fraction, 0.02);  // at rest again
   EXPECT_TRUE(s.events.empty()) << s.summary();
 }
 
@@ -395,7 +395,7 @@ TEST(Deadman, ADeadManStopIsInformationOnly) {
   s.deadman = true;
   s.run(0.5, [&] { return d.levers(); });
   EXPECT_EQ(s.count("deadman_stop"), 2) << s.summary();
-  EXPECT_EQ(s.evaluator->points(), 0);
+  EXPECT_EQ(s.points(), 0);
 }
 
 }  // namespace

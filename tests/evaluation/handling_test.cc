@@ -13,7 +13,7 @@ constexpr double kEntryFace = 5.4;    // P1's near face (HEAVY's too, on its lan
 struct Handler {
   Session& s;
   Driver d{s};
-  const PalletState& pallet(const std::string& id) const { return *s.warehouse->pallet(id); }
+  const PalletState& pallet(const std::string& id) const { return *s.pallet(id); }
 
   // Forks level at the openings' height, then in along the line y = `lane` until the tips are
   // `depth` m past the entry face; then stop.
@@ -64,7 +64,7 @@ TEST(Handling, TheWholeMoveDoneWellIsCleanAndCompletesTheTask) {
   h.lower_onto_support();
   EXPECT_EQ(h.pallet("P1").resting_on, "R1");
   EXPECT_EQ(h.pallet("P1").level, 1);
-  EXPECT_TRUE(s.evaluator->task_completed());
+  EXPECT_TRUE(s.task_completed());
   h.leave_and_park(10.5);
   const Score score = s.finish("parked");
   EXPECT_TRUE(s.events.empty()) << s.summary();
@@ -126,7 +126,7 @@ TEST(Handling, SettingThePalletDownAwayFromItsPlace) {
   const EvaluationEvent& e = *s.first("set_down_off_place");
   EXPECT_NE(e.details.find("\"expected\":{\"level\":1,\"object\":\"R1\""), std::string::npos) << e.details;
   EXPECT_EQ(s.events.size(), 1u) << s.summary();
-  EXPECT_FALSE(s.evaluator->task_completed());
+  EXPECT_FALSE(s.task_completed());
   const Score score = s.finish("signal");
   EXPECT_FALSE(score.passed) << "an exam needs its task done";
   EXPECT_EQ(score.steps_done, 0);
@@ -166,7 +166,7 @@ TEST(Handling, BrakingHardWithTheLoadHighAndTiltedForwardSlidesAndDropsIt) {
   EXPECT_EQ(s.count("load_slid"), 1) << "one slide, one event\n" << s.summary();
   EXPECT_LT(s.first("load_slid")->t_s, s.first("load_dropped")->t_s);
   EXPECT_TRUE(s.first("load_dropped")->automatic_fail);
-  EXPECT_TRUE(s.warehouse->pallet("P1")->dropped);
+  EXPECT_TRUE(s.pallet("P1")->dropped);
   const Score score = s.finish("signal");
   EXPECT_FALSE(score.passed);
   EXPECT_NE(std::find(score.automatic_failures.begin(), score.automatic_failures.end(), "load_dropped"),
@@ -178,7 +178,7 @@ TEST(Handling, GentleBrakingWithTheSameLoadKeepsIt) {
   brake_with_load_high(s, 0.15);
   EXPECT_EQ(s.count("load_dropped"), 0) << s.summary();
   EXPECT_EQ(s.count("load_slid"), 0) << s.summary();
-  EXPECT_TRUE(s.warehouse->pallet("P1")->on_forks);
+  EXPECT_TRUE(s.pallet("P1")->on_forks);
 }
 
 TEST(Handling, LiftingMoreThanTheCapacityAtThatLoadCentre) {

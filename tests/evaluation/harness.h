@@ -15,11 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "forklift/collision/collision.h"
-#include "forklift/evaluation/evaluation.h"
-#include "forklift/scene/scene.h"
 #include "forklift/session/controls.h"
-#include "forklift/session/session_log.h"
+#include "forklift/session/session.h"
 
 namespace evt {
 
@@ -42,15 +39,17 @@ using Controls = ControlSample;
 
 inline double wrap(double a) { return std::atan2(std::sin(a), std::cos(a)); }
 
+// A session through the product's own pipeline (forklift/session/session.h): the same model
+// loader, state and step() as the worker and `forklift-sim evaluate`, with the evaluation's
+// events kept in full.
 struct Session {
-  static constexpr double kTick = 1e-3;
-  Scene scene;
-  TruckParams truck;
-  TruckShape shape;
-  std::unique_ptr<TruckDynamics> dynamics;
-  std::unique_ptr<Simulation> sim;
-  std::unique_ptr<Warehouse> warehouse;
-  std::unique_ptr<Evaluator> evaluator;
+  static constexpr double kTick = 1e-3;  // data/session.json's tick (checked in the constructor)
+  SessionModel model;
+  SessionState state;
+  std::unique_ptr<SessionWorkspace> ws;
+  const Scene& scene;
+  const TruckParams& truck;
+  const TruckShape& shape;
   std::vector<EvaluationEvent> events;
   Controls c;                         // held until changed
   DriverInputs u;
@@ -59,32 +58,36 @@ struct Session {
   std::vector<std::pair<int64_t, Controls>> script;  // every change, for writing a cab script
   std::optional<Score> score;
 
-  // The truck settled at the scene's start pose (or `start`: x, y, yaw in degrees) with the
-  // scene's load, as evaluate.cc and the worker start it.
-  explicit Session(Scene s, Mode mode = Mode::kTraining, std::optional<Vector3d> start = std::nullopt,
-                   const Rules& r = rules())
-      : scene(std::move(s)) {
+  static SessionModel make_model(Scene s, Mode mode, std::optional<Vector3d> start, const Rules& r) {
+    SessionModel m = load_session_model(SessionSpec{}, FORKLIFT_DATA_DIR);  // the shared settings: tick
+    if (std::abs(m.tick_s - kTick) > 1e-15) throw std::runtime_error("data/session.json's tick is not the harness's");
     if (start) {
-      scene.scenario.x_m = start->x();
-      scene.scenario.y_m = start->y();
-      scene.scenario.yaw_rad = start->z() * M_PI / 180;
+      s.scenario.x_m = start->x();
+      s.scenario.y_m = start->y();
+      s.scenario.yaw_rad = start->z() * M_PI / 180;
     }
-    truck = load_truck(scene.scenario.truck_file);
-    shape = load_truck_shape(scene.scenario.truck_file, FORKLIFT_DATA_DIR);
-    Environment env;
-    env.ground = scene.ground;
-    dynamics = std::make_unique<TruckDynamics>(truck, env);
-    if (scene.scenario.load) dynamics->attach_load(*scene.scenario.load);
-    const Scenario& sc = scene.scenario;
-    StateVector x0 = dynamics->rest_state(sc.x_m, sc.y_m, sc.yaw_rad, 0, 0, sc.lift_m, 0);
-    if (!dynamics->settle_static(x0)) throw std::runtime_error("the truck does not stand at the start");
-    sim = std::make_unique<Simulation>(*dynamics, x0, IntegratorOptions{});
-    warehouse = std::make_unique<Warehouse>(scene, shape, truck);
-    evaluator = std::make_unique<Evaluator>(r, scene, truck, shape, mode);
+    m.scene = std::move(s);
+    m.scenario_file = m.scene.file;
+    m.truck = load_truck(m.scene.scenario.truck_file);
+    m.shape = load_truck_shape(m.scene.scenario.truck_file, FORKLIFT_DATA_DIR);
+    m.rules = r;
+    m.mode = mode;
+    return m;
   }
 
-  double t() const { return sim->time(); }
-  const StateVector& x() const { return sim->state(); }
+  // The truck settled at the scene's start pose (or `start`: x, y, yaw in degrees) with the
+  // scene's load, as the worker starts it.
+  explicit Session(Scene s, Mode mode = Mode::kTraining, std::optional<Vector3d> start = std::nullopt,
+                   const Rules& r = rules())
+      : model(make_model(std::move(s), mode, start, r)),
+        state(initial_state(model)),
+        ws(std::make_unique<SessionWorkspace>(model)),
+        scene(model.scene),
+        truck(model.truck),
+        shape(model.shape) {}
+
+  double t() const { return state.t_s; }
+  const StateVector& x() const { return state.x; }
   CoordVector q() const { return coordinates(x()); }
   BodyPoses poses() const { return body_poses(truck, q()); }
   double v() const {
@@ -108,22 +111,27 @@ struct Session {
              a.tilt == b.tilt && a.side_shift == b.side_shift;
     };
     if (!script.empty() && same(next, c)) return;
-    if (auto p = control_problem(next)) throw std::runtime_error("test driver produced a bad control: " + *p);
+    if (auto p = control_problem(next, truck)) throw std::runtime_error("test driver produced a bad control: " + *p);
     c = next;
     u = deadman ? deadman_inputs(u, truck) : driver_inputs(c, truck);
-    sim->set_inputs(u);
     script.emplace_back(ticks, c);
   }
 
   // One tick of the pipeline.
-  void tick() {
-    sim->advance_to((ticks + 1) * kTick);
-    ++ticks;
-    const StepReport& report = warehouse->step(*sim);
-    const Outputs out = sim->outputs();
-    const BodyPoses p = body_poses(truck, out.q);
-    const TickInput in{sim->time(), out, p, u, report, warehouse->pallets(), sim->dynamics().load(), deadman};
-    evaluator->tick(in, events);
+  std::vector<SessionEvent> found;
+  void tick(StageObserver* observer = nullptr) {
+    step(model, state, *ws, {u, deadman}, found, observer);
+    found.clear();
+    ticks = state.tick;
+    events.insert(events.end(), ws->evaluation_events().begin(), ws->evaluation_events().end());
+  }
+  const Stability& stability() const { return state.evaluation.stability(); }
+  int points() const { return state.evaluation.points(); }
+  bool task_completed() const { return state.evaluation.steps_done() >= int(scene.task.steps.size()); }
+  const PalletState* pallet(const std::string& id) const {
+    for (const PalletState& p : state.handling.pallets())
+      if (p.id == id) return &p;
+    return nullptr;
   }
 
   // Ticks until `done` (checked after each tick) or `max_s`; the control function runs every
@@ -140,7 +148,9 @@ struct Session {
   }
 
   Score finish(const std::string& reason = "duration") {
-    score = evaluator->finish(reason, events);
+    score = forklift::finish(model, state, *ws, reason, found);
+    found.clear();
+    events.insert(events.end(), ws->evaluation_events().begin(), ws->evaluation_events().end());
     return *score;
   }
 

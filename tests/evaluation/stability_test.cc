@@ -58,10 +58,10 @@ TEST(StabilityMargin, DoesNotDependOnHowTheWholeIsPlaced) {
 TEST(StabilityMargin, TheTruckAtRestIsItsOwnReference) {
   Session s(scene("zones.json"));
   s.tick();
-  EXPECT_NEAR(s.evaluator->stability().fraction, 1.0, 0.01);
+  EXPECT_NEAR(s.stability().fraction, 1.0, 0.01);
   // The lateral edge, as above, for the truck's own CoG at rest.
   const StaticReport r = static_report(s.truck, std::nullopt, 0);
-  EXPECT_NEAR(s.evaluator->stability().margin_m,
+  EXPECT_NEAR(s.stability().margin_m,
               line_distance(r.cog_m.head<2>(), r.wheel_contact_m[forklift::kFrontRight], r.wheel_contact_m[forklift::kRear]), 0.01);
 }
 

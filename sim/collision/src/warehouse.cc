@@ -73,19 +73,13 @@ const char* handling_event_name(HandlingEvent::Kind kind) {
   return "?";
 }
 
-struct Warehouse::Impl {
-  Scene scene;  // a copy: supports, ground and ids are read every tick
-  TruckParams truck;
-  std::array<collision::LocalBox, 2> forks;
-  double fork_tip_x = 0;  // the forks' tips, carriage frame
-
-  // Per pallet (index into these, not into scene.objects).
-  std::vector<int> pallet_objects;
-  std::vector<PalletState> states;
+// What handling remembers from tick to tick: where every pallet is, the one on the forks and how
+// it sits there. A copyable value (part of a session's state).
+struct HandlingState::Data {
+  bool primed = false;  // false: a state never stepped, which starts as the scene puts the pallets
+  std::vector<PalletState> states;  // per pallet (index into these, not into scene.objects)
   std::vector<bool> pick_armed, engaged;
   std::vector<handling::Engagement> engagement;
-
-  std::unique_ptr<collision::CollisionWorld> world;
 
   // The carried pallet.
   int carried = -1;
@@ -100,6 +94,31 @@ struct Warehouse::Impl {
 
   bool have_time = false;
   double last_time = 0;
+};
+
+HandlingState::HandlingState() : d_(std::make_unique<Data>()) {}
+HandlingState::HandlingState(const HandlingState& o) : d_(std::make_unique<Data>(*o.d_)) {}
+HandlingState& HandlingState::operator=(const HandlingState& o) {
+  *d_ = *o.d_;
+  return *this;
+}
+HandlingState::HandlingState(HandlingState&&) noexcept = default;
+HandlingState& HandlingState::operator=(HandlingState&&) noexcept = default;
+HandlingState::~HandlingState() = default;
+const std::vector<PalletState>& HandlingState::pallets() const { return d_->states; }
+
+// The scene's collision shapes and the handling rules; the state it works on is its base,
+// swapped with a session's own for the length of a step.
+struct Warehouse::Impl : HandlingState::Data {
+  Scene scene;  // a copy: supports, ground and ids are read every tick
+  TruckParams truck;
+  std::array<collision::LocalBox, 2> forks;
+  double fork_tip_x = 0;  // the forks' tips, carriage frame
+
+  std::vector<int> pallet_objects;  // the scene objects that are handled pallets
+
+  std::unique_ptr<collision::CollisionWorld> world;
+
   StepReport report;
   std::vector<collision::RawContact> raw;
 
@@ -396,10 +415,25 @@ struct Warehouse::Impl {
 };
 
 Warehouse::Warehouse(const Scene& scene, const TruckShape& shape, const TruckParams& truck)
-    : impl_(std::make_unique<Impl>(scene, shape, truck)) {}
+    : impl_(std::make_unique<Impl>(scene, shape, truck)) {
+  *initial_.d_ = static_cast<const HandlingState::Data&>(*impl_);
+  initial_.d_->primed = true;
+}
 Warehouse::~Warehouse() = default;
 
 const StepReport& Warehouse::step(Simulation& sim) { return impl_->step(sim); }
+const StepReport& Warehouse::step(Simulation& sim, HandlingState& state) {
+  // The session's state in the warehouse for the step, and back afterwards (an exception too).
+  struct Borrow {
+    HandlingState::Data& mine;
+    HandlingState::Data& theirs;
+    ~Borrow() { std::swap(mine, theirs); }
+  } b{*impl_, *state.d_};
+  if (!state.d_->primed) *state.d_ = *initial_.d_;
+  std::swap(b.mine, b.theirs);
+  return impl_->step(sim);
+}
+const HandlingState& Warehouse::initial_state() const { return initial_; }
 std::vector<Contact> Warehouse::contacts_at(const CoordVector& q) { return impl_->contacts_at(q); }
 const std::vector<PalletState>& Warehouse::pallets() const { return impl_->states; }
 const PalletState* Warehouse::pallet(const std::string& id) const {

@@ -81,26 +81,9 @@ double derated_capacity_kg(const TruckParams& truck, double load_centre_m) {
   return truck.rated_capacity_kg * truck.rated_load_centre_m / load_centre_m;
 }
 
-struct Evaluator::Impl {
-  // --- the model: constant after construction ---
-  Rules rules;
-  Scene scene;
-  TruckParams truck;
-  double fork_length_m, fork_thickness_m;
-  Mode mode;
-  std::array<const Rule*, ev::kNumRules> rule{};
-  double static_margin_m = 0;
-  std::array<RuleKey, int(ObjectKind::kPedestrian) + 1> collision_rule{};
-  std::unordered_map<std::string, int> object_index;  // scene object id -> index
-  struct ZoneInfo {
-    const Zone* zone;
-    RuleKey speed_rule;
-    bool near_counts;  // its limit applies within near_distance_m too (walkways)
-    bool walkway;      // a collision here is collision_in_walkway
-  };
-  std::vector<ZoneInfo> zones;
-
-  // --- the state: changes every tick ---
+// --- the state: changes every tick (a session's copy of it is a rewind point) ---
+struct EvaluationMemory::Data {
+  bool primed = false;  // false: a memory never used, which starts as the evaluator's initial one
   std::vector<EvaluationEvent> events;
   int points = 0;
   bool finished = false;
@@ -140,6 +123,43 @@ struct Evaluator::Impl {
   double lift_s = 0, speed_m_s = 0;
   DriverInputs last_inputs;
   Eigen::Vector2d pos = Eigen::Vector2d::Zero();
+
+};
+
+EvaluationMemory::EvaluationMemory() : d_(std::make_unique<Data>()) {}
+EvaluationMemory::EvaluationMemory(const EvaluationMemory& o) : d_(std::make_unique<Data>(*o.d_)) {}
+EvaluationMemory& EvaluationMemory::operator=(const EvaluationMemory& o) {
+  *d_ = *o.d_;
+  return *this;
+}
+EvaluationMemory::EvaluationMemory(EvaluationMemory&&) noexcept = default;
+EvaluationMemory& EvaluationMemory::operator=(EvaluationMemory&&) noexcept = default;
+EvaluationMemory::~EvaluationMemory() = default;
+const std::vector<EvaluationEvent>& EvaluationMemory::events() const { return d_->events; }
+int EvaluationMemory::points() const { return d_->points; }
+const Stability& EvaluationMemory::stability() const { return d_->stab; }
+int EvaluationMemory::steps_done() const { return int(d_->step); }
+
+// The model (constant after construction) and the machinery; the memory it works on is its base,
+// swapped with a session's own for the length of a call.
+struct Evaluator::Impl : EvaluationMemory::Data {
+  // --- the model ---
+  Rules rules;
+  Scene scene;
+  TruckParams truck;
+  double fork_length_m, fork_thickness_m;
+  Mode mode;
+  std::array<const Rule*, ev::kNumRules> rule{};
+  double static_margin_m = 0;
+  std::array<RuleKey, int(ObjectKind::kPedestrian) + 1> collision_rule{};
+  std::unordered_map<std::string, int> object_index;  // scene object id -> index
+  struct ZoneInfo {
+    const Zone* zone;
+    RuleKey speed_rule;
+    bool near_counts;  // its limit applies within near_distance_m too (walkways)
+    bool walkway;      // a collision here is collision_in_walkway
+  };
+  std::vector<ZoneInfo> zones;
 
   Impl(const Rules& r, const Scene& s, const TruckParams& t, const TruckShape& shape, Mode m)
       : rules(r), scene(s), truck(t), fork_length_m(shape.fork_length_m), fork_thickness_m(shape.fork_thickness_m), mode(m) {
@@ -687,11 +707,39 @@ struct Evaluator::Impl {
 };
 
 Evaluator::Evaluator(const Rules& rules, const Scene& scene, const TruckParams& truck, const TruckShape& shape, Mode mode)
-    : impl_(std::make_unique<Impl>(rules, scene, truck, shape, mode)) {}
+    : impl_(std::make_unique<Impl>(rules, scene, truck, shape, mode)) {
+  *initial_.d_ = static_cast<const EvaluationMemory::Data&>(*impl_);
+  initial_.d_->primed = true;
+}
 Evaluator::~Evaluator() = default;
+
+namespace {
+// Puts a session's memory in the evaluator for one call, and back afterwards (an exception too).
+struct Borrow {
+  EvaluationMemory::Data& mine;
+  EvaluationMemory::Data& theirs;
+  Borrow(EvaluationMemory::Data& m, EvaluationMemory::Data& t, const EvaluationMemory::Data& initial) : mine(m), theirs(t) {
+    if (!theirs.primed) theirs = initial;
+    std::swap(mine, theirs);
+  }
+  ~Borrow() { std::swap(mine, theirs); }
+};
+}  // namespace
 
 void Evaluator::tick(const TickInput& in, std::vector<EvaluationEvent>& out) { impl_->tick(in, out); }
 Score Evaluator::finish(const std::string& end_reason, std::vector<EvaluationEvent>& out) { return impl_->finish(end_reason, out); }
+void Evaluator::tick(EvaluationMemory& memory, const TickInput& in, std::vector<EvaluationEvent>& out) {
+  Borrow b(*impl_, *memory.d_, *initial_.d_);
+  impl_->tick(in, out);
+}
+Score Evaluator::finish(EvaluationMemory& memory, const std::string& end_reason, std::vector<EvaluationEvent>& out) {
+  Borrow b(*impl_, *memory.d_, *initial_.d_);
+  return impl_->finish(end_reason, out);
+}
+const EvaluationMemory& Evaluator::initial_memory() const { return initial_; }
+bool Evaluator::task_completed(const EvaluationMemory& memory) const {
+  return (memory.d_->primed ? memory.d_->step : 0) >= impl_->scene.task.steps.size();
+}
 const std::vector<EvaluationEvent>& Evaluator::events() const { return impl_->events; }
 const Stability& Evaluator::stability() const { return impl_->stab; }
 int Evaluator::points() const { return impl_->points; }

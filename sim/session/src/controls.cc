@@ -5,9 +5,10 @@
 
 namespace forklift {
 
-std::optional<std::string> control_problem(const ControlSample& c) {
+std::optional<std::string> control_problem(const ControlSample& c, const TruckParams& truck) {
   struct Field { const char* name; double value, lo, hi; };
-  const Field fields[] = {{"steer_rad", c.steer_rad, -1.5, 1.5},  {"accelerator", c.accelerator, -1, 1},
+  const double stop = truck.steer.max_rad;  // the truck file's end stops
+  const Field fields[] = {{"steer_rad", c.steer_rad, -stop, stop},  {"accelerator", c.accelerator, -1, 1},
                           {"brake", c.brake, 0, 1},               {"lift", c.lift, -1, 1},
                           {"tilt", c.tilt, -1, 1},                {"side_shift", c.side_shift, -1, 1}};
   for (const Field& f : fields) {

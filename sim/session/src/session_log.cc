@@ -4,11 +4,9 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
-#include <nlohmann/json.hpp>
 #include <sstream>
 #include <stdexcept>
 
-#include "forklift/dynamics/manoeuvre.h"
 
 namespace forklift {
 
@@ -36,6 +34,11 @@ std::vector<std::string> split(const std::string& line) {
 
 }  // namespace
 
+std::optional<std::string> ControlLog::end_reason() const {
+  if (!score_line) return std::nullopt;
+  return score_line->substr(score_line->rfind(' ') + 1);
+}
+
 std::string state_hex(const StateVector& x) {
   std::string s;
   for (int i = 0; i < StateIndex::kSize; ++i) {
@@ -54,7 +57,7 @@ StateVector parse_state_hex(const std::string& text) {
   return x;
 }
 
-ControlLogWriter::ControlLogWriter(const std::string& path, const LogHeader& h) {
+ControlLogWriter::ControlLogWriter(const std::string& path, const LogHeader& h) : path_(path) {
   f_ = std::fopen(path.c_str(), "w");
   if (!f_) throw std::runtime_error("cannot write control log " + path);
   std::fprintf(f_, "forklift-control-log 1\nsession %s\ncab %s\ntruck %s\ntick %s\nintegrator %s %s %d\ninit %s\n",
@@ -82,7 +85,26 @@ void ControlLogWriter::input(int64_t tick, uint32_t seq, const DriverInputs& u) 
   std::fflush(f_);  // a worker that is killed leaves everything it applied
 }
 
-void ControlLogWriter::note(const std::string& line) {
+void ControlLogWriter::deadman(int64_t tick, bool on) {
+  std::fprintf(f_, "dm %" PRId64 " %d\n", tick, on ? 1 : 0);
+  std::fflush(f_);
+}
+
+std::string event_line(int64_t tick, const std::string& kind, int worry_level) {
+  return "e " + std::to_string(tick) + " " + kind + " " + std::to_string(worry_level);
+}
+
+void ControlLogWriter::event(int64_t tick, const std::string& kind, int worry_level) {
+  std::fprintf(f_, "%s\n", event_line(tick, kind, worry_level).c_str());
+  std::fflush(f_);
+}
+
+void ControlLogWriter::worker_event(int64_t tick, const std::string& kind) {
+  std::fprintf(f_, "w %" PRId64 " %s 0\n", tick, kind.c_str());
+  std::fflush(f_);
+}
+
+void ControlLogWriter::score(const std::string& line) {
   std::fprintf(f_, "%s\n", line.c_str());
   std::fflush(f_);
 }
@@ -113,7 +135,13 @@ ControlLog read_control_log(const std::string& path) {
       else if (k == "truck") log.header.truck_file = rest;
       else if (k == "scenario") log.header.scenario_file = rest;
       else if (k == "mode") log.header.mode = rest;
-      else if (k == "e" || k == "w" || k == "score" || k == "dm") log.notes.push_back(line);
+      else if (k == "e") log.event_lines.push_back(line);
+      else if (k == "score") log.score_line = line;
+      else if (k == "w") log.worker_events.emplace_back(std::stoll(w.at(1)), w.at(2));
+      else if (k == "dm") {
+        if (w.size() != 3 || (w[2] != "0" && w[2] != "1")) throw std::runtime_error("a dead-man line is 'dm <tick> 0|1'");
+        log.deadman.emplace_back(std::stoll(w[1]), w[2] == "1");
+      }
       else if (k == "tick") log.header.tick_s = from_hex(w.at(1));
       else if (k == "integrator") {
         log.header.integrator.kind = parse_integrator(w.at(1));

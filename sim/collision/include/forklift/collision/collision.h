@@ -41,6 +41,26 @@ struct StepReport {
   std::vector<HandlingEvent> handling; // what happened to pallets this tick
 };
 
+// What pallet handling remembers from tick to tick: every pallet's pose and support, the one on
+// the forks and how it sits there. A copyable value (part of a session's state).
+class HandlingState {
+ public:
+  HandlingState();
+  HandlingState(const HandlingState&);
+  HandlingState& operator=(const HandlingState&);
+  HandlingState(HandlingState&&) noexcept;
+  HandlingState& operator=(HandlingState&&) noexcept;
+  ~HandlingState();
+
+  const std::vector<PalletState>& pallets() const;
+
+  struct Data;
+
+ private:
+  friend class Warehouse;
+  std::unique_ptr<Data> d_;
+};
+
 class Warehouse {
  public:
   // Builds the collision shapes (one FCL box per solid mesh part) and the broad phase.
@@ -59,6 +79,10 @@ class Warehouse {
   // centre of gravity passes the fork tips. A fork tip striking a pallet outside its pockets is
   // a contact, not a pick-up.
   const StepReport& step(Simulation& sim);
+  // The same on a session's own handling state (the warehouse's is left alone): the session
+  // pipeline's form, where that state is part of the session's.
+  const StepReport& step(Simulation& sim, HandlingState& state);
+  const HandlingState& initial_state() const;  // the scene's pallets where it puts them
 
   // The contacts the truck would have at coordinates q, without handling (for tests and tools).
   std::vector<Contact> contacts_at(const CoordVector& q);
@@ -69,6 +93,7 @@ class Warehouse {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+  HandlingState initial_;
 };
 
 }  // namespace forklift

@@ -141,6 +141,30 @@ Stability stability_margin(const Eigen::Vector3d& cog, const Eigen::Vector3d& g,
 // centres beyond the rated one, the rated capacity for nearer ones.
 double derated_capacity_kg(const TruckParams& truck, double load_centre_m);
 
+// What the evaluation remembers from tick to tick (events so far, points, debounce timers,
+// episodes, the task's progress): a copyable value, so that a session's state can be copied as a
+// rewind point. Its contents are the evaluator's business.
+class EvaluationMemory {
+ public:
+  EvaluationMemory();
+  EvaluationMemory(const EvaluationMemory&);
+  EvaluationMemory& operator=(const EvaluationMemory&);
+  EvaluationMemory(EvaluationMemory&&) noexcept;
+  EvaluationMemory& operator=(EvaluationMemory&&) noexcept;
+  ~EvaluationMemory();
+
+  const std::vector<EvaluationEvent>& events() const;  // every event so far
+  int points() const;
+  const Stability& stability() const;  // at the last tick
+  int steps_done() const;
+
+  struct Data;
+
+ private:
+  friend class Evaluator;
+  std::unique_ptr<Data> d_;
+};
+
 class Evaluator {
  public:
   // Copies what it needs. Throws RulesError when a rule, threshold or scored worry level is
@@ -160,6 +184,13 @@ class Evaluator {
   // task check append their events to `out`; returns the Score. Call once.
   Score finish(const std::string& end_reason, std::vector<EvaluationEvent>& out);
 
+  // The same on a session's own memory (the evaluator's is left alone): the session pipeline's
+  // form, where the memory is part of the session's state.
+  void tick(EvaluationMemory& memory, const TickInput& in, std::vector<EvaluationEvent>& out);
+  Score finish(EvaluationMemory& memory, const std::string& end_reason, std::vector<EvaluationEvent>& out);
+  const EvaluationMemory& initial_memory() const;  // before the first tick
+  bool task_completed(const EvaluationMemory& memory) const;
+
   const std::vector<EvaluationEvent>& events() const;  // every event so far
   const Stability& stability() const;                  // at the last tick
   int points() const;                                  // so far
@@ -170,6 +201,7 @@ class Evaluator {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+  EvaluationMemory initial_;
 };
 
 }  // namespace forklift

@@ -20,9 +20,12 @@ struct ControlSample {
 
 // Why a sample must not reach the integrator, or nullopt if it is fine: a non-finite value or
 // one outside its documented range (protocol/idl/Forklift.idl).
-std::optional<std::string> control_problem(const ControlSample& c);
+std::optional<std::string> control_problem(const ControlSample& c, const TruckParams& truck);
 
 // Normalised cab commands onto the truck's limits.
 DriverInputs driver_inputs(const ControlSample& c, const TruckParams& truck);
+
+// The dead-man response: no drive, full brake, levers still, steer held.
+DriverInputs deadman_inputs(const DriverInputs& last, const TruckParams& truck);
 
 }  // namespace forklift

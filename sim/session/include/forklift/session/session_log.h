@@ -12,12 +12,11 @@
 
 namespace forklift {
 
-// The dead-man response: no drive, full brake, levers still, steer held.
-DriverInputs deadman_inputs(const DriverInputs& last, const TruckParams& truck);
-
-// The control log: every input change with the physics tick at which it was applied, the
-// initial state and load, and the final state, with doubles written exactly (hex floats), so
-// that a replay re-simulates the session bit for bit. Each line is flushed as it is written.
+// The session log: every input change with the physics tick at which it was applied, the
+// initial state and load, the dead-man switches, the events and the score the session derived,
+// and the final state, with doubles written exactly (hex floats), so that a replay re-simulates
+// the session bit for bit and checks its marks. Each line is flushed as it is written: a worker
+// that is killed leaves everything it applied.
 struct LogHeader {
   std::string session_id, cab_id, truck_file;
   std::string scenario_file;  // the scene the session ran in (its pallets and contacts); empty: a bare floor
@@ -32,24 +31,42 @@ class ControlLogWriter {
  public:
   ControlLogWriter(const std::string& path, const LogHeader& header);  // throws on I/O error
   ~ControlLogWriter();
-  void input(int64_t tick, uint32_t seq, const DriverInputs& u);
-  // A line of the session log beside the inputs (events and the score; see cab_session.h).
-  void note(const std::string& line);
-  void finish(int64_t ticks, const StateVector& final_state);
+  ControlLogWriter(const ControlLogWriter&) = delete;
+  ControlLogWriter& operator=(const ControlLogWriter&) = delete;
+
+  void input(int64_t tick, uint32_t seq, const DriverInputs& u);     // "i": applied from this tick on
+  void deadman(int64_t tick, bool on);                                // "dm": the worker's dead-man switch
+  void event(int64_t tick, const std::string& kind, int worry_level); // "e": one the session derived
+  void worker_event(int64_t tick, const std::string& kind);          // "w": the worker's own (not marked)
+  void score(const std::string& line);                                // "score": score_line() of the mark
+  void finish(int64_t ticks, const StateVector& final_state);         // "end" and "final"
+  const std::string& path() const { return path_; }
 
  private:
+  std::string path_;
   FILE* f_;
 };
+
+// What the worker says when no cab spoke within its start timeout (a "w" line at tick 0).
+inline constexpr const char* kNoControlsEvent = "no_controls_from_cab";
 
 struct ControlLog {
   LogHeader header;
   struct Entry { int64_t tick; uint32_t seq; DriverInputs inputs; };
   std::vector<Entry> entries;
-  std::vector<std::string> notes;            // event ("e" evaluation, "w" worker), score and dead-man lines, in order
+  std::vector<std::pair<int64_t, bool>> deadman;          // switches, by tick
+  std::vector<std::string> event_lines;                   // "e" lines, as written
+  std::vector<std::pair<int64_t, std::string>> worker_events;  // "w" lines: tick, kind
+  std::optional<std::string> score_line;                  // "score" line, as written
   std::optional<int64_t> ticks;              // absent if the worker died before finishing
   std::optional<StateVector> final_state;
+  // The reason the logged session ended with (its score line's last word), if it has one.
+  std::optional<std::string> end_reason() const;
 };
 ControlLog read_control_log(const std::string& path);  // throws std::runtime_error
+
+// An "e" line: an event the session derived, after the tick it was found in.
+std::string event_line(int64_t tick, const std::string& kind, int worry_level);
 
 // Exact text of a state (hex floats), for logs and bit-for-bit comparison.
 std::string state_hex(const StateVector& x);

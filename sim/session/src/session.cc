@@ -1,0 +1,344 @@
+#include "forklift/session/session.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "forklift/script/script.h"
+#include "forklift/session/controls.h"
+
+namespace forklift {
+
+namespace {
+
+// <data>/session.json: what every session shares.
+double session_tick(const std::string& data_dir) {
+  const std::string path = data_dir + "/session.json";
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  try {
+    const nlohmann::json j = nlohmann::json::parse(in);
+    const double tick = j.at("tick_s").get<double>();
+    if (!(tick >= 1e-4 && tick <= 0.01)) throw std::runtime_error("tick_s must be in [0.0001, 0.01] s");
+    return tick;
+  } catch (const std::exception& e) {
+    throw std::runtime_error(path + ": " + e.what());
+  }
+}
+
+Environment environment_of(const SessionModel& m, const SessionState* s = nullptr) {
+  Environment env;
+  env.ground = m.scene.ground;
+  if (s) env.external_forces = s->scene_push;
+  return env;
+}
+
+// The scene a session runs in (the scenario file's), or a bare floor with the default truck.
+SessionModel with_scene(const std::string& scenario_file, const std::string& data_dir) {
+  SessionModel m;
+  m.data_dir = data_dir;
+  if (scenario_file.empty()) {
+    m.scene.scenario = default_scenario(data_dir);
+  } else {
+    m.scene = load_scene(scenario_file, data_dir);
+    m.scenario_file = std::filesystem::absolute(scenario_file).string();
+  }
+  return m;
+}
+
+SessionModel finish_model(SessionModel m, const std::string& rules_file, const std::string& mode) {
+  m.truck = load_truck(m.scene.scenario.truck_file);
+  m.shape = load_truck_shape(m.scene.scenario.truck_file, m.data_dir);
+  m.rules = load_rules(rules_file.empty() ? m.data_dir + "/evaluation/rules.json" : rules_file);
+  m.mode = parse_mode(mode);
+  return m;
+}
+
+}  // namespace
+
+SessionModel load_session_model(const SessionSpec& spec, const std::string& data_dir) {
+  SessionModel m = with_scene(spec.scenario_file, data_dir);
+  if (!spec.truck_file.empty()) m.scene.scenario.truck_file = spec.truck_file;
+  m.tick_s = session_tick(data_dir);
+  m.integrator = spec.integrator;
+  return finish_model(std::move(m), spec.rules_file, spec.mode);
+}
+
+SessionModel load_session_model(const LogHeader& h, const std::string& data_dir) {
+  SessionModel m = with_scene(h.scenario_file, data_dir);
+  m.scene.scenario.truck_file = h.truck_file;
+  if (!(h.tick_s > 0)) throw std::runtime_error("the log's tick is not positive");
+  m.tick_s = h.tick_s;
+  m.integrator = h.integrator;
+  return finish_model(std::move(m), "", h.mode);
+}
+
+SessionState initial_state(const SessionModel& m) {
+  const Scenario& sc = m.scene.scenario;
+  TruckDynamics dyn(m.truck, environment_of(m));
+  if (sc.load) dyn.attach_load(*sc.load);
+  SessionState s;
+  s.x = dyn.rest_state(sc.x_m, sc.y_m, sc.yaw_rad, 0, 0, sc.lift_m, 0);
+  const std::string where = m.scenario_file.empty() ? m.scene.scenario.truck_file : m.scenario_file;
+  if (!dyn.settle_static(s.x)) throw std::runtime_error(where + ": the truck does not stand at the start pose");
+  s.load = sc.load;
+  return s;
+}
+
+SessionState initial_state(const SessionModel& m, const LogHeader& h) {
+  SessionState s;
+  s.x = h.initial;
+  s.load = h.load;
+  return s;
+}
+
+struct SessionWorkspace::Impl {
+  const SessionModel& model;
+  std::unique_ptr<Simulation> sim;
+  Warehouse warehouse;
+  Evaluator evaluator;
+  // The state this workspace's integrator last produced: stepping it continues the integrator's
+  // history; any other state (a copy stepped elsewhere, a rewind) restarts it from that state.
+  bool have_last = false;
+  StateVector last_x;
+  double last_t = 0;
+  std::optional<Load> last_load;
+  // Scratch, reused every tick: a tick without an event allocates nothing here.
+  Outputs out;
+  BodyPoses poses;
+  StepReport no_report;
+  const StepReport* report = &no_report;
+  std::vector<EvaluationEvent> found;
+
+  explicit Impl(const SessionModel& m)
+      : model(m), warehouse(m.scene, m.shape, m.truck), evaluator(m.rules, m.scene, m.truck, m.shape, m.mode) {
+    found.reserve(16);
+  }
+
+  bool produced(const SessionState& s) const {
+    if (!have_last || !sim || s.t_s != last_t || s.load.has_value() != last_load.has_value()) return false;
+    for (int i = 0; i < StateIndex::kSize; ++i)
+      if (std::memcmp(&s.x[i], &last_x[i], sizeof(double)) != 0) return false;
+    return true;
+  }
+
+  void start_from(const SessionState& s) {
+    TruckDynamics dyn(model.truck, environment_of(model, &s));
+    if (s.load) dyn.attach_load(*s.load);
+    sim = std::make_unique<Simulation>(dyn, s.x, model.integrator, s.t_s);
+  }
+
+  void remember(const SessionState& s) {
+    have_last = true;
+    last_x = s.x;
+    last_t = s.t_s;
+    last_load = s.load;
+  }
+
+  void forward(std::vector<SessionEvent>& events) const {
+    for (const EvaluationEvent& e : found) events.push_back({e.rule, e.worry_level, e.x_m, e.y_m, e.details});
+  }
+};
+
+SessionWorkspace::SessionWorkspace(const SessionModel& model) : impl_(std::make_unique<Impl>(model)) {}
+SessionWorkspace::~SessionWorkspace() = default;
+const Outputs& SessionWorkspace::outputs() const { return impl_->out; }
+const BodyPoses& SessionWorkspace::poses() const { return impl_->poses; }
+const StepReport& SessionWorkspace::report() const { return *impl_->report; }
+const std::vector<EvaluationEvent>& SessionWorkspace::evaluation_events() const { return impl_->found; }
+IntegratorStats SessionWorkspace::integrator_stats() const { return impl_->sim ? impl_->sim->stats() : IntegratorStats{}; }
+
+namespace {
+struct StageScope {
+  StageObserver* o;
+  Stage s;
+  StageScope(StageObserver* obs, Stage stage) : o(obs), s(stage) { if (o) o->begin(s); }
+  ~StageScope() { if (o) o->end(s); }
+};
+}  // namespace
+
+void step(const SessionModel& model, SessionState& state, SessionWorkspace& workspace, const SessionInputs& inputs,
+          std::vector<SessionEvent>& events, StageObserver* observer) {
+  SessionWorkspace::Impl& w = *workspace.impl_;
+  if (!w.produced(state)) w.start_from(state);
+  Simulation& sim = *w.sim;
+  state.inputs = inputs;
+  sim.set_inputs(inputs.driver);
+  {  // dynamics
+    StageScope scope(observer, Stage::kDynamics);
+    sim.advance_to((state.tick + 1) * model.tick_s);
+  }
+  ++state.tick;
+  {  // collision and pallet handling (which may attach or release the load)
+    StageScope scope(observer, Stage::kCollision);
+    w.report = &w.warehouse.step(sim, state.handling);
+  }
+  state.x = sim.state();
+  state.t_s = sim.time();
+  state.load = sim.dynamics().load();
+  state.scene_push = sim.dynamics().environment().external_forces;
+  w.remember(state);
+
+  // Pallets picked up and set down are information on the timeline.
+  for (const HandlingEvent& h : w.report->handling) {
+    const nlohmann::json d = {{"pallet", h.pallet}, {"object", h.on_object}, {"level", h.level}};
+    events.push_back({handling_event_name(h.kind), 0, h.where_m.x(), h.where_m.y(), d.dump()});
+  }
+  {
+    StageScope scope(observer, Stage::kOutputs);
+    w.out = sim.outputs();
+    w.poses = body_poses(model.truck, w.out.q);
+  }
+  // evaluation: every rule, every tick, on the state, the contacts and the task
+  StageScope scope(observer, Stage::kEvaluation);
+  const TickInput in{state.t_s, w.out, w.poses, inputs.driver, *w.report, state.handling.pallets(), state.load,
+                     inputs.deadman, sim.dynamics().environment().gravity_m_s2};
+  w.found.clear();
+  w.evaluator.tick(state.evaluation, in, w.found);
+  w.forward(events);
+}
+
+Score finish(const SessionModel&, SessionState& state, SessionWorkspace& workspace, const std::string& end_reason,
+             std::vector<SessionEvent>& events) {
+  SessionWorkspace::Impl& w = *workspace.impl_;
+  w.found.clear();
+  const Score score = w.evaluator.finish(state.evaluation, end_reason, w.found);
+  w.forward(events);
+  return score;
+}
+
+std::string score_line(const Score& s) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "score %a %d %d ", s.mark, s.passed ? 1 : 0, s.points);
+  return buf + s.end_reason;
+}
+
+bool task_done_and_stopped(const SessionModel& model, const SessionState& s) {
+  if (model.scene.task.steps.empty() || s.evaluation.steps_done() < int(model.scene.task.steps.size())) return false;
+  return std::hypot(s.x[StateIndex::kQdot + kX], s.x[StateIndex::kQdot + kY]) < 0.05;
+}
+
+CoordVector coordinates_of(const SessionState& s) { return coordinates(s.x); }
+
+LogHeader log_header(const SessionModel& m, const SessionState& first, const std::string& session_id,
+                     const std::string& cab_id) {
+  LogHeader h;
+  h.session_id = session_id;
+  h.cab_id = cab_id;
+  h.truck_file = m.scene.scenario.truck_file;
+  h.scenario_file = m.scenario_file;
+  h.tick_s = m.tick_s;
+  h.integrator = m.integrator;
+  h.initial = first.x;
+  h.load = first.load;
+  h.mode = mode_name(m.mode);
+  return h;
+}
+
+OfflineRun run_offline(const SessionModel& model, SessionState state, const std::vector<InputChange>& changes,
+                       int64_t end_tick, const std::optional<std::string>& finish_reason, ControlLogWriter* log) {
+  SessionWorkspace ws(model);
+  OfflineRun run;
+  run.end_reason = finish_reason.value_or("");
+  std::vector<SessionEvent> found;
+  SessionInputs held;
+  size_t next = 0;
+  try {
+    while (state.tick < end_tick) {
+      while (next < changes.size() && changes[next].tick <= state.tick) {
+        const InputChange& c = changes[next++];
+        if (log) log->input(state.tick, c.seq, c.inputs.driver);
+        if (log && c.inputs.deadman != held.deadman) log->deadman(state.tick, c.inputs.deadman);
+        held = c.inputs;
+      }
+      step(model, state, ws, held, found, nullptr);
+      bool over_time = false;
+      for (const SessionEvent& e : found) {
+        run.events.emplace_back(state.tick, e);
+        if (log) log->event(state.tick, e.kind, e.worry_level);
+        over_time = over_time || e.kind == "time_limit";
+      }
+      run.evaluation_events.insert(run.evaluation_events.end(), ws.evaluation_events().begin(), ws.evaluation_events().end());
+      found.clear();
+      if (over_time) {
+        run.end_reason = "time_limit";
+        break;
+      }
+    }
+  } catch (const IntegratorError& e) {
+    run.end_reason = "numerical_failure";
+    run.failure = e.what();
+  }
+  if (finish_reason) {
+    run.score = finish(model, state, ws, run.end_reason, found);
+    for (const SessionEvent& e : found) {
+      run.events.emplace_back(state.tick, e);
+      if (log) log->event(state.tick, e.kind, e.worry_level);
+    }
+    run.evaluation_events.insert(run.evaluation_events.end(), ws.evaluation_events().begin(), ws.evaluation_events().end());
+    if (log) log->score(score_line(*run.score));
+  }
+  if (log) log->finish(state.tick, state.x);
+  run.ticks = state.tick;
+  run.final_state = std::move(state);
+  return run;
+}
+
+std::vector<InputChange> script_changes(const std::string& path, const SessionModel& model) {
+  std::vector<InputChange> out;
+  const std::vector<ScriptRow> rows = read_script(path);
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const ScriptRow& r = rows[i];
+    if (!std::isfinite(r.t) || r.t < 0) throw std::runtime_error(path + ": row " + std::to_string(i + 1) + ": bad time");
+    const ControlSample c{uint32_t(i + 1), r.steer, r.accelerator, r.brake, r.lift, r.tilt, r.shift, false, r.parking_brake};
+    if (const auto problem = control_problem(c, model.truck))
+      throw std::runtime_error(path + ": row " + std::to_string(i + 1) + " (t = " + std::to_string(r.t) + " s): " + *problem);
+    out.push_back({int64_t(std::ceil(r.t / model.tick_s - 1e-6)), c.seq, {driver_inputs(c, model.truck), false}});
+  }
+  return out;
+}
+
+ReplayResult replay_session(const ControlLog& log, const std::string& data_dir) {
+  const SessionModel model = load_session_model(log.header, data_dir);
+  // The inputs and the dead-man switches, merged by tick in the order the worker applied them.
+  std::vector<InputChange> changes;
+  SessionInputs held;
+  size_t next = 0, next_dm = 0;
+  while (next < log.entries.size() || next_dm < log.deadman.size()) {
+    const bool input_first = next_dm >= log.deadman.size() ||
+                             (next < log.entries.size() && log.entries[next].tick <= log.deadman[next_dm].first);
+    int64_t tick;
+    uint32_t seq = 0;
+    if (input_first) {
+      held.driver = log.entries[next].inputs;
+      tick = log.entries[next].tick;
+      seq = log.entries[next++].seq;
+    } else {
+      held.deadman = log.deadman[next_dm].second;
+      tick = log.deadman[next_dm++].first;
+    }
+    changes.push_back({tick, seq, held});
+  }
+  const int64_t end = log.ticks ? *log.ticks : (log.entries.empty() ? 0 : log.entries.back().tick + 1);
+  // The session ended the way its logged score says (its last word), or by a signal.
+  // A finished session ended the way its logged score says (its last word), or by a signal; one
+  // whose worker died before its end has no end-of-session lines to compare.
+  std::optional<std::string> reason;
+  if (log.ticks) reason = log.end_reason().value_or("signal");
+  const OfflineRun run = run_offline(model, initial_state(model, log.header), changes, end, reason);
+  ReplayResult r;
+  for (const auto& [tick, e] : run.events) r.event_lines.push_back(event_line(tick, e.kind, e.worry_level));
+  if (run.score) {
+    r.score_line = score_line(*run.score);
+    r.score = *run.score;
+  }
+  r.final_state = run.final_state.x;
+  r.ticks = run.ticks;
+  return r;
+}
+
+}  // namespace forklift
