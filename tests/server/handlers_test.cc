@@ -224,3 +224,16 @@ TEST(Handlers, AnExamNeedsDdsSecurityAndAnExaminer) {
   EXPECT_EQ(error_code(s.call("POST", "/api/sessions", s.login("ines", "ines-pass-1"), body.dump()).second), "forbidden");
   EXPECT_EQ(s.call("GET", pupil_path(pupil) + "/history", admin).second["sessions"].size(), 0u);
 }
+
+// Found while writing these tests, left for the lead (this branch changes no behaviour): a number
+// too large for a double (1e999) makes nlohmann throw out_of_range, not parse_error, which
+// body_json does not catch, so the answer is 500 "internal". Enable with the fix in api.cc.
+TEST(Handlers, DISABLED_AnOverflowingNumberIsBadJsonNot500) {
+  InProcessServer s("overflow", 159);
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json pupil = s.add_pupil(admin, "Fay");
+  auto [st, j] = s.call("POST", "/api/sessions", admin,
+                        R"({"pupil_id": )" + pupil["id"].dump() + R"(, "cab_id": "cab1", "scenario": "manoeuvre_1", "load": {"mass_kg": 1e999}})");
+  EXPECT_EQ(st, 400) << j;
+  EXPECT_EQ(error_code(j), "bad_json");
+}
