@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "api.h"
+
 namespace forklift::server {
 
 namespace {
@@ -17,6 +19,26 @@ Clock::duration seconds(double s) {
 }
 
 }  // namespace
+
+// ---------------------------------------------------------------- passwords
+
+std::string hash_password(const std::string& pw) {
+  char out[crypto_pwhash_STRBYTES];
+  if (crypto_pwhash_str(out, pw.c_str(), pw.size(), crypto_pwhash_OPSLIMIT_INTERACTIVE, crypto_pwhash_MEMLIMIT_INTERACTIVE) != 0)
+    throw std::runtime_error("out of memory hashing a password");
+  return out;
+}
+
+bool verify_password(const std::string& hash, const std::string& pw) {
+  return crypto_pwhash_str_verify(hash.c_str(), pw.c_str(), pw.size()) == 0;
+}
+
+std::string new_password_hash(const nlohmann::json& body) {
+  const std::string pw = field<std::string>(body, "password");
+  if (pw.size() < kMinPasswordLength)
+    throw ApiError(400, "bad_request", "passwords have at least " + std::to_string(kMinPasswordLength) + " characters");
+  return hash_password(pw);
+}
 
 // ---------------------------------------------------------------- Tokens
 

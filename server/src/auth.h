@@ -1,11 +1,12 @@
-// Logins: the bearer tokens the server hands out, and the limit on failed password attempts.
-// Both live in memory only: a restarted server forgets every login and every failure.
+// Logins: the passwords' hashes, the bearer tokens the server hands out, and the limit on failed
+// password attempts. Tokens and failures live in memory only: a restarted server forgets them.
 #pragma once
 
 #include <chrono>
 #include <cstdint>
 #include <deque>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <mutex>
 #include <optional>
 #include <set>
@@ -18,6 +19,15 @@
 namespace forklift::server {
 
 using Clock = std::chrono::steady_clock;
+
+constexpr size_t kMinPasswordLength = 8;
+
+// Argon2id, libsodium's interactive limits: memory-hard, about 0.1 s per hash here.
+std::string hash_password(const std::string& pw);
+bool verify_password(const std::string& hash, const std::string& pw);
+// The hash of a request body's new "password" (400 if missing or shorter than
+// kMinPasswordLength): hash it before taking any write lock, it takes 0.1 s.
+std::string new_password_hash(const nlohmann::json& body);
 
 // Who a token speaks for.
 struct Principal {

@@ -1,6 +1,6 @@
 // A real forklift-server for a test: its own loopback port, DDS domain and SQLite file in a
-// fresh folder, and small helpers for its JSON API (over https when given the CA of the server's
-// certificate, whose --tls-cert and --tls-key then go in `extra`).
+// fresh folder, over https when given the CA of the server's certificate (whose --tls-cert and
+// --tls-key then go in `extra`). ApiClient has the helpers for its JSON API.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -14,15 +14,14 @@
 #include <utility>
 #include <vector>
 
+#include "support/api_client.h"
 #include "support/process.h"
 
 namespace forklift_test {
 
 using nlohmann::json;
 
-inline const std::string kAdminPassword = "admin-pass-1";
-
-struct Server {
+struct Server : ApiClient {
   static constexpr const char* kBin = FORKLIFT_BIN_DIR;
 
   int port, domain;
@@ -50,43 +49,11 @@ struct Server {
     ADD_FAILURE() << "server did not come up: " << proc->err();
   }
   std::string url() const { return (ca.empty() ? "http://127.0.0.1:" : "https://127.0.0.1:") + std::to_string(port); }
-  httplib::Client client() const {
+  httplib::Client client() const override {
     httplib::Client c(url());
     if (!ca.empty()) c.set_ca_cert_path(ca);
     return c;
   }
-
-  // Status and JSON body of one request.
-  std::pair<int, json> call(const std::string& method, const std::string& path, const std::string& token = "",
-                            const std::string& body = "") const {
-    auto c = client();
-    httplib::Headers h;
-    if (!token.empty()) h.emplace("Authorization", "Bearer " + token);
-    auto r = method == "GET"     ? c.Get(path, h)
-             : method == "PATCH" ? c.Patch(path, h, body, "application/json")
-                                 : c.Post(path, h, body, "application/json");
-    if (!r) return {0, nullptr};
-    json j;
-    try { j = json::parse(r->body); } catch (...) { j = r->body; }
-    return {r->status, j};
-  }
-  std::string login(const std::string& user, const std::string& pw) const {
-    auto [status, j] = call("POST", "/api/login", "", json{{"username", user}, {"password", pw}}.dump());
-    EXPECT_EQ(status, 200) << j;
-    return status == 200 ? j["token"].get<std::string>() : "";
-  }
-  json wait_session(const std::string& token, const std::string& id, double seconds) const {
-    json s;
-    for (int i = 0; i < seconds * 10; ++i) {
-      s = call("GET", "/api/sessions/" + id, token).second;
-      const std::string st = s.value("state", "");
-      if (st == "ended" || st == "failed" || st == "aborted") break;
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    }
-    return s;
-  }
 };
-
-inline std::string error_code(const json& j) { return j.is_object() && j.contains("error") ? j["error"].value("code", "") : ""; }
 
 }  // namespace forklift_test

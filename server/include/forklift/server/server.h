@@ -1,0 +1,63 @@
+// forklift-server as a library: the HTTP/JSON API (server/openapi.yaml) over the trainee store and
+// the sim-worker fleet, mounted on an httplib::Server that the caller makes, binds and runs. The
+// program (server/src/main.cc) and the in-process tests share it.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace httplib {
+class Server;
+}
+
+namespace forklift::server {
+
+struct ServerConfig {
+  std::string db_path = "forklift.db";  // SQLite file, created if missing
+  std::string data_dir;                 // data/: scenarios, trucks, the theory bank
+  std::string log_dir;                  // workers' logs and the stills cache; empty: <db_path>.logs
+  std::string bin_dir;                  // where forklift-worker and forklift-render are
+  // The 'admin' account a new database gets; empty: a random password (see Api::generated_admin_password).
+  std::string admin_password;
+
+  double token_ttl_s = 8 * 3600;  // how long a login lasts
+  int login_attempts = 5;         // failed logins of one username within the window before a lockout
+  std::optional<int> login_address_attempts;  // the same for one client address; default 4 x login_attempts
+  double login_window_s = 60;
+
+  std::optional<int> dds_domain;  // empty: FORKLIFT_DDS_DOMAIN, else 0
+  std::string dds_config;         // Cyclone DDS configuration file; empty: the default
+  std::string security_dir;       // the school's DDS Security folder; empty: no exams
+  std::string identity = "server.main";
+  int max_workers = 8;
+  double hang_timeout_s = 5;
+  std::vector<std::string> worker_args;  // passed to every worker (its frames' rate, size, encoding)
+};
+
+struct Context;
+
+// The server's state (logins, store, fleet, question bank, caches) and its routes. Constructing
+// it opens the store, gives a new database its school and admin, and starts the fleet (DDS).
+class Api {
+ public:
+  explicit Api(ServerConfig config);
+  ~Api();
+  Api(const Api&) = delete;
+  Api& operator=(const Api&) = delete;
+
+  // Every /api route on `svr`, with the server's error answers, security headers and body limit.
+  // `svr` must not outlive this Api.
+  void mount(httplib::Server& svr);
+
+  // The admin password made up for a new database, to be shown once; empty if none was made.
+  const std::string& generated_admin_password() const { return generated_admin_password_; }
+  int dds_domain() const;  // the domain the fleet resolved
+
+ private:
+  std::unique_ptr<Context> ctx_;
+  std::string generated_admin_password_;
+};
+
+}  // namespace forklift::server

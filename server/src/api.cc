@@ -1,0 +1,128 @@
+#include "api.h"
+
+#include <algorithm>
+
+namespace forklift::server {
+
+using store::Role;
+
+void send_json(httplib::Response& res, int status, const json& body) {
+  res.status = status;
+  res.set_content(body.dump(), "application/json");
+}
+
+void send_error(httplib::Response& res, int status, const std::string& code, const std::string& message) {
+  send_json(res, status, {{"error", {{"code", code}, {"message", message}}}});
+}
+
+Handler guarded(Handler h) {
+  return [h](const httplib::Request& req, httplib::Response& res) {
+    try {
+      h(req, res);
+    } catch (const ApiError& e) {
+      send_error(res, e.status, e.code, e.what());
+    } catch (const store::StoreError& e) {
+      const int status = e.kind() == store::StoreError::kNotFound ? 404 : e.kind() == store::StoreError::kConflict ? 409
+                         : e.kind() == store::StoreError::kInvalid ? 400 : 500;
+      const char* code = status == 404 ? "not_found" : status == 409 ? "conflict" : status == 400 ? "bad_request" : "store_error";
+      send_error(res, status, code, e.what());
+    }
+  };
+}
+
+json body_json(const httplib::Request& req) {
+  if (req.body.empty()) throw ApiError(400, "bad_request", "a JSON body is required");
+  try {
+    json j = json::parse(req.body);
+    if (!j.is_object()) throw ApiError(400, "bad_request", "the body must be a JSON object");
+    return j;
+  } catch (const json::parse_error& e) {
+    throw ApiError(400, "bad_json", std::string("the body is not valid JSON: ") + e.what());
+  }
+}
+
+int64_t path_id(const httplib::Request& req, int i) {
+  try {
+    return std::stoll(req.matches[i]);
+  } catch (const std::exception&) {
+    throw ApiError(404, "not_found", "no such id");
+  }
+}
+
+int query_int(const httplib::Request& req, const char* key, int dflt, int hi) {
+  if (!req.has_param(key)) return dflt;
+  try {
+    return std::clamp(std::stoi(req.get_param_value(key)), 0, hi);
+  } catch (const std::exception&) {
+    throw ApiError(400, "bad_request", std::string("'") + key + "' must be a number");
+  }
+}
+
+Principal authenticate(Context& ctx, const httplib::Request& req) {
+  const std::string h = req.get_header_value("Authorization");
+  if (h.rfind("Bearer ", 0) != 0) throw ApiError(401, "unauthenticated", "log in first: Authorization: Bearer <token>");
+  const auto c = ctx.tokens->check(h.substr(7));
+  if (c.expired) throw ApiError(401, "token_expired", "this login has expired: log in again");
+  if (!c.principal) throw ApiError(401, "unauthenticated", "the token is unknown or was logged out: log in again");
+  return *c.principal;
+}
+
+void require_role(const Principal& p, std::initializer_list<Role> roles) {
+  for (Role r : roles) if (p.role == r) return;
+  throw ApiError(403, "forbidden", std::string("a ") + store::role_name(p.role) + " may not do this");
+}
+
+bool is_staff(const Principal& p) { return p.role != Role::kPupil; }
+
+store::Pupil visible_pupil(Context& ctx, const Principal& p, int64_t id) {
+  const auto pupil = ctx.db().get_pupil(id);
+  if (!pupil) throw ApiError(404, "not_found", "no pupil " + std::to_string(id));
+  if (p.role == Role::kPupil && p.pupil_id != id) throw ApiError(403, "forbidden", "a pupil may see only their own records");
+  if (p.role != Role::kPupil && pupil->school_id != p.school_id) throw ApiError(404, "not_found", "no pupil " + std::to_string(id));
+  return *pupil;
+}
+
+json pupil_json(const store::Pupil& p) {
+  return {{"id", p.id}, {"name", p.name}, {"email", p.email}, {"created_at", p.created_at}};
+}
+
+json session_json(const store::Session& s) {
+  json j = {{"id", s.public_id}, {"pupil_id", s.pupil_id}, {"cab_id", s.cab_id}, {"scenario", s.scenario},
+            {"mode", s.mode}, {"state", s.state}, {"reason", s.reason}, {"created_at", s.created_at},
+            {"ended_at", s.ended_at}, {"mark", s.mark ? json(*s.mark) : json(nullptr)},
+            {"passed", s.passed ? json(*s.passed) : json(nullptr)}};
+  if (s.examiner_id) j["examiner_id"] = *s.examiner_id;
+  return j;
+}
+
+const store::Actor kServerActor{std::nullopt, "server"};
+
+store::Actor actor_of(const Principal& p) { return {p.user_id, p.username}; }
+
+void audit(store::Store& db, const Principal& p, int64_t pupil_id, const std::string& action, const json& details) {
+  store::AuditRecord r;
+  r.actor = actor_of(p);
+  r.pupil_id = pupil_id;
+  r.action = action;
+  r.details = details.dump();
+  db.add_audit(r);
+}
+
+namespace {
+
+json audit_json(const store::AuditRecord& r) {
+  return {{"id", r.id}, {"at", r.at}, {"actor_user_id", r.actor.user_id ? json(*r.actor.user_id) : json(nullptr)},
+          {"actor", r.actor.name}, {"pupil_id", r.pupil_id}, {"action", r.action},
+          {"details", json::parse(r.details, nullptr, false)}};
+}
+
+}  // namespace
+
+json audit_page(store::Store& db, const store::AuditScope& scope, const httplib::Request& req) {
+  json out = json::array();
+  for (const auto& r : db.list_audit(scope, query_int(req, "limit", 100, 1000), query_int(req, "offset", 0, 1 << 30)))
+    out.push_back(audit_json(r));
+  return out;
+}
+
+}  // namespace forklift::server

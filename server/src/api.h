@@ -1,0 +1,79 @@
+// The plumbing every route file shares: errors as JSON answers, reading the request (body, fields,
+// path ids, query numbers), who is asking and what they may see, and the audit log.
+#pragma once
+
+#include <httplib.h>
+
+#include <cstdint>
+#include <functional>
+#include <initializer_list>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include "auth.h"
+#include "context.h"
+#include "forklift/store/store.h"
+
+namespace forklift::server {
+
+using nlohmann::json;
+
+// ---------------------------------------------------------------- errors
+// Thrown by a handler; guarded() turns it into {"error": {"code", "message"}} with `status`.
+struct ApiError : std::runtime_error {
+  int status;
+  std::string code;
+  ApiError(int s, std::string c, const std::string& m) : std::runtime_error(m), status(s), code(std::move(c)) {}
+};
+
+void send_json(httplib::Response& res, int status, const json& body);
+void send_error(httplib::Response& res, int status, const std::string& code, const std::string& message);
+
+using Handler = std::function<void(const httplib::Request&, httplib::Response&)>;
+// `h` with ApiError and StoreError answered as JSON errors (404, 409, 400 or 500 for the store's).
+Handler guarded(Handler h);
+
+// ---------------------------------------------------------------- the request
+json body_json(const httplib::Request& req);  // a JSON object, else 400
+
+// The body's `key` as a T: `fallback` when absent or null, else 400 if it is required.
+template <typename T>
+T field(const json& j, const char* key, std::optional<T> fallback = std::nullopt) {
+  if (!j.contains(key) || j[key].is_null()) {
+    if (fallback) return *fallback;
+    throw ApiError(400, "bad_request", std::string("'") + key + "' is required");
+  }
+  try {
+    return j[key].get<T>();
+  } catch (const json::exception&) {
+    throw ApiError(400, "bad_request", std::string("'") + key + "' has the wrong type");
+  }
+}
+
+int64_t path_id(const httplib::Request& req, int i = 1);  // the path's i-th match as an id, else 404
+// A whole-number query parameter clamped to [0, hi], or `dflt` when absent.
+int query_int(const httplib::Request& req, const char* key, int dflt, int hi);
+
+// ---------------------------------------------------------------- who asks
+Principal authenticate(Context& ctx, const httplib::Request& req);  // the bearer token's login, else 401
+void require_role(const Principal& p, std::initializer_list<store::Role> roles);  // else 403
+bool is_staff(const Principal& p);
+// A pupil sees only their own records; staff only their school's.
+store::Pupil visible_pupil(Context& ctx, const Principal& p, int64_t id);
+
+// ---------------------------------------------------------------- records shared by several routes
+json pupil_json(const store::Pupil& p);
+json session_json(const store::Session& s);
+
+// ---------------------------------------------------------------- audit
+extern const store::Actor kServerActor;  // writers that are not a logged-in user
+store::Actor actor_of(const Principal& p);
+// Records a change `p` made to a pupil's record. Call it inside the db.batch() that makes the
+// change, so that the change and its row commit together or not at all.
+void audit(store::Store& db, const Principal& p, int64_t pupil_id, const std::string& action, const json& details);
+// One page of audit rows, newest first, from the request's limit and offset.
+json audit_page(store::Store& db, const store::AuditScope& scope, const httplib::Request& req);
+
+}  // namespace forklift::server

@@ -1,0 +1,35 @@
+// What every route handler reaches: the store, the logins, the fleet and the data the server
+// loaded at start. Made once by Api; handlers run on httplib's threads and share it.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "auth.h"
+#include "fleet.h"
+#include "forklift/store/store.h"
+#include "plan.h"
+#include "stills.h"
+#include "theory.h"
+
+namespace forklift::server {
+
+struct Context {
+  std::string db_path, data_dir;
+  std::unique_ptr<Tokens> tokens;
+  std::unique_ptr<LoginThrottle> logins;
+  std::unique_ptr<Fleet> fleet;
+  std::unique_ptr<QuestionBank> bank;  // data/theory/questions.json, loaded at start
+  std::unique_ptr<PlanCache> plans;
+  std::unique_ptr<Stills> stills;
+
+  // One store connection per HTTP thread (a Store is used from one thread at a time).
+  store::Store& db() {
+    thread_local std::unique_ptr<store::Store> s;
+    thread_local std::string path;
+    if (!s || path != db_path) { s = store::Store::open_sqlite(db_path); path = db_path; }
+    return *s;
+  }
+};
+
+}  // namespace forklift::server

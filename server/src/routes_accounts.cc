@@ -1,0 +1,60 @@
+// Health, logging in and out, and new logins.
+#include "api.h"
+#include "routes.h"
+
+namespace forklift::server {
+
+using store::Role;
+
+void account_routes(httplib::Server& svr, Context& ctx) {
+  svr.Get("/api/health", guarded([&](const httplib::Request&, httplib::Response& res) {
+    send_json(res, 200, {{"status", "ok"}, {"schema_version", ctx.db().schema_version()}});
+  }));
+
+  svr.Post("/api/login", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const json b = body_json(req);
+    const std::string username = field<std::string>(b, "username"), password = field<std::string>(b, "password");
+    // Checked before the password, so that a locked-out guesser learns nothing from it.
+    if (const int wait_s = ctx.logins->retry_after(username, req.remote_addr)) {
+      res.set_header("Retry-After", std::to_string(wait_s));
+      throw ApiError(429, "too_many_attempts",
+                     "too many failed logins for this user or from this address: try again in " + std::to_string(wait_s) + " s");
+    }
+    const auto user = ctx.db().find_user(username);
+    if (!user || !verify_password(user->password_hash, password)) {
+      ctx.logins->failed(username, req.remote_addr);
+      throw ApiError(401, "bad_credentials", "unknown user or wrong password");
+    }
+    ctx.logins->succeeded(username);
+    Principal p{user->id, user->username, user->role, user->school_id, user->pupil_id, {}};
+    send_json(res, 200, {{"token", ctx.tokens->issue(p)}, {"role", store::role_name(user->role)},
+                         {"expires_in_s", ctx.tokens->ttl()}, {"pupil_id", user->pupil_id ? json(*user->pupil_id) : json(nullptr)}});
+  }));
+
+  // Ends a login before its time: the token is forgotten at once.
+  svr.Post("/api/logout", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    authenticate(ctx, req);
+    ctx.tokens->revoke(req.get_header_value("Authorization").substr(7));
+    send_json(res, 200, {{"status", "logged out"}});
+  }));
+
+  svr.Post("/api/users", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    require_role(p, {Role::kAdmin});
+    const json b = body_json(req);
+    const auto role = store::parse_role(field<std::string>(b, "role"));
+    if (!role) throw ApiError(400, "bad_request", "'role' must be admin, instructor, examiner or pupil");
+    const std::string username = field<std::string>(b, "username");
+    const std::string hash = new_password_hash(b);
+    std::optional<int64_t> pupil;
+    if (*role == Role::kPupil) pupil = visible_pupil(ctx, p, field<int64_t>(b, "pupil_id")).id;
+    int64_t id = 0;
+    ctx.db().batch([&] {
+      id = ctx.db().create_user(username, hash, *role, p.school_id, pupil);
+      if (pupil) audit(ctx.db(), p, *pupil, "login_created", {{"user_id", id}, {"username", username}});
+    });
+    send_json(res, 201, {{"id", id}});
+  }));
+}
+
+}  // namespace forklift::server

@@ -1,0 +1,248 @@
+// Sessions in the cabs: starting one (with its truck and load), its record, path and event stills,
+// aborting it, following it live, its exam evidence, and the fleet that runs them.
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <regex>
+
+#include "api.h"
+#include "catalogue.h"
+#include "exam_evidence.h"
+#include "load_request.h"
+#include "routes.h"
+
+namespace forklift::server {
+
+using store::Role;
+
+namespace {
+
+json event_json(const store::EventRecord& e) {
+  return {{"seq", e.seq}, {"sim_time_s", e.sim_time_s}, {"kind", e.kind}, {"worry_level", e.worry_level},
+          {"x_m", e.x_m}, {"y_m", e.y_m}, {"details", e.details}};
+}
+
+// The session named by the path's first match, if `p` may see it. A function, not a lambda local
+// to routes(): handlers run after routes() has returned.
+store::Session session_for(Context& ctx, const httplib::Request& req, const Principal& p) {
+  const auto s = ctx.db().get_session(req.matches[1]);
+  if (!s) throw ApiError(404, "not_found", "no session " + std::string(req.matches[1]));
+  visible_pupil(ctx, p, s->pupil_id);
+  return *s;
+}
+
+// The session of the request, for staff, with what the fleet sees of it now (live follow).
+std::pair<store::Session, LiveView> followed(Context& ctx, const httplib::Request& req) {
+  const Principal p = authenticate(ctx, req);
+  require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
+  const store::Session s = session_for(ctx, req, p);
+  const auto v = ctx.fleet->follow(s.public_id);
+  if (!v) throw ApiError(409, "not_running", "session " + s.public_id + " has no running worker (" + s.state + ")");
+  return {s, *v};
+}
+
+}  // namespace
+
+void session_routes(httplib::Server& svr, Context& ctx) {
+  svr.Post("/api/sessions", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
+    const json b = body_json(req);
+    const store::Pupil pupil = visible_pupil(ctx, p, field<int64_t>(b, "pupil_id"));
+    const std::string cab = field<std::string>(b, "cab_id");
+    if (!std::regex_match(cab, std::regex("[A-Za-z0-9_-]{1,32}"))) throw ApiError(400, "bad_request", "'cab_id' must be 1-32 letters, digits, - or _");
+    const std::string scenario = field<std::string>(b, "scenario");
+    const std::string scenario_path = scenario_file(ctx.data_dir, scenario);
+    const std::string mode = field<std::string>(b, "mode", std::string("training"));
+    if (mode == "exam") {
+      require_role(p, {Role::kAdmin, Role::kExaminer});
+      // A licence exam's result must be trusted: authenticated cab, encrypted traffic, signed log.
+      if (!ctx.fleet->secure())
+        throw ApiError(409, "security_required", "exams need DDS Security: start the server with --security DIR (scripts/forklift-pki.sh)");
+    }
+    if (ctx.fleet->cab_busy(cab)) throw ApiError(409, "cab_busy", "cab " + cab + " is already running a session");
+    std::optional<double> duration;
+    json run;  // the scenario as this session runs it
+    try {
+      run = read_json_file(scenario_path);
+      if (run.contains("duration_s") && run["duration_s"].is_number()) duration = run["duration_s"].get<double>();
+    } catch (const std::exception&) {
+      throw ApiError(500, "bad_scenario", "scenario '" + scenario + "' is unreadable");
+    }
+    // The truck and the load may replace the scenario's own (the paper's "characteristics of the
+    // simulation environment"); the worker then runs a copy of the scenario with them.
+    bool own_copy = false;
+    if (b.contains("truck")) {
+      const std::string truck = field<std::string>(b, "truck");
+      if (!trucks(ctx.data_dir).count(truck)) throw ApiError(404, "not_found", "no truck '" + truck + "'");
+      run["truck"] = "trucks/" + truck + ".json";  // relative to data/, as scenario files name it
+      own_copy = true;
+    }
+    if (b.contains("load")) {
+      const json& l = b["load"];
+      if (l.is_null()) run.erase("load");
+      else run["load"] = check_load_request(l);
+      own_copy = true;
+    }
+    // An instructor may shorten a session (never lengthen an exam's time limit).
+    if (b.contains("time_limit_s")) {
+      const double limit = field<double>(b, "time_limit_s");
+      if (!(limit > 0 && limit <= 24 * 3600)) throw ApiError(400, "bad_request", "'time_limit_s' must be in (0, 86400]");
+      duration = duration ? std::min(*duration, limit) : limit;
+    }
+    store::Session s;
+    ctx.db().batch([&] {
+      s = ctx.db().create_session(pupil.id, cab, scenario, mode, mode == "exam" ? std::optional<int64_t>(p.user_id) : std::nullopt,
+                                  store::now_iso8601());
+      ctx.db().put_session_log(s.public_id, "scenario", run.dump(2));
+      const auto [truck, load] = scenario_setup(run);
+      audit(ctx.db(), p, pupil.id, "session_started",
+            {{"session", s.public_id}, {"mode", mode}, {"cab", cab}, {"scenario", scenario},
+             {"time_limit_s", duration ? json(*duration) : json(nullptr)}, {"truck", truck}, {"load", load}});
+    });
+    std::string file = scenario_path;
+    if (own_copy) {
+      file = ctx.fleet->config().log_dir + "/" + s.public_id + ".scenario.json";
+      std::ofstream(file) << run.dump(2) << '\n';
+    }
+    try {
+      ctx.fleet->start_worker(s, file, duration);
+    } catch (const std::exception& e) {
+      ctx.db().set_session_state_audited(s.public_id, "failed", e.what(), store::now_iso8601(), kServerActor);
+      throw ApiError(503, "no_worker", e.what());
+    }
+    send_json(res, 201, session_json(*ctx.db().get_session(s.public_id)));
+  }));
+
+  svr.Get(R"(/api/sessions/(s-\d+))", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    const store::Session s = session_for(ctx, req, p);
+    json j = session_json(s);
+    j["events"] = json::array();
+    for (const auto& e : ctx.db().list_events(s.public_id)) j["events"].push_back(event_json(e));
+    if (const auto sc = ctx.db().get_score(s.public_id)) j["score"] = {{"mark", sc->mark}, {"passed", sc->passed}, {"counts", sc->counts}};
+    const auto [truck, load] = scenario_setup(session_scenario(ctx, s));
+    j["truck"] = truck.is_null() ? json(nullptr) : truck_json(ctx.data_dir, truck.get<std::string>());
+    j["load"] = load;
+    j["stills_available"] = ctx.stills->available();
+    send_json(res, 200, j);
+  }));
+
+  // The truck's path, about two points a second, for drawing over the warehouse plan.
+  svr.Get(R"(/api/sessions/(s-\d+)/path)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    const store::Session s = session_for(ctx, req, p);
+    json points = json::array();
+    for (const auto& q : ctx.db().list_path(s.public_id))
+      points.push_back({{"t", q.sim_time_s}, {"x_m", q.x_m}, {"y_m", q.y_m}, {"yaw_deg", q.yaw_rad * 180 / M_PI},
+                        {"speed_m_s", q.speed_m_s}, {"lift_m", q.lift_m}});
+    send_json(res, 200, {{"session", s.public_id}, {"interval_s", ctx.fleet->config().path_interval_s}, {"points", points}});
+  }));
+
+  // A still rendered where an event happened: the truck at the event's position, heading and fork
+  // height from the path point nearest in time.
+  svr.Get(R"(/api/sessions/(s-\d+)/events/(\d+)/still\.png)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    const store::Session s = session_for(ctx, req, p);
+    const int64_t seq = path_id(req, 2);
+    std::optional<store::EventRecord> event;
+    for (const auto& e : ctx.db().list_events(s.public_id))
+      if (e.seq == seq) event = e;
+    if (!event) throw ApiError(404, "not_found", "session " + s.public_id + " has no event " + std::to_string(seq));
+    if (!ctx.stills->available()) throw ApiError(503, "no_renderer", "stills need forklift-render, which has not been built");
+    StillRequest r;
+    r.key = s.public_id + "-e" + std::to_string(seq);
+    r.scenario_file = session_scenario_file(ctx, s);
+    if (r.scenario_file.empty()) throw ApiError(404, "not_found", "scenario '" + s.scenario + "' is gone");
+    r.x_m = event->x_m;
+    r.y_m = event->y_m;
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& q : ctx.db().list_path(s.public_id))
+      if (std::abs(q.sim_time_s - event->sim_time_s) < best) {
+        best = std::abs(q.sim_time_s - event->sim_time_s);
+        r.yaw_deg = q.yaw_rad * 180 / M_PI;
+        r.fork_height_m = std::max(0.0, q.lift_m);
+      }
+    try {
+      res.set_content(ctx.stills->png(r), "image/png");
+      res.set_header("Cache-Control", "private, max-age=86400");
+    } catch (const std::runtime_error& e) {
+      throw ApiError(500, "render_failed", e.what());
+    }
+  }));
+
+  svr.Post(R"(/api/sessions/(s-\d+)/abort)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
+    const store::Session s = session_for(ctx, req, p);
+    if (!ctx.db().set_session_state_audited(s.public_id, "aborted", "aborted by " + p.username, store::now_iso8601(), actor_of(p)))
+      throw ApiError(409, "session_over", "session " + s.public_id + " is already " + s.state);
+    ctx.fleet->abort(s.public_id);
+    send_json(res, 200, session_json(*ctx.db().get_session(s.public_id)));
+  }));
+
+  // Live follow (the remote examiner): the newest truck state, and whether a frame is there to
+  // fetch from /live/frame.jpg. Asking keeps the server subscribed to the cab's frames.
+  svr.Get(R"(/api/sessions/(s-\d+)/live)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const auto [s, v] = followed(ctx, req);
+    json state = nullptr;
+    if (v.have_state) {
+      const fk_TruckState& t = v.state;
+      state = {{"sim_time_s", t.sim_time_s}, {"x_m", t.x_m}, {"y_m", t.y_m}, {"yaw_deg", t.yaw_rad * 180 / M_PI},
+               {"speed_m_s", t.speed_m_s}, {"lift_m", t.lift_m}, {"tilt_deg", t.tilt_rad * 180 / M_PI},
+               {"load_attached", t.load_attached}, {"load_mass_kg", t.load_mass_kg}, {"stability_margin", t.stability_margin},
+               {"deadman", t.deadman}, {"applied_control_sequence", t.applied_control_sequence}};
+    }
+    send_json(res, 200, {{"session", s.public_id}, {"state", state}, {"frame_available", !v.jpeg.empty()},
+                         {"frame_seq", v.frame_seq}, {"frame_sim_time_s", v.frame_sim_time_s}});
+  }));
+
+  svr.Get(R"(/api/sessions/(s-\d+)/live/frame\.jpg)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const auto [s, v] = followed(ctx, req);
+    if (v.jpeg.empty()) throw ApiError(404, "no_frame", "no frame from cab " + s.cab_id + " yet (the worker renders none, or it is starting)");
+    res.set_content(std::string(v.jpeg.begin(), v.jpeg.end()), "image/jpeg");
+  }));
+
+  // A chained exam's evidence, for `forklift-menu verify`, which checks it against the school's CA.
+  svr.Get(R"(/api/sessions/(s-\d+)/evidence)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
+    const store::Session s = session_for(ctx, req, p);
+    send_json(res, 200, exam_evidence(ctx.db(), s));
+  }));
+
+  svr.Get("/api/fleet", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
+    json workers = json::array(), cabs = json::array();
+    const auto now = std::chrono::steady_clock::now();
+    for (const auto& w : ctx.fleet->workers())
+      workers.push_back({{"session", w.session}, {"cab", w.cab}, {"pid", w.pid}, {"sim_time_s", w.last.sim_time_s}, {"speed_m_s", w.last.speed_m_s},
+                         {"seconds_since_state", w.seen_state ? json(std::chrono::duration<double>(now - w.last_state).count()) : json(nullptr)},
+                         {"healthy", !w.seen_state || std::chrono::duration<double>(now - w.last_state).count() < 1.0}});
+    for (const auto& c : ctx.fleet->cabs_online()) cabs.push_back({{"id", c.id}, {"mode", c.mode}});
+    // Every cab, online or not, with what it runs and for whom (the fleet page).
+    std::map<std::string, json> all;
+    auto cab = [&](const std::string& id) -> json& {
+      if (!all.count(id)) all[id] = {{"id", id}, {"online", false}, {"mode", nullptr}, {"last_seen_at", nullptr}, {"session", nullptr}};
+      return all[id];
+    };
+    for (const auto& c : ctx.db().list_cabs(p.school_id)) cab(c.id)["last_seen_at"] = c.last_seen_at.empty() ? json(nullptr) : json(c.last_seen_at);
+    for (const auto& c : ctx.fleet->cabs_online()) { cab(c.id)["online"] = true; cab(c.id)["mode"] = c.mode; }
+    for (const auto& w : workers) {
+      const auto s = ctx.db().get_session(w["session"].get<std::string>());
+      const auto pupil = s ? ctx.db().get_pupil(s->pupil_id) : std::nullopt;
+      json& c = cab(w["cab"].get<std::string>());
+      if (!s || !pupil || pupil->school_id != p.school_id) { c["session"] = {{"id", nullptr}, {"other_school", true}}; continue; }
+      c["session"] = {{"id", s->public_id}, {"pupil_id", pupil->id}, {"pupil_name", pupil->name}, {"scenario", s->scenario},
+                      {"mode", s->mode}, {"state", s->state}, {"created_at", s->created_at}, {"sim_time_s", w["sim_time_s"]},
+                      {"speed_m_s", w["speed_m_s"]}, {"seconds_since_state", w["seconds_since_state"]}, {"healthy", w["healthy"]},
+                      {"pid", w["pid"]}};
+    }
+    json every = json::array();
+    for (auto& [id, c] : all) every.push_back(std::move(c));
+    send_json(res, 200, {{"workers", workers}, {"cabs_online", cabs}, {"cabs", every}, {"max_workers", ctx.fleet->config().max_workers}});
+  }));
+}
+
+}  // namespace forklift::server

@@ -1,0 +1,239 @@
+// The API's handlers in this process: forklift_server_core mounted on an httplib::Server in a
+// thread, on a loopback port the OS picks, over a real SQLite file in a fresh folder; the tests
+// talk real HTTP. No worker ever starts: the bin folder given is empty, and every session request
+// here is refused before one would be spawned.
+#include <gtest/gtest.h>
+#include <httplib.h>
+
+#include <chrono>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+
+#include "forklift/server/server.h"
+#include "support/api_client.h"
+
+using forklift_test::error_code;
+using forklift_test::kAdminPassword;
+using nlohmann::json;
+
+namespace {
+
+// DDS domains 150-159 are this file's (the fleet joins one even with no cab about).
+struct InProcessServer : forklift_test::ApiClient {
+  std::string dir;
+  std::unique_ptr<forklift::server::Api> api;
+  httplib::Server http;
+  int port = 0;
+  std::thread thread;
+
+  InProcessServer(const std::string& name, int domain) : dir(testing::TempDir() + "/handlers-" + name) {
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir + "/bin");
+    forklift::server::ServerConfig c;
+    c.db_path = dir + "/forklift.db";
+    c.data_dir = FORKLIFT_DATA_DIR;
+    c.bin_dir = dir + "/bin";
+    c.admin_password = kAdminPassword;
+    c.dds_domain = domain;
+    api = std::make_unique<forklift::server::Api>(c);
+    api->mount(http);
+    port = http.bind_to_any_port("127.0.0.1");
+    thread = std::thread([this] { http.listen_after_bind(); });
+    // stop() is lost on a server not yet listening, and the destructor would wait for ever.
+    for (int i = 0; i < 500 && !http.is_running(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ~InProcessServer() override {
+    http.stop();
+    thread.join();
+  }
+  httplib::Client client() const override { return httplib::Client("127.0.0.1", port); }
+
+  // A pupil of the admin's school, with a login of their own when `username` is given.
+  json add_pupil(const std::string& admin, const std::string& name, const std::string& username = "") const {
+    json b = {{"name", name}};
+    if (!username.empty()) b.update({{"username", username}, {"password", username + "-pass-1"}});
+    auto [status, j] = call("POST", "/api/pupils", admin, b.dump());
+    EXPECT_EQ(status, 201) << j;
+    return j;
+  }
+  json audit(const std::string& admin) const { return call("GET", "/api/audit", admin).second; }
+};
+
+std::string pupil_path(const json& pupil) { return "/api/pupils/" + std::to_string(pupil["id"].get<int64_t>()); }
+
+}  // namespace
+
+TEST(Handlers, TheBootstrapAdminLogsInAndAWrongPasswordIs401) {
+  InProcessServer s("login", 150);
+  ASSERT_GT(s.port, 0);
+  auto [st, j] = s.call("POST", "/api/login", "", json{{"username", "admin"}, {"password", kAdminPassword}}.dump());
+  ASSERT_EQ(st, 200) << j;
+  EXPECT_EQ(j["role"], "admin");
+  EXPECT_FALSE(j["token"].get<std::string>().empty());
+  EXPECT_EQ(s.call("GET", "/api/pupils", j["token"]).first, 200);
+
+  auto [wst, wrong] = s.call("POST", "/api/login", "", R"({"username":"admin","password":"admin-pass-2"})");
+  EXPECT_EQ(wst, 401);
+  EXPECT_EQ(error_code(wrong), "bad_credentials");
+  EXPECT_EQ(s.call("POST", "/api/login", "", R"({"username":"nobody","password":"admin-pass-1"})").first, 401);
+  EXPECT_EQ(error_code(s.call("GET", "/api/pupils", "").second), "unauthenticated");
+}
+
+TEST(Handlers, ALoggedOutTokenIsRefused) {
+  InProcessServer s("logout", 151);
+  const std::string admin = s.login("admin", kAdminPassword);
+  EXPECT_EQ(s.call("POST", "/api/logout", admin).first, 200);
+  auto [st, j] = s.call("GET", "/api/pupils", admin);
+  EXPECT_EQ(st, 401);
+  EXPECT_EQ(error_code(j), "unauthenticated");
+}
+
+TEST(Handlers, EveryAnswerCarriesTheSecurityHeaders) {
+  InProcessServer s("headers", 152);
+  auto c = s.client();
+  for (const char* path : {"/api/health", "/api/no-such-thing"}) {
+    const auto r = c.Get(path);
+    ASSERT_TRUE(r) << path;
+    EXPECT_EQ(r->get_header_value("X-Content-Type-Options"), "nosniff") << path;
+    EXPECT_EQ(r->get_header_value("X-Frame-Options"), "DENY") << path;
+    EXPECT_EQ(r->get_header_value("Cache-Control"), "no-store") << path;
+  }
+  const auto missing = c.Get("/api/no-such-thing");
+  EXPECT_EQ(missing->status, 404);
+  EXPECT_EQ(error_code(json::parse(missing->body)), "not_found");
+}
+
+TEST(Handlers, APupilCreatedIsListedAndFetched) {
+  InProcessServer s("pupil", 153);
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json p = s.add_pupil(admin, "Ana Pupil");
+  ASSERT_TRUE(p["id"].is_number_integer()) << p;
+
+  const json list = s.call("GET", "/api/pupils", admin).second;
+  ASSERT_EQ(list.size(), 1u) << list;
+  EXPECT_EQ(list[0]["id"], p["id"]);
+  EXPECT_EQ(list[0]["name"], "Ana Pupil");
+  auto [st, got] = s.call("GET", pupil_path(p), admin);
+  EXPECT_EQ(st, 200);
+  EXPECT_EQ(got, p);
+  const json audit = s.audit(admin);
+  ASSERT_EQ(audit.size(), 1u);
+  EXPECT_EQ(audit[0]["action"], "pupil_created");
+  EXPECT_EQ(audit[0]["actor"], "admin");
+}
+
+TEST(Handlers, AMalformedBodyIs400WithItsReasonAndChangesNothing) {
+  InProcessServer s("malformed", 154);
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json p = s.add_pupil(admin, "Ben");
+
+  auto [st1, j1] = s.call("POST", "/api/pupils", admin, R"({"name": "Carl")");
+  EXPECT_EQ(st1, 400);
+  EXPECT_EQ(error_code(j1), "bad_json");
+  EXPECT_NE(j1["error"]["message"].get<std::string>().find("not valid JSON"), std::string::npos) << j1;
+  auto [st2, j2] = s.call("POST", "/api/pupils", admin, "[1, 2]");
+  EXPECT_EQ(st2, 400);
+  EXPECT_EQ(j2["error"]["message"], "the body must be a JSON object");
+  auto [st3, j3] = s.call("PATCH", pupil_path(p), admin, "{name: 'Bob'}");
+  EXPECT_EQ(st3, 400);
+  EXPECT_EQ(error_code(j3), "bad_json");
+  EXPECT_EQ(error_code(s.call("POST", "/api/pupils", admin, R"({"name": 5})").second), "bad_request");
+
+  EXPECT_EQ(s.call("GET", "/api/pupils", admin).second.size(), 1u);
+  EXPECT_EQ(s.call("GET", pupil_path(p), admin).second["name"], "Ben");
+  EXPECT_EQ(s.audit(admin).size(), 1u);  // only Ben's creation
+}
+
+TEST(Handlers, AnUnknownPupilIs404) {
+  InProcessServer s("unknown", 155);
+  const std::string admin = s.login("admin", kAdminPassword);
+  for (const char* path : {"/api/pupils/999", "/api/pupils/999/history", "/api/pupils/999/audit"}) {
+    auto [st, j] = s.call("GET", path, admin);
+    EXPECT_EQ(st, 404) << path;
+    EXPECT_EQ(error_code(j), "not_found") << path;
+  }
+  EXPECT_EQ(s.call("GET", "/api/pupils/999", admin).second["error"]["message"], "no pupil 999");
+  EXPECT_EQ(s.call("PATCH", "/api/pupils/999", admin, R"({"name":"X"})").first, 404);
+  EXPECT_EQ(s.call("GET", "/api/sessions/s-999999", admin).first, 404);
+}
+
+TEST(Handlers, APupilSeesOnlyTheirOwnRecordAndNoList) {
+  InProcessServer s("roles", 156);
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json ana = s.add_pupil(admin, "Ana", "ana"), ben = s.add_pupil(admin, "Ben");
+  const std::string token = s.login("ana", "ana-pass-1");
+
+  auto [st, j] = s.call("GET", "/api/pupils", token);
+  EXPECT_EQ(st, 403);
+  EXPECT_EQ(error_code(j), "forbidden");
+  EXPECT_EQ(s.call("GET", pupil_path(ana), token).first, 200);
+  EXPECT_EQ(s.call("GET", pupil_path(ana) + "/history", token).first, 200);
+  EXPECT_EQ(s.call("GET", pupil_path(ben), token).first, 403);
+  EXPECT_EQ(s.call("GET", pupil_path(ana) + "/audit", token).first, 403);  // not even their own
+  EXPECT_EQ(s.call("POST", "/api/pupils", token, R"({"name":"Eve"})").first, 403);
+  EXPECT_EQ(s.call("PATCH", pupil_path(ana), token, R"({"name":"Queen Ana"})").first, 403);
+  EXPECT_EQ(s.call("GET", "/api/pupils", admin).second.size(), 2u);
+  EXPECT_EQ(s.call("GET", pupil_path(ana), admin).second["name"], "Ana");
+}
+
+TEST(Handlers, ABadLoadIsRefusedBeforeAnySessionStarts) {
+  InProcessServer s("load", 157);
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json pupil = s.add_pupil(admin, "Dan");
+  const auto start = [&](const std::string& load) {
+    return s.call("POST", "/api/sessions", admin,
+                  R"({"pupil_id": )" + pupil["id"].dump() + R"(, "cab_id": "cab1", "scenario": "manoeuvre_1", "load": )" + load + "}");
+  };
+  const std::pair<const char*, const char*> bad[] = {
+      {R"({"mass_kg": 0})", "'load.mass_kg' must be in (0, 20000]"},
+      {R"({"mass_kg": -5})", "'load.mass_kg' must be in (0, 20000]"},
+      {R"({"mass_kg": 20001})", "'load.mass_kg' must be in (0, 20000]"},
+      {R"({"mass_kg": "heavy"})", "'load.mass_kg' must be a number"},
+      {R"({"cog_height_m": 1})", "'load.mass_kg' must be in (0, 20000]"},  // the mass is required
+      {R"({"mass_kg": 500, "colour": 1})", "'load.colour' is not a load field"},
+      {R"({"mass_kg": 500, "cog_height_m": 11})", "'load.cog_height_m' must be in [0, 10]"},
+      {R"({"mass_kg": 500, "lateral_m": -2.5})", "'load.lateral_m' must be in [-2, 2]"},
+      {R"([500])", "'load' must be null (no load) or an object"},
+  };
+  for (const auto& [load, message] : bad) {
+    auto [st, j] = start(load);
+    EXPECT_EQ(st, 400) << load << ": " << j;
+    EXPECT_EQ(error_code(j), "bad_request") << load;
+    EXPECT_EQ(j["error"]["message"], message) << load;
+  }
+  // NaN is not JSON: the body itself is refused.
+  EXPECT_EQ(error_code(start(R"({"mass_kg": NaN})").second), "bad_json");
+
+  EXPECT_EQ(s.call("GET", pupil_path(pupil) + "/history", admin).second["sessions"].size(), 0u);
+  EXPECT_EQ(s.audit(admin).size(), 1u);  // the pupil's creation, no session_started
+  EXPECT_EQ(s.call("GET", "/api/fleet", admin).second["workers"].size(), 0u);
+}
+
+TEST(Handlers, AnExamNeedsDdsSecurityAndAnExaminer) {
+  InProcessServer s("exam", 158);
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json pupil = s.add_pupil(admin, "Eva");
+  EXPECT_EQ(s.call("POST", "/api/users", admin, R"({"username":"ines","password":"ines-pass-1","role":"instructor"})").first, 201);
+  const json body = {{"pupil_id", pupil["id"]}, {"cab_id", "cab1"}, {"scenario", "manoeuvre_1"}, {"mode", "exam"}};
+  auto [st, j] = s.call("POST", "/api/sessions", admin, body.dump());
+  EXPECT_EQ(st, 409);
+  EXPECT_EQ(error_code(j), "security_required");  // this server runs without --security
+  EXPECT_EQ(error_code(s.call("POST", "/api/sessions", s.login("ines", "ines-pass-1"), body.dump()).second), "forbidden");
+  EXPECT_EQ(s.call("GET", pupil_path(pupil) + "/history", admin).second["sessions"].size(), 0u);
+}
+
+// Found while writing these tests, left for the lead (this branch changes no behaviour): a number
+// too large for a double (1e999) makes nlohmann throw out_of_range, not parse_error, which
+// body_json does not catch, so the answer is 500 "internal". Enable with the fix in api.cc.
+TEST(Handlers, DISABLED_AnOverflowingNumberIsBadJsonNot500) {
+  InProcessServer s("overflow", 159);
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json pupil = s.add_pupil(admin, "Fay");
+  auto [st, j] = s.call("POST", "/api/sessions", admin,
+                        R"({"pupil_id": )" + pupil["id"].dump() + R"(, "cab_id": "cab1", "scenario": "manoeuvre_1", "load": {"mass_kg": 1e999}})");
+  EXPECT_EQ(st, 400) << j;
+  EXPECT_EQ(error_code(j), "bad_json");
+}
