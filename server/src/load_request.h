@@ -1,14 +1,15 @@
 // The load a request to start a session asks for (POST /api/sessions, "load"), checked against the
-// worker's own limits so that a bad load is a 400 now rather than a failed session later.
+// simulation's own limits (load_request_problem) so that a bad load is a 400 now rather than a failed session later.
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <string>
 
 namespace forklift::server {
 
 // `load` (an object of mass_kg, and optionally cog_height_m and lateral_m) with each value as a
 // number in its range; throws ApiError(400) naming the first bad key. A null load (none) is the
 // caller's business.
-nlohmann::json check_load_request(const nlohmann::json& load);
+nlohmann::json check_load_request(const nlohmann::json& load, const std::string& data_dir);
 
 }  // namespace forklift::server

@@ -81,7 +81,7 @@ void session_routes(httplib::Server& svr, Context& ctx) {
     if (b.contains("load")) {
       const json& l = b["load"];
       if (l.is_null()) run.erase("load");
-      else run["load"] = check_load_request(l);
+      else run["load"] = check_load_request(l, ctx.data_dir);
       own_copy = true;
     }
     // An instructor may shorten a session (never lengthen an exam's time limit).

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <stdexcept>
 
 #include "forklift/dynamics/manoeuvre.h"
@@ -40,10 +41,13 @@ Scenario load_scenario(const std::string& path, const std::string& data_dir) {
     const TruckParams truck = load_truck(s.truck_file);
     if (j.contains("load") && !j.at("load").is_null()) {
       const auto& l = j.at("load");
-      const double mass = l.at("mass_kg").get<double>();
-      if (!(mass > 0 && mass < 20000)) throw std::runtime_error("load.mass_kg must be in (0, 20000)");
-      s.load = box_load(mass, 1.0, 1.0, 1.0, truck.rated_load_centre_m, l.value("lateral_m", 0.0));
-      s.lift_m = std::clamp(lift_for_load_height(truck, *s.load, l.value("cog_height_m", 0.6)), 0.0, truck.limits.lift_max_m);
+      LoadRequest r;
+      r.mass_kg = l.at("mass_kg").get<double>();
+      r.lateral_m = l.value("lateral_m", r.lateral_m);
+      r.cog_height_m = l.value("cog_height_m", r.cog_height_m);
+      if (const auto problem = load_request_problem(r, data_dir)) throw std::runtime_error(*problem);
+      s.load = requested_load(r, truck);
+      s.lift_m = requested_lift(r, *s.load, truck);
     }
   } catch (const nlohmann::json::exception& e) {
     throw std::runtime_error(path + ": " + e.what());
@@ -53,6 +57,47 @@ Scenario load_scenario(const std::string& path, const std::string& data_dir) {
   if (!std::isfinite(s.x_m) || !std::isfinite(s.y_m) || !std::isfinite(s.yaw_rad))
     throw std::runtime_error(path + ": start pose is not finite");
   return s;
+}
+
+namespace {
+struct LoadLimits {
+  double mass_max_kg, cog_height_max_m, lateral_max_m;
+};
+LoadLimits load_limits(const std::string& data_dir) {
+  const std::string path = data_dir + "/session.json";
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  try {
+    const nlohmann::json l = nlohmann::json::parse(in).at("load");
+    return {l.at("mass_max_kg").get<double>(), l.at("cog_height_max_m").get<double>(), l.at("lateral_max_m").get<double>()};
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error(path + ": " + e.what());
+  }
+}
+std::string num(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+}  // namespace
+
+std::optional<std::string> load_request_problem(const LoadRequest& r, const std::string& data_dir) {
+  const LoadLimits lim = load_limits(data_dir);
+  if (!(std::isfinite(r.mass_kg) && r.mass_kg > 0 && r.mass_kg <= lim.mass_max_kg))
+    return "'load.mass_kg' must be in (0, " + num(lim.mass_max_kg) + "]";
+  if (!(std::isfinite(r.cog_height_m) && r.cog_height_m >= 0 && r.cog_height_m <= lim.cog_height_max_m))
+    return "'load.cog_height_m' must be in [0, " + num(lim.cog_height_max_m) + "]";
+  if (!(std::isfinite(r.lateral_m) && std::abs(r.lateral_m) <= lim.lateral_max_m))
+    return "'load.lateral_m' must be in [-" + num(lim.lateral_max_m) + ", " + num(lim.lateral_max_m) + "]";
+  return std::nullopt;
+}
+
+Load requested_load(const LoadRequest& r, const TruckParams& truck) {
+  return box_load(r.mass_kg, 1.0, 1.0, 1.0, truck.rated_load_centre_m, r.lateral_m);
+}
+
+double requested_lift(const LoadRequest& r, const Load& load, const TruckParams& truck) {
+  return std::clamp(lift_for_load_height(truck, load, r.cog_height_m), 0.0, truck.limits.lift_max_m);
 }
 
 }  // namespace forklift

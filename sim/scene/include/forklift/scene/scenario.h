@@ -2,6 +2,7 @@
 #pragma once
 
 #include <optional>
+#include <stdexcept>
 #include <string>
 
 #include "forklift/dynamics/dynamics.h"
@@ -21,5 +22,21 @@ struct Scenario {
 Scenario default_scenario(const std::string& data_dir);
 // Throws std::runtime_error naming the file and the problem.
 Scenario load_scenario(const std::string& path, const std::string& data_dir);
+
+// A load asked for by a scenario file, a session request or forklift-sim: a 1 m cube of
+// `mass_kg` at the truck's rated load centre, `lateral_m` to the left, its centre of gravity
+// `cog_height_m` above the floor.
+struct LoadRequest {
+  double mass_kg = 0;
+  double cog_height_m = 0.6;
+  double lateral_m = 0;
+};
+// Why a request cannot be carried, naming its field as a request does
+// ("'load.mass_kg' must be in (0, 20000]"), or nullopt. The bounds: <data>/session.json "load".
+std::optional<std::string> load_request_problem(const LoadRequest& request, const std::string& data_dir);
+// The load a request puts on the forks, and the lift that holds its centre of gravity at the
+// height asked (within the mast's travel).
+Load requested_load(const LoadRequest& request, const TruckParams& truck);
+double requested_lift(const LoadRequest& request, const Load& load, const TruckParams& truck);
 
 }  // namespace forklift
