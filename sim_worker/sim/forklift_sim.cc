@@ -139,8 +139,11 @@ int main(int argc, char** argv) {
   bool val_json = false;
   val->add_flag("--json", val_json, "print JSON instead of the table");
 
-  // meshes: the warehouse's and the truck's meshes (data/meshes/ holds this output)
-  auto* meshes = app.add_subcommand("meshes", "write every shipped mesh (OBJ + MTL, built from boxes) into a directory");
+  // meshes: the warehouse's meshes (data/meshes/ holds this output) and, with --truck, the
+  // truck's as its file builds them (an export: the truck's meshes are built at load time)
+  auto* meshes = app.add_subcommand(
+      "meshes", "write every shipped warehouse mesh (OBJ + MTL, built from boxes) into a directory; with --truck, "
+                "the truck's meshes built from that file as well");
   std::string meshes_out;
   meshes->add_option("--out", meshes_out, "directory to write (created if missing)")->required();
 
@@ -160,14 +163,12 @@ int main(int argc, char** argv) {
   }
 
   if (*meshes) {
-    if (!truck_file.empty()) {
-      std::cerr << "forklift-sim meshes: the meshes do not depend on a truck file (they are built from fixed boxes)\n";
-      return 2;
-    }
     try {
       std::filesystem::create_directories(meshes_out);
       json files = json::array();
       for (const std::string& f : write_meshes(meshes_out)) files.push_back(f);
+      if (!truck_file.empty())
+        for (const std::string& f : write_truck_meshes(truck_file, meshes_out)) files.push_back(f);
       std::cout << json{{"out", meshes_out}, {"meshes", files}}.dump(2) << std::endl;
       return 0;
     } catch (const std::exception& e) {

@@ -2,6 +2,8 @@
 // static --grade, and --truck where it applies.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 
 #include "support/process.h"
@@ -11,7 +13,8 @@ using nlohmann::json;
 namespace {
 
 const std::string kSim = std::string(FORKLIFT_BIN_DIR) + "/forklift-sim";
-const std::string kPaper = std::string(FORKLIFT_DATA_DIR) + "/trucks/simucel_paper.json";
+const std::string kData = FORKLIFT_DATA_DIR;
+const std::string kPaper = kData + "/trucks/simucel_paper.json";
 
 struct SimRun {
   int status;
@@ -76,7 +79,25 @@ TEST(SimCli, ManoeuvresRunOnThePaperTruckAndReportBothStopThresholds) {
 TEST(SimCli, BadUsageIsRefusedWithStatusTwo) {
   EXPECT_EQ(sim({"static", "--grade", "80"}, "grade_range").status, 2);
   EXPECT_EQ(sim({"--truck", "/nonexistent.json", "validate"}, "no_truck").status, 2);
-  const SimRun meshes = sim({"meshes", "--out", testing::TempDir() + "/m", "--truck", kPaper}, "meshes_truck");
+  const SimRun meshes = sim({"meshes", "--out", testing::TempDir() + "/m", "--truck", kData + "/scenarios/slalom.json"},
+                            "meshes_not_a_truck");
   EXPECT_EQ(meshes.status, 2);
-  EXPECT_NE(meshes.err.find("do not depend on a truck file"), std::string::npos) << meshes.err;
+  EXPECT_NE(meshes.err.find("'shape' is missing"), std::string::npos) << meshes.err;
+}
+
+// The truck's meshes are built from its file at load time; `meshes --truck` exports them.
+TEST(SimCli, MeshesExportsTheTrucksMeshesBuiltFromItsFile) {
+  const std::string out = testing::TempDir() + "/meshes_export";
+  const SimRun r = sim({"meshes", "--out", out, "--truck", kPaper}, "meshes_truck");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json files = json::parse(r.out)["meshes"];
+  for (const char* f : {"rack.obj", "truck_chassis.obj", "truck_mast.obj", "truck_carriage.obj", "truck_wheel_front.obj",
+                        "truck_wheel_rear.obj"}) {
+    EXPECT_NE(std::find(files.begin(), files.end(), f), files.end()) << f << " not in " << files.dump();
+    EXPECT_TRUE(std::filesystem::is_regular_file(out + "/" + f)) << f;
+  }
+  // Without --truck: the warehouse's meshes alone, as data/meshes/ holds them.
+  const SimRun plain = sim({"meshes", "--out", out + "_plain"}, "meshes_plain");
+  ASSERT_EQ(plain.status, 0) << plain.err;
+  EXPECT_FALSE(std::filesystem::exists(out + "_plain/truck_chassis.obj"));
 }

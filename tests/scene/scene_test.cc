@@ -5,7 +5,9 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 
@@ -294,7 +296,7 @@ TEST(Meshes, EveryPalletInARackSitsOnItsLevelAcrossBothBeams) {
 TEST(Meshes, RegeneratedMeshesEqualTheCommittedFiles) {
   const std::string dir = temp_dir("meshes");
   const std::vector<std::string> written = write_meshes(dir);
-  ASSERT_GE(written.size(), 15u);
+  ASSERT_GE(written.size(), 10u);
   std::set<std::string> committed;
   for (const std::string& f : files_in(kData + "/meshes", ".obj")) committed.insert(fs::path(f).filename().string());
   EXPECT_EQ(committed, std::set<std::string>(written.begin(), written.end()));
@@ -361,6 +363,24 @@ TEST(Meshes, TruckShapeMatchesItsMeshesAndTheTruckFile) {
   ASSERT_TRUE(seat);
   EXPECT_GT(shape.eye_m.z(), seat->bounds.max().z() + 0.5);
   EXPECT_LT(shape.eye_m.z(), part(*shape.chassis, "guard_rail_left")->bounds.min().z());
+}
+
+// body_ground_contact restates corners of the truck's body; they must stay on its meshes, which
+// are now built from the same file's "shape" section.
+TEST(Meshes, BodyGroundContactPointsLieOnTheTrucksMeshes) {
+  const std::string truck_file = kData + "/trucks/linde_e16c.json";
+  const TruckShape shape = load_truck_shape(truck_file, kData);
+  const TruckParams truck = load_truck(truck_file);
+  ASSERT_GE(truck.body_contact.points.size(), 20u);
+  for (const BodyContactPoint& c : truck.body_contact.points) {
+    // Into each mesh's own frame: the chassis mesh is in the geometry frame.
+    const Mesh& mesh = c.body == TruckBody::kChassis ? *shape.chassis : c.body == TruckBody::kMast ? *shape.mast : *shape.carriage;
+    const Eigen::Vector3d at = c.body == TruckBody::kChassis ? Eigen::Vector3d(c.point_m + truck.chassis_cog_geometry_m) : c.point_m;
+    bool on = false;
+    for (const MeshPart& p : mesh.parts)
+      if (p.solid) on |= p.bounds.exteriorDistance(at) < 1e-6;
+    EXPECT_TRUE(on) << c.name << " at (" << at.transpose() << ") lies in no part of its mesh";
+  }
 }
 
 // --- the layout's geometry -------------------------------------------------------------------
@@ -654,15 +674,39 @@ TEST(Loader, TruckShapeErrorsNameTheFileAndKey) {
   } catch (const SceneError& e) {
     EXPECT_NE(std::string(e.what()).find(none + ": 'shape'"), std::string::npos) << e.what();
   }
-  const std::string bad = write_file(dir, "bad.json", R"({"shape": {"chassis_mesh": "meshes/truck_chassis.obj",
-    "mast_mesh": "meshes/truck_mast.obj", "carriage_mesh": "meshes/truck_carriage.obj",
-    "front_wheel_mesh": "meshes/truck_wheel_front.obj", "rear_wheel_mesh": "meshes/truck_wheel_rear.obj",
-    "fork_length_m": -1, "fork_width_m": 0.1, "fork_thickness_m": 0.04, "fork_centres_y_m": 0.36, "eye_m": [0, 0, 1.8]}})");
-  try {
-    load_truck_shape(bad, kData);
-    ADD_FAILURE();
-  } catch (const SceneError& e) {
-    EXPECT_NE(std::string(e.what()).find("'shape.fork_length_m'"), std::string::npos) << e.what();
-  }
+  // The training truck with one change each; the message names the file and the key.
+  const nlohmann::json stock = nlohmann::json::parse(slurp(kData + "/trucks/linde_e16c.json"));
+  auto expect_refused = [&](const std::string& name, const std::function<void(nlohmann::json&)>& change,
+                            const std::string& key, const std::string& says) {
+    nlohmann::json j = stock;
+    change(j);
+    const std::string path = write_file(dir, name + ".json", j.dump(2));
+    try {
+      load_truck_shape(path, kData);
+      ADD_FAILURE() << name << ": no error";
+    } catch (const SceneError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(path + ": '" + key + "'"), std::string::npos) << what;
+      EXPECT_NE(what.find(says), std::string::npos) << what;
+    }
+  };
+  expect_refused("fork", [](nlohmann::json& j) { j["shape"]["fork_length_m"] = -1; }, "shape.fork_length_m", "positive");
+  // The OBJ files the shape section once named are refused, not silently ignored.
+  expect_refused("old_key", [](nlohmann::json& j) { j["shape"]["chassis_mesh"] = "meshes/truck_chassis.obj"; },
+                 "shape.chassis_mesh", "no longer read");
+  expect_refused("no_body", [](nlohmann::json& j) { j["shape"].erase("body"); }, "shape.body", "missing");
+  expect_refused("span", [](nlohmann::json& j) { j["shape"]["overhead_guard"]["x_m"] = {0.15, -1.0}; },
+                 "shape.overhead_guard.x_m", "from < to");
+  // A front tyre too big for its fenders: the body no longer fits around the wheels.
+  expect_refused("big_wheel", [](nlohmann::json& j) {
+    for (const char* w : {"front_left", "front_right"}) {
+      j["wheels"][w]["radius_m"] = 0.4;
+      j["wheels"][w]["centre_m"][2] = 0.4;
+    }
+  }, "shape.body.cowl_bottom_m", "fenders");
+  expect_refused("odd_front", [](nlohmann::json& j) { j["wheels"]["front_right"]["radius_m"] = 0.25; },
+                 "wheels.front_right.radius_m", "one mesh");
+  // What load_truck refuses is refused here too, named as it names it.
+  expect_refused("mass", [](nlohmann::json& j) { j["service_mass_kg"] = -5; }, "service_mass_kg", "");
   fs::remove_all(dir);
 }

@@ -43,7 +43,7 @@ std::unique_ptr<fcl::CollisionObjectd> make_object(const LocalBox& box, const Is
   return obj;
 }
 
-// Truck part of a mesh part, by the names truck_chassis/truck_mast/truck_carriage use.
+// Truck part of a mesh part, by the names the truck's built meshes use (sim/scene/src/mesh_builder.cc).
 int classify(Body body, const std::string& name) {
   if (name == "fork_left") return kPartForkLeft;
   if (name == "fork_right") return kPartForkRight;

@@ -1,4 +1,4 @@
-// Loading meshes with assimp, and writing the shipped ones (mesh_builder.cc).
+// Loading meshes with assimp, meshes built in memory, and writing the shipped ones (mesh_builder.cc).
 #include <assimp/Importer.hpp>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
@@ -80,6 +80,27 @@ std::shared_ptr<const Mesh> load_mesh_scaled(const std::string& path, const Eige
   };
   walk(scene->mRootNode, aiMatrix4x4());
   if (mesh->parts.empty()) throw SceneError(path + ": mesh has no triangles");
+  return mesh;
+}
+
+std::shared_ptr<const Mesh> mesh_from_spec(const meshgen::MeshSpec& spec, const std::string& source) {
+  auto mesh = std::make_shared<Mesh>();
+  mesh->source = source;
+  for (const meshgen::Part& p : spec.parts) {
+    MeshPart part;
+    part.name = p.name;
+    part.solid = !starts_with(part.name, "mark_");
+    part.colour = p.colour.rgb;
+    part.positions = p.positions;
+    part.normals = p.normals;
+    for (const std::vector<uint32_t>& face : p.faces)
+      for (size_t k = 1; k + 1 < face.size(); ++k)  // our faces are convex
+        part.triangles.insert(part.triangles.end(), {face[0], face[k], face[k + 1]});
+    if (part.triangles.empty()) throw SceneError(source + ": part '" + p.name + "' has no triangles");
+    for (const Eigen::Vector3f& v : part.positions) part.bounds.extend(v.cast<double>());
+    mesh->bounds.extend(part.bounds);
+    mesh->parts.push_back(std::move(part));
+  }
   return mesh;
 }
 

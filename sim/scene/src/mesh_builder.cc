@@ -1,4 +1,4 @@
-// The warehouse's meshes built from boxes, written as OBJ + MTL with assimp's exporter.
+// The warehouse's and the truck's meshes built from boxes, written as OBJ + MTL with assimp's exporter.
 #include "mesh_builder.h"
 
 #include <assimp/Exporter.hpp>
@@ -197,90 +197,122 @@ MeshSpec pedestrian() {
   return m;
 }
 
-// --- the truck, each part in the frame BodyPoses gives for it (data/trucks/linde_e16c.json)
+// --- the truck, each part in the frame BodyPoses gives for it, from its truck file ---------
 
-// Geometry frame: origin on the ground below the middle of the front axle, x forward. Front
-// wheels at x = 0 (r 0.228, y +-0.45, 0.18 wide), the steered rear wheel at x = -1.25 (r 0.19):
-// the body leaves a well around each, the rear one wide enough for the wheel to turn.
-MeshSpec truck_chassis() {
+// Prism sides of a tyre and of its hub: enough to look round; a multiple of 4 keeps the bounds exact.
+constexpr int kTyreSides = 24, kHubSides = 12;
+
+// Geometry frame: origin on the ground below the middle of the front axle, x forward. The body
+// leaves a well around each wheel, the rear one wide enough for the wheel to turn.
+MeshSpec truck_chassis(const TruckDrawing& t) {
   MeshSpec m{"truck_chassis.obj", {}};
-  const float hw = 0.53f, floor = 0.08f, hood = 1.0f, top = 1.1f;
-  const float front = 0.05f, cw_front = -1.03f, back = -1.6f;
-  const float well_y = 0.25f, well_top = 0.42f, well_back = -1.47f;  // rear-wheel well
-  m.parts.push_back(box("chassis_front", V(-0.30f, -0.34f, floor), V(front, 0.34f, 0.55f), kTruckRed));
-  m.parts.push_back(box("chassis_fender_left", V(-0.30f, 0.34f, 0.50f), V(front, hw, 0.75f), kTruckRed));
-  m.parts.push_back(box("chassis_fender_right", V(-0.30f, -hw, 0.50f), V(front, -0.34f, 0.75f), kTruckRed));
-  m.parts.push_back(box("chassis_cowl", V(-0.30f, -hw, 0.75f), V(front, hw, top), kTruckRed));
-  m.parts.push_back(box("chassis_battery", V(cw_front, -hw, floor), V(-0.30f, hw, hood), kTruckRed));
+  const TruckDrawing::Body& b = t.body;
+  const float hw = b.half_width, floor = b.underside, hood = b.hood, top = b.top, front = b.front, back = b.rear;
+  // Front wells: behind, inboard of and above the front wheels.
+  const V& fc = b.front_well_clearance;
+  const float well_front_back = t.front.centre.x() - t.front.radius - fc.x();
+  const float frame_y = t.front.centre.y() - 0.5f * t.front.width - fc.y();
+  const float fender = t.front.centre.z() + t.front.radius + fc.z();
+  // The rear well: around the steered wheel's turning circle; the counterweight starts at its front.
+  const V& rc = b.rear_well_clearance;
+  const float cw_front = t.rear.centre.x() + t.rear.radius + rc.x();
+  const float well_back = t.rear.centre.x() - t.rear.radius - rc.x();
+  const float well_y = t.rear.centre.y() + t.rear.radius + rc.y();
+  const float well_top = t.rear.centre.z() + t.rear.radius + rc.z();
+  const float fx = well_front_back;
+  m.parts.push_back(box("chassis_front", V(fx, -frame_y, floor), V(front, frame_y, b.front_frame_top), kTruckRed));
+  m.parts.push_back(box("chassis_fender_left", V(fx, frame_y, fender), V(front, hw, b.cowl_bottom), kTruckRed));
+  m.parts.push_back(box("chassis_fender_right", V(fx, -hw, fender), V(front, -frame_y, b.cowl_bottom), kTruckRed));
+  m.parts.push_back(box("chassis_cowl", V(fx, -hw, b.cowl_bottom), V(front, hw, top), kTruckRed));
+  m.parts.push_back(box("chassis_battery", V(cw_front, -hw, floor), V(fx, hw, hood), kTruckRed));
   m.parts.push_back(box("chassis_counterweight_left", V(back, well_y, floor), V(cw_front, hw, top), kTruckRed));
   m.parts.push_back(box("chassis_counterweight_right", V(back, -hw, floor), V(cw_front, -well_y, top), kTruckRed));
   m.parts.push_back(box("chassis_counterweight_top", V(back, -well_y, well_top), V(cw_front, well_y, top), kTruckRed));
   m.parts.push_back(box("chassis_counterweight_rear", V(back, -well_y, floor), V(well_back, well_y, well_top),
                         kTruckRed));
-  m.parts.push_back(box("seat", V(-0.85f, -0.24f, hood), V(-0.45f, 0.24f, 1.1f), kSeat));
-  m.parts.push_back(box("seat_back", V(-0.92f, -0.24f, 1.1f), V(-0.84f, 0.24f, 1.55f), kSeat));
-  m.parts.push_back(box("steering_column", V(-0.32f, -0.04f, top), V(-0.24f, 0.04f, 1.30f), kDarkSteel));
-  m.parts.push_back(box("steering_wheel", V(-0.44f, -0.17f, 1.30f), V(-0.30f, 0.17f, 1.34f), kDarkSteel));
+  const TruckDrawing::Seat& s = t.seat;
+  m.parts.push_back(box("seat", V(s.rear, -s.half_width, hood), V(s.front, s.half_width, s.cushion), kSeat));
+  m.parts.push_back(box("seat_back", V(s.back_rear, -s.half_width, s.cushion), V(s.back_front, s.half_width, s.back_top),
+                        kSeat));
+  const TruckDrawing::SteeringWheel& st = t.steering;
+  m.parts.push_back(box("steering_column", V(st.column_rear, -st.column_half_width, top),
+                        V(st.column_front, st.column_half_width, st.bottom), kDarkSteel));
+  m.parts.push_back(box("steering_wheel", V(st.rear, -st.radius, st.bottom), V(st.front, st.radius, st.top), kDarkSteel));
   // Overhead guard: four posts, side rails and cross slats (the driver sees the rack through
-  // the slats when lifting high).
-  const float roof = 2.0f, roof_top = 2.06f, g_front = 0.15f, g_back = -1.0f, post = 0.08f, py = hw - post;
-  m.parts.push_back(box("guard_post_front_left", V(-0.10f, py, top), V(-0.02f, hw, roof), kDarkSteel));
-  m.parts.push_back(box("guard_post_front_right", V(-0.10f, -hw, top), V(-0.02f, -py, roof), kDarkSteel));
-  m.parts.push_back(box("guard_post_rear_left", V(g_back, py, hood), V(g_back + post, hw, roof), kDarkSteel));
-  m.parts.push_back(box("guard_post_rear_right", V(g_back, -hw, hood), V(g_back + post, -py, roof), kDarkSteel));
-  m.parts.push_back(box("guard_rail_left", V(g_back, py, roof), V(g_front, hw, roof_top), kDarkSteel));
-  m.parts.push_back(box("guard_rail_right", V(g_back, -hw, roof), V(g_front, -py, roof_top), kDarkSteel));
-  for (int k = 0; k < 6; ++k) {
-    const float x0 = g_back + 0.06f + k * 0.21f;
-    m.parts.push_back(box("guard_slat_" + std::to_string(k), V(x0, -py, roof + 0.01f), V(x0 + 0.05f, py, roof_top - 0.01f),
-                          kDarkSteel));
+  // the slats when lifting high). The front posts stand on the cowl, the rear ones on the hood.
+  const TruckDrawing::Guard& g = t.guard;
+  const float roof = g.roof_bottom, roof_top = g.roof_top, post = g.post, py = hw - post;
+  const float pf0 = g.front_post_rear, pf1 = g.front_post_rear + post;
+  m.parts.push_back(box("guard_post_front_left", V(pf0, py, top), V(pf1, hw, roof), kDarkSteel));
+  m.parts.push_back(box("guard_post_front_right", V(pf0, -hw, top), V(pf1, -py, roof), kDarkSteel));
+  m.parts.push_back(box("guard_post_rear_left", V(g.rear, py, hood), V(g.rear + post, hw, roof), kDarkSteel));
+  m.parts.push_back(box("guard_post_rear_right", V(g.rear, -hw, hood), V(g.rear + post, -py, roof), kDarkSteel));
+  m.parts.push_back(box("guard_rail_left", V(g.rear, py, roof), V(g.front, hw, roof_top), kDarkSteel));
+  m.parts.push_back(box("guard_rail_right", V(g.rear, -hw, roof), V(g.front, -py, roof_top), kDarkSteel));
+  const float inset = 0.5f * (roof_top - roof - g.slat_thickness);  // slats centred in the roof's depth
+  for (int k = 0; k < g.slats; ++k) {
+    const float x0 = g.rear + g.first_slat + k * g.slat_pitch;
+    m.parts.push_back(box("guard_slat_" + std::to_string(k), V(x0, -py, roof + inset),
+                          V(x0 + g.slat_width, py, roof_top - inset), kDarkSteel));
   }
   return m;
 }
 
-// Mast frame: origin at the tilt pivot (0.12 m ahead of the front axle, 0.35 m up). Two outer
-// channels from just above the floor to the built height of about 2.0 m, cross members and the
-// lift cylinder between them.
-MeshSpec truck_mast() {
+// Mast frame: origin at the tilt pivot. Two outer channels from the foot to the built height
+// (both given above the floor), cross members and the lift cylinder between them.
+MeshSpec truck_mast(const TruckDrawing& t) {
   MeshSpec m{"truck_mast.obj", {}};
-  const float x0 = -0.05f, x1 = 0.10f, bottom = -0.30f, top = 1.65f;
-  m.parts.push_back(box("mast_left", V(x0, 0.27f, bottom), V(x1, 0.35f, top), kDarkSteel));
-  m.parts.push_back(box("mast_right", V(x0, -0.35f, bottom), V(x1, -0.27f, top), kDarkSteel));
-  m.parts.push_back(box("mast_cross_top", V(x0, -0.27f, top - 0.10f), V(x0 + 0.06f, 0.27f, top), kDarkSteel));
-  m.parts.push_back(box("mast_cross_middle", V(x0, -0.27f, 0.60f), V(x0 + 0.06f, 0.27f, 0.68f), kDarkSteel));
-  m.parts.push_back(box("mast_cylinder", V(0.0f, -0.04f, -0.20f), V(0.08f, 0.04f, 1.50f), kSteel));
+  const TruckDrawing::Mast& a = t.mast;
+  const float x0 = a.channel_rear, x1 = a.channel_front, yi = a.channel_inner_y, yo = a.channel_outer_y;
+  const float bottom = a.foot - t.mast_pivot.z(), top = a.built_height - t.mast_pivot.z();
+  const float xc = x0 + a.cross_member_depth, cy = a.cylinder_half_width;
+  m.parts.push_back(box("mast_left", V(x0, yi, bottom), V(x1, yo, top), kDarkSteel));
+  m.parts.push_back(box("mast_right", V(x0, -yo, bottom), V(x1, -yi, top), kDarkSteel));
+  m.parts.push_back(box("mast_cross_top", V(x0, -yi, top - a.top_cross_member), V(xc, yi, top), kDarkSteel));
+  m.parts.push_back(box("mast_cross_middle", V(x0, -yi, a.middle_cross_member_bottom), V(xc, yi, a.middle_cross_member_top),
+                        kDarkSteel));
+  m.parts.push_back(box("mast_cylinder", V(a.cylinder_rear, -cy, a.cylinder_bottom), V(a.cylinder_front, cy, a.cylinder_top),
+                        kSteel));
   return m;
 }
 
 // Carriage frame: origin at the fork heel (fork face meets fork top), forks along +x with
 // their top at z = 0. Plate and load backrest in front of the inner mast, which rides with the
-// carriage (duplex mast without free lift).
-MeshSpec truck_carriage() {
+// carriage (duplex mast without free lift) and, lowered, reaches the outer mast's built height.
+MeshSpec truck_carriage(const TruckDrawing& t) {
   MeshSpec m{"truck_carriage.obj", {}};
-  const float face = 0.0f, back = -0.05f, hy = 0.4f;
-  m.parts.push_back(box("carriage_plate", V(back, -hy, 0.0f), V(face, hy, 0.45f), kDarkSteel));
-  m.parts.push_back(box("carriage_backrest_left", V(back, hy - 0.05f, 0.45f), V(face, hy, 1.0f), kDarkSteel));
-  m.parts.push_back(box("carriage_backrest_right", V(back, -hy, 0.45f), V(face, -hy + 0.05f, 1.0f), kDarkSteel));
-  m.parts.push_back(box("carriage_backrest_top", V(back, -hy + 0.05f, 0.95f), V(face, hy - 0.05f, 1.0f), kDarkSteel));
-  for (int k = 0; k < 3; ++k) {
-    const float y = -0.2f + 0.2f * k;
-    m.parts.push_back(box("carriage_backrest_bar_" + std::to_string(k), V(back, y - 0.02f, 0.45f),
-                          V(face, y + 0.02f, 0.95f), kDarkSteel));
+  const TruckDrawing::Carriage& c = t.carriage;
+  const float face = 0.0f, back = -c.plate_depth, hy = c.half_width, f = c.backrest_frame;
+  const float plate = c.plate_height, rest = c.backrest_height;
+  m.parts.push_back(box("carriage_plate", V(back, -hy, 0.0f), V(face, hy, plate), kDarkSteel));
+  m.parts.push_back(box("carriage_backrest_left", V(back, hy - f, plate), V(face, hy, rest), kDarkSteel));
+  m.parts.push_back(box("carriage_backrest_right", V(back, -hy, plate), V(face, -hy + f, rest), kDarkSteel));
+  m.parts.push_back(box("carriage_backrest_top", V(back, -hy + f, rest - f), V(face, hy - f, rest), kDarkSteel));
+  const float bar = 0.5f * c.backrest_bar_width;
+  for (size_t k = 0; k < c.backrest_bars_y.size(); ++k) {
+    const float y = c.backrest_bars_y[k];
+    m.parts.push_back(box("carriage_backrest_bar_" + std::to_string(k), V(back, y - bar, plate),
+                          V(face, y + bar, rest - f), kDarkSteel));
   }
-  const float fl = 1.0f, fw = 0.1f, ft = 0.04f, fy = 0.18f;
+  const float fl = t.fork_length, fw = t.fork_width, ft = t.fork_thickness, fy = 0.5f * t.fork_centres_y;
   m.parts.push_back(box("fork_left", V(face, fy - 0.5f * fw, -ft), V(face + fl, fy + 0.5f * fw, 0), kDarkSteel));
   m.parts.push_back(box("fork_right", V(face, -fy - 0.5f * fw, -ft), V(face + fl, -fy + 0.5f * fw, 0), kDarkSteel));
-  m.parts.push_back(box("carriage_inner_mast_left", V(-0.17f, 0.20f, 0.05f), V(-0.07f, 0.28f, 1.95f), kDarkSteel));
-  m.parts.push_back(box("carriage_inner_mast_right", V(-0.17f, -0.28f, 0.05f), V(-0.07f, -0.20f, 1.95f), kDarkSteel));
-  m.parts.push_back(box("carriage_inner_mast_top", V(-0.17f, -0.20f, 1.87f), V(-0.07f, 0.20f, 1.95f), kDarkSteel));
+  const float heel_z = t.mast_pivot.z() + t.fork_heel_from_pivot.z();  // above the floor, forks lowered
+  const float ix0 = c.inner_mast_rear, ix1 = c.inner_mast_front, iyi = c.inner_mast_inner_y, iyo = c.inner_mast_outer_y;
+  const float itop = t.mast.built_height - heel_z, ibottom = c.inner_mast_bottom;
+  m.parts.push_back(box("carriage_inner_mast_left", V(ix0, iyi, ibottom), V(ix1, iyo, itop), kDarkSteel));
+  m.parts.push_back(box("carriage_inner_mast_right", V(ix0, -iyo, ibottom), V(ix1, -iyi, itop), kDarkSteel));
+  m.parts.push_back(box("carriage_inner_mast_top", V(ix0, -iyi, itop - c.inner_mast_top_member), V(ix1, iyi, itop),
+                        kDarkSteel));
   return m;
 }
 
 // Wheels: centred, axle along y; a tyre and a hub standing slightly proud of it.
-MeshSpec wheel(const std::string& file, float radius, float width) {
+MeshSpec wheel(const std::string& file, const TruckDrawing::Wheel& w, const TruckDrawing& t) {
   MeshSpec m{file, {}};
-  m.parts.push_back(cylinder_y("tyre", V::Zero(), radius, width, 24, kRubber));
-  m.parts.push_back(cylinder_y("hub", V::Zero(), 0.55f * radius, width + 0.01f, 12, kSteel));
+  m.parts.push_back(cylinder_y("tyre", V::Zero(), w.radius, w.width, kTyreSides, kRubber));
+  m.parts.push_back(
+      cylinder_y("hub", V::Zero(), t.hub_radius_share * w.radius, w.width + 2.0f * t.hub_proud, kHubSides, kSteel));
   return m;
 }
 
@@ -345,12 +377,12 @@ std::vector<MeshSpec> all_meshes() {
       lorry(),
       cone(),
       pedestrian(),
-      truck_chassis(),
-      truck_mast(),
-      truck_carriage(),
-      wheel("truck_wheel_front.obj", 0.228f, 0.18f),
-      wheel("truck_wheel_rear.obj", 0.19f, 0.12f),
   };
+}
+
+std::vector<MeshSpec> truck_meshes(const TruckDrawing& truck) {
+  return {truck_chassis(truck), truck_mast(truck), truck_carriage(truck),
+          wheel("truck_wheel_front.obj", truck.front, truck), wheel("truck_wheel_rear.obj", truck.rear, truck)};
 }
 
 void write_obj(const MeshSpec& spec, const std::string& dir) {

@@ -1,4 +1,5 @@
-// Private to the scene module: mesh loading with a scale, shared by mesh.cc and scene_file.cc.
+// Private to the scene module: mesh loading with a scale, and meshes made in memory, shared by
+// mesh.cc and scene_file.cc.
 #pragma once
 
 #include <Eigen/Core>
@@ -6,11 +7,17 @@
 #include <string>
 
 #include "forklift/scene/scene.h"
+#include "mesh_builder.h"
 
 namespace forklift {
 
 // load_mesh with every vertex multiplied component-wise by `scale` (local frame) before the
 // bounds are taken; normals follow. Throws SceneError naming the file.
 std::shared_ptr<const Mesh> load_mesh_scaled(const std::string& path, const Eigen::Vector3d& scale);
+
+// A built mesh as load_mesh would give it back from its OBJ file: polygons fanned into
+// triangles, the same part names, colours, solidity and bounds. Throws SceneError naming
+// `source` for a part with no triangles.
+std::shared_ptr<const Mesh> mesh_from_spec(const meshgen::MeshSpec& spec, const std::string& source);
 
 }  // namespace forklift

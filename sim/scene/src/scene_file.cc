@@ -6,8 +6,11 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <sstream>
+#include <tuple>
 
 #include "forklift/scene/scene.h"
+#include "mesh_builder.h"
 #include "mesh_internal.h"
 
 namespace forklift {
@@ -472,6 +475,196 @@ TaskStep read_step(const Node& n, const Scene& scene) {
   return s;
 }
 
+// --- the truck's shape ---------------------------------------------------------------------
+
+// The shape section's keys that named OBJ files before the meshes were built from the truck file.
+constexpr const char* kOldMeshKeys[] = {"chassis_mesh", "mast_mesh", "carriage_mesh", "front_wheel_mesh",
+                                        "rear_wheel_mesh"};
+
+// [lo, hi] with lo < hi, as floats (the meshes' precision).
+std::pair<float, float> span(const Node& n) {
+  const Eigen::Vector2d v = n.vec2();
+  if (!(v[0] < v[1])) n.fail("must be [from, to] with from < to");
+  return {static_cast<float>(v[0]), static_cast<float>(v[1])};
+}
+float length(const Node& n) { return static_cast<float>(n.positive()); }
+Eigen::Vector3f clearance(const Node& n) {
+  const Eigen::Vector3d v = n.vec3();
+  if ((v.array() < 0).any()) n.fail("must not be negative");
+  return v.cast<float>();
+}
+
+// Fails naming `key` unless lo < hi: a derived part of the body would have no room.
+void fits(const Node& n, const char* key, double lo, double hi, const std::string& what) {
+  if (!(lo < hi)) {
+    std::ostringstream msg;
+    msg << "leaves no room: " << what << " (" << lo << " m is not below " << hi << " m)";
+    n.at(key).fail(msg.str());
+  }
+}
+
+struct TruckModel {
+  meshgen::TruckDrawing drawing;
+  Eigen::Vector3d eye_m;
+};
+
+// The drawing's dimensions: the shape section, then the wheels and the mast from the sections
+// load_truck reads, then the checks that the body still fits around them.
+TruckModel read_truck_model(const std::string& truck_file) {
+  const json root = read_json(truck_file);
+  const Node n = Node(root, truck_file, "").at("shape");
+  n.require_object();
+  for (const char* old : kOldMeshKeys)
+    if (n.has(old))
+      n.at(old).fail("is no longer read: the truck's meshes are built from this file's dimensions (remove the key; "
+                     "`forklift-sim meshes --truck FILE --out DIR` writes them as OBJ)");
+  n.only({"body", "seat", "steering_wheel", "overhead_guard", "mast", "carriage", "wheels", "fork_length_m",
+          "fork_width_m", "fork_thickness_m", "fork_centres_y_m", "eye_m"});
+  TruckModel model;
+  meshgen::TruckDrawing& d = model.drawing;
+
+  const Node body = n.at("body");
+  body.only({"x_m", "width_m", "underside_m", "hood_m", "top_m", "cowl_bottom_m", "front_frame_top_m",
+             "front_wheel_well_clearance_m", "rear_wheel_well_clearance_m"});
+  std::tie(d.body.rear, d.body.front) = span(body.at("x_m"));
+  d.body.half_width = 0.5f * length(body.at("width_m"));
+  d.body.underside = length(body.at("underside_m"));
+  d.body.hood = length(body.at("hood_m"));
+  d.body.top = length(body.at("top_m"));
+  d.body.cowl_bottom = length(body.at("cowl_bottom_m"));
+  d.body.front_frame_top = length(body.at("front_frame_top_m"));
+  d.body.front_well_clearance = clearance(body.at("front_wheel_well_clearance_m"));
+  d.body.rear_well_clearance = clearance(body.at("rear_wheel_well_clearance_m"));
+  fits(body, "hood_m", d.body.underside, d.body.hood, "the battery between the underside and the hood");
+  fits(body, "top_m", d.body.hood, d.body.top, "the hood below the top");
+  fits(body, "cowl_bottom_m", d.body.cowl_bottom, d.body.top, "the cowl below the top");
+  fits(body, "front_frame_top_m", d.body.underside, d.body.front_frame_top, "the front frame above the underside");
+
+  const Node seat = n.at("seat");
+  seat.only({"x_m", "width_m", "cushion_m", "back_x_m", "back_top_m"});
+  std::tie(d.seat.rear, d.seat.front) = span(seat.at("x_m"));
+  d.seat.half_width = 0.5f * length(seat.at("width_m"));
+  d.seat.cushion = length(seat.at("cushion_m"));
+  std::tie(d.seat.back_rear, d.seat.back_front) = span(seat.at("back_x_m"));
+  d.seat.back_top = length(seat.at("back_top_m"));
+  fits(seat, "cushion_m", d.body.hood, d.seat.cushion, "the seat standing on the hood (body.hood_m)");
+  fits(seat, "back_top_m", d.seat.cushion, d.seat.back_top, "the backrest above the cushion");
+
+  const Node steer = n.at("steering_wheel");
+  steer.only({"x_m", "diameter_m", "z_m", "column_x_m", "column_width_m"});
+  std::tie(d.steering.rear, d.steering.front) = span(steer.at("x_m"));
+  d.steering.radius = 0.5f * length(steer.at("diameter_m"));
+  std::tie(d.steering.bottom, d.steering.top) = span(steer.at("z_m"));
+  std::tie(d.steering.column_rear, d.steering.column_front) = span(steer.at("column_x_m"));
+  d.steering.column_half_width = 0.5f * length(steer.at("column_width_m"));
+  fits(steer, "z_m", d.body.top, d.steering.bottom, "the column from the cowl (body.top_m) up to the wheel");
+
+  const Node guard = n.at("overhead_guard");
+  guard.only({"x_m", "roof_z_m", "post_m", "front_posts_x_m", "slats", "slat_pitch_m", "slat_width_m",
+              "slat_thickness_m", "first_slat_m"});
+  std::tie(d.guard.rear, d.guard.front) = span(guard.at("x_m"));
+  std::tie(d.guard.roof_bottom, d.guard.roof_top) = span(guard.at("roof_z_m"));
+  d.guard.post = length(guard.at("post_m"));
+  d.guard.front_post_rear = static_cast<float>(guard.at("front_posts_x_m").number());
+  d.guard.slats = guard.at("slats").integer();
+  if (d.guard.slats < 0) guard.at("slats").fail("must not be negative");
+  d.guard.slat_pitch = length(guard.at("slat_pitch_m"));
+  d.guard.slat_width = length(guard.at("slat_width_m"));
+  d.guard.slat_thickness = length(guard.at("slat_thickness_m"));
+  d.guard.first_slat = static_cast<float>(guard.at("first_slat_m").non_negative());
+  fits(guard, "post_m", d.guard.post, d.body.half_width, "posts narrower than half the body (body.width_m)");
+  fits(guard, "roof_z_m", d.body.top, d.guard.roof_bottom, "the roof above the cowl (body.top_m)");
+  if (d.guard.slat_thickness > d.guard.roof_top - d.guard.roof_bottom)
+    guard.at("slat_thickness_m").fail("must not exceed the roof's depth (roof_z_m)");
+
+  const Node mast = n.at("mast");
+  mast.only({"foot_above_floor_m", "built_height_m", "channel_x_m", "channel_y_m", "cross_member_depth_m",
+             "top_cross_member_m", "middle_cross_member_z_m", "cylinder_x_m", "cylinder_width_m", "cylinder_z_m"});
+  d.mast.foot = static_cast<float>(mast.at("foot_above_floor_m").non_negative());
+  d.mast.built_height = length(mast.at("built_height_m"));
+  std::tie(d.mast.channel_rear, d.mast.channel_front) = span(mast.at("channel_x_m"));
+  std::tie(d.mast.channel_inner_y, d.mast.channel_outer_y) = span(mast.at("channel_y_m"));
+  d.mast.cross_member_depth = length(mast.at("cross_member_depth_m"));
+  d.mast.top_cross_member = length(mast.at("top_cross_member_m"));
+  std::tie(d.mast.middle_cross_member_bottom, d.mast.middle_cross_member_top) = span(mast.at("middle_cross_member_z_m"));
+  std::tie(d.mast.cylinder_rear, d.mast.cylinder_front) = span(mast.at("cylinder_x_m"));
+  d.mast.cylinder_half_width = 0.5f * length(mast.at("cylinder_width_m"));
+  std::tie(d.mast.cylinder_bottom, d.mast.cylinder_top) = span(mast.at("cylinder_z_m"));
+  fits(mast, "built_height_m", d.mast.foot, d.mast.built_height, "the channels from the foot up to the built height");
+
+  const Node carriage = n.at("carriage");
+  carriage.only({"width_m", "plate_depth_m", "plate_height_m", "backrest_height_m", "backrest_frame_m",
+                 "backrest_bars_y_m", "backrest_bar_width_m", "inner_mast_x_m", "inner_mast_y_m",
+                 "inner_mast_bottom_m", "inner_mast_top_member_m"});
+  d.carriage.half_width = 0.5f * length(carriage.at("width_m"));
+  d.carriage.plate_depth = length(carriage.at("plate_depth_m"));
+  d.carriage.plate_height = length(carriage.at("plate_height_m"));
+  d.carriage.backrest_height = length(carriage.at("backrest_height_m"));
+  d.carriage.backrest_frame = length(carriage.at("backrest_frame_m"));
+  const Node bars = carriage.at("backrest_bars_y_m");
+  bars.array();
+  for (size_t i = 0; i < bars.size(); ++i) d.carriage.backrest_bars_y.push_back(static_cast<float>(bars.at(i).number()));
+  d.carriage.backrest_bar_width = length(carriage.at("backrest_bar_width_m"));
+  std::tie(d.carriage.inner_mast_rear, d.carriage.inner_mast_front) = span(carriage.at("inner_mast_x_m"));
+  std::tie(d.carriage.inner_mast_inner_y, d.carriage.inner_mast_outer_y) = span(carriage.at("inner_mast_y_m"));
+  d.carriage.inner_mast_bottom = static_cast<float>(carriage.at("inner_mast_bottom_m").number());
+  d.carriage.inner_mast_top_member = length(carriage.at("inner_mast_top_member_m"));
+  fits(carriage, "backrest_height_m", d.carriage.plate_height, d.carriage.backrest_height - d.carriage.backrest_frame,
+       "the backrest's frame above the plate");
+
+  const Node wheels = n.at("wheels");
+  wheels.only({"front_width_m", "rear_width_m", "hub_radius_share", "hub_proud_m"});
+  d.front.width = length(wheels.at("front_width_m"));
+  d.rear.width = length(wheels.at("rear_width_m"));
+  d.hub_radius_share = length(wheels.at("hub_radius_share"));
+  if (d.hub_radius_share >= 1) wheels.at("hub_radius_share").fail("must be below 1 (the hub inside its tyre)");
+  d.hub_proud = static_cast<float>(wheels.at("hub_proud_m").non_negative());
+
+  d.fork_length = length(n.at("fork_length_m"));
+  d.fork_width = length(n.at("fork_width_m"));
+  d.fork_thickness = length(n.at("fork_thickness_m"));
+  d.fork_centres_y = length(n.at("fork_centres_y_m"));
+  if (d.fork_centres_y <= d.fork_width) n.at("fork_centres_y_m").fail("must exceed fork_width_m (the forks would overlap)");
+  model.eye_m = n.at("eye_m").vec3();
+
+  // The wheels, the mast pivot and the fork heel as the dynamics have them (geometry frame).
+  TruckParams truck;
+  try {
+    truck = load_truck(truck_file);
+  } catch (const std::runtime_error& e) {
+    throw SceneError(e.what());  // names the file and the key already
+  }
+  const Eigen::Vector3d to_geometry = truck.chassis_cog_geometry_m;
+  const WheelParams& fl = truck.wheels[kFrontLeft];
+  const WheelParams& fr = truck.wheels[kFrontRight];
+  if (fl.radius_m != fr.radius_m)
+    fail(truck_file, "wheels.front_right.radius_m", "differs from front_left's: both front wheels are drawn with one mesh");
+  d.front.centre = (fl.centre_m + to_geometry).cast<float>();
+  d.front.radius = static_cast<float>(fl.radius_m);
+  d.rear.centre = (truck.wheels[kRear].centre_m + to_geometry).cast<float>();
+  d.rear.radius = static_cast<float>(truck.wheels[kRear].radius_m);
+  d.mast_pivot = (truck.mast_pivot_m + to_geometry).cast<float>();
+  d.fork_heel_from_pivot = truck.fork_heel_from_pivot_m.cast<float>();
+
+  // The wells around the wheels must still fit inside the body.
+  const meshgen::TruckDrawing::Body& b = d.body;
+  const float front_well_back = d.front.centre.x() - d.front.radius - b.front_well_clearance.x();
+  const float rear_well_front = d.rear.centre.x() + d.rear.radius + b.rear_well_clearance.x();
+  const float rear_well_back = d.rear.centre.x() - d.rear.radius - b.rear_well_clearance.x();
+  fits(body, "front_wheel_well_clearance_m", rear_well_front, front_well_back,
+       "the battery between the rear wheel's well and the front wheels' wells");
+  fits(body, "rear_wheel_well_clearance_m", b.rear, rear_well_back, "the counterweight behind the rear wheel's well");
+  fits(body, "front_wheel_well_clearance_m", 0, d.front.centre.y() - 0.5f * d.front.width - b.front_well_clearance.y(),
+       "the front frame between the front wheels");
+  fits(body, "cowl_bottom_m", d.front.centre.z() + d.front.radius + b.front_well_clearance.z(), b.cowl_bottom,
+       "the fenders above the front wheels");
+  fits(body, "rear_wheel_well_clearance_m", d.rear.centre.y() + d.rear.radius + b.rear_well_clearance.y(), b.half_width,
+       "the counterweight beside the rear wheel's well");
+  fits(body, "top_m", d.rear.centre.z() + d.rear.radius + b.rear_well_clearance.z(), b.top,
+       "the counterweight above the rear wheel's well");
+  return model;
+}
+
 }  // namespace
 
 Scene load_scene(const std::string& path, const std::string& data_dir) {
@@ -568,31 +761,42 @@ Scene load_scene(const std::string& path, const std::string& data_dir) {
 }
 
 TruckShape load_truck_shape(const std::string& truck_file, const std::string& data_dir) {
-  const json root = read_json(truck_file);
-  const Node n = Node(root, truck_file, "").at("shape");
-  n.only({"chassis_mesh", "mast_mesh", "carriage_mesh", "front_wheel_mesh", "rear_wheel_mesh", "fork_length_m",
-          "fork_width_m", "fork_thickness_m", "fork_centres_y_m", "eye_m"});
+  (void)data_dir;  // the meshes are built from the truck file; nothing is read from data_dir
+  const TruckModel model = read_truck_model(truck_file);
   TruckShape s;
-  auto mesh = [&](const char* key) {
-    const Node k = n.at(key);
-    try {
-      return load_mesh(resolve(data_dir, k.string()));
-    } catch (const SceneError& e) {
-      k.fail(e.what());
-    }
-  };
-  s.chassis = mesh("chassis_mesh");
-  s.mast = mesh("mast_mesh");
-  s.carriage = mesh("carriage_mesh");
-  s.front_wheel = mesh("front_wheel_mesh");
-  s.rear_wheel = mesh("rear_wheel_mesh");
-  s.fork_length_m = n.at("fork_length_m").positive();
-  s.fork_width_m = n.at("fork_width_m").positive();
-  s.fork_thickness_m = n.at("fork_thickness_m").positive();
-  s.fork_centres_y_m = n.at("fork_centres_y_m").positive();
-  if (s.fork_centres_y_m <= s.fork_width_m) n.at("fork_centres_y_m").fail("must exceed fork_width_m (the forks would overlap)");
-  s.eye_m = n.at("eye_m").vec3();
+  try {
+    std::vector<std::shared_ptr<const Mesh>> meshes;
+    for (const meshgen::MeshSpec& spec : meshgen::truck_meshes(model.drawing))
+      meshes.push_back(mesh_from_spec(spec, truck_file + "#" + spec.file));
+    s.chassis = meshes[0];
+    s.mast = meshes[1];
+    s.carriage = meshes[2];
+    s.front_wheel = meshes[3];
+    s.rear_wheel = meshes[4];
+  } catch (const SceneError& e) {
+    throw SceneError(truck_file + ": 'shape' " + e.what());
+  }
+  const meshgen::TruckDrawing& d = model.drawing;
+  s.fork_length_m = d.fork_length;
+  s.fork_width_m = d.fork_width;
+  s.fork_thickness_m = d.fork_thickness;
+  s.fork_centres_y_m = d.fork_centres_y;
+  s.eye_m = model.eye_m;
   return s;
+}
+
+std::vector<std::string> write_truck_meshes(const std::string& truck_file, const std::string& dir) {
+  const TruckModel model = read_truck_model(truck_file);
+  std::vector<std::string> written;
+  try {
+    for (const meshgen::MeshSpec& spec : meshgen::truck_meshes(model.drawing)) {
+      meshgen::write_obj(spec, dir);
+      written.push_back(spec.file);
+    }
+  } catch (const std::runtime_error& e) {
+    throw SceneError(e.what());
+  }
+  return written;
 }
 
 }  // namespace forklift

@@ -141,7 +141,8 @@ struct Task {
 
 // The truck's shape for drawing and collision: a mesh per rigid part, each in the frame
 // BodyPoses gives for it (chassis: geometry frame; mast: tilt pivot; carriage: fork heel).
-// Wheel meshes are centred on the wheel, axle along y.
+// Wheel meshes are centred on the wheel, axle along y. Built from the truck file, so the
+// wheels, the wheelbase and the mast pivot are the ones the dynamics use.
 struct TruckShape {
   std::shared_ptr<const Mesh> chassis, mast, carriage, front_wheel, rear_wheel;
   double fork_length_m = 1.0, fork_width_m = 0.1, fork_thickness_m = 0.04;
@@ -173,12 +174,21 @@ struct Scene {
 // Throws SceneError naming the file and the key.
 Scene load_scene(const std::string& path, const std::string& data_dir);
 
-// The truck's meshes and fork dimensions, from the truck file's "shape" section.
+// The truck's meshes, built of boxes from its truck file: the wheels (radii, wheelbase, track),
+// the mast pivot and the fork heel from the sections load_truck reads, the body, guard, mast,
+// carriage and wheel widths from its "shape" section. Nothing is read from data_dir (kept for
+// the callers). Throws SceneError naming the file and the key.
 TruckShape load_truck_shape(const std::string& truck_file, const std::string& data_dir);
 
-// Added: writes every mesh the data folder ships (OBJ + MTL, built from boxes) into `dir`, which
-// must exist; the same bytes every time. Returns the OBJ file names written ("rack.obj", ...).
-// `forklift-sim meshes --out DIR` calls it; data/meshes/ holds its output. Throws SceneError.
+// Added: writes every warehouse mesh the data folder ships (OBJ + MTL, built from boxes) into
+// `dir`, which must exist; the same bytes every time. Returns the OBJ file names written
+// ("rack.obj", ...). `forklift-sim meshes --out DIR` calls it; data/meshes/ holds its output.
+// Throws SceneError.
 std::vector<std::string> write_meshes(const std::string& dir);
+
+// Writes the truck's meshes as load_truck_shape builds them (truck_chassis.obj, truck_mast.obj,
+// truck_carriage.obj, truck_wheel_front.obj, truck_wheel_rear.obj, each with its .mtl) into
+// `dir`, for viewing elsewhere; nothing reads them back. Throws SceneError.
+std::vector<std::string> write_truck_meshes(const std::string& truck_file, const std::string& dir);
 
 }  // namespace forklift
