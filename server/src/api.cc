@@ -36,7 +36,7 @@ json body_json(const httplib::Request& req) {
     json j = json::parse(req.body);
     if (!j.is_object()) throw ApiError(400, "bad_request", "the body must be a JSON object");
     return j;
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse_error, and out_of_range for a number beyond a double
     throw ApiError(400, "bad_json", std::string("the body is not valid JSON: ") + e.what());
   }
 }

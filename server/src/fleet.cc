@@ -3,6 +3,7 @@
 #include "exam_evidence.h"
 
 #include "forklift/image/image.h"
+#include "forklift/session/session_log.h"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -272,8 +273,13 @@ void Fleet::supervise() {
         // session still ends, but as ended, which carries no mark and so is never a pass.
         const auto s = db->get_session(w.session);
         if (s && !store::is_terminal(s->state)) {
-          const std::string err = slurp(base + ".err");
-          const bool gave_up = err.find("no controls within") != std::string::npos;
+          // The session log says whether the worker gave up waiting for its cab.
+          bool gave_up = false;
+          try {
+            for (const auto& [tick, kind] : read_control_log(base + ".ctl").worker_events) gave_up = gave_up || kind == kNoControlsEvent;
+          } catch (const std::exception&) {
+            // no log, or a torn one: the worker died early; it ended, unmarked
+          }
           if (gave_up) fail(*db, w.session, w.cab, "the cab never spoke");
           else db->set_session_state_audited(w.session, "ended", "worker exited", store::now_iso8601(), kServer);
         }

@@ -172,6 +172,12 @@ TEST(WorkerLoop, AnotherCabsControlsNeverReachThisWorker) {
   std::string last_state;
   status.take_each([&](const fk_SessionStatus& s) { if (std::string(s.session_id) == "lonely") last_state = s.state; });
   EXPECT_EQ(last_state, "failed");
+  // The session log says why too (the server reads it there when the status is lost), and ends.
+  const ControlLog log = read_control_log(tmp("lonely.ctl"));
+  ASSERT_EQ(log.worker_events.size(), 1u);
+  EXPECT_EQ(log.worker_events[0].second, kNoControlsEvent);
+  EXPECT_TRUE(log.entries.empty());
+  EXPECT_EQ(log.ticks, 0);
 }
 
 TEST(WorkerLoop, SigtermFlushesTheLogAndPublishesTheEnd) {

@@ -23,7 +23,6 @@ inline constexpr double kSinkM = 0.015;             // lowered this far below it
 inline constexpr double kSupportWindowM = 0.02;     // underside this far below a support still lands on it
 inline constexpr double kTouchM = 0.001;            // underside this close above a support touches it
 inline constexpr double kReattachM = 0.01;          // CoG moved this far on the forks: tell the model
-inline constexpr double kTippedOverRad = 20.0 * M_PI / 180.0;  // roll or pitch: the truck has gone over
 // A carried load this deep into a surface below it rests on it (just picked up, the truck
 // settling under the new weight) or is being set down there: not a strike.
 inline constexpr double kRestingTouchDepthM = kSinkM;

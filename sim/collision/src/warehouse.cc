@@ -286,7 +286,7 @@ struct Warehouse::Impl : HandlingState::Data {
 
     // Dropped: its CoG past the fork tips, or the truck gone over.
     const Vector3d cog_c = on_forks * cog_local;
-    if (cog_c.x() > fork_tip_x || std::abs(q[kAuc]) > handling::kTippedOverRad || std::abs(q[kAvc]) > handling::kTippedOverRad) {
+    if (cog_c.x() > fork_tip_x || std::abs(q[kAuc]) > truck.tipped_over_rad || std::abs(q[kAvc]) > truck.tipped_over_rad) {
       const Vector3d c = st.pose * cog_local;
       put_down(sim, yaw_pose(Vector3d(c.x(), c.y(), scene.ground.height(c.x(), c.y())), yaw_of(st.pose.linear())),
                true, "", 0);

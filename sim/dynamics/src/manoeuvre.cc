@@ -161,7 +161,7 @@ ManoeuvreResult run_manoeuvre(const TruckParams& truck, int number, const Integr
     for (ManoeuvreResult::StopTime& stop : r.stop_times)
       if (spec.brake_onset_s && !stop.s && t > *spec.brake_onset_s && std::abs(s.out.forward_speed_m_s) < stop.below_m_s)
         stop.s = t - *spec.brake_onset_s;
-    if (std::max(pitch, roll) > 20) r.tipped_over = true;
+    if (std::max(pitch, roll) > truck.tipped_over_rad * kDeg) r.tipped_over = true;
     r.samples.push_back(std::move(s));
   };
   if (nsamples > 0) record(0);

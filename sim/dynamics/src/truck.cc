@@ -136,6 +136,7 @@ TruckParams load_truck(const std::string& path) {
   t.mast.cog_m = r.vec3("mast.cog_from_pivot_m");
   t.mast.mass_kg = r.positive("mast.mass_kg");
   t.mast.inertia_kg_m2 = r.inertia("mast.inertia_kg_m2");
+  t.tipped_over_rad = r.positive("tipped_over_deg") * kDeg;
   t.limits.tilt_forward_max_rad = r.non_negative("mast.tilt_forward_max_deg") * kDeg;
   t.limits.tilt_backward_max_rad = r.non_negative("mast.tilt_backward_max_deg") * kDeg;
 

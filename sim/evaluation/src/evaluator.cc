@@ -451,11 +451,12 @@ struct Evaluator::Impl : EvaluationMemory::Data {
     {
       const RuleKey k = ev::kTipOver;
       const double roll = o.q[kAuc] / kDeg, pitch = o.q[kAvc] / kDeg;
-      if (!tipped && std::max(std::abs(roll), std::abs(pitch)) > th(k, "roll_or_pitch_max_deg")) {
+      const double limit = truck.tipped_over_rad / kDeg;  // the truck file's: one number for handling and marking
+      if (!tipped && std::max(std::abs(roll), std::abs(pitch)) > limit) {
         tipped = true;
         emit(k, in.t_s, p,
              {{"measured", {{"roll_deg", round6(roll)}, {"pitch_deg", round6(pitch)}}},
-              {"thresholds", {{"roll_or_pitch_max_deg", th(k, "roll_or_pitch_max_deg")}}}},
+              {"thresholds", {{"roll_or_pitch_max_deg", round6(limit)}}}},
              out);
       }
     }

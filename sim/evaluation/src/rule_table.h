@@ -77,7 +77,7 @@ inline const std::array<RuleSpec, kNumRules>& rule_specs() {
       {"harsh_braking_load_raised", AppliesTo::kNothing, {"deceleration_max_m_s2", "raised_fork_height_m", "min_duration_s", "clear_time_s"}},
       {"stability_warning", AppliesTo::kNothing, {"warn_below_fraction", "clear_above_fraction", "min_duration_s", "clear_time_s"}},
       {"wheel_lift", AppliesTo::kNothing, {"wheel_load_min_N", "min_duration_s", "clear_time_s"}},
-      {"tip_over", AppliesTo::kNothing, {"roll_or_pitch_max_deg"}},
+      {"tip_over", AppliesTo::kNothing, {}},  // the truck file's tipped_over_deg
       {"load_dropped", AppliesTo::kNothing, {}},
       {"load_slid", AppliesTo::kNothing, {"slide_min_m", "clear_time_s"}},
       {"overload", AppliesTo::kNothing, {"tolerance_fraction", "clear_time_s"}},

@@ -138,6 +138,7 @@ struct MastLimits {
 struct TruckParams {
   std::string name;
   double service_mass_kg = 0;
+  double tipped_over_rad = 0;  // roll or pitch beyond which the truck has gone over
   double rated_capacity_kg = 0;
   double rated_load_centre_m = 0;
 
