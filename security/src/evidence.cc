@@ -1,5 +1,7 @@
 #include "forklift/security/evidence.h"
 
+#include "forklift/session/log_records.h"
+
 #include <openssl/crypto.h>
 
 #include <algorithm>
@@ -105,18 +107,6 @@ std::optional<double> parse_double(const std::string& w) {
   return v;
 }
 
-std::vector<std::string> words(std::string_view line) {
-  std::vector<std::string> out;
-  size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
-    const size_t start = i;
-    while (i < line.size() && line[i] != ' ' && line[i] != '\t' && line[i] != '\r') ++i;
-    if (i > start) out.emplace_back(line.substr(start, i - start));
-  }
-  return out;
-}
-
 // What the control log says about the exam (the lines that the record must agree with).
 struct LogFacts {
   struct Event {
@@ -135,19 +125,13 @@ struct LogFacts {
 
 LogFacts read_log(const std::string& text) {
   LogFacts f;
-  size_t n = 0;
-  for (size_t pos = 0; pos < text.size();) {
-    const size_t nl = text.find('\n', pos);
-    const std::string_view line = std::string_view(text).substr(pos, nl == std::string::npos ? nl : nl - pos);
-    pos = nl == std::string::npos ? text.size() : nl + 1;
-    ++n;
-    const std::vector<std::string> w = words(line);
-    if (w.empty()) continue;
-    const std::string where = "log line " + std::to_string(n);
+  // The session log's own grammar (forklift/session/log_records.h); the facts are gathered here,
+  // tolerantly, because this log is the one under suspicion: repeats and torn lines are findings.
+  for (const LogRecord& r : scan_log_records(text)) {
+    const std::vector<std::string>& w = r.words;
+    const std::string where = "log line " + std::to_string(r.line);
     if (w[0] == "session" || w[0] == "cab") {
-      // The reader takes the rest of the line after "<key> ".
-      const std::string rest(line.size() > w[0].size() ? line.substr(w[0].size() + 1) : std::string_view());
-      (w[0] == "session" ? f.sessions : f.cabs).push_back(rest);
+      (w[0] == "session" ? f.sessions : f.cabs).push_back(r.rest);
     } else if (w[0] == "e" || w[0] == "w") {  // the evaluation's events and the worker's own, in order
       const auto tick = w.size() == 4 ? parse_int(w[1]) : std::nullopt;
       const auto worry = w.size() == 4 ? parse_int(w[3]) : std::nullopt;

@@ -1,5 +1,7 @@
 #include "forklift/session/session_log.h"
 
+#include "forklift/session/log_records.h"
+
 #include <cinttypes>
 #include <cmath>
 #include <cstring>
@@ -115,28 +117,28 @@ void ControlLogWriter::finish(int64_t ticks, const StateVector& final_state) {
 }
 
 ControlLog read_control_log(const std::string& path) {
-  std::ifstream in(path);
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error("cannot open control log " + path);
+  std::ostringstream text;
+  text << in.rdbuf();
   ControlLog log;
-  std::string line;
-  int n = 0;
   bool has_init = false;
-  while (std::getline(in, line)) {
-    ++n;
-    const std::vector<std::string> w = split(line);
-    if (w.empty()) continue;
+  const std::vector<LogRecord> records = scan_log_records(text.str());
+  const size_t n = records.size();
+  for (size_t index = 0; index < records.size(); ++index) {
+    const std::vector<std::string>& w = records[index].words;
     try {
       const std::string& k = w[0];
-      const std::string rest = line.size() > k.size() ? line.substr(k.size() + 1) : "";
-      if (n == 1) {
+      const std::string& rest = records[index].rest;
+      if (index == 0) {
         if (k != "forklift-control-log" || w.size() < 2 || w[1] != "1") throw std::runtime_error("not a control log");
       } else if (k == "session") log.header.session_id = rest;
       else if (k == "cab") log.header.cab_id = rest;
       else if (k == "truck") log.header.truck_file = rest;
       else if (k == "scenario") log.header.scenario_file = rest;
       else if (k == "mode") log.header.mode = rest;
-      else if (k == "e") log.event_lines.push_back(line);
-      else if (k == "score") log.score_line = line;
+      else if (k == "e") log.event_lines.push_back(k + " " + rest);  // as written: one space between words
+      else if (k == "score") log.score_line = k + " " + rest;
       else if (k == "w") log.worker_events.emplace_back(std::stoll(w.at(1)), w.at(2));
       else if (k == "dm") {
         if (w.size() != 3 || (w[2] != "0" && w[2] != "1")) throw std::runtime_error("a dead-man line is 'dm <tick> 0|1'");
@@ -172,7 +174,7 @@ ControlLog read_control_log(const std::string& path) {
       else if (k == "final") log.final_state = parse_state_hex(rest);
       else throw std::runtime_error("unknown record '" + k + "'");
     } catch (const std::exception& e) {
-      throw std::runtime_error(path + ":" + std::to_string(n) + ": " + e.what());
+      throw std::runtime_error(path + ":" + std::to_string(records[index].line) + ": " + e.what());
     }
   }
   if (n == 0 || !has_init) throw std::runtime_error(path + ": no header");
