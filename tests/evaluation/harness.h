@@ -85,6 +85,8 @@ struct Session {
         scene(model.scene),
         truck(model.truck),
         shape(model.shape) {}
+  Session(const Session&) = delete;  // its references name its own model
+  Session& operator=(const Session&) = delete;
 
   double t() const { return state.t_s; }
   const StateVector& x() const { return state.x; }

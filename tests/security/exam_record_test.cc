@@ -1,7 +1,7 @@
 // A remote licence exam end to end with a real server, worker and cab under DDS Security: the
 // examiner follows it live (state and frames), the record names the examiner, and any later
 // change to the stored log, score or record is found by `forklift-menu verify`.
-// Ports 18120-18129 and DDS domains 120-129 are this file's.
+// Ports 18140-18149 and DDS domains 140-149 are this file's (http_security_test has 18121-18127).
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
@@ -86,10 +86,10 @@ class RemoteExam : public testing::Test {
 };
 
 TEST_F(RemoteExam, FollowedLiveSignedChainedAndEveryChangeIsDetected) {
-  Server s(18120, 120, "remote-exam", {"--security", pki(), "--frame-fps", "10"});
+  Server s(18140, 140, "remote-exam", {"--security", pki(), "--frame-fps", "10"});
   const Exam e = start_exam(s, 12);
   ASSERT_FALSE(e.id.empty());
-  Process c = cab(120, "exam-cab");
+  Process c = cab(140, "exam-cab");
 
   // Live: the truck's state and a JPEG frame, to the examiner, while the exam runs.
   json live;
@@ -169,10 +169,10 @@ TEST_F(RemoteExam, FollowedLiveSignedChainedAndEveryChangeIsDetected) {
 }
 
 TEST_F(RemoteExam, ExaminerAbortsARunningExam) {
-  Server s(18121, 121, "remote-abort", {"--security", pki(), "--frame-fps", "0"});
+  Server s(18141, 141, "remote-abort", {"--security", pki(), "--frame-fps", "0"});
   const Exam e = start_exam(s, 60);
   ASSERT_FALSE(e.id.empty());
-  Process c = cab(121, "abort-cab");
+  Process c = cab(141, "abort-cab");
   for (int i = 0; i < 300; ++i) {
     if (s.call("GET", "/api/sessions/" + e.id, e.examiner).second.value("state", "") == "running") break;
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -185,7 +185,7 @@ TEST_F(RemoteExam, ExaminerAbortsARunningExam) {
 }
 
 TEST_F(RemoteExam, ServerWithoutSecurityRefusesExamsButRunsTraining) {
-  Server s(18122, 122, "remote-clear");
+  Server s(18142, 142, "remote-clear");
   const std::string admin = s.login("admin", kAdminPassword);
   auto [ps, p] = s.call("POST", "/api/pupils", admin, json{{"name", "P"}}.dump());
   ASSERT_EQ(ps, 201);
