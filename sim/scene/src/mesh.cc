@@ -108,10 +108,10 @@ std::shared_ptr<const Mesh> load_mesh(const std::string& path) {
   return load_mesh_scaled(path, Eigen::Vector3d::Ones());
 }
 
-std::vector<std::string> write_meshes(const std::string& dir) {
+std::vector<std::string> write_mesh_specs(const std::vector<meshgen::MeshSpec>& specs, const std::string& dir) {
   std::vector<std::string> written;
   try {
-    for (const meshgen::MeshSpec& spec : meshgen::all_meshes()) {
+    for (const meshgen::MeshSpec& spec : specs) {
       meshgen::write_obj(spec, dir);
       written.push_back(spec.file);
     }
@@ -120,5 +120,7 @@ std::vector<std::string> write_meshes(const std::string& dir) {
   }
   return written;
 }
+
+std::vector<std::string> write_meshes(const std::string& dir) { return write_mesh_specs(meshgen::all_meshes(), dir); }
 
 }  // namespace forklift

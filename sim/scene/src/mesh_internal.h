@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "forklift/scene/scene.h"
 #include "mesh_builder.h"
@@ -19,5 +20,8 @@ std::shared_ptr<const Mesh> load_mesh_scaled(const std::string& path, const Eige
 // triangles, the same part names, colours, solidity and bounds. Throws SceneError naming
 // `source` for a part with no triangles.
 std::shared_ptr<const Mesh> mesh_from_spec(const meshgen::MeshSpec& spec, const std::string& source);
+
+// Writes each spec as OBJ into `dir`; returns the file names. Throws SceneError.
+std::vector<std::string> write_mesh_specs(const std::vector<meshgen::MeshSpec>& specs, const std::string& dir);
 
 }  // namespace forklift

@@ -786,17 +786,7 @@ TruckShape load_truck_shape(const std::string& truck_file, const std::string& da
 }
 
 std::vector<std::string> write_truck_meshes(const std::string& truck_file, const std::string& dir) {
-  const TruckModel model = read_truck_model(truck_file);
-  std::vector<std::string> written;
-  try {
-    for (const meshgen::MeshSpec& spec : meshgen::truck_meshes(model.drawing)) {
-      meshgen::write_obj(spec, dir);
-      written.push_back(spec.file);
-    }
-  } catch (const std::runtime_error& e) {
-    throw SceneError(e.what());
-  }
-  return written;
+  return write_mesh_specs(meshgen::truck_meshes(read_truck_model(truck_file).drawing), dir);
 }
 
 }  // namespace forklift
