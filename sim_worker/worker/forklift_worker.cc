@@ -1,5 +1,5 @@
 // forklift-worker: one cab's real-time simulation. Its loop reads like the pipeline:
-// take the cab's controls, step the session in 1 ms physics ticks against the wall clock
+// take the cab's controls, step() the session tick by tick (data/session.json: 1 ms) against the wall clock
 // (dynamics, collision, pallet handling), publish the truck's state and events; frames are
 // rendered on their own clock in their own thread. Everything applied is logged so that
 // --replay reproduces it.
