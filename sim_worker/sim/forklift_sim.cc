@@ -67,7 +67,8 @@ json result_json(const ManoeuvreResult& r) {
 std::optional<Load> cli_load(const TruckParams& truck, double mass, double offset, double height) {
   if (mass == 0) return std::nullopt;
   const LoadRequest r{mass, height, offset};
-  if (const auto problem = load_request_problem(r, FORKLIFT_DATA_DIR)) throw std::invalid_argument(*problem);
+  if (const auto problem = load_request_problem(r, FORKLIFT_DATA_DIR))
+    throw std::invalid_argument("--load-mass, --load-height, --load-offset: " + *problem);
   return requested_load(r, truck);
 }
 
