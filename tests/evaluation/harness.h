@@ -59,7 +59,9 @@ struct Session {
   std::optional<Score> score;
 
   static SessionModel make_model(Scene s, Mode mode, std::optional<Vector3d> start, const Rules& r) {
-    SessionModel m = load_session_model(SessionSpec{}, FORKLIFT_DATA_DIR);  // the shared settings: tick
+    SessionModel m;
+    m.data_dir = FORKLIFT_DATA_DIR;
+    m.tick_s = load_session_settings(m.data_dir).tick_s;
     if (std::abs(m.tick_s - kTick) > 1e-15) throw std::runtime_error("data/session.json's tick is not the harness's");
     if (start) {
       s.scenario.x_m = start->x();

@@ -31,10 +31,10 @@ struct Yard {
   // Steps `state` to `end_tick` with the script's inputs in `ws`; returns the events' count.
   size_t run(SessionState& state, SessionWorkspace& ws, int64_t end_tick) const {
     std::vector<SessionEvent> events;
+    SessionInputs in;
+    size_t next = 0;
     while (state.tick < end_tick) {
-      SessionInputs in;
-      for (const InputChange& c : changes)
-        if (c.tick <= state.tick) in = c.inputs;
+      for (; next < changes.size() && changes[next].tick <= state.tick; ++next) in = changes[next].inputs;
       step(model, state, ws, in, events);
     }
     return events.size();

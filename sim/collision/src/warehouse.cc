@@ -433,7 +433,6 @@ const StepReport& Warehouse::step(Simulation& sim, HandlingState& state) {
   std::swap(b.mine, b.theirs);
   return impl_->step(sim);
 }
-const HandlingState& Warehouse::initial_state() const { return initial_; }
 std::vector<Contact> Warehouse::contacts_at(const CoordVector& q) { return impl_->contacts_at(q); }
 const std::vector<PalletState>& Warehouse::pallets() const { return impl_->states; }
 const PalletState* Warehouse::pallet(const std::string& id) const {

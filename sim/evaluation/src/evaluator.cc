@@ -737,10 +737,6 @@ Score Evaluator::finish(EvaluationMemory& memory, const std::string& end_reason,
   Borrow b(*impl_, *memory.d_, *initial_.d_);
   return impl_->finish(end_reason, out);
 }
-const EvaluationMemory& Evaluator::initial_memory() const { return initial_; }
-bool Evaluator::task_completed(const EvaluationMemory& memory) const {
-  return (memory.d_->primed ? memory.d_->step : 0) >= impl_->scene.task.steps.size();
-}
 const std::vector<EvaluationEvent>& Evaluator::events() const { return impl_->events; }
 const Stability& Evaluator::stability() const { return impl_->stab; }
 int Evaluator::points() const { return impl_->points; }

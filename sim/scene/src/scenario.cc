@@ -59,21 +59,26 @@ Scenario load_scenario(const std::string& path, const std::string& data_dir) {
   return s;
 }
 
-namespace {
-struct LoadLimits {
-  double mass_max_kg, cog_height_max_m, lateral_max_m;
-};
-LoadLimits load_limits(const std::string& data_dir) {
+SessionSettings load_session_settings(const std::string& data_dir) {
   const std::string path = data_dir + "/session.json";
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open");
   try {
-    const nlohmann::json l = nlohmann::json::parse(in).at("load");
-    return {l.at("mass_max_kg").get<double>(), l.at("cog_height_max_m").get<double>(), l.at("lateral_max_m").get<double>()};
-  } catch (const nlohmann::json::exception& e) {
+    const nlohmann::json j = nlohmann::json::parse(in);
+    SessionSettings s;
+    s.tick_s = j.at("tick_s").get<double>();
+    if (!(s.tick_s >= 1e-4 && s.tick_s <= 0.01)) throw std::runtime_error("tick_s must be in [0.0001, 0.01] s");
+    const nlohmann::json& l = j.at("load");
+    s.load_mass_max_kg = l.at("mass_max_kg").get<double>();
+    s.load_cog_height_max_m = l.at("cog_height_max_m").get<double>();
+    s.load_lateral_max_m = l.at("lateral_max_m").get<double>();
+    return s;
+  } catch (const std::exception& e) {
     throw std::runtime_error(path + ": " + e.what());
   }
 }
+
+namespace {
 std::string num(double v) {
   std::ostringstream s;
   s << v;
@@ -82,13 +87,13 @@ std::string num(double v) {
 }  // namespace
 
 std::optional<std::string> load_request_problem(const LoadRequest& r, const std::string& data_dir) {
-  const LoadLimits lim = load_limits(data_dir);
-  if (!(std::isfinite(r.mass_kg) && r.mass_kg > 0 && r.mass_kg <= lim.mass_max_kg))
-    return "'load.mass_kg' must be in (0, " + num(lim.mass_max_kg) + "]";
-  if (!(std::isfinite(r.cog_height_m) && r.cog_height_m >= 0 && r.cog_height_m <= lim.cog_height_max_m))
-    return "'load.cog_height_m' must be in [0, " + num(lim.cog_height_max_m) + "]";
-  if (!(std::isfinite(r.lateral_m) && std::abs(r.lateral_m) <= lim.lateral_max_m))
-    return "'load.lateral_m' must be in [-" + num(lim.lateral_max_m) + ", " + num(lim.lateral_max_m) + "]";
+  const SessionSettings lim = load_session_settings(data_dir);
+  if (!(std::isfinite(r.mass_kg) && r.mass_kg > 0 && r.mass_kg <= lim.load_mass_max_kg))
+    return "'load.mass_kg' must be in (0, " + num(lim.load_mass_max_kg) + "]";
+  if (!(std::isfinite(r.cog_height_m) && r.cog_height_m >= 0 && r.cog_height_m <= lim.load_cog_height_max_m))
+    return "'load.cog_height_m' must be in [0, " + num(lim.load_cog_height_max_m) + "]";
+  if (!(std::isfinite(r.lateral_m) && std::abs(r.lateral_m) <= lim.load_lateral_max_m))
+    return "'load.lateral_m' must be in [-" + num(lim.load_lateral_max_m) + ", " + num(lim.load_lateral_max_m) + "]";
   return std::nullopt;
 }
 

@@ -15,21 +15,6 @@ namespace forklift {
 
 namespace {
 
-// <data>/session.json: what every session shares.
-double session_tick(const std::string& data_dir) {
-  const std::string path = data_dir + "/session.json";
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error(path + ": cannot open");
-  try {
-    const nlohmann::json j = nlohmann::json::parse(in);
-    const double tick = j.at("tick_s").get<double>();
-    if (!(tick >= 1e-4 && tick <= 0.01)) throw std::runtime_error("tick_s must be in [0.0001, 0.01] s");
-    return tick;
-  } catch (const std::exception& e) {
-    throw std::runtime_error(path + ": " + e.what());
-  }
-}
-
 Environment environment_of(const SessionModel& m, const SessionState* s = nullptr) {
   Environment env;
   env.ground = m.scene.ground;
@@ -63,7 +48,7 @@ SessionModel finish_model(SessionModel m, const std::string& rules_file, const s
 SessionModel load_session_model(const SessionSpec& spec, const std::string& data_dir) {
   SessionModel m = with_scene(spec.scenario_file, data_dir);
   if (!spec.truck_file.empty()) m.scene.scenario.truck_file = spec.truck_file;
-  m.tick_s = session_tick(data_dir);
+  m.tick_s = load_session_settings(data_dir).tick_s;
   m.integrator = spec.integrator;
   return finish_model(std::move(m), spec.rules_file, spec.mode);
 }
@@ -121,9 +106,7 @@ struct SessionWorkspace::Impl {
 
   bool produced(const SessionState& s) const {
     if (!have_last || !sim || s.t_s != last_t || s.load.has_value() != last_load.has_value()) return false;
-    for (int i = 0; i < StateIndex::kSize; ++i)
-      if (std::memcmp(&s.x[i], &last_x[i], sizeof(double)) != 0) return false;
-    return true;
+    return std::memcmp(s.x.data(), last_x.data(), sizeof(double) * StateIndex::kSize) == 0;  // bits, not ==
   }
 
   void start_from(const SessionState& s) {

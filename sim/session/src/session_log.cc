@@ -59,7 +59,7 @@ StateVector parse_state_hex(const std::string& text) {
   return x;
 }
 
-ControlLogWriter::ControlLogWriter(const std::string& path, const LogHeader& h) : path_(path) {
+ControlLogWriter::ControlLogWriter(const std::string& path, const LogHeader& h) {
   f_ = std::fopen(path.c_str(), "w");
   if (!f_) throw std::runtime_error("cannot write control log " + path);
   std::fprintf(f_, "forklift-control-log 1\nsession %s\ncab %s\ntruck %s\ntick %s\nintegrator %s %s %d\ninit %s\n",

@@ -82,7 +82,6 @@ class Warehouse {
   // The same on a session's own handling state (the warehouse's is left alone): the session
   // pipeline's form, where that state is part of the session's.
   const StepReport& step(Simulation& sim, HandlingState& state);
-  const HandlingState& initial_state() const;  // the scene's pallets where it puts them
 
   // The contacts the truck would have at coordinates q, without handling (for tests and tools).
   std::vector<Contact> contacts_at(const CoordVector& q);

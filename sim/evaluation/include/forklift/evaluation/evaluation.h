@@ -188,8 +188,6 @@ class Evaluator {
   // form, where the memory is part of the session's state.
   void tick(EvaluationMemory& memory, const TickInput& in, std::vector<EvaluationEvent>& out);
   Score finish(EvaluationMemory& memory, const std::string& end_reason, std::vector<EvaluationEvent>& out);
-  const EvaluationMemory& initial_memory() const;  // before the first tick
-  bool task_completed(const EvaluationMemory& memory) const;
 
   const std::vector<EvaluationEvent>& events() const;  // every event so far
   const Stability& stability() const;                  // at the last tick

@@ -31,6 +31,14 @@ struct LoadRequest {
   double cog_height_m = 0.6;
   double lateral_m = 0;
 };
+// What every session shares, whatever its scenario and truck: <data>/session.json. Throws
+// std::runtime_error naming the file and the key.
+struct SessionSettings {
+  double tick_s = 0;  // the physics tick
+  double load_mass_max_kg = 0, load_cog_height_max_m = 0, load_lateral_max_m = 0;  // a requested load's bounds
+};
+SessionSettings load_session_settings(const std::string& data_dir);
+
 // Why a request cannot be carried, naming its field as a request does
 // ("'load.mass_kg' must be in (0, 20000]"), or nullopt. The bounds: <data>/session.json "load".
 std::optional<std::string> load_request_problem(const LoadRequest& request, const std::string& data_dir);

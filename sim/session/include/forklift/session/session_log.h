@@ -40,10 +40,8 @@ class ControlLogWriter {
   void worker_event(int64_t tick, const std::string& kind);          // "w": the worker's own (not marked)
   void score(const std::string& line);                                // "score": score_line() of the mark
   void finish(int64_t ticks, const StateVector& final_state);         // "end" and "final"
-  const std::string& path() const { return path_; }
 
  private:
-  std::string path_;
   FILE* f_;
 };
 
