@@ -8,7 +8,9 @@ packages=(
   # dynamics
   libeigen3-dev libsundials-dev
   # scene, collision, rendering (later modules)
-  libfcl-dev libassimp-dev libosmesa6-dev libturbojpeg0-dev libpng-dev libsdl2-dev
+  libfcl-dev libassimp-dev libosmesa6-dev libturbojpeg0-dev libpng-dev libsdl2-dev libsdl2-ttf-dev
+  # the cab's window in tests: a real X server and keys typed into it
+  xvfb xdotool
   # protocol
   cyclonedds-dev cyclonedds-tools
   # store, server, tools

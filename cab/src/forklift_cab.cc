@@ -1,263 +1,714 @@
-// forklift-cab: the cab's peripherals to its sim worker over DDS, a one-line head-up display of
-// the truck's state, and the worker's rendered frames (a window when a display is present, PNG
-// files when asked). Sources: a timed script, the keyboard, or a Linux joystick / wheel.
+// forklift-cab: the pupil's driver's station. The window is the cab: keys held in it and SDL game
+// controllers (wheels, pedal sets, gamepads, hot-plugged) drive the truck; the worker's frames
+// fill it with the head-up display drawn over them; the truck sounds through SDL audio. A timed
+// script drives instead for tests and demonstrations, and without a window the terminal shows
+// the display as a line.
 #include <CLI/CLI.hpp>
+#include <SDL.h>
+
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
-#include <fcntl.h>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
-#include <linux/joystick.h>
+#include <optional>
 #include <termios.h>
 #include <thread>
 #include <unistd.h>
 
 #include "forklift/protocol/protocol.h"
-#include "frame_view.h"
 #include "forklift/script/script.h"
+#include "frame_view.h"
+#include "hud.h"
+#include "input.h"
+#include "sound.h"
+#include "window.h"
 
 using namespace forklift;
+using namespace forklift::cab;
 using Clock = std::chrono::steady_clock;
+using nlohmann::json;
 
 namespace {
 
 std::atomic<bool> g_stop{false};
 void on_signal(int) { g_stop = true; }
 
-struct Cab {
-  std::string id;
-  dds::Writer<fk_Controls>& writer;
-  dds::Reader<fk_TruckState>& states;
-  dds::Writer<fk_CabAnnounce>& announce;
-  dds::Reader<fk_SessionStatus>& statuses;
-  FrameView& view;
-  std::string mode;
-  Clock::time_point last_announce{};
-  uint32_t seq = 0;
-  Clock::time_point start = Clock::now();
-  Clock::time_point last_hud{};
-  bool tty = isatty(STDOUT_FILENO);
-  fk_TruckState last{};
-  bool have_state = false;
-  std::string session{};  // the session this cab drives, once the worker has said
+const std::string kDataDir = FORKLIFT_DATA_DIR;
 
-  void send(double steer, double accel, double brake, double lift, double tilt, double shift, bool horn = false,
-            bool parking_brake = false) {
-    fk_Controls c{};
-    dds::set_string(c.cab_id, id);
-    c.seq = ++seq;
-    c.cab_time_s = std::chrono::duration<double>(Clock::now() - start).count();
-    c.steer_rad = steer; c.accelerator = accel; c.brake = brake;
-    c.lift = lift; c.tilt = tilt; c.side_shift = shift; c.horn = horn; c.parking_brake = parking_brake;
-    writer.write(c);
+json read_json(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot read " + path);
+  try {
+    return json::parse(in);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(path + " is not valid JSON: " + e.what());
+  }
+}
+
+std::string default_calibration_file() {
+  if (const char* x = std::getenv("XDG_CONFIG_HOME"); x && *x) return std::string(x) + "/forklift/cab-calibration.json";
+  if (const char* h = std::getenv("HOME"); h && *h) return std::string(h) + "/.config/forklift/cab-calibration.json";
+  return "cab-calibration.json";
+}
+
+Calibration read_calibration(const std::string& path) {
+  Calibration c;
+  if (path.empty() || !std::filesystem::exists(path)) return c;
+  const json j = read_json(path);
+  for (auto it = j.at("axes").begin(); it != j.at("axes").end(); ++it)
+    c[it.key()] = AxisCalibration{it.value().at("rest").get<double>(), it.value().at("full").get<double>(),
+                                  it.value().value("low", -1.0)};
+  return c;
+}
+
+// One line per event, for tests and the instructor's review of what the pupil saw.
+class Trace {
+ public:
+  explicit Trace(const std::string& path) {
+    if (path.empty()) return;
+    out_.open(path);
+    if (!out_) throw std::runtime_error("cannot write the trace " + path);
+  }
+  bool on() const { return out_.is_open(); }
+  void write(json j, double t) {
+    if (!on()) return;
+    j["t"] = t;
+    out_ << j.dump() << '\n';
+    out_.flush();
   }
 
-  // Once a second: "this cab is here" for the server's fleet view.
-  void heartbeat() {
-    const auto now = Clock::now();
-    if (now - last_announce < std::chrono::seconds(1)) return;
-    last_announce = now;
-    fk_CabAnnounce a{};
-    dds::set_string(a.cab_id, id);
-    a.cab_time_s = std::chrono::duration<double>(now - start).count();
-    dds::set_string(a.mode, mode);
-    announce.write(a);
-  }
-
-  // Head-up display: speed, fork height, load, stability margin (and the dead man if it tripped).
-  // A session of this cab that ends or fails is announced, and stops the cab.
-  void hud() {
-    heartbeat();
-    if (!view.poll()) g_stop = true;  // the window was closed
-    states.take_each([&](const fk_TruckState& s) { last = s; have_state = true; });
-    statuses.take_each([&](const fk_SessionStatus& s) {
-      const std::string state = s.state;
-      if (id != s.cab_id) return;
-      // Statuses are durable: a cab started later also hears of this cab's past sessions. Only
-      // the session it drives (named by the worker's "waiting"/"running" or its truck state) counts.
-      if (state == "waiting" || state == "running") session = s.session_id;
-      if (session.empty() && have_state) session = last.session_id;
-      if (s.session_id != session || (state != "ended" && state != "failed")) return;
-      std::printf("%ssession %s %s%s%s\n", tty ? "\n" : "", s.session_id, state.c_str(), s.reason[0] ? ": " : "", s.reason);
-      std::fflush(stdout);
-      g_stop = true;  // over: the cab goes back to its menu
-    });
-    const auto now = Clock::now();
-    if (!have_state || now - last_hud < std::chrono::milliseconds(tty ? 100 : 1000)) return;
-    last_hud = now;
-    std::printf("%st=%6.2f s  speed %5.2f m/s  forks %4.2f m  load %s  stability %3.0f%%  frames %2.0f/s%s%s",
-                tty ? "\r" : "", last.sim_time_s, last.speed_m_s, last.lift_m,
-                last.load_attached ? (std::to_string(int(last.load_mass_kg)) + " kg").c_str() : "none",
-                100 * last.stability_margin, view.fps(), last.deadman ? "  DEAD MAN" : "        ", tty ? "" : "\n");
-    std::fflush(stdout);
-  }
+ private:
+  std::ofstream out_;
 };
 
-// Waits until the worker's reader matches our writer, so that the script's first row is not lost.
-bool wait_for_worker(Cab& cab, double timeout_s) {
-  dds::Writer<fk_Controls>& w = cab.writer;
-  const auto until = Clock::now() + std::chrono::duration<double>(timeout_s);
-  while (!g_stop && Clock::now() < until) {
-    cab.heartbeat();
-    if (w.matched() > 0) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+// Key press to the first frame rendered from a state that had applied it.
+class Latency {
+ public:
+  void key(double t) {
+    if (!pending_key_) pending_key_ = t;
   }
-  return w.matched() > 0;
-}
-
-// A script row holds until the next one, as a real cab's levers do: between rows the held
-// command is sent again every 20 ms, so sparse scripts never trip the worker's dead man. After
-// the last row the cab goes silent.
-int run_script(Cab& cab, const std::vector<ScriptRow>& rows) {
-  cab.start = Clock::now();
-  const ScriptRow* held = nullptr;
-  auto last_sent = Clock::now();
-  for (const ScriptRow& r : rows) {
-    const auto due = cab.start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(r.t));
-    while (!g_stop && Clock::now() < due) {
-      cab.hud();
-      if (held && Clock::now() - last_sent >= std::chrono::milliseconds(20)) {
-        cab.send(held->steer, held->accelerator, held->brake, held->lift, held->tilt, held->shift, false, held->parking_brake);
-        last_sent = Clock::now();
+  void sent(uint32_t seq) {
+    if (pending_key_) waits_.push_back({*pending_key_, seq, -1});
+    pending_key_.reset();
+  }
+  void applied(uint32_t seq, double sim_t) {
+    for (Wait& w : waits_)
+      if (w.state_sim_t < 0 && seq >= w.seq) w.state_sim_t = sim_t;
+  }
+  // A frame of sim time `frame_sim_t` was presented at `t`: the latencies it completes.
+  std::vector<double> presented(double frame_sim_t, double t) {
+    std::vector<double> done;
+    for (auto it = waits_.begin(); it != waits_.end();) {
+      if (it->state_sim_t >= 0 && frame_sim_t >= it->state_sim_t - 1e-9) {
+        done.push_back(t - it->key_t);
+        it = waits_.erase(it);
+      } else {
+        ++it;
       }
-      std::this_thread::sleep_until(std::min(due, Clock::now() + std::chrono::milliseconds(5)));
     }
-    if (g_stop) break;
-    cab.send(r.steer, r.accelerator, r.brake, r.lift, r.tilt, r.shift, false, r.parking_brake);
-    held = &r;
-    last_sent = Clock::now();
-    cab.hud();
+    all_.insert(all_.end(), done.begin(), done.end());
+    return done;
   }
-  return 0;
-}
+  std::string report() const {
+    if (all_.empty()) return "input to photon: no key presses measured";
+    std::vector<double> v = all_;
+    std::sort(v.begin(), v.end());
+    auto q = [&](double p) { return v[std::min(v.size() - 1, size_t(p * (v.size() - 1) + 0.5))]; };
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "input to photon: %zu key presses, median %.1f ms, p99 %.1f ms, max %.1f ms", v.size(),
+                  1e3 * q(0.5), 1e3 * q(0.99), 1e3 * v.back());
+    return buf;
+  }
 
-// Keyboard: arrows drive and steer, space brakes, w/s lift, a/d tilt, q/e side-shift, h horn,
-// p sets or releases the parking brake, x quits.
-// Commands decay back to neutral when keys are released (no key-up events in a terminal).
-int run_keyboard(Cab& cab) {
-  termios saved{};
-  if (tcgetattr(STDIN_FILENO, &saved) != 0) throw std::runtime_error("--keyboard needs a terminal");
-  termios raw = saved;
-  raw.c_lflag &= ~(ICANON | ECHO);
-  raw.c_cc[VMIN] = 0;
-  raw.c_cc[VTIME] = 0;
-  tcsetattr(STDIN_FILENO, TCSANOW, &raw);
-  std::fprintf(stderr, "arrows: drive/steer, space: brake, w/s: lift, a/d: tilt, q/e: side-shift, h: horn, "
-                       "p: parking brake, x: quit\n");
-  double steer = 0, accel = 0, brake = 0, lift = 0, tilt = 0, shift = 0;
-  bool horn = false, parking = false;
-  while (!g_stop) {
-    char buf[16];
+ private:
+  struct Wait {
+    double key_t;
+    uint32_t seq;
+    double state_sim_t;
+  };
+  std::optional<double> pending_key_;
+  std::vector<Wait> waits_;
+  std::vector<double> all_;
+};
+
+// The terminal as a keyboard (--keyboard --no-window): a terminal sends no key-ups, so a key
+// counts as held until its auto-repeat stops.
+class TerminalKeys {
+ public:
+  TerminalKeys() {
+    if (tcgetattr(STDIN_FILENO, &saved_) != 0) throw std::runtime_error("--keyboard without a window needs a terminal");
+    termios raw = saved_;
+    raw.c_lflag &= ~(ICANON | ECHO);
+    raw.c_cc[VMIN] = 0;
+    raw.c_cc[VTIME] = 0;
+    tcsetattr(STDIN_FILENO, TCSANOW, &raw);
+  }
+  ~TerminalKeys() { tcsetattr(STDIN_FILENO, TCSANOW, &saved_); }
+  // Reads what was typed and feeds key-downs and key-ups to `input`; false on x (quit).
+  bool pump(CabInput& input, double now) {
+    char buf[64];
     const ssize_t n = read(STDIN_FILENO, buf, sizeof buf);
-    brake *= 0.8; lift = tilt = shift = 0; horn = false;
     for (ssize_t i = 0; i < n; ++i) {
+      SDL_Scancode k = SDL_SCANCODE_UNKNOWN;
       const char c = buf[i];
-      if (c == 'x') g_stop = true;
-      else if (c == ' ') brake = 1;
-      else if (c == 'w') lift = 1; else if (c == 's') lift = -1;
-      else if (c == 'a') tilt = -1; else if (c == 'd') tilt = 1;
-      else if (c == 'q') shift = 1; else if (c == 'e') shift = -1;
-      else if (c == 'h') horn = true;
-      else if (c == 'p') parking = !parking;
-      else if (c == '\033' && i + 2 < n && buf[i + 1] == '[') {
-        const char k = buf[i + 2];
+      if (c == 'x') return false;
+      if (c == '\033' && i + 2 < n && buf[i + 1] == '[') {
+        const char a = buf[i + 2];
         i += 2;
-        if (k == 'A') accel = std::min(1.0, accel + 0.1);
-        if (k == 'B') accel = std::max(-1.0, accel - 0.1);
-        if (k == 'D') steer = std::min(1.5, steer + 0.1);   // wheel left: truck turns right
-        if (k == 'C') steer = std::max(-1.5, steer - 0.1);
+        k = a == 'A' ? SDL_SCANCODE_UP : a == 'B' ? SDL_SCANCODE_DOWN : a == 'D' ? SDL_SCANCODE_LEFT : a == 'C' ? SDL_SCANCODE_RIGHT : k;
+      } else if (c == ' ') {
+        k = SDL_SCANCODE_SPACE;
+      } else if (c >= 'a' && c <= 'z') {
+        k = SDL_Scancode(SDL_SCANCODE_A + (c - 'a'));
+      }
+      if (k == SDL_SCANCODE_UNKNOWN) continue;
+      if (!last_seen_.count(k)) send(input, SDL_KEYDOWN, k);
+      last_seen_[k] = now;
+    }
+    for (auto it = last_seen_.begin(); it != last_seen_.end();) {
+      if (now - it->second > kReleasedAfterS) {
+        send(input, SDL_KEYUP, it->first);
+        it = last_seen_.erase(it);
+      } else {
+        ++it;
       }
     }
-    cab.send(steer, accel, brake, lift, tilt, shift, horn, parking);
-    cab.hud();
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    return true;
   }
-  tcsetattr(STDIN_FILENO, TCSANOW, &saved);
-  return 0;
+
+ private:
+  // Terminals repeat a held key after about 0.5 s, then about 30 times a second.
+  static constexpr double kReleasedAfterS = 0.55;
+  static void send(CabInput& input, Uint32 type, SDL_Scancode k) {
+    SDL_Event e{};
+    e.type = type;
+    e.key.keysym.scancode = k;
+    input.handle(e);
+  }
+  termios saved_{};
+  std::map<SDL_Scancode, double> last_seen_;
+};
+
+struct Options {
+  std::string cab_id, script, joystick, dds_config, security_dir, identity, trace, save_window, controller_db;
+  std::string calibration_file = default_calibration_file();
+  bool keyboard = false, controller = false, no_window = false, no_sound = false, calibrate = false, list = false;
+  bool latency_report = false;
+  double wait_s = 10;
+  std::optional<int> domain;
+  FrameView::Options frames;
+  std::string window_size = "960x720";
+};
+
+std::string help_footer(const ControllerMap& map) {
+  std::string s = "Keys in the cab's window:\n";
+  for (const auto& [k, w] : key_map()) s += "  " + k + std::string(std::max<size_t>(2, 24 - k.size()), ' ') + w + "\n";
+  s += "Game controllers (data/cab/controllers.json; SDL mappings in data/cab/gamecontrollerdb.txt):\n";
+  for (const auto& [k, w] : controller_help(map)) s += "  " + k + std::string(std::max<size_t>(2, 24 - k.size()), ' ') + w + "\n";
+  s += "Exit codes: 0 done, 2 bad usage or settings, 5 no worker answered.\n";
+  return s;
 }
 
-// Linux joystick API: axis 0 steer, axis 1 accelerator (up) and brake (down), axes 2-4 levers.
-int run_joystick(Cab& cab, const std::string& dev) {
-  const int fd = open(dev.c_str(), O_RDONLY | O_NONBLOCK);
-  if (fd < 0) throw std::runtime_error("cannot open joystick " + dev);
-  double axis[8] = {0};
-  while (!g_stop) {
-    js_event e;
-    while (read(fd, &e, sizeof e) == sizeof e)
-      if ((e.type & ~JS_EVENT_INIT) == JS_EVENT_AXIS && e.number < 8) axis[e.number] = e.value / 32767.0;
-    const double pedal = -axis[1];
-    cab.send(-1.5 * axis[0], std::max(0.0, pedal), std::max(0.0, -pedal), -axis[2], axis[3], -axis[4]);
-    cab.hud();
+class CabProgram {
+ public:
+  CabProgram(Options o, InputSettings is, ControllerMap map, HudSettings hs, SoundSettings ss, json cab_json)
+      : o_(std::move(o)), input_(is, map, read_calibration(o_.calibration_file)),
+        hud_(hs, load_fault_words(kDataDir + "/evaluation/rules.json")), map_(std::move(map)),
+        rear_view_below_m_s_(cab_json.value("rear_view_below_m_s", -0.05)), trace_(o_.trace) {
+    std::vector<std::pair<std::string, std::string>> help = key_map();
+    for (auto& line : controller_help(map_)) help.push_back(line);
+    hud_.set_help(std::move(help));
+    sound_settings_ = ss;
+    font_ = cab_json.at("hud").at("font").get<std::string>();
+    font_bold_ = cab_json.at("hud").at("font_bold").get<std::string>();
+  }
+
+  int run();
+
+ private:
+  double now() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
+  void open_devices(bool want_window);
+  void pump_events();
+  void send(const fk_Controls& c);
+  fk_Controls controls_from(const CabCommand& c) const;
+  void take_dds();
+  void draw(bool fresh_frame);
+  void terminal_line();
+  void calibration_step();
+
+  Options o_;
+  CabInput input_;
+  Hud hud_;
+  ControllerMap map_;
+  double rear_view_below_m_s_;
+  Trace trace_;
+  SoundSettings sound_settings_;
+  std::string font_, font_bold_;
+  Clock::time_point start_ = Clock::now();
+
+  std::unique_ptr<dds::Participant> participant_;
+  std::unique_ptr<dds::Writer<fk_Controls>> writer_;
+  std::unique_ptr<dds::Reader<fk_TruckState>> states_;
+  std::unique_ptr<dds::Writer<fk_CabAnnounce>> announce_;
+  std::unique_ptr<dds::Reader<fk_SessionStatus>> statuses_;
+  std::unique_ptr<dds::Reader<fk_Event>> events_;
+  std::unique_ptr<FrameView> frames_;
+  std::unique_ptr<CabWindow> window_;
+  std::unique_ptr<CabSound> sound_;
+  std::unique_ptr<TerminalKeys> terminal_;
+
+  uint32_t seq_ = 0;
+  fk_Controls last_sent_{};
+  double last_sent_t_ = -1, last_announce_t_ = -10, last_draw_t_ = -1, last_line_t_ = -10;
+  std::string session_;
+  std::optional<double> ended_at_;
+  bool capture_next_ = false;
+  std::vector<std::string> last_texts_;
+  Latency latency_;
+  std::string mode_;
+  // --calibrate: which step, and the readings so far
+  int calib_step_ = -1;
+  std::vector<std::map<std::string, double>> calib_readings_;
+};
+
+void CabProgram::open_devices(bool want_window) {
+  SDL_SetHint(SDL_HINT_NO_SIGNAL_HANDLERS, "1");                  // SIGTERM stays ours
+  SDL_SetHint(SDL_HINT_JOYSTICK_ALLOW_BACKGROUND_EVENTS, "1");  // pedals work when the window is not focused
+  Uint32 flags = SDL_INIT_EVENTS | SDL_INIT_GAMECONTROLLER | SDL_INIT_JOYSTICK;
+  if (SDL_Init(flags) != 0) throw std::runtime_error(std::string("SDL did not start: ") + SDL_GetError());
+  input_.add_mappings(kDataDir + "/cab/gamecontrollerdb.txt");
+  std::string db = o_.controller_db;
+  if (db.empty())
+    if (const char* e = std::getenv("FORKLIFT_CONTROLLER_DB"); e && *e) db = e;
+  if (!db.empty() && !input_.add_mappings(db)) throw std::runtime_error("cannot read the controller mappings " + db);
+  input_.open_present_controllers();
+  if (want_window) {
+    if (SDL_InitSubSystem(SDL_INIT_VIDEO) != 0) {
+      std::cerr << "forklift-cab: no window (" << SDL_GetError() << "); driving on without a picture\n";
+    } else {
+      int w = 960, h = 720;
+      if (std::sscanf(o_.window_size.c_str(), "%dx%d", &w, &h) != 2 || w < 320 || h < 240 || w > 7680 || h > 4320)
+        throw std::invalid_argument("--window-size must be WxH, at least 320x240");
+      window_ = std::make_unique<CabWindow>("Forklift cab " + o_.cab_id, w, h, font_, font_bold_);
+    }
+  }
+  if (!o_.no_sound && (window_ || o_.keyboard || o_.controller)) {
+    if (SDL_InitSubSystem(SDL_INIT_AUDIO) != 0) {
+      std::cerr << "forklift-cab: no sound (" << SDL_GetError() << ")\n";
+    } else {
+      try {
+        sound_ = std::make_unique<CabSound>(sound_settings_);
+      } catch (const std::exception& e) {
+        std::cerr << "forklift-cab: " << e.what() << '\n';
+      }
+    }
+  }
+}
+
+fk_Controls CabProgram::controls_from(const CabCommand& c) const {
+  fk_Controls s{};
+  s.steer_rad = c.steer_rad;
+  s.accelerator = c.drive();
+  s.brake = c.braking();
+  s.lift = c.lift;
+  s.tilt = c.tilt;
+  s.side_shift = c.side_shift;
+  s.horn = c.horn;
+  s.parking_brake = c.parking_brake;
+  s.frames_wanted = window_ || !o_.frames.save_last.empty() || !o_.frames.save_dir.empty();
+  s.camera = c.chase_camera ? 1 : 0;
+  s.look_yaw_rad = c.look_yaw_rad;
+  s.look_pitch_rad = c.look_pitch_rad;
+  // The mirror comes on by itself while reversing, as a pupil looks back.
+  const bool reversing = c.direction < 0 || (hud_.has_state() && hud_.state().speed_m_s < rear_view_below_m_s_);
+  s.rear_view = c.rear_view || reversing;
+  s.see_through_mast = c.see_through_mast;
+  return s;
+}
+
+bool same_command(const fk_Controls& a, const fk_Controls& b) {
+  return a.steer_rad == b.steer_rad && a.accelerator == b.accelerator && a.brake == b.brake && a.lift == b.lift &&
+         a.tilt == b.tilt && a.side_shift == b.side_shift && a.horn == b.horn && a.parking_brake == b.parking_brake &&
+         a.frames_wanted == b.frames_wanted && a.camera == b.camera && a.look_yaw_rad == b.look_yaw_rad &&
+         a.look_pitch_rad == b.look_pitch_rad && a.rear_view == b.rear_view && a.see_through_mast == b.see_through_mast;
+}
+
+void CabProgram::send(const fk_Controls& in) {
+  fk_Controls c = in;
+  dds::set_string(c.cab_id, o_.cab_id);
+  c.seq = ++seq_;
+  c.cab_time_s = now();
+  writer_->write(c);
+  last_sent_ = c;
+  last_sent_t_ = c.cab_time_s;
+  latency_.sent(c.seq);
+  trace_.write({{"type", "controls"}, {"seq", c.seq}, {"steer_rad", c.steer_rad}, {"accelerator", c.accelerator},
+                {"brake", c.brake}, {"lift", c.lift}, {"tilt", c.tilt}, {"horn", c.horn},
+                {"direction", input_.command().direction}, {"rear_view", c.rear_view},
+                {"see_through_mast", c.see_through_mast}, {"camera", c.camera}, {"look_yaw_rad", c.look_yaw_rad},
+                {"frames_wanted", c.frames_wanted}},
+               c.cab_time_s);
+}
+
+void CabProgram::pump_events() {
+  if (terminal_ && !terminal_->pump(input_, now())) g_stop = true;
+  SDL_Event e;
+  // A device that floods events cannot hold the cab: at most this many per pass.
+  for (int n = 0; n < 512 && SDL_PollEvent(&e); ++n) {
+    if (e.type == SDL_QUIT) g_stop = true;
+    if (e.type == SDL_KEYDOWN && !e.key.repeat) {
+      switch (e.key.keysym.scancode) {
+        case SDL_SCANCODE_ESCAPE: g_stop = true; continue;
+        case SDL_SCANCODE_F1: hud_.toggle_help(); continue;
+        case SDL_SCANCODE_F12: capture_next_ = true; continue;
+        case SDL_SCANCODE_RETURN:
+          if (calib_step_ >= 0) calibration_step();
+          continue;
+        default: break;
+      }
+    }
+    if (e.type == SDL_CONTROLLERBUTTONDOWN) {
+      auto it = map_.buttons.find("help");
+      if (it != map_.buttons.end() && it->second == e.cbutton.button) hud_.toggle_help();
+    }
+    const bool driving_key = (e.type == SDL_KEYDOWN || e.type == SDL_KEYUP) && !e.key.repeat;
+    if (input_.handle(e) && driving_key) {
+      latency_.key(now());
+      trace_.write({{"type", "key"}, {"key", SDL_GetScancodeName(e.key.keysym.scancode)},
+                    {"down", e.type == SDL_KEYDOWN}},
+                   now());
+    }
+  }
+  for (const std::string& n : input_.take_notices()) {
+    hud_.on_notice(n, now());
+    std::cerr << "forklift-cab: " << n << '\n';
+    trace_.write({{"type", "notice"}, {"text", n}}, now());
+  }
+}
+
+void CabProgram::take_dds() {
+  const double t = now();
+  if (t - last_announce_t_ >= 1.0) {  // "this cab is here", for the server's fleet view
+    last_announce_t_ = t;
+    fk_CabAnnounce a{};
+    dds::set_string(a.cab_id, o_.cab_id);
+    a.cab_time_s = t;
+    dds::set_string(a.mode, mode_);
+    announce_->write(a);
+  }
+  states_->take_each([&](const fk_TruckState& s) {
+    if (o_.cab_id != s.cab_id) return;
+    hud_.on_state(s);
+    if (session_.empty()) session_ = s.session_id;
+    latency_.applied(s.applied_control_sequence, s.sim_time_s);
+    trace_.write({{"type", "state"}, {"sim_time_s", s.sim_time_s}, {"speed_m_s", s.speed_m_s}, {"yaw_rad", s.yaw_rad},
+                  {"x_m", s.x_m}, {"y_m", s.y_m}, {"steer_rad", s.steer_rad}, {"applied", s.applied_control_sequence},
+                  {"aids", s.aids}, {"stability_fraction", s.stability_fraction}},
+                 t);
+  });
+  events_->take_each([&](const fk_Event& e) {
+    // Events are durable: only this session's count (a cab started later hears older ones).
+    if (session_.empty() || session_ != e.session_id) return;
+    hud_.on_event(e, t);
+    const std::string kind = e.kind;
+    if (sound_) {
+      if (kind.find("collision") != std::string::npos) sound_->impact(e.worry_level >= 5 ? 1.0 : 0.5);
+      if (e.worry_level > 0) sound_->fault(e.worry_level);
+    }
+    trace_.write({{"type", "event"}, {"kind", kind}, {"worry_level", e.worry_level}, {"sim_time_s", e.sim_time_s}}, t);
+  });
+  statuses_->take_each([&](const fk_SessionStatus& s) {
+    const std::string state = s.state;
+    if (o_.cab_id != s.cab_id) return;
+    // Statuses are durable: a cab started later also hears of this cab's past sessions. Only the
+    // session it drives (named by the worker's "waiting"/"running" or its truck state) counts.
+    if (state == "waiting" || state == "running") session_ = s.session_id;
+    if (s.session_id != session_) return;
+    hud_.on_status(state, s.reason, t);
+    trace_.write({{"type", "status"}, {"state", state}, {"reason", s.reason}}, t);
+    if (state != "ended" && state != "failed") return;
+    std::printf("%ssession %s %s%s%s\n%s\n", isatty(STDOUT_FILENO) && !window_ ? "\n" : "", s.session_id, state.c_str(),
+                s.reason[0] ? ": " : "", s.reason, end_words(state, s.reason).c_str());
+    std::fflush(stdout);
+    if (!ended_at_) ended_at_ = t;  // over: the window shows it a moment, then the cab goes back to its menu
+  });
+}
+
+void CabProgram::draw(bool fresh_frame) {
+  const double t = now();
+  hud_.set_command(input_.command());
+  if (!window_) return;
+  if (!fresh_frame && t - last_draw_t_ < 1.0 / 30) return;
+  last_draw_t_ = t;
+  if (fresh_frame) window_->set_frame(frames_->last());
+  const std::vector<HudItem> items = hud_.draw_list(window_->width(), window_->height(), t);
+  Image shot;
+  const bool capture = capture_next_;
+  window_->present(items, capture ? &shot : nullptr);
+  const double shown = now();
+  if (fresh_frame)
+    for (double l : latency_.presented(frames_->last_sim_time_s(), shown))
+      trace_.write({{"type", "latency"}, {"ms", 1e3 * l}}, shown);
+  if (capture) {
+    capture_next_ = false;
+    char name[64];
+    std::snprintf(name, sizeof name, "cab-%s-%.0f.png", o_.cab_id.c_str(), t * 1000);
+    const std::string path = o_.save_window.empty() ? name : o_.save_window;
+    write_png(path, shot);
+    hud_.on_notice("Picture saved: " + path, t);
+  }
+  std::vector<std::string> texts = Hud::texts(items);
+  if (trace_.on() && texts != last_texts_) {
+    trace_.write({{"type", "hud"}, {"sim_time_s", hud_.has_state() ? hud_.state().sim_time_s : -1.0}, {"texts", texts},
+                  {"stability_colour", {hud_.stability_colour().r, hud_.stability_colour().g, hud_.stability_colour().b}}},
+                 shown);
+    last_texts_ = std::move(texts);
+  }
+}
+
+// Without a window: the display as one line in the terminal.
+void CabProgram::terminal_line() {
+  if (window_ || !hud_.has_state()) return;
+  const bool tty = isatty(STDOUT_FILENO);
+  const double t = now();
+  if (t - last_line_t_ < (tty ? 0.1 : 1.0)) return;
+  last_line_t_ = t;
+  const fk_TruckState& s = hud_.state();
+  std::string load = s.load_attached ? std::to_string(int(s.load_mass_kg)) + " kg" : std::string("none");
+  std::printf("%st=%6.1f s  %5.1f km/h%s  forks %4.2f m  load %s  %s%s%s", tty ? "\r" : "", s.sim_time_s,
+              std::abs(s.speed_m_s) * 3.6,
+              s.speed_limit_m_s > 0 ? (" (limit " + std::to_string(int(std::lround(s.speed_limit_m_s * 3.6))) + ")").c_str() : "",
+              s.fork_height_m, load.c_str(), hud_.stability_words().c_str(), s.deadman ? "  NO CONTROLS: braking" : "",
+              tty ? "    " : "\n");
+  std::fflush(stdout);
+}
+
+// --calibrate: rest, wheel left, wheel right, accelerator down, brake down; Enter after each.
+void CabProgram::calibration_step() {
+  static const char* kPrompts[] = {"Let go of every control, then press Enter",
+                                   "Turn the wheel fully left and hold it, then press Enter",
+                                   "Turn the wheel fully right and hold it, then press Enter",
+                                   "Press the accelerator pedal fully, then press Enter",
+                                   "Press the brake pedal fully, then press Enter"};
+  if (calib_step_ >= 0) calib_readings_.push_back(input_.raw_axes());
+  ++calib_step_;
+  if (calib_step_ < 5) {
+    hud_.on_notice(kPrompts[calib_step_], now());
+    std::cout << kPrompts[calib_step_] << std::endl;
+    return;
+  }
+  const auto& r = calib_readings_;
+  auto name = [](const ControllerMap::Axis& a) { return std::string(SDL_GameControllerGetStringForAxis(a.axis)); };
+  json axes = json::object();
+  if (map_.steer.axis != SDL_CONTROLLER_AXIS_INVALID) {
+    const std::string n = name(map_.steer);
+    axes[n] = {{"rest", r[0].at(n)}, {"low", r[1].at(n)}, {"full", r[2].at(n)}};
+  }
+  if (map_.accelerator.axis != SDL_CONTROLLER_AXIS_INVALID) {
+    const std::string n = name(map_.accelerator);
+    axes[n] = {{"rest", r[0].at(n)}, {"full", r[3].at(n)}};
+  }
+  if (map_.brake.axis != SDL_CONTROLLER_AXIS_INVALID) {
+    const std::string n = name(map_.brake);
+    axes[n] = {{"rest", r[0].at(n)}, {"full", r[4].at(n)}};
+  }
+  std::filesystem::create_directories(std::filesystem::path(o_.calibration_file).parent_path().empty()
+                                          ? std::filesystem::path(".")
+                                          : std::filesystem::path(o_.calibration_file).parent_path());
+  std::ofstream out(o_.calibration_file);
+  out << json{{"device", input_.active_device()}, {"axes", axes}}.dump(2) << '\n';
+  if (!out) throw std::runtime_error("cannot write " + o_.calibration_file);
+  std::cout << "calibration written to " << o_.calibration_file << std::endl;
+  g_stop = true;
+}
+
+int CabProgram::run() {
+  mode_ = !o_.script.empty() ? "script" : o_.controller || !o_.joystick.empty() ? "joystick" : "keyboard";
+  const bool live = o_.keyboard || o_.controller || !o_.joystick.empty() || o_.calibrate;
+  const bool want_window = !o_.no_window && (std::getenv("DISPLAY") || std::getenv("WAYLAND_DISPLAY"));
+  open_devices(want_window);
+  if (o_.list) {
+    for (int i = 0; i < SDL_NumJoysticks(); ++i) {
+      char guid[64];
+      SDL_JoystickGetGUIDString(SDL_JoystickGetDeviceGUID(i), guid, sizeof guid);
+      std::printf("%d  %s  %s  %s\n", i, guid, SDL_JoystickNameForIndex(i) ? SDL_JoystickNameForIndex(i) : "?",
+                  SDL_IsGameController(i) ? "mapped" : "no mapping (fallback layout)");
+    }
+    if (SDL_NumJoysticks() == 0) std::printf("no controllers plugged in\n");
+    return 0;
+  }
+  if (o_.calibrate) {
+    if (!window_) throw std::invalid_argument("--calibrate needs the cab's window (a display)");
+    calibration_step();
+  }
+  if (live && !window_ && o_.keyboard) terminal_ = std::make_unique<TerminalKeys>();
+
+  const std::vector<ScriptRow> rows = o_.script.empty() ? std::vector<ScriptRow>{} : read_script(o_.script);
+  if (o_.identity.empty()) o_.identity = "cab." + o_.cab_id;
+  participant_ = std::make_unique<dds::Participant>(
+      dds::DomainSettings::resolve(o_.domain, o_.dds_config, o_.security_dir, o_.identity));
+  // Everything this cab sends or reads lives in its own partition: with DDS Security its
+  // permissions allow nothing else.
+  const std::string own = dds::cab_partition(o_.cab_id);
+  writer_ = std::make_unique<dds::Writer<fk_Controls>>(*participant_, own);
+  states_ = std::make_unique<dds::Reader<fk_TruckState>>(*participant_, own);
+  announce_ = std::make_unique<dds::Writer<fk_CabAnnounce>>(*participant_, own);
+  statuses_ = std::make_unique<dds::Reader<fk_SessionStatus>>(*participant_, own);
+  events_ = std::make_unique<dds::Reader<fk_Event>>(*participant_, own);
+  frames_ = std::make_unique<FrameView>(*participant_, o_.cab_id, o_.frames);
+
+  // Wait for the worker's reader, so that the script's first row is not lost.
+  const double give_up = now() + o_.wait_s;
+  while (!g_stop && writer_->matched() == 0 && now() < give_up) {
+    pump_events();
+    take_dds();
+    draw(frames_->poll());
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
-  close(fd);
+  if (writer_->matched() == 0) {
+    if (g_stop) return 0;
+    std::cerr << "forklift-cab: no worker for cab " << o_.cab_id << " after " << o_.wait_s
+              << " s: is the session started for this cab?\n";
+    return 5;
+  }
+
+  // A script row holds until the next one, as a real cab's levers do: between rows the held
+  // command is sent again every 20 ms, so sparse scripts never trip the worker's dead man. After
+  // the last row the cab goes silent.
+  start_ = Clock::now();
+  size_t next_row = 0;
+  std::optional<fk_Controls> held;
+  double last_t = 0;
+  while (!g_stop) {
+    const double t = now();
+    pump_events();
+    fk_Controls c{};
+    if (!o_.script.empty()) {
+      bool row_due = false;
+      while (next_row < rows.size() && rows[next_row].t <= t) {
+        const ScriptRow& r = rows[next_row++];
+        fk_Controls s = controls_from(CabCommand{});
+        s.steer_rad = r.steer, s.accelerator = r.accelerator, s.brake = r.brake, s.lift = r.lift, s.tilt = r.tilt;
+        s.side_shift = r.shift, s.parking_brake = r.parking_brake;
+        held = s;
+        row_due = true;
+      }
+      if (held && (row_due || t - last_sent_t_ >= 0.02)) send(*held);
+      if (next_row >= rows.size() && !row_due) break;
+      c = held.value_or(fk_Controls{});
+    } else if (live && calib_step_ < 0) {
+      input_.update(t - last_t);
+      c = controls_from(input_.command());
+      if (!same_command(c, last_sent_) || t - last_sent_t_ >= 0.02) send(c);
+    }
+    last_t = t;
+    take_dds();
+    const bool fresh = frames_->poll();
+    draw(fresh);
+    terminal_line();
+    if (sound_) {
+      SoundInputs si;
+      si.running = hud_.has_state() && !ended_at_;
+      if (hud_.has_state()) {
+        si.speed_m_s = hud_.state().speed_m_s;
+        si.stability_fraction = hud_.state().stability_fraction;
+      }
+      si.drive = c.accelerator;
+      si.hydraulics = std::min(1.0, std::abs(c.lift) + std::abs(c.tilt) + std::abs(c.side_shift));
+      si.horn = c.horn;
+      sound_->set(si);
+    }
+    if (ended_at_ && (!window_ || now() - *ended_at_ > 3)) break;
+    if (window_) SDL_WaitEventTimeout(nullptr, 2);
+    else std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  if (!window_ && isatty(STDOUT_FILENO) && hud_.has_state()) std::printf("\n");
+  if (window_ && !o_.save_window.empty()) {
+    capture_next_ = true;
+    last_draw_t_ = -1;
+    draw(false);
+  }
+  frames_->finish();
+  if (frames_->frames() > 0) std::printf("frames received: %ld\n", frames_->frames());
+  if (o_.latency_report) std::printf("%s\n", latency_.report().c_str());
+  std::fflush(stdout);
+  dds_sleepfor(DDS_MSECS(100));  // let the last reliable sample out
   return 0;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"forklift-cab: a cab's controls to its sim worker, and a head-up display"};
+  // The settings first: --help lists the key map and the controller map they give.
+  json cab_json;
+  ControllerMap map;
+  InputSettings input;
+  HudSettings hud;
+  SoundSettings sound;
+  try {
+    cab_json = read_json(kDataDir + "/cab/cab.json");
+    map = load_controller_map(kDataDir + "/cab/controllers.json");
+    input = input_settings(cab_json);
+    hud = hud_settings(cab_json);
+    sound = sound_settings(cab_json);
+  } catch (const std::exception& e) {
+    std::cerr << "forklift-cab: the cab's settings are broken: " << e.what() << '\n';
+    return 2;
+  }
+  CLI::App app{"forklift-cab: the pupil's driver's station. Its window is the cab: the picture from the sim worker with "
+               "the head-up display over it, driven by keys held in the window or a game controller (wheel, pedals, "
+               "gamepad)."};
   app.set_version_flag("--version", FORKLIFT_VERSION);
-  std::string cab_id, script, joystick, dds_config, security_dir, identity;
-  bool keyboard = false;
-  double wait_s = 10;
-  std::optional<int> domain;
-  FrameView::Options frames;
-  frames.window = std::getenv("DISPLAY") || std::getenv("WAYLAND_DISPLAY");
-  bool no_window = false;
-  app.add_option("--cab", cab_id, "this cab's id")->required();
-  auto* src = app.add_option_group("source", "where the controls come from")->require_option(1);
-  src->add_option("--script", script, "timed CSV: t, steer, accelerator, brake, lift, tilt, shift")->check(CLI::ExistingFile);
-  src->add_flag("--keyboard", keyboard, "drive from this terminal");
-  src->add_option("--joystick", joystick, "a Linux joystick or wheel device, e.g. /dev/input/js0");
-  app.add_option("--wait-worker", wait_s, "how long to wait for the worker before starting, s")->check(CLI::Range(0.0, 3600.0));
-  app.add_option("--dds-domain", domain, "DDS domain id (default FORKLIFT_DDS_DOMAIN or 0)")->check(CLI::Range(0, 232));
-  app.add_option("--dds-config", dds_config, "Cyclone DDS configuration file (default: loopback)")->check(CLI::ExistingFile);
-  app.add_option("--security", security_dir, "the school's DDS Security folder (scripts/forklift-pki.sh; default FORKLIFT_SECURITY_DIR)");
-  app.add_option("--identity", identity, "this cab's identity in it (default cab.<cab>)");
-  app.add_flag("--no-window", no_window, "do not open a window for the frames even when a display is present");
-  app.add_option("--save-frame", frames.save_last, "write the newest frame to this PNG at exit");
-  app.add_option("--save-frames", frames.save_dir, "write every --save-every-th frame into this folder as PNG");
-  app.add_option("--save-every", frames.save_every, "with --save-frames: keep one frame in N")->check(CLI::Range(1, 100000));
+  app.footer(help_footer(map));
+  Options o;
+  app.add_option("--cab", o.cab_id, "this cab's id");
+  auto* src = app.add_option_group("source", "where the controls come from");
+  src->add_option("--script", o.script, "timed CSV: t, steer, accelerator, brake, lift, tilt, shift")->check(CLI::ExistingFile);
+  src->add_flag("--keyboard", o.keyboard, "drive with keys held in the window (in the terminal with --no-window); a plugged controller drives too");
+  src->add_flag("--controller", o.controller, "drive with a game controller, wheel or pedal set (hot-plug; the keys work too)");
+  src->add_option("--joystick", o.joystick, "the same as --controller (SDL finds the device; kept for older scripts)");
+  src->add_flag("--calibrate", o.calibrate, "record the controller's rest and full travel into the calibration file");
+  src->add_flag("--list-controllers", o.list, "print the plugged controllers (GUID and name, for gamecontrollerdb.txt) and exit");
+  src->require_option(1);
+  app.add_option("--wait-worker", o.wait_s, "how long to wait for the worker before starting, s")->check(CLI::Range(0.0, 3600.0));
+  app.add_option("--dds-domain", o.domain, "DDS domain id (default FORKLIFT_DDS_DOMAIN or 0)")->check(CLI::Range(0, 232));
+  app.add_option("--dds-config", o.dds_config, "Cyclone DDS configuration file (default: loopback)")->check(CLI::ExistingFile);
+  app.add_option("--security", o.security_dir, "the school's DDS Security folder (scripts/forklift-pki.sh; default FORKLIFT_SECURITY_DIR)");
+  app.add_option("--identity", o.identity, "this cab's identity in it (default cab.<cab>)");
+  app.add_flag("--no-window", o.no_window, "no window even when a display is present (the display goes to the terminal)");
+  app.add_flag("--no-sound", o.no_sound, "no sound");
+  app.add_option("--window-size", o.window_size, "the window's size, WxH (default 960x720)");
+  app.add_option("--controller-db", o.controller_db, "more SDL controller mappings (gamecontrollerdb.txt format; default FORKLIFT_CONTROLLER_DB)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--calibration", o.calibration_file, "the controller calibration file (default ~/.config/forklift/cab-calibration.json)");
+  app.add_option("--save-frame", o.frames.save_last, "write the newest frame to this PNG at exit");
+  app.add_option("--save-frames", o.frames.save_dir, "write every --save-every-th frame into this folder as PNG");
+  app.add_option("--save-every", o.frames.save_every, "with --save-frames: keep one frame in N")->check(CLI::Range(1, 100000));
+  app.add_option("--save-window", o.save_window, "write a picture of the window (frame and display) to this PNG at exit; F12 saves one any time");
+  app.add_option("--trace", o.trace, "write what the cab sent, received and displayed to this file (JSON lines)");
+  app.add_flag("--latency-report", o.latency_report, "print input-to-photon latency (key press to the first frame showing it) at exit");
   try {
     app.parse(argc, argv);
+    if (o.cab_id.empty() && !o.list) throw CLI::RequiredError("--cab");
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;  // --help and --version: 0; bad usage: 2, as every program
   }
-  if (no_window) frames.window = false;
   std::signal(SIGTERM, on_signal);
   std::signal(SIGINT, on_signal);
-
   try {
-    const std::vector<ScriptRow> rows = script.empty() ? std::vector<ScriptRow>{} : read_script(script);
-    if (identity.empty()) identity = "cab." + cab_id;
-    dds::Participant participant(dds::DomainSettings::resolve(domain, dds_config, security_dir, identity));
-    // Everything this cab sends or reads lives in its own partition: with DDS Security its
-    // permissions allow nothing else.
-    const std::string own = dds::cab_partition(cab_id);
-    dds::Writer<fk_Controls> writer(participant, own);
-    dds::Reader<fk_TruckState> states(participant, own);
-    dds::Writer<fk_CabAnnounce> announce(participant, own);
-    dds::Reader<fk_SessionStatus> statuses(participant, own);
-    FrameView view(participant, cab_id, frames);
-    Cab cab{cab_id, writer, states, announce, statuses, view, !script.empty() ? "script" : keyboard ? "keyboard" : "joystick"};
-    if (!wait_for_worker(cab, wait_s)) {
-      std::cerr << "forklift-cab: no worker for cab " << cab_id << " after " << wait_s << " s\n";
-      return 5;
-    }
-    int rc = 0;
-    if (!script.empty()) rc = run_script(cab, rows);
-    else if (keyboard) rc = run_keyboard(cab);
-    else rc = run_joystick(cab, joystick);
-    if (cab.tty) std::printf("\n");
-    view.finish();
-    if (view.frames() > 0) std::printf("frames received: %ld\n", view.frames());
-    dds_sleepfor(DDS_MSECS(100));  // let the last reliable sample out
+    CabProgram program(o, input, map, hud, sound, cab_json);
+    const int rc = program.run();
+    SDL_Quit();
     return rc;
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "forklift-cab: " << e.what() << '\n';
+    return 2;
   } catch (const std::exception& e) {
     std::cerr << "forklift-cab: " << e.what() << '\n';
     return 2;

@@ -1,0 +1,299 @@
+#include "hud.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <stdexcept>
+
+namespace forklift::cab {
+namespace {
+
+const Rgba kWhite{255, 255, 255, 255}, kGreen{70, 210, 90, 255}, kAmber{255, 180, 0, 255}, kRed{235, 50, 40, 255};
+const Rgba kGrey{190, 190, 190, 255}, kPanel{0, 0, 0, 150}, kBlue{120, 190, 255, 255};
+constexpr double kRad = 180 / M_PI;
+
+std::string format(const char* fmt, double a, double b = 0) {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, fmt, a, b);
+  return buf;
+}
+
+std::string title_of(const std::string& rule) {
+  std::string t = rule;
+  std::replace(t.begin(), t.end(), '_', ' ');
+  if (!t.empty()) t[0] = char(std::toupper(static_cast<unsigned char>(t[0])));
+  return t;
+}
+
+// A fault's level in words, as the marking sheet grades it.
+std::string level_words(int worry, bool automatic_fail) {
+  if (automatic_fail) return "an exam would fail here";
+  if (worry >= 5) return "serious fault";
+  if (worry >= 3) return "fault";
+  if (worry >= 1) return "minor fault";
+  return "note";
+}
+
+Rgba level_colour(int worry, bool automatic_fail) {
+  if (automatic_fail || worry >= 5) return kRed;
+  if (worry >= 1) return kAmber;
+  return kWhite;
+}
+
+std::string clock(double s) {
+  const int t = int(std::ceil(std::max(0.0, s)));
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "%d:%02d", t / 60, t % 60);
+  return buf;
+}
+
+}  // namespace
+
+HudSettings hud_settings(const nlohmann::json& j) {
+  if (!j.contains("hud") || !j.at("hud").is_object()) throw std::runtime_error("data/cab/cab.json: missing \"hud\"");
+  const nlohmann::json& h = j.at("hud");
+  HudSettings s;
+  try {
+    s.stability_amber = h.at("stability_amber").get<double>();
+    s.stability_red = h.at("stability_red").get<double>();
+    s.capacity_amber = h.at("capacity_amber").get<double>();
+    s.fault_shown_s = h.at("fault_shown_s").get<double>();
+  } catch (const std::exception& e) {
+    throw std::runtime_error(std::string("data/cab/cab.json hud: ") + e.what());
+  }
+  if (!(s.stability_red < s.stability_amber)) throw std::runtime_error("data/cab/cab.json hud: red must be below amber");
+  return s;
+}
+
+std::map<std::string, FaultWords> load_fault_words(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot read the rules " + path);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  std::map<std::string, FaultWords> out;
+  for (const nlohmann::json& r : j.at("rules")) {
+    FaultWords w;
+    const std::string id = r.at("id").get<std::string>();
+    w.title = title_of(id);
+    w.description = r.value("description", "");
+    w.automatic_fail = r.value("automatic_fail", false);
+    out[id] = w;
+  }
+  return out;
+}
+
+std::string end_words(const std::string& state, const std::string& reason) {
+  if (state == "failed") return "The session could not run: " + reason + ". Tell your instructor.";
+  if (reason == "aborted") return "Session aborted by your instructor";
+  if (reason == "task_complete") return "Session over: task complete";
+  if (reason == "time_limit") return "Session over: time is up";
+  if (reason == "duration") return "Session over: the session's time has run";
+  if (reason == "signal") return "Session stopped by the school's system";
+  return "Session over (" + reason + ")";
+}
+
+Hud::Hud(HudSettings settings, std::map<std::string, FaultWords> words) : s_(settings), words_(std::move(words)) {}
+
+void Hud::on_state(const fk_TruckState& s) {
+  state_ = s;
+  have_state_ = true;
+  if (!session_over_ && session_line_.rfind("Waiting", 0) == 0) session_line_.clear();
+}
+
+void Hud::add(Message m) {
+  messages_.push_front(std::move(m));
+  while (messages_.size() > 6) messages_.pop_back();
+}
+
+void Hud::on_event(const fk_Event& e, double now_s) {
+  const std::string kind = e.kind;
+  FaultWords w{title_of(kind), "", false};
+  if (auto it = words_.find(kind); it != words_.end()) w = it->second;
+  std::string detail = w.description;
+  try {
+    const nlohmann::json d = nlohmann::json::parse(std::string(e.details));
+    if (d.contains("description") && d["description"].is_string()) detail = d["description"].get<std::string>();
+  } catch (const std::exception&) {
+  }
+  add({w.title + ": " + level_words(e.worry_level, w.automatic_fail), detail, "fault",
+       level_colour(e.worry_level, w.automatic_fail), now_s, now_s + s_.fault_shown_s});
+}
+
+void Hud::on_status(const std::string& state, const std::string& reason, double now_s) {
+  if (state == "running" && !session_over_) {
+    session_line_.clear();
+    add({"Session started: drive when ready", "", "session", kGreen, now_s, now_s + 3});
+  } else if (state == "waiting" && !session_over_) {
+    session_line_ = "Waiting for the session to start";
+  } else if (state == "ended" || state == "failed") {
+    session_over_ = true;
+    session_line_ = end_words(state, reason);
+    session_colour_ = reason == "task_complete" ? kGreen : reason == "aborted" || state == "failed" ? kRed : kWhite;
+  }
+}
+
+void Hud::on_notice(const std::string& text, double now_s) { add({text, "", "notice", kBlue, now_s, now_s + 4}); }
+
+Rgba Hud::stability_colour() const {
+  const double f = state_.stability_fraction;
+  return f < s_.stability_red ? kRed : f < s_.stability_amber ? kAmber : kGreen;
+}
+
+std::string Hud::stability_words() const {
+  const double f = state_.stability_fraction;
+  std::string w = format("Stability %.0f%%", 100 * std::clamp(f, 0.0, 1.0));
+  if (f >= s_.stability_amber) return w;
+  const bool raised = state_.fork_height_m > 0.5;
+  const bool turning = std::abs(state_.steer_rad) > 10 / kRad && std::abs(state_.speed_m_s) > 0.5;
+  std::string why;
+  switch (state_.stability_edge) {
+    case 0:
+      why = raised ? "tipping forward: lower the load, tilt back, brake gently" : "tipping forward: brake gently, tilt back";
+      break;
+    case 1:
+    case 2: {
+      const char* side = state_.stability_edge == 1 ? "left" : "right";
+      why = std::string("tipping ") + side + ": " +
+            (turning ? (raised ? "slow down and lower the load" : "slow down in the turn")
+                     : (raised ? "lower the load" : "turn less sharply, slow down"));
+      break;
+    }
+    default: why = "slow down, lower the load";
+  }
+  return w + " - " + why;
+}
+
+std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
+  std::vector<HudItem> out;
+  auto text = [&](int x, int y, std::string t, Rgba c, int size, const char* role) {
+    HudItem i;
+    i.kind = HudItem::Kind::kText;
+    i.x = x, i.y = y, i.text = std::move(t), i.colour = c, i.size = size, i.role = role;
+    out.push_back(std::move(i));
+  };
+  auto fill = [&](int x, int y, int w, int h, Rgba c, const char* role) {
+    HudItem i;
+    i.kind = HudItem::Kind::kFill;
+    i.x = x, i.y = y, i.w = w, i.h = h, i.colour = c, i.role = role;
+    out.push_back(std::move(i));
+  };
+  const int line = std::max(18, height / 30);
+
+  if (help_) {
+    fill(0, 0, width, height, Rgba{0, 0, 0, 200}, "help");
+    int y = line;
+    text(line, y, "Keys and controller (F1 to close)", kWhite, 2, "help");
+    y += 2 * line;
+    for (const auto& [keys, what] : help_lines_) {
+      text(line, y, keys, kAmber, 0, "help");
+      text(width / 3, y, what, kWhite, 0, "help");
+      y += line * 4 / 5;
+      if (y > height - line) break;
+    }
+    return out;
+  }
+
+  // Top: the task and the time left.
+  fill(0, 0, width, 2 * line + 6, kPanel, "panel");
+  if (have_state_) {
+    const std::string task = state_.task_step[0]
+                                 ? format("Step %.0f of %.0f: ", state_.task_steps_done + 1.0, state_.task_steps_total) +
+                                       state_.task_step
+                                 : state_.task_steps_total > 0 ? std::string("Task done: stop, lower the forks, neutral")
+                                                               : std::string("Free driving");
+    text(line / 2, 4, task, kWhite, 1, "task");
+    if (state_.time_left_s >= 0) {
+      const Rgba c = state_.time_left_s < 30 ? kRed : state_.time_left_s < 60 ? kAmber : kWhite;
+      text(width - 8 * line, 4, "Time left " + clock(state_.time_left_s), c, 1, "time_left");
+    }
+    if (state_.task_steps_total > 0) {
+      const int w = width - line;
+      fill(line / 2, line + 10, w, 6, Rgba{80, 80, 80, 200}, "progress");
+      fill(line / 2, line + 10, int(w * double(state_.task_steps_done) / state_.task_steps_total), 6, kGreen, "progress");
+    }
+  }
+
+  // Bottom: speed, direction, forks, load, stability.
+  const int panel_h = 4 * line + 8;
+  const int y0 = height - panel_h;
+  fill(0, y0, width, panel_h, kPanel, "panel");
+  if (have_state_) {
+    const double kmh = std::abs(state_.speed_m_s) * 3.6;
+    const double limit_kmh = state_.speed_limit_m_s * 3.6;
+    const bool over = state_.speed_limit_m_s > 0 && std::abs(state_.speed_m_s) > state_.speed_limit_m_s + 1e-3;
+    text(line / 2, y0 + 4, format("%.1f km/h", kmh), over ? kRed : kWhite, 2, "speed");
+    text(line / 2, y0 + 2 * line + 8,
+         state_.speed_limit_m_s > 0 ? format("limit %.0f km/h", limit_kmh) + (over ? ": too fast" : "") : "no limit here",
+         over ? kRed : kGrey, 0, "speed_limit");
+    const char* lever = cmd_.direction > 0 ? "F" : cmd_.direction < 0 ? "R" : "N";
+    text(7 * line, y0 + 4, lever, cmd_.direction < 0 ? kAmber : kWhite, 2, "direction");
+    std::string flags;
+    if (cmd_.parking_brake) flags += "P brake  ";
+    if (!cmd_.seated) flags += "Seat empty: drive off  ";
+    if (cmd_.controller_lost) flags += "Controller lost: braking  ";
+    if (state_.deadman) flags += "No controls reach the truck: braking";
+    if (!flags.empty()) text(7 * line, y0 + 2 * line + 8, flags, kAmber, 0, "flags");
+
+    const int xf = width * 2 / 7 + line;
+    const double tilt_deg = state_.tilt_rad * kRad;
+    text(xf, y0 + 4,
+         format("Forks %.2f m up, mast tilted %.1f deg ", state_.fork_height_m, std::abs(tilt_deg)) +
+             (tilt_deg > 0.05 ? "forward" : tilt_deg < -0.05 ? "back" : "upright"),
+         kWhite, 0, "forks");
+    if (state_.load_attached) {
+      const double share = state_.load_capacity_kg > 0 ? state_.load_mass_kg / state_.load_capacity_kg : 0;
+      const Rgba c = share > 1 ? kRed : share > s_.capacity_amber ? kAmber : kWhite;
+      text(xf, y0 + line + 6,
+           format("Load %.0f kg of %.0f kg allowed at this load centre", state_.load_mass_kg, state_.load_capacity_kg) +
+               (share > 1 ? ": overload" : ""),
+           c, 0, "load");
+    } else {
+      text(xf, y0 + line + 6, "No load", kGrey, 0, "load");
+    }
+    // The stability gauge: a bar of the margin to the stability triangle's nearest edge.
+    const Rgba sc = stability_colour();
+    const int gw = width / 3;
+    fill(xf, y0 + 2 * line + 10, gw, line / 2, Rgba{80, 80, 80, 220}, "stability_gauge");
+    fill(xf, y0 + 2 * line + 10, int(gw * std::clamp(state_.stability_fraction, 0.0, 1.0)), line / 2, sc, "stability_gauge");
+    text(xf, y0 + 3 * line, stability_words(), sc, 0, "stability");
+  }
+
+  // The learning aids asked for but not allowed here.
+  int ym = 2 * line + 12;
+  auto refused = [&](bool asked, int bit, const char* what) {
+    if (!asked || !have_state_ || (state_.aids & bit)) return;
+    text(line / 2, ym, std::string(what) + " is not allowed in this session", kAmber, 0, "aid_refused");
+    ym += line;
+  };
+  refused(cmd_.rear_view, 1, "The rear-view mirror");
+  refused(cmd_.see_through_mast, 2, "The see-through mast");
+  refused(cmd_.chase_camera, 4, "The chase camera");
+
+  // Faults and notices, newest first, while they last.
+  for (const Message& m : messages_) {
+    if (now_s >= m.until_s || now_s < m.shown_at_s) continue;
+    fill(line / 2 - 4, ym - 2, width - line, m.detail.empty() ? line + 4 : 2 * line + 4, kPanel, "panel");
+    text(line / 2, ym, m.text, m.colour, 1, m.role.c_str());
+    ym += line + 2;
+    if (!m.detail.empty()) {
+      text(line / 2, ym, m.detail, kWhite, 0, "fault_detail");
+      ym += line + 2;
+    }
+    if (ym > y0 - 2 * line) break;
+  }
+
+  if (!session_line_.empty()) {
+    fill(0, height / 2 - line, width, 2 * line + 4, kPanel, "panel");
+    text(line, height / 2 - line / 2, session_line_, session_colour_, 2, "session");
+  }
+  return out;
+}
+
+std::vector<std::string> Hud::texts(const std::vector<HudItem>& items) {
+  std::vector<std::string> out;
+  for (const HudItem& i : items)
+    if (i.kind == HudItem::Kind::kText) out.push_back(i.text);
+  return out;
+}
+
+}  // namespace forklift::cab

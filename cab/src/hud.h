@@ -1,0 +1,96 @@
+// The head-up display: what the pupil reads over the picture (speed against the zone's limit,
+// the direction lever, forks, load against capacity, the stability margin and what makes it
+// worse, the task, time left, each fault as it happens, the session's start and end). The HUD is
+// a draw list, built here from the worker's facts and the cab's command, drawn by the window and
+// written to the trace, so what the pupil saw can be checked.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "forklift/protocol/protocol.h"
+#include "input.h"
+
+namespace forklift::cab {
+
+struct Rgba {
+  uint8_t r = 255, g = 255, b = 255, a = 255;
+  bool operator==(const Rgba&) const = default;
+};
+
+struct HudItem {
+  enum class Kind { kText, kFill };  // text at (x, y); a filled rectangle
+  Kind kind = Kind::kText;
+  int x = 0, y = 0, w = 0, h = 0;
+  Rgba colour;
+  int size = 1;      // text: 0 small, 1 normal, 2 large
+  std::string text;
+  std::string role;  // what it shows: "speed", "stability", "fault", "session", "help", ...
+};
+
+struct HudSettings {
+  double stability_amber = 0.5, stability_red = 0.25, capacity_amber = 0.9, fault_shown_s = 6;
+};
+HudSettings hud_settings(const nlohmann::json& cab_json);  // throws std::runtime_error naming the key
+
+// What a fault is called and whether it fails an exam, from data/evaluation/rules.json.
+struct FaultWords {
+  std::string title;        // "Violent collision"
+  std::string description;  // the rule's words to the pupil
+  bool automatic_fail = false;
+};
+std::map<std::string, FaultWords> load_fault_words(const std::string& rules_json);
+
+class Hud {
+ public:
+  Hud(HudSettings settings, std::map<std::string, FaultWords> words);
+
+  void on_state(const fk_TruckState& s);
+  void on_event(const fk_Event& e, double now_s);
+  void on_status(const std::string& state, const std::string& reason, double now_s);
+  void on_notice(const std::string& text, double now_s);
+  void set_command(const CabCommand& c) { cmd_ = c; }
+  void toggle_help() { help_ = !help_; }
+  void set_help(std::vector<std::pair<std::string, std::string>> lines) { help_lines_ = std::move(lines); }
+  bool has_state() const { return have_state_; }
+  const fk_TruckState& state() const { return state_; }
+
+  // The display for a window of this size at wall time `now_s` (cab clock).
+  std::vector<HudItem> draw_list(int width, int height, double now_s) const;
+
+  // In words, for the terminal and the trace: the texts of the draw list.
+  static std::vector<std::string> texts(const std::vector<HudItem>& items);
+  // Stability in words: green / amber / red and what makes it worse.
+  std::string stability_words() const;
+  Rgba stability_colour() const;
+
+ private:
+  struct Message {
+    std::string text, detail, role;
+    Rgba colour;
+    double shown_at_s = 0, until_s = 0;
+  };
+  void add(Message m);
+
+  HudSettings s_;
+  std::map<std::string, FaultWords> words_;
+  fk_TruckState state_{};
+  bool have_state_ = false;
+  CabCommand cmd_;
+  std::deque<Message> messages_;  // newest first
+  std::string session_line_ = "Waiting for the session to start";
+  Rgba session_colour_{255, 255, 255, 255};
+  bool session_over_ = false;
+  bool help_ = false;
+  std::vector<std::pair<std::string, std::string>> help_lines_;
+};
+
+// "aborted" -> "Session aborted by your instructor", ...
+std::string end_words(const std::string& state, const std::string& reason);
+
+}  // namespace forklift::cab

@@ -1,0 +1,406 @@
+#include "input.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <stdexcept>
+
+namespace forklift::cab {
+namespace {
+
+constexpr double kDeg = M_PI / 180;
+
+double approach(double v, double target, double step) {
+  return v < target ? std::min(target, v + step) : std::max(target, v - step);
+}
+
+const nlohmann::json& at(const nlohmann::json& j, const char* key, const std::string& where) {
+  if (!j.is_object() || !j.contains(key)) throw std::runtime_error(where + ": missing \"" + key + "\"");
+  return j.at(key);
+}
+
+double number(const nlohmann::json& j, const char* key, const std::string& where) {
+  const nlohmann::json& v = at(j, key, where);
+  if (!v.is_number()) throw std::runtime_error(where + ": \"" + key + "\" must be a number");
+  return v.get<double>();
+}
+
+}  // namespace
+
+double CabCommand::drive() const {
+  if (controller_lost || !seated || direction == 0 || braking() > 0.02) return 0;
+  return direction * accelerator;
+}
+
+double CabCommand::braking() const { return controller_lost ? 1.0 : brake; }
+
+InputSettings input_settings(const nlohmann::json& j) {
+  const std::string where = "data/cab/cab.json";
+  InputSettings s;
+  s.steer_lock_rad = number(j, "steer_lock_deg", where) * kDeg;
+  const nlohmann::json& k = at(j, "keyboard", where);
+  s.accelerator_rise_s = number(k, "accelerator_rise_s", where + " keyboard");
+  s.brake_rise_s = number(k, "brake_rise_s", where + " keyboard");
+  s.steer_rate_rad_s = number(k, "steer_rate_deg_s", where + " keyboard") * kDeg;
+  s.steer_centring_rad_s = number(k, "steer_centring_deg_s", where + " keyboard") * kDeg;
+  const nlohmann::json& l = at(j, "look", where);
+  s.look_max_yaw_rad = number(l, "max_yaw_deg", where + " look") * kDeg;
+  s.look_max_pitch_rad = number(l, "max_pitch_deg", where + " look") * kDeg;
+  s.look_rate_rad_s = number(l, "rate_deg_s", where + " look") * kDeg;
+  s.mouse_rad_per_pixel = number(l, "mouse_deg_per_pixel", where + " look") * kDeg;
+  if (s.steer_lock_rad <= 0 || s.accelerator_rise_s <= 0 || s.brake_rise_s <= 0 || s.steer_rate_rad_s <= 0 ||
+      s.look_rate_rad_s <= 0)
+    throw std::runtime_error(where + ": rates, rise times and the steer lock must be positive");
+  return s;
+}
+
+ControllerMap load_controller_map(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot read the controller map " + path);
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(path + " is not valid JSON: " + e.what());
+  }
+  ControllerMap m;
+  m.dead_zone = number(j, "dead_zone", path);
+  m.pedal_dead_zone = number(j, "pedal_dead_zone", path);
+  if (!(m.dead_zone >= 0 && m.dead_zone < 0.9 && m.pedal_dead_zone >= 0 && m.pedal_dead_zone < 0.9))
+    throw std::runtime_error(path + ": dead zones must be between 0 and 0.9");
+  const nlohmann::json& axes = at(j, "axes", path);
+  auto axis = [&](const char* name, ControllerMap::Axis& a) {
+    if (!axes.contains(name)) return;  // not driven by the controller
+    const nlohmann::json& e = axes.at(name);
+    const std::string sdl = at(e, "axis", path + " axes." + name).get<std::string>();
+    a.axis = SDL_GameControllerGetAxisFromString(sdl.c_str());
+    if (a.axis == SDL_CONTROLLER_AXIS_INVALID)
+      throw std::runtime_error(path + ": axes." + name + " names no SDL axis ('" + sdl + "')");
+    a.invert = e.value("invert", false);
+  };
+  axis("steer", m.steer);
+  axis("accelerator", m.accelerator);
+  axis("brake", m.brake);
+  axis("lift", m.lift);
+  axis("tilt", m.tilt);
+  static const char* kButtons[] = {"horn", "direction_forward", "direction_reverse", "direction_neutral",
+                                   "parking_brake", "seat_switch", "rear_view", "look_left", "look_right",
+                                   "look_up", "look_down", "help"};
+  const nlohmann::json& buttons = at(j, "buttons", path);
+  for (auto it = buttons.begin(); it != buttons.end(); ++it) {
+    if (std::find_if(std::begin(kButtons), std::end(kButtons), [&](const char* b) { return it.key() == b; }) ==
+        std::end(kButtons))
+      throw std::runtime_error(path + ": unknown button function '" + it.key() + "'");
+    const SDL_GameControllerButton b = SDL_GameControllerGetButtonFromString(it.value().get<std::string>().c_str());
+    if (b == SDL_CONTROLLER_BUTTON_INVALID)
+      throw std::runtime_error(path + ": buttons." + it.key() + " names no SDL button");
+    m.buttons[it.key()] = b;
+  }
+  m.fallback_mapping = j.value("fallback_mapping", "");
+  return m;
+}
+
+double apply_dead_zone(double v, double dz) {
+  const double a = std::abs(v);
+  if (a <= dz) return 0;
+  return std::copysign(std::min(1.0, (a - dz) / (1 - dz)), v);
+}
+
+struct CabInput::Controller {
+  SDL_GameController* pad = nullptr;
+  SDL_JoystickID id = -1;
+  std::string name, guid;
+  bool touched = false;  // moved past its dead zones since it was plugged in
+  ~Controller() {
+    if (pad) SDL_GameControllerClose(pad);
+  }
+};
+
+CabInput::CabInput(InputSettings settings, ControllerMap map, Calibration calibration)
+    : s_(settings), map_(std::move(map)), calibration_(std::move(calibration)) {
+  }
+
+CabInput::~CabInput() {
+  for (Controller* c : controllers_) delete c;
+}
+
+bool CabInput::add_mappings(const std::string& path) {
+  if (SDL_GameControllerAddMappingsFromFile(path.c_str()) < 0) {
+    notices_.push_back("controller mappings " + path + " not read: " + SDL_GetError());
+    return false;
+  }
+  return true;
+}
+
+void CabInput::open_present_controllers() {
+  for (int i = 0; i < SDL_NumJoysticks(); ++i) open(i);
+}
+
+void CabInput::open(int index) {
+  const SDL_JoystickID id = SDL_JoystickGetDeviceInstanceID(index);
+  for (Controller* c : controllers_)
+    if (c->id == id) return;
+  char guid[64];
+  SDL_JoystickGetGUIDString(SDL_JoystickGetDeviceGUID(index), guid, sizeof guid);
+  const char* jname = SDL_JoystickNameForIndex(index);
+  if (!SDL_IsGameController(index)) {
+    // No mapping: give it the wheel set's usual layout, and say so.
+    if (map_.fallback_mapping.empty()) return;
+    const std::string line = std::string(guid) + "," + (jname ? jname : "joystick") + "," + map_.fallback_mapping;
+    if (SDL_GameControllerAddMapping(line.c_str()) < 0) return;
+    notices_.push_back(std::string("no mapping for '") + (jname ? jname : "joystick") + "' (" + guid +
+                       "): using the usual wheel layout; add its line to data/cab/gamecontrollerdb.txt");
+  }
+  SDL_GameController* pad = SDL_GameControllerOpen(index);
+  if (!pad) {
+    notices_.push_back(std::string("cannot open a controller: ") + SDL_GetError());
+    return;
+  }
+  auto* c = new Controller;
+  c->pad = pad;
+  c->id = SDL_JoystickInstanceID(SDL_GameControllerGetJoystick(pad));
+  c->name = SDL_GameControllerName(pad) ? SDL_GameControllerName(pad) : "controller";
+  c->guid = guid;
+  controllers_.push_back(c);
+  if (!active_) active_ = c;
+  cmd_.controller_lost = false;
+  notices_.push_back("Controller '" + c->name + "' connected");
+}
+
+void CabInput::close(SDL_JoystickID id) {
+  for (auto it = controllers_.begin(); it != controllers_.end(); ++it) {
+    if ((*it)->id != id) continue;
+    Controller* c = *it;
+    const bool was_active = c == active_;
+    if (was_active) {
+      // A pedal set pulled out mid-drive must not leave the truck driving: brake until the
+      // pupil takes over again (another controller, or the keyboard).
+      cmd_.controller_lost = true;
+      notices_.push_back("Controller '" + c->name + "' unplugged: the truck is braked");
+      active_ = nullptr;
+    }
+    controllers_.erase(it);
+    delete c;
+    if (was_active && !controllers_.empty()) active_ = controllers_.front();
+    return;
+  }
+}
+
+bool CabInput::handle(const SDL_Event& e) {
+  switch (e.type) {
+    case SDL_KEYDOWN: {
+      if (e.key.repeat) return true;
+      const SDL_Scancode k = e.key.keysym.scancode;
+      held_.insert(k);
+      keyboard_used_last_ = true;
+      switch (k) {
+        case SDL_SCANCODE_F: cmd_.direction = 1; break;
+        case SDL_SCANCODE_N: cmd_.direction = 0; break;
+        case SDL_SCANCODE_R: cmd_.direction = -1; break;
+        case SDL_SCANCODE_P: cmd_.parking_brake = !cmd_.parking_brake; break;
+        case SDL_SCANCODE_T: cmd_.seated = !cmd_.seated; break;
+        case SDL_SCANCODE_B: cmd_.rear_view = !cmd_.rear_view; break;
+        case SDL_SCANCODE_M: cmd_.see_through_mast = !cmd_.see_through_mast; break;
+        case SDL_SCANCODE_C: cmd_.chase_camera = !cmd_.chase_camera; break;
+        case SDL_SCANCODE_UP: case SDL_SCANCODE_DOWN: case SDL_SCANCODE_SPACE:
+          cmd_.controller_lost = false;  // the pupil drives from the keyboard now
+          break;
+        default: return k == SDL_SCANCODE_LEFT || k == SDL_SCANCODE_RIGHT || k == SDL_SCANCODE_W ||
+                        k == SDL_SCANCODE_S || k == SDL_SCANCODE_A || k == SDL_SCANCODE_D || k == SDL_SCANCODE_Q ||
+                        k == SDL_SCANCODE_E || k == SDL_SCANCODE_H || k == SDL_SCANCODE_J || k == SDL_SCANCODE_L ||
+                        k == SDL_SCANCODE_I || k == SDL_SCANCODE_K;
+      }
+      return true;
+    }
+    case SDL_KEYUP:
+      held_.erase(e.key.keysym.scancode);
+      return true;
+    case SDL_WINDOWEVENT:
+      // Keys released elsewhere never come back as key-ups: let go of everything.
+      if (e.window.event == SDL_WINDOWEVENT_FOCUS_LOST) held_.clear();
+      return false;
+    case SDL_MOUSEBUTTONDOWN:
+      if (e.button.button != SDL_BUTTON_LEFT) return false;
+      mouse_look_ = true;
+      mouse_yaw_ = cmd_.look_yaw_rad;
+      mouse_pitch_ = cmd_.look_pitch_rad;
+      return true;
+    case SDL_MOUSEBUTTONUP:
+      if (e.button.button != SDL_BUTTON_LEFT) return false;
+      mouse_look_ = false;
+      return true;
+    case SDL_MOUSEMOTION:
+      if (!mouse_look_) return false;
+      mouse_yaw_ = std::clamp(mouse_yaw_ - e.motion.xrel * s_.mouse_rad_per_pixel, -s_.look_max_yaw_rad, s_.look_max_yaw_rad);
+      mouse_pitch_ =
+          std::clamp(mouse_pitch_ - e.motion.yrel * s_.mouse_rad_per_pixel, -s_.look_max_pitch_rad, s_.look_max_pitch_rad);
+      return true;
+    case SDL_CONTROLLERDEVICEADDED:
+      open(e.cdevice.which);
+      return true;
+    case SDL_CONTROLLERDEVICEREMOVED:
+      close(e.cdevice.which);
+      return true;
+    case SDL_CONTROLLERBUTTONDOWN: {
+      for (Controller* c : controllers_)
+        if (c->id == e.cbutton.which) active_ = c;
+      keyboard_used_last_ = false;
+      cmd_.controller_lost = false;
+      auto is = [&](const char* f) {
+        auto it = map_.buttons.find(f);
+        return it != map_.buttons.end() && it->second == e.cbutton.button;
+      };
+      if (is("direction_forward")) cmd_.direction = 1;
+      if (is("direction_reverse")) cmd_.direction = -1;
+      if (is("direction_neutral")) cmd_.direction = 0;
+      if (is("parking_brake")) cmd_.parking_brake = !cmd_.parking_brake;
+      if (is("seat_switch")) cmd_.seated = !cmd_.seated;
+      if (is("rear_view")) cmd_.rear_view = !cmd_.rear_view;
+      return true;
+    }
+    case SDL_CONTROLLERBUTTONUP:
+    case SDL_CONTROLLERAXISMOTION:
+      return true;
+    default:
+      return false;
+  }
+}
+
+bool CabInput::held(SDL_Scancode k) const { return held_.count(k) > 0; }
+
+double CabInput::axis_value(const Controller& c, const ControllerMap::Axis& a, bool pedal, bool centred) const {
+  if (a.axis == SDL_CONTROLLER_AXIS_INVALID) return 0;
+  double v = SDL_GameControllerGetAxis(c.pad, a.axis) / 32767.0;
+  const char* name = SDL_GameControllerGetStringForAxis(a.axis);
+  if (auto it = calibration_.find(name ? name : ""); it != calibration_.end()) {
+    const AxisCalibration& k = it->second;
+    if (centred && v < k.rest && k.low < k.rest) v = -(v - k.rest) / (k.low - k.rest);
+    else if (k.full != k.rest) v = (v - k.rest) / (k.full - k.rest);
+  }
+  if (a.invert) v = pedal ? 1 - v : -v;
+  v = std::clamp(v, pedal ? 0.0 : -1.0, 1.0);
+  return apply_dead_zone(v, pedal ? map_.pedal_dead_zone : map_.dead_zone);
+}
+
+std::map<std::string, double> CabInput::raw_axes() const {
+  std::map<std::string, double> out;
+  if (!active_) return out;
+  for (int a = 0; a < SDL_CONTROLLER_AXIS_MAX; ++a) {
+    const auto axis = SDL_GameControllerAxis(a);
+    out[SDL_GameControllerGetStringForAxis(axis)] = SDL_GameControllerGetAxis(active_->pad, axis) / 32767.0;
+  }
+  return out;
+}
+
+void CabInput::read_controller(double dt_s) {
+  (void)dt_s;
+  if (!active_) return;
+  const Controller& c = *active_;
+  const double steer = axis_value(c, map_.steer, false, true);
+  const double accel = axis_value(c, map_.accelerator, true, false);
+  const double brake = axis_value(c, map_.brake, true, false);
+  const double lift = axis_value(c, map_.lift, false, true);
+  const double tilt = axis_value(c, map_.tilt, false, true);
+  if (steer != 0 || accel != 0 || brake != 0 || lift != 0 || tilt != 0) active_->touched = true;
+  auto button = [&](const char* f) {
+    auto it = map_.buttons.find(f);
+    return it != map_.buttons.end() && SDL_GameControllerGetButton(c.pad, it->second) != 0;
+  };
+  // The keyboard's own commands win where it is pressed; the controller fills the rest.
+  if (kb_steer_ == 0) cmd_.steer_rad = steer * s_.steer_lock_rad;  // wheel left (-) turns the truck left
+  cmd_.accelerator = std::max(cmd_.accelerator, accel);
+  cmd_.brake = std::max(cmd_.brake, brake);
+  if (cmd_.lift == 0) cmd_.lift = lift;
+  if (cmd_.tilt == 0) cmd_.tilt = tilt;
+  cmd_.horn = cmd_.horn || button("horn");
+}
+
+const CabCommand& CabInput::update(double dt_s) {
+  dt_s = std::clamp(dt_s, 0.0, 0.1);
+  // Pedals: held keys press them smoothly, released keys let go at once.
+  kb_accel_ = held(SDL_SCANCODE_UP) ? std::min(1.0, kb_accel_ + dt_s / s_.accelerator_rise_s) : 0;
+  kb_brake_ = held(SDL_SCANCODE_DOWN) || held(SDL_SCANCODE_SPACE) ? std::min(1.0, kb_brake_ + dt_s / s_.brake_rise_s) : 0;
+  const bool left = held(SDL_SCANCODE_LEFT), right = held(SDL_SCANCODE_RIGHT);
+  if (left != right) kb_steer_ = std::clamp(kb_steer_ + (left ? -1 : 1) * s_.steer_rate_rad_s * dt_s, -s_.steer_lock_rad, s_.steer_lock_rad);
+  else kb_steer_ = approach(kb_steer_, 0, s_.steer_centring_rad_s * dt_s);
+  cmd_.steer_rad = kb_steer_;
+  cmd_.accelerator = kb_accel_;
+  cmd_.brake = kb_brake_;
+  cmd_.lift = held(SDL_SCANCODE_W) ? 1 : held(SDL_SCANCODE_S) ? -1 : 0;
+  cmd_.tilt = held(SDL_SCANCODE_D) ? 1 : held(SDL_SCANCODE_A) ? -1 : 0;
+  cmd_.side_shift = held(SDL_SCANCODE_Q) ? 1 : held(SDL_SCANCODE_E) ? -1 : 0;
+  cmd_.horn = held(SDL_SCANCODE_H);
+  read_controller(dt_s);
+
+  // The head: held keys or the hat turn it, the mouse drags it; let go, it comes back ahead.
+  auto pad_button = [&](const char* f) {
+    if (!active_) return false;
+    auto it = map_.buttons.find(f);
+    return it != map_.buttons.end() && SDL_GameControllerGetButton(active_->pad, it->second) != 0;
+  };
+  const int yaw_dir = (held(SDL_SCANCODE_J) || pad_button("look_left") ? 1 : 0) -
+                      (held(SDL_SCANCODE_L) || pad_button("look_right") ? 1 : 0);
+  const int pitch_dir = (held(SDL_SCANCODE_I) || pad_button("look_up") ? 1 : 0) -
+                        (held(SDL_SCANCODE_K) || pad_button("look_down") ? 1 : 0);
+  const double step = s_.look_rate_rad_s * dt_s;
+  if (mouse_look_) {
+    cmd_.look_yaw_rad = mouse_yaw_;
+    cmd_.look_pitch_rad = mouse_pitch_;
+  } else {
+    cmd_.look_yaw_rad = approach(cmd_.look_yaw_rad, yaw_dir * s_.look_max_yaw_rad, step);
+    cmd_.look_pitch_rad = approach(cmd_.look_pitch_rad, pitch_dir * s_.look_max_pitch_rad, step);
+  }
+  return cmd_;
+}
+
+std::string CabInput::active_device() const { return active_ ? active_->name : "keyboard"; }
+
+std::vector<std::string> CabInput::take_notices() {
+  std::vector<std::string> out;
+  out.swap(notices_);
+  return out;
+}
+
+const std::vector<std::pair<std::string, std::string>>& key_map() {
+  static const std::vector<std::pair<std::string, std::string>> keys = {
+      {"Up (hold)", "accelerator: held presses it, released lets it go"},
+      {"Down or Space (hold)", "brake (overrides the accelerator)"},
+      {"Left / Right (hold)", "steer left / right (the wheel straightens when let go)"},
+      {"F / N / R", "direction lever: forward / neutral / reverse"},
+      {"W / S (hold)", "lift / lower the forks"},
+      {"A / D (hold)", "tilt the mast back / forward"},
+      {"Q / E (hold)", "side-shift left / right"},
+      {"H (hold)", "horn"},
+      {"P", "parking brake on / off"},
+      {"T", "seat switch: sit down / stand up (standing cuts the drive)"},
+      {"J / L, I / K (hold)", "look left / right, up / down (or drag with the left mouse button)"},
+      {"B", "rear-view mirror on / off (training; shown by itself when reversing)"},
+      {"M", "see-through mast on / off (training)"},
+      {"C", "chase camera on / off (training)"},
+      {"F1", "this help"},
+      {"F12", "save a picture of the window"},
+      {"Esc", "leave the cab"},
+  };
+  return keys;
+}
+
+std::vector<std::pair<std::string, std::string>> controller_help(const ControllerMap& m) {
+  std::vector<std::pair<std::string, std::string>> out;
+  auto axis = [&](const char* what, const ControllerMap::Axis& a) {
+    if (a.axis == SDL_CONTROLLER_AXIS_INVALID) return;
+    out.emplace_back(std::string(SDL_GameControllerGetStringForAxis(a.axis)) + (a.invert ? " (inverted)" : ""), what);
+  };
+  axis("steer", m.steer);
+  axis("accelerator pedal", m.accelerator);
+  axis("brake pedal", m.brake);
+  axis("lift lever", m.lift);
+  axis("tilt lever", m.tilt);
+  for (const auto& [function, button] : m.buttons) {
+    std::string words = function;
+    std::replace(words.begin(), words.end(), '_', ' ');
+    out.emplace_back(std::string("button ") + SDL_GameControllerGetStringForButton(button), words);
+  }
+  return out;
+}
+
+}  // namespace forklift::cab

@@ -1,0 +1,125 @@
+// What the pupil's hands and feet ask for: the window's keyboard (keys held, not typed) and SDL
+// game controllers (wheels, pedal sets, gamepads), merged into one cab command. Everything here
+// reads SDL events handed in by the caller, so a test can feed it a virtual joystick.
+#pragma once
+
+#include <SDL.h>
+
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace forklift::cab {
+
+// The cab's levers, pedals and switches, and where the driver looks.
+struct CabCommand {
+  double steer_rad = 0;    // rear wheel angle; + points the wheel left (going forward the truck turns right)
+  double accelerator = 0;  // pedal [0, 1]
+  double brake = 0;        // pedal [0, 1]
+  int direction = 1;       // the direction lever: +1 forward, 0 neutral, -1 reverse
+  double lift = 0, tilt = 0, side_shift = 0;  // levers [-1, 1]
+  bool horn = false, parking_brake = false;
+  bool seated = true;      // the seat switch: standing up cuts the drive
+  double look_yaw_rad = 0, look_pitch_rad = 0;  // the head turned: + left, + up
+  bool rear_view = false, see_through_mast = false, chase_camera = false;  // asked for (training aids)
+  bool controller_lost = false;  // the controller in use was unplugged: the truck is braked
+
+  // The drive torque share the truck gets: the pedal along the lever; none in neutral, with the
+  // seat empty, or while the brake is pressed (the brake overrides the throttle).
+  double drive() const;
+  // The brake the truck gets: the pedal, or full when the controller was unplugged.
+  double braking() const;
+};
+
+// The settings of data/cab/cab.json that input uses.
+struct InputSettings {
+  double steer_lock_rad = 88 * M_PI / 180;
+  double accelerator_rise_s = 0.6, brake_rise_s = 0.15;
+  double steer_rate_rad_s = M_PI / 2, steer_centring_rad_s = 2 * M_PI / 3;
+  double look_max_yaw_rad = 150 * M_PI / 180, look_max_pitch_rad = 30 * M_PI / 180;
+  double look_rate_rad_s = 2 * M_PI / 3, mouse_rad_per_pixel = 0.25 * M_PI / 180;
+};
+InputSettings input_settings(const nlohmann::json& cab_json);  // throws std::runtime_error naming the key
+
+// A device's rest and full travel, per SDL axis name, from `forklift-cab --calibrate`.
+struct AxisCalibration {
+  double rest = 0, full = 1;  // normalised SDL readings ([-1, 1] sticks, [0, 1] triggers)
+  double low = -1;            // for centred axes (the wheel): the reading at full left
+};
+using Calibration = std::map<std::string, AxisCalibration>;  // SDL axis name -> travel
+
+// data/cab/controllers.json: which SDL axis and button drives what.
+struct ControllerMap {
+  struct Axis {
+    SDL_GameControllerAxis axis = SDL_CONTROLLER_AXIS_INVALID;
+    bool invert = false;
+  };
+  double dead_zone = 0.1, pedal_dead_zone = 0.05;
+  Axis steer, accelerator, brake, lift, tilt;
+  std::map<std::string, SDL_GameControllerButton> buttons;  // "horn", "direction_forward", ...
+  std::string fallback_mapping;                             // for joysticks SDL has no mapping of
+};
+ControllerMap load_controller_map(const std::string& path);  // throws std::runtime_error naming the key
+
+// A reading with its dead zone taken out and the rest rescaled to the full range.
+double apply_dead_zone(double v, double dead_zone);
+
+class CabInput {
+ public:
+  CabInput(InputSettings settings, ControllerMap map, Calibration calibration = {});
+  ~CabInput();
+  CabInput(const CabInput&) = delete;
+  CabInput& operator=(const CabInput&) = delete;
+
+  // One SDL event: keys, mouse, controller axes and buttons, hot-plug. Returns true if it was
+  // the cab's (the caller handles the rest: quit, F1, ...).
+  bool handle(const SDL_Event& e);
+  // Advances held keys by `dt_s` (pedal rise, the wheel turning and centring, the head turning)
+  // and returns the command.
+  const CabCommand& update(double dt_s);
+  const CabCommand& command() const { return cmd_; }
+  // Which device drives: "keyboard" or the controller's name.
+  std::string active_device() const;
+  // Messages for the pupil about devices ("Controller 'X' unplugged: the truck is braked").
+  std::vector<std::string> take_notices();
+  // Opens every controller already plugged in (hot-plugged ones open themselves).
+  void open_present_controllers();
+  // SDL_GameControllerAddMappingsFromFile for one file; false (with a notice) if it is absent.
+  bool add_mappings(const std::string& path);
+  // Raw readings of the active controller's axes, by SDL name (for calibration).
+  std::map<std::string, double> raw_axes() const;
+
+ private:
+  struct Controller;
+  void open(int device_index);
+  void close(SDL_JoystickID id);
+  double axis_value(const Controller& c, const ControllerMap::Axis& a, bool pedal, bool centred) const;
+  void read_controller(double dt_s);
+  bool held(SDL_Scancode k) const;
+
+  InputSettings s_;
+  ControllerMap map_;
+  Calibration calibration_;
+  CabCommand cmd_;
+  std::vector<Controller*> controllers_;
+  Controller* active_ = nullptr;
+  // The keys held, by scancode, from the window's key events; a focus change lets go of them
+  // all (a key released in another window never comes back as a key-up).
+  std::set<SDL_Scancode> held_;
+  bool keyboard_used_last_ = true;
+  double kb_accel_ = 0, kb_brake_ = 0, kb_steer_ = 0;
+  bool mouse_look_ = false;
+  double mouse_yaw_ = 0, mouse_pitch_ = 0;
+  std::vector<std::string> notices_;
+};
+
+// The key map, for --help and the F1 overlay: one "keys: what" line each.
+const std::vector<std::pair<std::string, std::string>>& key_map();
+// The controller map in words, for --help and F1.
+std::vector<std::pair<std::string, std::string>> controller_help(const ControllerMap& map);
+
+}  // namespace forklift::cab

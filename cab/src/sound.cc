@@ -1,0 +1,108 @@
+#include "sound.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace forklift::cab {
+
+SoundSettings sound_settings(const nlohmann::json& j) {
+  SoundSettings s;
+  try {
+    const nlohmann::json& x = j.at("sound");
+    s.volume = x.at("volume").get<double>();
+    s.motor_hz_idle = x.at("motor_hz_idle").get<double>();
+    s.motor_hz_per_m_s = x.at("motor_hz_per_m_s").get<double>();
+    s.horn_hz[0] = x.at("horn_hz").at(0).get<double>();
+    s.horn_hz[1] = x.at("horn_hz").at(1).get<double>();
+    s.warning_hz = x.at("warning_hz").get<double>();
+    s.stability_amber = j.at("hud").at("stability_amber").get<double>();
+    s.stability_red = j.at("hud").at("stability_red").get<double>();
+  } catch (const std::exception& e) {
+    throw std::runtime_error(std::string("data/cab/cab.json sound: ") + e.what());
+  }
+  if (!(s.volume >= 0 && s.volume <= 1)) throw std::runtime_error("data/cab/cab.json sound: volume must be within 0-1");
+  return s;
+}
+
+CabSound::CabSound(SoundSettings s) : s_(s) {
+  SDL_AudioSpec want{}, have{};
+  want.freq = rate_;
+  want.format = AUDIO_F32SYS;
+  want.channels = 1;
+  want.samples = 512;  // about 23 ms: a horn answers within a frame or two
+  want.callback = &CabSound::fill;
+  want.userdata = this;
+  device_ = SDL_OpenAudioDevice(nullptr, 0, &want, &have, SDL_AUDIO_ALLOW_FREQUENCY_CHANGE);
+  if (device_ == 0) throw std::runtime_error(std::string("no sound: ") + SDL_GetError());
+  rate_ = have.freq;
+  SDL_PauseAudioDevice(device_, 0);
+}
+
+CabSound::~CabSound() {
+  if (device_) SDL_CloseAudioDevice(device_);
+}
+
+void CabSound::set(const SoundInputs& in) {
+  SDL_LockAudioDevice(device_);
+  in_ = in;
+  SDL_UnlockAudioDevice(device_);
+}
+
+void CabSound::impact(double strength) {
+  SDL_LockAudioDevice(device_);
+  impact_ = std::max(impact_, std::clamp(strength, 0.0, 1.0));
+  SDL_UnlockAudioDevice(device_);
+}
+
+void CabSound::fault(int worry) {
+  SDL_LockAudioDevice(device_);
+  beeps_left_ = std::max(beeps_left_, worry >= 5 ? 3 : 1);
+  SDL_UnlockAudioDevice(device_);
+}
+
+void CabSound::fill(void* self, Uint8* stream, int len) {
+  static_cast<CabSound*>(self)->synth(reinterpret_cast<float*>(stream), len / int(sizeof(float)));
+}
+
+void CabSound::synth(float* out, int n) {
+  const double dt = 1.0 / rate_;
+  const double v = std::abs(in_.speed_m_s);
+  const double motor_amp = in_.running ? 0.12 * std::min(1.0, v / 1.5 + 0.6 * std::abs(in_.drive)) : 0;
+  const double motor_hz = s_.motor_hz_idle + s_.motor_hz_per_m_s * v;
+  const double beat_hz = in_.stability_fraction < s_.stability_red ? 6 : in_.stability_fraction < s_.stability_amber ? 2 : 0;
+  for (int i = 0; i < n; ++i) {
+    double x = 0;
+    motor_phase_ = std::fmod(motor_phase_ + motor_hz * dt, 1.0);
+    x += motor_amp * (std::sin(2 * M_PI * motor_phase_) + 0.3 * std::sin(4 * M_PI * motor_phase_));
+    noise_ = noise_ * 1664525u + 1013904223u;
+    const double white = (noise_ >> 8) / double(1 << 24) * 2 - 1;
+    noise_lp_ += 0.08 * (white - noise_lp_);  // a low hiss: the pump's flow
+    x += 0.5 * in_.hydraulics * noise_lp_;
+    if (in_.horn)
+      for (int k = 0; k < 2; ++k) {
+        horn_phase_[k] = std::fmod(horn_phase_[k] + s_.horn_hz[k] * dt, 1.0);
+        x += 0.15 * (horn_phase_[k] < 0.5 ? 1 : -1);
+      }
+    if (impact_ > 1e-3) {
+      x += impact_ * white;
+      impact_ *= std::exp(-dt / 0.08);
+    }
+    beep_phase_ = std::fmod(beep_phase_ + s_.warning_hz * dt, 1.0);
+    if (beeps_left_ > 0) {
+      beep_t_ += dt;
+      if (beep_t_ < 0.12) x += 0.2 * std::sin(2 * M_PI * beep_phase_);
+      if (beep_t_ >= 0.2) {
+        beep_t_ = 0;
+        --beeps_left_;
+      }
+    } else if (beat_hz > 0 && in_.running) {
+      beat_phase_ = std::fmod(beat_phase_ + beat_hz * dt, 1.0);
+      if (beat_phase_ < 0.25) x += 0.12 * std::sin(2 * M_PI * beep_phase_);
+    }
+    out[i] = float(std::clamp(s_.volume * x, -1.0, 1.0));
+  }
+}
+
+}  // namespace forklift::cab
