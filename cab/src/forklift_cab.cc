@@ -312,23 +312,11 @@ void CabProgram::open_devices(bool want_window) {
 }
 
 fk_Controls CabProgram::controls_from(const CabCommand& c) const {
-  fk_Controls s{};
-  s.steer_rad = c.steer_rad;
-  s.accelerator = c.drive();
-  s.brake = c.braking();
-  s.lift = c.lift;
-  s.tilt = c.tilt;
-  s.side_shift = c.side_shift;
-  s.horn = c.horn;
-  s.parking_brake = c.parking_brake;
+  fk_Controls s = c.sample();
   s.frames_wanted = window_ || !o_.frames.save_last.empty() || !o_.frames.save_dir.empty();
-  s.camera = c.chase_camera ? 1 : 0;
-  s.look_yaw_rad = c.look_yaw_rad;
-  s.look_pitch_rad = c.look_pitch_rad;
   // The mirror comes on by itself while reversing, as a pupil looks back.
   const bool reversing = c.direction < 0 || (hud_.has_state() && hud_.state().speed_m_s < rear_view_below_m_s_);
   s.rear_view = c.rear_view || reversing;
-  s.see_through_mast = c.see_through_mast;
   return s;
 }
 

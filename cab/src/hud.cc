@@ -226,13 +226,16 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
          state_.speed_limit_m_s > 0 ? format("limit %.0f km/h", limit_kmh) + (over ? ": too fast" : "") : "no limit here",
          over ? kRed : kGrey, 0, "speed_limit");
     const char* lever = cmd_.direction > 0 ? "F" : cmd_.direction < 0 ? "R" : "N";
-    text(7 * line, y0 + 4, lever, cmd_.direction < 0 ? kAmber : kWhite, 2, "direction");
+    text(9 * line, y0 + 4, lever, cmd_.direction < 0 ? kAmber : kWhite, 2, "direction");
     std::string flags;
     if (cmd_.parking_brake) flags += "P brake  ";
     if (!cmd_.seated) flags += "Seat empty: drive off  ";
     if (cmd_.controller_lost) flags += "Controller lost: braking  ";
     if (state_.deadman) flags += "No controls reach the truck: braking";
-    if (!flags.empty()) text(7 * line, y0 + 2 * line + 8, flags, kAmber, 0, "flags");
+    if (!flags.empty()) {  // just above the panel, where the eye drops to the speed
+      fill(0, y0 - line - 6, width, line + 6, kPanel, "panel");
+      text(line / 2, y0 - line - 2, flags, kAmber, 0, "flags");
+    }
 
     const int xf = width * 2 / 7 + line;
     const double tilt_deg = state_.tilt_rad * kRad;

@@ -34,6 +34,24 @@ double CabCommand::drive() const {
 
 double CabCommand::braking() const { return controller_lost ? 1.0 : brake; }
 
+fk_Controls CabCommand::sample() const {
+  fk_Controls s{};
+  s.steer_rad = steer_rad;
+  s.accelerator = drive();
+  s.brake = braking();
+  s.lift = lift;
+  s.tilt = tilt;
+  s.side_shift = side_shift;
+  s.horn = horn;
+  s.parking_brake = parking_brake;
+  s.camera = chase_camera ? 1 : 0;
+  s.look_yaw_rad = look_yaw_rad;
+  s.look_pitch_rad = look_pitch_rad;
+  s.rear_view = rear_view;
+  s.see_through_mast = see_through_mast;
+  return s;
+}
+
 InputSettings input_settings(const nlohmann::json& j) {
   const std::string where = "data/cab/cab.json";
   InputSettings s;
@@ -235,11 +253,15 @@ bool CabInput::handle(const SDL_Event& e) {
       mouse_pitch_ =
           std::clamp(mouse_pitch_ - e.motion.yrel * s_.mouse_rad_per_pixel, -s_.look_max_pitch_rad, s_.look_max_pitch_rad);
       return true;
+    // A joystick with no mapping yet comes as a joystick only: open it either way (with the
+    // fallback layout if SDL knows no mapping); opening twice is harmless.
+    case SDL_JOYDEVICEADDED:
     case SDL_CONTROLLERDEVICEADDED:
-      open(e.cdevice.which);
+      open(e.type == SDL_JOYDEVICEADDED ? e.jdevice.which : e.cdevice.which);
       return true;
+    case SDL_JOYDEVICEREMOVED:
     case SDL_CONTROLLERDEVICEREMOVED:
-      close(e.cdevice.which);
+      close(e.type == SDL_JOYDEVICEREMOVED ? e.jdevice.which : e.cdevice.which);
       return true;
     case SDL_CONTROLLERBUTTONDOWN: {
       for (Controller* c : controllers_)

@@ -13,6 +13,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "forklift/protocol/protocol.h"
+
 namespace forklift::cab {
 
 // The cab's levers, pedals and switches, and where the driver looks.
@@ -33,6 +35,8 @@ struct CabCommand {
   double drive() const;
   // The brake the truck gets: the pedal, or full when the controller was unplugged.
   double braking() const;
+  // The Controls sample this command makes (without the cab's id, sequence and clock).
+  fk_Controls sample() const;
 };
 
 // The settings of data/cab/cab.json that input uses.

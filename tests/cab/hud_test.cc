@@ -1,0 +1,155 @@
+// The head-up display's draw list: what the pupil reads, from the worker's facts.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <fstream>
+
+#include "hud.h"
+
+using namespace forklift;
+using namespace forklift::cab;
+
+namespace {
+
+Hud make_hud() {
+  std::ifstream in(std::string(FORKLIFT_DATA_DIR) + "/cab/cab.json");
+  return Hud(hud_settings(nlohmann::json::parse(in)), load_fault_words(std::string(FORKLIFT_DATA_DIR) + "/evaluation/rules.json"));
+}
+
+fk_TruckState moving() {
+  fk_TruckState s{};
+  dds::set_string(s.cab_id, "c1");
+  dds::set_string(s.session_id, "s-1");
+  s.sim_time_s = 12;
+  s.speed_m_s = 2.5;  // 9 km/h
+  s.speed_limit_m_s = 10 / 3.6;
+  s.stability_fraction = 0.8;
+  s.stability_edge = 1;
+  s.fork_height_m = 0.15;
+  s.task_steps_total = 3;
+  s.task_steps_done = 1;
+  dds::set_string(s.task_step, "Take pallet P3 from rack R2");
+  s.time_left_s = 95;
+  s.aids = 7;
+  return s;
+}
+
+const HudItem* find(const std::vector<HudItem>& items, const std::string& role) {
+  for (const HudItem& i : items)
+    if (i.role == role && i.kind == HudItem::Kind::kText) return &i;
+  return nullptr;
+}
+
+bool has_text(const std::vector<HudItem>& items, const std::string& part) {
+  return std::any_of(items.begin(), items.end(), [&](const HudItem& i) { return i.text.find(part) != std::string::npos; });
+}
+
+TEST(Hud, ShowsSpeedAgainstTheZoneLimitTheTaskStepAndTimeLeft) {
+  Hud hud = make_hud();
+  hud.on_state(moving());
+  auto items = hud.draw_list(960, 720, 1);
+  ASSERT_TRUE(find(items, "speed"));
+  EXPECT_EQ(find(items, "speed")->text, "9.0 km/h");
+  EXPECT_EQ(find(items, "speed_limit")->text, "limit 10 km/h");
+  EXPECT_EQ(find(items, "task")->text, "Step 2 of 3: Take pallet P3 from rack R2");
+  EXPECT_EQ(find(items, "time_left")->text, "Time left 1:35");
+  const Rgba white = find(items, "speed")->colour;
+
+  fk_TruckState fast = moving();
+  fast.speed_m_s = 3.5;  // 12.6 km/h in a 10 km/h zone
+  hud.on_state(fast);
+  items = hud.draw_list(960, 720, 1);
+  EXPECT_NE(find(items, "speed")->colour, white);
+  EXPECT_NE(find(items, "speed_limit")->text.find("too fast"), std::string::npos);
+}
+
+TEST(Hud, TheStabilityGaugeIsGreenAmberRedAndSaysWhatMakesItWorse) {
+  Hud hud = make_hud();
+  fk_TruckState s = moving();
+  hud.on_state(s);
+  const Rgba green = hud.stability_colour();
+  EXPECT_EQ(hud.stability_words(), "Stability 80%");
+  s.stability_fraction = 0.4;
+  s.steer_rad = 0.5;
+  hud.on_state(s);
+  const Rgba amber = hud.stability_colour();
+  EXPECT_NE(amber, green);
+  EXPECT_NE(hud.stability_words().find("tipping left: slow down in the turn"), std::string::npos) << hud.stability_words();
+  s.stability_fraction = 0.1;
+  s.fork_height_m = 2.0;
+  s.stability_edge = 0;
+  hud.on_state(s);
+  EXPECT_NE(hud.stability_colour(), amber);
+  EXPECT_NE(hud.stability_words().find("tipping forward: lower the load"), std::string::npos) << hud.stability_words();
+}
+
+TEST(Hud, TheLoadIsShownAgainstTheCapacityAtItsLoadCentre) {
+  Hud hud = make_hud();
+  fk_TruckState s = moving();
+  s.load_attached = true;
+  s.load_mass_kg = 1200;
+  s.load_capacity_kg = 1600;
+  hud.on_state(s);
+  auto items = hud.draw_list(960, 720, 1);
+  EXPECT_EQ(find(items, "load")->text, "Load 1200 kg of 1600 kg allowed at this load centre");
+  s.load_capacity_kg = 1000;
+  hud.on_state(s);
+  items = hud.draw_list(960, 720, 1);
+  EXPECT_NE(find(items, "load")->text.find("overload"), std::string::npos);
+}
+
+TEST(Hud, AFaultIsShownInWordsWithItsLevelWhileItLasts) {
+  Hud hud = make_hud();
+  hud.on_state(moving());
+  fk_Event e{};
+  dds::set_string(e.session_id, "s-1");
+  dds::set_string(e.kind, "violent_collision");
+  e.worry_level = 5;
+  dds::set_string(e.details, R"({"description":"You hit something hard."})");
+  hud.on_event(e, 10);
+  auto items = hud.draw_list(960, 720, 10.1);
+  EXPECT_TRUE(has_text(items, "Violent collision: an exam would fail here"));
+  EXPECT_TRUE(has_text(items, "You hit something hard."));
+  dds::set_string(e.kind, "travel_forks_low");
+  e.worry_level = 1;
+  hud.on_event(e, 11);
+  items = hud.draw_list(960, 720, 11.1);
+  EXPECT_TRUE(has_text(items, "Travel forks low: minor fault"));
+  EXPECT_FALSE(has_text(hud.draw_list(960, 720, 30), "Violent collision"));  // gone after its time
+}
+
+TEST(Hud, TheSessionsEndIsSaidInWordsAndAnAbortNamesTheInstructor) {
+  Hud hud = make_hud();
+  EXPECT_TRUE(has_text(hud.draw_list(960, 720, 0), "Waiting for the session to start"));
+  hud.on_status("running", "", 1);
+  hud.on_state(moving());
+  EXPECT_TRUE(has_text(hud.draw_list(960, 720, 1.5), "Session started"));
+  hud.on_status("ended", "aborted", 20);
+  EXPECT_TRUE(has_text(hud.draw_list(960, 720, 20.5), "Session aborted by your instructor"));
+  EXPECT_EQ(end_words("ended", "task_complete"), "Session over: task complete");
+}
+
+TEST(Hud, AnAidTheSessionDoesNotAllowIsSaidToBeNotAllowed) {
+  Hud hud = make_hud();
+  fk_TruckState s = moving();
+  s.aids = 0;  // an exam
+  hud.on_state(s);
+  CabCommand c;
+  c.see_through_mast = true;
+  hud.set_command(c);
+  EXPECT_TRUE(has_text(hud.draw_list(960, 720, 1), "The see-through mast is not allowed in this session"));
+  s.aids = 2;
+  hud.on_state(s);
+  EXPECT_FALSE(has_text(hud.draw_list(960, 720, 1), "not allowed"));
+}
+
+TEST(Hud, F1ShowsTheKeyMap) {
+  Hud hud = make_hud();
+  hud.set_help(key_map());
+  hud.toggle_help();
+  const auto items = hud.draw_list(960, 720, 1);
+  EXPECT_TRUE(has_text(items, "direction lever: forward / neutral / reverse"));
+  EXPECT_TRUE(has_text(items, "Up (hold)"));
+}
+
+}  // namespace

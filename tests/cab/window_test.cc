@@ -1,0 +1,172 @@
+// The whole cab in a real X window (Xvfb): a real worker over DDS, forklift-cab with its window,
+// keys typed into the window by xdotool, and the cab's trace (what it sent, what it received,
+// what its head-up display showed) read afterwards.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "forklift/image/image.h"
+#include "support/process.h"
+#include "support/temp_dir.h"
+#include "support/xvfb.h"
+
+
+using nlohmann::json;
+
+namespace {
+
+const std::string kBin = FORKLIFT_BIN_DIR;
+const std::string kData = FORKLIFT_DATA_DIR;
+std::string tmp(const std::string& name) { return forklift_test::process_path("cab_window", name); }
+
+std::vector<json> read_trace(const std::string& path) {
+  std::vector<json> out;
+  std::ifstream in(path);
+  for (std::string line; std::getline(in, line);) out.push_back(json::parse(line));
+  return out;
+}
+
+// The first record of `type` at or after wall time t (cab clock), or nullptr.
+const json* first_after(const std::vector<json>& trace, const std::string& type, double t) {
+  for (const json& r : trace)
+    if (r["type"] == type && r["t"].get<double>() >= t) return &r;
+  return nullptr;
+}
+const json* last_before(const std::vector<json>& trace, const std::string& type, double t) {
+  const json* found = nullptr;
+  for (const json& r : trace)
+    if (r["type"] == type && r["t"].get<double>() <= t) found = &r;
+  return found;
+}
+std::vector<double> key_times(const std::vector<json>& trace, const std::string& key, bool down) {
+  std::vector<double> out;
+  for (const json& r : trace)
+    if (r["type"] == "key" && r["key"] == key && r["down"] == down) out.push_back(r["t"].get<double>());
+  return out;
+}
+
+class CabWindow : public testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_FALSE(x_.display().empty()) << "Xvfb did not start";
+    setenv("DISPLAY", x_.display().c_str(), 1);
+    setenv("SDL_AUDIODRIVER", "dummy", 1);
+  }
+  Process worker(const std::string& cab, int domain, const std::string& scenario, double duration) {
+    return Process({kBin + "/forklift-worker", "--cab", cab, "--session", "s-" + cab, "--scenario",
+                    kData + "/scenarios/" + scenario + ".json", "--duration", std::to_string(duration), "--dds-domain",
+                    std::to_string(domain), "--log", tmp(cab + ".ctl"), "--start-timeout", "30"},
+                   tmp(cab + ".worker"));
+  }
+  // xdotool on this test's display: finds the cab's window, focuses it, then runs `steps`.
+  int xdotool(const std::string& cab, const std::vector<std::string>& steps) {
+    std::vector<std::string> args = {"/usr/bin/xdotool", "search", "--sync", "--name", "Forklift cab " + cab,
+                                     "windowfocus", "--sync", "%1"};
+    args.insert(args.end(), steps.begin(), steps.end());
+    Process p(args, tmp(cab + ".xdotool"));
+    const int rc = p.wait(120);
+    EXPECT_EQ(rc, 0) << p.err();
+    return rc;
+  }
+  forklift_test::Xvfb x_;
+};
+
+TEST_F(CabWindow, KeysHeldInTheWindowDriveTheTruckAsADriverExpects) {
+  Process w = worker("kc1", 70, "first_drive_yard", 40);
+  const std::string trace = tmp("kc1.trace"), shot = tmp("kc1.png");
+  Process cab({kBin + "/forklift-cab", "--cab", "kc1", "--keyboard", "--no-sound", "--dds-domain", "70", "--wait-worker",
+               "30", "--trace", trace, "--save-window", shot},
+              tmp("kc1.cab"));
+  // Up held, released; Left held while coasting; Down and Up together; reverse and Up; Esc.
+  xdotool("kc1", {"sleep", "1", "keydown", "Up", "sleep", "1.5", "keyup", "Up", "sleep", "0.5", "keydown", "Left", "sleep",
+                  "1", "keyup", "Left", "sleep", "0.3", "keydown", "Down", "keydown", "Up", "sleep", "1.5", "keyup", "Up",
+                  "keyup", "Down", "sleep", "0.5", "key", "r", "sleep", "0.3", "keydown", "Up", "sleep", "1.5", "keyup",
+                  "Up", "sleep", "0.5", "key", "Escape"});
+  ASSERT_EQ(cab.wait(30), 0) << cab.err();
+  w.signal(SIGTERM);
+  w.wait(30);
+  const std::vector<json> t = read_trace(trace);
+
+  const std::vector<double> up_down = key_times(t, "Up", true), up_up = key_times(t, "Up", false);
+  ASSERT_EQ(up_down.size(), 3u) << "the window did not get the keys";
+  ASSERT_EQ(up_up.size(), 3u);
+  // Held, the accelerator is pressed fully; released, it is let go at once, not left where it was.
+  const json* held = last_before(t, "controls", up_up[0] - 0.05);
+  ASSERT_TRUE(held);
+  EXPECT_GT((*held)["accelerator"].get<double>(), 0.9);
+  const json* released = first_after(t, "controls", up_up[0]);
+  ASSERT_TRUE(released);
+  EXPECT_EQ((*released)["accelerator"].get<double>(), 0.0);
+  const json* moving = last_before(t, "state", up_up[0]);
+  ASSERT_TRUE(moving);
+  EXPECT_GT((*moving)["speed_m_s"].get<double>(), 1.0);
+
+  // Left turns left: the rear wheel points right and the heading rises (counter-clockwise).
+  const double left_down = key_times(t, "Left", true).at(0), left_up = key_times(t, "Left", false).at(0);
+  const json* steering = last_before(t, "controls", left_up - 0.05);
+  EXPECT_LT((*steering)["steer_rad"].get<double>(), -0.5);
+  const double yaw0 = (*last_before(t, "state", left_down))["yaw_rad"].get<double>();
+  const double yaw1 = (*last_before(t, "state", left_up + 0.2))["yaw_rad"].get<double>();
+  EXPECT_GT(yaw1 - yaw0, 0.2);
+
+  // Brake and accelerator together: the brake wins, no drive.
+  const json* both = last_before(t, "controls", up_up[1] - 0.05);
+  ASSERT_TRUE(both);
+  EXPECT_GT(both->at("t").get<double>(), up_down[1]);
+  EXPECT_EQ((*both)["accelerator"].get<double>(), 0.0);
+  EXPECT_GT((*both)["brake"].get<double>(), 0.9);
+
+  // The direction lever in reverse: Up backs the truck up.
+  const json* reversing = last_before(t, "state", up_up[2]);
+  EXPECT_EQ((*last_before(t, "controls", up_up[2] - 0.05))["direction"], -1);
+  EXPECT_LT((*reversing)["speed_m_s"].get<double>(), -0.5);
+
+  // The display was drawn and read: speed, stability, the lever.
+  bool speed = false, stability = false;
+  for (const json& r : t)
+    if (r["type"] == "hud")
+      for (const json& text : r["texts"]) {
+        speed = speed || text.get<std::string>().find("km/h") != std::string::npos;
+        stability = stability || text.get<std::string>().rfind("Stability", 0) == 0;
+      }
+  EXPECT_TRUE(speed);
+  EXPECT_TRUE(stability);
+  const forklift::Image img = forklift::read_png(shot);
+  EXPECT_EQ(img.width, 960);
+  EXPECT_EQ(img.height, 720);
+}
+
+TEST_F(CabWindow, ACollisionsWarningIsOnTheDisplayWithinHalfASecond) {
+  // Straight ahead at full drive into the lorry at the dock (a violent collision after about 4 s).
+  const std::string script = tmp("straight.csv");
+  {
+    std::ofstream f(script);
+    f << "t,steer,accelerator,brake,lift,tilt,shift\n";
+    for (int i = 0; i <= 12; ++i) f << i * 0.5 << ",0,1,0,0,0,0\n";
+  }
+  Process w = worker("kc2", 71, "load_lorry", 30);
+  const std::string trace = tmp("kc2.trace");
+  Process cab({kBin + "/forklift-cab", "--cab", "kc2", "--script", script, "--no-sound", "--dds-domain", "71",
+               "--wait-worker", "30", "--trace", trace, "--save-window", tmp("kc2.png")},
+              tmp("kc2.cab"));
+  ASSERT_EQ(cab.wait(60), 0) << cab.err();
+  w.signal(SIGTERM);
+  w.wait(30);
+  const std::vector<json> t = read_trace(trace);
+  std::optional<double> event_sim_t;
+  for (const json& r : t)
+    if (r["type"] == "event" && r["kind"] == "violent_collision" && !event_sim_t) event_sim_t = r["sim_time_s"].get<double>();
+  ASSERT_TRUE(event_sim_t) << "no violent collision reached the cab";
+  std::optional<double> shown_sim_t;
+  for (const json& r : t)
+    if (r["type"] == "hud" && !shown_sim_t)
+      for (const json& text : r["texts"])
+        if (text.get<std::string>() == "Violent collision: an exam would fail here") shown_sim_t = r["sim_time_s"].get<double>();
+  ASSERT_TRUE(shown_sim_t) << "the warning was never drawn";
+  EXPECT_LE(*shown_sim_t - *event_sim_t, 0.5);
+}
+
+}  // namespace
