@@ -192,6 +192,9 @@ int main(int argc, char** argv) {
   start->add_option("--cab", cab)->required();
   start->add_option("--scenario", scenario)->required();
   start->add_option("--mode", mode)->check(CLI::IsMember({"training", "exam"}));
+  std::string aids;
+  start->add_option("--aids", aids, "training: the learning aids the cab may use, comma-separated (rear_view, see_through_mast, "
+                                    "chase_camera) or none; default all (an exam has none)");
   start->add_option("--drive", drive, "drive it with a scripted cab (forklift-cab --script)")->check(CLI::ExistingFile);
   start->add_option("--dds-domain", dds_domain, "DDS domain of the scripted cab (default: environment)");
   std::string cab_frame;
@@ -249,6 +252,12 @@ int main(int argc, char** argv) {
     } else if (*start) {
       json body = {{"pupil_id", pupil}, {"cab_id", cab}, {"scenario", scenario}, {"mode", mode}};
       if (time_limit > 0) body["time_limit_s"] = time_limit;
+      if (!aids.empty()) {
+        body["aids"] = json::array();
+        std::stringstream list(aids);
+        for (std::string a; std::getline(list, a, ',');)
+          if (!a.empty() && a != "none") body["aids"].push_back(a);
+      }
       const json s = cl.call("POST", "/api/sessions", body);
       const std::string id = s["id"];
       std::printf("session %s started on cab %s\n", id.c_str(), cab.c_str());

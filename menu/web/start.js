@@ -63,6 +63,7 @@
     if ($('load-none').checked) body.load = null;
     if ($('load-custom').checked) body.load = { mass_kg: Number($('mass').value), cog_height_m: Number($('height').value), lateral_m: Number($('lateral').value) };
     if ($('limit').value) body.time_limit_s = Number($('limit').value);
+    if (body.mode === 'training') body.aids = [...document.querySelectorAll('#aids-set input:checked')].map((i) => i.value);
     try {
       const s = await api('POST', '/sessions', body);
       session = s.id;
@@ -101,6 +102,10 @@
       say(message, describeError(e));
     }
     $('scenario').addEventListener('change', () => { aboutScenario(); aboutTruck(); });
+    // An exam has no learning aids: the choice is greyed out rather than silently ignored.
+    const aids = () => { $('aids-set').disabled = $('mode').value !== 'training'; };
+    $('mode').addEventListener('change', aids);
+    aids();
     $('truck').addEventListener('change', () => { $('truck').dataset.touched = '1'; aboutTruck(); });
     for (const r of document.querySelectorAll('input[name="load"]')) r.addEventListener('change', customLoad);
     aboutScenario();
