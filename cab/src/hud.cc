@@ -272,17 +272,28 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
   refused(cmd_.see_through_mast, 2, "The see-through mast");
   refused(cmd_.chase_camera, 4, "The chase camera");
 
-  // Faults and notices, newest first, while they last.
+  // Faults and notices, newest first, while they last: the three newest, the newest with its
+  // advice (wrapped to the window), so that the picture stays visible.
+  const size_t per_line = size_t(std::max(20.0, (width - line) / (line * 0.42)));
+  int shown = 0;
   for (const Message& m : messages_) {
     if (now_s >= m.until_s || now_s < m.shown_at_s) continue;
-    fill(line / 2 - 4, ym - 2, width - line, m.detail.empty() ? line + 4 : 2 * line + 4, kPanel, "panel");
+    std::vector<std::string> detail;
+    if (shown == 0)
+      for (std::string rest = m.detail; !rest.empty();) {
+        size_t cut = rest.size() <= per_line ? rest.size() : rest.rfind(' ', per_line);
+        if (cut == std::string::npos || cut == 0) cut = std::min(rest.size(), per_line);
+        detail.push_back(rest.substr(0, cut));
+        rest = cut < rest.size() ? rest.substr(cut + 1) : "";
+      }
+    fill(line / 2 - 4, ym - 2, width - line, int(line + 4 + detail.size() * (line + 2)), kPanel, "panel");
     text(line / 2, ym, m.text, m.colour, 1, m.role.c_str());
     ym += line + 2;
-    if (!m.detail.empty()) {
-      text(line / 2, ym, m.detail, kWhite, 0, "fault_detail");
+    for (std::string& d : detail) {
+      text(line / 2, ym, std::move(d), kWhite, 0, "fault_detail");
       ym += line + 2;
     }
-    if (ym > y0 - 2 * line) break;
+    if (++shown == 3 || ym > y0 - 2 * line) break;
   }
 
   if (!session_line_.empty()) {
