@@ -179,7 +179,11 @@ void frames(int domain, double fps, const std::string& size, bool jpeg, double s
   // Controls at 50 Hz; frames taken every 2 ms (the reader keeps only the newest).
   for (int tick = 0; w.running() && std::chrono::duration<double>(Clock::now() - start).count() < seconds + 5; ++tick) {
     const double t = std::chrono::duration<double>(Clock::now() - start).count();
-    if (tick % 10 == 0) out.write(sample(cab, ++seq, t));
+    if (tick % 10 == 0) {
+      fk_Controls c = sample(cab, ++seq, t);
+      c.frames_wanted = true;  // the worker renders only for a cab that asks
+      out.write(c);
+    }
     in.take_each([&](const fk_Frame& f) {
       ++received;
       if (t > 1.0 && t <= seconds + 1) ++counted, bytes += f.pixels._length;  // the first second warms up

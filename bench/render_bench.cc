@@ -7,6 +7,10 @@
 //   baseline    a frame that only clears and reads back (a scene with neither floor nor
 //               objects, no truck: zero draw calls), so frame rows read as ratios to it
 //   frame       driver and chase views at 640x480 and 1280x720 (and plan at 640x480)
+//   aids        the driver view at 640x480 with the training aids the worker may grant:
+//               see_through (mast, carriage frame and guard blended), mirror (the rear-view
+//               inset: a second pass from the eye looking back), and both; with the head turned
+//               60 degrees left (look_left: the plain view's cost from another direction)
 //   jpeg        encode_jpeg of a 640x480 driver frame at quality 85 (the worker's stream)
 // Wall time is what counts (llvmpipe renders on its own threads), so every row uses real time.
 // LP_NUM_THREADS (llvmpipe's rasteriser threads; default: one per core) is read when the
@@ -18,6 +22,7 @@
 // After the table: the frame/baseline ratios and the 60 fps target at 640x480.
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -78,7 +83,7 @@ void BM_Baseline(benchmark::State& state, int width, int height) {
   state.counters["fps"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate);
 }
 
-void BM_Frame(benchmark::State& state, View view, int width, int height) {
+void BM_Frame(benchmark::State& state, View view, ViewOptions options, int width, int height) {
   const World* w = nullptr;
   try {
     w = &world();
@@ -88,9 +93,18 @@ void BM_Frame(benchmark::State& state, View view, int width, int height) {
   }
   Renderer r(w->scene, w->shape, w->truck, width, height);
   int64_t i = 0;
-  for (auto _ : state) benchmark::DoNotOptimize(r.render(frame_state(*w, i++), view).rgb.data());
+  for (auto _ : state) benchmark::DoNotOptimize(r.render(frame_state(*w, i++), view, options).rgb.data());
   state.counters["fps"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate);
 }
+
+// The driver view's options the aids rows use.
+const std::pair<const char*, ViewOptions> kAidRows[] = {
+    {"aids/plain", {}},
+    {"aids/look_left", {M_PI / 3, 0, false, false}},
+    {"aids/see_through", {0, 0, true, false}},
+    {"aids/mirror", {0, 0, false, true}},
+    {"aids/see_through+mirror", {0, 0, true, true}},
+};
 
 void BM_JpegEncode(benchmark::State& state, int width, int height) {
   const World* w = nullptr;
@@ -158,9 +172,11 @@ int main(int argc, char** argv) {
     timed(benchmark::RegisterBenchmark(("baseline/" + size).c_str(), BM_Baseline, w, h));
     for (View v : {View::kDriver, View::kChase, View::kPlan}) {
       if (v == View::kPlan && w != 640) continue;
-      timed(benchmark::RegisterBenchmark(("frame/" + std::string(view_name(v)) + "/" + size).c_str(), BM_Frame, v, w, h));
+      timed(benchmark::RegisterBenchmark(("frame/" + std::string(view_name(v)) + "/" + size).c_str(), BM_Frame, v, ViewOptions{}, w, h));
     }
   }
+  for (const auto& [name, options] : kAidRows)
+    timed(benchmark::RegisterBenchmark((std::string(name) + "/640x480").c_str(), BM_Frame, View::kDriver, options, 640, 480));
   timed(benchmark::RegisterBenchmark("jpeg_encode/640x480", BM_JpegEncode, 640, 480));
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 2;
 
@@ -184,6 +200,12 @@ int main(int argc, char** argv) {
       if (t > 0)
         std::printf("%-24s %9.2f %8.1f %10.2f\n", name.c_str(), t, 1e3 / t, base > 0 ? t / base : 0.0);
     }
+  }
+  const double plain = row("aids/plain/640x480");
+  for (const auto& [name, options] : kAidRows) {
+    const std::string r = std::string(name) + "/640x480";
+    const double t = row(r);
+    if (t > 0) std::printf("%-24s %9.2f %8.1f %10s  %+.2f ms on plain\n", r.c_str(), t, 1e3 / t, "", plain > 0 ? t - plain : 0.0);
   }
   const double jpeg = row("jpeg_encode/640x480");
   if (jpeg > 0) std::printf("%-24s %9.2f\n", "jpeg_encode/640x480", jpeg);

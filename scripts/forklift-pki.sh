@@ -143,10 +143,10 @@ rules_for() {  # KIND ID
   case "$1" in
     cab)
       rule publish "$p" fk_Controls fk_CabAnnounce
-      rule subscribe "$p" fk_TruckState fk_Frame fk_SessionStatus ;;
+      rule subscribe "$p" fk_TruckState fk_Frame fk_SessionStatus fk_Event ;;
     worker)
       rule subscribe "$p" fk_Controls
-      rule publish "$p" fk_TruckState fk_Frame fk_SessionStatus
+      rule publish "$p" fk_TruckState fk_Frame fk_SessionStatus fk_Event
       rule publish "" fk_Event fk_Score fk_SessionStatus ;;
     server)
       rule subscribe "cab.*" fk_TruckState fk_Frame fk_CabAnnounce

@@ -16,6 +16,12 @@ constexpr double kDeg = M_PI / 180.0;
 // tips and the floor ahead of them are in the lower part of the picture.
 constexpr double kDriverPitchDownDeg = 10;
 constexpr double kDriverFovDeg = 75;
+// Turning the head: the eyes move sideways by this much times the sine of the turn (a driver
+// leans to look round the mast), and the mirror looks back from the eye, pitched down a little
+// to show the floor behind, with a mirror's narrow field.
+constexpr double kHeadLeanM = 0.15;
+constexpr double kMirrorPitchDownDeg = 8;
+constexpr double kMirrorFovDeg = 30;
 // The instructor's view: behind, above and to the left of the truck (in its heading frame, so
 // it neither rolls nor pitches with the chassis), looking down at about 45 degrees on a point
 // ahead of the front axle, so that both forks and their load show past the cab and the mast.
@@ -57,15 +63,7 @@ View parse_view(const std::string& name) {
 Camera view_camera(View view, const BodyPoses& poses, const TruckShape& shape, const Scene& scene) {
   Camera c;
   switch (view) {
-    case View::kDriver: {
-      const Eigen::Matrix3d R = poses.chassis.linear();
-      const double p = kDriverPitchDownDeg * kDeg;
-      c.eye = poses.chassis * shape.eye_m;
-      c.target = c.eye + R * Vector3d(std::cos(p), 0, -std::sin(p));
-      c.up = R.col(2);
-      c.fov_y_deg = kDriverFovDeg;
-      break;
-    }
+    case View::kDriver: c = driver_camera(poses, shape, 0, 0); break;
     case View::kChase: {
       const Eigen::Isometry3d f = heading_frame(poses.chassis);
       c.eye = f * kChaseEye;
@@ -90,6 +88,32 @@ Camera view_camera(View view, const BodyPoses& poses, const TruckShape& shape, c
       break;
     }
   }
+  return c;
+}
+
+Camera driver_camera(const BodyPoses& poses, const TruckShape& shape, double look_yaw_rad, double look_pitch_rad) {
+  // Non-finite angles (never from a checked sample) look straight ahead.
+  const double yaw = std::isfinite(look_yaw_rad) ? std::clamp(look_yaw_rad, -kLookYawMaxRad, kLookYawMaxRad) : 0.0;
+  const double pitch =
+      (std::isfinite(look_pitch_rad) ? std::clamp(look_pitch_rad, -kLookPitchMaxRad, kLookPitchMaxRad) : 0.0) -
+      kDriverPitchDownDeg * kDeg;
+  const Eigen::Matrix3d R = poses.chassis.linear();
+  Camera c;
+  c.eye = poses.chassis * (shape.eye_m + Vector3d(0, kHeadLeanM * std::sin(yaw), 0));
+  c.target = c.eye + R * Vector3d(std::cos(pitch) * std::cos(yaw), std::cos(pitch) * std::sin(yaw), std::sin(pitch));
+  c.up = R.col(2);
+  c.fov_y_deg = kDriverFovDeg;
+  return c;
+}
+
+Camera mirror_camera(const BodyPoses& poses, const TruckShape& shape) {
+  const Eigen::Matrix3d R = poses.chassis.linear();
+  const double p = kMirrorPitchDownDeg * kDeg;
+  Camera c;
+  c.eye = poses.chassis * shape.eye_m;
+  c.target = c.eye + R * Vector3d(-std::cos(p), 0, -std::sin(p));
+  c.up = R.col(2);
+  c.fov_y_deg = kMirrorFovDeg;
   return c;
 }
 

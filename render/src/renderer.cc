@@ -27,6 +27,19 @@ const Vector3f kSky{0.66f, 0.77f, 0.88f};
 const Vector3f kForkColour{0.17f, 0.17f, 0.18f};
 const Vector3f kLoadColour{0.74f, 0.56f, 0.34f};  // cardboard
 constexpr double kForkShankHeightM = 0.5;
+// See-through mast: how much of a see-through part's colour covers what is behind it.
+constexpr float kSeeThroughAlpha = 0.22f;
+// The rear-view mirror inset: its share of the frame's width and height, its distance from the
+// top edge (share of the height), and its frame's width in pixels.
+constexpr double kMirrorWidthShare = 0.36, kMirrorHeightShare = 0.18, kMirrorTopShare = 0.025;
+constexpr int kMirrorFramePx = 3;
+const uint8_t kMirrorFrameColour[3] = {25, 25, 28};
+
+// Which parts of the truck a see-through view draws translucent: the overhead guard's (named
+// "guard..." in the chassis mesh), the whole mast, and the carriage's frame (every part but the
+// forks, "fork...": they and the load stay solid, since the pupil must see where they are).
+bool guard_part(const MeshPart& p) { return p.name.rfind("guard", 0) == 0; }
+bool fork_part(const MeshPart& p) { return p.name.rfind("fork", 0) == 0; }
 
 // A mesh on the GPU with this frame's instances (model matrices).
 struct GpuMesh {
@@ -35,6 +48,7 @@ struct GpuMesh {
   GLsizei index_count = 0;
   Eigen::AlignedBox3d bounds;  // in the mesh's frame
   std::vector<Eigen::Matrix4f> transforms;
+  bool see_through = false;  // drawn translucent when the view asks for a see-through mast
 
   explicit GpuMesh(const Geometry& g) : bounds(g.bounds) {
     vao = gl::make_vertex_array();
@@ -71,7 +85,7 @@ struct GpuMesh {
   void add(const Eigen::Affine3d& model) { transforms.push_back(model.matrix().cast<float>()); }
   void add(const Isometry3d& model) { transforms.push_back(model.matrix().cast<float>()); }
 
-  // Draws this frame's instances and forgets them.
+  // Draws this frame's instances (kept for the frame's other passes: the mirror).
   void draw() {
     if (transforms.empty() || index_count == 0) return;
     glBindVertexArray(vao.get());
@@ -79,7 +93,6 @@ struct GpuMesh {
     glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(transforms.size() * sizeof(Eigen::Matrix4f)), transforms.data(),
                  GL_STREAM_DRAW);
     glDrawElementsInstanced(GL_TRIANGLES, index_count, GL_UNSIGNED_INT, nullptr, GLsizei(transforms.size()));
-    transforms.clear();
   }
 
   // World bounds of this frame's instances.
@@ -93,14 +106,21 @@ struct GpuMesh {
   }
 };
 
-// The carriage as drawn: its mesh and, unless the mesh has parts named "fork...", two forks
-// made from the shape's fork dimensions (carriage frame: fork heel at the origin, forks along
-// +x with their top face at z = 0).
-Geometry carriage_geometry(const TruckShape& shape) {
+// The parts of a mesh for which `keep` holds, in the mesh's frame.
+template <class Keep>
+Geometry parts_geometry(const Mesh& mesh, Keep keep) {
   Geometry g;
-  g.add_mesh(*shape.carriage, Isometry3d::Identity());
-  for (const MeshPart& part : shape.carriage->parts)
-    if (part.name.rfind("fork", 0) == 0) return g;
+  for (const MeshPart& part : mesh.parts)
+    if (keep(part)) g.add_part(part, Isometry3d::Identity());
+  return g;
+}
+
+// The carriage's forks as drawn: the mesh's parts named "fork...", or, when it has none, two
+// forks made from the shape's fork dimensions (carriage frame: fork heel at the origin, forks
+// along +x with their top face at z = 0). The rest of the carriage is its frame.
+Geometry fork_geometry(const TruckShape& shape) {
+  Geometry g = parts_geometry(*shape.carriage, fork_part);
+  if (!g.empty()) return g;
   const double t = shape.fork_thickness_m, w = shape.fork_width_m;
   for (double side : {-0.5, 0.5}) {
     const double y = side * shape.fork_centres_y_m;
@@ -135,12 +155,13 @@ struct Renderer::Impl {
   Image image;
 
   gl::Program program;
-  GLint u_view_projection = -1, u_eye = -1;
+  GLint u_view_projection = -1, u_eye = -1, u_alpha = -1;
   std::unique_ptr<GpuMesh> static_batch;
   std::vector<std::unique_ptr<GpuMesh>> meshes;  // moving meshes, each drawn once a frame
   std::map<const Mesh*, GpuMesh*> by_mesh;
-  GpuMesh *chassis = nullptr, *mast = nullptr, *carriage = nullptr, *front_wheel = nullptr,
-          *rear_wheel = nullptr, *load_box = nullptr;
+  // The truck's parts; the guard, the mast and the carriage's frame can be drawn see-through.
+  GpuMesh *chassis = nullptr, *guard = nullptr, *mast = nullptr, *carriage_frame = nullptr, *forks = nullptr,
+          *front_wheel = nullptr, *rear_wheel = nullptr, *load_box = nullptr;
 
   struct Pallet {
     GpuMesh* mesh;
@@ -233,12 +254,23 @@ struct Renderer::Impl {
     program = gl::make_program(render::kVertexShader, render::kFragmentShader);
     u_view_projection = glGetUniformLocation(program.get(), "u_view_projection");
     u_eye = glGetUniformLocation(program.get(), "u_eye");
+    u_alpha = glGetUniformLocation(program.get(), "u_alpha");
 
     // The truck's parts first (nearest the driver's and the chase camera: drawn first); wheels
     // share a mesh when the shape does.
-    chassis = mesh_for(shape.chassis);
-    mast = mesh_for(shape.mast);
-    if (shape.carriage) carriage = add_mesh(carriage_geometry(shape));
+    auto see_through = [](GpuMesh* m) {
+      if (m) m->see_through = true;
+      return m;
+    };
+    if (shape.chassis) {
+      chassis = add_mesh(parts_geometry(*shape.chassis, [](const MeshPart& p) { return !guard_part(p); }));
+      guard = see_through(add_mesh(parts_geometry(*shape.chassis, guard_part)));
+    }
+    if (shape.mast) mast = see_through(add_mesh(parts_geometry(*shape.mast, [](const MeshPart&) { return true; })));
+    if (shape.carriage) {
+      carriage_frame = see_through(add_mesh(parts_geometry(*shape.carriage, [](const MeshPart& p) { return !fork_part(p); })));
+      forks = add_mesh(fork_geometry(shape));
+    }
     front_wheel = mesh_for(shape.front_wheel);
     rear_wheel = mesh_for(shape.rear_wheel);
 
@@ -284,14 +316,19 @@ struct Renderer::Impl {
     }
   }
 
-  const Image& draw(const RenderState& state, const BodyPoses& poses, const Camera& camera) {
+  const Image& draw(const RenderState& state, const BodyPoses& poses, const Camera& camera,
+                    const ViewOptions& options = {}) {
     make_current();
 
     // This frame's instances (none left over from a frame that threw).
     for (const auto& m : meshes) m->transforms.clear();
-    if (chassis) chassis->add(poses.chassis);
+    if (static_batch) {
+      static_batch->transforms.clear();
+      static_batch->add(Isometry3d::Identity());
+    }
+    for (GpuMesh* m : {chassis, guard}) if (m) m->add(poses.chassis);
     if (mast) mast->add(poses.mast);
-    if (carriage) carriage->add(poses.carriage);
+    for (GpuMesh* m : {carriage_frame, forks}) if (m) m->add(poses.carriage);
     if (front_wheel) {
       front_wheel->add(poses.wheels[kFrontLeft]);
       front_wheel->add(poses.wheels[kFrontRight]);
@@ -313,22 +350,31 @@ struct Renderer::Impl {
     if (static_batch) extent.extend(static_batch->bounds);
     for (const auto& m : meshes) m->extend(extent);
 
-    const Eigen::Matrix4f view_projection =
-        render::view_projection(camera, width, height, extent).cast<float>();
-    const Eigen::Vector3f eye = camera.eye.cast<float>();
-
+    glUseProgram(program.get());
     glViewport(0, 0, width, height);
     glClearColor(kSky.x(), kSky.y(), kSky.z(), 1.0f);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-    glUseProgram(program.get());
-    glUniformMatrix4fv(u_view_projection, 1, GL_FALSE, view_projection.data());
-    glUniform3fv(u_eye, 1, eye.data());
-    // Nearest first, so llvmpipe's early depth test spares the pixels behind: the truck and
-    // the pallets, then the warehouse.
-    for (const auto& m : meshes) m->draw();
-    if (static_batch) {
-      static_batch->add(Isometry3d::Identity());
-      static_batch->draw();
+    draw_pass(render::view_projection(camera, width, height, extent), camera.eye, options.see_through_mast);
+
+    // The mirror: the same instances from the eye looking back, in a rectangle at the top centre
+    // (GL's y runs up; the framebuffer's rows run down), flipped left-right as a mirror shows it.
+    int mx = 0, my = 0, mw = 0, mh = 0;
+    if (options.rear_view) {
+      mw = std::max(8, int(kMirrorWidthShare * width));
+      mh = std::max(6, int(kMirrorHeightShare * height));
+      mx = (width - mw) / 2;
+      const int top = int(kMirrorTopShare * height);
+      my = std::max(0, height - top - mh);
+      const Camera mirror = mirror_camera(poses, shape);
+      const Eigen::Matrix4d flip = Eigen::Vector4d(-1, 1, 1, 1).asDiagonal();
+      glEnable(GL_SCISSOR_TEST);
+      glScissor(mx, my, mw, mh);
+      glViewport(mx, my, mw, mh);
+      glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+      glFrontFace(GL_CW);  // the flip turns every triangle's winding round
+      draw_pass(flip * render::view_projection(mirror, mw, mh, extent), mirror.eye, options.see_through_mast);
+      glFrontFace(GL_CCW);
+      glDisable(GL_SCISSOR_TEST);
     }
     glBindVertexArray(0);
     glFinish();  // OSMesa copies the picture into `framebuffer` here
@@ -343,7 +389,41 @@ struct Renderer::Impl {
       dst[1] = src[1];
       dst[2] = src[2];
     }
+    if (options.rear_view) frame_inset(mx, height - my - mh, mw, mh);
     return image;
+  }
+
+  // One camera's picture into the current viewport. Nearest first, so llvmpipe's early depth
+  // test spares the pixels behind: the truck and the pallets, then the warehouse; then, for a
+  // see-through view, the see-through parts blended over all of it (depth tested, not written).
+  void draw_pass(const Eigen::Matrix4d& view_projection, const Vector3d& eye, bool see_through) {
+    const Eigen::Matrix4f vp = view_projection.cast<float>();
+    const Eigen::Vector3f e = eye.cast<float>();
+    glUniformMatrix4fv(u_view_projection, 1, GL_FALSE, vp.data());
+    glUniform3fv(u_eye, 1, e.data());
+    glUniform1f(u_alpha, 1.0f);
+    for (const auto& m : meshes)
+      if (!(see_through && m->see_through)) m->draw();
+    if (static_batch) static_batch->draw();
+    if (!see_through) return;
+    glEnable(GL_BLEND);
+    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    glDepthMask(GL_FALSE);
+    glUniform1f(u_alpha, kSeeThroughAlpha);
+    for (const auto& m : meshes)
+      if (m->see_through) m->draw();
+    glDepthMask(GL_TRUE);
+    glDisable(GL_BLEND);
+  }
+
+  // A dark frame round the mirror inset (image rows from the top).
+  void frame_inset(int x0, int y0, int w, int h) {
+    for (int y = std::max(0, y0 - kMirrorFramePx); y < std::min(height, y0 + h + kMirrorFramePx); ++y)
+      for (int x = std::max(0, x0 - kMirrorFramePx); x < std::min(width, x0 + w + kMirrorFramePx); ++x) {
+        if (x >= x0 && x < x0 + w && y >= y0 && y < y0 + h) continue;
+        uint8_t* p = &image.rgb[(size_t(y) * width + x) * 3];
+        std::copy(kMirrorFrameColour, kMirrorFrameColour + 3, p);
+      }
   }
 };
 
@@ -359,6 +439,14 @@ const Image& Renderer::render(const RenderState& state, View view) {
 
 const Image& Renderer::render(const RenderState& state, const Camera& camera) {
   return impl_->draw(state, body_poses(impl_->truck, state.q), camera);
+}
+
+const Image& Renderer::render(const RenderState& state, View view, const ViewOptions& options) {
+  const BodyPoses poses = body_poses(impl_->truck, state.q);
+  const Camera camera = view == View::kDriver
+                            ? driver_camera(poses, impl_->shape, options.look_yaw_rad, options.look_pitch_rad)
+                            : view_camera(view, poses, impl_->shape, impl_->scene);
+  return impl_->draw(state, poses, camera, options);
 }
 
 int Renderer::width() const { return impl_->width; }

@@ -6,7 +6,8 @@
 // surface we draw is flat with face normals, so this equals per-pixel lighting, and llvmpipe
 // shades pixels on the CPU, where each instruction per pixel shows in the frame rate. Normals
 // are turned towards the eye, so a mesh's winding does not matter. Only the floor's patterns
-// (walkway stripes, slab joints) are worked out per pixel.
+// (walkway stripes, slab joints) are worked out per pixel. See-through parts (the training aid)
+// are the same surfaces at a uniform alpha, blended over what stands behind them.
 #pragma once
 
 namespace forklift::render {
@@ -39,6 +40,7 @@ inline constexpr const char* kFragmentShader = R"glsl(#version 330 core
 in vec2 v_floor;
 in vec4 v_colour;
 in float v_light;
+uniform float u_alpha;  // 1 opaque; below 1 for a see-through part (blended)
 out vec4 o_colour;
 const vec3 kStripe = vec3(0.95, 0.80, 0.10);
 void main() {
@@ -53,7 +55,7 @@ void main() {
       if (min(d.x, d.y) < 0.025) base *= 0.82;
     }
   }
-  o_colour = vec4(base * v_light, 1.0);
+  o_colour = vec4(base * v_light, u_alpha);
 }
 )glsl";
 

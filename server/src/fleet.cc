@@ -61,7 +61,8 @@ Fleet::~Fleet() {
     if (w.pid > 0) kill(w.pid, SIGTERM);
 }
 
-void Fleet::start_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s) {
+void Fleet::start_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
+                         const std::optional<std::string>& aids) {
   std::lock_guard<std::mutex> lock(mu_);
   if (static_cast<int>(workers_.size()) >= config_.max_workers)
     throw std::runtime_error("this machine already runs " + std::to_string(workers_.size()) + " workers (the limit)");
@@ -78,6 +79,7 @@ void Fleet::start_worker(const store::Session& s, const std::string& scenario_fi
                                    "--log", base + ".ctl", "--start-timeout", std::to_string(config_.start_timeout_s),
                                    "--mode", s.mode};
   if (duration_s) { args.push_back("--duration"); args.push_back(std::to_string(*duration_s)); }
+  if (aids) { args.push_back("--aids"); args.push_back(*aids); }
   if (!config_.dds_config.empty()) { args.push_back("--dds-config"); args.push_back(config_.dds_config); }
   if (secure()) { args.push_back("--security"); args.push_back(config_.security_dir); }
   args.insert(args.end(), config_.worker_args.begin(), config_.worker_args.end());
@@ -107,7 +109,7 @@ bool Fleet::abort(const std::string& session) {
   std::lock_guard<std::mutex> lock(mu_);
   auto it = workers_.find(session);
   if (it == workers_.end()) return false;
-  if (it->second.pid > 0) kill(it->second.pid, SIGTERM);
+  if (it->second.pid > 0) kill(it->second.pid, SIGUSR1);
   return true;
 }
 

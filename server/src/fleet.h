@@ -63,10 +63,13 @@ class Fleet {
   explicit Fleet(FleetConfig config);
   ~Fleet();  // stops the threads; running workers are told to stop (SIGTERM)
 
-  // Spawns the worker for a session created in the store. Throws std::runtime_error when the
-  // machine already runs max_workers, or the cab is busy.
-  void start_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s);
-  // SIGTERM to the session's worker; returns false if it has none.
+  // Spawns the worker for a session created in the store; `aids` is its --aids list (nullopt:
+  // the worker's default for the session's mode). Throws std::runtime_error when the machine
+  // already runs max_workers, or the cab is busy.
+  void start_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
+                    const std::optional<std::string>& aids = std::nullopt);
+  // The instructor's abort: SIGUSR1 to the session's worker, which ends the session with reason
+  // "aborted" (SIGTERM, the server stopping, ends it as "signal"); false if it has no worker here.
   bool abort(const std::string& session);
 
   std::vector<WorkerInfo> workers();

@@ -59,7 +59,7 @@ int main(int argc, char** argv) {
   app.add_option("--log-dir", cfg.log_dir, "where workers' logs go (default: <db>.logs/)");
   app.add_option("--max-workers", cfg.max_workers, "sim workers this machine may run at once")->check(CLI::Range(1, 256));
   app.add_option("--hang-timeout", cfg.hang_timeout_s, "kill a worker that sends no state for this long, s")->check(CLI::Range(0.5, 600.0));
-  app.add_option("--frame-fps", frame_fps, "frames each worker renders for its cab per second (0: none)")->check(CLI::Range(0.0, 120.0));
+  app.add_option("--frame-fps", frame_fps, "frames each worker renders per second while its cab asks for them (0: none)")->check(CLI::Range(0.0, 120.0));
   app.add_option("--frame-size", frame_size, "size of those frames, WxH");
   app.add_flag("--frame-jpeg", frame_jpeg, "send frames as JPEG (cabs on a real network) instead of raw RGB");
   app.add_option("--token-ttl", cfg.token_ttl_s, "how long a login lasts, s")->check(CLI::Range(1.0, 30.0 * 86400));

@@ -41,6 +41,24 @@ std::pair<store::Session, LiveView> followed(Context& ctx, const httplib::Reques
   return {s, *v};
 }
 
+// The training aids asked for ("aids": ["rear_view", ...]) as the worker's --aids list; none
+// given: the worker's default (all of them in training, none in an exam). An exam takes no aids.
+std::optional<std::string> aids_request(const json& b, const std::string& mode) {
+  if (!b.contains("aids")) return std::nullopt;
+  const json& a = b["aids"];
+  if (!a.is_array()) throw ApiError(400, "bad_request", "'aids' must be a list of rear_view, see_through_mast, chase_camera");
+  if (mode == "exam" && !a.empty())
+    throw ApiError(400, "bad_request", "an exam is taken without training aids: leave 'aids' out of an exam session");
+  std::string list;
+  for (const json& x : a) {
+    const std::string name = x.is_string() ? x.get<std::string>() : x.dump();
+    if (name != "rear_view" && name != "see_through_mast" && name != "chase_camera")
+      throw ApiError(400, "bad_request", "'aids': unknown aid " + name + " (rear_view, see_through_mast, chase_camera)");
+    if (list.find(name) == std::string::npos) list += (list.empty() ? "" : ",") + name;
+  }
+  return list.empty() ? "none" : list;
+}
+
 }  // namespace
 
 void session_routes(httplib::Server& svr, Context& ctx) {
@@ -54,6 +72,7 @@ void session_routes(httplib::Server& svr, Context& ctx) {
     const std::string scenario = field<std::string>(b, "scenario");
     const std::string scenario_path = scenario_file(ctx.data_dir, scenario);
     const std::string mode = field<std::string>(b, "mode", std::string("training"));
+    const std::optional<std::string> aids = aids_request(b, mode);
     if (mode == "exam") {
       require_role(p, {Role::kAdmin, Role::kExaminer});
       // A licence exam's result must be trusted: authenticated cab, encrypted traffic, signed log.
@@ -98,7 +117,8 @@ void session_routes(httplib::Server& svr, Context& ctx) {
       const auto [truck, load] = scenario_setup(run);
       audit(ctx.db(), p, pupil.id, "session_started",
             {{"session", s.public_id}, {"mode", mode}, {"cab", cab}, {"scenario", scenario},
-             {"time_limit_s", duration ? json(*duration) : json(nullptr)}, {"truck", truck}, {"load", load}});
+             {"time_limit_s", duration ? json(*duration) : json(nullptr)}, {"truck", truck}, {"load", load},
+             {"aids", aids ? json(*aids) : json(nullptr)}});
     });
     std::string file = scenario_path;
     if (own_copy) {
@@ -106,7 +126,7 @@ void session_routes(httplib::Server& svr, Context& ctx) {
       std::ofstream(file) << run.dump(2) << '\n';
     }
     try {
-      ctx.fleet->start_worker(s, file, duration);
+      ctx.fleet->start_worker(s, file, duration, aids);
     } catch (const std::exception& e) {
       ctx.db().set_session_state_audited(s.public_id, "failed", e.what(), store::now_iso8601(), kServerActor);
       throw ApiError(503, "no_worker", e.what());

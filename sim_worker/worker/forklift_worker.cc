@@ -1,8 +1,8 @@
 // forklift-worker: one cab's real-time simulation. Its loop reads like the pipeline:
 // take the cab's controls, step() the session tick by tick (data/session.json: 1 ms) against the wall clock
 // (dynamics, collision, pallet handling), publish the truck's state and events; frames are
-// rendered on their own clock in their own thread. Everything applied is logged so that
-// --replay reproduces it.
+// rendered on their own clock in their own thread, only while the cab asks for them. Everything
+// applied is logged so that --replay reproduces it.
 #include <CLI/CLI.hpp>
 #include <cstdlib>
 #include <atomic>
@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "forklift/dynamics/stability.h"
+#include "forklift/evaluation/evaluation.h"
 #include "forklift/protocol/protocol.h"
 #include "forklift/render/render.h"
 #include "forklift/security/evidence.h"
@@ -30,8 +31,35 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-std::atomic<bool> g_stop{false};
+std::atomic<bool> g_stop{false}, g_abort{false};
 void on_signal(int) { g_stop = true; }
+// SIGUSR1: the instructor aborted the session (the server's abort); it ends as "aborted".
+void on_abort(int) {
+  g_abort = true;
+  g_stop = true;
+}
+
+// The training aids, as TruckState.aids reports the ones granted.
+enum Aid : uint8_t { kRearView = 1, kSeeThroughMast = 2, kChaseCamera = 4 };
+const std::pair<const char*, Aid> kAidNames[] = {
+    {"rear_view", kRearView}, {"see_through_mast", kSeeThroughMast}, {"chase_camera", kChaseCamera}};
+
+// "--aids rear_view,chase_camera", "none" or "all": the set; throws std::invalid_argument naming the word.
+uint8_t parse_aids(const std::string& list) {
+  if (list == "none") return 0;
+  if (list == "all") return kRearView | kSeeThroughMast | kChaseCamera;
+  uint8_t aids = 0;
+  std::stringstream in(list);
+  std::string word;
+  while (std::getline(in, word, ',')) {
+    bool known = false;
+    for (const auto& [name, bit] : kAidNames)
+      if (word == name) { aids |= bit; known = true; }
+    if (!known)
+      throw std::invalid_argument("--aids: unknown aid '" + word + "' (rear_view, see_through_mast, chase_camera, all or none)");
+  }
+  return aids;
+}
 
 void log_line(const std::string& cab, const std::string& text) {
   std::cerr << "forklift-worker[" << cab << "]: " << text << std::endl;
@@ -56,17 +84,25 @@ int replay_main(const std::string& path) {
   return state_ok && events_ok ? 0 : 4;
 }
 
-// Frames on their own clock: the render thread owns the OSMesa context, draws the newest
-// snapshot the physics loop left, and publishes it. A renderer that cannot start costs the
-// session its frames, never the session.
+// Frames on their own clock, only while the cab asks for them (its newest control sample has
+// frames_wanted; a scripted or windowless cab, and a silent one, get none): the render thread owns
+// the OSMesa context (made when frames are first wanted), draws the newest snapshot the physics
+// loop left as the cab asked to see it, within the aids granted, and publishes it. A renderer that
+// cannot start costs the session its frames, never the session.
 class FramePublisher {
  public:
   struct Options {
-    double fps = 0;
+    double fps = 30;
     int width = 640, height = 480;
     bool jpeg = false;
     int jpeg_quality = 85;
-    View view = View::kDriver;
+    View view = View::kDriver;  // the cab's camera 0 (the driver's eye unless --view says otherwise)
+    uint8_t aids = 0;           // granted: kRearView | kSeeThroughMast | kChaseCamera
+  };
+  // What the cab asks to see (its newest good control sample); nullopt: no frames.
+  struct Request {
+    int camera = 0;
+    ViewOptions view;
   };
   FramePublisher(const SessionModel& model, dds::Participant& participant, const std::string& cab, Options opt)
       : model_(model), writer_(participant, dds::cab_partition(cab)), cab_(cab), opt_(opt) {}
@@ -84,6 +120,15 @@ class FramePublisher {
     state_.pallets = s.handling.pallets();
     t_ = s.t_s;
   }
+  // The cab's wish: frames as `r` asks, or none (nullopt). Aids not granted are ignored.
+  void ask(const std::optional<Request>& r) {
+    if (opt_.fps <= 0) return;
+    {
+      std::lock_guard<std::mutex> lock(m_);
+      request_ = r;
+    }
+    cv_.notify_all();
+  }
   void stop() {
     {
       std::lock_guard<std::mutex> lock(m_);
@@ -94,27 +139,42 @@ class FramePublisher {
   }
   long frames() const { return frames_; }
 
+  // The picture a request gets with these aids granted: an aid not granted is not drawn.
+  static std::pair<View, ViewOptions> granted(const Request& r, View camera0, uint8_t aids) {
+    ViewOptions v = r.view;
+    v.rear_view = v.rear_view && (aids & kRearView);
+    v.see_through_mast = v.see_through_mast && (aids & kSeeThroughMast);
+    const View view = r.camera == 1 && (aids & kChaseCamera) ? View::kChase : camera0;
+    return {view, v};
+  }
+
  private:
   void run() {
     std::unique_ptr<Renderer> renderer;
-    try {
-      renderer = std::make_unique<Renderer>(model_.scene, model_.shape, model_.truck, opt_.width, opt_.height);
-    } catch (const std::exception& e) {
-      log_line(cab_, std::string("no frames: ") + e.what());
-      return;
-    }
     const auto period = std::chrono::duration<double>(1.0 / opt_.fps);
     auto next = Clock::now();
     std::unique_lock<std::mutex> lock(m_);
     while (!stop_) {
+      cv_.wait(lock, [this] { return stop_ || request_.has_value(); });  // idle while nobody looks
+      if (stop_) break;
       cv_.wait_until(lock, next, [this] { return stop_; });
       if (stop_) break;
+      if (!request_) continue;  // the cab stopped asking meanwhile
       next += std::chrono::duration_cast<Clock::duration>(period);
       if (next < Clock::now()) next = Clock::now();  // a slow frame skips, never queues
       const RenderState state = state_;
       const double t = t_;
+      const auto [view, options] = granted(*request_, opt_.view, opt_.aids);
       lock.unlock();
-      publish(renderer->render(state, opt_.view), t);
+      if (!renderer) {
+        try {
+          renderer = std::make_unique<Renderer>(model_.scene, model_.shape, model_.truck, opt_.width, opt_.height);
+        } catch (const std::exception& e) {
+          log_line(cab_, std::string("no frames: ") + e.what());
+          return;
+        }
+      }
+      publish(renderer->render(state, view, options), t);
       lock.lock();
     }
   }
@@ -147,6 +207,7 @@ class FramePublisher {
   std::condition_variable cv_;
   RenderState state_;
   double t_ = 0;
+  std::optional<Request> request_;
   bool stop_ = false;
   std::atomic<long> frames_{0};
 };
@@ -179,7 +240,7 @@ int main(int argc, char** argv) {
   double rate = 60, deadman_s = 0.5, duration = 0, start_timeout = 0;
   std::optional<int> domain;
   FramePublisher::Options frames;
-  std::string frame_size = "640x480", view_name_arg = "driver", mode = "training";
+  std::string frame_size = "640x480", view_name_arg = "driver", mode = "training", aids_arg;
   app.add_option("--cab", cab, "the cab this worker drives (its controls only)");
   app.add_option("--session", session, "session id, stamped on every status and event");
   app.add_option("--scenario", scenario_file, "scenario JSON (truck, start pose, load)")->check(CLI::ExistingFile);
@@ -194,9 +255,14 @@ int main(int argc, char** argv) {
   app.add_option("--security", security_dir, "the school's DDS Security folder (scripts/forklift-pki.sh; default FORKLIFT_SECURITY_DIR)");
   app.add_option("--identity", identity, "this worker's identity in it (default worker.<cab>)");
   app.add_option("--mode", mode, "training or exam: how the evaluation marks the session")->check(CLI::IsMember({"training", "exam"}));
-  app.add_option("--fps", frames.fps, "frames rendered and published per second (0: none)")->check(CLI::Range(0.0, 240.0));
+  app.add_option("--fps", frames.fps, "frames rendered and published per second while the cab asks for them (0: none)")
+      ->check(CLI::Range(0.0, 240.0));
   app.add_option("--frame-size", frame_size, "frame size, WxH");
-  app.add_option("--view", view_name_arg, "camera: driver, chase or plan")->check(CLI::IsMember({"driver", "chase", "plan"}));
+  app.add_option("--view", view_name_arg, "the cab's camera 0: driver, chase or plan (an exam: driver only)")
+      ->check(CLI::IsMember({"driver", "chase", "plan"}));
+  app.add_option("--aids", aids_arg,
+                 "training aids a cab may ask for: a comma list of rear_view, see_through_mast, chase_camera, or all or none "
+                 "(training default: all; an exam allows none)");
   app.add_flag("--jpeg", frames.jpeg, "publish JPEG frames (for cabs on a real network) instead of raw RGB");
   app.add_option("--replay", replay_file, "re-simulate a control log with no cab and print its final state")->check(CLI::ExistingFile);
   try {
@@ -213,6 +279,17 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("--frame-size must be WxH, 16 to 4096 each");
     frames.view = parse_view(view_name_arg);
     if (identity.empty()) identity = "worker." + cab;
+    // Aids help a pupil learn; a licence exam is taken without them.
+    if (mode == "exam") {
+      if (!aids_arg.empty() && parse_aids(aids_arg) != 0)
+        throw std::invalid_argument("an exam is taken without training aids: '--aids " + aids_arg +
+                                    "' is refused (leave --aids out, or give --aids none)");
+      if (frames.view != View::kDriver)
+        throw std::invalid_argument("an exam shows the driver's own view only: '--view " + view_name_arg + "' is refused");
+      frames.aids = 0;
+    } else {
+      frames.aids = parse_aids(aids_arg.empty() ? "all" : aids_arg);
+    }
   } catch (const CLI::Error& e) {
     return app.exit(e);
   } catch (const std::exception& e) {
@@ -222,6 +299,7 @@ int main(int argc, char** argv) {
 
   std::signal(SIGTERM, on_signal);
   std::signal(SIGINT, on_signal);
+  std::signal(SIGUSR1, on_abort);
 
   // Set-up failures are reported as a failed session when DDS is up, and always on stderr.
   std::unique_ptr<dds::Participant> participant;
@@ -255,7 +333,8 @@ int main(int argc, char** argv) {
     status_writer = std::make_unique<dds::Writer<fk_SessionStatus>>(*participant);
     cab_status_writer = std::make_unique<dds::Writer<fk_SessionStatus>>(*participant, dds::cab_partition(cab));
     dds::Writer<fk_TruckState> state_writer(*participant, dds::cab_partition(cab));
-    dds::Writer<fk_Event> event_writer(*participant);
+    // Events go to the server (default partition) and to the cab, which reads only its own.
+    dds::Writer<fk_Event> event_writer(*participant), cab_event_writer(*participant, dds::cab_partition(cab));
     dds::Writer<fk_Score> score_writer(*participant);
 
     // The session: its model (loaded once), its state, the machinery that steps it.
@@ -289,6 +368,7 @@ int main(int argc, char** argv) {
       e.y_m = y;
       dds::set_string(e.details, details);
       event_writer.write(e);
+      cab_event_writer.write(e);
     };
     auto publish_event = [&](const char* kind, int worry, const std::string& details) {
       publish_at(kind, worry, state.x[kX], state.x[kY], details);
@@ -307,9 +387,13 @@ int main(int argc, char** argv) {
     std::optional<ControlSample> pending;
     Clock::time_point last_valid{};
     bool have_cab = false;
+    // What the newest good sample asks to see (frames_wanted off: nothing).
+    std::optional<FramePublisher::Request> view_request;
     auto take_controls = [&] {
       controls.take_each([&](const fk_Controls& c) {
-        ControlSample s{c.seq, c.steer_rad, c.accelerator, c.brake, c.lift, c.tilt, c.side_shift, c.horn, c.parking_brake};
+        ControlSample s{c.seq,     c.steer_rad,     c.accelerator,  c.brake,        c.lift,
+                        c.tilt,    c.side_shift,    c.horn,         c.parking_brake, c.frames_wanted,
+                        c.camera,  c.look_yaw_rad,  c.look_pitch_rad, c.rear_view,  c.see_through_mast};
         if (cab != c.cab_id) {
           ++rejected_cab;
           log_line(cab, "rejected control " + std::to_string(c.seq) + " from cab '" + std::string(c.cab_id) + "'");
@@ -323,6 +407,9 @@ int main(int argc, char** argv) {
         pending = s;
         last_valid = Clock::now();
         have_cab = true;
+        view_request.reset();
+        if (s.frames_wanted)
+          view_request = FramePublisher::Request{s.camera, {s.look_yaw_rad, s.look_pitch_rad, s.see_through_mast, s.rear_view}};
       });
     };
 
@@ -346,10 +433,14 @@ int main(int argc, char** argv) {
     log_line(cab, "session " + session + " running");
     FramePublisher frame_publisher(model, *participant, cab, frames);
     frame_publisher.offer(state);
+    frame_publisher.ask(view_request);
     frame_publisher.start();
 
     DriverInputs applied{};
     uint32_t applied_seq = 0;
+    // The time the pupil has: the scene's limit, or the session's --duration when that is shorter.
+    double time_limit_s = model.scene.time_limit_s;
+    if (duration > 0 && (time_limit_s <= 0 || duration < time_limit_s)) time_limit_s = duration;
     bool deadman = false;
     long deadman_count = 0;
     double next_state_t = 0;
@@ -372,6 +463,22 @@ int main(int argc, char** argv) {
       s.stability_margin = stability_margin(o);
       s.applied_control_sequence = applied_seq;
       s.deadman = deadman;
+      // The head-up display's figures, from the evaluation's view of this moment.
+      const BodyPoses& poses = workspace.poses();
+      const Eigen::Vector3d forks_mid = poses.carriage * Eigen::Vector3d(0.5 * model.shape.fork_length_m, 0, 0);
+      s.fork_height_m = forks_mid.z() - model.scene.ground.height(forks_mid.x(), forks_mid.y());
+      s.speed_limit_m_s = model.scene.speed_limit(o.q.head<2>()).value_or(0.0);
+      const Stability& stab = state.evaluation.stability();
+      s.stability_fraction = stab.fraction;
+      s.stability_edge = static_cast<int8_t>(stab.edge);
+      s.load_capacity_kg = state.load ? derated_capacity_kg(truck, state.load->cog_m.x()) : 0.0;
+      const size_t steps_total = model.scene.task.steps.size();
+      const size_t steps_done = std::min<size_t>(std::max(0, state.evaluation.steps_done()), steps_total);
+      s.task_steps_done = static_cast<uint16_t>(std::min<size_t>(steps_done, UINT16_MAX));
+      s.task_steps_total = static_cast<uint16_t>(std::min<size_t>(steps_total, UINT16_MAX));
+      dds::set_string(s.task_step, steps_done < steps_total ? model.scene.task.steps[steps_done].description : "");
+      s.time_left_s = time_limit_s > 0 ? std::max(0.0, time_limit_s - state.t_s) : -1.0;
+      s.aids = frames.aids;
       state_writer.write(s);
     };
 
@@ -390,6 +497,8 @@ int main(int argc, char** argv) {
         deadman = true;
         ++deadman_count;
         pending.reset();
+        view_request.reset();  // a silent cab's window gets no frames
+        frame_publisher.ask(view_request);
         // The evaluation reports it (deadman_stop) on this tick, in the log as well.
         log_line(cab, "cab silent for " + std::to_string(silence) + " s: dead-man stop");
         applied = deadman_inputs(applied, truck);
@@ -403,6 +512,7 @@ int main(int argc, char** argv) {
         log_line(cab, "controls resumed");
       }
       if (pending) {  // applied at the start of the next physics tick
+        frame_publisher.ask(view_request);
         applied = driver_inputs(*pending, truck);
         applied_seq = pending->seq;
         pending.reset();
@@ -442,6 +552,7 @@ int main(int argc, char** argv) {
     }
 
     frame_publisher.stop();
+    if (g_abort && end_reason == "signal") end_reason = "aborted";  // the instructor's abort (SIGUSR1)
     // The mark: end-of-session checks (parking, the task), then the Score, reliable and durable.
     const Score score = finish(model, state, workspace, end_reason, tick_events);
     report(tick_events);

@@ -414,6 +414,105 @@ TEST(Views, DriverLooksForwardFromTheEye) {
   EXPECT_GT(chase.eye.z(), 2.0);                              // above
 }
 
+// ---- what the driver sees: the head turned, the training aids ------------------------------
+
+TEST(Views, TheDriversHeadTurnsAndIsClampedToItsRange) {
+  const TruckShape shape = test_truck_shape();
+  const BodyPoses poses = body_poses(truck(), truck_at(0, 0, 0).q);  // facing +x
+  const Camera ahead = driver_camera(poses, shape, 0, 0);
+  const Camera plain = view_camera(View::kDriver, poses, shape, floor_scene());
+  EXPECT_LT((ahead.eye - plain.eye).norm() + (ahead.target - plain.target).norm(), 1e-12);  // the plain view
+  const Camera left = driver_camera(poses, shape, M_PI / 2, 0);
+  const Vector3d d = (left.target - left.eye).normalized();
+  EXPECT_GT(d.y(), 0.9);                 // + is left
+  EXPECT_GT(left.eye.y(), ahead.eye.y());  // the head leans towards where it looks
+  const Camera up = driver_camera(poses, shape, 0, 0.5);
+  EXPECT_GT((up.target - up.eye).normalized().z(), 0.2);
+  // Beyond the range: the range's end, and a non-finite angle looks ahead.
+  const Camera far = driver_camera(poses, shape, 10, -10), end = driver_camera(poses, shape, kLookYawMaxRad, -kLookPitchMaxRad);
+  EXPECT_LT((far.target - end.target).norm() + (far.eye - end.eye).norm(), 1e-12);
+  const Camera nan = driver_camera(poses, shape, NAN, NAN);
+  EXPECT_LT((nan.target - ahead.target).norm(), 1e-12);
+  // The mirror looks back from the eye.
+  const Camera mirror = mirror_camera(poses, shape);
+  EXPECT_LT((mirror.eye - poses.chassis * shape.eye_m).norm(), 1e-12);
+  EXPECT_LT((mirror.target - mirror.eye).normalized().x(), -0.9);
+}
+
+TEST(Renderer, TurningTheHeadLeftBringsARackOnTheLeftIntoView) {
+  Scene scene = floor_scene();
+  SceneObject rack = rack_at(-0.75, 6);  // beside the driver, on the left, its face towards the truck
+  rack.pose = pose_at(-0.75, 6, M_PI / 2);
+  scene.objects.push_back(rack);
+  Renderer r(scene, test_truck_shape(), truck());
+  const RenderState state = truck_at(0, 0, 0);
+  const Image ahead = r.render(state, View::kDriver, ViewOptions{});
+  const Image left = r.render(state, View::kDriver, ViewOptions{M_PI / 2, 0, false, false});
+  dump("look_left", left);
+  EXPECT_LT(fraction(ahead, 0, 0, 1, 1, reddish), 0.01);
+  EXPECT_GT(fraction(left, 0.3, 0.3, 0.55, 0.55, reddish), 0.8);
+}
+
+// A truck whose mast has a solid panel right in front of the driver's eyes, with forks of its own
+// in the carriage mesh ("fork..."): what the see-through aid may and may not make translucent.
+TruckShape panel_mast_shape() {
+  TruckShape shape = test_truck_shape();
+  const Vector3f grey{0.35f, 0.35f, 0.38f}, green{0.10f, 0.80f, 0.15f};  // green forks: told apart from the grey
+  shape.mast = box_mesh({{"mast_panel", box(0, -0.45, 0.2, 0.1, 0.45, 2.4), grey}});
+  shape.carriage = box_mesh({{"plate", box(-0.12, -0.45, -0.05, -0.04, 0.45, 0.45), grey},
+                             {"fork_left", box(-0.04, 0.13, -0.04, 1.1, 0.23, 0), green},
+                             {"fork_right", box(-0.04, -0.23, -0.04, 1.1, -0.13, 0), green}});
+  return shape;
+}
+
+TEST(Renderer, SeeThroughMastShowsTheRackBehindItAndKeepsTheForksSolid) {
+  Scene scene = floor_scene();
+  scene.objects.push_back(rack_at(6, 0));
+  Renderer r(scene, panel_mast_shape(), truck());
+  const RenderState state = truck_at(0, 0, 0);
+  const Image plain = r.render(state, View::kDriver, ViewOptions{});
+  const Image through = r.render(state, View::kDriver, ViewOptions{0, 0, true, false});
+  dump("mast_plain", plain);
+  dump("mast_see_through", through);
+  // The panel hides the rack ahead; see-through, the rack shows through it.
+  EXPECT_LT(fraction(plain, 0.4, 0.25, 0.6, 0.45, reddish), 0.05);
+  EXPECT_GT(fraction(through, 0.4, 0.25, 0.6, 0.45, reddish), 0.7);
+  // The forks are drawn as solid in both (seen from behind and above, past the mast).
+  Renderer chase(scene, panel_mast_shape(), truck());
+  const Image c_plain = chase.render(state, View::kChase, ViewOptions{});
+  const Image c_through = chase.render(state, View::kChase, ViewOptions{0, 0, true, false});
+  dump("mast_chase_see_through", c_through);
+  // Solid green: the forks' own colour, not a blend of it with the floor behind.
+  auto greenish = [](const uint8_t* p) { return p[1] > 60 && p[1] > 2.5 * p[0] && p[1] > 2.5 * p[2]; };
+  const double forks_plain = fraction(c_plain, 0, 0, 1, 1, greenish), forks_through = fraction(c_through, 0, 0, 1, 1, greenish);
+  EXPECT_GT(forks_plain, 0.0005);
+  EXPECT_GE(forks_through, forks_plain);  // as many, or more where the mast hid them
+}
+
+TEST(Renderer, RearViewInsetShowsWhatIsBehindMirroredAtTheTopCentre) {
+  Scene scene = floor_scene();
+  scene.objects.push_back(rack_at(-7, 1.5));  // behind the truck, to its left
+  Renderer r(scene, test_truck_shape(), truck());
+  const RenderState state = truck_at(0, 0, 0);
+  const Image plain = r.render(state, View::kDriver, ViewOptions{});
+  const Image mirror = r.render(state, View::kDriver, ViewOptions{0, 0, false, true});
+  dump("rear_view", mirror);
+  // The inset: about the middle third of the width, near the top.
+  const double x0 = 0.33, x1 = 0.67, y0 = 0.04, y1 = 0.19;
+  EXPECT_EQ(fraction(plain, 0, 0, 1, 1, reddish), 0.0);  // nothing red ahead
+  EXPECT_GT(fraction(mirror, x0, y0, x1, y1, reddish), 0.1);
+  EXPECT_EQ(fraction(mirror, 0, 0.3, 1, 1, reddish), 0.0);  // nowhere else
+  // A mirror shows the truck's left on the left: the rack's pixels in the inset's left half.
+  int left = 0, right = 0;
+  for (int y = int(y0 * mirror.height); y < int(y1 * mirror.height); ++y)
+    for (int x = int(x0 * mirror.width); x < int(x1 * mirror.width); ++x)
+      if (reddish(mirror.pixel(x, y))) ++(x < mirror.width / 2 ? left : right);
+  EXPECT_GT(left, 4 * right) << left << " left, " << right << " right";
+  // Below the inset the picture is the plain one, byte for byte.
+  const size_t row = size_t(mirror.width) * 3, from = size_t(0.3 * mirror.height) * row;
+  EXPECT_TRUE(std::equal(plain.rgb.begin() + from, plain.rgb.end(), mirror.rgb.begin() + from));
+}
+
 // ---- image files ----------------------------------------------------------------------------
 
 Image rendered_still() {

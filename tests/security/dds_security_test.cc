@@ -1,6 +1,7 @@
 // DDS Security between real processes on loopback: a school's CA and identities made by
 // scripts/forklift-pki.sh, a sim worker in exam mode, and cabs with the right identity, none,
-// another cab's, one from another CA, and a revoked one. Domains 130-139 are this file's.
+// another cab's, one from another CA, and a revoked one. Domains 130-139 are this file's, and 65
+// (the exam's training aids).
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -14,6 +15,7 @@
 #include <unistd.h>
 
 #include "forklift/image/image.h"
+#include "forklift/protocol/protocol.h"
 #include "support/process.h"
 #include "support/temp_dir.h"
 
@@ -137,6 +139,61 @@ TEST_F(SecuredExam, RevokedCabIsRefusedByTheWorker) {
   Process again = cab(134, "revoked-again", {"--security", school_copy});
   EXPECT_EQ(again.wait(30), 2);
   EXPECT_NE(again.err().find("revoked"), std::string::npos) << again.err();
+}
+
+// An exam worker grants no training aid whatever its cab asks: TruckState.aids is 0, and the
+// frame of a cab asking for the mirror, the see-through mast and the chase camera is the plain
+// driver's view, told apart from a training worker's frame with its mirror.
+TEST_F(SecuredExam, AnExamWorkerGrantsNoAidWhateverTheCabAsks) {
+  struct Seen {
+    std::vector<uint8_t> frame;
+    int aids = -1;
+  };
+  auto session = [&](const std::string& name, const std::string& mode, bool ask_everything) {
+    Process w({kBin + "/forklift-worker", "--cab", "cab1", "--session", "s-" + name, "--mode", mode, "--security", school(),
+               "--dds-domain", "65", "--log", tmp(name + ".ctl"), "--frame-size", "320x240", "--duration", "4"},
+              tmp(name + ".worker"));
+    // The cab, enrolled: cab1's identity, its own partition.
+    dds::Participant p(dds::DomainSettings::resolve(65, "", school(), "cab.cab1"));
+    dds::Writer<fk_Controls> controls(p, dds::cab_partition("cab1"));
+    dds::Reader<fk_TruckState> states(p, dds::cab_partition("cab1"));
+    dds::Reader<fk_Frame> frames(p, dds::cab_partition("cab1"));
+    for (int i = 0; i < 2000 && controls.matched() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    EXPECT_GT(controls.matched(), 0u) << w.err();
+    fk_Controls c{};
+    dds::set_string(c.cab_id, "cab1");
+    c.frames_wanted = true;
+    c.rear_view = true;
+    c.see_through_mast = ask_everything;
+    c.camera = ask_everything ? 1 : 0;
+    Seen seen;
+    for (uint32_t seq = 1; seq <= 75; ++seq) {  // 1.5 s
+      c.seq = seq;
+      controls.write(c);
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      states.take_each([&](const fk_TruckState& t) { seen.aids = t.aids; });
+      frames.take_each([&](const fk_Frame& f) { seen.frame.assign(f.pixels._buffer, f.pixels._buffer + f.pixels._length); });
+    }
+    EXPECT_EQ(w.wait(30), 0) << w.err();
+    return seen;
+  };
+  const Seen exam = session("aids-exam", "exam", true);
+  const Seen training = session("aids-training", "training", false);
+  EXPECT_EQ(exam.aids, 0);
+  EXPECT_EQ(training.aids, 7);
+  ASSERT_EQ(exam.frame.size(), 320u * 240 * 3);
+  ASSERT_EQ(training.frame.size(), exam.frame.size());
+  auto mean_diff = [&](int y0, int y1, int x0, int x1) {
+    double sum = 0;
+    long n = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x)
+        for (int k = 0; k < 3; ++k, ++n)
+          sum += std::abs(int(exam.frame[(y * 320 + x) * 3 + k]) - int(training.frame[(y * 320 + x) * 3 + k]));
+    return sum / n;
+  };
+  EXPECT_GT(mean_diff(10, 45, 120, 200), 10.0) << "the exam frame has no mirror where the training frame has one";
+  EXPECT_LT(mean_diff(80, 240, 0, 320), 1.0) << "and is otherwise the driver's plain view: no chase camera, no see-through mast";
 }
 
 TEST_F(SecuredExam, ExamModeRefusesToStartWithoutSecurity) {

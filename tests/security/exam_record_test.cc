@@ -69,9 +69,11 @@ class RemoteExam : public testing::Test {
     e.id = sess.value("id", "");
     return e;
   }
+  // The cab saves its frames, so it asks the worker for them (frames_wanted), as a cab with a
+  // window does: the examiner's live view has frames to show.
   Process cab(int domain, const std::string& name) {
     return Process({kBin + "/forklift-cab", "--cab", "examcab", "--script", kScript, "--no-window", "--security", pki(),
-                    "--dds-domain", std::to_string(domain), "--wait-worker", "30"},
+                    "--dds-domain", std::to_string(domain), "--wait-worker", "30", "--save-frame", tmp(name + ".png")},
                    tmp(name));
   }
   // forklift-menu verify, with the examiner's token and the school's CA: exit code and output.

@@ -1,16 +1,19 @@
 // The API's handlers in this process: forklift_server_core mounted on an httplib::Server in a
 // thread, on a loopback port the OS picks, over a real SQLite file in a fresh folder; the tests
-// talk real HTTP. No worker ever starts: the bin folder given is empty, and every session request
-// here is refused before one would be spawned.
+// talk real HTTP. No real worker ever starts: the bin folder given is empty, and every session
+// request here is refused before one would be spawned, but in the tests that put a stand-in
+// forklift-worker there (a shell script that writes down its arguments and the signal it got).
 #include <gtest/gtest.h>
 #include <httplib.h>
 
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
+#include <tuple>
 
 #include "forklift/server/server.h"
 #include "support/api_client.h"
@@ -21,7 +24,7 @@ using nlohmann::json;
 
 namespace {
 
-// DDS domains 150-159 are this file's (the fleet joins one even with no cab about).
+// DDS domains 150-159 are this file's, and 67-68 (the fleet joins one even with no cab about).
 struct InProcessServer : forklift_test::ApiClient {
   std::string dir;
   std::unique_ptr<forklift::server::Api> api;
@@ -235,4 +238,74 @@ TEST(Handlers, AnOverflowingNumberIsBadJsonNot500) {
                         R"({"pupil_id": )" + pupil["id"].dump() + R"(, "cab_id": "cab1", "scenario": "manoeuvre_1", "load": {"mass_kg": 1e999}})");
   EXPECT_EQ(st, 400) << j;
   EXPECT_EQ(error_code(j), "bad_json");
+}
+
+TEST(Handlers, AidsAreRefusedInAnExamAndCheckedInTraining) {
+  InProcessServer s("aids-refused", 67);
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json pupil = s.add_pupil(admin, "Gil");
+  const auto start = [&](const std::string& mode, const json& aids) {
+    return s.call("POST", "/api/sessions", admin,
+                  json{{"pupil_id", pupil["id"]}, {"cab_id", "cab1"}, {"scenario", "manoeuvre_1"}, {"mode", mode}, {"aids", aids}}.dump());
+  };
+  const std::tuple<const char*, json, const char*> bad[] = {
+      {"exam", json::array({"rear_view"}), "an exam is taken without training aids: leave 'aids' out of an exam session"},
+      {"training", json::array({"rear_view", "autopilot"}), "'aids': unknown aid autopilot (rear_view, see_through_mast, chase_camera)"},
+      {"training", "rear_view", "'aids' must be a list of rear_view, see_through_mast, chase_camera"},
+      {"training", json::array({7}), "'aids': unknown aid 7 (rear_view, see_through_mast, chase_camera)"},
+  };
+  for (const auto& [mode, aids, message] : bad) {
+    auto [st, j] = start(mode, aids);
+    EXPECT_EQ(st, 400) << aids << ": " << j;
+    EXPECT_EQ(error_code(j), "bad_request") << aids;
+    EXPECT_EQ(j["error"]["message"], message) << aids;
+  }
+  EXPECT_EQ(s.call("GET", pupil_path(pupil) + "/history", admin).second["sessions"].size(), 0u);
+}
+
+// A stand-in worker: writes its arguments to <bin>/worker.args, and on SIGUSR1 (the abort) or
+// SIGTERM writes which it was to <bin>/worker.signal and exits.
+void stand_in_worker(const std::string& bin) {
+  const std::string path = bin + "/forklift-worker";
+  std::ofstream(path) << "#!/bin/sh\n"
+                         "echo \"$@\" > \"$(dirname \"$0\")/worker.args\"\n"
+                         "trap 'echo USR1 > \"$(dirname \"$0\")/worker.signal\"; exit 0' USR1\n"
+                         "trap 'echo TERM > \"$(dirname \"$0\")/worker.signal\"; exit 0' TERM\n"
+                         "while :; do sleep 0.05; done\n";
+  std::filesystem::permissions(path, std::filesystem::perms::owner_all);
+}
+
+std::string wait_for_file(const std::string& path) {
+  for (int i = 0; i < 500; ++i) {
+    std::ifstream in(path);
+    std::string text;
+    if (in && std::getline(in, text) && !text.empty()) return text;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return "";
+}
+
+TEST(Handlers, TrainingAidsReachTheSpawnedWorkerAndAnAbortIsSignalledAsSuch) {
+  InProcessServer s("aids-spawn", 68);
+  stand_in_worker(s.dir + "/bin");
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json pupil = s.add_pupil(admin, "Hal");
+  auto [st, j] = s.call("POST", "/api/sessions", admin,
+                        json{{"pupil_id", pupil["id"]}, {"cab_id", "cab1"}, {"scenario", "manoeuvre_1"},
+                             {"aids", {"rear_view", "chase_camera", "rear_view"}}}.dump());
+  ASSERT_EQ(st, 201) << j;
+  const std::string args = wait_for_file(s.dir + "/bin/worker.args");
+  EXPECT_NE(args.find("--mode training"), std::string::npos) << args;
+  EXPECT_NE((args + " ").find("--aids rear_view,chase_camera "), std::string::npos) << args;  // once each, in order
+  // The audit log keeps what was asked for (the session's record has no column for it).
+  bool audited = false;
+  for (const json& a : s.audit(admin))
+    if (a.value("action", "") == "session_started") audited = a["details"]["aids"] == "rear_view,chase_camera";
+  EXPECT_TRUE(audited) << s.audit(admin);
+
+  // The instructor's abort is SIGUSR1, which the worker ends as "aborted" (SIGTERM: "signal").
+  auto [ast, aj] = s.call("POST", "/api/sessions/" + j["id"].get<std::string>() + "/abort", admin);
+  ASSERT_EQ(ast, 200) << aj;
+  EXPECT_EQ(aj["state"], "aborted");
+  EXPECT_EQ(wait_for_file(s.dir + "/bin/worker.signal"), "USR1");
 }

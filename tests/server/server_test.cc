@@ -7,8 +7,10 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <sstream>
 #include <thread>
 
+#include "forklift/protocol/protocol.h"
 #include "support/process.h"
 #include "support/server.h"
 
@@ -168,4 +170,60 @@ TEST(Server, RestartMidSessionLosesAndDoublesNoEvent) {
   for (const auto& e : done["events"]) EXPECT_TRUE(seqs.insert(e["seq"].get<int64_t>()).second) << "doubled " << e;
   ASSERT_GE(seqs.size(), 5u) << done;
   EXPECT_EQ(*seqs.rbegin(), static_cast<int64_t>(seqs.size()));  // 1..N: none lost
+}
+
+// The instructor's abort, end to end: the server signals the worker, which ends the session as
+// "aborted" and tells the cab so in its own partition (the cab says "aborted by your
+// instructor"); the session stays aborted, by whom, and the worker's mark says why it ended.
+TEST(Server, AnAbortedSessionEndsAsAbortedAndTheCabIsToldWhy) {
+  Server s(18160, 64, "abort");
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json pupil = s.call("POST", "/api/pupils", admin, R"({"name":"Ida"})").second;
+  auto [st, sess] = s.call("POST", "/api/sessions", admin,
+                           json{{"pupil_id", pupil["id"]}, {"cab_id", "abortcab"}, {"scenario", "manoeuvre_1"}}.dump());
+  ASSERT_EQ(st, 201) << sess;
+  const std::string id = sess["id"];
+  // The cab: this test, in the cab's partition only.
+  forklift::dds::Participant p(forklift::dds::DomainSettings::resolve(64, ""));
+  forklift::dds::Writer<fk_Controls> controls(p, forklift::dds::cab_partition("abortcab"));
+  forklift::dds::Reader<fk_SessionStatus> status(p, forklift::dds::cab_partition("abortcab"));
+  fk_Controls c{};
+  forklift::dds::set_string(c.cab_id, "abortcab");
+  std::string state, reason;
+  auto hear = [&] {
+    status.take_each([&](const fk_SessionStatus& x) {
+      if (std::string(x.session_id) == id) { state = x.state; reason = x.reason; }
+    });
+  };
+  for (uint32_t seq = 1; seq < 1000 && state != "running"; ++seq) {
+    c.seq = seq;
+    controls.write(c);
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    hear();
+  }
+  ASSERT_EQ(state, "running");
+  auto [ast, aborted] = s.call("POST", "/api/sessions/" + id + "/abort", admin);
+  ASSERT_EQ(ast, 200) << aborted;
+  for (int i = 0; i < 500 && state != "ended"; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    hear();
+  }
+  EXPECT_EQ(state, "ended");
+  EXPECT_EQ(reason, "aborted");
+  // The worker has gone; the record keeps the instructor's abort.
+  size_t workers = 1;
+  for (int i = 0; i < 100 && workers > 0; ++i) {
+    workers = s.call("GET", "/api/fleet", admin).second["workers"].size();
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_EQ(workers, 0u);
+  const json after = s.call("GET", "/api/sessions/" + id, admin).second;
+  EXPECT_EQ(after["state"], "aborted");
+  EXPECT_EQ(after["reason"], "aborted by admin");
+  std::ifstream out(s.db + ".logs/" + id + ".out");
+  std::stringstream text;
+  text << out.rdbuf();
+  const json worker_out = json::parse(text.str(), nullptr, false);
+  ASSERT_TRUE(worker_out.is_object()) << text.str();
+  EXPECT_EQ(worker_out["score"]["end_reason"], "aborted");
 }

@@ -224,8 +224,11 @@ try {
   const noWindow = supports(cabBin, '--no-window') ? ['--no-window'] : [];
   start('cab', cabBin, ['--cab', 'webcab1', '--script', script, '--dds-domain', String(domain), '--wait-worker', '90',
                         '--security', pki, ...noWindow]);
+  // The exam's cab saves its frames, so it asks the worker for them (as a cab with a window does):
+  // the examiner's live view has frames to show.
   start('cab2', cabBin, ['--cab', 'webcab2', '--script', path.join(args.data, 'manoeuvres', 'manoeuvre_1.csv'),
-                         '--dds-domain', String(domain), '--wait-worker', '90', '--security', pki, ...noWindow]);
+                         '--dds-domain', String(domain), '--wait-worker', '90', '--security', pki, ...noWindow,
+                         '--save-frame', path.join(out, 'webcab2-last-frame.png')]);
 
   await step('the cabs come on line', async () => {
     for (let i = 0; i < 100; i++) {

@@ -10,7 +10,9 @@ std::optional<std::string> control_problem(const ControlSample& c, const TruckPa
   const double stop = truck.steer.max_rad;  // the truck file's end stops
   const Field fields[] = {{"steer_rad", c.steer_rad, -stop, stop},  {"accelerator", c.accelerator, -1, 1},
                           {"brake", c.brake, 0, 1},               {"lift", c.lift, -1, 1},
-                          {"tilt", c.tilt, -1, 1},                {"side_shift", c.side_shift, -1, 1}};
+                          {"tilt", c.tilt, -1, 1},                {"side_shift", c.side_shift, -1, 1},
+                          {"look_yaw_rad", c.look_yaw_rad, -kLookYawMaxRad, kLookYawMaxRad},
+                          {"look_pitch_rad", c.look_pitch_rad, -kLookPitchMaxRad, kLookPitchMaxRad}};
   for (const Field& f : fields) {
     if (!std::isfinite(f.value)) return std::string(f.name) + " is not finite";
     if (f.value < f.lo || f.value > f.hi) {
@@ -19,6 +21,7 @@ std::optional<std::string> control_problem(const ControlSample& c, const TruckPa
       return s.str();
     }
   }
+  if (c.camera != 0 && c.camera != 1) return "camera = " + std::to_string(c.camera) + " is neither 0 (driver) nor 1 (chase)";
   return std::nullopt;
 }
 

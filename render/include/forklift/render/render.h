@@ -26,6 +26,22 @@ struct Camera {
 // Where each view's camera is for the truck at these body poses.
 Camera view_camera(View view, const BodyPoses& poses, const TruckShape& shape, const Scene& scene);
 
+// What the driver does with the picture beyond choosing a view: where the head is turned (driver
+// view only) and the training aids. The default is the plain view.
+struct ViewOptions {
+  double look_yaw_rad = 0;    // + left, clamped to +-kLookYawMaxRad (scene.h)
+  double look_pitch_rad = 0;  // + up, clamped to +-kLookPitchMaxRad
+  bool see_through_mast = false;  // mast, carriage frame and overhead guard translucent; forks and load solid
+  bool rear_view = false;         // a mirror inset at the top centre: from the eye, looking back, mirrored
+};
+
+// The driver's eye (the truck file's shape.eye_m) with the head turned: yaw about the chassis's
+// up axis, pitch about its left axis, from the plain driver view's slight downward look; the head
+// leans a little towards where it turns, so the driver sees round the mast.
+Camera driver_camera(const BodyPoses& poses, const TruckShape& shape, double look_yaw_rad, double look_pitch_rad);
+// The rear-view mirror's camera: from the eye, looking back along the truck (drawn mirrored).
+Camera mirror_camera(const BodyPoses& poses, const TruckShape& shape);
+
 // Everything that moves, at one instant.
 struct RenderState {
   CoordVector q = CoordVector::Zero();  // the truck's 13 coordinates
@@ -44,6 +60,8 @@ class Renderer {
 
   const Image& render(const RenderState& state, View view);
   const Image& render(const RenderState& state, const Camera& camera);
+  // The view as `options` change it (the worker's frames for its cab).
+  const Image& render(const RenderState& state, View view, const ViewOptions& options);
   int width() const;
   int height() const;
 

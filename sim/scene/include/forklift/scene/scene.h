@@ -151,6 +151,11 @@ struct TruckShape {
   Eigen::Vector3d eye_m = Eigen::Vector3d(-0.75, 0.0, 1.75);
 };
 
+// How far the driver may turn the head from straight ahead at the eye point (the ranges of
+// protocol/idl/Forklift.idl's look_yaw_rad and look_pitch_rad: the cab checks, the renderer clamps).
+inline constexpr double kLookYawMaxRad = 2.6;    // + left
+inline constexpr double kLookPitchMaxRad = 0.6;  // + up
+
 struct Scene {
   std::string file, name, description;
   Scenario scenario;  // truck file, start pose, initial load (scenario.h)
