@@ -175,6 +175,26 @@ TEST_F(PedalSet, UnpluggingItMidDriveBrakesTheTruck) {
   EXPECT_FALSE(pump().controller_lost);
 }
 
+TEST_F(PedalSet, ACalibratedPedalReadsItsOwnRestAsZeroAndItsStopAsFull) {
+  // A worn pedal set: the accelerator rests 20% down and stops at 80% (readings of SDL's trigger,
+  // 0 at one end of the raw axis and 1 at the other), as `forklift-cab --calibrate` records it.
+  Calibration cal;
+  cal["righttrigger"] = AxisCalibration{0.2, 0.8, -1};
+  input_ = std::make_unique<CabInput>(input_settings(cab_json()),
+                                      load_controller_map(std::string(FORKLIFT_DATA_DIR) + "/cab/controllers.json"), cal);
+  SDL_JoystickClose(joystick_);
+  joystick_ = nullptr;
+  SDL_JoystickDetachVirtual(index_);
+  pump();
+  plug();
+  set(kAccelerator, -1 + 2 * 0.2);  // at rest
+  EXPECT_EQ(pump().drive(), 0);
+  set(kAccelerator, -1 + 2 * 0.8);  // at its stop
+  EXPECT_NEAR(pump().drive(), 1, 0.01);
+  set(kAccelerator, -1 + 2 * 0.5);  // half way between them
+  EXPECT_NEAR(pump().drive(), apply_dead_zone(0.5, 0.05), 0.01);
+}
+
 TEST(ControllerMap, ABrokenMapIsRefusedWithTheKeyNamed) {
   const std::string path = forklift_test::process_path("cab", "bad_map.json");
   std::ofstream(path) << R"({"dead_zone": 0.1, "pedal_dead_zone": 0.05, "axes": {"steer": {"axis": "wheel"}}, "buttons": {}})";

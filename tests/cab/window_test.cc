@@ -5,6 +5,7 @@
 
 #include <cstdlib>
 #include <fstream>
+#include <sstream>
 
 #include <nlohmann/json.hpp>
 
@@ -137,6 +138,31 @@ TEST_F(CabWindow, KeysHeldInTheWindowDriveTheTruckAsADriverExpects) {
   const forklift::Image img = forklift::read_png(shot);
   EXPECT_EQ(img.width, 960);
   EXPECT_EQ(img.height, 720);
+}
+
+TEST_F(CabWindow, SigtermClosesTheCabAndTheWorkerBrakesOnTheSilence) {
+  Process w = worker("kc3", 72, "first_drive_yard", 40);
+  const std::string trace = tmp("kc3.trace");
+  Process cab({kBin + "/forklift-cab", "--cab", "kc3", "--keyboard", "--no-sound", "--dds-domain", "72", "--wait-worker",
+               "30", "--trace", trace},
+              tmp("kc3.cab"));
+  xdotool("kc3", {"sleep", "1", "keydown", "Up", "sleep", "1"});
+  cab.signal(SIGTERM);  // with Up still held
+  EXPECT_EQ(cab.wait(10), 0) << cab.err();
+  Process up({"/usr/bin/xdotool", "keyup", "Up"}, tmp("kc3.keyup"));
+  up.wait(10);
+  // The worker's log: the dead man takes over once the cab has gone silent.
+  bool deadman = false;
+  for (int i = 0; i < 300 && !deadman; ++i) {
+    std::ifstream log(tmp("kc3.ctl"));
+    std::stringstream text;
+    text << log.rdbuf();
+    deadman = text.str().find("\ndm ") != std::string::npos;
+    if (!deadman) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  EXPECT_TRUE(deadman) << "no dead-man record in the log";
+  w.signal(SIGTERM);
+  EXPECT_EQ(w.wait(30), 0) << w.err();
 }
 
 TEST_F(CabWindow, ACollisionsWarningIsOnTheDisplayWithinHalfASecond) {
