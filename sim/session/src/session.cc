@@ -74,7 +74,7 @@ SessionState initial_state(const SessionModel& m) {
   return s;
 }
 
-SessionState initial_state(const SessionModel& m, const LogHeader& h) {
+SessionState initial_state(const SessionModel&, const LogHeader& h) {
   SessionState s;
   s.x = h.initial;
   s.load = h.load;
