@@ -87,26 +87,30 @@ class Trace {
   std::ofstream out_;
 };
 
-// Key press to the first frame rendered from a state that had applied it.
+// Key press to the first frame rendered from a state that had applied it, with the parts: to the
+// truck state that applied it, to the frame's arrival, to its presentation.
 class Latency {
  public:
+  struct Measure {
+    double total_s, state_s, frame_s;
+  };
   void key(double t) {
     if (!pending_key_) pending_key_ = t;
   }
   void sent(uint32_t seq) {
-    if (pending_key_) waits_.push_back({*pending_key_, seq, -1});
+    if (pending_key_) waits_.push_back({*pending_key_, seq, -1, 0});
     pending_key_.reset();
   }
-  void applied(uint32_t seq, double sim_t) {
+  void applied(uint32_t seq, double sim_t, double t) {
     for (Wait& w : waits_)
-      if (w.state_sim_t < 0 && seq >= w.seq) w.state_sim_t = sim_t;
+      if (w.state_sim_t < 0 && seq >= w.seq) w.state_sim_t = sim_t, w.state_t = t;
   }
-  // A frame of sim time `frame_sim_t` was presented at `t`: the latencies it completes.
-  std::vector<double> presented(double frame_sim_t, double t) {
-    std::vector<double> done;
+  // A frame of sim time `frame_sim_t`, received at `received`, was presented at `shown`.
+  std::vector<Measure> presented(double frame_sim_t, double received, double shown) {
+    std::vector<Measure> done;
     for (auto it = waits_.begin(); it != waits_.end();) {
       if (it->state_sim_t >= 0 && frame_sim_t >= it->state_sim_t - 1e-9) {
-        done.push_back(t - it->key_t);
+        done.push_back({shown - it->key_t, it->state_t - it->key_t, received - it->key_t});
         it = waits_.erase(it);
       } else {
         ++it;
@@ -117,12 +121,23 @@ class Latency {
   }
   std::string report() const {
     if (all_.empty()) return "input to photon: no key presses measured";
-    std::vector<double> v = all_;
-    std::sort(v.begin(), v.end());
-    auto q = [&](double p) { return v[std::min(v.size() - 1, size_t(p * (v.size() - 1) + 0.5))]; };
-    char buf[160];
-    std::snprintf(buf, sizeof buf, "input to photon: %zu key presses, median %.1f ms, p99 %.1f ms, max %.1f ms", v.size(),
-                  1e3 * q(0.5), 1e3 * q(0.99), 1e3 * v.back());
+    auto stats = [&](double Measure::*part, double& median, double& p99) {
+      std::vector<double> v;
+      for (const Measure& m : all_) v.push_back(m.*part);
+      std::sort(v.begin(), v.end());
+      auto q = [&](double p) { return v[std::min(v.size() - 1, size_t(p * (v.size() - 1) + 0.5))]; };
+      median = 1e3 * q(0.5);
+      p99 = 1e3 * q(0.99);
+    };
+    double tm, tp, sm, sp, fm, fp;
+    stats(&Measure::total_s, tm, tp);
+    stats(&Measure::state_s, sm, sp);
+    stats(&Measure::frame_s, fm, fp);
+    char buf[256];
+    std::snprintf(buf, sizeof buf,
+                  "input to photon: %zu key presses, median %.1f ms, p99 %.1f ms (to the truck state: %.1f / %.1f ms, "
+                  "to the frame's arrival: %.1f / %.1f ms)",
+                  all_.size(), tm, tp, sm, sp, fm, fp);
     return buf;
   }
 
@@ -130,11 +145,11 @@ class Latency {
   struct Wait {
     double key_t;
     uint32_t seq;
-    double state_sim_t;
+    double state_sim_t, state_t;
   };
   std::optional<double> pending_key_;
   std::vector<Wait> waits_;
-  std::vector<double> all_;
+  std::vector<Measure> all_;
 };
 
 // The terminal as a keyboard (--keyboard --no-window): a terminal sends no key-ups, so a key
@@ -269,6 +284,8 @@ class CabProgram {
   std::string session_;
   std::optional<double> ended_at_;
   bool capture_next_ = false;
+  bool edge_ = false;
+  double frame_received_t_ = 0;  // a driving key went down or up this pass: send at once
   std::vector<std::string> last_texts_;
   Latency latency_;
   std::string mode_;
@@ -320,11 +337,11 @@ fk_Controls CabProgram::controls_from(const CabCommand& c) const {
   return s;
 }
 
-bool same_command(const fk_Controls& a, const fk_Controls& b) {
-  return a.steer_rad == b.steer_rad && a.accelerator == b.accelerator && a.brake == b.brake && a.lift == b.lift &&
-         a.tilt == b.tilt && a.side_shift == b.side_shift && a.horn == b.horn && a.parking_brake == b.parking_brake &&
-         a.frames_wanted == b.frames_wanted && a.camera == b.camera && a.look_yaw_rad == b.look_yaw_rad &&
-         a.look_pitch_rad == b.look_pitch_rad && a.rear_view == b.rear_view && a.see_through_mast == b.see_through_mast;
+// The on/off parts of a sample: a change in one is sent at once.
+bool same_switches(const fk_Controls& a, const fk_Controls& b) {
+  return a.horn == b.horn && a.parking_brake == b.parking_brake && a.frames_wanted == b.frames_wanted &&
+         a.camera == b.camera && a.rear_view == b.rear_view && a.see_through_mast == b.see_through_mast &&
+         (a.accelerator == 0) == (b.accelerator == 0) && (a.brake == 0) == (b.brake == 0);
 }
 
 void CabProgram::send(const fk_Controls& in) {
@@ -367,6 +384,7 @@ void CabProgram::pump_events() {
     }
     const bool driving_key = (e.type == SDL_KEYDOWN || e.type == SDL_KEYUP) && !e.key.repeat;
     if (input_.handle(e) && driving_key) {
+      edge_ = true;
       latency_.key(now());
       trace_.write({{"type", "key"}, {"key", SDL_GetScancodeName(e.key.keysym.scancode)},
                     {"down", e.type == SDL_KEYDOWN}},
@@ -394,7 +412,7 @@ void CabProgram::take_dds() {
     if (o_.cab_id != s.cab_id) return;
     hud_.on_state(s);
     if (session_.empty()) session_ = s.session_id;
-    latency_.applied(s.applied_control_sequence, s.sim_time_s);
+    latency_.applied(s.applied_control_sequence, s.sim_time_s, t);
     trace_.write({{"type", "state"}, {"sim_time_s", s.sim_time_s}, {"speed_m_s", s.speed_m_s}, {"yaw_rad", s.yaw_rad},
                   {"x_m", s.x_m}, {"y_m", s.y_m}, {"steer_rad", s.steer_rad}, {"applied", s.applied_control_sequence},
                   {"aids", s.aids}, {"stability_fraction", s.stability_fraction}},
@@ -432,7 +450,9 @@ void CabProgram::draw(bool fresh_frame) {
   const double t = now();
   hud_.set_command(input_.command());
   if (!window_) return;
-  if (!fresh_frame && t - last_draw_t_ < 1.0 / 30) return;
+  // A new frame is shown at once; without one the display is redrawn 10 times a second (its
+  // clock and messages), which leaves the cores to the worker.
+  if (!fresh_frame && t - last_draw_t_ < 0.1 && !capture_next_) return;
   last_draw_t_ = t;
   if (fresh_frame) window_->set_frame(frames_->last());
   const std::vector<HudItem> items = hud_.draw_list(window_->width(), window_->height(), t);
@@ -441,8 +461,9 @@ void CabProgram::draw(bool fresh_frame) {
   window_->present(items, capture ? &shot : nullptr);
   const double shown = now();
   if (fresh_frame)
-    for (double l : latency_.presented(frames_->last_sim_time_s(), shown))
-      trace_.write({{"type", "latency"}, {"ms", 1e3 * l}}, shown);
+    for (const Latency::Measure& l : latency_.presented(frames_->last_sim_time_s(), frame_received_t_, shown))
+      trace_.write({{"type", "latency"}, {"ms", 1e3 * l.total_s}, {"state_ms", 1e3 * l.state_s}, {"frame_ms", 1e3 * l.frame_s}},
+                   shown);
   if (capture) {
     capture_next_ = false;
     char name[64];
@@ -593,11 +614,15 @@ int CabProgram::run() {
     } else if (live && calib_step_ < 0) {
       input_.update(t - last_t);
       c = controls_from(input_.command());
-      if (!same_command(c, last_sent_) || t - last_sent_t_ >= 0.02) send(c);
+      // A key pressed or let go, or a switch, goes out at once; a pedal or the wheel moving under
+      // a held key goes at the 50 Hz pace (enough for the truck, not a sample per pass).
+      if (edge_ || !same_switches(c, last_sent_) || t - last_sent_t_ >= 0.02) send(c);
+      edge_ = false;
     }
     last_t = t;
     take_dds();
     const bool fresh = frames_->poll();
+    if (fresh) frame_received_t_ = now();
     draw(fresh);
     terminal_line();
     if (sound_) {

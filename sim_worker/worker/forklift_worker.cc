@@ -16,7 +16,10 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <sys/resource.h>
+#include <sys/syscall.h>
 #include <thread>
+#include <unistd.h>
 
 #include "forklift/dynamics/stability.h"
 #include "forklift/evaluation/evaluation.h"
@@ -91,6 +94,7 @@ int replay_main(const std::string& path) {
 // cannot start costs the session its frames, never the session.
 class FramePublisher {
  public:
+  static constexpr int kRenderNice = 5;  // the render thread's nice value above the worker's
   struct Options {
     double fps = 30;
     int width = 640, height = 480;
@@ -110,7 +114,12 @@ class FramePublisher {
 
   void start() {
     if (opt_.fps <= 0) return;
-    thread_ = std::thread([this] { run(); });
+    thread_ = std::thread([this] {
+      // Frames give way to physics: on a machine with fewer cores than busy threads the tick
+      // loop (and with it the cab's controls taking effect) must not wait behind a frame.
+      setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kRenderNice);
+      run();
+    });
   }
   // Called by the physics loop when the truck has moved (cheap: a copy under a lock).
   void offer(const SessionState& s) {
@@ -545,7 +554,10 @@ int main(int argc, char** argv) {
         if (task_done_and_stopped(model, state)) { end_reason = "task_complete"; break; }
       }
       if (end_reason != "signal") break;
-      if (echo && stepped) publish_state();  // the cab sees its command's effect without waiting for the 60 Hz slot
+      if (echo && stepped) {  // the cab sees its command's effect without waiting for the 60 Hz slot,
+        publish_state();      // and so does the next frame
+        frame_publisher.offer(state);
+      }
       if (duration > 0 && state.t_s >= duration - 1e-12) { end_reason = "duration"; break; }
       const double until_next = state.tick * model.tick_s - std::chrono::duration<double>(Clock::now() - start).count();
       if (until_next > 0) waitset.wait(until_next);
