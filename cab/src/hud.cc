@@ -48,6 +48,21 @@ std::string clock(double s) {
   return buf;
 }
 
+// Breaks `text` into lines that fit `width_px` at HUD size `size` (0 small, 1 normal, 2 large;
+// the window's fonts are line * 2/3, 4/5 and 3/2 high, DejaVu Sans about 0.55 em a character).
+std::vector<std::string> wrap(const std::string& text, int width_px, int size, int line) {
+  const double em = line * (size == 0 ? 2.0 / 3 : size == 1 ? 0.8 : 1.5);
+  const size_t per_line = size_t(std::max(8.0, width_px / (0.55 * em)));
+  std::vector<std::string> out;
+  for (std::string rest = text; !rest.empty();) {
+    size_t cut = rest.size() <= per_line ? rest.size() : rest.rfind(' ', per_line);
+    if (cut == std::string::npos || cut == 0) cut = std::min(rest.size(), per_line);
+    out.push_back(rest.substr(0, cut));
+    rest = cut < rest.size() ? rest.substr(cut + 1) : "";
+  }
+  return out;
+}
+
 }  // namespace
 
 HudSettings hud_settings(const nlohmann::json& j) {
@@ -165,10 +180,10 @@ std::string Hud::stability_words() const {
 
 std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
   std::vector<HudItem> out;
-  auto text = [&](int x, int y, std::string t, Rgba c, int size, const char* role) {
+  auto text = [&](int x, int y, std::string t, Rgba c, int size, const char* role, int wrap_w = 0) {
     HudItem i;
     i.kind = HudItem::Kind::kText;
-    i.x = x, i.y = y, i.text = std::move(t), i.colour = c, i.size = size, i.role = role;
+    i.x = x, i.y = y, i.w = wrap_w, i.text = std::move(t), i.colour = c, i.size = size, i.role = role;
     out.push_back(std::move(i));
   };
   auto fill = [&](int x, int y, int w, int h, Rgba c, const char* role) {
@@ -193,24 +208,39 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
     return out;
   }
 
-  // Top: the task and the time left.
-  fill(0, 0, width, 2 * line + 6, kPanel, "panel");
+  // The top is two corners: the task on the left, faults on the right; the middle stays clear
+  // for the rear-view mirror the worker draws there (the middle 36% of the width, the top 21%).
+  const int side_w = int(width * 0.30);
+  const int top_x = line / 2;
+  int yl = 4;
   if (have_state_) {
-    const std::string task = state_.task_step[0]
-                                 ? format("Step %.0f of %.0f: ", state_.task_steps_done + 1.0, state_.task_steps_total) +
-                                       state_.task_step
-                                 : state_.task_steps_total > 0 ? std::string("Task done: stop, lower the forks, neutral")
-                                                               : std::string("Free driving");
-    text(line / 2, 4, task, kWhite, 1, "task");
+    // The step in hand (or what is left to do once the task is done), wrapped by the window.
+    const bool done = !state_.task_step[0] && state_.task_steps_total > 0;
+    const std::string step = state_.task_step[0] ? std::string(state_.task_step)
+                             : done              ? std::string("Stop, lower the forks, controls to neutral")
+                                                 : std::string();
+    const int step_h = step.empty() ? 0 : int(wrap(step, side_w - line, 0, line).size()) * (line - 2);
+    const int h = line + 8 + step_h + (state_.task_steps_total > 0 ? 9 : 0) + (state_.time_left_s >= 0 ? line : 0) + 6;
+    fill(0, 0, side_w, h, kPanel, "panel");
+    if (state_.task_step[0])
+      text(top_x, yl, format("Step %.0f of %.0f", state_.task_steps_done + 1.0, state_.task_steps_total), kWhite, 1, "task");
+    else
+      text(top_x, yl, done ? "Task done" : "Free driving", done ? kGreen : kWhite, 1, "task");
+    yl += line + 2;
+    if (!step.empty()) text(top_x, yl, step, kWhite, 0, "task_step", side_w - line);
+    yl += step_h;
+    if (state_.task_steps_total > 0) {
+      const int w = side_w - line;
+      fill(top_x, yl + 2, w, 5, Rgba{80, 80, 80, 200}, "progress");
+      fill(top_x, yl + 2, int(w * double(state_.task_steps_done) / state_.task_steps_total), 5, kGreen, "progress");
+      yl += 9;
+    }
     if (state_.time_left_s >= 0) {
       const Rgba c = state_.time_left_s < 30 ? kRed : state_.time_left_s < 60 ? kAmber : kWhite;
-      text(width - 8 * line, 4, "Time left " + clock(state_.time_left_s), c, 1, "time_left");
+      text(top_x, yl, "Time left " + clock(state_.time_left_s), c, 0, "time_left");
+      yl += line;
     }
-    if (state_.task_steps_total > 0) {
-      const int w = width - line;
-      fill(line / 2, line + 10, w, 6, Rgba{80, 80, 80, 200}, "progress");
-      fill(line / 2, line + 10, int(w * double(state_.task_steps_done) / state_.task_steps_total), 6, kGreen, "progress");
-    }
+    yl += 8;
   }
 
   // Bottom: speed, direction, forks, load, stability.
@@ -261,39 +291,34 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
     text(xf, y0 + 3 * line, stability_words(), sc, 0, "stability");
   }
 
-  // The learning aids asked for but not allowed here.
-  int ym = 2 * line + 12;
+  // The learning aids asked for but not allowed here, under the task.
   auto refused = [&](bool asked, int bit, const char* what) {
     if (!asked || !have_state_ || (state_.aids & bit)) return;
-    text(line / 2, ym, std::string(what) + " is not allowed in this session", kAmber, 0, "aid_refused");
-    ym += line;
+    const std::string words = std::string(what) + " is not allowed in this session";
+    const int h = int(wrap(words, side_w - line, 0, line).size()) * (line - 2);
+    fill(0, yl - 2, side_w, h + 4, kPanel, "panel");
+    text(top_x, yl, words, kAmber, 0, "aid_refused", side_w - line);
+    yl += h + 4;
   };
   refused(cmd_.rear_view, 1, "The rear-view mirror");
   refused(cmd_.see_through_mast, 2, "The see-through mast");
   refused(cmd_.chase_camera, 4, "The chase camera");
 
-  // Faults and notices, newest first, while they last: the three newest, the newest with its
-  // advice (wrapped to the window), so that the picture stays visible.
-  const size_t per_line = size_t(std::max(20.0, (width - line) / (line * 0.42)));
+  // Faults and notices in the top right corner, newest first, while they last: the three
+  // newest, the newest with the rule's advice.
+  const int right_x = width - side_w + line / 2;
+  int yr = 4;
   int shown = 0;
   for (const Message& m : messages_) {
     if (now_s >= m.until_s || now_s < m.shown_at_s) continue;
-    std::vector<std::string> detail;
-    if (shown == 0)
-      for (std::string rest = m.detail; !rest.empty();) {
-        size_t cut = rest.size() <= per_line ? rest.size() : rest.rfind(' ', per_line);
-        if (cut == std::string::npos || cut == 0) cut = std::min(rest.size(), per_line);
-        detail.push_back(rest.substr(0, cut));
-        rest = cut < rest.size() ? rest.substr(cut + 1) : "";
-      }
-    fill(line / 2 - 4, ym - 2, width - line, int(line + 4 + detail.size() * (line + 2)), kPanel, "panel");
-    text(line / 2, ym, m.text, m.colour, 1, m.role.c_str());
-    ym += line + 2;
-    for (std::string& d : detail) {
-      text(line / 2, ym, std::move(d), kWhite, 0, "fault_detail");
-      ym += line + 2;
-    }
-    if (++shown == 3 || ym > y0 - 2 * line) break;
+    const int title_h = int(wrap(m.text, side_w - line, 1, line).size()) * line;
+    const int detail_h = shown == 0 && !m.detail.empty() ? int(wrap(m.detail, side_w - line, 0, line).size()) * (line - 2) : 0;
+    fill(width - side_w, yr - 2, side_w, title_h + detail_h + 8, kPanel, "panel");
+    text(right_x, yr, m.text, m.colour, 1, m.role.c_str(), side_w - line);
+    yr += title_h;
+    if (detail_h > 0) text(right_x, yr, m.detail, kWhite, 0, "fault_detail", side_w - line);
+    yr += detail_h + 8;
+    if (++shown == 3 || yr > y0 - 3 * line) break;
   }
 
   if (!session_line_.empty()) {

@@ -26,7 +26,7 @@ struct Rgba {
 struct HudItem {
   enum class Kind { kText, kFill };  // text at (x, y); a filled rectangle
   Kind kind = Kind::kText;
-  int x = 0, y = 0, w = 0, h = 0;
+  int x = 0, y = 0, w = 0, h = 0;  // text: w > 0 wraps it at that width
   Rgba colour;
   int size = 1;      // text: 0 small, 1 normal, 2 large
   std::string text;

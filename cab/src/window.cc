@@ -70,12 +70,13 @@ void CabWindow::set_frame(const Image& f) {
 
 SDL_Texture* CabWindow::text_texture(const HudItem& item, int& w, int& h) {
   const int size = std::clamp(item.size, 0, 2);
-  const std::string key = std::to_string(size) + ':' + std::to_string(item.colour.r) + ',' + std::to_string(item.colour.g) +
+  const std::string key = std::to_string(size) + ':' + std::to_string(item.w) + ':' + std::to_string(item.colour.r) + ',' + std::to_string(item.colour.g) +
                           ',' + std::to_string(item.colour.b) + ':' + item.text;
   auto it = cache_.find(key);
   if (it == cache_.end()) {
     const SDL_Color c{item.colour.r, item.colour.g, item.colour.b, item.colour.a};
-    SDL_Surface* s = TTF_RenderUTF8_Blended(fonts_->size[size], item.text.c_str(), c);
+    SDL_Surface* s = item.w > 0 ? TTF_RenderUTF8_Blended_Wrapped(fonts_->size[size], item.text.c_str(), c, Uint32(item.w))
+                                : TTF_RenderUTF8_Blended(fonts_->size[size], item.text.c_str(), c);
     if (!s) return nullptr;
     Cached entry{SDL_CreateTextureFromSurface(renderer_, s), s->w, s->h, generation_};
     SDL_FreeSurface(s);

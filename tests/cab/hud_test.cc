@@ -51,7 +51,8 @@ TEST(Hud, ShowsSpeedAgainstTheZoneLimitTheTaskStepAndTimeLeft) {
   ASSERT_TRUE(find(items, "speed"));
   EXPECT_EQ(find(items, "speed")->text, "9.0 km/h");
   EXPECT_EQ(find(items, "speed_limit")->text, "limit 10 km/h");
-  EXPECT_EQ(find(items, "task")->text, "Step 2 of 3: Take pallet P3 from rack R2");
+  EXPECT_EQ(find(items, "task")->text, "Step 2 of 3");
+  EXPECT_EQ(find(items, "task_step")->text, "Take pallet P3 from rack R2");
   EXPECT_EQ(find(items, "time_left")->text, "Time left 1:35");
   const Rgba white = find(items, "speed")->colour;
 
