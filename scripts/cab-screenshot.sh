@@ -6,15 +6,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-docs/cab-window.png}
-work=$(mktemp -d)
-pids=()
-cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; wait 2>/dev/null || true; rm -rf "$work"; }
-trap cleanup EXIT
-exec 3>"$work/display"
-Xvfb -displayfd 3 -screen 0 1280x1024x24 -nolisten tcp 2>/dev/null &
-pids+=($!)
-for _ in $(seq 100); do [ -s "$work/display" ] && break; sleep 0.1; done
-export DISPLAY=:$(cat "$work/display") SDL_AUDIODRIVER=dummy
+source scripts/xvfb-session.sh
 domain=${FORKLIFT_DDS_DOMAIN:-95}
 build/bin/forklift-worker --cab shot --session s-shot --scenario data/scenarios/rack_pick.json --dds-domain "$domain" \
   --log "$work/shot.ctl" --start-timeout 30 >/dev/null 2>&1 &
