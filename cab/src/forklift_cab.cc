@@ -256,6 +256,7 @@ class CabProgram {
   void draw(bool fresh_frame);
   void terminal_line();
   void calibration_step();
+  void save_window();
 
   Options o_;
   CabInput input_;
@@ -293,6 +294,14 @@ class CabProgram {
   int calib_step_ = -1;
   std::vector<std::map<std::string, double>> calib_readings_;
 };
+
+// --save-window: the window as the pupil last saw it, at exit.
+void CabProgram::save_window() {
+  if (!window_ || o_.save_window.empty()) return;
+  capture_next_ = true;
+  last_draw_t_ = -1;
+  draw(false);
+}
 
 void CabProgram::open_devices(bool want_window) {
   SDL_SetHint(SDL_HINT_NO_SIGNAL_HANDLERS, "1");                  // SIGTERM stays ours
@@ -505,10 +514,17 @@ void CabProgram::calibration_step() {
                                    "Turn the wheel fully right and hold it, then press Enter",
                                    "Press the accelerator pedal fully, then press Enter",
                                    "Press the brake pedal fully, then press Enter"};
-  if (calib_step_ >= 0) calib_readings_.push_back(input_.raw_axes());
+  if (calib_step_ >= 0) {
+    const auto readings = input_.raw_axes();
+    if (readings.empty()) {  // nothing plugged in yet: ask again
+      hud_.set_prompt(std::string("No controller: plug it in. ") + kPrompts[calib_step_]);
+      return;
+    }
+    calib_readings_.push_back(readings);
+  }
   ++calib_step_;
   if (calib_step_ < 5) {
-    hud_.on_notice(kPrompts[calib_step_], now());
+    hud_.set_prompt(kPrompts[calib_step_]);
     std::cout << kPrompts[calib_step_] << std::endl;
     return;
   }
@@ -552,9 +568,16 @@ int CabProgram::run() {
     if (SDL_NumJoysticks() == 0) std::printf("no controllers plugged in\n");
     return 0;
   }
-  if (o_.calibrate) {
+  if (o_.calibrate) {  // no worker: the window, the controller and Enter
     if (!window_) throw std::invalid_argument("--calibrate needs the cab's window (a display)");
     calibration_step();
+    while (!g_stop) {
+      pump_events();
+      draw(false);
+      SDL_WaitEventTimeout(nullptr, 10);
+    }
+    save_window();
+    return 0;
   }
   if (live && !window_ && o_.keyboard) terminal_ = std::make_unique<TerminalKeys>();
 
@@ -642,11 +665,7 @@ int CabProgram::run() {
     else std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   if (!window_ && isatty(STDOUT_FILENO) && hud_.has_state()) std::printf("\n");
-  if (window_ && !o_.save_window.empty()) {
-    capture_next_ = true;
-    last_draw_t_ = -1;
-    draw(false);
-  }
+  save_window();
   frames_->finish();
   if (frames_->frames() > 0) std::printf("frames received: %ld\n", frames_->frames());
   if (o_.latency_report) std::printf("%s\n", latency_.report().c_str());

@@ -322,8 +322,9 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
   }
 
   if (!session_line_.empty()) {
-    fill(0, height / 2 - line, width, 2 * line + 4, kPanel, "panel");
-    text(line, height / 2 - line / 2, session_line_, session_colour_, 2, "session");
+    const int h = int(wrap(session_line_, width - 2 * line, 2, line).size()) * (2 * line);
+    fill(0, height / 2 - line, width, h + 4, kPanel, "panel");
+    text(line, height / 2 - line / 2, session_line_, session_colour_, 2, "session", width - 2 * line);
   }
   return out;
 }

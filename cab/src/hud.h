@@ -56,6 +56,8 @@ class Hud {
   void on_notice(const std::string& text, double now_s);
   void set_command(const CabCommand& c) { cmd_ = c; }
   void toggle_help() { help_ = !help_; }
+  // A line in the middle of the window until replaced (the calibration's steps).
+  void set_prompt(std::string text) { session_line_ = std::move(text); }
   void set_help(std::vector<std::pair<std::string, std::string>> lines) { help_lines_ = std::move(lines); }
   bool has_state() const { return have_state_; }
   const fk_TruckState& state() const { return state_; }
