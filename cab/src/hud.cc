@@ -178,6 +178,27 @@ std::string Hud::stability_words() const {
   return w + " - " + why;
 }
 
+std::string Hud::pallet_words() const {
+  const fk_TruckState& s = state_;
+  if (!s.pallet_ahead[0] || s.load_attached || s.pallet_distance_m > 3) return "";
+  const std::string name = std::string("Pallet ") + s.pallet_ahead;
+  if (s.pallet_engaged) return name + " in: lift the forks to take it";
+  std::vector<std::string> todo;
+  auto cm = [](double m) { return std::to_string(int(std::lround(std::abs(m) * 100))) + " cm"; };
+  if (s.pallet_height_m > s.pallet_height_tolerance_m) todo.push_back("lower the forks " + cm(s.pallet_height_m));
+  if (s.pallet_height_m < -s.pallet_height_tolerance_m) todo.push_back("raise the forks " + cm(s.pallet_height_m));
+  if (s.pallet_lateral_m > s.pallet_lateral_tolerance_m) todo.push_back("move " + cm(s.pallet_lateral_m) + " right");
+  if (s.pallet_lateral_m < -s.pallet_lateral_tolerance_m) todo.push_back("move " + cm(s.pallet_lateral_m) + " left");
+  const double deg = s.pallet_angle_rad * kRad;
+  if (std::abs(s.pallet_angle_rad) > s.pallet_angle_tolerance_rad * 0.5)  // square well inside the limit
+    todo.push_back(format("turn %.0f deg ", std::abs(deg)) + (deg > 0 ? "right" : "left") + " to square up");
+  const std::string where = s.pallet_distance_m > 0 ? format(" %.1f m ahead", s.pallet_distance_m) : std::string();
+  if (todo.empty()) return name + where + ": lined up, drive the forks in slowly";
+  std::string out = name + where + ": ";
+  for (size_t i = 0; i < todo.size(); ++i) out += (i ? ", " : "") + todo[i];
+  return out;
+}
+
 std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
   std::vector<HudItem> out;
   auto text = [&](int x, int y, std::string t, Rgba c, int size, const char* role, int wrap_w = 0) {
@@ -262,9 +283,17 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
     if (!cmd_.seated) flags += "Seat empty: drive off  ";
     if (cmd_.controller_lost) flags += "Controller lost: braking  ";
     if (state_.deadman) flags += "No controls reach the truck: braking";
-    if (!flags.empty()) {  // just above the panel, where the eye drops to the speed
-      fill(0, y0 - line - 6, width, line + 6, kPanel, "panel");
-      text(line / 2, y0 - line - 2, flags, kAmber, 0, "flags");
+    int above = y0;  // lines stacked up from the panel, where the eye drops to the speed
+    if (!flags.empty()) {
+      above -= line + 6;
+      fill(0, above, width, line + 6, kPanel, "panel");
+      text(line / 2, above + 4, flags, kAmber, 0, "flags");
+    }
+    if (const std::string hint = pallet_words(); !hint.empty()) {
+      above -= line + 6;
+      fill(0, above, width, line + 6, kPanel, "panel");
+      text(line / 2, above + 4, hint, hint.find("lined up") != std::string::npos || hint.find("in:") != std::string::npos ? kGreen : kBlue,
+           0, "pallet");
     }
 
     const int xf = width * 2 / 7 + line;

@@ -70,6 +70,8 @@ class Hud {
   // Stability in words: green / amber / red and what makes it worse.
   std::string stability_words() const;
   Rgba stability_colour() const;
+  // Lining up with the pallet ahead (training): what to correct, or "" when there is none.
+  std::string pallet_words() const;
 
  private:
   struct Message {

@@ -21,6 +21,7 @@
 #include <thread>
 #include <unistd.h>
 
+#include "forklift/collision/collision.h"
 #include "forklift/dynamics/stability.h"
 #include "forklift/evaluation/evaluation.h"
 #include "forklift/protocol/protocol.h"
@@ -488,6 +489,19 @@ int main(int argc, char** argv) {
       dds::set_string(s.task_step, steps_done < steps_total ? model.scene.task.steps[steps_done].description : "");
       s.time_left_s = time_limit_s > 0 ? std::max(0.0, time_limit_s - state.t_s) : -1.0;
       s.aids = frames.aids;
+      // Lining up with a pallet: a learning aid, never in an exam.
+      if (model.mode == Mode::kTraining)
+        if (const auto a = pallet_approach(model.scene, state.handling.pallets(), poses, model.shape)) {
+          dds::set_string(s.pallet_ahead, a->pallet);
+          s.pallet_distance_m = a->distance_m;
+          s.pallet_height_m = a->height_m;
+          s.pallet_lateral_m = a->lateral_m;
+          s.pallet_angle_rad = a->angle_rad;
+          s.pallet_height_tolerance_m = a->height_tolerance_m;
+          s.pallet_lateral_tolerance_m = a->lateral_tolerance_m;
+          s.pallet_angle_tolerance_rad = a->angle_tolerance_rad;
+          s.pallet_engaged = a->engaged;
+        }
       state_writer.write(s);
     };
 

@@ -144,6 +144,31 @@ TEST(Hud, AnAidTheSessionDoesNotAllowIsSaidToBeNotAllowed) {
   EXPECT_FALSE(has_text(hud.draw_list(960, 720, 1), "not allowed"));
 }
 
+TEST(Hud, LiningUpWithAPalletSaysWhatToCorrect) {
+  Hud hud = make_hud();
+  fk_TruckState s = moving();
+  dds::set_string(s.pallet_ahead, "P3");
+  s.pallet_distance_m = 1.24;
+  s.pallet_height_m = 0.06;  // 6 cm too high
+  s.pallet_lateral_m = -0.04;  // 4 cm right of the pockets
+  s.pallet_angle_rad = 0.01;
+  s.pallet_height_tolerance_m = 0.03;
+  s.pallet_lateral_tolerance_m = 0.025;
+  s.pallet_angle_tolerance_rad = 10 * M_PI / 180;
+  hud.on_state(s);
+  EXPECT_EQ(hud.pallet_words(), "Pallet P3 1.2 m ahead: lower the forks 6 cm, move 4 cm left");
+  s.pallet_height_m = 0.01;
+  s.pallet_lateral_m = 0.01;
+  hud.on_state(s);
+  EXPECT_EQ(hud.pallet_words(), "Pallet P3 1.2 m ahead: lined up, drive the forks in slowly");
+  s.pallet_engaged = true;
+  hud.on_state(s);
+  EXPECT_TRUE(has_text(hud.draw_list(960, 720, 1), "Pallet P3 in: lift the forks to take it"));
+  s.load_attached = true;  // carrying one: no hint
+  hud.on_state(s);
+  EXPECT_EQ(hud.pallet_words(), "");
+}
+
 TEST(Hud, F1ShowsTheKeyMap) {
   Hud hud = make_hud();
   hud.set_help(key_map());

@@ -9,13 +9,6 @@ namespace {
 
 using namespace fx;
 
-Scene scene_of(std::vector<SceneObject> objects) {
-  Scene s;
-  s.name = "test";
-  s.objects = std::move(objects);
-  return s;
-}
-
 const Contact* first_with(const std::vector<Contact>& cs, const std::string& part, const std::string& object) {
   for (const Contact& c : cs)
     if (c.truck_part == part && c.object_id == object) return &c;

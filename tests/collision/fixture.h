@@ -128,6 +128,14 @@ inline SceneObject pallet(const std::string& id, const Isometry3d& where, const 
   return o;
 }
 
+// A scene of just these objects.
+inline Scene scene_of(std::vector<SceneObject> objects) {
+  Scene s;
+  s.name = "test";
+  s.objects = std::move(objects);
+  return s;
+}
+
 inline SceneObject wall(const std::string& id, const AlignedBox3d& b) {
   SceneObject o;
   o.id = id;

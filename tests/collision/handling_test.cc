@@ -13,13 +13,6 @@ constexpr double kPocketMid = 0.092;  // fork top for forks centred in a EUR pal
 // 300 kg on a EUR pallet, low enough (0.5 m) to clear the rack's next beam above a level.
 PalletSpec test_pallet() { return eur_pallet(300, Vector3d(1.0, 0.8, 0.5)); }
 
-Scene scene_of(std::vector<SceneObject> objects) {
-  Scene s;
-  s.name = "test";
-  s.objects = std::move(objects);
-  return s;
-}
-
 // The driver's moves, as small controllers on the run's state, along a straight line (a point
 // on it and its heading) that the truck keeps to.
 struct Driver {

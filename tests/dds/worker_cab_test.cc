@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -358,4 +359,28 @@ TEST(CabAids, AnExamRefusesAidsInWordsAndTrainingRefusesUnknownOnes) {
                   tmp("bad-aids"));
   EXPECT_EQ(unknown.wait(10), 2);
   EXPECT_NE(unknown.err().find("unknown aid 'autopilot'"), std::string::npos) << unknown.err();
+}
+
+TEST(CabHud, ThePalletAheadIsReportedForLiningUp) {
+  // load_lorry with the truck 4 m short of P11's near side, facing it square.
+  json scenario = json::parse(std::ifstream(kData + "/scenarios/load_lorry.json"));
+  scenario["start"] = {{"x_m", 36.0}, {"y_m", 11.5}, {"yaw_deg", 90}};
+  const std::string file = tmp("near_p11.json");
+  std::ofstream(file) << scenario.dump();
+  Process w = worker(76, "pallet", {"--scenario", file});
+  Cab cab(76);
+  ASSERT_TRUE(cab.wait_worker(20)) << w.err();
+  cab.drive(1.0);
+  const std::vector<fk_TruckState> states = cab.take_states();
+  ASSERT_FALSE(states.empty());
+  const fk_TruckState& s = states.back();
+  EXPECT_EQ(std::string(s.pallet_ahead), "P11");
+  EXPECT_GT(s.pallet_distance_m, 0.5);
+  EXPECT_LT(s.pallet_distance_m, 3.0);
+  EXPECT_NEAR(s.pallet_lateral_m, 0.0, 0.02);  // straight at it
+  EXPECT_NEAR(s.pallet_angle_rad, 0.0, 0.01);
+  EXPECT_GT(s.pallet_height_tolerance_m, 0.0);
+  EXPECT_FALSE(s.pallet_engaged);
+  w.signal(SIGTERM);
+  EXPECT_EQ(w.wait(30), 0) << w.err();
 }

@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 #include <memory>
 #include <string>
+#include <optional>
 #include <vector>
 
 #include "forklift/scene/scene.h"
@@ -60,6 +61,24 @@ class HandlingState {
   friend class Warehouse;
   std::unique_ptr<Data> d_;
 };
+
+// How the forks stand to the nearest pallet ahead of them that they could take (not on the
+// forks, not dropped): for the cab's hint while a pupil lines up. Signs are the correction's
+// opposite: + height: the forks are too high; + lateral: they are left of the pockets; + angle:
+// they point left of the pallet's axis. The tolerances are what the pockets leave.
+struct PalletApproach {
+  std::string pallet;           // its id
+  double distance_m = 0;        // fork tips to the pallet's near face along the forks (< 0: inside)
+  double height_m = 0;          // fork centre minus pocket centre, vertically
+  double lateral_m = 0;         // the forks' centre line minus the pallet's, at its near face
+  double angle_rad = 0;         // fork axis minus the pallet's axis
+  double height_tolerance_m = 0, lateral_tolerance_m = 0, angle_tolerance_rad = 0;
+  bool engaged = false;         // both forks in the pockets far enough to lift it
+};
+// nullopt when no pallet's near face is within `range_m` ahead of the fork tips, within 1 m to
+// either side of the forks and 45 degrees of square.
+std::optional<PalletApproach> pallet_approach(const Scene& scene, const std::vector<PalletState>& pallets,
+                                              const BodyPoses& poses, const TruckShape& shape, double range_m = 3.0);
 
 class Warehouse {
  public:
