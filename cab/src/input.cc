@@ -138,9 +138,7 @@ CabInput::CabInput(InputSettings settings, ControllerMap map, Calibration calibr
     : s_(settings), map_(std::move(map)), calibration_(std::move(calibration)) {
   }
 
-CabInput::~CabInput() {
-  for (Controller* c : controllers_) delete c;
-}
+CabInput::~CabInput() = default;
 
 bool CabInput::add_mappings(const std::string& path) {
   if (SDL_GameControllerAddMappingsFromFile(path.c_str()) < 0) {
@@ -156,7 +154,7 @@ void CabInput::open_present_controllers() {
 
 void CabInput::open(int index) {
   const SDL_JoystickID id = SDL_JoystickGetDeviceInstanceID(index);
-  for (Controller* c : controllers_)
+  for (const auto& c : controllers_)
     if (c->id == id) return;
   char guid[64];
   SDL_JoystickGetGUIDString(SDL_JoystickGetDeviceGUID(index), guid, sizeof guid);
@@ -174,34 +172,31 @@ void CabInput::open(int index) {
     notices_.push_back(std::string("cannot open a controller: ") + SDL_GetError());
     return;
   }
-  auto* c = new Controller;
+  auto owned = std::make_unique<Controller>();
+  Controller* c = owned.get();
   c->pad = pad;
   c->id = SDL_JoystickInstanceID(SDL_GameControllerGetJoystick(pad));
   c->name = SDL_GameControllerName(pad) ? SDL_GameControllerName(pad) : "controller";
   c->guid = guid;
-  controllers_.push_back(c);
+  controllers_.push_back(std::move(owned));
   if (!active_) active_ = c;
   cmd_.controller_lost = false;
   notices_.push_back("Controller '" + c->name + "' connected");
 }
 
 void CabInput::close(SDL_JoystickID id) {
-  for (auto it = controllers_.begin(); it != controllers_.end(); ++it) {
-    if ((*it)->id != id) continue;
-    Controller* c = *it;
-    const bool was_active = c == active_;
-    if (was_active) {
-      // A pedal set pulled out mid-drive must not leave the truck driving: brake until the
-      // pupil takes over again (another controller, or the keyboard).
-      cmd_.controller_lost = true;
-      notices_.push_back("Controller '" + c->name + "' unplugged: the truck is braked");
-      active_ = nullptr;
-    }
-    controllers_.erase(it);
-    delete c;
-    if (was_active && !controllers_.empty()) active_ = controllers_.front();
-    return;
+  auto it = std::find_if(controllers_.begin(), controllers_.end(), [&](const auto& c) { return c->id == id; });
+  if (it == controllers_.end()) return;
+  if (it->get() == active_) {
+    // A pedal set pulled out mid-drive must not leave the truck driving: brake until the
+    // pupil takes over again (another controller, or the keyboard).
+    cmd_.controller_lost = true;
+    notices_.push_back("Controller '" + (*it)->name + "' unplugged: the truck is braked");
+    active_ = nullptr;
   }
+  const bool was_active = active_ == nullptr;
+  controllers_.erase(it);
+  if (was_active && !controllers_.empty()) active_ = controllers_.front().get();
 }
 
 bool CabInput::handle(const SDL_Event& e) {
@@ -210,7 +205,6 @@ bool CabInput::handle(const SDL_Event& e) {
       if (e.key.repeat) return true;
       const SDL_Scancode k = e.key.keysym.scancode;
       held_.insert(k);
-      keyboard_used_last_ = true;
       switch (k) {
         case SDL_SCANCODE_F: cmd_.direction = 1; break;
         case SDL_SCANCODE_N: cmd_.direction = 0; break;
@@ -264,9 +258,8 @@ bool CabInput::handle(const SDL_Event& e) {
       close(e.type == SDL_JOYDEVICEREMOVED ? e.jdevice.which : e.cdevice.which);
       return true;
     case SDL_CONTROLLERBUTTONDOWN: {
-      for (Controller* c : controllers_)
-        if (c->id == e.cbutton.which) active_ = c;
-      keyboard_used_last_ = false;
+      for (const auto& c : controllers_)
+        if (c->id == e.cbutton.which) active_ = c.get();
       cmd_.controller_lost = false;
       auto is = [&](const char* f) {
         auto it = map_.buttons.find(f);
@@ -314,8 +307,7 @@ std::map<std::string, double> CabInput::raw_axes() const {
   return out;
 }
 
-void CabInput::read_controller(double dt_s) {
-  (void)dt_s;
+void CabInput::read_controller() {
   if (!active_) return;
   const Controller& c = *active_;
   const double steer = axis_value(c, map_.steer, false, true);
@@ -352,7 +344,7 @@ const CabCommand& CabInput::update(double dt_s) {
   cmd_.tilt = held(SDL_SCANCODE_D) ? 1 : held(SDL_SCANCODE_A) ? -1 : 0;
   cmd_.side_shift = held(SDL_SCANCODE_Q) ? 1 : held(SDL_SCANCODE_E) ? -1 : 0;
   cmd_.horn = held(SDL_SCANCODE_H);
-  read_controller(dt_s);
+  read_controller();
 
   // The head: held keys or the hat turn it, the mouse drags it; let go, it comes back ahead.
   auto pad_button = [&](const char* f) {

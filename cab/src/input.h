@@ -6,6 +6,7 @@
 #include <SDL.h>
 
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <string>
@@ -102,19 +103,18 @@ class CabInput {
   void open(int device_index);
   void close(SDL_JoystickID id);
   double axis_value(const Controller& c, const ControllerMap::Axis& a, bool pedal, bool centred) const;
-  void read_controller(double dt_s);
+  void read_controller();
   bool held(SDL_Scancode k) const;
 
   InputSettings s_;
   ControllerMap map_;
   Calibration calibration_;
   CabCommand cmd_;
-  std::vector<Controller*> controllers_;
-  Controller* active_ = nullptr;
+  std::vector<std::unique_ptr<Controller>> controllers_;
+  Controller* active_ = nullptr;  // one of controllers_, or none
   // The keys held, by scancode, from the window's key events; a focus change lets go of them
   // all (a key released in another window never comes back as a key-up).
   std::set<SDL_Scancode> held_;
-  bool keyboard_used_last_ = true;
   double kb_accel_ = 0, kb_brake_ = 0, kb_steer_ = 0;
   bool mouse_look_ = false;
   double mouse_yaw_ = 0, mouse_pitch_ = 0;
