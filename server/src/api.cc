@@ -8,7 +8,9 @@ using store::Role;
 
 void send_json(httplib::Response& res, int status, const json& body) {
   res.status = status;
-  res.set_content(body.dump(), "application/json");
+  // A byte that is not UTF-8 (quoted back from a bad request, say) is sent as U+FFFD, never an
+  // exception that turns an answer into a 500.
+  res.set_content(body.dump(-1, ' ', false, json::error_handler_t::replace), "application/json");
 }
 
 void send_error(httplib::Response& res, int status, const std::string& code, const std::string& message) {
