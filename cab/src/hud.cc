@@ -6,6 +6,8 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "forklift/protocol/aids.h"
+
 namespace forklift::cab {
 namespace {
 
@@ -329,9 +331,9 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
     text(top_x, yl, words, kAmber, 0, "aid_refused", side_w - line);
     yl += h + 4;
   };
-  refused(cmd_.rear_view, 1, "The rear-view mirror");
-  refused(cmd_.see_through_mast, 2, "The see-through mast");
-  refused(cmd_.chase_camera, 4, "The chase camera");
+  refused(cmd_.rear_view, aids::kRearView, "The rear-view mirror");
+  refused(cmd_.see_through_mast, aids::kSeeThroughMast, "The see-through mast");
+  refused(cmd_.chase_camera, aids::kChaseCamera, "The chase camera");
 
   // Faults and notices in the top right corner, newest first, while they last: the three
   // newest, the newest with the rule's advice.

@@ -10,6 +10,7 @@
 #include "exam_evidence.h"
 #include "load_request.h"
 #include "routes.h"
+#include "forklift/protocol/aids.h"
 
 namespace forklift::server {
 
@@ -46,15 +47,21 @@ std::pair<store::Session, LiveView> followed(Context& ctx, const httplib::Reques
 std::optional<std::string> aids_request(const json& b, const std::string& mode) {
   if (!b.contains("aids")) return std::nullopt;
   const json& a = b["aids"];
-  if (!a.is_array()) throw ApiError(400, "bad_request", "'aids' must be a list of rear_view, see_through_mast, chase_camera");
+  if (!a.is_array()) throw ApiError(400, "bad_request", std::string("'aids' must be a list of ") + aids::kNameList);
   if (mode == "exam" && !a.empty())
     throw ApiError(400, "bad_request", "an exam is taken without training aids: leave 'aids' out of an exam session");
-  std::string list;
+  uint8_t asked = 0;
   for (const json& x : a) {
     const std::string name = x.is_string() ? x.get<std::string>() : x.dump();
-    if (name != "rear_view" && name != "see_through_mast" && name != "chase_camera")
-      throw ApiError(400, "bad_request", "'aids': unknown aid " + name + " (rear_view, see_through_mast, chase_camera)");
-    if (list.find(name) == std::string::npos) list += (list.empty() ? "" : ",") + name;
+    const uint8_t bit = aids::bit_of(name);
+    if (!bit) throw ApiError(400, "bad_request", "'aids': unknown aid " + name + " (" + aids::kNameList + ")");
+    asked |= bit;
+  }
+  std::string list;  // in the worker's order, each once
+  for (const aids::Named& n : aids::kNamed) {
+    if (!(asked & n.bit)) continue;
+    if (!list.empty()) list += ',';
+    list += n.name;
   }
   return list.empty() ? "none" : list;
 }

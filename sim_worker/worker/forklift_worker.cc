@@ -24,6 +24,7 @@
 #include "forklift/collision/collision.h"
 #include "forklift/dynamics/stability.h"
 #include "forklift/evaluation/evaluation.h"
+#include "forklift/protocol/aids.h"
 #include "forklift/protocol/protocol.h"
 #include "forklift/render/render.h"
 #include "forklift/security/evidence.h"
@@ -43,26 +44,20 @@ void on_abort(int) {
   g_stop = true;
 }
 
-// The training aids, as TruckState.aids reports the ones granted.
-enum Aid : uint8_t { kRearView = 1, kSeeThroughMast = 2, kChaseCamera = 4 };
-const std::pair<const char*, Aid> kAidNames[] = {
-    {"rear_view", kRearView}, {"see_through_mast", kSeeThroughMast}, {"chase_camera", kChaseCamera}};
-
 // "--aids rear_view,chase_camera", "none" or "all": the set; throws std::invalid_argument naming the word.
 uint8_t parse_aids(const std::string& list) {
   if (list == "none") return 0;
-  if (list == "all") return kRearView | kSeeThroughMast | kChaseCamera;
-  uint8_t aids = 0;
+  if (list == "all") return aids::kAll;
+  uint8_t granted = 0;
   std::stringstream in(list);
   std::string word;
   while (std::getline(in, word, ',')) {
-    bool known = false;
-    for (const auto& [name, bit] : kAidNames)
-      if (word == name) { aids |= bit; known = true; }
-    if (!known)
-      throw std::invalid_argument("--aids: unknown aid '" + word + "' (rear_view, see_through_mast, chase_camera, all or none)");
+    const uint8_t bit = aids::bit_of(word);
+    if (!bit)
+      throw std::invalid_argument("--aids: unknown aid '" + word + "' (" + aids::kNameList + ", all or none)");
+    granted |= bit;
   }
-  return aids;
+  return granted;
 }
 
 void log_line(const std::string& cab, const std::string& text) {
@@ -102,7 +97,7 @@ class FramePublisher {
     bool jpeg = false;
     int jpeg_quality = 85;
     View view = View::kDriver;  // the cab's camera 0 (the driver's eye unless --view says otherwise)
-    uint8_t aids = 0;           // granted: kRearView | kSeeThroughMast | kChaseCamera
+    uint8_t aids = 0;           // granted: aids::Bit
   };
   // What the cab asks to see (its newest good control sample); nullopt: no frames.
   struct Request {
@@ -152,9 +147,9 @@ class FramePublisher {
   // The picture a request gets with these aids granted: an aid not granted is not drawn.
   static std::pair<View, ViewOptions> granted(const Request& r, View camera0, uint8_t aids) {
     ViewOptions v = r.view;
-    v.rear_view = v.rear_view && (aids & kRearView);
-    v.see_through_mast = v.see_through_mast && (aids & kSeeThroughMast);
-    const View view = r.camera == 1 && (aids & kChaseCamera) ? View::kChase : camera0;
+    v.rear_view = v.rear_view && (aids & aids::kRearView);
+    v.see_through_mast = v.see_through_mast && (aids & aids::kSeeThroughMast);
+    const View view = r.camera == 1 && (aids & aids::kChaseCamera) ? View::kChase : camera0;
     return {view, v};
   }
 
