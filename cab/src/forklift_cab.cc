@@ -26,6 +26,7 @@
 #include "frame_view.h"
 #include "hud.h"
 #include "input.h"
+#include "settings.h"
 #include "sound.h"
 #include "window.h"
 
@@ -41,16 +42,6 @@ void on_signal(int) { g_stop = true; }
 
 const std::string kDataDir = FORKLIFT_DATA_DIR;
 
-json read_json(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error("cannot read " + path);
-  try {
-    return json::parse(in);
-  } catch (const std::exception& e) {
-    throw std::runtime_error(path + " is not valid JSON: " + e.what());
-  }
-}
-
 std::string default_calibration_file() {
   if (const char* x = std::getenv("XDG_CONFIG_HOME"); x && *x) return std::string(x) + "/forklift/cab-calibration.json";
   if (const char* h = std::getenv("HOME"); h && *h) return std::string(h) + "/.config/forklift/cab-calibration.json";
@@ -60,7 +51,7 @@ std::string default_calibration_file() {
 Calibration read_calibration(const std::string& path) {
   Calibration c;
   if (path.empty() || !std::filesystem::exists(path)) return c;
-  const json j = read_json(path);
+  const json j = read_settings_file(path);
   for (auto it = j.at("axes").begin(); it != j.at("axes").end(); ++it)
     c[it.key()] = AxisCalibration{it.value().at("rest").get<double>(), it.value().at("full").get<double>(),
                                   it.value().value("low", -1.0)};
@@ -684,7 +675,7 @@ int main(int argc, char** argv) {
   HudSettings hud;
   SoundSettings sound;
   try {
-    cab_json = read_json(kDataDir + "/cab/cab.json");
+    cab_json = read_settings_file(kDataDir + "/cab/cab.json");
     map = load_controller_map(kDataDir + "/cab/controllers.json");
     input = input_settings(cab_json);
     hud = hud_settings(cab_json);

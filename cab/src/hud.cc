@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <stdexcept>
 
 #include "forklift/protocol/aids.h"
+#include "settings.h"
 
 namespace forklift::cab {
 namespace {
@@ -68,29 +68,23 @@ std::vector<std::string> wrap(const std::string& text, int width_px, int size, i
 }  // namespace
 
 HudSettings hud_settings(const nlohmann::json& j) {
-  if (!j.contains("hud") || !j.at("hud").is_object()) throw std::runtime_error("data/cab/cab.json: missing \"hud\"");
-  const nlohmann::json& h = j.at("hud");
+  const std::string where = "data/cab/cab.json hud";
+  const nlohmann::json& h = settings_at(j, "hud", "data/cab/cab.json");
   HudSettings s;
-  try {
-    s.stability_amber = h.at("stability_amber").get<double>();
-    s.stability_red = h.at("stability_red").get<double>();
-    s.capacity_amber = h.at("capacity_amber").get<double>();
-    s.fault_shown_s = h.at("fault_shown_s").get<double>();
-  } catch (const std::exception& e) {
-    throw std::runtime_error(std::string("data/cab/cab.json hud: ") + e.what());
-  }
-  if (!(s.stability_red < s.stability_amber)) throw std::runtime_error("data/cab/cab.json hud: red must be below amber");
+  s.stability_amber = settings_number(h, "stability_amber", where);
+  s.stability_red = settings_number(h, "stability_red", where);
+  s.capacity_amber = settings_number(h, "capacity_amber", where);
+  s.fault_shown_s = settings_number(h, "fault_shown_s", where);
+  if (!(s.stability_red < s.stability_amber)) throw std::runtime_error(where + ": red must be below amber");
   return s;
 }
 
 std::map<std::string, FaultWords> load_fault_words(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error("cannot read the rules " + path);
-  const nlohmann::json j = nlohmann::json::parse(in);
+  const nlohmann::json j = read_settings_file(path);
   std::map<std::string, FaultWords> out;
-  for (const nlohmann::json& r : j.at("rules")) {
+  for (const nlohmann::json& r : settings_at(j, "rules", path)) {
     FaultWords w;
-    const std::string id = r.at("id").get<std::string>();
+    const std::string id = settings_at(r, "id", path + " rules").get<std::string>();
     w.title = title_of(id);
     w.description = r.value("description", "");
     w.automatic_fail = r.value("automatic_fail", false);

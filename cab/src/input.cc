@@ -2,8 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <stdexcept>
+
+#include "settings.h"
 
 namespace forklift::cab {
 namespace {
@@ -12,17 +13,6 @@ constexpr double kDeg = M_PI / 180;
 
 double approach(double v, double target, double step) {
   return v < target ? std::min(target, v + step) : std::max(target, v - step);
-}
-
-const nlohmann::json& at(const nlohmann::json& j, const char* key, const std::string& where) {
-  if (!j.is_object() || !j.contains(key)) throw std::runtime_error(where + ": missing \"" + key + "\"");
-  return j.at(key);
-}
-
-double number(const nlohmann::json& j, const char* key, const std::string& where) {
-  const nlohmann::json& v = at(j, key, where);
-  if (!v.is_number()) throw std::runtime_error(where + ": \"" + key + "\" must be a number");
-  return v.get<double>();
 }
 
 }  // namespace
@@ -55,17 +45,17 @@ fk_Controls CabCommand::sample() const {
 InputSettings input_settings(const nlohmann::json& j) {
   const std::string where = "data/cab/cab.json";
   InputSettings s;
-  s.steer_lock_rad = number(j, "steer_lock_deg", where) * kDeg;
-  const nlohmann::json& k = at(j, "keyboard", where);
-  s.accelerator_rise_s = number(k, "accelerator_rise_s", where + " keyboard");
-  s.brake_rise_s = number(k, "brake_rise_s", where + " keyboard");
-  s.steer_rate_rad_s = number(k, "steer_rate_deg_s", where + " keyboard") * kDeg;
-  s.steer_centring_rad_s = number(k, "steer_centring_deg_s", where + " keyboard") * kDeg;
-  const nlohmann::json& l = at(j, "look", where);
-  s.look_max_yaw_rad = number(l, "max_yaw_deg", where + " look") * kDeg;
-  s.look_max_pitch_rad = number(l, "max_pitch_deg", where + " look") * kDeg;
-  s.look_rate_rad_s = number(l, "rate_deg_s", where + " look") * kDeg;
-  s.mouse_rad_per_pixel = number(l, "mouse_deg_per_pixel", where + " look") * kDeg;
+  s.steer_lock_rad = settings_number(j, "steer_lock_deg", where) * kDeg;
+  const nlohmann::json& k = settings_at(j, "keyboard", where);
+  s.accelerator_rise_s = settings_number(k, "accelerator_rise_s", where + " keyboard");
+  s.brake_rise_s = settings_number(k, "brake_rise_s", where + " keyboard");
+  s.steer_rate_rad_s = settings_number(k, "steer_rate_deg_s", where + " keyboard") * kDeg;
+  s.steer_centring_rad_s = settings_number(k, "steer_centring_deg_s", where + " keyboard") * kDeg;
+  const nlohmann::json& l = settings_at(j, "look", where);
+  s.look_max_yaw_rad = settings_number(l, "max_yaw_deg", where + " look") * kDeg;
+  s.look_max_pitch_rad = settings_number(l, "max_pitch_deg", where + " look") * kDeg;
+  s.look_rate_rad_s = settings_number(l, "rate_deg_s", where + " look") * kDeg;
+  s.mouse_rad_per_pixel = settings_number(l, "mouse_deg_per_pixel", where + " look") * kDeg;
   if (s.steer_lock_rad <= 0 || s.accelerator_rise_s <= 0 || s.brake_rise_s <= 0 || s.steer_rate_rad_s <= 0 ||
       s.look_rate_rad_s <= 0)
     throw std::runtime_error(where + ": rates, rise times and the steer lock must be positive");
@@ -73,24 +63,17 @@ InputSettings input_settings(const nlohmann::json& j) {
 }
 
 ControllerMap load_controller_map(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error("cannot read the controller map " + path);
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const std::exception& e) {
-    throw std::runtime_error(path + " is not valid JSON: " + e.what());
-  }
+  const nlohmann::json j = read_settings_file(path);
   ControllerMap m;
-  m.dead_zone = number(j, "dead_zone", path);
-  m.pedal_dead_zone = number(j, "pedal_dead_zone", path);
+  m.dead_zone = settings_number(j, "dead_zone", path);
+  m.pedal_dead_zone = settings_number(j, "pedal_dead_zone", path);
   if (!(m.dead_zone >= 0 && m.dead_zone < 0.9 && m.pedal_dead_zone >= 0 && m.pedal_dead_zone < 0.9))
     throw std::runtime_error(path + ": dead zones must be between 0 and 0.9");
-  const nlohmann::json& axes = at(j, "axes", path);
+  const nlohmann::json& axes = settings_at(j, "axes", path);
   auto axis = [&](const char* name, ControllerMap::Axis& a) {
     if (!axes.contains(name)) return;  // not driven by the controller
     const nlohmann::json& e = axes.at(name);
-    const std::string sdl = at(e, "axis", path + " axes." + name).get<std::string>();
+    const std::string sdl = settings_at(e, "axis", path + " axes." + name).get<std::string>();
     a.axis = SDL_GameControllerGetAxisFromString(sdl.c_str());
     if (a.axis == SDL_CONTROLLER_AXIS_INVALID)
       throw std::runtime_error(path + ": axes." + name + " names no SDL axis ('" + sdl + "')");
@@ -104,7 +87,7 @@ ControllerMap load_controller_map(const std::string& path) {
   static const char* kButtons[] = {"horn", "direction_forward", "direction_reverse", "direction_neutral",
                                    "parking_brake", "seat_switch", "rear_view", "look_left", "look_right",
                                    "look_up", "look_down", "help"};
-  const nlohmann::json& buttons = at(j, "buttons", path);
+  const nlohmann::json& buttons = settings_at(j, "buttons", path);
   for (auto it = buttons.begin(); it != buttons.end(); ++it) {
     if (std::find_if(std::begin(kButtons), std::end(kButtons), [&](const char* b) { return it.key() == b; }) ==
         std::end(kButtons))

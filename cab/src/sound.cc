@@ -5,24 +5,29 @@
 #include <stdexcept>
 #include <string>
 
+#include "hud.h"
+#include "settings.h"
+
 namespace forklift::cab {
 
 SoundSettings sound_settings(const nlohmann::json& j) {
+  const std::string where = "data/cab/cab.json sound";
+  const nlohmann::json& x = settings_at(j, "sound", "data/cab/cab.json");
   SoundSettings s;
-  try {
-    const nlohmann::json& x = j.at("sound");
-    s.volume = x.at("volume").get<double>();
-    s.motor_hz_idle = x.at("motor_hz_idle").get<double>();
-    s.motor_hz_per_m_s = x.at("motor_hz_per_m_s").get<double>();
-    s.horn_hz[0] = x.at("horn_hz").at(0).get<double>();
-    s.horn_hz[1] = x.at("horn_hz").at(1).get<double>();
-    s.warning_hz = x.at("warning_hz").get<double>();
-    s.stability_amber = j.at("hud").at("stability_amber").get<double>();
-    s.stability_red = j.at("hud").at("stability_red").get<double>();
-  } catch (const std::exception& e) {
-    throw std::runtime_error(std::string("data/cab/cab.json sound: ") + e.what());
-  }
-  if (!(s.volume >= 0 && s.volume <= 1)) throw std::runtime_error("data/cab/cab.json sound: volume must be within 0-1");
+  s.volume = settings_number(x, "volume", where);
+  s.motor_hz_idle = settings_number(x, "motor_hz_idle", where);
+  s.motor_hz_per_m_s = settings_number(x, "motor_hz_per_m_s", where);
+  const nlohmann::json& horn = settings_at(x, "horn_hz", where);
+  if (!horn.is_array() || horn.size() != 2 || !horn[0].is_number() || !horn[1].is_number())
+    throw std::runtime_error(where + ": \"horn_hz\" must be two numbers");
+  s.horn_hz[0] = horn[0].get<double>();
+  s.horn_hz[1] = horn[1].get<double>();
+  s.warning_hz = settings_number(x, "warning_hz", where);
+  // The stability beat follows the display's bands.
+  const HudSettings hud = hud_settings(j);
+  s.stability_amber = hud.stability_amber;
+  s.stability_red = hud.stability_red;
+  if (!(s.volume >= 0 && s.volume <= 1)) throw std::runtime_error(where + ": volume must be within 0-1");
   return s;
 }
 
