@@ -213,10 +213,14 @@ struct Options {
 };
 
 std::string help_footer(const ControllerMap& map) {
-  std::string s = "Keys in the cab's window:\n";
-  for (const auto& [k, w] : key_map()) s += "  " + k + std::string(std::max<size_t>(2, 24 - k.size()), ' ') + w + "\n";
+  std::string s;
+  auto table = [&](const std::vector<std::pair<std::string, std::string>>& rows) {
+    for (const auto& [k, w] : rows) s += "  " + k + std::string(std::max<size_t>(2, 24 - k.size()), ' ') + w + "\n";
+  };
+  s += "Keys in the cab's window:\n";
+  table(key_map());
   s += "Game controllers (data/cab/controllers.json; SDL mappings in data/cab/gamecontrollerdb.txt):\n";
-  for (const auto& [k, w] : controller_help(map)) s += "  " + k + std::string(std::max<size_t>(2, 24 - k.size()), ' ') + w + "\n";
+  table(controller_help(map));
   s += "Exit codes: 0 done, 2 bad usage or settings, 5 no worker answered.\n";
   return s;
 }
@@ -276,8 +280,8 @@ class CabProgram {
   std::string session_;
   std::optional<double> ended_at_;
   bool capture_next_ = false;
-  bool edge_ = false;
-  double frame_received_t_ = 0;  // a driving key went down or up this pass: send at once
+  bool edge_ = false;  // a driving key went down or up this pass: send at once
+  double frame_received_t_ = 0;
   std::vector<std::string> last_texts_;
   Latency latency_;
   std::string mode_;
@@ -519,24 +523,21 @@ void CabProgram::calibration_step() {
     std::cout << kPrompts[calib_step_] << std::endl;
     return;
   }
+  // Each calibrated axis: its reading at rest (step 0), at full travel and, for the wheel, at
+  // full left.
   const auto& r = calib_readings_;
-  auto name = [](const ControllerMap::Axis& a) { return std::string(SDL_GameControllerGetStringForAxis(a.axis)); };
   json axes = json::object();
-  if (map_.steer.axis != SDL_CONTROLLER_AXIS_INVALID) {
-    const std::string n = name(map_.steer);
-    axes[n] = {{"rest", r[0].at(n)}, {"low", r[1].at(n)}, {"full", r[2].at(n)}};
-  }
-  if (map_.accelerator.axis != SDL_CONTROLLER_AXIS_INVALID) {
-    const std::string n = name(map_.accelerator);
-    axes[n] = {{"rest", r[0].at(n)}, {"full", r[3].at(n)}};
-  }
-  if (map_.brake.axis != SDL_CONTROLLER_AXIS_INVALID) {
-    const std::string n = name(map_.brake);
-    axes[n] = {{"rest", r[0].at(n)}, {"full", r[4].at(n)}};
-  }
-  std::filesystem::create_directories(std::filesystem::path(o_.calibration_file).parent_path().empty()
-                                          ? std::filesystem::path(".")
-                                          : std::filesystem::path(o_.calibration_file).parent_path());
+  auto record = [&](const ControllerMap::Axis& a, int full_step, int low_step = -1) {
+    if (a.axis == SDL_CONTROLLER_AXIS_INVALID) return;
+    const std::string n = SDL_GameControllerGetStringForAxis(a.axis);
+    axes[n] = {{"rest", r[0].at(n)}, {"full", r[full_step].at(n)}};
+    if (low_step >= 0) axes[n]["low"] = r[low_step].at(n);
+  };
+  record(map_.steer, 2, 1);
+  record(map_.accelerator, 3);
+  record(map_.brake, 4);
+  if (const auto dir = std::filesystem::path(o_.calibration_file).parent_path(); !dir.empty())
+    std::filesystem::create_directories(dir);
   std::ofstream out(o_.calibration_file);
   out << json{{"device", input_.active_device()}, {"axes", axes}}.dump(2) << '\n';
   if (!out) throw std::runtime_error("cannot write " + o_.calibration_file);

@@ -50,22 +50,26 @@ std::string clock(double s) {
   return buf;
 }
 
-// Breaks `text` into lines that fit `width_px` at HUD size `size` (0 small, 1 normal, 2 large;
-// the window's fonts are line * 2/3, 4/5 and 3/2 high, DejaVu Sans about 0.55 em a character).
-std::vector<std::string> wrap(const std::string& text, int width_px, int size, int line) {
-  const double em = line * (size == 0 ? 2.0 / 3 : size == 1 ? 0.8 : 1.5);
-  const size_t per_line = size_t(std::max(8.0, width_px / (0.55 * em)));
-  std::vector<std::string> out;
-  for (std::string rest = text; !rest.empty();) {
-    size_t cut = rest.size() <= per_line ? rest.size() : rest.rfind(' ', per_line);
-    if (cut == std::string::npos || cut == 0) cut = std::min(rest.size(), per_line);
-    out.push_back(rest.substr(0, cut));
-    rest = cut < rest.size() ? rest.substr(cut + 1) : "";
+// How many lines `text` takes at `width_px` in HUD size `size` (the window wraps it at words;
+// DejaVu Sans is about 0.55 em a character).
+int line_count(const std::string& text, int width_px, int size, int line) {
+  const size_t per_line = size_t(std::max(8.0, width_px / (0.55 * hud_font_px(size, line))));
+  int n = 0;
+  for (size_t at = 0; at < text.size(); ++n) {
+    if (text.size() - at <= per_line) break;
+    const size_t space = text.rfind(' ', at + per_line);
+    at = space == std::string::npos || space <= at ? at + per_line : space + 1;
   }
-  return out;
+  return text.empty() ? 0 : n + 1;
 }
 
 }  // namespace
+
+int hud_line_px(int window_height) { return std::max(18, window_height / 30); }
+
+int hud_font_px(int size, int line_px) {
+  return size <= 0 ? line_px * 2 / 3 : size == 1 ? line_px * 4 / 5 : line_px * 3 / 2;
+}
 
 HudSettings hud_settings(const nlohmann::json& j) {
   const std::string where = "data/cab/cab.json hud";
@@ -174,11 +178,13 @@ std::string Hud::stability_words() const {
   return w + " - " + why;
 }
 
-std::string Hud::pallet_words() const {
+std::string Hud::pallet_words() const { return pallet_hint().words; }
+
+Hud::PalletHint Hud::pallet_hint() const {
   const fk_TruckState& s = state_;
-  if (!s.pallet_ahead[0] || s.load_attached || s.pallet_distance_m > 3) return "";
+  if (!s.pallet_ahead[0] || s.load_attached || s.pallet_distance_m > 3) return {};
   const std::string name = std::string("Pallet ") + s.pallet_ahead;
-  if (s.pallet_engaged) return name + " in: lift the forks to take it";
+  if (s.pallet_engaged) return {name + " in: lift the forks to take it", true};
   std::vector<std::string> todo;
   auto cm = [](double m) { return std::to_string(int(std::lround(std::abs(m) * 100))) + " cm"; };
   if (s.pallet_height_m > s.pallet_height_tolerance_m) todo.push_back("lower the forks " + cm(s.pallet_height_m));
@@ -189,10 +195,10 @@ std::string Hud::pallet_words() const {
   if (std::abs(s.pallet_angle_rad) > s.pallet_angle_tolerance_rad * 0.5)  // square well inside the limit
     todo.push_back(format("turn %.0f deg ", std::abs(deg)) + (deg > 0 ? "right" : "left") + " to square up");
   const std::string where = s.pallet_distance_m > 0 ? format(" %.1f m ahead", s.pallet_distance_m) : std::string();
-  if (todo.empty()) return name + where + ": lined up, drive the forks in slowly";
+  if (todo.empty()) return {name + where + ": lined up, drive the forks in slowly", true};
   std::string out = name + where + ": ";
   for (size_t i = 0; i < todo.size(); ++i) out += (i ? ", " : "") + todo[i];
-  return out;
+  return {out, false};
 }
 
 std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
@@ -209,7 +215,7 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
     i.x = x, i.y = y, i.w = w, i.h = h, i.colour = c, i.role = role;
     out.push_back(std::move(i));
   };
-  const int line = std::max(18, height / 30);
+  const int line = hud_line_px(height);
 
   if (help_) {
     fill(0, 0, width, height, Rgba{0, 0, 0, 200}, "help");
@@ -236,7 +242,7 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
     const std::string step = state_.task_step[0] ? std::string(state_.task_step)
                              : done              ? std::string("Stop, lower the forks, controls to neutral")
                                                  : std::string();
-    const int step_h = step.empty() ? 0 : int(wrap(step, side_w - line, 0, line).size()) * (line - 2);
+    const int step_h = step.empty() ? 0 : line_count(step, side_w - line, 0, line) * (line - 2);
     const int h = line + 8 + step_h + (state_.task_steps_total > 0 ? 9 : 0) + (state_.time_left_s >= 0 ? line : 0) + 6;
     fill(0, 0, side_w, h, kPanel, "panel");
     if (state_.task_step[0])
@@ -285,11 +291,10 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
       fill(0, above, width, line + 6, kPanel, "panel");
       text(line / 2, above + 4, flags, kAmber, 0, "flags");
     }
-    if (const std::string hint = pallet_words(); !hint.empty()) {
+    if (const PalletHint hint = pallet_hint(); !hint.words.empty()) {
       above -= line + 6;
       fill(0, above, width, line + 6, kPanel, "panel");
-      text(line / 2, above + 4, hint, hint.find("lined up") != std::string::npos || hint.find("in:") != std::string::npos ? kGreen : kBlue,
-           0, "pallet");
+      text(line / 2, above + 4, hint.words, hint.ready ? kGreen : kBlue, 0, "pallet");
     }
 
     const int xf = width * 2 / 7 + line;
@@ -320,7 +325,7 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
   auto refused = [&](bool asked, int bit, const char* what) {
     if (!asked || !have_state_ || (state_.aids & bit)) return;
     const std::string words = std::string(what) + " is not allowed in this session";
-    const int h = int(wrap(words, side_w - line, 0, line).size()) * (line - 2);
+    const int h = line_count(words, side_w - line, 0, line) * (line - 2);
     fill(0, yl - 2, side_w, h + 4, kPanel, "panel");
     text(top_x, yl, words, kAmber, 0, "aid_refused", side_w - line);
     yl += h + 4;
@@ -336,8 +341,8 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
   int shown = 0;
   for (const Message& m : messages_) {
     if (now_s >= m.until_s || now_s < m.shown_at_s) continue;
-    const int title_h = int(wrap(m.text, side_w - line, 1, line).size()) * line;
-    const int detail_h = shown == 0 && !m.detail.empty() ? int(wrap(m.detail, side_w - line, 0, line).size()) * (line - 2) : 0;
+    const int title_h = line_count(m.text, side_w - line, 1, line) * line;
+    const int detail_h = shown == 0 && !m.detail.empty() ? line_count(m.detail, side_w - line, 0, line) * (line - 2) : 0;
     fill(width - side_w, yr - 2, side_w, title_h + detail_h + 8, kPanel, "panel");
     text(right_x, yr, m.text, m.colour, 1, m.role.c_str(), side_w - line);
     yr += title_h;
@@ -347,7 +352,7 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
   }
 
   if (!session_line_.empty()) {
-    const int h = int(wrap(session_line_, width - 2 * line, 2, line).size()) * (2 * line);
+    const int h = line_count(session_line_, width - 2 * line, 2, line) * (2 * line);
     fill(0, height / 2 - line, width, h + 4, kPanel, "panel");
     text(line, height / 2 - line / 2, session_line_, session_colour_, 2, "session", width - 2 * line);
   }

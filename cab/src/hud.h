@@ -33,6 +33,11 @@ struct HudItem {
   std::string role;  // what it shows: "speed", "stability", "fault", "session", "help", ...
 };
 
+// One scale for the display's layout and the fonts the window opens: the line height for a
+// window this high, and the font height of each text size (0 small, 1 normal, 2 large).
+int hud_line_px(int window_height);
+int hud_font_px(int size, int line_px);
+
 struct HudSettings {
   double stability_amber = 0.5, stability_red = 0.25, capacity_amber = 0.9, fault_shown_s = 6;
 };
@@ -80,6 +85,11 @@ class Hud {
     double shown_at_s = 0, until_s = 0;
   };
   void add(Message m);
+  struct PalletHint {
+    std::string words;
+    bool ready = false;  // lined up, or in: nothing left to correct
+  };
+  PalletHint pallet_hint() const;
 
   HudSettings s_;
   std::map<std::string, FaultWords> words_;

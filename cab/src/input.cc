@@ -110,16 +110,14 @@ double apply_dead_zone(double v, double dz) {
 struct CabInput::Controller {
   SDL_GameController* pad = nullptr;
   SDL_JoystickID id = -1;
-  std::string name, guid;
-  bool touched = false;  // moved past its dead zones since it was plugged in
+  std::string name;
   ~Controller() {
     if (pad) SDL_GameControllerClose(pad);
   }
 };
 
 CabInput::CabInput(InputSettings settings, ControllerMap map, Calibration calibration)
-    : s_(settings), map_(std::move(map)), calibration_(std::move(calibration)) {
-  }
+    : s_(settings), map_(std::move(map)), calibration_(std::move(calibration)) {}
 
 CabInput::~CabInput() = default;
 
@@ -160,7 +158,6 @@ void CabInput::open(int index) {
   c->pad = pad;
   c->id = SDL_JoystickInstanceID(SDL_GameControllerGetJoystick(pad));
   c->name = SDL_GameControllerName(pad) ? SDL_GameControllerName(pad) : "controller";
-  c->guid = guid;
   controllers_.push_back(std::move(owned));
   if (!active_) active_ = c;
   cmd_.controller_lost = false;
@@ -170,16 +167,15 @@ void CabInput::open(int index) {
 void CabInput::close(SDL_JoystickID id) {
   auto it = std::find_if(controllers_.begin(), controllers_.end(), [&](const auto& c) { return c->id == id; });
   if (it == controllers_.end()) return;
-  if (it->get() == active_) {
+  const bool was_active = it->get() == active_;
+  if (was_active) {
     // A pedal set pulled out mid-drive must not leave the truck driving: brake until the
     // pupil takes over again (another controller, or the keyboard).
     cmd_.controller_lost = true;
     notices_.push_back("Controller '" + (*it)->name + "' unplugged: the truck is braked");
-    active_ = nullptr;
   }
-  const bool was_active = active_ == nullptr;
   controllers_.erase(it);
-  if (was_active && !controllers_.empty()) active_ = controllers_.front().get();
+  if (was_active) active_ = controllers_.empty() ? nullptr : controllers_.front().get();
 }
 
 bool CabInput::handle(const SDL_Event& e) {
@@ -266,6 +262,12 @@ bool CabInput::handle(const SDL_Event& e) {
 
 bool CabInput::held(SDL_Scancode k) const { return held_.count(k) > 0; }
 
+bool CabInput::button_held(const char* function) const {
+  if (!active_) return false;
+  auto it = map_.buttons.find(function);
+  return it != map_.buttons.end() && SDL_GameControllerGetButton(active_->pad, it->second) != 0;
+}
+
 double CabInput::axis_value(const Controller& c, const ControllerMap::Axis& a, bool pedal, bool centred) const {
   if (a.axis == SDL_CONTROLLER_AXIS_INVALID) return 0;
   double v = SDL_GameControllerGetAxis(c.pad, a.axis) / 32767.0;
@@ -298,18 +300,13 @@ void CabInput::read_controller() {
   const double brake = axis_value(c, map_.brake, true, false);
   const double lift = axis_value(c, map_.lift, false, true);
   const double tilt = axis_value(c, map_.tilt, false, true);
-  if (steer != 0 || accel != 0 || brake != 0 || lift != 0 || tilt != 0) active_->touched = true;
-  auto button = [&](const char* f) {
-    auto it = map_.buttons.find(f);
-    return it != map_.buttons.end() && SDL_GameControllerGetButton(c.pad, it->second) != 0;
-  };
   // The keyboard's own commands win where it is pressed; the controller fills the rest.
   if (kb_steer_ == 0) cmd_.steer_rad = steer * s_.steer_lock_rad;  // wheel left (-) turns the truck left
   cmd_.accelerator = std::max(cmd_.accelerator, accel);
   cmd_.brake = std::max(cmd_.brake, brake);
   if (cmd_.lift == 0) cmd_.lift = lift;
   if (cmd_.tilt == 0) cmd_.tilt = tilt;
-  cmd_.horn = cmd_.horn || button("horn");
+  cmd_.horn = cmd_.horn || button_held("horn");
 }
 
 const CabCommand& CabInput::update(double dt_s) {
@@ -330,15 +327,10 @@ const CabCommand& CabInput::update(double dt_s) {
   read_controller();
 
   // The head: held keys or the hat turn it, the mouse drags it; let go, it comes back ahead.
-  auto pad_button = [&](const char* f) {
-    if (!active_) return false;
-    auto it = map_.buttons.find(f);
-    return it != map_.buttons.end() && SDL_GameControllerGetButton(active_->pad, it->second) != 0;
-  };
-  const int yaw_dir = (held(SDL_SCANCODE_J) || pad_button("look_left") ? 1 : 0) -
-                      (held(SDL_SCANCODE_L) || pad_button("look_right") ? 1 : 0);
-  const int pitch_dir = (held(SDL_SCANCODE_I) || pad_button("look_up") ? 1 : 0) -
-                        (held(SDL_SCANCODE_K) || pad_button("look_down") ? 1 : 0);
+  const int yaw_dir = (held(SDL_SCANCODE_J) || button_held("look_left") ? 1 : 0) -
+                      (held(SDL_SCANCODE_L) || button_held("look_right") ? 1 : 0);
+  const int pitch_dir = (held(SDL_SCANCODE_I) || button_held("look_up") ? 1 : 0) -
+                        (held(SDL_SCANCODE_K) || button_held("look_down") ? 1 : 0);
   const double step = s_.look_rate_rad_s * dt_s;
   if (mouse_look_) {
     cmd_.look_yaw_rad = mouse_yaw_;

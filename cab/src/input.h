@@ -105,6 +105,7 @@ class CabInput {
   double axis_value(const Controller& c, const ControllerMap::Axis& a, bool pedal, bool centred) const;
   void read_controller();
   bool held(SDL_Scancode k) const;
+  bool button_held(const char* function) const;  // the active controller's button for it is down
 
   InputSettings s_;
   ControllerMap map_;

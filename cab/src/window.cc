@@ -24,10 +24,9 @@ CabWindow::CabWindow(const std::string& title, int width, int height, const std:
   SDL_SetRenderDrawBlendMode(renderer_, SDL_BLENDMODE_BLEND);
   if (TTF_Init() != 0) throw std::runtime_error(std::string("no fonts for the head-up display: ") + TTF_GetError());
   fonts_ = std::make_unique<Fonts>();
-  const int line = std::max(18, height / 30);
-  const int sizes[3] = {line * 2 / 3, line * 4 / 5, line * 3 / 2};
+  const int line = hud_line_px(height);
   for (int i = 0; i < 3; ++i) {
-    fonts_->size[i] = TTF_OpenFont((i == 0 ? font : bold).c_str(), sizes[i]);
+    fonts_->size[i] = TTF_OpenFont((i == 0 ? font : bold).c_str(), hud_font_px(i, line));
     if (!fonts_->size[i])
       throw std::runtime_error("cannot open the head-up display's font " + (i == 0 ? font : bold) + ": " + TTF_GetError());
   }
