@@ -11,6 +11,7 @@
 
 #include "forklift/image/image.h"
 #include "support/process.h"
+#include "support/worker.h"
 #include "support/temp_dir.h"
 #include "support/xvfb.h"
 
@@ -57,10 +58,9 @@ class CabWindow : public testing::Test {
     setenv("SDL_AUDIODRIVER", "dummy", 1);
   }
   Process worker(const std::string& cab, int domain, const std::string& scenario, double duration) {
-    return Process({kBin + "/forklift-worker", "--cab", cab, "--session", "s-" + cab, "--scenario",
-                    kData + "/scenarios/" + scenario + ".json", "--duration", std::to_string(duration), "--dds-domain",
-                    std::to_string(domain), "--log", tmp(cab + ".ctl"), "--start-timeout", "30"},
-                   tmp(cab + ".worker"));
+    return forklift_test::start_worker(kBin, tmp(""), domain, cab, "s-" + cab,
+                                       {"--scenario", kData + "/scenarios/" + scenario + ".json", "--duration",
+                                        std::to_string(duration), "--start-timeout", "30"});
   }
   // xdotool on this test's display: finds the cab's window, focuses it, then runs `steps`.
   int xdotool(const std::string& cab, const std::vector<std::string>& steps) {
@@ -154,7 +154,7 @@ TEST_F(CabWindow, SigtermClosesTheCabAndTheWorkerBrakesOnTheSilence) {
   // The worker's log: the dead man takes over once the cab has gone silent.
   bool deadman = false;
   for (int i = 0; i < 300 && !deadman; ++i) {
-    std::ifstream log(tmp("kc3.ctl"));
+    std::ifstream log(tmp("s-kc3.ctl"));
     std::stringstream text;
     text << log.rdbuf();
     deadman = text.str().find("\ndm ") != std::string::npos;

@@ -19,6 +19,7 @@
 #include "forklift/session/session.h"
 #include "forklift/session/session_log.h"
 #include "support/process.h"
+#include "support/worker.h"
 
 using namespace forklift;
 using nlohmann::json;
@@ -31,10 +32,7 @@ const std::string kData = FORKLIFT_DATA_DIR;
 std::string tmp(const std::string& name) { return testing::TempDir() + "/cab-" + name; }
 
 Process worker(int domain, const std::string& session, std::vector<std::string> extra = {}) {
-  std::vector<std::string> args = {kBin + "/forklift-worker", "--cab", "hud", "--session", session,
-                                   "--dds-domain", std::to_string(domain), "--log", tmp(session + ".ctl")};
-  args.insert(args.end(), extra.begin(), extra.end());
-  return Process(args, tmp(session + ".worker"));
+  return forklift_test::start_worker(kBin, tmp(""), domain, "hud", session, extra);
 }
 
 // The cab's side of the wire, as DDS Security would confine it: its own partition only.
@@ -104,14 +102,7 @@ struct Cab {
   }
 };
 
-json output_json(const Process& p) {
-  try {
-    return json::parse(p.out());
-  } catch (const std::exception&) {
-    ADD_FAILURE() << "not JSON: " << p.out() << "\nstderr: " << p.err();
-    return json::object();
-  }
-}
+using forklift_test::output_json;
 
 }  // namespace
 

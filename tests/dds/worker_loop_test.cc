@@ -14,6 +14,7 @@
 #include "forklift/image/image.h"
 #include "forklift/session/session_log.h"
 #include "support/process.h"
+#include "support/worker.h"
 
 using namespace forklift;
 using nlohmann::json;
@@ -26,21 +27,10 @@ const std::string kData = FORKLIFT_DATA_DIR;
 std::string tmp(const std::string& name) { return testing::TempDir() + "/" + name; }
 
 Process worker(int domain, const std::string& cab, const std::string& session, std::vector<std::string> extra = {}) {
-  std::vector<std::string> args = {kBin + "/forklift-worker", "--cab", cab, "--session", session,
-                                   "--dds-domain", std::to_string(domain), "--log", tmp(session + ".ctl")};
-  args.insert(args.end(), extra.begin(), extra.end());
-  return Process(args, tmp(session + ".worker"));
+  return forklift_test::start_worker(kBin, tmp(""), domain, cab, session, extra);
 }
 
-json output_json(const Process& p) {
-  const std::string out = p.out();
-  try {
-    return json::parse(out);
-  } catch (const std::exception&) {
-    ADD_FAILURE() << "not JSON: " << out << "\nstderr: " << p.err();
-    return json::object();
-  }
-}
+using forklift_test::output_json;
 
 fk_Controls controls(const std::string& cab, uint32_t seq, double accel = 0, double steer = 0) {
   fk_Controls c{};
