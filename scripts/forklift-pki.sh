@@ -147,11 +147,11 @@ rules_for() {  # KIND ID
     worker)
       rule subscribe "$p" fk_Controls
       rule publish "$p" fk_TruckState fk_Frame fk_SessionStatus fk_Event
-      rule publish "" fk_Event fk_Score fk_SessionStatus ;;
+      rule publish "worker.$2" fk_Event fk_Score fk_SessionStatus ;;
     server)
       rule subscribe "cab.*" fk_TruckState fk_Frame fk_CabAnnounce
       rule publish "cab.*" fk_SessionStatus
-      rule subscribe "" fk_Event fk_Score fk_SessionStatus
+      rule subscribe "worker.*" fk_Event fk_Score fk_SessionStatus
       rule publish "" fk_SessionStatus ;;
   esac
 }

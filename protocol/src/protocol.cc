@@ -8,6 +8,60 @@
 namespace forklift::dds {
 
 std::string cab_partition(const std::string& cab_id) { return "cab." + cab_id; }
+std::string worker_partition(const std::string& cab_id) { return "worker." + cab_id; }
+
+bool valid_utf8(std::string_view text) {
+  const auto* p = reinterpret_cast<const unsigned char*>(text.data());
+  const auto* end = p + text.size();
+  while (p < end) {
+    const unsigned c = *p;
+    int n = 0;
+    unsigned cp = 0, min = 0;
+    if (c < 0x80) { ++p; continue; }
+    if ((c & 0xE0) == 0xC0) { n = 1; cp = c & 0x1F; min = 0x80; }
+    else if ((c & 0xF0) == 0xE0) { n = 2; cp = c & 0x0F; min = 0x800; }
+    else if ((c & 0xF8) == 0xF0) { n = 3; cp = c & 0x07; min = 0x10000; }
+    else return false;
+    if (end - p <= n) return false;
+    for (int i = 1; i <= n; ++i) {
+      if ((p[i] & 0xC0) != 0x80) return false;
+      cp = (cp << 6) | (p[i] & 0x3F);
+    }
+    if (cp < min || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF)) return false;
+    p += n + 1;
+  }
+  return true;
+}
+
+std::string guid_hex(const dds_guid_t& g) {
+  static const char* digits = "0123456789abcdef";
+  std::string out;
+  for (uint8_t b : g.v) { out += digits[b >> 4]; out += digits[b & 15]; }
+  return out;
+}
+
+std::string participant_guid(dds_entity_t participant) {
+  dds_guid_t g;
+  if (dds_get_guid(participant, &g) != DDS_RETCODE_OK) throw std::runtime_error("DDS: no GUID for the participant");
+  return guid_hex(g);
+}
+
+std::optional<Sender> sender_of(dds_entity_t reader, dds_instance_handle_t publication) {
+  dds_builtintopic_endpoint_t* e = dds_get_matched_publication_data(reader, publication);
+  if (!e) return std::nullopt;
+  Sender s;
+  s.participant = guid_hex(e->participant_key);
+  uint32_t n = 0;
+  char** ps = nullptr;
+  if (e->qos && dds_qget_partition(e->qos, &n, &ps)) {
+    for (uint32_t i = 0; i < n; ++i) { s.partitions.push_back(ps[i]); dds_free(ps[i]); }
+    dds_free(ps);
+  }
+  // The default partition is also spelled as one empty name.
+  if (s.partitions.size() == 1 && s.partitions[0].empty()) s.partitions.clear();
+  dds_builtintopic_free_endpoint(e);
+  return s;
+}
 
 DomainSettings DomainSettings::resolve(std::optional<int> domain_flag, const std::string& config_flag,
                                        const std::string& security_dir_flag, const std::string& identity) {

@@ -1,6 +1,7 @@
 #include "fleet.h"
 
 #include "exam_evidence.h"
+#include "worker_log.h"
 
 #include "forklift/image/image.h"
 #include "forklift/session/session_log.h"
@@ -10,7 +11,11 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <set>
 #include <fstream>
 #include <iostream>
 #include <sstream>
@@ -23,6 +28,7 @@ using Clock = std::chrono::steady_clock;
 // Who the audit log names for what workers report over DDS.
 const store::Actor kWorker{std::nullopt, "worker"};
 const store::Actor kServer{std::nullopt, "server"};  // the supervisor's own findings
+const store::Actor kWorkerLog{std::nullopt, "worker log"};  // what the server took from a worker's session log
 
 std::string slurp(const std::string& path) {
   std::ifstream in(path);
@@ -37,19 +43,59 @@ Fleet::Fleet(FleetConfig config) : config_(std::move(config)) {
   participant_ = std::make_unique<dds::Participant>(
       dds::DomainSettings::resolve(config_.dds_domain, config_.dds_config, config_.security_dir, config_.identity));
   status_writer_ = std::make_unique<dds::Writer<fk_SessionStatus>>(*participant_);
-  // A restarted server adopts the sessions still open: their workers keep running on their own
-  // and keep reporting over DDS; without a child pid they are supervised by their heartbeat.
   auto db = store::Store::open_sqlite(config_.db_path);
-  for (const store::Session& s : db->open_sessions()) {
-    if (s.state == "starting") continue;  // never got a worker
+  adopt(*db);
+  supervisor_ = std::thread([this] { supervise(); });
+  ingest_ = std::thread([this] { ingest(); });
+}
+
+void Fleet::adopt(store::Store& db) {
+  // A restarted server adopts the sessions still open whose workers still run (they keep
+  // reporting over DDS; not our children, they are watched through /proc). A session whose
+  // worker is gone is settled from its log: it may have ended, with its mark, while we were down.
+  std::map<std::string, WorkerProcess> running;  // by session
+  std::vector<WorkerProcess> strays;
+  for (const WorkerProcess& p : find_workers(config_.log_dir)) {
+    if (running.count(p.session)) strays.push_back(p);
+    else running[p.session] = p;
+  }
+  const auto now = Clock::now();
+  std::set<std::string> cabs_taken;
+  std::vector<store::Session> open = db.open_sessions();
+  // The newest session of a cab keeps it: an older one still open is settled.
+  std::sort(open.begin(), open.end(), [](const store::Session& a, const store::Session& b) { return a.public_id > b.public_id; });
+  for (const store::Session& s : open) {
     WorkerInfo w;
     w.session = s.public_id;
     w.cab = s.cab_id;
-    w.started = w.last_state = Clock::now();
-    workers_[s.public_id] = w;
+    w.started = w.last_state = now;
+    w.participant = logged_participant(log_path(s.public_id));
+    const auto p = running.find(s.public_id);
+    if (p != running.end() && p->second.cab == s.cab_id && !cabs_taken.count(s.cab_id)) {
+      w.pid = p->second.pid;
+      w.start_ticks = p->second.start_ticks;
+      running.erase(p);
+      cabs_taken.insert(s.cab_id);
+      std::cerr << "forklift-server: adopted the worker (pid " << w.pid << ") of session " << s.public_id << " on cab "
+                << s.cab_id << std::endl;
+      workers_[s.public_id] = w;
+      bindings_[s.public_id] = {w.cab, w.participant, std::nullopt};
+    } else {
+      // Gone (or a second worker on a cab that has one): settled by the supervisor from its log.
+      bindings_[s.public_id] = {w.cab, w.participant, now + std::chrono::seconds(2)};
+      finishing_.push_back({w, s.state == "starting" && !std::ifstream(log_path(s.public_id))
+                                   ? "the session never started (the server stopped while starting it)"
+                                   : "",
+                            now});
+    }
   }
-  supervisor_ = std::thread([this] { supervise(); });
-  ingest_ = std::thread([this] { ingest(); });
+  // Workers of this server with no open session, or a second one for a cab: no cab has two.
+  for (const auto& [id, p] : running) strays.push_back(p);
+  for (const WorkerProcess& p : strays) {
+    std::cerr << "forklift-server: stopping worker pid " << p.pid << " (session " << p.session << ", cab " << p.cab
+              << "): its session is not open here or its cab runs another" << std::endl;
+    kill(p.pid, SIGTERM);
+  }
 }
 
 Fleet::~Fleet() {
@@ -58,7 +104,7 @@ Fleet::~Fleet() {
   if (ingest_.joinable()) ingest_.join();
   std::lock_guard<std::mutex> lock(mu_);
   for (auto& [id, w] : workers_)
-    if (w.pid > 0) kill(w.pid, SIGTERM);
+    if (w.child) kill(w.pid, SIGTERM);
 }
 
 void Fleet::start_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
@@ -80,6 +126,7 @@ void Fleet::start_worker(const store::Session& s, const std::string& scenario_fi
                                    "--mode", s.mode};
   if (duration_s) { args.push_back("--duration"); args.push_back(std::to_string(*duration_s)); }
   if (aids) { args.push_back("--aids"); args.push_back(*aids); }
+  std::remove((base + ".ctl.participant").c_str());  // a stale one must not vouch for anybody
   if (!config_.dds_config.empty()) { args.push_back("--dds-config"); args.push_back(config_.dds_config); }
   if (secure()) { args.push_back("--security"); args.push_back(config_.security_dir); }
   args.insert(args.end(), config_.worker_args.begin(), config_.worker_args.end());
@@ -101,15 +148,18 @@ void Fleet::start_worker(const store::Session& s, const std::string& scenario_fi
   w.session = s.public_id;
   w.cab = s.cab_id;
   w.pid = pid;
+  w.child = true;
   w.started = w.last_state = Clock::now();
   workers_[s.public_id] = w;
+  // The worker writes its participant beside its log before it publishes; read on first sample.
+  bindings_[s.public_id] = {w.cab, "", std::nullopt};
 }
 
 bool Fleet::abort(const std::string& session) {
   std::lock_guard<std::mutex> lock(mu_);
   auto it = workers_.find(session);
   if (it == workers_.end()) return false;
-  if (it->second.pid > 0) kill(it->second.pid, SIGUSR1);
+  if (it->second.pid > 0) kill(it->second.pid, SIGUSR1);  // an adopted worker too
   return true;
 }
 
@@ -225,8 +275,9 @@ void Fleet::supervise() {
   std::vector<std::pair<std::string, Clock::time_point>> to_chain;  // ended exams, until when to wait
   // Exams whose worker ended while this server was down, or just before it stopped.
   for (const std::string& s : db->unchained_signed_exams()) to_chain.push_back({s, Clock::now() + std::chrono::seconds(15)});
+  // The samples a worker sent just before it exited may still be on their way.
+  constexpr auto kLastSamples = std::chrono::milliseconds(1000);
   while (!stop_) {
-    std::vector<std::pair<WorkerInfo, std::string>> finished;  // worker, failure reason ("" if clean)
     {
       std::lock_guard<std::mutex> lock(mu_);
       const auto now = Clock::now();
@@ -234,61 +285,91 @@ void Fleet::supervise() {
         WorkerInfo& w = it->second;
         std::string reason;
         bool done = false;
-        if (w.pid > 0) {
+        if (w.child) {
           int status = 0;
           if (waitpid(w.pid, &status, WNOHANG) == w.pid) {
             done = true;
             if (WIFSIGNALED(status)) reason = "worker killed by signal " + std::to_string(WTERMSIG(status));
             else if (WEXITSTATUS(status) != 0) reason = "worker exited with code " + std::to_string(WEXITSTATUS(status));
           }
+        } else if (!still_running({w.pid, w.session, w.cab, log_path(w.session), w.start_ticks})) {
+          done = true;  // an adopted worker: how it ended, its log says
         }
         const double silent = std::chrono::duration<double>(now - w.last_state).count();
         if (!done && w.seen_state && silent > config_.hang_timeout_s) {
           reason = "worker hung: no truck state for " + std::to_string(int(silent)) + " s";
-          if (w.pid > 0) { kill(w.pid, SIGKILL); waitpid(w.pid, nullptr, 0); }
-          done = true;
-        }
-        if (!done && w.pid == 0 && !w.seen_state && silent > config_.hang_timeout_s + config_.start_timeout_s) {
-          reason = "worker lost across a server restart";
+          kill(w.pid, SIGKILL);
+          if (w.child) waitpid(w.pid, nullptr, 0);
           done = true;
         }
         if (done) {
-          finished.push_back({w, reason});
+          finishing_.push_back({w, reason, now + kLastSamples});
+          bindings_[w.session].until = now + kLastSamples + std::chrono::seconds(30);
           it = workers_.erase(it);
         } else {
           ++it;
         }
       }
+      for (auto it = bindings_.begin(); it != bindings_.end();)
+        it = it->second.until && now > *it->second.until ? bindings_.erase(it) : std::next(it);
     }
-    for (const auto& [w, reason] : finished) {
-      const std::string base = config_.log_dir + "/" + w.session;
-      db->put_session_log(w.session, "control", slurp(base + ".ctl"));
-      db->put_session_log(w.session, "worker", slurp(base + ".err"));
-      if (std::ifstream(base + ".ctl.sig")) {
-        db->put_session_log(w.session, "signature", slurp(base + ".ctl.sig"));
-        to_chain.push_back({w.session, Clock::now() + std::chrono::seconds(15)});
+    for (auto it = finishing_.begin(); it != finishing_.end();) {
+      if (Clock::now() < it->at) { ++it; continue; }
+      try {
+        settle(*db, it->worker, it->reason, to_chain);
+      } catch (const std::exception& e) {
+        std::cerr << "forklift-server: settling session " << it->worker.session << ": " << e.what() << std::endl;
       }
-      if (!reason.empty()) {
-        fail(*db, w.session, w.cab, reason);
-      } else {
-        // A clean exit normally follows the worker's own "ended" status; if it was lost, the
-        // session still ends, but as ended, which carries no mark and so is never a pass.
-        const auto s = db->get_session(w.session);
-        if (s && !store::is_terminal(s->state)) {
-          // The session log says whether the worker gave up waiting for its cab.
-          bool gave_up = false;
-          try {
-            for (const auto& [tick, kind] : read_control_log(base + ".ctl").worker_events) gave_up = gave_up || kind == kNoControlsEvent;
-          } catch (const std::exception&) {
-            // no log, or a torn one: the worker died early; it ended, unmarked
-          }
-          if (gave_up) fail(*db, w.session, w.cab, "the cab never spoke");
-          else db->set_session_state_audited(w.session, "ended", "worker exited", store::now_iso8601(), kServer);
-        }
-      }
+      it = finishing_.erase(it);
     }
     chain_ended_exams(*db, to_chain);
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+}
+
+void Fleet::settle(store::Store& db, const WorkerInfo& w, const std::string& reason,
+                   std::vector<std::pair<std::string, Clock::time_point>>& to_chain) {
+  const std::string log = log_path(w.session);
+  const std::string base = config_.log_dir + "/" + w.session;
+  if (std::ifstream(log)) db.put_session_log(w.session, "control", slurp(log));
+  if (std::ifstream(base + ".err")) db.put_session_log(w.session, "worker", slurp(base + ".err"));
+  // What the samples did not bring: the log lists every event and the mark it published.
+  const std::optional<LoggedSession> logged = read_logged_session(log, w.session);
+  if (logged) {
+    uint64_t events = 0;
+    for (const store::EventRecord& e : logged->events) events += db.add_event(e) ? 1 : 0;
+    bool scored = false;
+    if (logged->score && !db.get_score(w.session)) scored = db.set_score_audited(*logged->score, store::now_iso8601(), kWorkerLog);
+    if (events || scored) {
+      std::lock_guard<std::mutex> lock(mu_);
+      refused_.recovered_events += events;
+      refused_.recovered_scores += scored ? 1 : 0;
+    }
+    if (events || scored)
+      std::cerr << "forklift-server: session " << w.session << ": " << events << " event(s)" << (scored ? " and the score" : "")
+                << " taken from the worker's log (their samples never arrived)" << std::endl;
+  }
+  if (std::ifstream(log + ".sig")) {
+    db.put_session_log(w.session, "signature", slurp(log + ".sig"));
+    to_chain.push_back({w.session, Clock::now() + std::chrono::seconds(15)});
+  }
+  const auto s = db.get_session(w.session);
+  if (!s || store::is_terminal(s->state)) return;
+  if (logged && logged->score && logged->end_reason) {
+    // The log's end is the session's, whatever became of the worker's last status.
+    if (db.set_session_state_audited(w.session, "ended", *logged->end_reason, store::now_iso8601(), kWorkerLog))
+      publish_status(w.session, w.cab, "ended", *logged->end_reason);
+  } else if (logged && logged->gave_up) {
+    fail(db, w.session, w.cab, "the cab never spoke");
+  } else if (!reason.empty()) {
+    fail(db, w.session, w.cab, reason);
+  } else if (!w.child) {
+    fail(db, w.session, w.cab, logged ? "the worker stopped before the session ended (the server was down)"
+                                      : "the worker was gone after a server restart, with no session log");
+  } else {
+    // A clean exit with no mark in the log (a session that never ran): ended, which carries no
+    // mark and so is never a pass.
+    db.set_session_state_audited(w.session, "ended", "worker exited", store::now_iso8601(), kServer);
   }
 }
 
@@ -309,61 +390,181 @@ void Fleet::chain_ended_exams(store::Store& db, std::vector<std::pair<std::strin
   }
 }
 
+RefusedSamples Fleet::refused() {
+  std::lock_guard<std::mutex> lock(mu_);
+  return refused_;
+}
+
+void Fleet::refuse(uint64_t RefusedSamples::*counter, const std::string& what) {
+  uint64_t n;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    n = ++(refused_.*counter);
+  }
+  // Named in the log, but a flood of them does not flood it.
+  if (n <= 20 || (n & (n - 1)) == 0) std::cerr << "forklift-server: refused " << what << " (" << n << " so far)" << std::endl;
+}
+
+Fleet::Verdict Fleet::check_sender(const std::string& session, dds_entity_t reader, const dds_sample_info_t& info,
+                                   bool state_topic) {
+  Binding b;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    const auto it = bindings_.find(session);
+    if (it == bindings_.end()) return Verdict::kNotOurs;  // another server's, or long over
+    if (it->second.participant.empty()) it->second.participant = logged_participant(log_path(session));
+    b = it->second;
+  }
+  auto sender = senders_.find(info.publication_handle);
+  if (sender == senders_.end()) {
+    auto found = dds::sender_of(reader, info.publication_handle);
+    if (!found) return Verdict::kWrongSender;  // a writer discovery does not vouch for
+    sender = senders_.emplace(info.publication_handle, std::move(*found)).first;
+  }
+  const std::string partition = state_topic ? dds::cab_partition(b.cab) : dds::worker_partition(b.cab);
+  if (b.participant.empty() || sender->second.participant != b.participant || !sender->second.in(partition))
+    return Verdict::kWrongSender;
+  return Verdict::kOurs;
+}
+
+namespace {
+
+bool finite(std::initializer_list<double> xs) {
+  for (double x : xs) if (!std::isfinite(x)) return false;
+  return true;
+}
+
+// What is wrong with a sample's strings (UTF-8 and not empty where a name is), or nullopt.
+std::optional<std::string> bad_text(std::initializer_list<std::pair<const char*, const char*>> fields) {
+  for (const auto& [name, text] : fields)
+    if (!dds::valid_utf8(text)) return std::string(name) + " is not UTF-8";
+  return std::nullopt;
+}
+
+}  // namespace
+
 void Fleet::ingest() {
   auto db = store::Store::open_sqlite(config_.db_path);
-  dds::Reader<fk_Event> events(*participant_);
-  dds::Reader<fk_Score> scores(*participant_);
-  dds::Reader<fk_SessionStatus> statuses(*participant_);
+  // Workers report in their own partitions; cabs announce in theirs.
+  dds::Reader<fk_Event> events(*participant_, "worker.*");
+  dds::Reader<fk_Score> scores(*participant_, "worker.*");
+  dds::Reader<fk_SessionStatus> statuses(*participant_, "worker.*");
   dds::Reader<fk_TruckState> states(*participant_, "cab.*");
   dds::Reader<fk_CabAnnounce> announces(*participant_, "cab.*");
   dds::WaitSet ws(*participant_);
   for (dds_entity_t r : {events.handle(), scores.handle(), statuses.handle(), states.handle(), announces.handle()})
     ws.attach_reader(r);
-  while (!stop_) {
-    ws.wait(0.1);
+  // One sample's trouble costs that sample only: the rest of its batch is taken as usual.
+  auto each = [&](auto& reader, const char* topic, auto&& handle) {
     try {
-      events.take_each([&](const fk_Event& e) {
-        if (!db->get_session(e.session_id)) return;  // not one of ours (another server on this domain)
-        db->add_event({e.session_id, e.seq, e.sim_time_s, e.kind, e.worry_level, e.x_m, e.y_m, e.details});
-      });
-      scores.take_each([&](const fk_Score& s) {
-        if (!db->get_session(s.session_id)) return;
-        store::ScoreRecord r{s.session_id, s.mark, s.passed, {}};
-        for (uint32_t i = 0; i < s.counts._length; ++i) r.counts[s.counts._buffer[i].kind] = int(s.counts._buffer[i].count);
-        db->set_score_audited(r, store::now_iso8601(), kWorker);
-      });
-      statuses.take_each([&](const fk_SessionStatus& s) {
-        const std::string state = s.state;
-        if (!db->get_session(s.session_id)) return;
-        if (state == "waiting" || state == "running" || state == "ended" || state == "failed")
-          db->set_session_state_audited(s.session_id, state, s.reason, store::now_iso8601(), kWorker);
-      });
-      std::vector<std::string> announced;
-      std::map<std::string, std::vector<store::PathPoint>> path;  // by session, downsampled
-      {
-      std::lock_guard<std::mutex> lock(mu_);
-      states.take_each([&](const fk_TruckState& t) {
-        auto it = workers_.find(t.session_id);
-        if (it != workers_.end()) {
-          it->second.last = t;
-          it->second.last_state = Clock::now();
-          it->second.seen_state = true;
-          // One point every path_interval_s of sim time.
-          auto& last = it->second.last_path_point_s;
-          if (!last || t.sim_time_s >= *last + config_.path_interval_s) {
-            last = t.sim_time_s;
-            path[t.session_id].push_back({t.sim_time_s, t.x_m, t.y_m, t.yaw_rad, t.speed_m_s, t.lift_m});
-          }
+      reader.take_each_with_info([&](const auto& sample, const dds_sample_info_t& info) {
+        try {
+          handle(sample, info);
+        } catch (const std::exception& e) {
+          refuse(&RefusedSamples::malformed, std::string("a ") + topic + " sample: " + e.what());
         }
       });
-      announces.take_each([&](const fk_CabAnnounce& a) {
-        CabInfo& c = cabs_[a.cab_id];
-        c.id = a.cab_id;
-        c.mode = a.mode;
-        c.last_seen = Clock::now();
-        announced.push_back(c.id);
-      });
+    } catch (const std::exception& e) {
+      std::cerr << "forklift-server: ingest: " << e.what() << std::endl;  // counted, never fatal
+    }
+  };
+  // Whether a report for `session` is to be stored; refusals counted with the reason.
+  auto believed = [&](const char* topic, const char* session, dds_entity_t reader, const dds_sample_info_t& info,
+                      bool state_topic = false) {
+    if (!dds::valid_utf8(session)) { refuse(&RefusedSamples::malformed, std::string("a ") + topic + " whose session is not UTF-8"); return false; }
+    switch (check_sender(session, reader, info, state_topic)) {
+      case Verdict::kOurs: return true;
+      case Verdict::kNotOurs: return false;
+      case Verdict::kWrongSender:
+        refuse(&RefusedSamples::wrong_sender, std::string("a ") + topic + " for session " + session + " not from its worker");
+        return false;
+    }
+    return false;
+  };
+  // Who each writer is, learnt while it is matched: a sample taken after its writer has gone
+  // (a worker exits 200 ms after its score) is still told apart.
+  auto learn_senders = [&](dds_entity_t reader) {
+    dds_instance_handle_t handles[64];
+    const dds_return_t n = dds_get_matched_publications(reader, handles, 64);
+    for (dds_return_t i = 0; i < std::min<dds_return_t>(n, 64); ++i)
+      if (!senders_.count(handles[i]))
+        if (auto found = dds::sender_of(reader, handles[i])) senders_.emplace(handles[i], std::move(*found));
+  };
+  while (!stop_) {
+    ws.wait(0.1);
+    for (dds_entity_t r : {events.handle(), scores.handle(), statuses.handle(), states.handle(), announces.handle()}) learn_senders(r);
+    each(events, "fk_Event", [&](const fk_Event& e, const dds_sample_info_t& info) {
+      if (!believed("fk_Event", e.session_id, events.handle(), info)) return;
+      if (auto bad = bad_text({{"its kind", e.kind}, {"its details", e.details}})) throw std::runtime_error(*bad);
+      if (!finite({e.sim_time_s, e.x_m, e.y_m}) || e.sim_time_s < 0 || e.seq == 0 || e.worry_level > 5 || !e.kind[0])
+        throw std::runtime_error("event " + std::to_string(e.seq) + " of session " + std::string(e.session_id) + " is out of range");
+      db->add_event({e.session_id, e.seq, e.sim_time_s, e.kind, e.worry_level, e.x_m, e.y_m, e.details});
+    });
+    each(scores, "fk_Score", [&](const fk_Score& s, const dds_sample_info_t& info) {
+      if (!believed("fk_Score", s.session_id, scores.handle(), info)) return;
+      if (!finite({s.mark}) || s.mark < 0 || s.mark > 100) throw std::runtime_error("a mark of " + std::to_string(s.mark));
+      store::ScoreRecord r{s.session_id, s.mark, s.passed, {}};
+      for (uint32_t i = 0; i < s.counts._length; ++i) {
+        if (!dds::valid_utf8(s.counts._buffer[i].kind)) throw std::runtime_error("a fault kind that is not UTF-8");
+        r.counts[s.counts._buffer[i].kind] = int(s.counts._buffer[i].count);
       }
+      // The mark of record is the one the worker wrote in its session log before sending it.
+      const auto log = read_control_log(log_path(s.session_id));
+      const auto logged = log.score_line ? parse_score_line(*log.score_line) : std::nullopt;
+      if (!logged || logged->mark != s.mark || logged->passed != bool(s.passed)) {
+        refuse(&RefusedSamples::score_disagrees, "a score for session " + std::string(s.session_id) + " that its session log does not hold");
+        return;
+      }
+      db->set_score_audited(r, store::now_iso8601(), kWorker);
+    });
+    each(statuses, "fk_SessionStatus", [&](const fk_SessionStatus& s, const dds_sample_info_t& info) {
+      if (!believed("fk_SessionStatus", s.session_id, statuses.handle(), info)) return;
+      if (auto bad = bad_text({{"its state", s.state}, {"its reason", s.reason}})) throw std::runtime_error(*bad);
+      const std::string state = s.state;
+      if (state == "waiting" || state == "running" || state == "ended" || state == "failed")
+        db->set_session_state_audited(s.session_id, state, s.reason, store::now_iso8601(), kWorker);
+    });
+    std::vector<std::string> announced;
+    std::map<std::string, std::vector<store::PathPoint>> path;  // by session, downsampled
+    each(states, "fk_TruckState", [&](const fk_TruckState& t, const dds_sample_info_t& info) {
+      if (!believed("fk_TruckState", t.session_id, states.handle(), info, true)) return;
+      if (!finite({t.sim_time_s, t.x_m, t.y_m, t.yaw_rad, t.speed_m_s, t.lift_m}))
+        throw std::runtime_error("a truck state that is not finite");
+      std::lock_guard<std::mutex> lock(mu_);
+      auto it = workers_.find(t.session_id);
+      if (it == workers_.end()) return;
+      it->second.last = t;
+      it->second.last_state = Clock::now();
+      it->second.seen_state = true;
+      // One point every path_interval_s of sim time.
+      auto& last = it->second.last_path_point_s;
+      if (!last || t.sim_time_s >= *last + config_.path_interval_s) {
+        last = t.sim_time_s;
+        path[t.session_id].push_back({t.sim_time_s, t.x_m, t.y_m, t.yaw_rad, t.speed_m_s, t.lift_m});
+      }
+    });
+    each(announces, "fk_CabAnnounce", [&](const fk_CabAnnounce& a, const dds_sample_info_t& info) {
+      if (auto bad = bad_text({{"its cab id", a.cab_id}, {"its mode", a.mode}, {"its school", a.school}})) throw std::runtime_error(*bad);
+      if (!a.cab_id[0]) throw std::runtime_error("a cab announcement with no cab id");
+      // A cab speaks in its own partition only (under DDS Security nobody else may).
+      auto sender = senders_.find(info.publication_handle);
+      if (sender == senders_.end()) {
+        auto found = dds::sender_of(announces.handle(), info.publication_handle);
+        if (!found) return;
+        sender = senders_.emplace(info.publication_handle, std::move(*found)).first;
+      }
+      if (!sender->second.in(dds::cab_partition(a.cab_id))) {
+        refuse(&RefusedSamples::wrong_sender, "an announcement for cab " + std::string(a.cab_id) + " from another cab's partition");
+        return;
+      }
+      std::lock_guard<std::mutex> lock(mu_);
+      CabInfo& c = cabs_[a.cab_id];
+      c.id = a.cab_id;
+      c.mode = a.mode;
+      c.last_seen = Clock::now();
+      announced.push_back(c.id);
+    });
+    try {
       take_followed_frames();
       for (const std::string& cab : announced) db->cab_seen(cab, 1, store::now_iso8601());  // the default school
       for (const auto& [session, points] : path) db->add_path_points(session, points);

@@ -37,11 +37,23 @@ struct FleetConfig {
 
 struct WorkerInfo {
   std::string session, cab;
-  pid_t pid = 0;  // 0 if the worker is not our child (adopted after a server restart)
+  pid_t pid = 0;       // the worker's process (0: not found after a server restart)
+  bool child = false;  // ours to reap; otherwise adopted after a server restart, watched through /proc
+  unsigned long long start_ticks = 0;  // an adopted process's start time (a reused pid is not it)
+  std::string participant;  // the worker's DDS participant (GUID hex): its samples only are believed
   std::chrono::steady_clock::time_point started, last_state;
   bool seen_state = false;
   fk_TruckState last{};  // the newest TruckState, when seen_state
   std::optional<double> last_path_point_s;  // sim time of the last path point stored
+};
+
+// Samples the ingest refused, by why (GET /api/fleet shows them; the server's log names each).
+struct RefusedSamples {
+  uint64_t wrong_sender = 0;    // not from the worker that runs the session (or its cab's partition)
+  uint64_t malformed = 0;       // not UTF-8, not finite, out of range, or unreadable
+  uint64_t score_disagrees = 0; // a score that is not the one in the worker's session log
+  uint64_t recovered_events = 0;  // events taken from a worker's log because their samples never came
+  uint64_t recovered_scores = 0;
 };
 
 // What an examiner following a session sees: the newest truck state and rendered frame.
@@ -77,6 +89,7 @@ class Fleet {
   bool cab_busy(const std::string& cab);
   const FleetConfig& config() const { return config_; }
   bool secure() const { return !config_.security_dir.empty(); }
+  RefusedSamples refused();
 
   // Live follow: the session's newest state and frame. Asking subscribes to the cab's frames
   // (until nobody has asked for kFollowIdle); the first frame arrives a moment later.
@@ -92,6 +105,24 @@ class Fleet {
   // Appends the ended exams whose score has arrived to the hash chain; keeps the others until
   // their deadline (supervisor thread).
   void chain_ended_exams(store::Store& db, std::vector<std::pair<std::string, std::chrono::steady_clock::time_point>>& pending);
+  // A worker is gone: its logs are stored, what its samples did not bring is taken from its
+  // session log, and the session ends as the log says (supervisor thread).
+  void settle(store::Store& db, const WorkerInfo& w, const std::string& reason,
+              std::vector<std::pair<std::string, std::chrono::steady_clock::time_point>>& to_chain);
+  // Start-up: the sessions left open, and the workers of this server still running.
+  void adopt(store::Store& db);
+  std::string log_path(const std::string& session) const { return config_.log_dir + "/" + session + ".ctl"; }
+
+  // Whose samples a session's are: the worker's participant and cab, kept a little while after
+  // it exits for the samples still on their way.
+  struct Binding {
+    std::string cab, participant;
+    std::optional<std::chrono::steady_clock::time_point> until;  // set when the worker is gone
+  };
+  enum class Verdict { kOurs, kNotOurs, kWrongSender };
+  // Whether a sample for `session` came from its worker, in `partition_of(cab)` (ingest thread).
+  Verdict check_sender(const std::string& session, dds_entity_t reader, const dds_sample_info_t& info, bool state_topic);
+  void refuse(uint64_t RefusedSamples::*counter, const std::string& what);
 
   struct Followed {  // a cab whose frames an examiner watches
     std::unique_ptr<dds::Reader<fk_Frame>> frames;
@@ -102,6 +133,15 @@ class Fleet {
   FleetConfig config_;
   std::mutex mu_;
   std::map<std::string, WorkerInfo> workers_;  // by session
+  std::map<std::string, Binding> bindings_;     // by session, for the ingest
+  struct Finishing {  // a worker gone; settled once its last samples had time to arrive
+    WorkerInfo worker;
+    std::string reason;
+    std::chrono::steady_clock::time_point at;
+  };
+  std::vector<Finishing> finishing_;  // supervisor thread
+  RefusedSamples refused_;
+  std::map<dds_instance_handle_t, dds::Sender> senders_;  // ingest thread: who each publication is
   std::map<std::string, CabInfo> cabs_;
   std::map<std::string, Followed> followed_;            // by cab
   std::map<std::string, std::unique_ptr<dds::Writer<fk_SessionStatus>>> cab_status_writers_;  // by cab

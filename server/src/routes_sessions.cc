@@ -268,7 +268,11 @@ void session_routes(httplib::Server& svr, Context& ctx) {
     }
     json every = json::array();
     for (auto& [id, c] : all) every.push_back(std::move(c));
-    send_json(res, 200, {{"workers", workers}, {"cabs_online", cabs}, {"cabs", every}, {"max_workers", ctx.fleet->config().max_workers}});
+    const RefusedSamples r = ctx.fleet->refused();
+    const json refused = {{"wrong_sender", r.wrong_sender}, {"malformed", r.malformed}, {"score_disagrees", r.score_disagrees}};
+    const json recovered = {{"events", r.recovered_events}, {"scores", r.recovered_scores}};
+    send_json(res, 200, {{"workers", workers}, {"cabs_online", cabs}, {"cabs", every}, {"max_workers", ctx.fleet->config().max_workers},
+                         {"refused_samples", refused}, {"recovered_from_logs", recovered}});
   }));
 }
 

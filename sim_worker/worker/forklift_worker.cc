@@ -236,6 +236,12 @@ void sign_log(const std::string& log_file, const std::string& session, const std
   if (!out) throw std::runtime_error("cannot write " + log_file + ".sig");
 }
 
+void write_participant_file(const std::string& path, const std::string& guid) {
+  std::ofstream out(path, std::ios::trunc);
+  out << guid << '\n';
+  if (!out) throw std::runtime_error("cannot write " + path);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -334,13 +340,21 @@ int main(int argc, char** argv) {
   }
 
   try {
+    if (log_file.empty()) {
+      std::filesystem::create_directories(log_dir);
+      log_file = log_dir + "/" + session + ".ctl";
+    }
     participant = std::make_unique<dds::Participant>(dds_settings);
-    status_writer = std::make_unique<dds::Writer<fk_SessionStatus>>(*participant);
+    // Who this worker is on the wire, beside its log: the server takes this session's reports
+    // from this participant only (a forged score from anyone else is refused).
+    write_participant_file(log_file + ".participant", dds::participant_guid(participant->handle()));
+    // Reports go to the server in the worker's own partition (under DDS Security no other
+    // identity may publish there), and to the cab, which reads only its own.
+    status_writer = std::make_unique<dds::Writer<fk_SessionStatus>>(*participant, dds::worker_partition(cab));
     cab_status_writer = std::make_unique<dds::Writer<fk_SessionStatus>>(*participant, dds::cab_partition(cab));
     dds::Writer<fk_TruckState> state_writer(*participant, dds::cab_partition(cab));
-    // Events go to the server (default partition) and to the cab, which reads only its own.
-    dds::Writer<fk_Event> event_writer(*participant), cab_event_writer(*participant, dds::cab_partition(cab));
-    dds::Writer<fk_Score> score_writer(*participant);
+    dds::Writer<fk_Event> event_writer(*participant, dds::worker_partition(cab)), cab_event_writer(*participant, dds::cab_partition(cab));
+    dds::Writer<fk_Score> score_writer(*participant, dds::worker_partition(cab));
 
     // The session: its model (loaded once), its state, the machinery that steps it.
     SessionSpec spec;
@@ -350,10 +364,6 @@ int main(int argc, char** argv) {
     SessionState state = initial_state(model);
     SessionWorkspace workspace(model);
     const TruckParams& truck = model.truck;
-    if (log_file.empty()) {
-      std::filesystem::create_directories(log_dir);
-      log_file = log_dir + "/" + session + ".ctl";
-    }
     ControlLogWriter log(log_file, log_header(model, state, session, cab));
     // Only now, with the session built, does the cab's writer match: a sample sent on that
     // match is read, not overwritten while the scene loads.

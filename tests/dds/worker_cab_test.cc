@@ -177,8 +177,8 @@ TEST(CabHud, ALoadsCapacityIsThePlatesAtItsCentre) {
 TEST(CabHud, EventsReachTheCabInItsOwnPartitionAndTheServerOnce) {
   Process w = worker(62, "events", {"--duration", "2.5"});
   Cab cab(62);
-  // The server's side: the default partition, where it reads events.
-  dds::Reader<fk_Event> server_events(cab.p);
+  // The server's side: the worker's partition, where it reads events.
+  dds::Reader<fk_Event> server_events(cab.p, dds::worker_partition("hud"));
   ASSERT_TRUE(cab.wait_worker(20)) << w.err();
   cab.drive(0.5);
   std::this_thread::sleep_for(std::chrono::milliseconds(1000));  // silence: the dead man stops the truck

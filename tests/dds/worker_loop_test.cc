@@ -99,7 +99,7 @@ TEST(WorkerLoop, BadControlsAreRefusedSilenceStopsTheTruckAndTheWorkerStaysUp) {
   dds::Participant p(dds::DomainSettings::resolve(42, ""));
   dds::Writer<fk_Controls> out(p, dds::cab_partition("c1"));
   dds::Reader<fk_TruckState> states(p, dds::cab_partition("c1"));
-  dds::Reader<fk_Event> events(p);
+  dds::Reader<fk_Event> events(p, dds::worker_partition("c1"));
   ASSERT_TRUE(wait_matched(out, 10)) << w.err();
 
   auto send = [&](const fk_Controls& c) {
@@ -153,7 +153,7 @@ TEST(WorkerLoop, AnotherCabsControlsNeverReachThisWorker) {
   Process w = worker(43, "c1", "lonely", {"--start-timeout", "2"});
   dds::Participant p(dds::DomainSettings::resolve(43, ""));
   dds::Writer<fk_Controls> other(p, dds::cab_partition("c2"));
-  dds::Reader<fk_SessionStatus> status(p);
+  dds::Reader<fk_SessionStatus> status(p, dds::worker_partition("c1"));
   for (uint32_t s = 1; s < 100 && w.running(); ++s) {
     other.write(controls("c2", s, 1.0));
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -173,7 +173,7 @@ TEST(WorkerLoop, AnotherCabsControlsNeverReachThisWorker) {
 TEST(WorkerLoop, SigtermFlushesTheLogAndPublishesTheEnd) {
   Process w = worker(44, "c1", "term");
   dds::Participant p(dds::DomainSettings::resolve(44, ""));
-  dds::Reader<fk_SessionStatus> status(p);
+  dds::Reader<fk_SessionStatus> status(p, dds::worker_partition("c1"));
   Process cab({kBin + "/forklift-cab", "--cab", "c1", "--script", kData + "/manoeuvres/manoeuvre_1.csv", "--dds-domain", "44"},
               tmp("term.cab"));
   std::this_thread::sleep_for(std::chrono::milliseconds(2500));

@@ -1,0 +1,50 @@
+// What the server learns from a worker without DDS: its session log (the record of what it
+// published, read when samples went missing or the server was down), its participant (whose
+// samples to believe) and its process (found again after a server restart).
+#pragma once
+
+#include <sys/types.h>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "forklift/store/store.h"
+
+namespace forklift::server {
+
+// A session as its worker's log tells it.
+struct LoggedSession {
+  std::vector<store::EventRecord> events;  // in the order published: seq from 1, as on DDS
+  std::optional<store::ScoreRecord> score; // mark and passed from the score line; counts from the events
+  std::optional<std::string> end_reason;   // the score line's reason
+  bool finished = false;                   // the log has its "end" line
+  bool gave_up = false;                    // the worker's cab never spoke
+};
+
+// Reads <log_dir>/<session>.ctl; nullopt if there is no readable log. Events recovered from a
+// log carry no position or details (the log keeps kind, worry and tick): their details say so.
+std::optional<LoggedSession> read_logged_session(const std::string& log_path, const std::string& session);
+
+// The GUID the worker wrote beside its log (<log>.participant); empty if none yet.
+std::string logged_participant(const std::string& log_path);
+
+// The mark on a score line as written ("score <hex mark> <passed> <points> <reason>").
+struct LoggedMark {
+  double mark = 0;
+  bool passed = false;
+};
+std::optional<LoggedMark> parse_score_line(const std::string& line);
+
+// A forklift-worker process on this machine, from /proc.
+struct WorkerProcess {
+  pid_t pid = 0;
+  std::string session, cab, log_path;
+  unsigned long long start_ticks = 0;  // /proc/<pid>/stat's start time: tells a reused pid apart
+};
+// Every forklift-worker whose --log lies in `log_dir` (this server's workers, not another's).
+std::vector<WorkerProcess> find_workers(const std::string& log_dir);
+// Whether the process is still that worker (alive, same start time).
+bool still_running(const WorkerProcess& p);
+
+}  // namespace forklift::server
