@@ -103,8 +103,13 @@ Fleet::~Fleet() {
   if (supervisor_.joinable()) supervisor_.join();
   if (ingest_.joinable()) ingest_.join();
   std::lock_guard<std::mutex> lock(mu_);
-  for (auto& [id, w] : workers_)
-    if (w.child) kill(w.pid, SIGTERM);
+  // Adopted workers too: a server that stops ends its sessions (as "signal"), whoever spawned them.
+  for (auto& [id, w] : workers_) signal_worker(w, SIGTERM);
+}
+
+void Fleet::signal_worker(const WorkerInfo& w, int sig) const {
+  // An adopted worker's pid is checked first: after it exits, the number may be another's.
+  if (w.pid > 0 && (w.child || still_running({w.pid, w.session, w.cab, log_path(w.session), w.start_ticks}))) kill(w.pid, sig);
 }
 
 void Fleet::start_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
@@ -159,7 +164,7 @@ bool Fleet::abort(const std::string& session) {
   std::lock_guard<std::mutex> lock(mu_);
   auto it = workers_.find(session);
   if (it == workers_.end()) return false;
-  if (it->second.pid > 0) kill(it->second.pid, SIGUSR1);  // an adopted worker too
+  signal_worker(it->second, SIGUSR1);  // an adopted worker too
   return true;
 }
 
@@ -292,13 +297,13 @@ void Fleet::supervise() {
             if (WIFSIGNALED(status)) reason = "worker killed by signal " + std::to_string(WTERMSIG(status));
             else if (WEXITSTATUS(status) != 0) reason = "worker exited with code " + std::to_string(WEXITSTATUS(status));
           }
-        } else if (!still_running({w.pid, w.session, w.cab, log_path(w.session), w.start_ticks})) {
+        } else if (w.pid == 0 || !still_running({w.pid, w.session, w.cab, log_path(w.session), w.start_ticks})) {
           done = true;  // an adopted worker: how it ended, its log says
         }
         const double silent = std::chrono::duration<double>(now - w.last_state).count();
         if (!done && w.seen_state && silent > config_.hang_timeout_s) {
           reason = "worker hung: no truck state for " + std::to_string(int(silent)) + " s";
-          kill(w.pid, SIGKILL);
+          signal_worker(w, SIGKILL);
           if (w.child) waitpid(w.pid, nullptr, 0);
           done = true;
         }
@@ -509,8 +514,13 @@ void Fleet::ingest() {
         r.counts[s.counts._buffer[i].kind] = int(s.counts._buffer[i].count);
       }
       // The mark of record is the one the worker wrote in its session log before sending it.
-      const auto log = read_control_log(log_path(s.session_id));
-      const auto logged = log.score_line ? parse_score_line(*log.score_line) : std::nullopt;
+      std::optional<LoggedMark> logged;
+      try {
+        const auto log = read_control_log(log_path(s.session_id));
+        if (log.score_line) logged = parse_score_line(*log.score_line);
+      } catch (const std::exception&) {
+        // no log: nothing vouches for the mark
+      }
       if (!logged || logged->mark != s.mark || logged->passed != bool(s.passed)) {
         refuse(&RefusedSamples::score_disagrees, "a score for session " + std::string(s.session_id) + " that its session log does not hold");
         return;

@@ -111,6 +111,7 @@ class Fleet {
               std::vector<std::pair<std::string, std::chrono::steady_clock::time_point>>& to_chain);
   // Start-up: the sessions left open, and the workers of this server still running.
   void adopt(store::Store& db);
+  void signal_worker(const WorkerInfo& w, int sig) const;
   std::string log_path(const std::string& session) const { return config_.log_dir + "/" + session + ".ctl"; }
 
   // Whose samples a session's are: the worker's participant and cab, kept a little while after

@@ -7,6 +7,7 @@
 #include <httplib.h>
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -15,7 +16,9 @@
 #include <thread>
 #include <tuple>
 
+#include "forklift/protocol/protocol.h"
 #include "forklift/server/server.h"
+#include "support/ports.h"
 #include "support/api_client.h"
 
 using forklift_test::error_code;
@@ -272,14 +275,16 @@ TEST(Handlers, AidsAreRefusedInAnExamAndCheckedInTraining) {
 
 // A stand-in worker: writes its arguments to <bin>/worker.args, and on SIGUSR1 (the abort) or
 // SIGTERM writes which it was to <bin>/worker.signal and exits.
-void stand_in_worker(const std::string& bin) {
+void worker_script(const std::string& bin, const std::string& body) {
   const std::string path = bin + "/forklift-worker";
-  std::ofstream(path) << "#!/bin/sh\n"
-                         "echo \"$@\" > \"$(dirname \"$0\")/worker.args\"\n"
-                         "trap 'echo USR1 > \"$(dirname \"$0\")/worker.signal\"; exit 0' USR1\n"
-                         "trap 'echo TERM > \"$(dirname \"$0\")/worker.signal\"; exit 0' TERM\n"
-                         "while :; do sleep 0.05; done\n";
+  std::ofstream(path) << "#!/bin/sh\n" << body << "while :; do sleep 0.05; done\n";
   std::filesystem::permissions(path, std::filesystem::perms::owner_all);
+}
+void stand_in_worker(const std::string& bin) {
+  worker_script(bin,
+                "echo \"$@\" > \"$(dirname \"$0\")/worker.args\"\n"
+                "trap 'echo USR1 > \"$(dirname \"$0\")/worker.signal\"; exit 0' USR1\n"
+                "trap 'echo TERM > \"$(dirname \"$0\")/worker.signal\"; exit 0' TERM\n");
 }
 
 std::string wait_for_file(const std::string& path) {
@@ -315,4 +320,103 @@ TEST(Handlers, TrainingAidsReachTheSpawnedWorkerAndAnAbortIsSignalledAsSuch) {
   ASSERT_EQ(ast, 200) << aj;
   EXPECT_EQ(aj["state"], "aborted");
   EXPECT_EQ(wait_for_file(s.dir + "/bin/worker.signal"), "USR1");
+}
+
+// Issue 16, findings 3, 5 and 9: the ingest believes a session's reports only from its worker,
+// refuses what is not UTF-8 or not finite one sample at a time, and counts every refusal. The
+// stand-in worker here vouches for this test's own DDS participant (it writes the test's GUID
+// where a worker writes its own), so the test can speak as the worker, and as anyone else.
+TEST(Handlers, OnlyTheSessionsWorkerIsBelievedAndABadSampleCostsOnlyItself) {
+  const int domain = forklift::test::free_domain();
+  InProcessServer s("ingest", domain);
+  namespace dds = forklift::dds;
+  dds::Participant worker(dds::DomainSettings::resolve(domain, "")), outsider(dds::DomainSettings::resolve(domain, ""));
+  const std::string bin = s.dir + "/bin";
+  std::ofstream(bin + "/guid") << dds::participant_guid(worker.handle()) << '\n';
+  worker_script(bin,
+                "while [ $# -gt 0 ]; do [ \"$1\" = --log ] && log=\"$2\"; shift; done\n"
+                "cp \"$(dirname \"$0\")/guid\" \"$log.participant\"\n"
+                "trap 'exit 0' TERM\n");
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json pupil = s.add_pupil(admin, "Wire Test");
+  auto [st, j] = s.call("POST", "/api/sessions", admin,
+                        json{{"pupil_id", pupil["id"]}, {"cab_id", "cab1"}, {"scenario", "manoeuvre_1"}}.dump());
+  ASSERT_EQ(st, 201) << j;
+  const std::string id = j["id"];
+  // A worker says who it is before it publishes anything.
+  ASSERT_FALSE(wait_for_file(s.dir + "/forklift.db.logs/" + id + ".ctl.participant").empty());
+
+  dds::Writer<fk_Event> events(worker, dds::worker_partition("cab1"));
+  dds::Writer<fk_Event> forged_events(outsider, dds::worker_partition("cab1"));
+  dds::Writer<fk_Score> forged_scores(outsider, dds::worker_partition("cab1")), scores(worker, dds::worker_partition("cab1"));
+  dds::Writer<fk_SessionStatus> forged_status(outsider, dds::worker_partition("cab1"));
+  dds::Writer<fk_SessionStatus> status(worker, dds::worker_partition("cab1"));
+  dds::Writer<fk_CabAnnounce> announce_cab2(outsider, dds::cab_partition("cab2")), announce_bad(outsider, dds::cab_partition("bad\xff" "cab"));
+  for (int i = 0; i < 200 && (events.matched() == 0 || forged_events.matched() == 0 || forged_scores.matched() == 0 ||
+                              scores.matched() == 0 || forged_status.matched() == 0 || status.matched() == 0 ||
+                              announce_cab2.matched() == 0 || announce_bad.matched() == 0); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  ASSERT_GT(scores.matched(), 0);
+  auto event = [&](uint32_t seq, double t, const char* kind) {
+    fk_Event e{};
+    dds::set_string(e.session_id, id);
+    e.seq = seq;
+    e.sim_time_s = t;
+    dds::set_string(e.kind, kind);
+    e.worry_level = 1;
+    dds::set_string(e.details, "{}");
+    return e;
+  };
+  fk_SessionStatus running{};
+  dds::set_string(running.session_id, id);
+  dds::set_string(running.cab_id, "cab1");
+  dds::set_string(running.state, "running");
+  ASSERT_TRUE(status.write(running));
+  // One batch from the worker: good, NaN, not UTF-8, good.
+  ASSERT_TRUE(events.write(event(1, 0.5, "speed_near_walkway")));
+  ASSERT_TRUE(events.write(event(2, std::nan(""), "speed_near_walkway")));
+  ASSERT_TRUE(events.write(event(3, 0.7, "bad\xff\xfe" "kind")));
+  ASSERT_TRUE(events.write(event(4, 0.9, "harsh_braking")));
+  // From anyone else: an event, a perfect mark, an end.
+  ASSERT_TRUE(forged_events.write(event(5, 1.0, "forged")));
+  fk_Score perfect{};
+  dds::set_string(perfect.session_id, id);
+  perfect.mark = 100;
+  perfect.passed = true;
+  ASSERT_TRUE(forged_scores.write(perfect));
+  fk_SessionStatus ended = running;
+  dds::set_string(ended.state, "ended");
+  ASSERT_TRUE(forged_status.write(ended));
+  // The worker's own score, which its session log (there is none here) does not hold.
+  fk_Score unlogged = perfect;
+  unlogged.mark = 55;
+  unlogged.passed = false;
+  ASSERT_TRUE(scores.write(unlogged));
+  // Cab announcements: one naming another cab than its partition's, one not UTF-8.
+  fk_CabAnnounce a{};
+  dds::set_string(a.cab_id, "cab9");
+  dds::set_string(a.mode, "script");
+  ASSERT_TRUE(announce_cab2.write(a));
+  dds::set_string(a.cab_id, "bad\xff" "cab");
+  ASSERT_TRUE(announce_bad.write(a));
+
+  json fleet;
+  for (int i = 0; i < 100; ++i) {
+    fleet = s.call("GET", "/api/fleet", admin).second;
+    const json& r = fleet["refused_samples"];
+    if (r["malformed"] >= 3 && r["wrong_sender"] >= 4 && r["score_disagrees"] >= 1) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_EQ(fleet["refused_samples"]["malformed"], 3) << fleet;       // NaN, two not UTF-8
+  EXPECT_EQ(fleet["refused_samples"]["wrong_sender"], 4) << fleet;    // event, score, status, cab9
+  EXPECT_EQ(fleet["refused_samples"]["score_disagrees"], 1) << fleet;
+  const json session = s.call("GET", "/api/sessions/" + id, admin).second;
+  EXPECT_EQ(session["state"], "running") << session;  // the worker's "running", not the forged end
+  EXPECT_TRUE(session["mark"].is_null()) << session;
+  std::vector<int64_t> seqs;
+  for (const json& e : session["events"]) seqs.push_back(e["seq"]);
+  EXPECT_EQ(seqs, (std::vector<int64_t>{1, 4})) << session["events"];
+  auto [cst, cabs] = s.call("GET", "/api/cabs", admin);
+  EXPECT_EQ(cst, 200) << cabs;
+  EXPECT_EQ(cabs.dump().find("cab9"), std::string::npos) << cabs;
 }

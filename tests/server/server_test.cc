@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "forklift/protocol/protocol.h"
+#include "support/cab_script.h"
 #include "support/process.h"
 #include "support/server.h"
 
@@ -23,14 +24,7 @@ namespace {
 
 const std::string kBin = FORKLIFT_BIN_DIR;
 const std::string kData = FORKLIFT_DATA_DIR;
-// A cab script: driving for `drive_s`, then silent, so the worker's dead man fires.
-std::string short_script(const std::string& dir, double drive_s) {
-  const std::string path = dir + "/short.csv";
-  std::ofstream f(path);
-  f << "t,steer,accelerator,brake,lift,tilt,shift\n";
-  for (double t = 0; t <= drive_s + 1e-9; t += 0.02) f << t << ",0,0.3,0,0,0,0\n";
-  return path;
-}
+using forklift_test::short_script;
 
 Process cab(const Server& s, const std::string& id, const std::string& script) {
   return Process({kBin + "/forklift-cab", "--cab", id, "--script", script, "--dds-domain", std::to_string(s.domain), "--wait-worker", "20"},
