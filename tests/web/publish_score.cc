@@ -2,7 +2,7 @@
 // does at the end of a session, and waits until the server's reader has acknowledged it. The web
 // test uses it to mark a scripted session while the driver evaluation does not mark sessions yet.
 //
-//   forklift-test-score --session s-000001 --mark 86.5 --passed 1 --dds-domain 180 [--count kind=n ...]
+//   forklift-test-score --session s-000001 --mark 86.5 --passed 1 --dds-domain DOMAIN [--count kind=n ...]
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <iostream>
