@@ -91,7 +91,7 @@ TEST_F(RemoteExam, FollowedLiveSignedChainedAndEveryChangeIsDetected) {
   Server s("remote-exam", {"--security", pki(), "--frame-fps", "10"});
   const Exam e = start_exam(s, 12);
   ASSERT_FALSE(e.id.empty());
-  Process c = cab(140, "exam-cab");
+  Process c = cab(s.domain, "exam-cab");
 
   // Live: the truck's state and a JPEG frame, to the examiner, while the exam runs.
   json live;
@@ -174,7 +174,7 @@ TEST_F(RemoteExam, ExaminerAbortsARunningExam) {
   Server s("remote-abort", {"--security", pki(), "--frame-fps", "0"});
   const Exam e = start_exam(s, 60);
   ASSERT_FALSE(e.id.empty());
-  Process c = cab(141, "abort-cab");
+  Process c = cab(s.domain, "abort-cab");
   for (int i = 0; i < 300; ++i) {
     if (s.call("GET", "/api/sessions/" + e.id, e.examiner).second.value("state", "") == "running") break;
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
