@@ -1,6 +1,8 @@
 # forklift_add_test(NAME <name> LABEL <module> SOURCES <files...> LIBS <targets...>)
 # One GoogleTest executable whose tests are registered with ctest under the module's label,
-# so `ctest -L <module>` runs one module. Tests run from the source tree's data/.
+# so `ctest -L <module>` runs one module. Tests run from the source tree's data/; their temporary
+# files (testing::TempDir()) go to this build's tests/tmp, so that two build trees tested at once
+# never share one (their ports and DDS domains come from tests/support/ports.h).
 function(forklift_add_test)
   cmake_parse_arguments(T "" "NAME;LABEL" "SOURCES;LIBS" ${ARGN})
   add_executable(${T_NAME} ${T_SOURCES})
@@ -12,5 +14,7 @@ function(forklift_add_test)
   endif()
   target_compile_definitions(${T_NAME} PRIVATE FORKLIFT_DATA_DIR="${FORKLIFT_DATA_DIR}")
   set_target_properties(${T_NAME} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
-  gtest_discover_tests(${T_NAME} PROPERTIES LABELS ${T_LABEL} DISCOVERY_TIMEOUT 60)
+  file(MAKE_DIRECTORY ${CMAKE_BINARY_DIR}/tests/tmp)
+  gtest_discover_tests(${T_NAME} PROPERTIES LABELS ${T_LABEL} ENVIRONMENT TEST_TMPDIR=${CMAKE_BINARY_DIR}/tests/tmp
+                       DISCOVERY_TIMEOUT 60)
 endfunction()

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "forklift/image/image.h"
+#include "support/ports.h"
 #include "support/process.h"
 #include "support/worker.h"
 #include "support/temp_dir.h"
@@ -76,9 +77,10 @@ class CabWindow : public testing::Test {
 };
 
 TEST_F(CabWindow, KeysHeldInTheWindowDriveTheTruckAsADriverExpects) {
-  Process w = worker("kc1", 70, "first_drive_yard", 40);
+  const int domain = forklift::test::free_domain();
+  Process w = worker("kc1", domain, "first_drive_yard", 40);
   const std::string trace = tmp("kc1.trace"), shot = tmp("kc1.png");
-  Process cab({kBin + "/forklift-cab", "--cab", "kc1", "--keyboard", "--no-sound", "--dds-domain", "70", "--wait-worker",
+  Process cab({kBin + "/forklift-cab", "--cab", "kc1", "--keyboard", "--no-sound", "--dds-domain", std::to_string(domain), "--wait-worker",
                "30", "--trace", trace, "--save-window", shot},
               tmp("kc1.cab"));
   // Up held, released; Left held while coasting; Down and Up together; reverse and Up; Esc.
@@ -141,9 +143,10 @@ TEST_F(CabWindow, KeysHeldInTheWindowDriveTheTruckAsADriverExpects) {
 }
 
 TEST_F(CabWindow, SigtermClosesTheCabAndTheWorkerBrakesOnTheSilence) {
-  Process w = worker("kc3", 72, "first_drive_yard", 40);
+  const int domain = forklift::test::free_domain();
+  Process w = worker("kc3", domain, "first_drive_yard", 40);
   const std::string trace = tmp("kc3.trace");
-  Process cab({kBin + "/forklift-cab", "--cab", "kc3", "--keyboard", "--no-sound", "--dds-domain", "72", "--wait-worker",
+  Process cab({kBin + "/forklift-cab", "--cab", "kc3", "--keyboard", "--no-sound", "--dds-domain", std::to_string(domain), "--wait-worker",
                "30", "--trace", trace},
               tmp("kc3.cab"));
   xdotool("kc3", {"sleep", "1", "keydown", "Up", "sleep", "1"});
@@ -173,9 +176,10 @@ TEST_F(CabWindow, ACollisionsWarningIsOnTheDisplayWithinHalfASecond) {
     f << "t,steer,accelerator,brake,lift,tilt,shift\n";
     for (int i = 0; i <= 12; ++i) f << i * 0.5 << ",0,1,0,0,0,0\n";
   }
-  Process w = worker("kc2", 71, "load_lorry", 30);
+  const int domain = forklift::test::free_domain();
+  Process w = worker("kc2", domain, "load_lorry", 30);
   const std::string trace = tmp("kc2.trace");
-  Process cab({kBin + "/forklift-cab", "--cab", "kc2", "--script", script, "--no-sound", "--dds-domain", "71",
+  Process cab({kBin + "/forklift-cab", "--cab", "kc2", "--script", script, "--no-sound", "--dds-domain", std::to_string(domain),
                "--wait-worker", "30", "--trace", trace, "--save-window", tmp("kc2.png")},
               tmp("kc2.cab"));
   ASSERT_EQ(cab.wait(60), 0) << cab.err();

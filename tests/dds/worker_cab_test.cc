@@ -2,7 +2,7 @@
 // partition only) and a real forklift-worker over loopback DDS: the head-up display's figures in
 // TruckState, the session's events, frames only while the cab asks for them, the training aids
 // granted, the refusals of bad view requests, and the instructor's abort. Each test has its own
-// domain (ctest runs them in parallel): 60-63, 66 and 69 are this file's.
+// domain from the allocator (support/ports.h): ctest runs them in parallel.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -18,6 +18,7 @@
 #include "forklift/session/controls.h"
 #include "forklift/session/session.h"
 #include "forklift/session/session_log.h"
+#include "support/ports.h"
 #include "support/process.h"
 #include "support/worker.h"
 
@@ -113,8 +114,9 @@ TEST(CabHud, TruckStateCarriesTheHeadUpDisplaysFigures) {
   const double start_limit = scene.speed_limit({scene.scenario.x_m, scene.scenario.y_m}).value_or(0);
   ASSERT_GT(start_limit, 0) << "rack_pick starts inside a zone";
 
-  Process w = worker(60, "hud", {"--scenario", kData + "/scenarios/rack_pick.json"});
-  Cab cab(60);
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "hud", {"--scenario", kData + "/scenarios/rack_pick.json"});
+  Cab cab(domain);
   ASSERT_TRUE(cab.wait_worker(20)) << w.err();
   cab.drive(1.5);  // standing still, brake off
   const std::vector<fk_TruckState> states = cab.take_states();
@@ -158,8 +160,9 @@ TEST(CabHud, ALoadsCapacityIsThePlatesAtItsCentre) {
   ASSERT_TRUE(first.load);
   const double expected = derated_capacity_kg(model.truck, first.load->cog_m.x());
   ASSERT_GT(expected, 0);
-  Process w = worker(61, "laden", {"--scenario", file});
-  Cab cab(61);
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "laden", {"--scenario", file});
+  Cab cab(domain);
   ASSERT_TRUE(cab.wait_worker(20)) << w.err();
   cab.sample.brake = 1;
   cab.drive(0.5);
@@ -175,8 +178,9 @@ TEST(CabHud, ALoadsCapacityIsThePlatesAtItsCentre) {
 }
 
 TEST(CabHud, EventsReachTheCabInItsOwnPartitionAndTheServerOnce) {
-  Process w = worker(62, "events", {"--duration", "2.5"});
-  Cab cab(62);
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "events", {"--duration", "2.5"});
+  Cab cab(domain);
   // The server's side: the worker's partition, where it reads events.
   dds::Reader<fk_Event> server_events(cab.p, dds::worker_partition("hud"));
   ASSERT_TRUE(cab.wait_worker(20)) << w.err();
@@ -205,8 +209,9 @@ TEST(CabHud, EventsReachTheCabInItsOwnPartitionAndTheServerOnce) {
 
 TEST(CabFrames, RenderedOnlyWhileTheCabAsksAndNotForASilentCab) {
   // --fps defaults to 30: not given here.
-  Process w = worker(63, "wanted", {"--frame-size", "160x120", "--duration", "6"});
-  Cab cab(63);
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "wanted", {"--frame-size", "160x120", "--duration", "6"});
+  Cab cab(domain);
   ASSERT_TRUE(cab.wait_worker(20)) << w.err();
   cab.drive(1.0);  // a scripted cab: frames_wanted off
   EXPECT_EQ(cab.take_frames(), 0) << "a cab that does not ask gets no frames";
@@ -234,7 +239,7 @@ TEST(CabFrames, RenderedOnlyWhileTheCabAsksAndNotForASilentCab) {
   EXPECT_GT(output_json(w)["frames"].get<long>(), 5);
 
   // --fps 0: no frames, whatever the cab asks.
-  Process none = worker(63, "no-fps", {"--fps", "0", "--frame-size", "160x120", "--duration", "2"});
+  Process none = worker(domain, "no-fps", {"--fps", "0", "--frame-size", "160x120", "--duration", "2"});
   ASSERT_TRUE(cab.wait_worker(20)) << none.err();
   cab.drive(1.5);
   ASSERT_EQ(none.wait(20), 0) << none.err();
@@ -246,8 +251,9 @@ TEST(CabFrames, ARearViewIsDrawnOnlyWhenTheWorkerAllowsIt) {
   // the inset at the top centre; with --aids none the picture is the plain one.
   auto frame = [](const std::string& session, std::vector<std::string> args, int* aids) {
     args.insert(args.end(), {"--frame-size", "320x240", "--duration", "2.5"});
-    Process w = worker(66, session, args);
-    Cab cab(66);
+    const int domain = forklift::test::free_domain();
+    Process w = worker(domain, session, args);
+    Cab cab(domain);
     EXPECT_TRUE(cab.wait_worker(20)) << w.err();
     cab.sample.frames_wanted = true;
     cab.sample.rear_view = true;
@@ -299,8 +305,9 @@ TEST(CabControls, BadViewRequestsAreRefusedWithTheirReason) {
 }
 
 TEST(CabControls, AWorkerRefusesBadViewRequestsStaysUpAndEndsAsAbortedOnTheInstructorsSignal) {
-  Process w = worker(69, "abort", {"--frame-size", "160x120"});
-  Cab cab(69);
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "abort", {"--frame-size", "160x120"});
+  Cab cab(domain);
   ASSERT_TRUE(cab.wait_worker(20)) << w.err();
   cab.drive(0.3);
   cab.sample.look_yaw_rad = INFINITY;
@@ -337,16 +344,21 @@ TEST(CabControls, AWorkerRefusesBadViewRequestsStaysUpAndEndsAsAbortedOnTheInstr
 }
 
 TEST(CabAids, AnExamRefusesAidsInWordsAndTrainingRefusesUnknownOnes) {
-  Process exam({kBin + "/forklift-worker", "--cab", "hud", "--session", "exam-aids", "--mode", "exam", "--aids", "rear_view"},
+  // Refused before they join DDS; the domain keeps them off a school's domain 0 if they ever did.
+  const std::string domain = std::to_string(forklift::test::free_domain());
+  Process exam({kBin + "/forklift-worker", "--cab", "hud", "--session", "exam-aids", "--mode", "exam", "--aids", "rear_view",
+                "--dds-domain", domain},
                tmp("exam-aids"));
   EXPECT_EQ(exam.wait(10), 2);
   EXPECT_NE(exam.err().find("an exam is taken without training aids: '--aids rear_view' is refused"), std::string::npos)
       << exam.err();
-  Process view({kBin + "/forklift-worker", "--cab", "hud", "--session", "exam-view", "--mode", "exam", "--view", "chase"},
+  Process view({kBin + "/forklift-worker", "--cab", "hud", "--session", "exam-view", "--mode", "exam", "--view", "chase",
+                "--dds-domain", domain},
                tmp("exam-view"));
   EXPECT_EQ(view.wait(10), 2);
   EXPECT_NE(view.err().find("an exam shows the driver's own view only"), std::string::npos) << view.err();
-  Process unknown({kBin + "/forklift-worker", "--cab", "hud", "--session", "bad-aids", "--aids", "rear_view,autopilot"},
+  Process unknown({kBin + "/forklift-worker", "--cab", "hud", "--session", "bad-aids", "--aids", "rear_view,autopilot",
+                   "--dds-domain", domain},
                   tmp("bad-aids"));
   EXPECT_EQ(unknown.wait(10), 2);
   EXPECT_NE(unknown.err().find("unknown aid 'autopilot'"), std::string::npos) << unknown.err();
@@ -358,8 +370,9 @@ TEST(CabHud, ThePalletAheadIsReportedForLiningUp) {
   scenario["start"] = {{"x_m", 36.0}, {"y_m", 11.5}, {"yaw_deg", 90}};
   const std::string file = tmp("near_p11.json");
   std::ofstream(file) << scenario.dump();
-  Process w = worker(76, "pallet", {"--scenario", file});
-  Cab cab(76);
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "pallet", {"--scenario", file});
+  Cab cab(domain);
   ASSERT_TRUE(cab.wait_worker(20)) << w.err();
   cab.drive(1.0);
   const std::vector<fk_TruckState> states = cab.take_states();

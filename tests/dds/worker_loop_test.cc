@@ -1,5 +1,5 @@
 // The cab -> worker -> cab loop between real processes over loopback DDS. Every test has its own
-// domain id so that tests running in parallel never meet.
+// domain id from the allocator (support/ports.h) so that tests running in parallel never meet.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -13,6 +13,7 @@
 #include "forklift/protocol/protocol.h"
 #include "forklift/image/image.h"
 #include "forklift/session/session_log.h"
+#include "support/ports.h"
 #include "support/process.h"
 #include "support/worker.h"
 
@@ -49,8 +50,9 @@ bool wait_matched(dds::Writer<fk_Controls>& w, double s) {
 }  // namespace
 
 TEST(WorkerLoop, ScriptedCabDrivesManoeuvre17LikeTheOfflineModelAndReplaysExactly) {
-  Process w = worker(41, "c17", "m17", {"--duration", "20", "--scenario", kData + "/manoeuvres/manoeuvre_17.json"});
-  Process cab({kBin + "/forklift-cab", "--cab", "c17", "--script", kData + "/manoeuvres/manoeuvre_17.csv", "--dds-domain", "41"},
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "c17", "m17", {"--duration", "20", "--scenario", kData + "/manoeuvres/manoeuvre_17.json"});
+  Process cab({kBin + "/forklift-cab", "--cab", "c17", "--script", kData + "/manoeuvres/manoeuvre_17.csv", "--dds-domain", std::to_string(domain)},
               tmp("m17.cab"));
   ASSERT_EQ(cab.wait(40), 0) << cab.err();
   ASSERT_EQ(w.wait(10), 0) << w.err();
@@ -77,8 +79,9 @@ TEST(WorkerLoop, TheCabSetsTheParkingBrakeAndTheLogKeepsIt) {
   // A script's eighth column is the parking brake: the truck drives off, is parked, and stays.
   const std::string script = tmp("park.csv");
   std::ofstream(script) << "t,steer,accelerator,brake,lift,tilt,shift,parking\n0,0,0.3,0,0,0,0,0\n2,0,0,0,0,0,0,1\n5,0,0,0,0,0,0,1\n";
-  Process w = worker(49, "c49", "park", {"--duration", "5"});
-  Process cab({kBin + "/forklift-cab", "--cab", "c49", "--script", script, "--dds-domain", "49", "--no-window"}, tmp("park.cab"));
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "c49", "park", {"--duration", "5"});
+  Process cab({kBin + "/forklift-cab", "--cab", "c49", "--script", script, "--dds-domain", std::to_string(domain), "--no-window"}, tmp("park.cab"));
   ASSERT_EQ(cab.wait(30), 0) << cab.err();
   ASSERT_EQ(w.wait(10), 0) << w.err();
   const ControlLog log = read_control_log(tmp("park.ctl"));
@@ -95,8 +98,9 @@ TEST(WorkerLoop, TheCabSetsTheParkingBrakeAndTheLogKeepsIt) {
 }
 
 TEST(WorkerLoop, BadControlsAreRefusedSilenceStopsTheTruckAndTheWorkerStaysUp) {
-  Process w = worker(42, "c1", "bad", {"--duration", "3"});
-  dds::Participant p(dds::DomainSettings::resolve(42, ""));
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "c1", "bad", {"--duration", "3"});
+  dds::Participant p(dds::DomainSettings::resolve(domain, ""));
   dds::Writer<fk_Controls> out(p, dds::cab_partition("c1"));
   dds::Reader<fk_TruckState> states(p, dds::cab_partition("c1"));
   dds::Reader<fk_Event> events(p, dds::worker_partition("c1"));
@@ -150,8 +154,9 @@ TEST(WorkerLoop, BadControlsAreRefusedSilenceStopsTheTruckAndTheWorkerStaysUp) {
 }
 
 TEST(WorkerLoop, AnotherCabsControlsNeverReachThisWorker) {
-  Process w = worker(43, "c1", "lonely", {"--start-timeout", "2"});
-  dds::Participant p(dds::DomainSettings::resolve(43, ""));
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "c1", "lonely", {"--start-timeout", "2"});
+  dds::Participant p(dds::DomainSettings::resolve(domain, ""));
   dds::Writer<fk_Controls> other(p, dds::cab_partition("c2"));
   dds::Reader<fk_SessionStatus> status(p, dds::worker_partition("c1"));
   for (uint32_t s = 1; s < 100 && w.running(); ++s) {
@@ -171,10 +176,11 @@ TEST(WorkerLoop, AnotherCabsControlsNeverReachThisWorker) {
 }
 
 TEST(WorkerLoop, SigtermFlushesTheLogAndPublishesTheEnd) {
-  Process w = worker(44, "c1", "term");
-  dds::Participant p(dds::DomainSettings::resolve(44, ""));
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "c1", "term");
+  dds::Participant p(dds::DomainSettings::resolve(domain, ""));
   dds::Reader<fk_SessionStatus> status(p, dds::worker_partition("c1"));
-  Process cab({kBin + "/forklift-cab", "--cab", "c1", "--script", kData + "/manoeuvres/manoeuvre_1.csv", "--dds-domain", "44"},
+  Process cab({kBin + "/forklift-cab", "--cab", "c1", "--script", kData + "/manoeuvres/manoeuvre_1.csv", "--dds-domain", std::to_string(domain)},
               tmp("term.cab"));
   std::this_thread::sleep_for(std::chrono::milliseconds(2500));
   w.signal(SIGTERM);
@@ -206,10 +212,11 @@ TEST(WorkerLoop, FramesOfTheWarehouseReachTheCabRawAndAsJpeg) {
     SCOPED_TRACE(c.name);
     std::vector<std::string> args = {"--scenario", kData + "/scenarios/rack_pick.json", "--duration", "3"};
     args.insert(args.end(), c.args.begin(), c.args.end());
-    Process w = worker(46, "cf", "frames_" + c.name, args);
+    const int domain = forklift::test::free_domain();
+    Process w = worker(domain, "cf", "frames_" + c.name, args);
     const std::string png = tmp("frames_" + c.name + ".png");
     std::remove(png.c_str());
-    Process cab({kBin + "/forklift-cab", "--cab", "cf", "--script", script, "--dds-domain", "46", "--no-window",
+    Process cab({kBin + "/forklift-cab", "--cab", "cf", "--script", script, "--dds-domain", std::to_string(domain), "--no-window",
                  "--save-frame", png, "--wait-worker", "20"},
                 tmp("frames_" + c.name + ".cab"));
     ASSERT_EQ(w.wait(30), 0) << w.err();

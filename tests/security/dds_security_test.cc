@@ -1,7 +1,7 @@
 // DDS Security between real processes on loopback: a school's CA and identities made by
 // scripts/forklift-pki.sh, a sim worker in exam mode, and cabs with the right identity, none,
-// another cab's, one from another CA, and a revoked one. Domains 130-139 are this file's, and 65
-// (the exam's training aids).
+// another cab's, one from another CA, and a revoked one. Each test has its own DDS
+// domain from the allocator (support/ports.h).
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -16,6 +16,7 @@
 
 #include "forklift/image/image.h"
 #include "forklift/protocol/protocol.h"
+#include "support/ports.h"
 #include "support/process.h"
 #include "support/temp_dir.h"
 
@@ -92,8 +93,9 @@ class SecuredExam : public testing::Test {
 };
 
 TEST_F(SecuredExam, EnrolledCabDrivesAndSeesItsFrames) {
-  Process w = worker(130, "enrolled", school(), {"--duration", "3"});
-  Process c = cab(130, "enrolled-cab", {"--security", school()});
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "enrolled", school(), {"--duration", "3"});
+  Process c = cab(domain, "enrolled-cab", {"--security", school()});
   ASSERT_EQ(c.wait(40), 0) << c.err();
   ASSERT_EQ(w.wait(40), 0) << w.err();
   EXPECT_GT(applied_inputs("enrolled"), 0) << "the enrolled cab's controls must reach the worker";
@@ -102,17 +104,18 @@ TEST_F(SecuredExam, EnrolledCabDrivesAndSeesItsFrames) {
 }
 
 TEST_F(SecuredExam, CabWithoutIdentityCannotDriveOrWatch) {
-  expect_shut_out(131, "anonymous", {}, 5);
+  expect_shut_out(forklift::test::free_domain(), "anonymous", {}, 5);
 }
 
 TEST_F(SecuredExam, CabWithIdentityFromAnotherCaIsRefused) {
-  expect_shut_out(132, "rogue", {"--security", rogue()}, 5);
+  expect_shut_out(forklift::test::free_domain(), "rogue", {"--security", rogue()}, 5);
 }
 
 TEST_F(SecuredExam, CabWithAnotherCabsIdentityCannotDriveThisOne) {
   // cab2's permissions name partition cab.cab2 only: writing cab1's controls is refused outright.
-  Process w = worker(133, "impostor", school(), {"--start-timeout", "6"});
-  Process c = cab(133, "impostor-cab", {"--security", school(), "--identity", "cab.cab2"});
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "impostor", school(), {"--start-timeout", "6"});
+  Process c = cab(domain, "impostor-cab", {"--security", school(), "--identity", "cab.cab2"});
   EXPECT_EQ(c.wait(30), 2);
   EXPECT_NE(c.err().find("Not Allowed By Security"), std::string::npos) << c.err();
   EXPECT_EQ(w.wait(30), 5) << w.err();
@@ -130,13 +133,14 @@ TEST_F(SecuredExam, RevokedCabIsRefusedByTheWorker) {
   fs::copy(school(), cab_copy, fs::copy_options::recursive);
   run_or_fail(kPki + " revoke " + school_copy + " cab.cab1");
   EXPECT_EQ(slurp(school_copy + "/crl.pem") == slurp(cab_copy + "/crl.pem"), false) << "the CRL must change";
-  Process w = worker(134, "revoked", school_copy, {"--start-timeout", "6"});
-  Process c = cab(134, "revoked-cab", {"--security", cab_copy});
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "revoked", school_copy, {"--start-timeout", "6"});
+  Process c = cab(domain, "revoked-cab", {"--security", cab_copy});
   EXPECT_EQ(c.wait(30), 5) << c.err();
   EXPECT_EQ(w.wait(30), 5) << w.err();
   EXPECT_EQ(applied_inputs("revoked"), 0);
   // And the revoked identity cannot even start from the school's own folder.
-  Process again = cab(134, "revoked-again", {"--security", school_copy});
+  Process again = cab(domain, "revoked-again", {"--security", school_copy});
   EXPECT_EQ(again.wait(30), 2);
   EXPECT_NE(again.err().find("revoked"), std::string::npos) << again.err();
 }
@@ -150,11 +154,12 @@ TEST_F(SecuredExam, AnExamWorkerGrantsNoAidWhateverTheCabAsks) {
     int aids = -1;
   };
   auto session = [&](const std::string& name, const std::string& mode, bool ask_everything) {
+    const int domain = forklift::test::free_domain();
     Process w({kBin + "/forklift-worker", "--cab", "cab1", "--session", "s-" + name, "--mode", mode, "--security", school(),
-               "--dds-domain", "65", "--log", tmp(name + ".ctl"), "--frame-size", "320x240", "--duration", "4"},
+               "--dds-domain", std::to_string(domain), "--log", tmp(name + ".ctl"), "--frame-size", "320x240", "--duration", "4"},
               tmp(name + ".worker"));
     // The cab, enrolled: cab1's identity, its own partition.
-    dds::Participant p(dds::DomainSettings::resolve(65, "", school(), "cab.cab1"));
+    dds::Participant p(dds::DomainSettings::resolve(domain, "", school(), "cab.cab1"));
     dds::Writer<fk_Controls> controls(p, dds::cab_partition("cab1"));
     dds::Reader<fk_TruckState> states(p, dds::cab_partition("cab1"));
     dds::Reader<fk_Frame> frames(p, dds::cab_partition("cab1"));
@@ -197,12 +202,13 @@ TEST_F(SecuredExam, AnExamWorkerGrantsNoAidWhateverTheCabAsks) {
 }
 
 TEST_F(SecuredExam, ExamModeRefusesToStartWithoutSecurity) {
-  Process w = worker(135, "unsecured", "");
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "unsecured", "");
   EXPECT_EQ(w.wait(20), 2);
   EXPECT_NE(w.err().find("exam mode needs DDS Security"), std::string::npos) << w.err();
   // Training on loopback may run without it.
   Process t = Process({kBin + "/forklift-worker", "--cab", "cab1", "--session", "s-training", "--mode", "training",
-                       "--dds-domain", "135", "--log", tmp("training.ctl"), "--start-timeout", "1"},
+                       "--dds-domain", std::to_string(domain), "--log", tmp("training.ctl"), "--start-timeout", "1"},
                       tmp("training.worker"));
   EXPECT_EQ(t.wait(20), 5) << "training starts and waits for a cab: " << t.err();
 }
@@ -278,11 +284,11 @@ Capture capture_session(int domain, const std::string& name, const std::string& 
 
 TEST_F(SecuredExam, LoopbackCaptureShowsNoFrameOrControlPayloads) {
   // The same session in clear first: proof that the capture would see the payloads.
-  const Capture clear = capture_session(136, "clear", "");
+  const Capture clear = capture_session(forklift::test::free_domain(), "clear", "");
   ASSERT_GT(clear.throttle_hits, 0u) << "the capture must see controls in clear without security";
   ASSERT_GT(clear.frame_windows, 4u);
   ASSERT_GT(clear.frame_windows_found, clear.frame_windows / 2) << "the capture must see frame pixels in clear";
-  const Capture secured = capture_session(137, "secured", school());
+  const Capture secured = capture_session(forklift::test::free_domain(), "secured", school());
   std::printf("clear: %zu throttle samples, %zu/%zu frame windows on the wire; secured: %zu, %zu/%zu\n", clear.throttle_hits,
               clear.frame_windows_found, clear.frame_windows, secured.throttle_hits, secured.frame_windows_found, secured.frame_windows);
   EXPECT_EQ(secured.throttle_hits, 0u) << "a control sample crossed loopback in clear";

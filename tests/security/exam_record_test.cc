@@ -1,7 +1,7 @@
 // A remote licence exam end to end with a real server, worker and cab under DDS Security: the
 // examiner follows it live (state and frames), the record names the examiner, and any later
 // change to the stored log, score or record is found by `forklift-menu verify`.
-// Ports 18140-18149 and DDS domains 140-149 are this file's (http_security_test has 18121-18127).
+// Each test's server has its own port and DDS domain (support/ports.h).
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
@@ -88,10 +88,10 @@ class RemoteExam : public testing::Test {
 };
 
 TEST_F(RemoteExam, FollowedLiveSignedChainedAndEveryChangeIsDetected) {
-  Server s(18140, 140, "remote-exam", {"--security", pki(), "--frame-fps", "10"});
+  Server s("remote-exam", {"--security", pki(), "--frame-fps", "10"});
   const Exam e = start_exam(s, 12);
   ASSERT_FALSE(e.id.empty());
-  Process c = cab(140, "exam-cab");
+  Process c = cab(s.domain, "exam-cab");
 
   // Live: the truck's state and a JPEG frame, to the examiner, while the exam runs.
   json live;
@@ -171,10 +171,10 @@ TEST_F(RemoteExam, FollowedLiveSignedChainedAndEveryChangeIsDetected) {
 }
 
 TEST_F(RemoteExam, ExaminerAbortsARunningExam) {
-  Server s(18141, 141, "remote-abort", {"--security", pki(), "--frame-fps", "0"});
+  Server s("remote-abort", {"--security", pki(), "--frame-fps", "0"});
   const Exam e = start_exam(s, 60);
   ASSERT_FALSE(e.id.empty());
-  Process c = cab(141, "abort-cab");
+  Process c = cab(s.domain, "abort-cab");
   for (int i = 0; i < 300; ++i) {
     if (s.call("GET", "/api/sessions/" + e.id, e.examiner).second.value("state", "") == "running") break;
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -187,7 +187,7 @@ TEST_F(RemoteExam, ExaminerAbortsARunningExam) {
 }
 
 TEST_F(RemoteExam, ServerWithoutSecurityRefusesExamsButRunsTraining) {
-  Server s(18142, 142, "remote-clear");
+  Server s("remote-clear");
   const std::string admin = s.login("admin", kAdminPassword);
   auto [ps, p] = s.call("POST", "/api/pupils", admin, json{{"name", "P"}}.dump());
   ASSERT_EQ(ps, 201);

@@ -148,7 +148,7 @@ TEST(Handlers, AMalformedBodyIs400WithItsReasonAndChangesNothing) {
   EXPECT_EQ(error_code(j3), "bad_json");
   EXPECT_EQ(error_code(s.call("POST", "/api/pupils", admin, R"({"name": 5})").second), "bad_request");
   // Bytes that are not UTF-8, and a number beyond a double: 400 in words, never 500.
-  for (const std::string body : {std::string("\xff\xfe"), std::string(R"({"name": "Ca)") + "\xff" + R"(rl"})",
+  for (const std::string& body : {std::string("\xff\xfe"), std::string(R"({"name": "Ca)") + "\xff" + R"(rl"})",
                                  std::string(R"({"name": "Dan", "email": 1e99999})")}) {
     auto [st, j] = s.call("POST", "/api/pupils", admin, body);
     EXPECT_EQ(st, 400) << j;

@@ -1,5 +1,5 @@
 // forklift-server over real HTTP on loopback, with a real SQLite file and real workers and cabs.
-// Each test runs its own server on its own port and DDS domain.
+// Each test runs its own server on its own port and DDS domain (support/ports.h).
 #include <gtest/gtest.h>
 #include <httplib.h>
 
@@ -34,7 +34,7 @@ Process cab(const Server& s, const std::string& id, const std::string& script) {
 }  // namespace
 
 TEST(Server, LoginRolesAndVisibility) {
-  Server s(18101, 101, "roles");
+  Server s("roles");
   EXPECT_EQ(error_code(s.call("POST", "/api/login", "", R"({"username":"admin","password":"wrong"})").second), "bad_credentials");
   const std::string admin = s.login("admin", kAdminPassword);
   auto [st1, p1] = s.call("POST", "/api/pupils", admin, R"({"name":"Ana Pupil","username":"ana","password":"ana-pass-1"})");
@@ -64,7 +64,7 @@ TEST(Server, LoginRolesAndVisibility) {
 // Token expiry (token_expired) is in http_security_test.cc.
 
 TEST(Server, BadRequestsGetTheDocumentedErrorAndTheServerStaysUp) {
-  Server s(18103, 103, "bad");
+  Server s("bad");
   const std::string admin = s.login("admin", kAdminPassword);
   EXPECT_EQ(error_code(s.call("POST", "/api/pupils", admin, "{not json").second), "bad_json");
   EXPECT_EQ(error_code(s.call("POST", "/api/pupils", admin, R"({"name": 5})").second), "bad_request");
@@ -81,7 +81,7 @@ TEST(Server, BadRequestsGetTheDocumentedErrorAndTheServerStaysUp) {
 }
 
 TEST(Server, ScriptedSessionEndsAndItsEventsAreStoredOnce) {
-  Server s(18104, 104, "session");
+  Server s("session");
   const std::string admin = s.login("admin", kAdminPassword);
   const json pupil = s.call("POST", "/api/pupils", admin, R"({"name":"Carla"})").second;
   auto [st, sess] = s.call("POST", "/api/sessions", admin,
@@ -112,7 +112,7 @@ TEST(Server, ScriptedSessionEndsAndItsEventsAreStoredOnce) {
 }
 
 TEST(Server, AKilledWorkerFailsItsSessionAndNothingElse) {
-  Server s(18105, 105, "kill");
+  Server s("kill");
   const std::string admin = s.login("admin", kAdminPassword);
   const json pupil = s.call("POST", "/api/pupils", admin, R"({"name":"Dan"})").second;
   const json a = s.call("POST", "/api/sessions", admin, json{{"pupil_id", pupil["id"]}, {"cab_id", "k1"}, {"scenario", "manoeuvre_1"}, {"time_limit_s", 6}}.dump()).second;
@@ -137,7 +137,7 @@ TEST(Server, AKilledWorkerFailsItsSessionAndNothingElse) {
 }
 
 TEST(Server, RestartMidSessionLosesAndDoublesNoEvent) {
-  Server s(18106, 106, "restart");
+  Server s("restart");
   const std::string admin = s.login("admin", kAdminPassword);
   const json pupil = s.call("POST", "/api/pupils", admin, R"({"name":"Eva"})").second;
   const json sess = s.call("POST", "/api/sessions", admin, json{{"pupil_id", pupil["id"]}, {"cab_id", "r1"}, {"scenario", "manoeuvre_1"}, {"time_limit_s", 7}}.dump()).second;
@@ -170,7 +170,7 @@ TEST(Server, RestartMidSessionLosesAndDoublesNoEvent) {
 // "aborted" and tells the cab so in its own partition (the cab says "aborted by your
 // instructor"); the session stays aborted, by whom, and the worker's mark says why it ended.
 TEST(Server, AnAbortedSessionEndsAsAbortedAndTheCabIsToldWhy) {
-  Server s(18160, 64, "abort");
+  Server s("abort");
   const std::string admin = s.login("admin", kAdminPassword);
   const json pupil = s.call("POST", "/api/pupils", admin, R"({"name":"Ida"})").second;
   auto [st, sess] = s.call("POST", "/api/sessions", admin,
@@ -178,7 +178,7 @@ TEST(Server, AnAbortedSessionEndsAsAbortedAndTheCabIsToldWhy) {
   ASSERT_EQ(st, 201) << sess;
   const std::string id = sess["id"];
   // The cab: this test, in the cab's partition only.
-  forklift::dds::Participant p(forklift::dds::DomainSettings::resolve(64, ""));
+  forklift::dds::Participant p(forklift::dds::DomainSettings::resolve(s.domain, ""));
   forklift::dds::Writer<fk_Controls> controls(p, forklift::dds::cab_partition("abortcab"));
   forklift::dds::Reader<fk_SessionStatus> status(p, forklift::dds::cab_partition("abortcab"));
   fk_Controls c{};

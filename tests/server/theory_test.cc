@@ -150,8 +150,8 @@ json right_answers(const json& attempt) {
 // maybe at once. Two pupils with logins and an instructor.
 class TheoryApi : public testing::Test {
  protected:
-  void Start(int port, const std::string& name) {
-    s = std::make_unique<Server>(port, port - 18000, "theory-" + name);  // its own folder, apart from server_test's
+  void Start(const std::string& name) {
+    s = std::make_unique<Server>("theory-" + name);  // its own folder, apart from server_test's
     admin = s->login("admin", "admin-pass-1");
     ana_id = s->call("POST", "/api/pupils", admin, R"({"name":"Ana","username":"ana","password":"ana-pass-1"})").second["id"];
     ben_id = s->call("POST", "/api/pupils", admin, R"({"name":"Ben","username":"ben","password":"ben-pass-1"})").second["id"];
@@ -171,7 +171,7 @@ class TheoryApi : public testing::Test {
 };
 
 TEST_F(TheoryApi, APupilTakesAPaperAndTheMarkIsStoredOnce) {
-  Start(18111, "stored");
+  Start("stored");
   const json info = s->call("GET", "/api/theory", ana).second;
   EXPECT_EQ(info["questions_per_exam"], 25);
   EXPECT_DOUBLE_EQ(info["pass_mark"].get<double>(), 0.8);
@@ -210,7 +210,7 @@ TEST_F(TheoryApi, APupilTakesAPaperAndTheMarkIsStoredOnce) {
 }
 
 TEST_F(TheoryApi, BadAnswerBodiesAreRefusedAndLeaveThePaperOpen) {
-  Start(18112, "bad");
+  Start("bad");
   const json a = new_paper(ben);
   const std::string path = "/api/theory/attempts/" + std::to_string(a["id"].get<int64_t>()) + "/answers";
   const std::string first = a["questions"][0]["id"];
@@ -235,7 +235,7 @@ TEST_F(TheoryApi, BadAnswerBodiesAreRefusedAndLeaveThePaperOpen) {
 }
 
 TEST_F(TheoryApi, RolesAndOtherPupilsPapers) {
-  Start(18113, "roles");
+  Start("roles");
   EXPECT_EQ(error_code(s->call("POST", "/api/theory/attempts", "", "{}").second), "unauthenticated");
   EXPECT_EQ(error_code(s->call("GET", "/api/theory/questions", ana).second), "forbidden");  // the answers are for staff
   EXPECT_EQ(s->call("GET", "/api/theory/questions", ines).second.size(), 49u);
@@ -265,7 +265,7 @@ TEST_F(TheoryApi, RolesAndOtherPupilsPapers) {
 }
 
 TEST_F(TheoryApi, PagesAreServedWithSecurityHeaders) {
-  Start(18114, "pages");
+  Start("pages");
   httplib::Client c("127.0.0.1", s->port);
   for (const char* page : {"/", "/fleet.html", "/pupil.html", "/theory.html", "/vendor/chart.umd.min.js"}) {
     auto r = c.Get(page);

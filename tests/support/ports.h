@@ -19,6 +19,7 @@
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace forklift::test {
 namespace ports_detail {
@@ -30,12 +31,19 @@ inline std::string lock_dir() {
   return d;
 }
 
+// The descriptors of the locks this process holds.
+inline std::vector<int>& held() {
+  static std::vector<int> fds;
+  return fds;
+}
+
 // Takes the lock for `name` if nobody holds it; the descriptor stays open (and the lock held)
 // until the process exits.
 inline bool try_hold(const std::string& name) {
   const int fd = open((lock_dir() + "/" + name).c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
   if (fd < 0) return false;
   if (flock(fd, LOCK_EX | LOCK_NB) != 0) { close(fd); return false; }
+  held().push_back(fd);
   return true;
 }
 
@@ -80,6 +88,12 @@ inline int free_port() {
 // Security governance allows up to 230).
 inline int free_domain() {
   return ports_detail::allocate("domain", 1, 230, [](int) { return true; });
+}
+
+// Hands the locks taken so far to the program this process exec()s next, and to that program's
+// children, instead of dropping them at exec (forklift-test-alloc runs the web test so).
+inline void keep_locks_across_exec() {
+  for (const int fd : ports_detail::held()) fcntl(fd, F_SETFD, 0);
 }
 
 }  // namespace forklift::test

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "support/api_client.h"
+#include "support/ports.h"
 #include "support/process.h"
 
 namespace forklift_test {
@@ -29,6 +30,7 @@ struct Server : ApiClient {
   std::string ca;  // empty: plain http
   std::unique_ptr<Process> proc;
 
+  // On `port_` and `domain_`, which the test took from support/ports.h.
   Server(int port_, int domain_, const std::string& name, std::vector<std::string> extra = {}, std::string ca_file = {})
       : port(port_), domain(domain_), dir(testing::TempDir() + "/server-" + name), ca(std::move(ca_file)) {
     std::filesystem::remove_all(dir);
@@ -36,6 +38,9 @@ struct Server : ApiClient {
     db = dir + "/forklift.db";
     start(extra);
   }
+  // On a port and a domain of its own from support/ports.h.
+  explicit Server(const std::string& name, std::vector<std::string> extra = {}, std::string ca_file = {})
+      : Server(forklift::test::free_port(), forklift::test::free_domain(), name, std::move(extra), std::move(ca_file)) {}
   void start(std::vector<std::string> extra = {}) {
     std::vector<std::string> args = {std::string(kBin) + "/forklift-server", "--db", db, "--listen", "127.0.0.1:" + std::to_string(port),
                                      "--dds-domain", std::to_string(domain), "--admin-password", kAdminPassword};

@@ -1,6 +1,7 @@
 // The web pages end to end, as a driving school uses them: a real forklift-server on a free
-// loopback port with its own DDS domain and a fresh SQLite file, a real sim worker driven by a
-// scripted forklift-cab, and Debian's headless Chromium driven through playwright-core.
+// loopback port with its own DDS domain (both from forklift-test-alloc) and a fresh SQLite file,
+// a real sim worker driven by a scripted forklift-cab, and Debian's headless Chromium driven
+// through playwright-core.
 //
 //   log in -> add a pupil -> choose a scenario, truck, load and cab, start -> watch the session run
 //   and finish on the fleet page -> the session page (path over the plan, timeline, mark) -> the
@@ -13,11 +14,14 @@
 // any expected element that does not appear. Screenshots of each page go to --screenshots (default
 // <out>/screenshots); docs/web/ holds a copy made with `--screenshots docs/web`.
 //
-//   node e2e.mjs --bin BUILD/bin --data data
+//   BUILD/tests/forklift-test-alloc node e2e.mjs --bin BUILD/bin --data data
 //                [--chromium /usr/bin/chromium] [--out DIR] [--screenshots DIR] [--headed]
+//
+// forklift-test-alloc takes the port and the DDS domain from the tests' allocator
+// (tests/support/ports.h), holds them while this test and its children run, and passes them in
+// FORKLIFT_TEST_PORT and FORKLIFT_TEST_DOMAIN.
 import { spawn, execFileSync } from 'node:child_process';
 import fs from 'node:fs';
-import net from 'node:net';
 import path from 'node:path';
 
 let chromium;
@@ -38,6 +42,11 @@ for (let i = 2; i < process.argv.length; i++) {
 for (const need of ['bin', 'data']) {
   if (!args[need]) { console.error(`e2e: --${need} is required`); process.exit(2); }
 }
+const port = Number(process.env.FORKLIFT_TEST_PORT), domain = Number(process.env.FORKLIFT_TEST_DOMAIN);
+if (!(port > 0) || !(domain > 0)) {
+  console.error('e2e: no FORKLIFT_TEST_PORT and FORKLIFT_TEST_DOMAIN: run it as `BUILD/tests/forklift-test-alloc node e2e.mjs ...` (ctest does)');
+  process.exit(2);
+}
 if (!fs.existsSync(args.chromium)) {
   console.error(`e2e: no Chromium at ${args.chromium}: install Debian's chromium (scripts/install-deps.sh does)`);
   process.exit(1);
@@ -50,14 +59,6 @@ fs.mkdirSync(shots, { recursive: true });
 
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 const started = Date.now();
-
-function freePort() {
-  return new Promise((resolve, reject) => {
-    const s = net.createServer();
-    s.on('error', reject);
-    s.listen(0, '127.0.0.1', () => { const p = s.address().port; s.close(() => resolve(p)); });
-  });
-}
 
 // A program's --help mentions the flag (the cab's and server's options are still growing).
 function supports(binary, flag) {
@@ -91,11 +92,6 @@ async function stopAll() {
 function check(cond, what) { if (!cond) throw new Error(what); }
 
 // ---------------------------------------------------------------- the platform
-const port = await freePort();
-// A DDS domain of its own, from the free port: 180-229, away from the other tests' (41-46, 101-114),
-// the demo's (77) and hand-run servers' usual low numbers. Two servers on one domain would each
-// ingest the other's events for sessions with the same id.
-const domain = 180 + (port % 50);
 const base = `http://127.0.0.1:${port}`;
 const adminPassword = 'web-admin-pass';
 const serverBin = path.join(args.bin, 'forklift-server');
