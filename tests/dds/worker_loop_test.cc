@@ -2,9 +2,13 @@
 // domain id so that tests running in parallel never meet.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 #include <fstream>
+#include <functional>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <thread>
 
 #include "forklift/dynamics/manoeuvre.h"
@@ -13,6 +17,7 @@
 #include "forklift/protocol/protocol.h"
 #include "forklift/image/image.h"
 #include "forklift/session/session_log.h"
+#include "support/ports.h"
 #include "support/process.h"
 #include "support/worker.h"
 
@@ -31,6 +36,9 @@ Process worker(int domain, const std::string& cab, const std::string& session, s
 }
 
 using forklift_test::output_json;
+
+// A count in a worker's summary, by its JSON pointer ("/rejected_controls/old"); -1 if absent.
+long count_in(const json& summary, const std::string& pointer) { return summary.value(json::json_pointer(pointer), -1L); }
 
 fk_Controls controls(const std::string& cab, uint32_t seq, double accel = 0, double steer = 0) {
   fk_Controls c{};
@@ -248,6 +256,33 @@ TEST(ControlLog, BrokenLogsAreRefusedClearly) {
   EXPECT_NE(rp.err().find("broken.ctl:2: a state needs 40 numbers"), std::string::npos) << rp.err();
 }
 
+// The worker's tally of the cab's samples reads back by name; a broken one is refused with its line.
+TEST(ControlLog, TheControlsTallyReadsBackAndABrokenOneIsRefused) {
+  const std::string path = tmp("tally.ctl");
+  {
+    LogHeader h;
+    h.session_id = "tally";
+    ControlLogWriter log(path, h);
+    log.control_counts({{"accepted", 12}, {"old", 3}});
+    log.finish(0, StateVector::Zero());
+  }
+  EXPECT_EQ(read_control_log(path).control_counts, (std::map<std::string, long>{{"accepted", 12}, {"old", 3}}));
+  for (const std::string bad : {"old", "old=", "=3", "old=-1", "old=3x"}) {
+    std::ifstream in(path);
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    in.close();
+    const size_t at = text.find("controls ");
+    std::ofstream(tmp("tally-bad.ctl")) << text.substr(0, at) << "controls accepted=1 " << bad << "\n" << text.substr(text.find('\n', at) + 1);
+    try {
+      read_control_log(tmp("tally-bad.ctl"));
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("a controls line is 'controls <name>=<count> ...', not '" + bad + "'"), std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 TEST(Controls, RangesAndMapping) {
   const TruckParams t = load_truck(kData + "/trucks/linde_e16c.json");
   ControlSample s;
@@ -274,4 +309,67 @@ TEST(Controls, RangesAndMapping) {
   EXPECT_DOUBLE_EQ(u.drive_torque_N_m, -0.5 * t.drive.drive_torque_max_N_m);
   EXPECT_DOUBLE_EQ(u.brake_torque_N_m, t.drive.brake_torque_max_N_m);
   EXPECT_DOUBLE_EQ(u.lift_rate_m_s, -t.limits.lift_rate_max_m_s);
+}
+
+// The sequence rule (controls.h): newer samples taken, jumps counted, repeats and old ones
+// refused unless the cab has been silent for the dead-man interval (a restarted cab program).
+TEST(Controls, SequenceNumbersOldAndDuplicateRefusedJumpsCountedARestartAfterSilenceTaken) {
+  using V = ControlSequence::Verdict;
+  ControlSequence seq(0.5);
+  EXPECT_EQ(seq.judge(40, 1e9), V::kAccepted);  // the first, whatever its number
+  EXPECT_EQ(seq.judge(41, 0.02), V::kAccepted);
+  EXPECT_EQ(seq.judge(41, 0.02), V::kDuplicate);
+  EXPECT_EQ(seq.judge(12, 0.02), V::kOld);
+  EXPECT_EQ(seq.judge(45, 0.02), V::kJump);     // 42, 43 and 44 lost on the way
+  EXPECT_EQ(seq.judge(44, 0.49), V::kOld);      // still speaking: a replay
+  EXPECT_EQ(seq.newest(), 45u);
+  EXPECT_EQ(seq.judge(1, 0.5), V::kRestart);    // silent for the dead-man interval: a new cab program
+  EXPECT_EQ(seq.judge(2, 0.02), V::kAccepted);
+  const ControlSequence::Counts& n = seq.counts();
+  EXPECT_EQ(n.accepted, 5);
+  EXPECT_EQ(n.duplicate, 1);
+  EXPECT_EQ(n.old, 2);
+  EXPECT_EQ(n.jumps, 1);
+  EXPECT_EQ(n.skipped, 3);
+  EXPECT_EQ(n.restarts, 1);
+}
+
+// The state pacer on 1 ms ticks at 60 Hz: one state a period with no controls, a changed input
+// seen at the tick that applied it, and a change at every tick (a flood) within max_per_s.
+TEST(Controls, TheStateRateStaysTheConfiguredOneWhateverTheControlRate) {
+  const double tick = 1e-3, rate = 60;
+  // Runs `seconds` of ticks, a change at each tick for which changes(tick) says so; returns the
+  // states sent in each second and the ticks between each change and its state.
+  struct Run { std::vector<int> per_second; std::vector<int> waits; };
+  auto run = [&](double seconds, const std::function<bool(int64_t)>& changes) {
+    StatePacer pacer(rate);
+    Run r;
+    r.per_second.assign(static_cast<size_t>(seconds), 0);
+    std::optional<int64_t> unseen_since;
+    for (int64_t k = 0; k < std::llround(seconds / tick); ++k) {
+      if (changes(k) && !unseen_since) unseen_since = k;
+      const double t = (k + 1) * tick;  // the tick ending now
+      bool sent = pacer.period_ends(t) == StatePacer::PeriodEnd::kStateOwed;
+      if (!sent && unseen_since && pacer.early(t)) sent = true;
+      if (sent) {
+        ++r.per_second[static_cast<size_t>(k / 1000)];  // 1000 ticks a second
+        if (unseen_since) r.waits.push_back(static_cast<int>(k - *unseen_since));
+        unseen_since.reset();
+      }
+    }
+    return r;
+  };
+  const Run idle = run(5, [](int64_t) { return false; });
+  for (int n : idle.per_second) EXPECT_NEAR(n, rate, 1);
+  const Run flood = run(5, [](int64_t) { return true; });
+  for (int n : flood.per_second) {
+    EXPECT_LE(n, StatePacer::max_per_s(rate));
+    EXPECT_GE(n, rate - 1);
+  }
+  // A pupil's cab: a lever sample every 20 ms and a key let go 3 ms after each tenth: every
+  // change is seen at the tick that applied it.
+  const Run pupil = run(5, [](int64_t k) { return k % 20 == 0 || k % 200 == 3; });
+  ASSERT_FALSE(pupil.waits.empty());
+  for (int w : pupil.waits) EXPECT_EQ(w, 0);
+  for (int n : pupil.per_second) EXPECT_LE(n, StatePacer::max_per_s(rate));
 }
