@@ -84,7 +84,8 @@ class ControlSequence {
 // tick); the early state takes the period's place. A second change within one period may have
 // its state early too, from an allowance of kExtraPerS per second of sim time (kExtraBurst saved
 // up at most): enough for a key let go just after a lever sample, too little for a flood to
-// matter. So any second of sim time holds at most max_per_s(rate) states, at any control rate.
+// matter. So any second of sim time holds at most max_per_s(rate) states, at any control rate
+// (and the worker sends one more when the session ends).
 class StatePacer {
  public:
   static constexpr double kExtraPerS = 10, kExtraBurst = 3;
