@@ -83,7 +83,9 @@ void round_trip(int domain, int samples) {
     }
     const double us = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
     if (got && i > 20) rtt.push_back(us);
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    // The next sample at a cab's pace (forklift-cab sends every 20 ms): the worker sends one state
+    // a state period, early after a change, so a cab faster than its state rate waits for some.
+    std::this_thread::sleep_until(t0 + std::chrono::milliseconds(20));
   }
   w->signal(SIGTERM);
   w->wait(5);

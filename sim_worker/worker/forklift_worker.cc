@@ -397,8 +397,17 @@ int main(int argc, char** argv) {
       }
     };
 
-    // Controls: refuse what must not reach the integrator, keep the newest good sample.
+    // Controls: refuse what must not reach the integrator, and what is not newer than the cab's
+    // newest sample (ControlSequence: a restarted cab program is taken after the dead-man
+    // interval of silence); keep the newest good sample. Every refusal is counted; the first
+    // few of each kind are logged, so that a flood of bad samples cannot fill the worker's log.
+    constexpr long kRefusalsLogged = 5;
     long rejected_non_finite = 0, rejected_range = 0, rejected_cab = 0;
+    ControlSequence sequence(deadman_s);
+    auto refuse = [&](long nth_of_its_kind, const std::string& why) {
+      if (nth_of_its_kind <= kRefusalsLogged)
+        log_line(cab, why + (nth_of_its_kind == kRefusalsLogged ? " (further refusals of this kind are counted, not logged)" : ""));
+    };
     std::optional<ControlSample> pending;
     Clock::time_point last_valid{};
     bool have_cab = false;
@@ -409,15 +418,24 @@ int main(int argc, char** argv) {
         ControlSample s{c.seq,     c.steer_rad,     c.accelerator,  c.brake,        c.lift,
                         c.tilt,    c.side_shift,    c.horn,         c.parking_brake, c.frames_wanted,
                         c.camera,  c.look_yaw_rad,  c.look_pitch_rad, c.rear_view,  c.see_through_mast};
-        if (cab != c.cab_id) {
-          ++rejected_cab;
-          log_line(cab, "rejected control " + std::to_string(c.seq) + " from cab '" + std::string(c.cab_id) + "'");
-          return;
-        }
+        auto which = [&] { return "rejected control " + std::to_string(c.seq); };
+        if (cab != c.cab_id) return refuse(++rejected_cab, which() + " from cab '" + std::string(c.cab_id) + "'");
         if (const auto problem = control_problem(s, truck)) {
-          ++(problem->find("finite") != std::string::npos ? rejected_non_finite : rejected_range);
-          log_line(cab, "rejected control " + std::to_string(c.seq) + ": " + *problem);
-          return;
+          long& count = problem->find("finite") != std::string::npos ? rejected_non_finite : rejected_range;
+          return refuse(++count, which() + ": " + *problem);
+        }
+        const uint32_t newest = sequence.newest();
+        const double silence = std::chrono::duration<double>(Clock::now() - last_valid).count();
+        switch (sequence.judge(c.seq, silence)) {
+          case ControlSequence::Verdict::kDuplicate:
+            return refuse(sequence.counts().duplicate, which() + ": a duplicate of the newest sample");
+          case ControlSequence::Verdict::kOld:
+            return refuse(sequence.counts().old, which() + ": older than the newest sample, " + std::to_string(newest));
+          case ControlSequence::Verdict::kRestart:
+            log_line(cab, "control " + std::to_string(c.seq) + " after " + std::to_string(silence) +
+                              " s of silence (the newest was " + std::to_string(newest) + "): the cab program restarted");
+            break;
+          default: break;
         }
         pending = s;
         last_valid = Clock::now();
@@ -426,6 +444,14 @@ int main(int argc, char** argv) {
         if (s.frames_wanted)
           view_request = FramePublisher::Request{s.camera, {s.look_yaw_rad, s.look_pitch_rad, s.see_through_mast, s.rear_view}};
       });
+    };
+
+    // The tally of the cab's samples, for the log's "controls" line (the summary prints the same).
+    auto control_tally = [&]() -> std::vector<std::pair<std::string, long>> {
+      const ControlSequence::Counts& n = sequence.counts();
+      return {{"accepted", n.accepted},        {"duplicate", n.duplicate},      {"old", n.old},
+              {"jumps", n.jumps},              {"skipped", n.skipped},          {"restarts", n.restarts},
+              {"non_finite", rejected_non_finite}, {"out_of_range", rejected_range}, {"wrong_cab", rejected_cab}};
     };
 
     // Waiting: the session's clock starts with the cab's first good sample.
@@ -439,6 +465,7 @@ int main(int argc, char** argv) {
         log_line(cab, "no controls within " + std::to_string(start_timeout) + " s; giving up");
         // The log says so too: the server reads it there if the status is lost.
         log.worker_event(0, kNoControlsEvent);
+        log.control_counts(control_tally());
         log.finish(0, state.x);
         dds_sleepfor(DDS_MSECS(200));  // let the reliable status reach late readers
         return 5;
@@ -458,7 +485,8 @@ int main(int argc, char** argv) {
     if (duration > 0 && (time_limit_s <= 0 || duration < time_limit_s)) time_limit_s = duration;
     bool deadman = false;
     long deadman_count = 0;
-    double next_state_t = 0;
+    StatePacer pacer(rate);
+    long states_published = 0;
     const Clock::time_point start = Clock::now();
     auto publish_state = [&] {
       const Outputs& o = workspace.outputs();
@@ -508,17 +536,16 @@ int main(int argc, char** argv) {
           s.pallet_engaged = a->engaged;
         }
       state_writer.write(s);
+      ++states_published;
     };
 
-    // Real-time health: how far the simulation fell behind the wall clock, and how many states
-    // went out more than one state period after they were due.
-    double max_lag_s = 0, max_lag_at_s = 0;
-    long late_states = 0;
-    bool echo = false;  // a newly applied control owes the cab a state
-    std::string end_reason = "signal";
-    while (!g_stop) {
-      take_controls();
-      const double wall = std::chrono::duration<double>(Clock::now() - start).count();
+    // Take inputs: once per physics tick, at its start: the dead man, then the newest good sample.
+    // Samples that arrive between two ticks supersede each other, and one that asks for no change
+    // is applied (its seq goes out in the states) but not logged again: at most one input line
+    // per tick (docs/session-log.md). `changed`: the truck's inputs changed at this tick.
+    bool inputs_logged = false;  // the first sample's inputs are always logged
+    auto take_inputs = [&] {
+      bool changed = false;
       // Dead man: a silent cab gets throttle off and full brake, once, with an event.
       const double silence = std::chrono::duration<double>(Clock::now() - last_valid).count();
       if (!deadman && silence > deadman_s) {
@@ -532,24 +559,44 @@ int main(int argc, char** argv) {
         applied = deadman_inputs(applied, truck);
         log.input(state.tick, applied_seq, applied);
         log.deadman(state.tick, true);
+        changed = true;
       } else if (deadman && pending) {
         deadman = false;
         log.deadman(state.tick, false);
         publish_event("controls_resumed", 0, "controls from the cab again");
         log.worker_event(state.tick, "controls_resumed");  // the worker's, not the evaluation's
         log_line(cab, "controls resumed");
+        changed = true;
       }
-      if (pending) {  // applied at the start of the next physics tick
+      if (pending) {  // applied from this tick on
         frame_publisher.ask(view_request);
-        applied = driver_inputs(*pending, truck);
+        const DriverInputs u = driver_inputs(*pending, truck);
         applied_seq = pending->seq;
         pending.reset();
-        log.input(state.tick, applied_seq, applied);
-        echo = true;
+        if (!inputs_logged || !identical(u, applied)) {
+          applied = u;
+          log.input(state.tick, applied_seq, applied);
+          inputs_logged = changed = true;
+        }
       }
+      return changed;
+    };
+
+    // Real-time health: how far the simulation fell behind the wall clock, and how many states
+    // went out more than one state period after the sim time they show.
+    double max_lag_s = 0, max_lag_at_s = 0;
+    long late_states = 0;
+    bool unseen = false;  // the inputs changed and no state has shown it yet
+    std::string end_reason = "signal";
+    while (!g_stop) {
+      take_controls();
+      const double wall = std::chrono::duration<double>(Clock::now() - start).count();
       // Physics catches up with the wall clock, one tick at a time; how far behind it was first.
       if (wall - state.t_s > max_lag_s) { max_lag_s = wall - state.t_s; max_lag_at_s = state.t_s; }
       const int64_t due = static_cast<int64_t>(std::floor(wall / model.tick_s)) + 1;
+      // A wake-up between ticks (a sample arrived) only takes the sample; the next tick applies it.
+      const bool changed = state.tick < due && take_inputs();
+      unseen = unseen || changed;
       bool stepped = false;
       while (state.tick < due) {
         step(model, state, workspace, {applied, deadman}, tick_events);
@@ -560,22 +607,25 @@ int main(int argc, char** argv) {
           if (e.kind == "time_limit") end_reason = "time_limit";
         tick_events.clear();
         if (end_reason == "time_limit") break;
-        if (state.t_s + 1e-12 >= next_state_t) {
-          const double late = std::chrono::duration<double>(Clock::now() - start).count() - next_state_t;
+        const StatePacer::PeriodEnd period = pacer.period_ends(state.t_s);
+        if (period != StatePacer::PeriodEnd::kNotYet) frame_publisher.offer(state);  // frames: fresh every period
+        if (period == StatePacer::PeriodEnd::kStateOwed) {  // the period's state, unless a control sent it early
+          const double late = std::chrono::duration<double>(Clock::now() - start).count() - state.t_s;
           if (late > 1.0 / rate && ++late_states <= 5)
-            log_line(cab, "state for t = " + std::to_string(next_state_t) + " s went out " + std::to_string(late * 1e3) + " ms late");
+            log_line(cab, "state for t = " + std::to_string(state.t_s) + " s went out " + std::to_string(late * 1e3) + " ms late");
           publish_state();
-          frame_publisher.offer(state);
-          next_state_t += 1.0 / rate;
-          echo = false;
+          unseen = false;
         }
         if (duration > 0 && state.t_s >= duration - 1e-12) break;
         if (task_done_and_stopped(model, state)) { end_reason = "task_complete"; break; }
       }
       if (end_reason != "signal") break;
-      if (echo && stepped) {  // the cab sees its command's effect without waiting for the 60 Hz slot,
-        publish_state();      // and so does the next frame
-        frame_publisher.offer(state);
+      // The cab sees its command's effect without waiting for the period's end, and so does the
+      // next frame; the pacer keeps the state rate to its own, whatever the control rate.
+      if (changed && stepped) frame_publisher.offer(state);
+      if (unseen && stepped && pacer.early(state.t_s)) {
+        publish_state();
+        unseen = false;
       }
       if (duration > 0 && state.t_s >= duration - 1e-12) { end_reason = "duration"; break; }
       const double until_next = state.tick * model.tick_s - std::chrono::duration<double>(Clock::now() - start).count();
@@ -588,6 +638,7 @@ int main(int argc, char** argv) {
     const Score score = finish(model, state, workspace, end_reason, tick_events);
     report(tick_events);
     log.score(score_line(score));
+    log.control_counts(control_tally());
     log.finish(state.tick, state.x);
     // With an identity, the worker signs the finished log (controls, events, score) before the
     // score goes out: the server chains it into the exam records (forklift-menu verify).
@@ -614,7 +665,11 @@ int main(int argc, char** argv) {
     nlohmann::json out = {
         {"session", session}, {"cab", cab}, {"sim_time_s", state.t_s}, {"ticks", state.tick},
         {"final_pose", pose_json(state.x)}, {"state_hex", state_hex(state.x)},
-        {"rejected_controls", {{"non_finite", rejected_non_finite}, {"out_of_range", rejected_range}, {"wrong_cab", rejected_cab}}},
+        {"rejected_controls", {{"non_finite", rejected_non_finite}, {"out_of_range", rejected_range}, {"wrong_cab", rejected_cab},
+                               {"duplicate", sequence.counts().duplicate}, {"old", sequence.counts().old}}},
+        {"control_sequence", {{"accepted", sequence.counts().accepted}, {"jumps", sequence.counts().jumps},
+                              {"skipped", sequence.counts().skipped}, {"restarts", sequence.counts().restarts}}},
+        {"states", states_published},
         {"deadman_stops", deadman_count}, {"integrator_steps", workspace.integrator_stats().steps},
         {"max_lag_ms", max_lag_s * 1e3}, {"max_lag_at_s", max_lag_at_s}, {"late_states", late_states},
         {"events", event_seq}, {"frames", frame_publisher.frames()},

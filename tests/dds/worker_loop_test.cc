@@ -2,9 +2,13 @@
 // domain id from the allocator (support/ports.h) so that tests running in parallel never meet.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 #include <fstream>
+#include <functional>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <thread>
 
 #include "forklift/dynamics/manoeuvre.h"
@@ -32,6 +36,9 @@ Process worker(int domain, const std::string& cab, const std::string& session, s
 }
 
 using forklift_test::output_json;
+
+// A count in a worker's summary, by its JSON pointer ("/rejected_controls/old"); -1 if absent.
+long count_in(const json& summary, const std::string& pointer) { return summary.value(json::json_pointer(pointer), -1L); }
 
 fk_Controls controls(const std::string& cab, uint32_t seq, double accel = 0, double steer = 0) {
   fk_Controls c{};
@@ -255,6 +262,33 @@ TEST(ControlLog, BrokenLogsAreRefusedClearly) {
   EXPECT_NE(rp.err().find("broken.ctl:2: a state needs 40 numbers"), std::string::npos) << rp.err();
 }
 
+// The worker's tally of the cab's samples reads back by name; a broken one is refused with its line.
+TEST(ControlLog, TheControlsTallyReadsBackAndABrokenOneIsRefused) {
+  const std::string path = tmp("tally.ctl");
+  {
+    LogHeader h;
+    h.session_id = "tally";
+    ControlLogWriter log(path, h);
+    log.control_counts({{"accepted", 12}, {"old", 3}});
+    log.finish(0, StateVector::Zero());
+  }
+  EXPECT_EQ(read_control_log(path).control_counts, (std::map<std::string, long>{{"accepted", 12}, {"old", 3}}));
+  for (const std::string bad : {"old", "old=", "=3", "old=-1", "old=3x"}) {
+    std::ifstream in(path);
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    in.close();
+    const size_t at = text.find("controls ");
+    std::ofstream(tmp("tally-bad.ctl")) << text.substr(0, at) << "controls accepted=1 " << bad << "\n" << text.substr(text.find('\n', at) + 1);
+    try {
+      read_control_log(tmp("tally-bad.ctl"));
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("a controls line is 'controls <name>=<count> ...', not '" + bad + "'"), std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 TEST(Controls, RangesAndMapping) {
   const TruckParams t = load_truck(kData + "/trucks/linde_e16c.json");
   ControlSample s;
@@ -281,4 +315,241 @@ TEST(Controls, RangesAndMapping) {
   EXPECT_DOUBLE_EQ(u.drive_torque_N_m, -0.5 * t.drive.drive_torque_max_N_m);
   EXPECT_DOUBLE_EQ(u.brake_torque_N_m, t.drive.brake_torque_max_N_m);
   EXPECT_DOUBLE_EQ(u.lift_rate_m_s, -t.limits.lift_rate_max_m_s);
+}
+
+// The sequence rule (controls.h): newer samples taken, jumps counted, repeats and old ones
+// refused unless the cab has been silent for the dead-man interval (a restarted cab program).
+TEST(Controls, SequenceNumbersOldAndDuplicateRefusedJumpsCountedARestartAfterSilenceTaken) {
+  using V = ControlSequence::Verdict;
+  ControlSequence seq(0.5);
+  EXPECT_EQ(seq.judge(40, 1e9), V::kAccepted);  // the first, whatever its number
+  EXPECT_EQ(seq.judge(41, 0.02), V::kAccepted);
+  EXPECT_EQ(seq.judge(41, 0.02), V::kDuplicate);
+  EXPECT_EQ(seq.judge(12, 0.02), V::kOld);
+  EXPECT_EQ(seq.judge(45, 0.02), V::kJump);     // 42, 43 and 44 lost on the way
+  EXPECT_EQ(seq.judge(44, 0.49), V::kOld);      // still speaking: a replay
+  EXPECT_EQ(seq.newest(), 45u);
+  EXPECT_EQ(seq.judge(1, 0.5), V::kRestart);    // silent for the dead-man interval: a new cab program
+  EXPECT_EQ(seq.judge(2, 0.02), V::kAccepted);
+  const ControlSequence::Counts& n = seq.counts();
+  EXPECT_EQ(n.accepted, 5);
+  EXPECT_EQ(n.duplicate, 1);
+  EXPECT_EQ(n.old, 2);
+  EXPECT_EQ(n.jumps, 1);
+  EXPECT_EQ(n.skipped, 3);
+  EXPECT_EQ(n.restarts, 1);
+}
+
+// The state pacer on 1 ms ticks at 60 Hz: one state a period with no controls, a changed input
+// seen at the tick that applied it, and a change at every tick (a flood) within max_per_s.
+TEST(Controls, TheStateRateStaysTheConfiguredOneWhateverTheControlRate) {
+  const double tick = 1e-3, rate = 60;
+  // Runs `seconds` of ticks, a change at each tick for which changes(tick) says so; returns the
+  // states sent in each second and the ticks between each change and its state.
+  struct Run { std::vector<int> per_second; std::vector<int> waits; };
+  auto run = [&](double seconds, const std::function<bool(int64_t)>& changes) {
+    StatePacer pacer(rate);
+    Run r;
+    r.per_second.assign(static_cast<size_t>(seconds), 0);
+    std::optional<int64_t> unseen_since;
+    for (int64_t k = 0; k < std::llround(seconds / tick); ++k) {
+      if (changes(k) && !unseen_since) unseen_since = k;
+      const double t = (k + 1) * tick;  // the tick ending now
+      bool sent = pacer.period_ends(t) == StatePacer::PeriodEnd::kStateOwed;
+      if (!sent && unseen_since && pacer.early(t)) sent = true;
+      if (sent) {
+        ++r.per_second[static_cast<size_t>(k / 1000)];  // 1000 ticks a second
+        if (unseen_since) r.waits.push_back(static_cast<int>(k - *unseen_since));
+        unseen_since.reset();
+      }
+    }
+    return r;
+  };
+  const Run idle = run(5, [](int64_t) { return false; });
+  for (int n : idle.per_second) EXPECT_NEAR(n, rate, 1);
+  const Run flood = run(5, [](int64_t) { return true; });
+  for (int n : flood.per_second) {
+    EXPECT_LE(n, StatePacer::max_per_s(rate));
+    EXPECT_GE(n, rate - 1);
+  }
+  // A pupil's cab: a lever sample every 20 ms and a key let go 3 ms after each tenth: every
+  // change is seen at the tick that applied it.
+  const Run pupil = run(5, [](int64_t k) { return k % 20 == 0 || k % 200 == 3; });
+  ASSERT_FALSE(pupil.waits.empty());
+  for (int w : pupil.waits) EXPECT_EQ(w, 0);
+  for (int n : pupil.per_second) EXPECT_LE(n, StatePacer::max_per_s(rate));
+}
+
+// A hostile client in the cab's partition: the cab's old samples replayed (its full-throttle
+// start) and its newest repeated, while the cab speaks, are refused and counted and never move
+// the truck; after a silence of the dead-man interval, a restarted cab program (seq from 1
+// again) drives.
+TEST(WorkerLoop, ReplayedAndDuplicateControlsAreRefusedCountedAndARestartedCabDrivesAgain) {
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "cs", "stale", {"--duration", "6"});
+  dds::Participant cab_p(dds::DomainSettings::resolve(domain, "")), hostile_p(dds::DomainSettings::resolve(domain, ""));
+  dds::Writer<fk_Controls> cab(cab_p, dds::cab_partition("cs")), hostile(hostile_p, dds::cab_partition("cs"));
+  dds::Reader<fk_TruckState> states(cab_p, dds::cab_partition("cs"));
+  ASSERT_TRUE(wait_matched(cab, 10)) << w.err();
+  ASSERT_TRUE(wait_matched(hostile, 10)) << w.err();
+
+  struct Seen { double t, speed; uint32_t applied; };
+  std::vector<Seen> seen;
+  auto pause = [&](int ms) {  // the worker's reader keeps the newest sample only: one at a time
+    std::this_thread::sleep_for(std::chrono::milliseconds(ms));
+    states.take_each([&](const fk_TruckState& s) { seen.push_back({s.sim_time_s, s.speed_m_s, s.applied_control_sequence}); });
+  };
+  const auto t0 = std::chrono::steady_clock::now();
+  auto since = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  uint32_t seq = 0;
+  std::vector<fk_Controls> recorded;  // what the hostile client overheard
+  // The cab: full throttle for 0.1 s, then the brake until the truck stands, 1.5 s in all.
+  while (since() < 1.5) {
+    const bool throttle = ++seq <= 5;
+    fk_Controls c = controls("cs", seq, throttle ? 1.0 : 0.0);
+    c.brake = throttle ? 0.0 : 1.0;
+    if (throttle) recorded.push_back(c);
+    cab.write(c);
+    pause(20);
+  }
+  // 2 s of the cab standing still, each of its samples followed by a replay and a repeat.
+  int replays = 0, repeats = 0;
+  while (since() < 3.5) {
+    const fk_Controls c = controls("cs", ++seq);
+    cab.write(c);
+    pause(7);
+    hostile.write(recorded[replays++ % recorded.size()]);
+    pause(7);
+    hostile.write(c);
+    ++repeats;
+    pause(7);
+  }
+  pause(900);  // silent: the dead man stops the truck
+  // A restarted cab program, from seq 1, drives gently until the session ends.
+  for (uint32_t restarted = 1; w.running(); ++restarted) {
+    cab.write(controls("cs", restarted, 0.3));
+    pause(20);
+  }
+  ASSERT_EQ(w.wait(10), 0) << w.err();
+
+  const json r = output_json(w);
+  const long old = count_in(r, "/rejected_controls/old"), duplicate = count_in(r, "/rejected_controls/duplicate");
+  EXPECT_GE(old, replays / 2) << replays;
+  EXPECT_LE(old, replays);
+  EXPECT_GE(duplicate, repeats / 2) << repeats;
+  EXPECT_LE(duplicate, repeats);
+  EXPECT_EQ(count_in(r, "/control_sequence/restarts"), 1);
+  EXPECT_EQ(r["deadman_stops"], 1);
+  const std::string err = w.err();
+  EXPECT_NE(err.find("older than the newest sample"), std::string::npos) << err;
+  EXPECT_NE(err.find("a duplicate of the newest sample"), std::string::npos) << err;
+  EXPECT_NE(err.find("the cab program restarted"), std::string::npos) << err;
+
+  // While the cab stood still, no replayed sample was applied and the truck did not move.
+  int standing = 0, replayed = 0;
+  double fastest = 0;
+  for (const Seen& s : seen)
+    if (s.t > 1.7 && s.t < 3.4) {
+      ++standing;
+      replayed += s.applied <= 5;
+      fastest = std::max(fastest, std::abs(s.speed));
+    }
+  EXPECT_GT(standing, 20);
+  EXPECT_EQ(replayed, 0) << "states that had applied a replayed sample";
+  EXPECT_LT(fastest, 0.02) << "m/s";
+  const ControlLog log = read_control_log(tmp("stale.ctl"));
+  const int64_t from = std::llround(1.6 / log.header.tick_s), to = std::llround(3.5 / log.header.tick_s);
+  int driven = 0;
+  for (const ControlLog::Entry& e : log.entries) driven += e.tick >= from && e.tick < to && e.inputs.drive_torque_N_m != 0;
+  EXPECT_EQ(driven, 0) << "input lines with drive torque while the cab stood still";
+  // The restarted cab drove, and the log keeps the tally.
+  ASSERT_FALSE(log.entries.empty());
+  EXPECT_GT(log.entries.back().inputs.drive_torque_N_m, 0.0);
+  ASSERT_FALSE(seen.empty());
+  EXPECT_GT(seen.back().speed, 0.05);
+  EXPECT_EQ(log.control_counts, (std::map<std::string, long>{{"accepted", count_in(r, "/control_sequence/accepted")},
+                                                             {"duplicate", duplicate},
+                                                             {"old", old},
+                                                             {"jumps", count_in(r, "/control_sequence/jumps")},
+                                                             {"skipped", count_in(r, "/control_sequence/skipped")},
+                                                             {"restarts", 1},
+                                                             {"non_finite", 0},
+                                                             {"out_of_range", 0},
+                                                             {"wrong_cab", 0}}));
+  Process rp({kBin + "/forklift-worker", "--replay", tmp("stale.ctl")}, tmp("stale.replay"));
+  ASSERT_EQ(rp.wait(30), 0) << rp.err();
+  EXPECT_EQ(output_json(rp)["matches_log"], true);
+}
+
+// A flood of changing controls, 2500 a second for the whole session: the states the cab reads
+// stay at the worker's rate (counted against the sim time they carry) and the log holds at most
+// one input line per tick (docs/session-log.md); the session still replays bit for bit.
+TEST(WorkerLoop, AControlFloodLeavesTheStateRateAndTheLogBounded) {
+  const int domain = forklift::test::free_domain();
+  const double rate = 60, seconds = 4;
+  Process w = worker(domain, "cf", "flood", {"--duration", "4", "--rate", "60"});
+  dds::Participant p(dds::DomainSettings::resolve(domain, ""));
+  dds::Writer<fk_Controls> flood(p, dds::cab_partition("cf"));
+  dds::Reader<fk_TruckState> states(p, dds::cab_partition("cf"));
+  ASSERT_TRUE(wait_matched(flood, 10)) << w.err();
+
+  // The cab's reader, in a thread of its own so that it takes each state as it comes.
+  std::atomic<bool> done{false};
+  std::map<int, int> per_second;  // states by the whole second of sim time they carry
+  std::thread reader([&] {
+    dds::WaitSet ws(p);
+    ws.attach_reader(states.handle());
+    while (!done) {
+      ws.wait(0.05);
+      states.take_each([&](const fk_TruckState& s) { ++per_second[static_cast<int>(std::floor(s.sim_time_s))]; });
+    }
+  });
+  const auto t0 = std::chrono::steady_clock::now();
+  long sent = 0;
+  double elapsed = 0;
+  while (w.running()) {
+    elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    for (; sent < elapsed * 2500; ++sent)  // each sample a change: the steer alternates
+      flood.write(controls("cf", static_cast<uint32_t>(sent + 1), 0.2, sent % 2 ? 0.05 : -0.05));
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+  done = true;
+  reader.join();
+  ASSERT_EQ(w.wait(10), 0) << w.err();
+  ASSERT_GE(sent / elapsed, 2000) << "the flood this test needs";
+
+  const json r = output_json(w);
+  EXPECT_EQ(r["ticks"], 4000);
+  EXPECT_GE(count_in(r, "/states"), 0);
+  EXPECT_LE(count_in(r, "/states"), StatePacer::max_per_s(rate) * seconds + 1);  // + the session's last
+  EXPECT_GT(count_in(r, "/control_sequence/jumps"), 0);  // the worker's reader dropped samples: counted
+  EXPECT_EQ(count_in(r, "/rejected_controls/old"), 0);
+  int received = 0;
+  for (int s = 0; s < seconds; ++s) {
+    EXPECT_LE(per_second[s], StatePacer::max_per_s(rate)) << "states carrying sim time " << s << " to " << s + 1 << " s";
+    received += per_second[s];
+  }
+  EXPECT_GE(received, rate * seconds / 2);  // and the cab still hears its truck
+
+  // The log: input lines at distinct, rising ticks, so at most one a tick, of 185 bytes at most.
+  const std::string path = tmp("flood.ctl");
+  const ControlLog log = read_control_log(path);
+  ASSERT_TRUE(log.ticks);
+  EXPECT_GT(log.entries.size(), 100u);
+  int same_tick = 0;
+  for (size_t i = 1; i < log.entries.size(); ++i) same_tick += log.entries[i].tick == log.entries[i - 1].tick;
+  EXPECT_EQ(same_tick, 0) << "input lines at the tick of the one before";
+  EXPECT_LE(static_cast<int64_t>(log.entries.size()), *log.ticks);
+  std::ifstream in(path);
+  size_t input_bytes = 0, longest = 0;
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind("i ", 0) == 0) {
+      input_bytes += line.size() + 1;
+      longest = std::max(longest, line.size() + 1);
+    }
+  EXPECT_LE(longest, 185u);
+  EXPECT_LE(input_bytes, static_cast<size_t>(*log.ticks) * 185);
+  Process rp({kBin + "/forklift-worker", "--replay", path}, tmp("flood.replay"));
+  ASSERT_EQ(rp.wait(60), 0) << rp.err();
+  EXPECT_EQ(output_json(rp)["matches_log"], true);
 }

@@ -1,6 +1,8 @@
 #include "forklift/session/controls.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <sstream>
 
 namespace forklift {
@@ -42,6 +44,56 @@ DriverInputs deadman_inputs(const DriverInputs& last, const TruckParams& t) {
   u.steer_rad = last.steer_rad;
   u.brake_torque_N_m = t.drive.brake_torque_max_N_m;
   return u;
+}
+
+bool identical(const DriverInputs& a, const DriverInputs& b) {
+  auto same = [](double x, double y) { return std::memcmp(&x, &y, sizeof x) == 0; };
+  return same(a.drive_torque_N_m, b.drive_torque_N_m) && same(a.brake_torque_N_m, b.brake_torque_N_m) &&
+         same(a.steer_rad, b.steer_rad) && same(a.tilt_rate_rad_s, b.tilt_rate_rad_s) &&
+         same(a.lift_rate_m_s, b.lift_rate_m_s) && same(a.shift_rate_m_s, b.shift_rate_m_s) &&
+         a.parking_brake == b.parking_brake;
+}
+
+ControlSequence::Verdict ControlSequence::judge(uint32_t seq, double silence_s) {
+  Verdict v = Verdict::kAccepted;
+  if (any_ && seq <= newest_) {
+    if (silence_s < restart_after_s_) {
+      ++(seq == newest_ ? counts_.duplicate : counts_.old);
+      return seq == newest_ ? Verdict::kDuplicate : Verdict::kOld;
+    }
+    v = Verdict::kRestart;
+    ++counts_.restarts;
+  } else if (any_ && seq - newest_ > 1) {
+    v = Verdict::kJump;
+    ++counts_.jumps;
+    counts_.skipped += seq - newest_ - 1;
+  }
+  any_ = true;
+  newest_ = seq;
+  ++counts_.accepted;
+  return v;
+}
+
+void StatePacer::refill(double t) {
+  extra_ = std::min(kExtraBurst, extra_ + (t - t_s_) * kExtraPerS);
+  t_s_ = t;
+}
+
+StatePacer::PeriodEnd StatePacer::period_ends(double t) {
+  refill(t);
+  if (t + 1e-12 < period_end_s_) return PeriodEnd::kNotYet;
+  const PeriodEnd end = sent_ ? PeriodEnd::kStateSent : PeriodEnd::kStateOwed;
+  sent_ = false;
+  period_end_s_ += period_s_;
+  return end;
+}
+
+bool StatePacer::early(double t) {
+  refill(t);
+  if (!sent_) return sent_ = true;  // the period's state, sent early
+  if (extra_ < 1) return false;     // it waits for the next period, which comes within period_s_
+  extra_ -= 1;
+  return true;
 }
 
 }  // namespace forklift

@@ -4,6 +4,7 @@
 
 #include <cinttypes>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -111,6 +112,13 @@ void ControlLogWriter::score(const std::string& line) {
   std::fflush(f_);
 }
 
+void ControlLogWriter::control_counts(const std::vector<std::pair<std::string, long>>& counts) {
+  std::string line = "controls";
+  for (const auto& [name, n] : counts) line += " " + name + "=" + std::to_string(n);
+  std::fprintf(f_, "%s\n", line.c_str());
+  std::fflush(f_);
+}
+
 void ControlLogWriter::finish(int64_t ticks, const StateVector& final_state) {
   std::fprintf(f_, "end %" PRId64 "\nfinal %s\n", ticks, state_hex(final_state).c_str());
   std::fflush(f_);
@@ -140,6 +148,17 @@ ControlLog read_control_log(const std::string& path) {
       else if (k == "e") log.event_lines.push_back(k + " " + rest);  // as written: one space between words
       else if (k == "score") log.score_line = k + " " + rest;
       else if (k == "w") log.worker_events.emplace_back(std::stoll(w.at(1)), w.at(2));
+      else if (k == "controls") {
+        for (size_t i = 1; i < w.size(); ++i) {
+          const size_t eq = w[i].find('=');
+          const char* digits = eq == std::string::npos ? "" : w[i].c_str() + eq + 1;
+          char* end = nullptr;
+          const long n = std::strtol(digits, &end, 10);
+          if (eq == 0 || end == digits || *end != '\0' || n < 0)
+            throw std::runtime_error("a controls line is 'controls <name>=<count> ...', not '" + w[i] + "'");
+          log.control_counts[w[i].substr(0, eq)] = n;
+        }
+      }
       else if (k == "dm") {
         if (w.size() != 3 || (w[2] != "0" && w[2] != "1")) throw std::runtime_error("a dead-man line is 'dm <tick> 0|1'");
         log.deadman.emplace_back(std::stoll(w[1]), w[2] == "1");

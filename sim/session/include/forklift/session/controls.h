@@ -38,4 +38,71 @@ DriverInputs driver_inputs(const ControlSample& c, const TruckParams& truck);
 // The dead-man response: no drive, full brake, levers still, steer held.
 DriverInputs deadman_inputs(const DriverInputs& last, const TruckParams& truck);
 
+// The same inputs bit for bit (-0.0 is not 0.0): a sample that asks for no change need not be
+// logged, since a replay that holds the logged inputs then applies exactly what the worker did.
+bool identical(const DriverInputs& a, const DriverInputs& b);
+
+// The order of one cab's samples (fk_Controls.seq rises by one per sample a cab program sends).
+// A sample is judged against the newest one accepted:
+//  - newer (a higher seq): accepted; a jump over missing numbers is counted (samples are lost on
+//    the wire, and a keep-last-1 reader drops those it had no time to take), never refused;
+//  - not newer (the same seq: a duplicate; a lower one: old, a replay): refused and counted,
+//  - unless the cab has been silent for at least `restart_after_s` (the dead-man interval: the
+//    truck has been stopped for its silence): then it is the first sample of a restarted cab
+//    program, accepted, and counted as a restart. A cab is never locked out for good, and a
+//    stale sample never moves a truck whose cab is speaking.
+// The first sample is accepted whatever its seq. Only the seqs of good samples (control_problem
+// says nothing, the cab is this one) are judged.
+class ControlSequence {
+ public:
+  enum class Verdict { kAccepted, kJump, kRestart, kDuplicate, kOld };
+  struct Counts {
+    long accepted = 0;   // samples accepted (jumps and restarts included)
+    long jumps = 0;      // accepted with a higher seq than the next one expected
+    long skipped = 0;    // the seq numbers those jumps passed over
+    long restarts = 0;   // accepted, not newer, after restart_after_s of silence
+    long duplicate = 0;  // refused: the newest accepted seq again
+    long old = 0;        // refused: a lower seq
+  };
+  explicit ControlSequence(double restart_after_s) : restart_after_s_(restart_after_s) {}
+  // Judges `seq`, `silence_s` after the newest accepted sample arrived, and counts the verdict.
+  Verdict judge(uint32_t seq, double silence_s);
+  static bool accepted(Verdict v) { return v != Verdict::kDuplicate && v != Verdict::kOld; }
+  const Counts& counts() const { return counts_; }
+  uint32_t newest() const { return newest_; }  // the newest accepted seq (0 before the first)
+
+ private:
+  double restart_after_s_;
+  bool any_ = false;
+  uint32_t newest_ = 0;
+  Counts counts_;
+};
+
+// When the worker sends TruckState, whatever the cab sends. Sim time is cut into state periods
+// (1/rate) and each period has one state: at the end of the period, or earlier, right after the
+// tick that applied a change of the cab's inputs (so the cab sees its command's effect within a
+// tick); the early state takes the period's place. A second change within one period may have
+// its state early too, from an allowance of kExtraPerS per second of sim time (kExtraBurst saved
+// up at most): enough for a key let go just after a lever sample, too little for a flood to
+// matter. So any second of sim time holds at most max_per_s(rate) states, at any control rate
+// (and the worker sends one more when the session ends).
+class StatePacer {
+ public:
+  static constexpr double kExtraPerS = 10, kExtraBurst = 3;
+  static double max_per_s(double rate_hz) { return rate_hz + 1 + kExtraPerS + kExtraBurst; }
+  explicit StatePacer(double rate_hz) : period_s_(1.0 / rate_hz) {}
+  // After each tick, ending at sim time t: whether a state period ends with it and, if so,
+  // whether its state went out early or is owed (it goes now). The next period starts.
+  enum class PeriodEnd { kNotYet, kStateSent, kStateOwed };
+  PeriodEnd period_ends(double t);
+  // After a tick ending at t that applied a change of inputs no state has shown yet: true if its
+  // state may go out now.
+  bool early(double t);
+
+ private:
+  void refill(double t);
+  double period_s_, period_end_s_ = 0, extra_ = kExtraBurst, t_s_ = 0;
+  bool sent_ = false;  // the current period has had its state
+};
+
 }  // namespace forklift

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -39,6 +40,9 @@ class ControlLogWriter {
   void event(int64_t tick, const std::string& kind, int worry_level); // "e": one the session derived
   void worker_event(int64_t tick, const std::string& kind);          // "w": the worker's own (not marked)
   void score(const std::string& line);                                // "score": score_line() of the mark
+  // "controls": the worker's tally of the cab's samples (name=count words, in this order), once,
+  // before "end"; names are single words without '='.
+  void control_counts(const std::vector<std::pair<std::string, long>>& counts);
   void finish(int64_t ticks, const StateVector& final_state);         // "end" and "final"
 
  private:
@@ -56,6 +60,7 @@ struct ControlLog {
   std::vector<std::string> event_lines;                   // "e" lines, as written
   std::vector<std::pair<int64_t, std::string>> worker_events;  // "w" lines: tick, kind
   std::optional<std::string> score_line;                  // "score" line, as written
+  std::map<std::string, long> control_counts;             // "controls" line: the worker's tally
   std::optional<int64_t> ticks;              // absent if the worker died before finishing
   std::optional<StateVector> final_state;
   // The reason the logged session ended with (its score line's last word), if it has one.
