@@ -230,12 +230,12 @@ void session_routes(httplib::Server& svr, Context& ctx) {
     res.set_content(std::string(v.jpeg.begin(), v.jpeg.end()), "image/jpeg");
   }));
 
-  // A chained exam's evidence, for `forklift-menu verify`, which checks it against the school's CA.
+  // An exam's evidence, for `forklift-menu verify`, which checks it against the school's CA.
   svr.Get(R"(/api/sessions/(s-\d+)/evidence)", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
     require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
     const store::Session s = session_for(ctx, req, p);
-    send_json(res, 200, exam_evidence(ctx.db(), s));
+    send_json(res, 200, exam_evidence(ctx.db(), s, ctx.fleet->chain_anchor()));
   }));
 
   svr.Get("/api/fleet", guarded([&](const httplib::Request& req, httplib::Response& res) {
@@ -268,7 +268,11 @@ void session_routes(httplib::Server& svr, Context& ctx) {
     }
     json every = json::array();
     for (auto& [id, c] : all) every.push_back(std::move(c));
-    send_json(res, 200, {{"workers", workers}, {"cabs_online", cabs}, {"cabs", every}, {"max_workers", ctx.fleet->config().max_workers}});
+    // Whether exams can be chained (and so certified), and how many were refused since start.
+    const Fleet::ChainStatus chain = ctx.fleet->chain_status();
+    send_json(res, 200, {{"workers", workers}, {"cabs_online", cabs}, {"cabs", every}, {"max_workers", ctx.fleet->config().max_workers},
+                         {"exam_chain", {{"ok", chain.problem.empty()}, {"problem", chain.problem.empty() ? json(nullptr) : json(chain.problem)},
+                                         {"refused", chain.refused}}}});
   }));
 }
 
