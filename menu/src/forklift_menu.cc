@@ -129,30 +129,37 @@ int follow_session(const Client& cl, const std::string& id, const std::string& f
   return 0;
 }
 
-std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error("cannot read " + path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 // Fetches the exam's evidence and checks it here, against the school's CA: the server is not
-// trusted to say its own records are intact. Exit 0 if intact, 3 if not.
+// trusted to say its own records are intact. Exit 0 if intact, 3 if anything was changed (the
+// record, the log, the chain: an entry changed, a gap, its last entries deleted), 4 if the exam is
+// not chained and nothing shows tampering (not ended, refused by the server, no signed log).
 int verify_exam(const Client& cl, const std::string& id, const std::string& ca_file, const std::string& crl_file) {
+  using forklift::security::Verdict;
   const json evidence = cl.call("GET", "/api/sessions/" + id + "/evidence");
-  const auto report = forklift::security::verify_exam_evidence(evidence, read_file(ca_file), crl_file.empty() ? "" : read_file(crl_file),
-                                                               /*require_server_signatures=*/true);
+  using forklift::security::read_text_file;
+  const auto report = forklift::security::verify_exam_evidence(evidence, read_text_file(ca_file, "school CA"),
+                                                               crl_file.empty() ? "" : read_text_file(crl_file, "school CRL"),
+                                                               {.require_server_signatures = true, .require_anchor = true});
   for (const std::string& line : report.passed) std::printf("ok    %s\n", line.c_str());
   for (const std::string& line : report.problems) std::printf("FAIL  %s\n", line.c_str());
-  if (report.ok) {
-    const json& r = evidence["record"];
-    std::printf("verified: exam %s of pupil %s, mark %s, %s, examiner %s: record, log and signatures intact\n", id.c_str(),
-                fmt(r["pupil_id"]).c_str(), fmt(r["mark"]).c_str(), r["passed"] == true ? "passed" : "not passed", fmt(r["examiner"]).c_str());
-    return 0;
+  const json& r = evidence.is_object() ? evidence.value("record", json()) : json();
+  switch (report.verdict) {
+    case Verdict::kVerified:
+      std::printf("verified: exam %s of pupil %s (%s), mark %s, %s, examiner %s: record, log, chain and signatures intact\n", id.c_str(),
+                  fmt(r.value("pupil_id", json())).c_str(), fmt(r.value("pupil", json())).c_str(), fmt(r.value("mark", json())).c_str(),
+                  r.value("passed", json()) == true ? "passed" : "not passed", fmt(r.value("examiner", json())).c_str());
+      return 0;
+    case Verdict::kNotChained: {
+      const json why = evidence.value("not_chained_because", json());
+      std::printf("NOT CHAINED: exam %s has no entry in the exam chain (the chain and its anchor show no sign of tampering): %s. "
+                  "Its result cannot be verified and does not count.\n",
+                  id.c_str(), why.is_string() ? why.get<std::string>().c_str() : "the server gives no reason");
+      return 4;
+    }
+    case Verdict::kTampered: break;
   }
-  std::printf("NOT VERIFIED: exam %s has %zu problem(s): its stored record or log was changed after the exam\n", id.c_str(),
-              report.problems.size());
+  std::printf("TAMPERED: exam %s is NOT VERIFIED, with %zu problem(s): its stored record or log, or the exam chain, was changed after "
+              "the exam\n", id.c_str(), report.problems.size());
   return 3;
 }
 
@@ -223,7 +230,8 @@ int main(int argc, char** argv) {
   follow->add_option("--seconds", follow_s, "stop after this long (default: when the session is over)")->check(CLI::Range(0.0, 86400.0));
   auto* abort_cmd = app.add_subcommand("abort", "abort a running session");
   abort_cmd->add_option("ID", session)->required();
-  auto* verify = app.add_subcommand("verify", "check a practical exam's record, log and signatures against the school's CA");
+  auto* verify = app.add_subcommand("verify", "check a practical exam's record, log, chain and signatures against the school's CA "
+                                              "(exit 0 intact, 3 tampered with, 4 not chained)");
   verify->add_option("ID", session)->required();
   verify->add_option("--school-ca", school_ca, "the school's CA certificate (default $FORKLIFT_SECURITY_DIR/ca.pem)")->check(CLI::ExistingFile);
   verify->add_option("--crl", school_crl, "the school's revocation list (default $FORKLIFT_SECURITY_DIR/crl.pem)")->check(CLI::ExistingFile);

@@ -12,6 +12,11 @@
   function passBadge(passed) {
     return passed === null || passed === undefined ? '' : passed ? badge('passed', 'passed') : badge('not-passed', 'not passed');
   }
+  // A practical exam whose evidence does not hold counts for nothing: the page says why.
+  function evidenceNote(evidence) {
+    return evidence && evidence.verified === false ? el('div', { class: 'small warn', 'data-evidence': 'unverified' },
+                                                        `Evidence does not verify: ${evidence.problem}`) : '';
+  }
 
   function fact(dl, term, ...value) { dl.append(el('dt', {}, term), el('dd', {}, ...value)); }
 
@@ -122,14 +127,14 @@
       el('th', { scope: 'row' }, el('a', { href: `session.html?id=${encodeURIComponent(s.id)}` }, s.id)),
       el('td', {}, dateTime(s.created_at)), el('td', {}, s.scenario), el('td', {}, s.mode), el('td', {}, s.cab_id),
       el('td', {}, badge(s.state, s.state), s.reason ? el('div', { class: 'small muted' }, s.reason) : ''),
-      el('td', { class: 'num' }, s.mark === null ? '–' : num(s.mark)), el('td', {}, passBadge(s.passed)))));
+      el('td', { class: 'num' }, s.mark === null ? '–' : num(s.mark)), el('td', {}, passBadge(s.passed), evidenceNote(s.evidence)))));
     if (h.sessions.length === 0) document.querySelector('#sessions tbody').append(el('tr', {}, el('td', { colspan: 8, class: 'muted' }, 'No sessions yet.')));
 
     clear(document.querySelector('#exams tbody')).append(...[...h.exams].reverse().map((e) => el('tr', { 'data-exam': e.id, 'data-kind': e.kind },
       el('th', { scope: 'row' }, e.kind === 'theory' ? 'Theory' : 'Practical'),
       el('td', {}, dateTime(e.taken_at)),
       el('td', {}, e.kind === 'theory' ? `${e.correct ?? '?'} of ${e.total ?? '?'} (${pct(e.score)})` : `mark ${num(e.score)}`),
-      el('td', {}, passBadge(e.passed)),
+      el('td', {}, passBadge(e.passed), evidenceNote(e.evidence)),
       el('td', {}, e.kind === 'theory' && e.attempt ? el('a', { href: `theory.html?attempt=${encodeURIComponent(e.attempt)}` }, 'answers')
                  : e.session ? el('a', { href: `session.html?id=${encodeURIComponent(e.session)}` }, e.session) : ''))));
     if (h.exams.length === 0) document.querySelector('#exams tbody').append(el('tr', {}, el('td', { colspan: 5, class: 'muted' }, 'No exams yet.')));

@@ -23,6 +23,7 @@ namespace {
 using namespace detail;
 
 constexpr const char* kSignatureFormat = "forklift-exam-log-signature/1";
+constexpr const char* kAnchorFormat = "forklift-exam-chain-anchor/1";
 const std::string kFirstPrevHash(64, '0');
 constexpr int kMaxChainProblems = 20;  // a rewritten chain would otherwise list every entry
 
@@ -113,7 +114,7 @@ struct LogFacts {
     std::string kind;
     long long worry = 0;
   };
-  std::vector<std::string> sessions, cabs;  // every "session"/"cab" line's value
+  std::vector<std::string> sessions, cabs, modes;  // every "session"/"cab"/"mode" line's value
   std::vector<Event> events;
   struct Score {
     double mark = 0;
@@ -130,8 +131,8 @@ LogFacts read_log(const std::string& text) {
   for (const LogRecord& r : scan_log_records(text)) {
     const std::vector<std::string>& w = r.words;
     const std::string where = "log line " + std::to_string(r.line);
-    if (w[0] == "session" || w[0] == "cab") {
-      (w[0] == "session" ? f.sessions : f.cabs).push_back(r.rest);
+    if (w[0] == "session" || w[0] == "cab" || w[0] == "mode") {
+      (w[0] == "session" ? f.sessions : w[0] == "cab" ? f.cabs : f.modes).push_back(r.rest);
     } else if (w[0] == "e" || w[0] == "w") {  // the evaluation's events and the worker's own, in order
       const auto tick = w.size() == 4 ? parse_int(w[1]) : std::nullopt;
       const auto worry = w.size() == 4 ? parse_int(w[3]) : std::nullopt;
@@ -165,8 +166,8 @@ std::string differing_keys(const json& a, const json& b) {
 
 class Verifier {
  public:
-  Verifier(const std::string& ca_pem, const std::string& crl_pem, bool require_server_signatures)
-      : ca_(ca_pem), crl_(crl_pem), require_signed_(require_server_signatures) {}
+  Verifier(const std::string& ca_pem, const std::string& crl_pem, VerifyOptions options)
+      : ca_(ca_pem), crl_(crl_pem), options_(options) {}
 
   VerifyReport report;
 
@@ -177,6 +178,7 @@ class Verifier {
     const std::string* log = string_field(ev, "log");
     const json* sig = field(ev, "signature");
     const json* chain = field(ev, "chain");
+    const json* from = field(ev, "chain_from");
     if (!session) problem("evidence has no string \"session\"");
     if (record && !record->is_object()) record = nullptr;
     if (!record) problem("evidence has no object \"record\"");
@@ -184,26 +186,55 @@ class Verifier {
     if (sig && !sig->is_object()) sig = nullptr;
     if (!sig) problem("evidence has no object \"signature\" (the log signature)");
     if (chain && !chain->is_array()) chain = nullptr;
-    if (!chain) problem("evidence has no array \"chain\"");
+    if (!chain) chain_problem("evidence has no array \"chain\"");
+    int64_t first_seq = 1;
+    if (from && (!from->is_number_integer() || *from < 1))
+      chain_problem("evidence's \"chain_from\" is " + from->dump() + ", not a seq (1 or more)");
+    else if (from)
+      first_seq = from->get<int64_t>();
 
-    if (record) {
-      rec_session_ = string_field(*record, "session");
-      rec_cab_ = string_field(*record, "cab");
-      if (!rec_session_) problem("record has no string \"session\"");
-      if (!rec_cab_) problem("record has no string \"cab\"");
-    }
+    if (record) read_record_ids(*record);
     if (session && rec_session_ && *session != *rec_session_)
       problem("evidence is for session " + show(*session) + " but its record is session " + show(*rec_session_));
 
     if (sig) check_signature(*sig, log);
     if (log && record) check_log(*log, *record);
-    if (chain) check_chain(*chain, session ? session : rec_session_, record);
+    if (chain) check_chain(*chain, first_seq, field(ev, "anchor"), session ? session : rec_session_, record);
+  }
+
+  // The record against its signed log alone (verify_record_against_log).
+  void run_log(const json& record, const std::string& log, const json& sig) {
+    if (!record.is_object()) return problem("the record is not a JSON object");
+    read_record_ids(record);
+    if (!sig.is_object()) problem("the log signature is not a JSON object");
+    else check_signature(sig, &log);
+    check_log(log, record);
+  }
+
+  // The chain and its anchor, with no session in view (verify_chain).
+  void run_chain(const json& chain, const json& anchor) {
+    if (!chain.is_array()) return chain_problem("the chain is not a JSON array");
+    check_chain(chain, 1, &anchor, nullptr, nullptr);
   }
 
   void problem(const std::string& line) { report.problems.push_back(line); }
 
+  void finish() {
+    report.ok = report.problems.empty();
+    report.verdict = report.ok                           ? Verdict::kVerified
+                     : not_chained_ && !chain_tampered_ ? Verdict::kNotChained
+                                                         : Verdict::kTampered;
+  }
+
  private:
   void pass(const std::string& line) { report.passed.push_back(line); }
+
+  void read_record_ids(const json& record) {
+    rec_session_ = string_field(record, "session");
+    rec_cab_ = string_field(record, "cab");
+    if (!rec_session_) problem("record has no string \"session\"");
+    if (!rec_cab_) problem("record has no string \"cab\"");
+  }
 
   void check_signature(const json& sig, const std::string* log) {
     const std::string* format = string_field(sig, "format");
@@ -299,8 +330,13 @@ class Verifier {
     };
     header("session", f.sessions, rec_session_);
     header("cab", f.cabs, rec_cab_);
+    // A log from before the mode line was written is a training log, as the typed reader has it.
+    const std::vector<std::string> modes = f.modes.empty() ? std::vector<std::string>{"training"} : f.modes;
+    const std::string* rec_mode = string_field(record, "mode");
+    header("mode", modes, rec_mode);
     if (header_ok && rec_session_ && rec_cab_)
-      pass("log header session " + show(*rec_session_) + " and cab " + show(*rec_cab_) + " match the record");
+      pass("log header session " + show(*rec_session_) + ", cab " + show(*rec_cab_) +
+           (rec_mode ? " and mode " + show(*rec_mode) : std::string()) + " match the record");
 
     // Score: the mark exactly (the log writes it in %a) and pass/fail.
     const json* mark = field(record, "mark");
@@ -362,7 +398,9 @@ class Verifier {
       pass("log's " + std::to_string(f.events.size()) + " events match the record's events (kind, worry, order)");
   }
 
+  // A fault of the chain or of its anchor: evidence of tampering whatever the session's own entry says.
   void chain_problem(const std::string& line) {
+    chain_tampered_ = true;
     if (++chain_problems_ <= kMaxChainProblems) problem(line);
   }
 
@@ -394,137 +432,301 @@ class Verifier {
     }
     if (!c.key) c.problem += (c.problem.empty() ? "" : "; ") + std::string("has an unreadable public key");
     openssl_error();  // drain
+    if (c.problem.empty() && !accepted_server_key_) accepted_server_key_ = c.key.get();
     return c;
   }
 
-  void check_chain(const json& chain, const std::string* session, const json* record) {
-    std::string prev = kFirstPrevHash;
-    bool prev_known = true;
-    bool links_ok = true;
-    bool signatures_ok = true;
-    size_t signed_entries = 0;
-    std::vector<size_t> mine;  // the session's entries
-    for (size_t i = 0; i < chain.size(); ++i) {
-      const json& e = chain[i];
-      const std::string label = "chain entry " + std::to_string(i + 1);
-      if (!e.is_object()) {
-        chain_problem(label + " is not a JSON object");
-        links_ok = prev_known = false;
-        continue;
-      }
-      const json* seq = field(e, "seq");
-      const std::string* e_session = string_field(e, "session");
-      const json* e_record = field(e, "record");
-      if (e_record && !e_record->is_object()) e_record = nullptr;
-      const std::string* e_sha = string_field(e, "log_sha256");
-      const std::string* e_sig = string_field(e, "log_signature");
-      const std::string* e_prev = string_field(e, "prev_hash");
-      const std::string* e_hash = string_field(e, "entry_hash");
-      std::string missing;
-      for (const auto& [name, ok] : {std::pair{"session", e_session != nullptr},
-                                     {"record (object)", e_record != nullptr},
-                                     {"log_sha256", e_sha != nullptr},
-                                     {"log_signature", e_sig != nullptr},
-                                     {"prev_hash", e_prev != nullptr},
-                                     {"entry_hash", e_hash != nullptr}})
-        if (!ok) missing += (missing.empty() ? "" : ", ") + std::string(name);
-      if (!missing.empty()) {
-        chain_problem(label + " lacks " + missing);
-        links_ok = false;
-      }
-      if (!seq || !seq->is_number_integer() || *seq != static_cast<int64_t>(i + 1)) {
-        chain_problem(label + " has seq " + (seq ? seq->dump() : std::string("missing")) + ", expected " +
-                      std::to_string(i + 1));
-        links_ok = false;
-      }
-      const std::string named = label + (e_session ? " (session " + show(*e_session) + ")" : "");
-      if (e_session && session && *e_session == *session) mine.push_back(i);
-      if (e_session && e_record) {
-        const std::string* r = string_field(*e_record, "session");
-        if (!r || *r != *e_session) {
-          chain_problem(named + "'s record is for session " + (r ? show(*r) : std::string("(none)")));
-          links_ok = false;
-        }
-      }
+  // What one entry's own fields say, for the walk along the chain.
+  struct Entry {
+    std::string label;  // "chain entry N (session "s-...")"
+    const std::string* session = nullptr;
+    const std::string* hash = nullptr;
+  };
 
-      if (e_prev && prev_known && *e_prev != prev) {
-        chain_problem(named + "'s prev_hash " + show(*e_prev) +
-                      (i == 0 ? " is not 64 zeros"
-                              : " does not link to the entry_hash " + prev + " of entry " + std::to_string(i)));
+  // Entry `e`'s fields, record, hash and server signature; `prev` is the entry_hash it must link to
+  // (nullptr when unknown).
+  Entry check_entry(const json& e, const std::string& label, const std::string* prev, int64_t prev_seq,
+                    bool first_of_chain, bool& links_ok, bool& signatures_ok, size_t& signed_entries) {
+    Entry out{label};
+    if (!e.is_object()) {
+      chain_problem(label + " is not a JSON object");
+      links_ok = false;
+      return out;
+    }
+    const std::string* e_session = string_field(e, "session");
+    const json* e_record = field(e, "record");
+    if (e_record && !e_record->is_object()) e_record = nullptr;
+    const std::string* e_sha = string_field(e, "log_sha256");
+    const std::string* e_sig = string_field(e, "log_signature");
+    const std::string* e_prev = string_field(e, "prev_hash");
+    const std::string* e_hash = string_field(e, "entry_hash");
+    out.session = e_session;
+    out.hash = e_hash;
+    std::string missing;
+    for (const auto& [name, ok] : {std::pair{"session", e_session != nullptr},
+                                   {"record (object)", e_record != nullptr},
+                                   {"log_sha256", e_sha != nullptr},
+                                   {"log_signature", e_sig != nullptr},
+                                   {"prev_hash", e_prev != nullptr},
+                                   {"entry_hash", e_hash != nullptr}})
+      if (!ok) missing += (missing.empty() ? "" : ", ") + std::string(name);
+    if (!missing.empty()) {
+      chain_problem(label + " lacks " + missing);
+      links_ok = false;
+    }
+    const std::string named = out.label = label + (e_session ? " (session " + show(*e_session) + ")" : "");
+    if (e_session && e_record) {
+      const std::string* r = string_field(*e_record, "session");
+      if (!r || *r != *e_session) {
+        chain_problem(named + "'s record is for session " + (r ? show(*r) : std::string("(none)")));
         links_ok = false;
-      }
-      if (e_prev && e_record && e_sha && e_sig && e_hash) {
-        try {
-          const std::string computed = entry_hash_of(*e_prev, *e_record, *e_sha, *e_sig);
-          if (computed != *e_hash) {
-            chain_problem(named + "'s entry_hash does not recompute (stored " + show(*e_hash) + ", computed " +
-                          computed + "): its record, log_sha256 or log_signature was changed");
-            links_ok = false;
-          }
-        } catch (const std::exception& x) {  // invalid UTF-8 in the record
-          chain_problem(named + "'s record cannot be hashed: " + x.what());
-          links_ok = false;
-        }
-      }
-      prev_known = e_hash != nullptr;
-      if (e_hash) prev = *e_hash;
-
-      const json* ss = field(e, "server_signature");
-      if (!ss || ss->is_null()) {
-        // Unsigned entries can be re-hashed by anyone with the database: a secured school signs all.
-        if (require_signed_) {
-          chain_problem(named + " is not server-signed");
-          signatures_ok = false;
-        }
-        continue;
-      }
-      ++signed_entries;
-      const std::string* pem = string_field(e, "server_certificate");
-      const std::optional<std::string> der = ss->is_string() ? base64_decode(ss->get<std::string>()) : std::nullopt;
-      std::string why;
-      if (!der) {
-        chain_problem(named + "'s server_signature is not a base64 string");
-        signatures_ok = false;
-      } else if (!pem) {
-        chain_problem(named + " is server-signed but has no string server_certificate");
-        signatures_ok = false;
-      } else if (const ServerCert& c = server_cert(*pem); !c.problem.empty()) {
-        chain_problem(named + "'s server certificate " + c.problem);
-        signatures_ok = false;
-        if (c.key && e_hash && !verify_sha256(c.key.get(), *e_hash, *der, &why))
-          chain_problem(named + "'s server_signature does not verify over its entry_hash either: " + why);
-      } else if (!e_hash) {
-        signatures_ok = false;  // already reported as lacking
-      } else if (!verify_sha256(c.key.get(), *e_hash, *der, &why)) {
-        chain_problem(named + "'s server_signature does not verify over its entry_hash " + show(*e_hash) + ": " + why);
-        signatures_ok = false;
       }
     }
+    if (e_prev && first_of_chain && *e_prev != kFirstPrevHash) {
+      chain_problem(named + "'s prev_hash " + show(*e_prev) + " is not 64 zeros");
+      links_ok = false;
+    } else if (e_prev && prev && *e_prev != *prev) {
+      chain_problem(named + "'s prev_hash " + show(*e_prev) + " does not link to the entry_hash " + *prev +
+                    " of entry " + std::to_string(prev_seq));
+      links_ok = false;
+    }
+    if (e_prev && e_record && e_sha && e_sig && e_hash) {
+      try {
+        const std::string computed = entry_hash_of(*e_prev, *e_record, *e_sha, *e_sig);
+        if (computed != *e_hash) {
+          chain_problem(named + "'s entry_hash does not recompute (stored " + show(*e_hash) + ", computed " + computed +
+                        "): its record, log_sha256 or log_signature was changed");
+          links_ok = false;
+        }
+      } catch (const std::exception& x) {  // invalid UTF-8 in the record
+        chain_problem(named + "'s record cannot be hashed: " + x.what());
+        links_ok = false;
+      }
+    }
+
+    const json* ss = field(e, "server_signature");
+    if (!ss || ss->is_null()) {
+      // Unsigned entries can be re-hashed by anyone with the database: a secured school signs all.
+      if (options_.require_server_signatures) {
+        chain_problem(named + " is not server-signed");
+        signatures_ok = false;
+      }
+      return out;
+    }
+    ++signed_entries;
+    const std::string* pem = string_field(e, "server_certificate");
+    const std::optional<std::string> der = ss->is_string() ? base64_decode(ss->get<std::string>()) : std::nullopt;
+    std::string why;
+    if (!der) {
+      chain_problem(named + "'s server_signature is not a base64 string");
+      signatures_ok = false;
+    } else if (!pem) {
+      chain_problem(named + " is server-signed but has no string server_certificate");
+      signatures_ok = false;
+    } else if (const ServerCert& c = server_cert(*pem); !c.problem.empty()) {
+      chain_problem(named + "'s server certificate " + c.problem);
+      signatures_ok = false;
+      if (c.key && e_hash && !verify_sha256(c.key.get(), *e_hash, *der, &why))
+        chain_problem(named + "'s server_signature does not verify over its entry_hash either: " + why);
+    } else if (!e_hash) {
+      signatures_ok = false;  // already reported as lacking
+    } else if (!verify_sha256(c.key.get(), *e_hash, *der, &why)) {
+      chain_problem(named + "'s server_signature does not verify over its entry_hash " + show(*e_hash) + ": " + why);
+      signatures_ok = false;
+    }
+    return out;
+  }
+
+  // The chain from seq `first_seq` on; `session` and `record` (either may be null) the exam in view.
+  void check_chain(const json& chain, int64_t first_seq, const json* anchor, const std::string* session,
+                   const json* record) {
+    bool links_ok = true, signatures_ok = true;
+    size_t signed_entries = 0;
+    std::vector<size_t> mine;  // the session's entries
+    std::optional<std::string> prev = first_seq == 1 ? std::optional(kFirstPrevHash) : std::nullopt;
+    int64_t expected = first_seq;  // the seq the next entry must have
+    int64_t prev_seq = first_seq - 1;
+    for (size_t i = 0; i < chain.size(); ++i) {
+      const json& e = chain[i];
+      const json* seq = field(e, "seq");
+      const bool numbered = seq && seq->is_number_integer();
+      const int64_t n = numbered ? seq->get<int64_t>() : 0;
+      if (numbered && n > expected) {
+        // A gap: entries were deleted from the middle (or the end, before entries added since).
+        chain_problem("chain: " + entries_from(expected, n - 1) + " missing (a gap: the chain " +
+                      (i == 0 ? "starts at entry " + std::to_string(n)
+                              : "goes from entry " + std::to_string(expected - 1) + " to entry " + std::to_string(n)) +
+                      ")");
+        links_ok = false;
+      } else if (!numbered || n != expected) {
+        chain_problem("chain entry " + std::to_string(i + 1) + " in order has seq " +
+                      (seq ? seq->dump() : std::string("missing")) + ", expected " + std::to_string(expected));
+        links_ok = false;
+      }
+      const int64_t at = numbered && n > expected ? n : expected;
+      expected = at + 1;
+      const Entry x = check_entry(e, "chain entry " + std::to_string(at), prev ? &*prev : nullptr, prev_seq,
+                                  i == 0 && first_seq == 1, links_ok, signatures_ok, signed_entries);
+      prev_seq = at;
+      if (x.session && session && *x.session == *session) mine.push_back(i);
+      if (x.hash) seq_of_.emplace(at, i);
+      prev = x.hash ? std::optional(*x.hash) : std::nullopt;
+    }
+    last_seq_ = chain.empty() ? first_seq - 1 : expected - 1;
     if (chain_problems_ > kMaxChainProblems)
       problem("chain: " + std::to_string(chain_problems_ - kMaxChainProblems) + " further chain problems not listed");
 
-    if (chain.empty())
-      problem("chain is empty");
-    else if (links_ok)
-      pass("chain of " + count(chain.size(), "entry", "entries") +
-           ": each prev_hash links and each entry_hash recomputes");
+    const std::string span = first_seq == 1 ? "chain of " + count(chain.size(), "entry", "entries")
+                                            : "chain entries " + std::to_string(first_seq) + " to " +
+                                                  std::to_string(last_seq_);
+    // An empty chain is a new school's (the session's missing entry is its own problem).
+    if (!chain.empty() && links_ok)
+      pass(span + ": seqs without a gap, each prev_hash links and each entry_hash recomputes");
     if (signed_entries == 0 && !chain.empty())
       pass("chain: no entry is server-signed, so there is no server signature to check");
     else if (signed_entries && signatures_ok)
       pass("chain: all " + count(signed_entries, "server signature", "server signatures") +
            " verify with server certificates issued by the school CA");
 
-    if (!session) return;
-    if (mine.size() != 1) {
-      std::string seqs;
-      for (size_t i : mine) seqs += (seqs.empty() ? "" : ", ") + std::to_string(i + 1);
-      return problem("session " + show(*session) + " has " + std::to_string(mine.size()) + " chain entries" +
-                     (seqs.empty() ? "" : " (" + seqs + ")") + ", expected exactly one");
+    check_anchor(anchor, chain, first_seq, session, mine);
+    if (session) check_session_entry(chain, *session, record, mine);
+  }
+
+  // The anchor kept outside the database: the chain must hold its head (else it was cut short or
+  // rewritten) and the session's anchored entry (else that entry was deleted).
+  void check_anchor(const json* anchor, const json& chain, int64_t first_seq, const std::string* session,
+                    const std::vector<size_t>& mine) {
+    if (!anchor || anchor->is_null()) {
+      if (options_.require_anchor)
+        chain_problem("evidence has no chain anchor: a chain whose last entries were deleted cannot be told from a "
+                      "whole one");
+      return;
     }
-    const size_t k = mine[0];
-    const std::string label = "chain entry " + std::to_string(k + 1);
-    pass("session " + show(*session) + " has exactly one chain entry (seq " + std::to_string(k + 1) + ")");
-    const json& e = chain[k];
+    if (!anchor->is_object()) return chain_problem("the chain anchor is not a JSON object");
+    const json* head = field(*anchor, "head");
+    if (!head || head->is_null()) {
+      if (options_.require_anchor && !chain.empty())
+        chain_problem("the anchor records no chain entry, but the chain has " +
+                      count(chain.size(), "entry", "entries") + ": the chain is not anchored");
+    } else if (const auto h = anchored(*head, "the anchor's head")) {
+      if (h->seq > last_seq_) {
+        chain_problem("the chain is cut short: the anchor (kept outside the database) records entry " +
+                      std::to_string(h->seq) + " (session " + show(h->session) + ") but the chain ends at " +
+                      (last_seq_ < 1 ? std::string("no entry") : "entry " + std::to_string(last_seq_)) + ": " +
+                      count(static_cast<size_t>(h->seq - std::max<int64_t>(last_seq_, 0)), "entry was", "entries were") +
+                      " deleted from its end");
+      } else if (match_anchored(chain, *h, first_seq, "the anchor's head")) {
+        pass("the chain holds the anchor's head, entry " + std::to_string(h->seq) + " (session " + show(h->session) +
+             ")" +
+             (last_seq_ > h->seq ? "; " + entries_from(h->seq + 1, last_seq_) +
+                                       " newer than the anchor, which the server writes just after each entry"
+                                 : std::string()));
+      }
+      check_anchor_signature(*h);
+    }
+
+    if (!session) return;
+    const json* entry = field(*anchor, "entry");
+    if (entry && !entry->is_null()) {
+      const auto a = anchored(*entry, "the anchor's line for session " + show(*session));
+      if (!a) return;
+      if (a->session != *session)
+        return chain_problem("the anchor's line for session " + show(*session) + " is for session " + show(a->session));
+      if (mine.empty())
+        return chain_problem("the anchor records session " + show(*session) + " as chain entry " +
+                             std::to_string(a->seq) + ", but the chain has no entry for it: its entry was deleted");
+      if (match_anchored(chain, *a, first_seq, "the anchor's line for session " + show(*session)))
+        pass("session " + show(*session) + "'s chain entry " + std::to_string(a->seq) + " is the anchored one");
+    } else if (mine.size() == 1 && head && head->is_object()) {
+      const json& e = chain[mine[0]];
+      const json* seq = field(e, "seq");
+      const json* head_seq = field(*head, "seq");
+      if (seq && head_seq && seq->is_number_integer() && head_seq->is_number_integer() && *seq <= *head_seq)
+        chain_problem("the anchor has no line for session " + show(*session) + "'s chain entry " + seq->dump() +
+                      ", though it anchors the entries up to " + head_seq->dump());
+    }
+  }
+
+  // "entry 4 is" or "entries 4 to 6 are".
+  static std::string entries_from(int64_t first, int64_t last) {
+    return first == last ? "entry " + std::to_string(first) + " is"
+                         : "entries " + std::to_string(first) + " to " + std::to_string(last) + " are";
+  }
+
+  struct Anchored {
+    int64_t seq = 0;
+    std::string session, entry_hash;
+    const json* signature = nullptr;
+  };
+  std::optional<Anchored> anchored(const json& line, const std::string& what) {
+    const std::string* format = string_field(line, "format");
+    const json* seq = field(line, "seq");
+    const std::string* session = string_field(line, "session");
+    const std::string* hash = string_field(line, "entry_hash");
+    if (!format || *format != kAnchorFormat || !seq || !seq->is_number_integer() || *seq < 1 || !session || !hash) {
+      chain_problem(what + " is not an anchor line (" + kAnchorFormat + ": seq, session, entry_hash)");
+      return std::nullopt;
+    }
+    return Anchored{seq->get<int64_t>(), *session, *hash, field(line, "server_signature")};
+  }
+
+  // The chain's entry at the anchored seq has the anchored hash and session; a fault is reported.
+  bool match_anchored(const json& chain, const Anchored& a, int64_t first_seq, const std::string& what) {
+    if (a.seq < first_seq) return true;  // before the part of the chain given: its links vouch for nothing here
+    const auto at = seq_of_.find(a.seq);
+    if (at == seq_of_.end()) {
+      chain_problem(what + " is entry " + std::to_string(a.seq) + ", which the chain lacks");
+      return false;
+    }
+    const json& e = chain[at->second];
+    const std::string* hash = string_field(e, "entry_hash");
+    const std::string* session = string_field(e, "session");
+    if (hash && *hash == a.entry_hash && session && *session == a.session) return true;
+    chain_problem("chain entry " + std::to_string(a.seq) + " is not the one anchored (" + what + ": session " +
+                  show(a.session) + ", entry_hash " + show(a.entry_hash) + "): the chain was rewritten");
+    return false;
+  }
+
+  // The anchored head carries the server's signature of its entry_hash, checkable with the chain's
+  // server certificate even when the entry itself was deleted.
+  void check_anchor_signature(const Anchored& h) {
+    if (!h.signature || h.signature->is_null()) {
+      if (options_.require_server_signatures) chain_problem("the anchor's head is not server-signed");
+      return;
+    }
+    const std::optional<std::string> der =
+        h.signature->is_string() ? base64_decode(h.signature->get<std::string>()) : std::nullopt;
+    std::string why;
+    if (!der)
+      chain_problem("the anchor's head's server_signature is not a base64 string");
+    else if (!accepted_server_key_)
+      pass("the anchor's head is signed, but no server certificate in the chain can check it");
+    else if (verify_sha256(accepted_server_key_, h.entry_hash, *der, &why))
+      pass("the anchor's head is signed by the server's key");
+    else
+      chain_problem("the anchor's head's server_signature does not verify with the server's key: " + why);
+  }
+
+  static std::string seq_text(const json& e) {
+    const json* seq = field(e, "seq");
+    return seq ? seq->dump() : "(none)";
+  }
+
+  void check_session_entry(const json& chain, const std::string& session, const json* record,
+                           const std::vector<size_t>& mine) {
+    if (mine.empty()) {
+      not_chained_ = true;
+      return problem("session " + show(session) + " has no chain entry: it is not a chained exam");
+    }
+    if (mine.size() > 1) {
+      std::string seqs;
+      for (size_t i : mine) seqs += (seqs.empty() ? "" : ", ") + seq_text(chain[i]);
+      return chain_problem("session " + show(session) + " has " + std::to_string(mine.size()) + " chain entries (" +
+                           seqs + "), expected exactly one");
+    }
+    const json& e = chain[mine[0]];
+    const std::string label = "chain entry " + seq_text(e);
+    pass("session " + show(session) + " has exactly one chain entry (seq " + seq_text(e) + ")");
     const json* e_record = field(e, "record");
     if (record && e_record) {
       if (*e_record == *record)
@@ -547,16 +749,23 @@ class Verifier {
 
   const std::string& ca_;
   const std::string& crl_;
-  const bool require_signed_;
+  const VerifyOptions options_;
   const std::string* rec_session_ = nullptr;
   const std::string* rec_cab_ = nullptr;
   const std::string* sig_sha_ = nullptr;
   const std::string* sig_b64_ = nullptr;
   int chain_problems_ = 0;
+  bool chain_tampered_ = false;
+  bool not_chained_ = false;
+  int64_t last_seq_ = 0;                // the seq of the chain's last entry (0: none)
+  std::map<int64_t, size_t> seq_of_;    // chain index by seq
+  EVP_PKEY* accepted_server_key_ = nullptr;  // owned by server_certs_
   std::map<std::string, ServerCert> server_certs_;
 };
 
 }  // namespace
+
+std::string read_text_file(const std::string& path, const std::string& what) { return read_file(path, what); }
 
 std::string sha256_hex(std::string_view bytes) {
   unsigned char md[EVP_MAX_MD_SIZE];
@@ -646,16 +855,47 @@ bool certificate_issued_by(const std::string& cert_pem, const std::string& ca_pe
   }
 }
 
-VerifyReport verify_exam_evidence(const json& evidence, const std::string& ca_pem, const std::string& crl_pem,
-                                  bool require_server_signatures) {
-  Verifier v(ca_pem, crl_pem, require_server_signatures);
+json chain_anchor_line(const json& entry) {
+  const json* seq = field(entry, "seq");
+  const std::string* session = string_field(entry, "session");
+  const std::string* hash = string_field(entry, "entry_hash");
+  const json* signature = field(entry, "server_signature");
+  if (!seq || !seq->is_number_integer() || !session || !hash || !signature)
+    throw std::runtime_error("chain_anchor_line: the entry lacks its seq, session, entry_hash or server_signature");
+  return {{"format", kAnchorFormat}, {"seq", *seq}, {"session", *session}, {"entry_hash", *hash},
+          {"server_signature", *signature}};
+}
+
+namespace {
+
+// Runs one of the Verifier's checks, so that nothing escapes as an exception.
+template <typename Check>
+VerifyReport verified(const std::string& ca_pem, const std::string& crl_pem, VerifyOptions options, Check check) {
+  Verifier v(ca_pem, crl_pem, options);
   try {
-    v.run(evidence);
+    check(v);
   } catch (const std::exception& e) {  // out of memory and the like: still a report, never a throw
     v.problem(std::string("evidence could not be checked: ") + e.what());
   }
-  v.report.ok = v.report.problems.empty();
+  v.finish();
   return std::move(v.report);
+}
+
+}  // namespace
+
+VerifyReport verify_exam_evidence(const json& evidence, const std::string& ca_pem, const std::string& crl_pem,
+                                  VerifyOptions options) {
+  return verified(ca_pem, crl_pem, options, [&](Verifier& v) { v.run(evidence); });
+}
+
+VerifyReport verify_record_against_log(const json& record, const std::string& log, const json& signature,
+                                       const std::string& ca_pem, const std::string& crl_pem) {
+  return verified(ca_pem, crl_pem, {}, [&](Verifier& v) { v.run_log(record, log, signature); });
+}
+
+VerifyReport verify_chain(const json& chain, const json& anchor, const std::string& ca_pem, const std::string& crl_pem,
+                          VerifyOptions options) {
+  return verified(ca_pem, crl_pem, options, [&](Verifier& v) { v.run_chain(chain, anchor); });
 }
 
 }  // namespace forklift::security

@@ -278,7 +278,21 @@ void Fleet::fail(store::Store& db, const std::string& session, const std::string
 void Fleet::supervise() {
   auto db = store::Store::open_sqlite(config_.db_path);
   std::vector<std::pair<std::string, Clock::time_point>> to_chain;  // ended exams, until when to wait
-  // Exams whose worker ended while this server was down, or just before it stopped.
+  // The database's chain must be the anchored one before anything is chained onto it.
+  std::string chain_problem;
+  try {
+    chain_problem = check_chain_at_start(*db, *anchor_, chain_keys());
+  } catch (const std::exception& e) {
+    chain_problem = std::string("the exam chain cannot be checked: ") + e.what();
+  }
+  if (!chain_problem.empty()) {
+    std::cerr << "forklift-server: " << chain_problem << ". No exam is chained, and no certificate counts a practical "
+              << "exam, until the database's exam_chain is restored from a backup" << std::endl;
+    std::lock_guard<std::mutex> lock(mu_);
+    chain_status_.problem = chain_problem;
+  }
+  // Exams whose worker ended while this server was down, or just before it stopped: each is
+  // checked against its signed log before it is chained (chain_exam).
   for (const std::string& s : db->unchained_signed_exams()) to_chain.push_back({s, Clock::now() + std::chrono::seconds(15)});
   // The samples a worker sent just before it exited may still be on their way.
   constexpr auto kLastSamples = std::chrono::milliseconds(1000);
@@ -379,18 +393,43 @@ void Fleet::settle(store::Store& db, const WorkerInfo& w, const std::string& rea
 }
 
 void Fleet::chain_ended_exams(store::Store& db, std::vector<std::pair<std::string, Clock::time_point>>& pending) {
-  const dds::SecurityFiles me{config_.security_dir, config_.identity};
+  if (pending.empty()) return;
+  ChainKeys keys;
+  std::string broken;
+  try {
+    keys = chain_keys();
+  } catch (const std::exception& e) {
+    broken = std::string("the school's CA cannot be read: ") + e.what();
+  }
   for (auto it = pending.begin(); it != pending.end();) {
     const bool late = Clock::now() > it->second;
-    ChainResult r = ChainResult::kNotSignable;
+    ChainOutcome r;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      if (broken.empty()) broken = chain_status_.problem;
+    }
     try {
       // Its score and events come over DDS and may still be on their way.
-      r = chain_exam(db, it->first, secure() ? me.private_key() : "", secure() ? me.certificate() : "", late);
+      r = broken.empty() ? chain_exam(db, it->first, *anchor_, keys, late) : ChainOutcome{ChainResult::kChainBroken, broken};
     } catch (const std::exception& e) {
       std::cerr << "forklift-server: cannot chain exam " << it->first << ": " << e.what() << std::endl;
     }
-    if (r == ChainResult::kNotReady && !late) { ++it; continue; }
-    if (r == ChainResult::kNotReady) std::cerr << "forklift-server: exam " << it->first << " never got its score: not chained" << std::endl;
+    if (r.result == ChainResult::kNotReady && !late) { ++it; continue; }
+    if (r.result == ChainResult::kNotReady) std::cerr << "forklift-server: exam " << it->first << " never got its score: not chained" << std::endl;
+    if (r.result == ChainResult::kChainBroken || r.result == ChainResult::kRefused) {
+      const std::string why = r.result == ChainResult::kRefused ? r.why : "the exam chain is broken: " + r.why;
+      std::cerr << "forklift-server: exam " << it->first << " is not chained: " << why << std::endl;
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        if (r.result == ChainResult::kChainBroken && chain_status_.problem.empty()) chain_status_.problem = r.why;
+        ++chain_status_.refused;
+      }
+      try {
+        record_chain_refusal(db, it->first, why);
+      } catch (const std::exception& e) {
+        std::cerr << "forklift-server: cannot record the refusal of exam " << it->first << ": " << e.what() << std::endl;
+      }
+    }
     it = pending.erase(it);
   }
 }

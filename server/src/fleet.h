@@ -14,6 +14,7 @@
 #include <thread>
 #include <vector>
 
+#include "exam_evidence.h"
 #include "forklift/protocol/protocol.h"
 #include "forklift/store/store.h"
 
@@ -33,6 +34,7 @@ struct FleetConfig {
   double start_timeout_s = 120;
   std::vector<std::string> worker_args;  // passed to every worker (frames: --fps, --frame-size, --jpeg)
   double path_interval_s = 0.5;  // sim time between two stored points of a session's truck path
+  std::string chain_anchor;      // the exam chain's anchor file; empty: <log_dir>/exam-chain.anchor
 };
 
 struct WorkerInfo {
@@ -91,6 +93,21 @@ class Fleet {
   bool secure() const { return !config_.security_dir.empty(); }
   RefusedSamples refused();
 
+  // The exam chain's anchor, and the keys and CA it is checked with (read from the security
+  // folder at each call, so that a new CRL counts at once).
+  const ChainAnchor& chain_anchor() const { return *anchor_; }
+  ChainKeys chain_keys() const { return forklift::server::chain_keys(config_.security_dir, config_.identity); }
+  // Whether exams can be chained: `problem` is why not (the database's chain is not the anchored
+  // one); `refused` counts the exams refused since start (their record disagrees with their log).
+  struct ChainStatus {
+    std::string problem;
+    int refused = 0;
+  };
+  ChainStatus chain_status() {
+    std::lock_guard<std::mutex> lock(mu_);
+    return chain_status_;
+  }
+
   // Live follow: the session's newest state and frame. Asking subscribes to the cab's frames
   // (until nobody has asked for kFollowIdle); the first frame arrives a moment later.
   // nullopt if the session has no running worker here.
@@ -146,6 +163,10 @@ class Fleet {
   std::map<std::string, CabInfo> cabs_;
   std::map<std::string, Followed> followed_;            // by cab
   std::map<std::string, std::unique_ptr<dds::Writer<fk_SessionStatus>>> cab_status_writers_;  // by cab
+  // Read before the threads start (config_ is initialised first).
+  std::unique_ptr<ChainAnchor> anchor_ = std::make_unique<ChainAnchor>(
+      config_.chain_anchor.empty() ? config_.log_dir + "/exam-chain.anchor" : config_.chain_anchor);
+  ChainStatus chain_status_;  // under mu_
   std::unique_ptr<dds::Participant> participant_;
   std::unique_ptr<dds::Writer<fk_SessionStatus>> status_writer_;
   std::atomic<bool> stop_{false};

@@ -57,6 +57,8 @@ int main(int argc, char** argv) {
   app.add_option("--dds-domain", cfg.dds_domain, "DDS domain id (default FORKLIFT_DDS_DOMAIN or 0)")->check(CLI::Range(0, 232));
   app.add_option("--dds-config", cfg.dds_config, "Cyclone DDS configuration file")->check(CLI::ExistingFile);
   app.add_option("--log-dir", cfg.log_dir, "where workers' logs go (default: <db>.logs/)");
+  app.add_option("--chain-anchor", cfg.chain_anchor, "the exam chain's anchor file, appended as each exam is chained: keep it "
+                 "where the database's writers cannot write (default: <log-dir>/exam-chain.anchor)");
   app.add_option("--max-workers", cfg.max_workers, "sim workers this machine may run at once")->check(CLI::Range(1, 256));
   app.add_option("--hang-timeout", cfg.hang_timeout_s, "kill a worker that sends no state for this long, s")->check(CLI::Range(0.5, 600.0));
   app.add_option("--frame-fps", frame_fps, "frames each worker renders per second while its cab asks for them (0: none)")->check(CLI::Range(0.0, 120.0));

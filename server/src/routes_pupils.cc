@@ -1,9 +1,12 @@
 // Pupils' records: the list, a pupil's record and its edits, the audit log, the history (JSON and
 // CSV), the licence and the certificate.
+#include <algorithm>
 #include <map>
+#include <optional>
 
 #include "api.h"
 #include "catalogue.h"
+#include "exam_evidence.h"
 #include "routes.h"
 
 namespace forklift::server {
@@ -31,17 +34,62 @@ json licence_json(const std::optional<store::LicenceRecord>& l) {
   return {{"issued_at", l->issued_at}, {"reevaluation_due", l->reevaluation_due}, {"issued_by", l->issued_by}};
 }
 
-// `examiners`: usernames of the users who examined, by id (the exam records name them).
-json history_json(const store::PupilHistory& h, const std::map<int64_t, std::string>& examiners = {}) {
+// Whether each practical exam's evidence holds, by session: a pass counts only if it does
+// (exam_standing: chained, the chain whole, the record the chained and signed one).
+using Standings = std::map<std::string, ExamStanding>;
+Standings standings(Context& ctx, const store::PupilHistory& h) {
+  Standings out;
+  std::optional<ChainKeys> keys;
+  std::string no_keys;
+  for (const auto& e : h.exams) {
+    if (e.kind != "practical") continue;
+    if (!e.session_public_id) continue;  // counted as no evidence (exam_passed)
+    const auto s = std::find_if(h.sessions.begin(), h.sessions.end(), [&](const store::Session& x) { return x.public_id == *e.session_public_id; });
+    if (s == h.sessions.end()) continue;
+    if (!keys && no_keys.empty()) {
+      try {
+        keys = ctx.fleet->chain_keys();
+      } catch (const std::exception& x) {
+        no_keys = std::string("the school's CA cannot be read: ") + x.what();
+      }
+    }
+    out[s->public_id] = keys ? exam_standing(ctx.db(), *s, ctx.fleet->chain_anchor(), *keys) : ExamStanding{false, no_keys};
+  }
+  return out;
+}
+
+// Whether an exam counts as passed: a practical exam only with evidence that holds.
+bool exam_passed(const store::ExamRecord& e, const Standings& st) {
+  if (!e.passed || e.kind != "practical") return e.passed;
+  const auto it = e.session_public_id ? st.find(*e.session_public_id) : st.end();
+  return it != st.end() && it->second.verified;
+}
+
+json evidence_json(const Standings& st, const std::string& session) {
+  const auto it = st.find(session);
+  if (it == st.end()) return nullptr;
+  return {{"verified", it->second.verified}, {"problem", it->second.verified ? json(nullptr) : json(it->second.why)}};
+}
+
+// `examiners`: usernames of the users who examined, by id (the exam records name them). A
+// practical exam (and its session) shows as passed only if its evidence holds; "evidence" says.
+json history_json(const store::PupilHistory& h, const std::map<int64_t, std::string>& examiners = {},
+                  const Standings& st = {}) {
   json sessions = json::array(), exams = json::array(), marks = json::array();
   for (const auto& s : h.sessions) {
-    sessions.push_back(session_json(s));
+    json j = session_json(s);
+    if (st.count(s.public_id)) {
+      j["evidence"] = evidence_json(st, s.public_id);
+      if (j["passed"] == true && !st.at(s.public_id).verified) j["passed"] = false;
+    }
+    sessions.push_back(std::move(j));
     if (s.mark) marks.push_back({{"session", s.public_id}, {"at", s.created_at}, {"mark", *s.mark}});
   }
   for (const auto& e : h.exams) {
-    json x = {{"id", e.id}, {"kind", e.kind}, {"score", e.score}, {"passed", e.passed}, {"taken_at", e.taken_at},
+    json x = {{"id", e.id}, {"kind", e.kind}, {"score", e.score}, {"passed", exam_passed(e, st)}, {"taken_at", e.taken_at},
               {"session", e.session_public_id ? json(*e.session_public_id) : json(nullptr)},
               {"examiner", e.examiner_id && examiners.count(*e.examiner_id) ? json(examiners.at(*e.examiner_id)) : json(nullptr)}};
+    if (e.kind == "practical") x["evidence"] = e.session_public_id ? evidence_json(st, *e.session_public_id) : json(nullptr);
     if (e.kind == "theory") {  // the paper it marked, and how many questions were right
       const json d = json::parse(e.details, nullptr, false);
       if (d.is_object()) {
@@ -141,20 +189,23 @@ void pupil_routes(httplib::Server& svr, Context& ctx) {
     for (const auto& e : h.exams)
       if (e.examiner_id && !examiners.count(*e.examiner_id))
         if (const auto u = ctx.db().get_user(*e.examiner_id)) examiners[*e.examiner_id] = u->username;
-    send_json(res, 200, history_json(h, examiners));
+    send_json(res, 200, history_json(h, examiners, standings(ctx, h)));
   }));
 
   svr.Get(R"(/api/pupils/(\d+)/history\.csv)", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
     const store::Pupil pupil = visible_pupil(ctx, p, path_id(req));
     const auto h = ctx.db().history(pupil.id, store::now_iso8601());
+    const Standings st = standings(ctx, *h);
     std::string csv = "record,id,date,scenario_or_kind,mode,state,mark_or_score,passed\n";
-    for (const auto& s : h->sessions)
+    for (const auto& s : h->sessions) {
+      const bool unverified = st.count(s.public_id) && !st.at(s.public_id).verified;  // a pass that does not count
       csv += "session," + s.public_id + "," + s.created_at + "," + csv_escape(s.scenario) + "," + s.mode + "," + s.state +
-             "," + (s.mark ? std::to_string(*s.mark) : "") + "," + (s.passed ? (*s.passed ? "yes" : "no") : "") + "\n";
+             "," + (s.mark ? std::to_string(*s.mark) : "") + "," + (s.passed ? (*s.passed && !unverified ? "yes" : "no") : "") + "\n";
+    }
     for (const auto& e : h->exams)
       csv += "exam," + std::to_string(e.id) + "," + e.taken_at + "," + e.kind + ",,," + std::to_string(e.score) + "," +
-             (e.passed ? "yes" : "no") + "\n";
+             (exam_passed(e, st) ? "yes" : "no") + "\n";
     res.set_header("Content-Disposition", "attachment; filename=\"pupil-" + std::to_string(pupil.id) + "-history.csv\"");
     res.set_content(csv, "text/csv");
   }));
@@ -174,15 +225,25 @@ void pupil_routes(httplib::Server& svr, Context& ctx) {
   }));
 
   // What the printable certificate shows, for a pupil with a passed theory exam and a passed
-  // practical exam (OSHA 1910.178(l)(6): the operator, the dates of training and evaluation, and
-  // who evaluated); else 409.
+  // practical exam whose evidence holds (OSHA 1910.178(l)(6): the operator, the dates of training
+  // and evaluation, and who evaluated); else 409, saying why.
   svr.Get(R"(/api/pupils/(\d+)/certificate)", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
     const store::Pupil pupil = visible_pupil(ctx, p, path_id(req));
     const auto h = ctx.db().history(pupil.id, store::now_iso8601());
-    const store::ExamRecord *theory = nullptr, *practical = nullptr;
-    for (const auto& e : h->exams)  // oldest first: the latest passes win
-      if (e.passed) (e.kind == "theory" ? theory : practical) = &e;
+    const Standings st = standings(ctx, *h);
+    const store::ExamRecord *theory = nullptr, *practical = nullptr, *unverified = nullptr;
+    for (const auto& e : h->exams) {  // oldest first: the latest passes win
+      if (exam_passed(e, st)) (e.kind == "theory" ? theory : practical) = &e;
+      else if (e.passed && e.kind == "practical") unverified = &e;
+    }
+    if (!practical && unverified) {
+      const auto it = unverified->session_public_id ? st.find(*unverified->session_public_id) : st.end();
+      throw ApiError(409, "not_certified", (theory ? "" : pupil.name + " has not passed the theory exam, and ") + pupil.name +
+                     "'s passed practical exam" +
+                     (unverified->session_public_id ? " (session " + *unverified->session_public_id + ")" : std::string()) +
+                     " cannot be counted: " + (it != st.end() ? it->second.why : std::string("it has no exam evidence")));
+    }
     if (!theory || !practical)
       throw ApiError(409, "not_certified", pupil.name + " has not passed " +
                      (!theory && !practical ? "the theory and the practical exams" : !theory ? "the theory exam" : "the practical exam"));

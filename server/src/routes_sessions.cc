@@ -230,12 +230,12 @@ void session_routes(httplib::Server& svr, Context& ctx) {
     res.set_content(std::string(v.jpeg.begin(), v.jpeg.end()), "image/jpeg");
   }));
 
-  // A chained exam's evidence, for `forklift-menu verify`, which checks it against the school's CA.
+  // An exam's evidence, for `forklift-menu verify`, which checks it against the school's CA.
   svr.Get(R"(/api/sessions/(s-\d+)/evidence)", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
     require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
     const store::Session s = session_for(ctx, req, p);
-    send_json(res, 200, exam_evidence(ctx.db(), s));
+    send_json(res, 200, exam_evidence(ctx.db(), s, ctx.fleet->chain_anchor()));
   }));
 
   svr.Get("/api/fleet", guarded([&](const httplib::Request& req, httplib::Response& res) {
@@ -271,8 +271,12 @@ void session_routes(httplib::Server& svr, Context& ctx) {
     const RefusedSamples r = ctx.fleet->refused();
     const json refused = {{"wrong_sender", r.wrong_sender}, {"malformed", r.malformed}, {"score_disagrees", r.score_disagrees}};
     const json recovered = {{"events", r.recovered_events}, {"scores", r.recovered_scores}};
+    // Whether exams can be chained (and so certified), and how many were refused since start.
+    const Fleet::ChainStatus chain = ctx.fleet->chain_status();
     send_json(res, 200, {{"workers", workers}, {"cabs_online", cabs}, {"cabs", every}, {"max_workers", ctx.fleet->config().max_workers},
-                         {"refused_samples", refused}, {"recovered_from_logs", recovered}});
+                         {"refused_samples", refused}, {"recovered_from_logs", recovered},
+                         {"exam_chain", {{"ok", chain.problem.empty()}, {"problem", chain.problem.empty() ? json(nullptr) : json(chain.problem)},
+                                         {"refused", chain.refused}}}});
   }));
 }
 

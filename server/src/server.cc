@@ -62,6 +62,7 @@ Api::Api(ServerConfig c) : ctx_(std::make_unique<Context>()) {
   fc.worker_binary = c.bin_dir + "/forklift-worker";
   fc.data_dir = c.data_dir;
   fc.log_dir = c.log_dir;
+  fc.chain_anchor = c.chain_anchor;
   fc.dds_domain = dds::DomainSettings::resolve(c.dds_domain, c.dds_config).domain_id;
   fc.dds_config = c.dds_config;
   fc.security_dir = c.security_dir;

@@ -166,6 +166,8 @@ struct Options {
   std::string worker = "worker";  // <worker>.key and <worker>.pem
   bool server_signed = false;
   std::string server = "server";
+  std::string session = "s-000002";  // the exam the evidence is for
+  bool chained = true;               // false: that exam ended but was never chained
 };
 
 class EvidenceTest : public ::testing::Test {
@@ -227,7 +229,7 @@ class EvidenceTest : public ::testing::Test {
     crl_pem_ = ReadFile(Path("crl.pem"));
   }
 
-  // Evidence for s-000002, the middle of three exams (s-000003 on cab2).
+  // Evidence for s-000002 (or o.session), the middle of three exams (s-000003 on cab2).
   static json Evidence(const Options& o = {}) {
     struct Exam {
       std::string session, cab, worker;
@@ -245,12 +247,13 @@ class EvidenceTest : public ::testing::Test {
       const std::string log = ControlLog(x.session, x.cab, x.mark, x.passed);
       const json sig = sec::sign_exam_log(x.session, x.cab, log, Path(x.worker + ".key"), Path(x.worker + ".pem"));
       const json record = Record(x.session, x.cab, x.mark, x.passed);
-      chain.push_back(sec::make_chain_entry(static_cast<int64_t>(i + 1), prev, record, sig["log_sha256"],
+      if (x.session == o.session)
+        evidence = {{"session", x.session}, {"record", record}, {"log", log}, {"signature", sig}};
+      if (x.session == o.session && !o.chained) continue;
+      chain.push_back(sec::make_chain_entry(static_cast<int64_t>(chain.size() + 1), prev, record, sig["log_sha256"],
                                             sig["signature"], o.server_signed ? Path(o.server + ".key") : "",
                                             Path(o.server + ".pem")));
       prev = chain.back()["entry_hash"].get<std::string>();
-      if (x.session == "s-000002")
-        evidence = {{"session", x.session}, {"record", record}, {"log", log}, {"signature", sig}};
     }
     evidence["chain"] = chain;
     return evidence;
@@ -258,6 +261,19 @@ class EvidenceTest : public ::testing::Test {
 
   static sec::VerifyReport Verify(const json& evidence, const std::string& crl = "") {
     return sec::verify_exam_evidence(evidence, ca_pem_, crl);
+  }
+  // As forklift-menu verify checks: every entry server-signed, an anchor required.
+  static sec::VerifyReport Strict(const json& evidence) {
+    return sec::verify_exam_evidence(evidence, ca_pem_, "", {.require_server_signatures = true, .require_anchor = true});
+  }
+  // Server-signed evidence for `session` with the anchor the server keeps beside the whole chain.
+  static json Anchored(const std::string& session = "s-000002", bool chained = true) {
+    json ev = Evidence({.server_signed = true, .session = session, .chained = chained});
+    json entry = nullptr;
+    for (const json& e : ev["chain"])
+      if (e["session"] == session) entry = sec::chain_anchor_line(e);
+    ev["anchor"] = {{"head", sec::chain_anchor_line(ev["chain"].back())}, {"entry", entry}};
+    return ev;
   }
 
   static inline std::string dir_;
@@ -474,9 +490,9 @@ TEST_F(EvidenceTest, RehashedChainWithoutTheServerKeyIsASignatureMismatch) {
   Rehash(unsigned_bad["chain"]);
   EXPECT_TRUE(Verified(Verify(unsigned_bad)));
   // ...which is why a secured school's verifier requires every entry to be server-signed.
-  const sec::VerifyReport strict = sec::verify_exam_evidence(unsigned_bad, ca_pem_, "", true);
+  const sec::VerifyReport strict = sec::verify_exam_evidence(unsigned_bad, ca_pem_, "", {.require_server_signatures = true});
   EXPECT_TRUE(HasProblem(strict, "chain entry 1 (session \"s-000001\") is not server-signed")) << Report(strict);
-  EXPECT_TRUE(Verified(sec::verify_exam_evidence(Evidence({.server_signed = true}), ca_pem_, "", true)));
+  EXPECT_TRUE(Verified(sec::verify_exam_evidence(Evidence({.server_signed = true}), ca_pem_, "", {.require_server_signatures = true})));
 }
 
 TEST_F(EvidenceTest, LogSignedByTheRogueCaIsDetected) {
@@ -536,7 +552,7 @@ TEST_F(EvidenceTest, SessionWithTwoChainEntriesIsDetected) {
   json none = Evidence();
   none["chain"].erase(1);
   Rehash(none["chain"]);
-  EXPECT_TRUE(HasProblem(Verify(none), "session \"s-000002\" has 0 chain entries"));
+  EXPECT_TRUE(HasProblem(Verify(none), "session \"s-000002\" has no chain entry"));
 }
 
 TEST_F(EvidenceTest, ChainEntryWithAnotherLogIsDetected) {
@@ -544,6 +560,160 @@ TEST_F(EvidenceTest, ChainEntryWithAnotherLogIsDetected) {
   bad["chain"][1]["log_sha256"] = bad["chain"][0]["log_sha256"];
   Rehash(bad["chain"]);
   EXPECT_TRUE(HasProblem(Verify(bad), "chain entry 2's log_sha256"));
+}
+
+// The anchor line is the entry's own seq, session, hash and server signature, in a fixed format.
+TEST_F(EvidenceTest, AnchorLineHasTheFixedFormat) {
+  const json chain = Evidence({.server_signed = true})["chain"];
+  const json line = sec::chain_anchor_line(chain[1]);
+  EXPECT_EQ(line, (json{{"format", "forklift-exam-chain-anchor/1"}, {"seq", 2}, {"session", "s-000002"},
+                        {"entry_hash", chain[1]["entry_hash"]}, {"server_signature", chain[1]["server_signature"]}}));
+  EXPECT_THROW(sec::chain_anchor_line(json::object()), std::runtime_error);
+}
+
+TEST_F(EvidenceTest, AnchoredEvidenceVerifiesStrictlyAndWithoutAnAnchorDoesNot) {
+  const sec::VerifyReport r = Strict(Anchored());
+  ASSERT_TRUE(Verified(r));
+  EXPECT_EQ(r.verdict, sec::Verdict::kVerified);
+  for (const char* check : {"the chain holds the anchor's head, entry 3 (session \"s-000003\")",
+                            "session \"s-000002\"'s chain entry 2 is the anchored one",
+                            "the anchor's head is signed by the server's key", "seqs without a gap"})
+    EXPECT_NE(Report(r).find(check), std::string::npos) << check << "\n" << Report(r);
+  const sec::VerifyReport none = Strict(Evidence({.server_signed = true}));
+  EXPECT_TRUE(HasProblem(none, "evidence has no chain anchor"));
+  EXPECT_EQ(none.verdict, sec::Verdict::kTampered);
+}
+
+// The database's last entry deleted (around the no-delete trigger): the chain that is left links and
+// hashes, but the anchor outside the database still names the entry.
+TEST_F(EvidenceTest, ChainCutShortAtItsEndIsTampering) {
+  json ev = Anchored();
+  ev["chain"].erase(2);
+  const sec::VerifyReport r = Strict(ev);
+  EXPECT_TRUE(HasProblem(r, "the chain is cut short: the anchor (kept outside the database) records entry 3 (session "
+                            "\"s-000003\") but the chain ends at entry 2: 1 entry was deleted from its end"));
+  EXPECT_EQ(r.verdict, sec::Verdict::kTampered);
+  EXPECT_NE(Report(r).find("the anchor's head is signed by the server's key"), std::string::npos) << Report(r);
+}
+
+// The exam's own entry was the last: it is not "not chained" but deleted.
+TEST_F(EvidenceTest, ExamWhoseEntryWasDeletedIsTamperingNotNotChained) {
+  json ev = Anchored("s-000003");
+  ev["chain"].erase(2);
+  const sec::VerifyReport r = Strict(ev);
+  EXPECT_TRUE(HasProblem(r, "the anchor records session \"s-000003\" as chain entry 3, but the chain has no entry for "
+                            "it: its entry was deleted"));
+  EXPECT_EQ(r.verdict, sec::Verdict::kTampered) << Report(r);
+}
+
+TEST_F(EvidenceTest, GapInTheChainIsTampering) {
+  json ev = Anchored("s-000003");
+  ev["chain"].erase(1);
+  const sec::VerifyReport r = Strict(ev);
+  EXPECT_TRUE(HasProblem(r, "chain: entry 2 is missing (a gap: the chain goes from entry 1 to entry 3)"));
+  EXPECT_EQ(r.verdict, sec::Verdict::kTampered);
+}
+
+// An exam that ended but was never chained (the server refused it, or stopped first), beside a
+// whole chain and anchor, is told apart from tampering...
+TEST_F(EvidenceTest, ExamNeverChainedIsNotChained) {
+  const json ev = Anchored("s-000002", /*chained=*/false);
+  ASSERT_EQ(ev["chain"].size(), 2u);
+  const sec::VerifyReport r = Strict(ev);
+  EXPECT_TRUE(HasProblem(r, "session \"s-000002\" has no chain entry: it is not a chained exam"));
+  EXPECT_EQ(r.verdict, sec::Verdict::kNotChained) << Report(r);
+  // ...unless the chain beside it was cut short too.
+  json cut = ev;
+  cut["chain"].erase(1);
+  EXPECT_EQ(Strict(cut).verdict, sec::Verdict::kTampered);
+}
+
+// A chain rewritten from some entry on, re-signed or not, is not the anchored one.
+TEST_F(EvidenceTest, ChainThatIsNotTheAnchoredOneIsDetected) {
+  json ev = Anchored();
+  ev["anchor"]["head"]["entry_hash"] = std::string(64, 'a');
+  const sec::VerifyReport r = Strict(ev);
+  EXPECT_TRUE(HasProblem(r, "chain entry 3 is not the one anchored"));
+  EXPECT_TRUE(HasProblem(r, "the anchor's head's server_signature does not verify with the server's key"));
+  json other = Anchored();
+  other["anchor"]["entry"] = other["anchor"]["head"];  // the line of another session
+  EXPECT_TRUE(HasProblem(Strict(other), "the anchor's line for session \"s-000002\" is for session \"s-000003\""));
+  json garbage = Anchored();
+  garbage["anchor"]["head"] = json{{"seq", "3"}};
+  EXPECT_TRUE(HasProblem(Strict(garbage), "the anchor's head is not an anchor line"));
+  json unlisted = Anchored();
+  unlisted["anchor"]["entry"] = nullptr;
+  EXPECT_TRUE(HasProblem(Strict(unlisted), "the anchor has no line for session \"s-000002\"'s chain entry 2"));
+}
+
+// The server checks one exam with its own entry alone: its hash, signature and anchored line.
+TEST_F(EvidenceTest, OneEntryOfTheChainVerifiesAgainstItsAnchorLine) {
+  json ev = Anchored();
+  const json entry = ev["chain"][1];
+  const json line = sec::chain_anchor_line(entry);
+  ev["chain"] = json::array({entry});
+  ev["chain_from"] = 2;
+  ev["anchor"] = {{"head", line}, {"entry", line}};
+  ASSERT_TRUE(Verified(Strict(ev)));
+  json moved = ev;
+  moved["chain_from"] = 1;
+  EXPECT_TRUE(HasProblem(Strict(moved), "is not 64 zeros"));
+  json edited = ev;
+  edited["record"]["pupil_id"] = 8;
+  EXPECT_TRUE(HasProblem(Strict(edited), "chain entry 2's record differs from the current record in: pupil_id"));
+  json rehashed = ev;
+  rehashed["chain"][0]["record"]["pupil_id"] = 8;
+  rehashed["record"]["pupil_id"] = 8;
+  rehashed["chain"][0]["entry_hash"] = EntryHash(rehashed["chain"][0]);
+  const sec::VerifyReport r = Strict(rehashed);
+  EXPECT_TRUE(HasProblem(r, "chain entry 2 is not the one anchored"));
+  EXPECT_TRUE(HasProblem(r, "server_signature does not verify"));
+}
+
+TEST_F(EvidenceTest, RecordAgainstItsSignedLogAlone) {
+  const std::string log = ControlLog("s-000001", "cab1", 64.5, true);
+  const json sig = sec::sign_exam_log("s-000001", "cab1", log, Path("worker.key"), Path("worker.pem"));
+  const json record = Record("s-000001", "cab1", 64.5, true);
+  EXPECT_TRUE(Verified(sec::verify_record_against_log(record, log, sig, ca_pem_)));
+  json training = record;
+  training["mode"] = "training";
+  EXPECT_TRUE(HasProblem(sec::verify_record_against_log(training, log, sig, ca_pem_),
+                         "log header mode is \"exam\" but the record's mode is \"training\""));
+  json failed = record;
+  failed["passed"] = false;
+  EXPECT_TRUE(HasProblem(sec::verify_record_against_log(failed, log, sig, ca_pem_), "log score says passed"));
+  const json other_cab = sec::sign_exam_log("s-000001", "cab1", log, Path("worker2.key"), Path("worker2.pem"));
+  EXPECT_TRUE(HasProblem(sec::verify_record_against_log(record, log, other_cab, ca_pem_),
+                         "signer certificate's common name is \"worker.cab2\", expected \"worker.cab1\""));
+  const json rogue = sec::sign_exam_log("s-000001", "cab1", log, Path("rogue_worker.key"), Path("rogue_worker.pem"));
+  EXPECT_TRUE(HasProblem(sec::verify_record_against_log(record, log, rogue, ca_pem_), "not accepted by the school CA"));
+  const json revoked = sec::sign_exam_log("s-000001", "cab1", log, Path("revoked.key"), Path("revoked.pem"));
+  EXPECT_TRUE(HasProblem(sec::verify_record_against_log(record, log, revoked, ca_pem_, crl_pem_), "revoked"));
+  for (const json& bad : {json("garbage"), json(nullptr), json::object()})
+    EXPECT_FALSE(sec::verify_record_against_log(record, log, bad, ca_pem_).ok) << bad;
+  EXPECT_FALSE(sec::verify_record_against_log(json::array(), log, sig, ca_pem_).ok);
+}
+
+// The server's start-up check: the whole chain against its anchor's head alone.
+TEST_F(EvidenceTest, WholeChainAgainstItsAnchorHead) {
+  const json chain = Evidence({.server_signed = true})["chain"];
+  const sec::VerifyOptions signed_only{.require_server_signatures = true};
+  const json head = {{"head", sec::chain_anchor_line(chain[2])}};
+  EXPECT_TRUE(Verified(sec::verify_chain(chain, head, ca_pem_, "", signed_only)));
+  json cut = chain;
+  cut.erase(2);
+  EXPECT_TRUE(HasProblem(sec::verify_chain(cut, head, ca_pem_, "", signed_only), "the chain is cut short"));
+  // Entries past the head (written just before a crash, before their anchor line) are no problem.
+  const sec::VerifyReport ahead = sec::verify_chain(chain, {{"head", sec::chain_anchor_line(chain[1])}}, ca_pem_, "", signed_only);
+  EXPECT_TRUE(Verified(ahead));
+  EXPECT_NE(Report(ahead).find("entry 3 is newer than the anchor"), std::string::npos) << Report(ahead);
+  EXPECT_TRUE(Verified(sec::verify_chain(chain, {{"head", nullptr}}, ca_pem_, "", signed_only)));
+  EXPECT_TRUE(HasProblem(sec::verify_chain(chain, {{"head", nullptr}}, ca_pem_, "", {.require_anchor = true}),
+                         "the chain is not anchored"));
+  EXPECT_FALSE(sec::verify_chain("not a chain", json::object(), ca_pem_).ok);
+  // A new school's: nothing chained, nothing anchored. Emptied with its anchor kept: cut short.
+  EXPECT_TRUE(Verified(sec::verify_chain(json::array(), {{"head", nullptr}}, ca_pem_, "", {.require_anchor = true})));
+  EXPECT_TRUE(HasProblem(sec::verify_chain(json::array(), head, ca_pem_), "but the chain ends at no entry: 3 entries were deleted"));
 }
 
 TEST_F(EvidenceTest, GarbageShapesAreProblemsNotCrashes) {

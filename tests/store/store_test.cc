@@ -649,4 +649,9 @@ TEST_F(StoreTest, ExamChainAppendsInOrderOncePerSessionAndRefusesEdits) {
   EXPECT_NE(RawExec(path_, "UPDATE exam_chain SET entry = '{}'").find("append-only"), std::string::npos);
   EXPECT_NE(RawExec(path_, "DELETE FROM exam_chain").find("append-only"), std::string::npos);
   EXPECT_EQ(store_->list_chain().size(), 2u);
+  EXPECT_EQ(store_->count_chain_entries(), 2);
+  // Around the trigger, a deleted first entry leaves the last seq above the count: a gap.
+  EXPECT_EQ(RawExec(path_, "DROP TRIGGER exam_chain_no_delete; DELETE FROM exam_chain WHERE seq = 1"), "");
+  EXPECT_EQ(store_->count_chain_entries(), 1);
+  EXPECT_EQ(store_->last_chain_entry()->seq, 2);
 }

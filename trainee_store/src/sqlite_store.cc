@@ -887,6 +887,12 @@ class SqliteStore final : public Store {
     return out;
   }
 
+  int64_t count_chain_entries() override {
+    Query q = query(__func__, "SELECT COUNT(*) FROM exam_chain");
+    q.step();
+    return q.int64(0);
+  }
+
   int64_t add_audit(const AuditRecord& r) override {
     require(!r.actor.name.empty(), StoreError::kInvalid, __func__, "empty actor");
     require(!r.action.empty(), StoreError::kInvalid, __func__, "empty action");

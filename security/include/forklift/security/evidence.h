@@ -1,18 +1,24 @@
 // Tamper-evidence for licence exam records. The sim worker signs each session's control log (<log>.sig);
-// the server appends every exam to a hash chain, optionally server-signed; anyone holding the school CA's
-// certificate can then check one session's evidence end to end.
+// the server appends every exam to a hash chain, optionally server-signed, and anchors each new head in a
+// file outside the database; anyone holding the school CA's certificate can then check one session's
+// evidence end to end (docs/exam-evidence.md says what each part guards against).
 //
 //   log signature: {"format":"forklift-exam-log-signature/1","session","cab","log_sha256","signature",
 //                   "signer_certificate"}, signing "forklift-exam-log/1\n" session "\n" cab "\n" log_sha256 "\n"
 //   chain entry:   {"seq" (from 1),"session","record","log_sha256","log_signature","prev_hash" (64 zeros first),
 //                   "entry_hash","server_signature" (signs the ASCII entry_hash) | null,"server_certificate" | null}
 //                  entry_hash = sha256_hex(prev_hash "\n" record.dump() "\n" log_sha256 "\n" log_signature "\n")
-//   evidence:      {"session","record","log" (control log text),"signature" (log signature),"chain" (all entries)}
+//   anchor line:   {"format":"forklift-exam-chain-anchor/1","seq","session","entry_hash","server_signature"}, one
+//                  per chain entry, in seq order: the entry's own hash and server signature, kept where the
+//                  database's writer cannot reach, so that a chain cut short is told from a whole one
+//   evidence:      {"session","record","log" (control log text),"signature" (log signature),"chain" (all entries,
+//                   or from "chain_from" on),"anchor":{"head": the newest anchor line | null,
+//                   "entry": the session's anchor line | null}}
 //
 // Keys are ECDSA P-256 (RSA is accepted too) in unencrypted PEM files; certificates are X.509 PEM issued
 // by the school's CA. Signatures are over SHA-256 (OpenSSL EVP_DigestSign), carried in base64.
 // Functions that read key or certificate files throw std::runtime_error naming the file and the reason;
-// verify_exam_evidence never throws: every fault, malformed input included, is a line in its report.
+// the verify_ functions never throw: every fault, malformed input included, is a line in their report.
 #pragma once
 
 #include <cstdint>
@@ -23,6 +29,10 @@
 #include <nlohmann/json.hpp>
 
 namespace forklift::security {
+
+// The whole of a file these checks read (a CA, a CRL, an anchor); throws std::runtime_error
+// naming `what` and the path.
+std::string read_text_file(const std::string& path, const std::string& what);
 
 // Lower-case hex SHA-256 of `bytes`.
 std::string sha256_hex(std::string_view bytes);
@@ -47,17 +57,50 @@ std::string certificate_common_name(const std::string& cert_pem);
 bool certificate_issued_by(const std::string& cert_pem, const std::string& ca_pem, const std::string& crl_pem,
                            std::string* why);
 
+// The anchor line of a chain entry (made by make_chain_entry); throws if the entry lacks its fields.
+nlohmann::json chain_anchor_line(const nlohmann::json& entry);
+
+enum class Verdict {
+  kVerified,    // no problem
+  kNotChained,  // the session has no chain entry, and neither the chain nor its anchor shows a sign of tampering
+  kTampered,    // anything else: a changed record or log, a broken, cut short or rewritten chain
+};
+
 struct VerifyReport {
   bool ok = false;                    // problems.empty()
+  Verdict verdict = Verdict::kTampered;
   std::vector<std::string> passed;    // one line per check that held
   std::vector<std::string> problems;  // one line per check that failed, naming what differs
 };
 
-// Checks one session's evidence {"session","record","log","signature","chain"} against the school CA (and
-// its CRL, if given): the log's signature and signer, the log against the record, and the chain.
-// With require_server_signatures, an entry the server did not sign is a problem: without the
-// server's key, a rewritten chain re-hashed from the start would otherwise pass.
+struct VerifyOptions {
+  // An entry the server did not sign is a problem: without the server's key, a rewritten chain
+  // re-hashed from the start would otherwise pass.
+  bool require_server_signatures = false;
+  // Evidence without an anchor, or a chain with no anchored head, is a problem: without it, a chain
+  // whose last entries were deleted cannot be told from a whole one.
+  bool require_anchor = false;
+};
+
+// Checks one session's evidence against the school CA (and its CRL, if given): the log's signature
+// and signer, the log against the record, the chain (its seqs without a gap, links, hashes and server
+// signatures) and the anchor (the chain holds the anchored head, and the session's anchored entry).
+// A "chain_from" k > 1 gives the chain from seq k on: the links before it are not checked, so the
+// anchor's lines must then fall inside it.
 VerifyReport verify_exam_evidence(const nlohmann::json& evidence, const std::string& ca_pem,
-                                  const std::string& crl_pem = "", bool require_server_signatures = false);
+                                  const std::string& crl_pem = "", VerifyOptions options = {});
+
+// The checks of an exam record against its signed log alone, which need no chain: the signature
+// ("signature") verifies with a certificate of the school CA for the record's cab's worker
+// ("worker.<cab>") over the log's hash, and the log says the record's session, cab, mode, mark,
+// passed and events. The server runs them before it chains an exam.
+VerifyReport verify_record_against_log(const nlohmann::json& record, const std::string& log,
+                                       const nlohmann::json& signature, const std::string& ca_pem,
+                                       const std::string& crl_pem = "");
+
+// The checks of a whole chain (from seq 1) and its anchor {"head": line | null}, with no session in
+// view: the server's check of its database's chain at start.
+VerifyReport verify_chain(const nlohmann::json& chain, const nlohmann::json& anchor, const std::string& ca_pem,
+                          const std::string& crl_pem = "", VerifyOptions options = {});
 
 }  // namespace forklift::security

@@ -18,6 +18,9 @@ struct ServerConfig {
   std::string db_path = "forklift.db";  // SQLite file, created if missing
   std::string data_dir;                 // data/: scenarios, trucks, the theory bank
   std::string log_dir;                  // workers' logs and the stills cache; empty: <db_path>.logs
+  // The exam chain's anchor, appended as each exam is chained; keep it where the database's
+  // writers cannot write (docs/exam-evidence.md). Empty: <log_dir>/exam-chain.anchor.
+  std::string chain_anchor;
   std::string bin_dir;                  // where forklift-worker and forklift-render are
   // The 'admin' account a new database gets; empty: a random password (see Api::generated_admin_password).
   std::string admin_password;

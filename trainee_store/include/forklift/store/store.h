@@ -256,6 +256,9 @@ class Store {
   virtual std::optional<ChainEntry> last_chain_entry() = 0;
   virtual std::optional<ChainEntry> get_chain_entry(const std::string& session_public_id) = 0;
   virtual std::vector<ChainEntry> list_chain() = 0;  // in order
+  // How many entries the chain holds: the last entry's seq unless rows were deleted around the
+  // schema's triggers (a gap).
+  virtual int64_t count_chain_entries() = 0;
   // Exam sessions with a signed log ("signature" session log) but no chain entry yet, oldest
   // first: a server that stopped between a worker's exit and the chaining picks them up again.
   virtual std::vector<std::string> unchained_signed_exams() = 0;
