@@ -1,8 +1,9 @@
 // The API's handlers in this process: forklift_server_core mounted on an httplib::Server in a
-// thread, on a loopback port the OS picks, over a real SQLite file in a fresh folder; the tests
-// talk real HTTP. No real worker ever starts: the bin folder given is empty, and every session
-// request here is refused before one would be spawned, but in the tests that put a stand-in
-// forklift-worker there (a shell script that writes down its arguments and the signal it got).
+// thread, on a loopback port from the tests' allocator (support/ports.h), over a real SQLite file
+// in a fresh folder; the tests talk real HTTP. No real worker ever starts: the bin folder given is
+// empty, and every session request here is refused before one would be spawned, but in the tests
+// that put a stand-in forklift-worker there (a shell script that writes down its arguments and the
+// signal it got).
 #include <gtest/gtest.h>
 #include <httplib.h>
 
@@ -17,6 +18,7 @@
 
 #include "forklift/server/server.h"
 #include "support/api_client.h"
+#include "support/ports.h"
 
 using forklift_test::error_code;
 using forklift_test::kAdminPassword;
@@ -24,15 +26,16 @@ using nlohmann::json;
 
 namespace {
 
-// DDS domains 150-159 are this file's, and 67-68 (the fleet joins one even with no cab about).
+// Each server takes its port and its DDS domain (the fleet joins one even with no cab about) from
+// the tests' allocator.
 struct InProcessServer : forklift_test::ApiClient {
   std::string dir;
   std::unique_ptr<forklift::server::Api> api;
   httplib::Server http;
-  int port = 0;
+  int port = forklift::test::free_port();
   std::thread thread;
 
-  InProcessServer(const std::string& name, int domain) : dir(testing::TempDir() + "/handlers-" + name) {
+  explicit InProcessServer(const std::string& name) : dir(testing::TempDir() + "/handlers-" + name) {
     std::filesystem::remove_all(dir);
     std::filesystem::create_directories(dir + "/bin");
     forklift::server::ServerConfig c;
@@ -40,10 +43,10 @@ struct InProcessServer : forklift_test::ApiClient {
     c.data_dir = FORKLIFT_DATA_DIR;
     c.bin_dir = dir + "/bin";
     c.admin_password = kAdminPassword;
-    c.dds_domain = domain;
+    c.dds_domain = forklift::test::free_domain();
     api = std::make_unique<forklift::server::Api>(c);
     api->mount(http);
-    port = http.bind_to_any_port("127.0.0.1");
+    if (!http.bind_to_port("127.0.0.1", port)) ADD_FAILURE() << "cannot listen on 127.0.0.1:" << port;
     thread = std::thread([this] { http.listen_after_bind(); });
     // stop() is lost on a server not yet listening, and the destructor would wait for ever.
     for (int i = 0; i < 500 && !http.is_running(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
@@ -70,7 +73,7 @@ std::string pupil_path(const json& pupil) { return "/api/pupils/" + std::to_stri
 }  // namespace
 
 TEST(Handlers, TheBootstrapAdminLogsInAndAWrongPasswordIs401) {
-  InProcessServer s("login", 150);
+  InProcessServer s("login");
   ASSERT_GT(s.port, 0);
   auto [st, j] = s.call("POST", "/api/login", "", json{{"username", "admin"}, {"password", kAdminPassword}}.dump());
   ASSERT_EQ(st, 200) << j;
@@ -86,7 +89,7 @@ TEST(Handlers, TheBootstrapAdminLogsInAndAWrongPasswordIs401) {
 }
 
 TEST(Handlers, ALoggedOutTokenIsRefused) {
-  InProcessServer s("logout", 151);
+  InProcessServer s("logout");
   const std::string admin = s.login("admin", kAdminPassword);
   EXPECT_EQ(s.call("POST", "/api/logout", admin).first, 200);
   auto [st, j] = s.call("GET", "/api/pupils", admin);
@@ -95,7 +98,7 @@ TEST(Handlers, ALoggedOutTokenIsRefused) {
 }
 
 TEST(Handlers, EveryAnswerCarriesTheSecurityHeaders) {
-  InProcessServer s("headers", 152);
+  InProcessServer s("headers");
   auto c = s.client();
   for (const char* path : {"/api/health", "/api/no-such-thing"}) {
     const auto r = c.Get(path);
@@ -110,7 +113,7 @@ TEST(Handlers, EveryAnswerCarriesTheSecurityHeaders) {
 }
 
 TEST(Handlers, APupilCreatedIsListedAndFetched) {
-  InProcessServer s("pupil", 153);
+  InProcessServer s("pupil");
   const std::string admin = s.login("admin", kAdminPassword);
   const json p = s.add_pupil(admin, "Ana Pupil");
   ASSERT_TRUE(p["id"].is_number_integer()) << p;
@@ -129,7 +132,7 @@ TEST(Handlers, APupilCreatedIsListedAndFetched) {
 }
 
 TEST(Handlers, AMalformedBodyIs400WithItsReasonAndChangesNothing) {
-  InProcessServer s("malformed", 154);
+  InProcessServer s("malformed");
   const std::string admin = s.login("admin", kAdminPassword);
   const json p = s.add_pupil(admin, "Ben");
 
@@ -158,7 +161,7 @@ TEST(Handlers, AMalformedBodyIs400WithItsReasonAndChangesNothing) {
 }
 
 TEST(Handlers, AnUnknownPupilIs404) {
-  InProcessServer s("unknown", 155);
+  InProcessServer s("unknown");
   const std::string admin = s.login("admin", kAdminPassword);
   for (const char* path : {"/api/pupils/999", "/api/pupils/999/history", "/api/pupils/999/audit"}) {
     auto [st, j] = s.call("GET", path, admin);
@@ -171,7 +174,7 @@ TEST(Handlers, AnUnknownPupilIs404) {
 }
 
 TEST(Handlers, APupilSeesOnlyTheirOwnRecordAndNoList) {
-  InProcessServer s("roles", 156);
+  InProcessServer s("roles");
   const std::string admin = s.login("admin", kAdminPassword);
   const json ana = s.add_pupil(admin, "Ana", "ana"), ben = s.add_pupil(admin, "Ben");
   const std::string token = s.login("ana", "ana-pass-1");
@@ -190,7 +193,7 @@ TEST(Handlers, APupilSeesOnlyTheirOwnRecordAndNoList) {
 }
 
 TEST(Handlers, ABadLoadIsRefusedBeforeAnySessionStarts) {
-  InProcessServer s("load", 157);
+  InProcessServer s("load");
   const std::string admin = s.login("admin", kAdminPassword);
   const json pupil = s.add_pupil(admin, "Dan");
   const auto start = [&](const std::string& load) {
@@ -223,7 +226,7 @@ TEST(Handlers, ABadLoadIsRefusedBeforeAnySessionStarts) {
 }
 
 TEST(Handlers, AnExamNeedsDdsSecurityAndAnExaminer) {
-  InProcessServer s("exam", 158);
+  InProcessServer s("exam");
   const std::string admin = s.login("admin", kAdminPassword);
   const json pupil = s.add_pupil(admin, "Eva");
   EXPECT_EQ(s.call("POST", "/api/users", admin, R"({"username":"ines","password":"ines-pass-1","role":"instructor"})").first, 201);
@@ -238,7 +241,7 @@ TEST(Handlers, AnExamNeedsDdsSecurityAndAnExaminer) {
 // A number too large for a double (1e999) makes nlohmann throw out_of_range, not parse_error:
 // still a bad body (400), never a 500.
 TEST(Handlers, AnOverflowingNumberIsBadJsonNot500) {
-  InProcessServer s("overflow", 159);
+  InProcessServer s("overflow");
   const std::string admin = s.login("admin", kAdminPassword);
   const json pupil = s.add_pupil(admin, "Fay");
   auto [st, j] = s.call("POST", "/api/sessions", admin,
@@ -248,7 +251,7 @@ TEST(Handlers, AnOverflowingNumberIsBadJsonNot500) {
 }
 
 TEST(Handlers, AidsAreRefusedInAnExamAndCheckedInTraining) {
-  InProcessServer s("aids-refused", 67);
+  InProcessServer s("aids-refused");
   const std::string admin = s.login("admin", kAdminPassword);
   const json pupil = s.add_pupil(admin, "Gil");
   const auto start = [&](const std::string& mode, const json& aids) {
@@ -293,7 +296,7 @@ std::string wait_for_file(const std::string& path) {
 }
 
 TEST(Handlers, TrainingAidsReachTheSpawnedWorkerAndAnAbortIsSignalledAsSuch) {
-  InProcessServer s("aids-spawn", 68);
+  InProcessServer s("aids-spawn");
   stand_in_worker(s.dir + "/bin");
   const std::string admin = s.login("admin", kAdminPassword);
   const json pupil = s.add_pupil(admin, "Hal");

@@ -15,9 +15,12 @@
 #include <thread>
 #include <vector>
 
+#include "support/ports.h"
 #include "support/process.h"
 #include "support/server.h"
 
+using forklift::test::free_domain;
+using forklift::test::free_port;
 using nlohmann::json;
 using forklift_test::Server;
 using forklift_test::error_code;
@@ -137,7 +140,7 @@ std::string exec_sql(const std::string& db_path, const std::string& sql) {
 // ---------------------------------------------------------------- tokens and roles
 
 TEST(HttpSecurity, AnExpiredTokenIsRefusedAsExpiredAndAnUnknownOneAsUnauthenticated) {
-  Server s(18121, 121, "sec-ttl", {"--token-ttl", "1"});
+  Server s(free_port(), free_domain(), "sec-ttl", {"--token-ttl", "1"});
   const std::string admin = s.login("admin", kAdminPassword);
   const std::string logged_out = s.login("admin", kAdminPassword);
   EXPECT_EQ(s.call("GET", "/api/pupils", admin).first, 200);
@@ -154,7 +157,7 @@ TEST(HttpSecurity, AnExpiredTokenIsRefusedAsExpiredAndAnUnknownOneAsUnauthentica
 }
 
 TEST(HttpSecurity, WrongRolesAreRefusedWith403AndChangeNothing) {
-  Server s(18122, 122, "sec-roles");
+  Server s(free_port(), free_domain(), "sec-roles");
   const std::string admin = s.login("admin", kAdminPassword);
   const int64_t ana_id = add_pupil(s, admin, "Ana", "ana", "ana-pass-1");
   add_user(s, admin, "ines", "instructor");
@@ -181,7 +184,7 @@ TEST(HttpSecurity, WrongRolesAreRefusedWith403AndChangeNothing) {
 
 TEST(HttpSecurity, FailedLoginsLockOutTheUsernameUntilTheWindowPasses) {
   constexpr int kWindowS = 5;  // --login-attempts stays at its default, 5
-  Server s(18123, 123, "sec-throttle-user", {"--login-window", std::to_string(kWindowS)});
+  Server s(free_port(), free_domain(), "sec-throttle-user", {"--login-window", std::to_string(kWindowS)});
   const std::string admin = s.login("admin", kAdminPassword);
   add_pupil(s, admin, "Ana", "ana", "ana-pass-1");
   add_user(s, admin, "ben", "instructor");
@@ -208,7 +211,7 @@ TEST(HttpSecurity, FailedLoginsLockOutTheUsernameUntilTheWindowPasses) {
 }
 
 TEST(HttpSecurity, FailedLoginsFromOneAddressLockOutEveryUsername) {
-  Server s(18124, 124, "sec-throttle-address", {"--login-attempts", "100", "--login-address-attempts", "3"});
+  Server s(free_port(), free_domain(), "sec-throttle-address", {"--login-attempts", "100", "--login-address-attempts", "3"});
   for (const char* guess : {"ghost1", "ghost2", "ghost3"}) EXPECT_EQ(login_status(s, guess, "wrong"), 401) << guess;
   auto [status, body] = s.call("POST", "/api/login", "", json{{"username", "admin"}, {"password", kAdminPassword}}.dump());
   EXPECT_EQ(status, 429);
@@ -218,7 +221,7 @@ TEST(HttpSecurity, FailedLoginsFromOneAddressLockOutEveryUsername) {
 // ---------------------------------------------------------------- audit log
 
 TEST(HttpSecurity, EveryChangeToAPupilIsAuditedWithItsActorAndTheLogIsAppendOnly) {
-  Server s(18125, 125, "sec-audit");
+  Server s(free_port(), free_domain(), "sec-audit");
   const std::string admin = s.login("admin", kAdminPassword);
   const int64_t ines_id = add_user(s, admin, "ines", "instructor");
   add_user(s, admin, "eve", "examiner");
@@ -293,8 +296,8 @@ TEST(HttpSecurity, EveryChangeToAPupilIsAuditedWithItsActorAndTheLogIsAppendOnly
 TEST(HttpSecurity, HttpsAnswersOnlyClientsThatTrustItsCa) {
   const std::string dir = testing::TempDir() + "/sec-tls-pki";
   const Pki school = make_pki(dir, "school"), other = make_pki(dir, "other");
-  Server s(18126, 126, "sec-tls", tls_args(school), school.ca);
-  EXPECT_TRUE(contains(s.proc->err(), "listening on https://127.0.0.1:18126")) << s.proc->err();
+  Server s(free_port(), free_domain(), "sec-tls", tls_args(school), school.ca);
+  EXPECT_TRUE(contains(s.proc->err(), "listening on https://127.0.0.1:" + std::to_string(s.port))) << s.proc->err();
   const std::string admin = s.login("admin", kAdminPassword);
   EXPECT_EQ(s.call("GET", "/api/pupils", admin).first, 200);
 
@@ -313,7 +316,7 @@ TEST(HttpSecurity, HttpsAnswersOnlyClientsThatTrustItsCa) {
 TEST(HttpSecurity, MenuTalksHttpsWithTheCaFromTheFlagOrTheEnvironment) {
   const std::string dir = testing::TempDir() + "/sec-menu-pki";
   const Pki school = make_pki(dir, "school"), other = make_pki(dir, "other");
-  Server s(18127, 127, "sec-menu", tls_args(school), school.ca);
+  Server s(free_port(), free_domain(), "sec-menu", tls_args(school), school.ca);
   unsetenv("FORKLIFT_CA");
 
   const Finished login = menu(s, {"--ca", school.ca, "login", "--user", "admin", "--password", kAdminPassword});
@@ -341,8 +344,9 @@ TEST(HttpSecurity, BadTlsOptionsStopTheServerWithAClearMessage) {
   std::filesystem::remove_all(dir);
   const Pki school = make_pki(dir, "school"), other = make_pki(dir, "other");
   const std::string db = dir + "/never.db";
+  const std::string listen = "127.0.0.1:" + std::to_string(free_port()), domain = std::to_string(free_domain());
   auto start = [&](std::vector<std::string> tls) {
-    std::vector<std::string> args = {kBin + "/forklift-server", "--db", db, "--listen", "127.0.0.1:18128", "--dds-domain", "128"};
+    std::vector<std::string> args = {kBin + "/forklift-server", "--db", db, "--listen", listen, "--dds-domain", domain};
     args.insert(args.end(), tls.begin(), tls.end());
     return run(args, dir, 20);
   };
