@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "forklift/server/listener.h"
+
 namespace forklift::server {
 
 using store::Role;
@@ -20,6 +22,8 @@ void send_error(httplib::Response& res, int status, const std::string& code, con
 Handler guarded(Handler h) {
   return [h](const httplib::Request& req, httplib::Response& res) {
     try {
+      // The listener bounds a chunked body by its bytes with their framing; this, by its own.
+      if (req.body.size() > kMaxBodyBytes) throw ApiError(413, kBodyTooLarge.code, kBodyTooLarge.message);
       h(req, res);
     } catch (const ApiError& e) {
       send_error(res, e.status, e.code, e.what());

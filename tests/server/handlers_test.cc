@@ -1,4 +1,4 @@
-// The API's handlers in this process: forklift_server_core mounted on an httplib::Server in a
+// The API's handlers in this process: forklift_server_core mounted on its listener in a
 // thread, on a loopback port from the tests' allocator (support/ports.h), over a real SQLite file
 // in a fresh folder; the tests talk real HTTP. No real worker ever starts: the bin folder given is
 // empty, and every session request here is refused before one would be spawned, but in the tests
@@ -16,6 +16,7 @@
 #include <thread>
 #include <tuple>
 
+#include "forklift/server/listener.h"
 #include "forklift/server/server.h"
 #include "support/api_client.h"
 #include "support/ports.h"
@@ -31,7 +32,7 @@ namespace {
 struct InProcessServer : forklift_test::ApiClient {
   std::string dir;
   std::unique_ptr<forklift::server::Api> api;
-  httplib::Server http;
+  forklift::server::Listener http;
   int port = forklift::test::free_port();
   std::thread thread;
 
@@ -158,6 +159,31 @@ TEST(Handlers, AMalformedBodyIs400WithItsReasonAndChangesNothing) {
   EXPECT_EQ(s.call("GET", "/api/pupils", admin).second.size(), 1u);
   EXPECT_EQ(s.call("GET", pupil_path(p), admin).second["name"], "Ben");
   EXPECT_EQ(s.audit(admin).size(), 1u);  // only Ben's creation
+}
+
+// Past 1 MiB a body is refused, announced or not: by its Content-Length before it is read; in
+// chunks, by the chunks' data once it has come (the listener stops reading at twice that).
+TEST(Handlers, ABodyPastOneMiBIs413WhateverItsFraming) {
+  InProcessServer s("too-large");
+  auto c = s.client();
+  const std::string login = json{{"username", "admin"}, {"password", kAdminPassword}}.dump();
+  const std::string big = R"({"username": "admin", "password": ")" + std::string(3 << 19, 'x') + "\"}";  // 1.5 MiB
+  auto chunked = [&](const std::string& path, const std::string& body) {
+    return c.Post(path.c_str(), [&](size_t offset, httplib::DataSink& sink) {
+      if (offset >= body.size()) return sink.done(), true;
+      return sink.write(body.data() + offset, std::min<size_t>(64 << 10, body.size() - offset));
+    }, "application/json");
+  };
+  for (const auto& [what, r] : {std::pair{"with a length", c.Post("/api/login", big, "application/json")},
+                                {"in chunks", chunked("/api/login", big)},
+                                {"in chunks to no endpoint", chunked("/api/no-such-thing", big)}}) {
+    ASSERT_TRUE(r) << what;
+    EXPECT_EQ(r->status, 413) << what << ": " << r->body;
+    EXPECT_EQ(error_code(json::parse(r->body)), "too_large") << what;
+  }
+  const auto small = chunked("/api/login", login);
+  ASSERT_TRUE(small);
+  EXPECT_EQ(small->status, 200) << small->body;
 }
 
 TEST(Handlers, AnUnknownPupilIs404) {

@@ -1,15 +1,22 @@
 // The HTTP side of trusted remote exams, on real forklift-server processes over real HTTP(S) on
-// loopback: expired tokens, roles, login rate limiting, the audit log of pupils' records (read
-// back through the API and straight from the SQLite file), and TLS with certificates made here
-// by the openssl CLI, for the server and for forklift-menu.
+// loopback: expired tokens, roles, the bounds on what a request may make the server read and
+// keep, login rate limiting, the audit log of pupils' records (read back through the API and
+// straight from the SQLite file), and TLS with certificates made here by the openssl CLI, for the
+// server and for forklift-menu.
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <httplib.h>
+#include <netinet/in.h>
 #include <sqlite3.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
@@ -178,6 +185,207 @@ TEST(HttpSecurity, WrongRolesAreRefusedWith403AndChangeNothing) {
   EXPECT_EQ(s.call("GET", pupil_path + "/audit", ines).first, 200);
   EXPECT_EQ(s.call("PATCH", pupil_path, ana, R"({"name":"Queen Ana"})").first, 403);
   EXPECT_EQ(s.call("GET", pupil_path, admin).second["name"], "Ana");
+}
+
+// ---------------------------------------------------------------- request bounds
+
+namespace {
+
+constexpr size_t kMiB = size_t{1} << 20;
+
+// The resident memory of process `pid` (VmRSS in /proc/<pid>/status), MiB.
+double rss_mib(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024;
+  ADD_FAILURE() << "no VmRSS for process " << pid;
+  return 0;
+}
+
+// How far the resident memory of `pid` rose above its value at rest while `during` ran (sampled
+// every 5 ms), MiB.
+template <typename F>
+double rss_growth_mib(pid_t pid, F during) {
+  const double rest = rss_mib(pid);
+  std::atomic<bool> done{false};
+  double peak = rest;
+  std::thread sampler([&] {
+    while (!done) {
+      peak = std::max(peak, rss_mib(pid));
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  });
+  during();
+  done = true;
+  sampler.join();
+  return std::max(peak, rss_mib(pid)) - rest;
+}
+
+// The first answer a client got that wrote `head`, then `bytes` bytes of `fill` in 64 KiB writes
+// (stopping when the server stops reading), then `tail`: its status (0 if none came) and body.
+struct RawAnswer {
+  int status = 0;
+  std::string body;
+};
+
+RawAnswer raw_request(int port, const std::string& head, size_t bytes = 0, char fill = 'a', const std::string& tail = "") {
+  const int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(static_cast<uint16_t>(port));
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  const timeval timeout{60, 0};
+  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &timeout, sizeof timeout);
+  RawAnswer answer;
+  if (connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+    ADD_FAILURE() << "cannot connect to port " << port;
+    close(fd);
+    return answer;
+  }
+  auto send_all = [&](const char* p, size_t n) {
+    for (size_t done = 0; done < n;) {
+      const ssize_t w = send(fd, p + done, n - done, MSG_NOSIGNAL);
+      if (w <= 0) return false;
+      done += static_cast<size_t>(w);
+    }
+    return true;
+  };
+  const std::string piece(64 << 10, fill);
+  bool open = send_all(head.data(), head.size());
+  for (size_t sent = 0; open && sent < bytes; sent += piece.size()) open = send_all(piece.data(), std::min(piece.size(), bytes - sent));
+  if (open) send_all(tail.data(), tail.size());
+  std::string got;
+  char buf[4096];
+  for (ssize_t n; (n = recv(fd, buf, sizeof buf, 0)) > 0;) {
+    got.append(buf, static_cast<size_t>(n));
+    const size_t end = got.find("\r\n\r\n");
+    if (end == std::string::npos) continue;
+    const size_t length_at = got.find("Content-Length: ");
+    if (length_at < end && got.size() >= end + 4 + std::stoul(got.substr(length_at + 16))) break;
+  }
+  close(fd);
+  if (got.rfind("HTTP/1.1 ", 0) != 0) return answer;
+  answer.status = std::stoi(got.substr(9, 3));
+  const size_t end = got.find("\r\n\r\n");
+  if (end != std::string::npos) answer.body = got.substr(end + 4);
+  return answer;
+}
+
+std::string answer_code(const RawAnswer& a) { return error_code(json::parse(a.body, nullptr, false)); }
+
+const std::string kLoginHead = "POST /api/login HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n";
+
+}  // namespace
+
+// The issue's attack: a chunked body of 300 MB to the one path open before login, written by a
+// real client that sends it whole before it reads.
+TEST(HttpSecurity, A300MBChunkedLoginIsAnswered413WithoutTheServerKeepingIt) {
+  Server s(free_port(), free_domain(), "sec-chunked");
+  constexpr size_t kSend = 300 * 1000 * 1000;
+  const std::string piece(64 << 10, 'x');
+  size_t sent = 0;
+  int status = 0;
+  std::string body;
+  const double growth = rss_growth_mib(s.proc->pid(), [&] {
+    auto c = s.client();
+    c.set_write_timeout(60);
+    c.set_read_timeout(60);
+    const auto r = c.Post("/api/login", [&](size_t, httplib::DataSink& sink) {
+      if (sent >= kSend) {
+        sink.done();
+        return true;
+      }
+      sent += piece.size();
+      return sink.write(piece.data(), piece.size());
+    }, "application/json");
+    if (r) status = r->status, body = r->body;
+    else body = httplib::to_string(r.error());
+  });
+  EXPECT_EQ(status, 413) << body << " after " << sent << " bytes";
+  EXPECT_EQ(error_code(json::parse(body, nullptr, false)), "too_large") << body;
+  EXPECT_GE(sent, kSend);  // the client could send it all
+  EXPECT_LT(growth, 100) << "the server's memory grew by " << growth << " MiB";
+  EXPECT_EQ(s.call("GET", "/api/health").first, 200);
+  EXPECT_FALSE(s.login("admin", kAdminPassword).empty());
+}
+
+// 64 MiB where a request has no end in sight: one header line, one chunk-size line, a request line,
+// and a POST that announces no length (which has no body: the rest reads as a request line).
+TEST(HttpSecurity, EndlessHeadersChunkLinesAndUnannouncedBodiesAreRefusedWithoutBeingKept) {
+  Server s(free_port(), free_domain(), "sec-endless");
+  constexpr size_t kSend = 64 * kMiB;
+  struct Case {
+    const char* what;
+    std::string head;
+    char fill;
+    int status;
+    const char* code;
+  };
+  const Case cases[] = {
+      {"a header line", kLoginHead + "X-Padding: ", 'a', 431, "too_large"},
+      {"a chunk-size line", kLoginHead + "Transfer-Encoding: chunked\r\n\r\n", '1', 413, "too_large"},
+      {"a request line", "GET /", 'a', 0, ""},  // closed unanswered: no request to answer yet
+      {"a body with no length", kLoginHead + "\r\n", '{', 400, "bad_request"},
+  };
+  for (const Case& k : cases) {
+    RawAnswer a;
+    const double growth = rss_growth_mib(s.proc->pid(), [&] { a = raw_request(s.port, k.head, kSend, k.fill); });
+    EXPECT_EQ(a.status, k.status) << k.what << ": " << a.body;
+    if (k.status) {
+      EXPECT_EQ(answer_code(a), k.code) << k.what << ": " << a.body;
+    }
+    EXPECT_LT(growth, 32) << k.what << ": the server's memory grew by " << growth << " MiB for " << kSend / kMiB << " MiB sent";
+  }
+  EXPECT_EQ(s.call("GET", "/api/health").first, 200);
+}
+
+// httplib inflates a gzip body with no limit: 100 KiB of it can be 100 MiB of body.
+TEST(HttpSecurity, ACompressedBodyIsRefusedBeforeItIsInflated) {
+  Server s(free_port(), free_domain(), "sec-gzip");
+  const std::string bomb = s.dir + "/bomb.gz";
+  ASSERT_EQ(run({"/bin/sh", "-c", "head -c 104857600 /dev/zero | gzip -9 > " + bomb}, s.dir).code, 0);
+  std::ifstream in(bomb, std::ios::binary);
+  const std::string gz((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_LT(gz.size(), kMiB);
+  RawAnswer a;
+  const double growth = rss_growth_mib(s.proc->pid(), [&] {
+    a = raw_request(s.port, kLoginHead + "Content-Encoding: gzip\r\nContent-Length: " + std::to_string(gz.size()) + "\r\n\r\n" + gz);
+  });
+  EXPECT_EQ(a.status, 415) << a.body;
+  EXPECT_EQ(answer_code(a), "compressed") << a.body;
+  EXPECT_LT(growth, 32) << "the server's memory grew by " << growth << " MiB";
+}
+
+// A Content-Length larger than what comes, one too large to read, one that is no number, two of
+// them, one beside chunks, and a transfer coding httplib does not decode.
+TEST(HttpSecurity, ContentLengthsThatLieOrClashAreRefusedInWords) {
+  Server s(free_port(), free_domain(), "sec-lengths");
+  const std::string body = R"({"username":"admin","password":"x"})";
+  const std::pair<std::string, std::pair<int, std::string>> cases[] = {
+      {"Content-Length: 100000000000000000\r\n\r\n" + body, {413, "the body is larger than 1 MiB"}},
+      {"Content-Length: 99999999999999999999999\r\n\r\n" + body, {413, "the body is larger than 1 MiB"}},
+      {"Content-Length: -1\r\n\r\n" + body, {400, "Content-Length must be a whole number of bytes"}},
+      {"Content-Length: 3.5e1\r\n\r\n" + body, {400, "Content-Length must be a whole number of bytes"}},
+      {"Content-Length: 2\r\nContent-Length: 35\r\n\r\n" + body, {400, "the body's length is ambiguous: send one Content-Length, or Transfer-Encoding: chunked"}},
+      {"Content-Length: 35\r\nTransfer-Encoding: chunked\r\n\r\n" + body, {400, "the body's length is ambiguous: send one Content-Length, or Transfer-Encoding: chunked"}},
+      {"Transfer-Encoding: gzip, chunked\r\n\r\n" + body, {501, "the only Transfer-Encoding understood is chunked"}},
+  };
+  for (const auto& [rest, expected] : cases) {
+    const RawAnswer a = raw_request(s.port, kLoginHead + rest);
+    EXPECT_EQ(a.status, expected.first) << rest << ": " << a.body;
+    const json j = json::parse(a.body, nullptr, false);
+    EXPECT_EQ(j.is_object() ? j["error"].value("message", "") : "", expected.second) << rest;
+  }
+
+  // 100 bytes announced, 2 sent: the server waits its read timeout for the rest, then says no;
+  // meanwhile it answers others.
+  RawAnswer short_body;
+  std::thread liar([&] { short_body = raw_request(s.port, kLoginHead + "Content-Length: 100\r\n\r\n{}"); });
+  EXPECT_EQ(s.call("GET", "/api/health").first, 200);
+  liar.join();
+  EXPECT_EQ(short_body.status, 400) << short_body.body;
+  EXPECT_EQ(s.call("GET", "/api/health").first, 200);
 }
 
 // ---------------------------------------------------------------- login rate limiting
