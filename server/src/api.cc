@@ -57,11 +57,14 @@ int64_t path_id(const httplib::Request& req, int i) {
 
 int query_int(const httplib::Request& req, const char* key, int dflt, int hi) {
   if (!req.has_param(key)) return dflt;
-  try {
-    return std::clamp(std::stoi(req.get_param_value(key)), 0, hi);
-  } catch (const std::exception&) {
-    throw ApiError(400, "bad_request", std::string("'") + key + "' must be a number");
-  }
+  const std::string text = req.get_param_value(key);
+  const bool negative = !text.empty() && text[0] == '-';
+  const std::string digits = text.substr(negative ? 1 : 0);
+  if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos)
+    throw ApiError(400, "bad_request", std::string("'") + key + "' must be a whole number");
+  if (negative) return 0;
+  // Past `hi` (or past any int) is `hi`.
+  return digits.size() > 9 ? hi : std::min(std::stoi(digits), hi);
 }
 
 Principal authenticate(Context& ctx, const httplib::Request& req) {

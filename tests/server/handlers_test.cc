@@ -149,7 +149,7 @@ TEST(Handlers, AMalformedBodyIs400WithItsReasonAndChangesNothing) {
   EXPECT_EQ(error_code(j3), "bad_json");
   EXPECT_EQ(error_code(s.call("POST", "/api/pupils", admin, R"({"name": 5})").second), "bad_request");
   // Bytes that are not UTF-8, and a number beyond a double: 400 in words, never 500.
-  for (const std::string body : {std::string("\xff\xfe"), std::string(R"({"name": "Ca)") + "\xff" + R"(rl"})",
+  for (const std::string& body : {std::string("\xff\xfe"), std::string(R"({"name": "Ca)") + "\xff" + R"(rl"})",
                                  std::string(R"({"name": "Dan", "email": 1e99999})")}) {
     auto [st, j] = s.call("POST", "/api/pupils", admin, body);
     EXPECT_EQ(st, 400) << j;
@@ -274,6 +274,95 @@ TEST(Handlers, AnOverflowingNumberIsBadJsonNot500) {
                         R"({"pupil_id": )" + pupil["id"].dump() + R"(, "cab_id": "cab1", "scenario": "manoeuvre_1", "load": {"mass_kg": 1e999}})");
   EXPECT_EQ(st, 400) << j;
   EXPECT_EQ(error_code(j), "bad_json");
+}
+
+// Every body endpoint's numbers: a boolean, a fraction or a whole number past its type is 400
+// naming the field (nlohmann would read true as 1, 1.5 as 1 and 2^64 - 1 as -1), as is a value out
+// of the field's own range; a string where a number belongs, and a number where a string does.
+TEST(Handlers, NumbersOutOfRangeForTheirFieldAre400NamingItOnEveryBodyEndpoint) {
+  InProcessServer s("numbers");
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json pupil = s.add_pupil(admin, "Ivy");
+  const json id = pupil["id"];
+  const std::vector<json> not_ids = {1.5, true, json(uint64_t{18446744073709551615u}), 1e20, -1e300, "1"};
+  auto session = [&](json extra) {
+    json b = {{"pupil_id", id}, {"cab_id", "cab1"}, {"scenario", "manoeuvre_1"}};
+    b.update(extra);
+    return b;
+  };
+  struct Case {
+    const char* method;
+    std::string path;
+    json body;
+    std::string field;  // the message names it
+  };
+  std::vector<Case> cases;
+  for (const json& v : not_ids) {
+    cases.push_back({"POST", "/api/sessions", session({{"pupil_id", v}}), "'pupil_id'"});
+    cases.push_back({"POST", "/api/users", {{"username", "ivy2"}, {"password", "ivy-pass-1"}, {"role", "pupil"}, {"pupil_id", v}}, "'pupil_id'"});
+    cases.push_back({"POST", "/api/theory/attempts", {{"pupil_id", v}}, "'pupil_id'"});
+  }
+  for (const json& v : {json(-5), json(0), json(1e308), json(true), json("30")})
+    cases.push_back({"POST", "/api/sessions", session({{"time_limit_s", v}}), "'time_limit_s'"});
+  for (const json& v : {json(-1), json(1e308), json(true)})
+    cases.push_back({"POST", "/api/sessions", session({{"load", {{"mass_kg", v}}}}), "'load.mass_kg'"});
+  for (const json& v : {json(-1), json(9007199254740992), json(1.5), json(true), json(1e300), json(uint64_t{18446744073709551615u})})
+    cases.push_back({"POST", "/api/theory/attempts", {{"pupil_id", id}, {"seed", v}}, "'seed'"});
+  auto [ast, attempt] = s.call("POST", "/api/theory/attempts", admin, json{{"pupil_id", id}}.dump());
+  ASSERT_EQ(ast, 201) << attempt;
+  const std::string question = attempt["questions"][0]["id"];
+  for (const json& v : {json(1.5), json(-1), json(true), json(1e300), json(uint64_t{18446744073709551615u})})
+    cases.push_back({"POST", "/api/theory/attempts/" + attempt["id"].dump() + "/answers", {{"answers", {{question, v}}}},
+                     "the answer to '" + question + "'"});
+  cases.push_back({"POST", "/api/login", {{"username", 5}, {"password", "x"}}, "'username'"});
+  cases.push_back({"POST", "/api/pupils", {{"name", 1e300}}, "'name'"});
+  cases.push_back({"PATCH", pupil_path(pupil), {{"email", 1}}, "'email'"});
+
+  for (const Case& c : cases) {
+    auto [st, j] = s.call(c.method, c.path, admin, c.body.dump());
+    EXPECT_EQ(st, 400) << c.path << " " << c.body << ": " << j;
+    EXPECT_EQ(error_code(j), "bad_request") << c.path << " " << c.body;
+    const std::string message = j.is_object() ? j.value("error", json::object()).value("message", "") : "";
+    EXPECT_NE(message.find(c.field), std::string::npos) << c.path << " " << c.body << ": " << j;
+  }
+  EXPECT_EQ(s.call("GET", pupil_path(pupil) + "/history", admin).second["sessions"].size(), 0u);
+  EXPECT_EQ(s.audit(admin).size(), 2u);  // Ivy's creation and her one paper
+}
+
+// A byte that is not UTF-8 (raw, or %-encoded) in a path, a query or a header: refused or not
+// found in words, never a 500. A query number must be one.
+TEST(Handlers, BytesThatAreNotUtf8InPathsQueriesAndHeadersAreNeverA500) {
+  InProcessServer s("not-utf8");
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json pupil = s.add_pupil(admin, "Jo");
+  const std::string p = pupil_path(pupil);
+  std::vector<std::string> paths;
+  for (const std::string bad : {"%FF%FE", "\xff\xfe", "%C0%AF"}) {
+    for (const std::string& path : {"/api/pupils/" + bad, p + bad + "/history", "/api/scenarios/" + bad, "/api/scenarios/" + bad + "/plan",
+                                    "/api/sessions/s-" + bad, "/api/sessions/s-1/events/" + bad + "/still.png",
+                                    "/api/theory/attempts/" + bad, "/" + bad, "/api/" + bad})
+      paths.push_back(path);
+    for (const std::string& query : {std::string("/api/pupils?search="), std::string("/api/pupils?limit="),
+                                     std::string("/api/audit?offset="), p + "/audit?limit=", std::string("/api/fleet?"),
+                                     std::string("/api/cabs?x=")})
+      paths.push_back(query + bad);
+  }
+  auto c = s.client();
+  c.set_url_encode(false);  // the raw bytes as they are
+  const httplib::Headers bad_headers = {{"Authorization", "Bearer \xff\xfe"}, {"X-Forwarded-For", "\xff"}, {"Accept", "\xc0\xaf"}};
+  for (const std::string& path : paths) {
+    for (const httplib::Headers& h : {httplib::Headers{{"Authorization", "Bearer " + admin}}, bad_headers}) {
+      for (const auto& r : {c.Get(path.c_str(), h), c.Post(path.c_str(), h, "{}", "application/json")}) {
+        ASSERT_TRUE(r) << path;
+        EXPECT_LT(r->status, 500) << path << ": " << r->body;
+        EXPECT_TRUE(json::accept(r->body)) << path << ": " << r->body;
+      }
+    }
+  }
+  // Query numbers: whole ones only, clamped to their range.
+  EXPECT_EQ(s.call("GET", "/api/pupils?limit=1x", admin).first, 400);
+  EXPECT_EQ(s.call("GET", "/api/pupils?limit=99999999999999999999", admin).second.size(), 1u);
+  EXPECT_EQ(s.call("GET", "/api/pupils?offset=-3", admin).second.size(), 1u);
 }
 
 TEST(Handlers, AidsAreRefusedInAnExamAndCheckedInTraining) {
