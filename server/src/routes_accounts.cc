@@ -14,18 +14,17 @@ void account_routes(httplib::Server& svr, Context& ctx) {
   svr.Post("/api/login", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const json b = body_json(req);
     const std::string username = field<std::string>(b, "username"), password = field<std::string>(b, "password");
-    // Checked before the password, so that a locked-out guesser learns nothing from it.
-    if (const int wait_s = ctx.logins->retry_after(username, req.remote_addr)) {
+    // Let in (and counted) before the password is checked, so that a locked-out guesser learns
+    // nothing from it and parallel guesses cannot pass the limit; a failure unless it succeeds.
+    auto attempt = ctx.logins->attempt(username, req.remote_addr);
+    if (const int wait_s = attempt.retry_after_s()) {
       res.set_header("Retry-After", std::to_string(wait_s));
       throw ApiError(429, "too_many_attempts",
                      "too many failed logins for this user or from this address: try again in " + std::to_string(wait_s) + " s");
     }
     const auto user = ctx.db().find_user(username);
-    if (!user || !verify_password(user->password_hash, password)) {
-      ctx.logins->failed(username, req.remote_addr);
-      throw ApiError(401, "bad_credentials", "unknown user or wrong password");
-    }
-    ctx.logins->succeeded(username);
+    if (!password_matches(user, password)) throw ApiError(401, "bad_credentials", "unknown user or wrong password");
+    attempt.succeeded();
     Principal p{user->id, user->username, user->role, user->school_id, user->pupil_id, {}};
     send_json(res, 200, {{"token", ctx.tokens->issue(p)}, {"role", store::role_name(user->role)},
                          {"expires_in_s", ctx.tokens->ttl()}, {"pupil_id", user->pupil_id ? json(*user->pupil_id) : json(nullptr)}});

@@ -54,6 +54,7 @@ Api::Api(ServerConfig c) : ctx_(std::make_unique<Context>()) {
   ctx.db_path = c.db_path;
   ctx.data_dir = c.data_dir;
   ctx.tokens = std::make_unique<Tokens>(c.token_ttl_s);
+  decoy_hash();  // now, not in the time of the first login of an unknown username
   ctx.logins = std::make_unique<LoginThrottle>(LoginThrottle::Limits{
       c.login_attempts, c.login_address_attempts.value_or(kAddressAttemptsPerUserAttempt * c.login_attempts), c.login_window_s});
   ctx.bank = std::make_unique<QuestionBank>(load_question_bank(ctx.data_dir + "/theory/questions.json"));

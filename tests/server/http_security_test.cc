@@ -13,10 +13,13 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <iterator>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
@@ -424,6 +427,55 @@ TEST(HttpSecurity, FailedLoginsFromOneAddressLockOutEveryUsername) {
   auto [status, body] = s.call("POST", "/api/login", "", json{{"username", "admin"}, {"password", kAdminPassword}}.dump());
   EXPECT_EQ(status, 429);
   EXPECT_EQ(error_code(body), "too_many_attempts");
+}
+
+// Twelve wrong passwords for one username at once, against a limit of 5: five are checked, seven
+// are turned away before their check. (A window of an hour: the count cannot expire mid-test.)
+TEST(HttpSecurity, ParallelLoginsCheckNoMorePasswordsThanTheLimit) {
+  Server s(free_port(), free_domain(), "sec-throttle-parallel", {"--login-window", "3600"});
+  const std::string admin = s.login("admin", kAdminPassword);
+  add_pupil(s, admin, "Ana", "ana", "ana-pass-1");
+  constexpr int kGuesses = 12;
+  std::promise<void> go;
+  const std::shared_future<void> start = go.get_future().share();
+  std::vector<std::future<int>> statuses;
+  for (int i = 0; i < kGuesses; ++i)
+    statuses.push_back(std::async(std::launch::async, [&, i] {
+      start.wait();
+      return login_status(s, "ana", "guess-" + std::to_string(i));
+    }));
+  go.set_value();
+  std::map<int, int> count;
+  for (auto& f : statuses) ++count[f.get()];
+  EXPECT_EQ(count[401], 5) << "passwords checked";
+  EXPECT_EQ(count[429], kGuesses - 5) << "turned away";
+  EXPECT_EQ(login_status(s, "ana", "ana-pass-1"), 429);  // locked out, right password or not
+}
+
+// An unknown username is refused as slowly as a known one with a wrong password: its password
+// is checked against a decoy hash. Medians of interleaved logins, as a ratio measured in one run.
+TEST(HttpSecurity, LoginTakesAsLongForAnUnknownUsernameAsForAWrongPassword) {
+  Server s(free_port(), free_domain(), "sec-login-timing", {"--login-attempts", "1000", "--login-address-attempts", "100000"});
+  constexpr int kRounds = 20;
+  std::vector<double> known_s, unknown_s;
+  auto timed = [&](const std::string& user, std::vector<double>& into) {
+    const auto t0 = std::chrono::steady_clock::now();
+    EXPECT_EQ(login_status(s, user, "not-the-password"), 401) << user;
+    into.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  };
+  for (int i = 0; i < kRounds; ++i) {  // each first in turn, so that neither gains from going first
+    if (i % 2) timed("admin", known_s);
+    timed("nobody-" + std::to_string(i), unknown_s);
+    if (i % 2 == 0) timed("admin", known_s);
+  }
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  const double known = median(known_s), unknown = median(unknown_s);
+  std::printf("median login: known user %.1f ms, unknown user %.1f ms\n", known * 1000, unknown * 1000);
+  EXPECT_LT(std::max(known, unknown) / std::min(known, unknown), 1.2)
+      << "median login: known user " << known * 1000 << " ms, unknown user " << unknown * 1000 << " ms";
 }
 
 // ---------------------------------------------------------------- audit log
