@@ -47,6 +47,14 @@ json body_json(const httplib::Request& req) {
   }
 }
 
+std::string username_field(const json& j) {
+  const auto name = store::canonical_username(field<std::string>(j, "username"));
+  if (!name)
+    throw ApiError(400, "bad_request", "'username' may have only the letters a-z, digits, '.', '_' and '-', 1 to " +
+                                           std::to_string(store::kMaxUsernameLength) + " of them (capitals read as small letters)");
+  return *name;
+}
+
 int64_t path_id(const httplib::Request& req, int i) {
   try {
     return std::stoll(req.matches[i]);

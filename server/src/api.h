@@ -87,6 +87,9 @@ T field(const json& j, const char* key, std::optional<T> fallback = std::nullopt
   }
 }
 
+// The body's "username" for a new login, as stored (store::canonical_username), else 400 with the rule.
+std::string username_field(const json& j);
+
 int64_t path_id(const httplib::Request& req, int i = 1);  // the path's i-th match as an id, else 404
 // A whole-number query parameter clamped to [0, hi], or `dflt` when absent; 400 if it is not
 // one (digits, perhaps after a minus sign, and nothing else).

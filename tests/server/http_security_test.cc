@@ -60,6 +60,9 @@ Finished run(const std::vector<std::string>& args, const std::string& dir, doubl
 
 bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
+// The words of an error answer; "" for any other.
+std::string error_message(const json& j) { return j.is_object() ? j.value("error", json::object()).value("message", "") : ""; }
+
 // A test CA and a server certificate it signed for IP 127.0.0.1 (what the test servers listen on).
 struct Pki {
   std::string ca, cert, key;  // PEM: the CA's certificate; the server's certificate and key
@@ -377,8 +380,7 @@ TEST(HttpSecurity, ContentLengthsThatLieOrClashAreRefusedInWords) {
   for (const auto& [rest, expected] : cases) {
     const RawAnswer a = raw_request(s.port, kLoginHead + rest);
     EXPECT_EQ(a.status, expected.first) << rest << ": " << a.body;
-    const json j = json::parse(a.body, nullptr, false);
-    EXPECT_EQ(j.is_object() ? j["error"].value("message", "") : "", expected.second) << rest;
+    EXPECT_EQ(error_message(json::parse(a.body, nullptr, false)), expected.second) << rest;
   }
 
   // 100 bytes announced, 2 sent: the server waits its read timeout for the rest, then says no;
@@ -476,6 +478,59 @@ TEST(HttpSecurity, LoginTakesAsLongForAnUnknownUsernameAsForAWrongPassword) {
   std::printf("median login: known user %.1f ms, unknown user %.1f ms\n", known * 1000, unknown * 1000);
   EXPECT_LT(std::max(known, unknown) / std::min(known, unknown), 1.2)
       << "median login: known user " << known * 1000 << " ms, unknown user " << unknown * 1000 << " ms";
+}
+
+// ---------------------------------------------------------------- usernames
+
+// A username is read with capitals as small letters and may hold only a-z, 0-9, '.', '_' and
+// '-' (1-64): no look-alike of another names a second account or logs in as one. Names stored
+// before the rule (put straight into the file here) still log in, capitals or not.
+TEST(HttpSecurity, UsernamesAreNormalisedSoThatNoLookAlikeNamesASecondAccount) {
+  Server s(free_port(), free_domain(), "sec-usernames", {"--login-attempts", "2", "--login-window", "3600", "--login-address-attempts", "1000"});
+  const std::string admin = s.login("admin", kAdminPassword);
+  const std::string rule = "'username' may have only the letters a-z, digits, '.', '_' and '-', 1 to 64 of them (capitals read as small letters)";
+  for (const std::string& name : {std::string("admin "), std::string(" admin"), std::string("admin\n"), std::string("admin\t"),
+                                  std::string("ad min"), std::string("admin\u00a0"), std::string("\u0430dmin") /* Cyrillic a */,
+                                  std::string("adm\u00edn"), std::string("admin\u200b"), std::string(""), std::string(65, 'a'),
+                                  std::string("admin\x01")}) {
+    auto [st, j] = s.call("POST", "/api/users", admin, json{{"username", name}, {"password", "some-pass-1"}, {"role", "admin"}}.dump());
+    EXPECT_EQ(st, 400) << json(name) << ": " << j;
+    EXPECT_EQ(error_message(j), rule) << json(name);
+    EXPECT_EQ(login_status(s, name, kAdminPassword), 401) << json(name) << " logged in as admin";
+  }
+  auto [st_upper, upper] = s.call("POST", "/api/users", admin, json{{"username", "ADMIN"}, {"password", "some-pass-1"}, {"role", "admin"}}.dump());
+  EXPECT_EQ(st_upper, 409) << upper;  // the same name as admin's
+  EXPECT_EQ(s.call("POST", "/api/pupils", admin, R"({"name":"Ben","username":"Ben ","password":"ben-pass-1"})").first, 400);
+  EXPECT_EQ(s.call("GET", "/api/pupils", admin).second.size(), 0u);  // refused whole: no pupil without the login
+
+  // Stored as read: the audit row, the login and a capitalised login name the same account.
+  auto [st_ann, ann] = s.call("POST", "/api/pupils", admin, R"({"name":"Ann","username":"Ann.Lee","password":"ann-pass-1"})");
+  ASSERT_EQ(st_ann, 201) << ann;
+  EXPECT_EQ(audit_row(s.call("GET", "/api/audit", admin).second, "pupil_created")["details"]["username"], "ann.lee");
+  EXPECT_EQ(login_status(s, "ann.lee", "ann-pass-1"), 200);
+  EXPECT_EQ(login_status(s, "ANN.LEE", "ann-pass-1"), 200);
+  EXPECT_EQ(s.call("POST", "/api/users", admin, json{{"username", "ann.LEE"}, {"password", "some-pass-1"}, {"role", "admin"}}.dump()).first, 409);
+
+  // Names from before the rule, with admin's password: a space, and two that differ only in capitals.
+  for (const auto& [name, role] : {std::pair{"Old Timer", "instructor"}, {"Carl", "instructor"}, {"CARL", "examiner"}})
+    ASSERT_EQ(exec_sql(s.db, std::string("INSERT INTO users(username, password_hash, role, school_id) SELECT '") + name +
+                                 "', password_hash, '" + role + "', school_id FROM users WHERE username = 'admin'"),
+              "");
+  auto role_of = [&](const std::string& name) {
+    auto [st, j] = s.call("POST", "/api/login", "", json{{"username", name}, {"password", kAdminPassword}}.dump());
+    return st == 200 ? j["role"].get<std::string>() : std::to_string(st);
+  };
+  EXPECT_EQ(role_of("Old Timer"), "instructor");
+  EXPECT_EQ(role_of("old timer"), "instructor");
+  EXPECT_EQ(role_of("Carl"), "instructor");
+  EXPECT_EQ(role_of("CARL"), "examiner");  // spelled exactly so
+  EXPECT_EQ(role_of("carl"), "instructor");  // else the oldest
+  EXPECT_EQ(s.call("POST", "/api/users", admin, json{{"username", "carl"}, {"password", "some-pass-1"}, {"role", "admin"}}.dump()).first, 409);
+
+  // Failures count against the name as the store reads it, capitals or not (limit 2 here).
+  EXPECT_EQ(login_status(s, "ANN.LEE", "wrong"), 401);
+  EXPECT_EQ(login_status(s, "Ann.Lee", "wrong"), 401);
+  EXPECT_EQ(login_status(s, "ann.lee", "ann-pass-1"), 429);
 }
 
 // ---------------------------------------------------------------- audit log
