@@ -9,8 +9,9 @@
 // the body its headers announce: at most kMaxBodyBytes with a Content-Length, twice that in
 // chunks (their framing), none when they announce none. A request beyond these, with an
 // ambiguous length or a compressed body is refused (Refusal) and its connection closed after the
-// answer; before closing, what the client still sends is read and dropped for a few seconds, so
-// that a client that sends its whole body before reading (most do) still reads why.
+// answer; before closing, what the client still sends is read and dropped (until it stops or is
+// quiet for 2 s, for at most 30 s), so that a client that sends its whole body before reading
+// (most do) still reads why. A request line past the allowance is closed unanswered.
 //
 // The listener's pre-routing and 100-continue handlers are its own: leave them.
 #pragma once
