@@ -61,7 +61,8 @@ bool wait_for(socket_t sock, short events, int timeout_ms) {
 
 // SIGPIPE held back on this thread while it writes to a TLS connection, and one raised dropped:
 // OpenSSL writes with write(2), which raises it when the client has gone, and its default action
-// ends the server.
+// ends the process (forklift-server happens to run with it ignored; the listener does not count
+// on that).
 class NoSigpipe {
  public:
   NoSigpipe() {
