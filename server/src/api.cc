@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "forklift/server/listener.h"
+
 namespace forklift::server {
 
 using store::Role;
@@ -20,6 +22,8 @@ void send_error(httplib::Response& res, int status, const std::string& code, con
 Handler guarded(Handler h) {
   return [h](const httplib::Request& req, httplib::Response& res) {
     try {
+      // The listener bounds a chunked body by its bytes with their framing; this, by its own.
+      if (req.body.size() > kMaxBodyBytes) throw ApiError(413, kBodyTooLarge.code, kBodyTooLarge.message);
       h(req, res);
     } catch (const ApiError& e) {
       send_error(res, e.status, e.code, e.what());
@@ -43,6 +47,14 @@ json body_json(const httplib::Request& req) {
   }
 }
 
+std::string username_field(const json& j) {
+  const auto name = store::canonical_username(field<std::string>(j, "username"));
+  if (!name)
+    throw ApiError(400, "bad_request", "'username' may have only the letters a-z, digits, '.', '_' and '-', 1 to " +
+                                           std::to_string(store::kMaxUsernameLength) + " of them (capitals read as small letters)");
+  return *name;
+}
+
 int64_t path_id(const httplib::Request& req, int i) {
   try {
     return std::stoll(req.matches[i]);
@@ -53,11 +65,14 @@ int64_t path_id(const httplib::Request& req, int i) {
 
 int query_int(const httplib::Request& req, const char* key, int dflt, int hi) {
   if (!req.has_param(key)) return dflt;
-  try {
-    return std::clamp(std::stoi(req.get_param_value(key)), 0, hi);
-  } catch (const std::exception&) {
-    throw ApiError(400, "bad_request", std::string("'") + key + "' must be a number");
-  }
+  const std::string text = req.get_param_value(key);
+  const bool negative = !text.empty() && text[0] == '-';
+  const std::string digits = text.substr(negative ? 1 : 0);
+  if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos)
+    throw ApiError(400, "bad_request", std::string("'") + key + "' must be a whole number");
+  if (negative) return 0;
+  // Past `hi` (or past any int) is `hi`.
+  return digits.size() > 9 ? hi : std::min(std::stoi(digits), hi);
 }
 
 Principal authenticate(Context& ctx, const httplib::Request& req) {

@@ -4,13 +4,16 @@
 
 #include <httplib.h>
 
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <initializer_list>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 #include "auth.h"
 #include "context.h"
@@ -38,22 +41,58 @@ Handler guarded(Handler h);
 // ---------------------------------------------------------------- the request
 json body_json(const httplib::Request& req);  // a JSON object, else 400
 
-// The body's `key` as a T: `fallback` when absent or null, else 400 if it is required.
+// `v`, the body's `name`, as the number T it must be, else 400 naming it: a JSON number (nlohmann
+// would read true as 1), for an integer T a whole one within T's range (it would truncate 1.5 and
+// wrap 2^64 - 1 to -1).
+template <typename T>
+T number_field(const json& v, const std::string& name) {
+  static_assert(std::is_arithmetic_v<T> && !std::is_same_v<T, bool>);
+  if (!v.is_number()) throw ApiError(400, "bad_request", "'" + name + "' must be a number");
+  if constexpr (std::is_integral_v<T>) {
+    using Limits = std::numeric_limits<T>;
+    bool in_range;
+    if (v.is_number_unsigned()) {
+      in_range = v.get<uint64_t>() <= static_cast<uint64_t>(Limits::max());
+    } else if (v.is_number_integer()) {
+      const int64_t i = v.get<int64_t>();
+      in_range = i >= static_cast<int64_t>(Limits::min()) && (i < 0 || static_cast<uint64_t>(i) <= static_cast<uint64_t>(Limits::max()));
+    } else {
+      const double d = v.get<double>();
+      if (d != std::trunc(d)) throw ApiError(400, "bad_request", "'" + name + "' must be a whole number");
+      // Limits::max() + 1 is a power of two, exact as a double.
+      in_range = d >= static_cast<double>(Limits::min()) && d < static_cast<double>(Limits::max() / 2 + 1) * 2;
+      if (in_range) return static_cast<T>(d);
+    }
+    if (!in_range) throw ApiError(400, "bad_request", "'" + name + "' is out of range");
+  }
+  return v.get<T>();  // a double: the parser makes only finite ones
+}
+
+// The body's `key` as a T: `fallback` when absent or null, else 400 if it is required; a number
+// as number_field() takes it.
 template <typename T>
 T field(const json& j, const char* key, std::optional<T> fallback = std::nullopt) {
   if (!j.contains(key) || j[key].is_null()) {
     if (fallback) return *fallback;
     throw ApiError(400, "bad_request", std::string("'") + key + "' is required");
   }
-  try {
-    return j[key].get<T>();
-  } catch (const json::exception&) {
-    throw ApiError(400, "bad_request", std::string("'") + key + "' has the wrong type");
+  if constexpr (std::is_arithmetic_v<T> && !std::is_same_v<T, bool>) {
+    return number_field<T>(j[key], key);
+  } else {
+    try {
+      return j[key].get<T>();
+    } catch (const json::exception&) {
+      throw ApiError(400, "bad_request", std::string("'") + key + "' has the wrong type");
+    }
   }
 }
 
+// The body's "username" for a new login, as stored (store::canonical_username), else 400 with the rule.
+std::string username_field(const json& j);
+
 int64_t path_id(const httplib::Request& req, int i = 1);  // the path's i-th match as an id, else 404
-// A whole-number query parameter clamped to [0, hi], or `dflt` when absent.
+// A whole-number query parameter clamped to [0, hi], or `dflt` when absent; 400 if it is not
+// one (digits, perhaps after a minus sign, and nothing else).
 int query_int(const httplib::Request& req, const char* key, int dflt, int hi);
 
 // ---------------------------------------------------------------- who asks

@@ -33,6 +33,20 @@ bool verify_password(const std::string& hash, const std::string& pw) {
   return crypto_pwhash_str_verify(hash.c_str(), pw.c_str(), pw.size()) == 0;
 }
 
+bool password_matches(const std::optional<store::User>& user, const std::string& password) {
+  const bool matches = verify_password(user ? user->password_hash : decoy_hash(), password);
+  return matches && user.has_value();
+}
+
+const std::string& decoy_hash() {
+  static const std::string hash = [] {
+    unsigned char raw[32];
+    randombytes_buf(raw, sizeof raw);
+    return hash_password(std::string(reinterpret_cast<const char*>(raw), sizeof raw));
+  }();
+  return hash;
+}
+
 std::string new_password_hash(const nlohmann::json& body) {
   const std::string pw = field<std::string>(body, "password");
   if (pw.size() < kMinPasswordLength)
@@ -91,16 +105,43 @@ void Tokens::retire_expired(Clock::time_point now) {
 LoginThrottle::LoginThrottle(Limits limits)
     : limits_(limits), window_(seconds(limits.window_s)), prune_at_users_(kMinPruneAt), prune_at_addresses_(kMinPruneAt) {}
 
-int LoginThrottle::retry_after(const std::string& user, const std::string& address) {
-  const auto now = Clock::now();
-  std::lock_guard<std::mutex> lock(mu_);
-  const auto wait = std::max(locked_for(users_, user, now), locked_for(addresses_, address, now));
-  return static_cast<int>(std::ceil(std::chrono::duration<double>(wait).count()));
+LoginThrottle::Attempt::Attempt(LoginThrottle* throttle, std::string user, std::string address, int retry_after_s)
+    : throttle_(throttle), user_(std::move(user)), address_(std::move(address)), retry_after_s_(retry_after_s) {}
+
+LoginThrottle::Attempt::Attempt(Attempt&& other) noexcept
+    : throttle_(std::exchange(other.throttle_, nullptr)), user_(std::move(other.user_)), address_(std::move(other.address_)),
+      retry_after_s_(other.retry_after_s_) {}
+
+LoginThrottle::Attempt::~Attempt() {
+  if (throttle_) throttle_->end(user_, address_, false);
 }
 
-void LoginThrottle::failed(const std::string& user, const std::string& address) {
+void LoginThrottle::Attempt::succeeded() {
+  if (throttle_) std::exchange(throttle_, nullptr)->end(user_, address_, true);
+}
+
+LoginThrottle::Attempt LoginThrottle::attempt(const std::string& user, const std::string& address) {
   const auto now = Clock::now();
   std::lock_guard<std::mutex> lock(mu_);
+  const auto w = std::max(wait(users_, user, limits_.per_user, now), wait(addresses_, address, limits_.per_address, now));
+  if (w > Clock::duration::zero())
+    return Attempt(nullptr, user, address, std::max(1, static_cast<int>(std::ceil(std::chrono::duration<double>(w).count()))));
+  ++users_[user].checking;
+  ++addresses_[address].checking;
+  return Attempt(this, user, address, 0);
+}
+
+void LoginThrottle::end(const std::string& user, const std::string& address, bool ok) {
+  const auto now = Clock::now();
+  std::lock_guard<std::mutex> lock(mu_);
+  --users_[user].checking;
+  --addresses_[address].checking;
+  if (ok) {
+    Entry& e = users_[user];
+    e.failures.clear();
+    e.locked_until = {};
+    return;
+  }
   fail(users_, user, limits_.per_user, now);
   fail(addresses_, address, limits_.per_address, now);
   // Amortised: a sweep only once a table has doubled since the last one.
@@ -114,9 +155,15 @@ void LoginThrottle::failed(const std::string& user, const std::string& address) 
   }
 }
 
-void LoginThrottle::succeeded(const std::string& user) {
-  std::lock_guard<std::mutex> lock(mu_);
-  users_.erase(user);
+Clock::duration LoginThrottle::wait(Table& table, const std::string& key, int limit, Clock::time_point now) {
+  const auto it = table.find(key);
+  if (it == table.end()) return Clock::duration::zero();
+  Entry& e = it->second;
+  if (e.locked_until > now) return e.locked_until - now;
+  while (!e.failures.empty() && e.failures.front() <= now - window_) e.failures.pop_front();
+  // Full with attempts still being checked: those end within a second or so.
+  if (static_cast<int>(e.failures.size()) + e.checking >= limit) return std::chrono::seconds(1);
+  return Clock::duration::zero();
 }
 
 void LoginThrottle::fail(Table& table, const std::string& key, int limit, Clock::time_point now) {
@@ -128,16 +175,10 @@ void LoginThrottle::fail(Table& table, const std::string& key, int limit, Clock:
   e.failures.clear();  // the lockout is the penalty; afterwards the count starts again
 }
 
-Clock::duration LoginThrottle::locked_for(const Table& table, const std::string& key, Clock::time_point now) const {
-  const auto it = table.find(key);
-  if (it == table.end() || it->second.locked_until <= now) return Clock::duration::zero();
-  return it->second.locked_until - now;
-}
-
 void LoginThrottle::prune(Table& table, Clock::time_point now) {
   for (auto it = table.begin(); it != table.end();) {
     const Entry& e = it->second;
-    const bool idle = e.locked_until <= now && (e.failures.empty() || e.failures.back() <= now - window_);
+    const bool idle = e.checking == 0 && e.locked_until <= now && (e.failures.empty() || e.failures.back() <= now - window_);
     it = idle ? table.erase(it) : std::next(it);
   }
 }

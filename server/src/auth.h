@@ -28,6 +28,12 @@ bool verify_password(const std::string& hash, const std::string& pw);
 // The hash of a request body's new "password" (400 if missing or shorter than
 // kMinPasswordLength): hash it before taking any write lock, it takes 0.1 s.
 std::string new_password_hash(const nlohmann::json& body);
+// Whether `password` is `user`'s. With no user it is checked against decoy_hash(), so that a
+// username nobody has is refused as slowly as a wrong password (else the time of an answer tells
+// which usernames exist).
+bool password_matches(const std::optional<store::User>& user, const std::string& password);
+// The hash of a random password nobody knows, made at the first call (0.1 s): make it at start.
+const std::string& decoy_hash();
 
 // Who a token speaks for.
 struct Principal {
@@ -71,7 +77,10 @@ class Tokens {
 
 // Failed logins counted per username and per client address over a sliding window. A name or an
 // address with `limit` failures in the window is locked out for one window, right password or
-// not. Memory: entries idle for a window are pruned whenever the table has doubled.
+// not. An attempt counts from the moment it is let in, before its slow password check: while
+// attempts are being checked, no more are let in than the failures the limit still allows, so
+// that parallel attempts cannot check more passwords than the limit. Memory: entries idle for a
+// window are pruned whenever the table has doubled.
 class LoginThrottle {
  public:
   struct Limits {
@@ -80,21 +89,39 @@ class LoginThrottle {
     double window_s = 60;
   };
 
+  // One login attempt, let in or not. Let in, it ends as a failure unless succeeded() is called.
+  class Attempt {
+   public:
+    Attempt(Attempt&& other) noexcept;
+    Attempt& operator=(Attempt&&) = delete;
+    ~Attempt();
+    // Whole seconds until the username and address may try again; 0: this attempt was let in.
+    int retry_after_s() const { return retry_after_s_; }
+    void succeeded();  // forgets the name's failures (not the address's)
+
+   private:
+    friend class LoginThrottle;
+    Attempt(LoginThrottle* throttle, std::string user, std::string address, int retry_after_s);
+    LoginThrottle* throttle_;  // null once ended, or if not let in
+    std::string user_, address_;
+    int retry_after_s_;
+  };
+
   explicit LoginThrottle(Limits limits);
-  // Whole seconds until `user` from `address` may try again; 0: now.
-  int retry_after(const std::string& user, const std::string& address);
-  void failed(const std::string& user, const std::string& address);
-  void succeeded(const std::string& user);  // forgets the name's failures (not the address's)
+  Attempt attempt(const std::string& user, const std::string& address);
 
  private:
   struct Entry {
     std::deque<Clock::time_point> failures;  // within the window, oldest first
+    int checking = 0;                        // attempts let in and not yet ended
     Clock::time_point locked_until{};
   };
   using Table = std::unordered_map<std::string, Entry>;
 
+  void end(const std::string& user, const std::string& address, bool ok);
+  // The wait before `key` may try, with `now`'s failures expired; zero: it may.
+  Clock::duration wait(Table& table, const std::string& key, int limit, Clock::time_point now);
   void fail(Table& table, const std::string& key, int limit, Clock::time_point now);
-  Clock::duration locked_for(const Table& table, const std::string& key, Clock::time_point now) const;
   void prune(Table& table, Clock::time_point now);
 
   Limits limits_;

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <iostream>
 
+#include "forklift/server/listener.h"
 #include "forklift/server/server.h"
 
 namespace {
@@ -24,13 +25,14 @@ void require_readable(const std::string& option, const std::string& path) {
   if (!in || !in.get(c)) throw std::runtime_error(option + " " + path + ": cannot read it (" + std::strerror(errno) + ")");
 }
 
-// HTTPS with the certificate and key when both are given, else plain HTTP.
+// HTTPS with the certificate and key when both are given, else plain HTTP; either bounds every
+// request it reads (forklift/server/listener.h).
 std::unique_ptr<httplib::Server> make_http_server(const std::string& cert, const std::string& key) {
   if (cert.empty() != key.empty()) throw std::runtime_error("--tls-cert and --tls-key go together: give both or neither");
-  if (cert.empty()) return std::make_unique<httplib::Server>();
+  if (cert.empty()) return std::make_unique<forklift::server::Listener>();
   require_readable("--tls-cert", cert);
   require_readable("--tls-key", key);
-  auto svr = std::make_unique<httplib::SSLServer>(cert.c_str(), key.c_str());
+  auto svr = std::make_unique<forklift::server::TlsListener>(cert, key);
   if (!svr->is_valid())
     throw std::runtime_error("--tls-cert " + cert + " and --tls-key " + key + " are not a PEM certificate and its private key");
   return svr;

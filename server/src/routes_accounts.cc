@@ -6,6 +6,19 @@ namespace forklift::server {
 
 using store::Role;
 
+namespace {
+
+// The name a login's failures count against: as the store compares names (capitals read as
+// small letters), cut short so that long made-up names cannot fill the throttle's memory.
+std::string throttle_key(const std::string& username) {
+  std::string key = username.substr(0, 4 * store::kMaxUsernameLength);
+  for (char& c : key)
+    if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
+  return key;
+}
+
+}  // namespace
+
 void account_routes(httplib::Server& svr, Context& ctx) {
   svr.Get("/api/health", guarded([&](const httplib::Request&, httplib::Response& res) {
     send_json(res, 200, {{"status", "ok"}, {"schema_version", ctx.db().schema_version()}});
@@ -14,18 +27,17 @@ void account_routes(httplib::Server& svr, Context& ctx) {
   svr.Post("/api/login", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const json b = body_json(req);
     const std::string username = field<std::string>(b, "username"), password = field<std::string>(b, "password");
-    // Checked before the password, so that a locked-out guesser learns nothing from it.
-    if (const int wait_s = ctx.logins->retry_after(username, req.remote_addr)) {
+    // Let in (and counted) before the password is checked, so that a locked-out guesser learns
+    // nothing from it and parallel guesses cannot pass the limit; a failure unless it succeeds.
+    auto attempt = ctx.logins->attempt(throttle_key(username), req.remote_addr);
+    if (const int wait_s = attempt.retry_after_s()) {
       res.set_header("Retry-After", std::to_string(wait_s));
       throw ApiError(429, "too_many_attempts",
                      "too many failed logins for this user or from this address: try again in " + std::to_string(wait_s) + " s");
     }
     const auto user = ctx.db().find_user(username);
-    if (!user || !verify_password(user->password_hash, password)) {
-      ctx.logins->failed(username, req.remote_addr);
-      throw ApiError(401, "bad_credentials", "unknown user or wrong password");
-    }
-    ctx.logins->succeeded(username);
+    if (!password_matches(user, password)) throw ApiError(401, "bad_credentials", "unknown user or wrong password");
+    attempt.succeeded();
     Principal p{user->id, user->username, user->role, user->school_id, user->pupil_id, {}};
     send_json(res, 200, {{"token", ctx.tokens->issue(p)}, {"role", store::role_name(user->role)},
                          {"expires_in_s", ctx.tokens->ttl()}, {"pupil_id", user->pupil_id ? json(*user->pupil_id) : json(nullptr)}});
@@ -44,7 +56,7 @@ void account_routes(httplib::Server& svr, Context& ctx) {
     const json b = body_json(req);
     const auto role = store::parse_role(field<std::string>(b, "role"));
     if (!role) throw ApiError(400, "bad_request", "'role' must be admin, instructor, examiner or pupil");
-    const std::string username = field<std::string>(b, "username");
+    const std::string username = username_field(b);
     const std::string hash = new_password_hash(b);
     std::optional<int64_t> pupil;
     if (*role == Role::kPupil) pupil = visible_pupil(ctx, p, field<int64_t>(b, "pupil_id")).id;

@@ -128,7 +128,7 @@ void pupil_routes(httplib::Server& svr, Context& ctx) {
     // Optionally the pupil's own login, so they can see their records and take theory exams.
     std::optional<std::string> username, hash;
     if (b.contains("username")) {
-      username = field<std::string>(b, "username");
+      username = username_field(b);
       hash = new_password_hash(b);
     }
     int64_t id = 0;

@@ -9,6 +9,7 @@
 
 #include "api.h"
 #include "context.h"
+#include "forklift/server/listener.h"
 #include "routes.h"
 
 namespace forklift::server {
@@ -53,6 +54,7 @@ Api::Api(ServerConfig c) : ctx_(std::make_unique<Context>()) {
   ctx.db_path = c.db_path;
   ctx.data_dir = c.data_dir;
   ctx.tokens = std::make_unique<Tokens>(c.token_ttl_s);
+  decoy_hash();  // now, not in the time of the first login of an unknown username
   ctx.logins = std::make_unique<LoginThrottle>(LoginThrottle::Limits{
       c.login_attempts, c.login_address_attempts.value_or(kAddressAttemptsPerUserAttempt * c.login_attempts), c.login_window_s});
   ctx.bank = std::make_unique<QuestionBank>(load_question_bank(ctx.data_dir + "/theory/questions.json"));
@@ -87,7 +89,7 @@ Api::~Api() = default;
 int Api::dds_domain() const { return ctx_->fleet->config().dds_domain; }
 
 void Api::mount(httplib::Server& svr) {
-  svr.set_payload_max_length(1 << 20);  // 1 MiB: no request of this API needs more
+  svr.set_payload_max_length(kMaxBodyBytes);  // no request of this API needs more (a Listener bounds any framing)
   // Headers and body go out as separate writes; without this, Nagle and delayed ACKs hold each
   // keep-alive answer for 40 ms.
   svr.set_tcp_nodelay(true);
@@ -96,10 +98,16 @@ void Api::mount(httplib::Server& svr) {
     try { std::rethrow_exception(ep); } catch (const std::exception& e) { what = e.what(); } catch (...) {}
     send_error(res, 500, "internal", what);
   });
-  svr.set_error_handler([](const httplib::Request&, httplib::Response& res) {
+  svr.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
+    if (const Refusal* r = request_refusal()) {
+      res.set_header("Connection", "close");  // the listener closes it after the answer
+      return send_error(res, r->status, r->code, r->message);
+    }
     if (!res.body.empty()) return;
+    if (res.status == 413 || req.body.size() > kMaxBodyBytes) return send_error(res, 413, kBodyTooLarge.code, kBodyTooLarge.message);
     const int s = res.status;
-    send_error(res, s, s == 404 ? "not_found" : s == 413 ? "too_large" : "error", s == 404 ? "no such endpoint" : s == 413 ? "the body is larger than 1 MiB" : "request refused");
+    send_error(res, s, s == 404 ? "not_found" : s == 400 ? "bad_request" : "error",
+               s == 404 ? "no such endpoint" : s == 400 ? "the request is malformed or was cut short" : "request refused");
   });
   account_routes(svr, *ctx_);
   pupil_routes(svr, *ctx_);

@@ -1,8 +1,9 @@
-// The API's handlers in this process: forklift_server_core mounted on an httplib::Server in a
-// thread, on a loopback port the OS picks, over a real SQLite file in a fresh folder; the tests
-// talk real HTTP. No real worker ever starts: the bin folder given is empty, and every session
-// request here is refused before one would be spawned, but in the tests that put a stand-in
-// forklift-worker there (a shell script that writes down its arguments and the signal it got).
+// The API's handlers in this process: forklift_server_core mounted on its listener in a
+// thread, on a loopback port from the tests' allocator (support/ports.h), over a real SQLite file
+// in a fresh folder; the tests talk real HTTP. No real worker ever starts: the bin folder given is
+// empty, and every session request here is refused before one would be spawned, but in the tests
+// that put a stand-in forklift-worker there (a shell script that writes down its arguments and the
+// signal it got).
 #include <gtest/gtest.h>
 #include <httplib.h>
 
@@ -17,9 +18,11 @@
 #include <tuple>
 
 #include "forklift/protocol/protocol.h"
+#include "forklift/server/listener.h"
 #include "forklift/server/server.h"
 #include "support/ports.h"
 #include "support/api_client.h"
+#include "support/ports.h"
 
 using forklift_test::error_code;
 using forklift_test::kAdminPassword;
@@ -27,15 +30,17 @@ using nlohmann::json;
 
 namespace {
 
-// DDS domains 150-159 are this file's, and 67-68 (the fleet joins one even with no cab about).
+// Each server takes its port and its DDS domain (the fleet joins one even with no cab about) from
+// the tests' allocator.
 struct InProcessServer : forklift_test::ApiClient {
   std::string dir;
   std::unique_ptr<forklift::server::Api> api;
-  httplib::Server http;
-  int port = 0;
+  forklift::server::Listener http;
+  int port = forklift::test::free_port();
   std::thread thread;
 
-  InProcessServer(const std::string& name, int domain) : dir(testing::TempDir() + "/handlers-" + name) {
+  explicit InProcessServer(const std::string& name, int domain = forklift::test::free_domain())
+      : dir(testing::TempDir() + "/handlers-" + name) {
     std::filesystem::remove_all(dir);
     std::filesystem::create_directories(dir + "/bin");
     forklift::server::ServerConfig c;
@@ -46,7 +51,7 @@ struct InProcessServer : forklift_test::ApiClient {
     c.dds_domain = domain;
     api = std::make_unique<forklift::server::Api>(c);
     api->mount(http);
-    port = http.bind_to_any_port("127.0.0.1");
+    if (!http.bind_to_port("127.0.0.1", port)) ADD_FAILURE() << "cannot listen on 127.0.0.1:" << port;
     thread = std::thread([this] { http.listen_after_bind(); });
     // stop() is lost on a server not yet listening, and the destructor would wait for ever.
     for (int i = 0; i < 500 && !http.is_running(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
@@ -73,7 +78,7 @@ std::string pupil_path(const json& pupil) { return "/api/pupils/" + std::to_stri
 }  // namespace
 
 TEST(Handlers, TheBootstrapAdminLogsInAndAWrongPasswordIs401) {
-  InProcessServer s("login", 150);
+  InProcessServer s("login");
   ASSERT_GT(s.port, 0);
   auto [st, j] = s.call("POST", "/api/login", "", json{{"username", "admin"}, {"password", kAdminPassword}}.dump());
   ASSERT_EQ(st, 200) << j;
@@ -89,7 +94,7 @@ TEST(Handlers, TheBootstrapAdminLogsInAndAWrongPasswordIs401) {
 }
 
 TEST(Handlers, ALoggedOutTokenIsRefused) {
-  InProcessServer s("logout", 151);
+  InProcessServer s("logout");
   const std::string admin = s.login("admin", kAdminPassword);
   EXPECT_EQ(s.call("POST", "/api/logout", admin).first, 200);
   auto [st, j] = s.call("GET", "/api/pupils", admin);
@@ -98,7 +103,7 @@ TEST(Handlers, ALoggedOutTokenIsRefused) {
 }
 
 TEST(Handlers, EveryAnswerCarriesTheSecurityHeaders) {
-  InProcessServer s("headers", 152);
+  InProcessServer s("headers");
   auto c = s.client();
   for (const char* path : {"/api/health", "/api/no-such-thing"}) {
     const auto r = c.Get(path);
@@ -113,7 +118,7 @@ TEST(Handlers, EveryAnswerCarriesTheSecurityHeaders) {
 }
 
 TEST(Handlers, APupilCreatedIsListedAndFetched) {
-  InProcessServer s("pupil", 153);
+  InProcessServer s("pupil");
   const std::string admin = s.login("admin", kAdminPassword);
   const json p = s.add_pupil(admin, "Ana Pupil");
   ASSERT_TRUE(p["id"].is_number_integer()) << p;
@@ -132,7 +137,7 @@ TEST(Handlers, APupilCreatedIsListedAndFetched) {
 }
 
 TEST(Handlers, AMalformedBodyIs400WithItsReasonAndChangesNothing) {
-  InProcessServer s("malformed", 154);
+  InProcessServer s("malformed");
   const std::string admin = s.login("admin", kAdminPassword);
   const json p = s.add_pupil(admin, "Ben");
 
@@ -160,8 +165,33 @@ TEST(Handlers, AMalformedBodyIs400WithItsReasonAndChangesNothing) {
   EXPECT_EQ(s.audit(admin).size(), 1u);  // only Ben's creation
 }
 
+// Past 1 MiB a body is refused, announced or not: by its Content-Length before it is read; in
+// chunks, by the chunks' data once it has come (the listener stops reading at twice that).
+TEST(Handlers, ABodyPastOneMiBIs413WhateverItsFraming) {
+  InProcessServer s("too-large");
+  auto c = s.client();
+  const std::string login = json{{"username", "admin"}, {"password", kAdminPassword}}.dump();
+  const std::string big = R"({"username": "admin", "password": ")" + std::string(3 << 19, 'x') + "\"}";  // 1.5 MiB
+  auto chunked = [&](const std::string& path, const std::string& body) {
+    return c.Post(path.c_str(), [&](size_t offset, httplib::DataSink& sink) {
+      if (offset >= body.size()) return sink.done(), true;
+      return sink.write(body.data() + offset, std::min<size_t>(64 << 10, body.size() - offset));
+    }, "application/json");
+  };
+  for (const auto& [what, r] : {std::pair{"with a length", c.Post("/api/login", big, "application/json")},
+                                {"in chunks", chunked("/api/login", big)},
+                                {"in chunks to no endpoint", chunked("/api/no-such-thing", big)}}) {
+    ASSERT_TRUE(r) << what;
+    EXPECT_EQ(r->status, 413) << what << ": " << r->body;
+    EXPECT_EQ(error_code(json::parse(r->body)), "too_large") << what;
+  }
+  const auto small = chunked("/api/login", login);
+  ASSERT_TRUE(small);
+  EXPECT_EQ(small->status, 200) << small->body;
+}
+
 TEST(Handlers, AnUnknownPupilIs404) {
-  InProcessServer s("unknown", 155);
+  InProcessServer s("unknown");
   const std::string admin = s.login("admin", kAdminPassword);
   for (const char* path : {"/api/pupils/999", "/api/pupils/999/history", "/api/pupils/999/audit"}) {
     auto [st, j] = s.call("GET", path, admin);
@@ -174,7 +204,7 @@ TEST(Handlers, AnUnknownPupilIs404) {
 }
 
 TEST(Handlers, APupilSeesOnlyTheirOwnRecordAndNoList) {
-  InProcessServer s("roles", 156);
+  InProcessServer s("roles");
   const std::string admin = s.login("admin", kAdminPassword);
   const json ana = s.add_pupil(admin, "Ana", "ana"), ben = s.add_pupil(admin, "Ben");
   const std::string token = s.login("ana", "ana-pass-1");
@@ -193,7 +223,7 @@ TEST(Handlers, APupilSeesOnlyTheirOwnRecordAndNoList) {
 }
 
 TEST(Handlers, ABadLoadIsRefusedBeforeAnySessionStarts) {
-  InProcessServer s("load", 157);
+  InProcessServer s("load");
   const std::string admin = s.login("admin", kAdminPassword);
   const json pupil = s.add_pupil(admin, "Dan");
   const auto start = [&](const std::string& load) {
@@ -226,7 +256,7 @@ TEST(Handlers, ABadLoadIsRefusedBeforeAnySessionStarts) {
 }
 
 TEST(Handlers, AnExamNeedsDdsSecurityAndAnExaminer) {
-  InProcessServer s("exam", 158);
+  InProcessServer s("exam");
   const std::string admin = s.login("admin", kAdminPassword);
   const json pupil = s.add_pupil(admin, "Eva");
   EXPECT_EQ(s.call("POST", "/api/users", admin, R"({"username":"ines","password":"ines-pass-1","role":"instructor"})").first, 201);
@@ -241,7 +271,7 @@ TEST(Handlers, AnExamNeedsDdsSecurityAndAnExaminer) {
 // A number too large for a double (1e999) makes nlohmann throw out_of_range, not parse_error:
 // still a bad body (400), never a 500.
 TEST(Handlers, AnOverflowingNumberIsBadJsonNot500) {
-  InProcessServer s("overflow", 159);
+  InProcessServer s("overflow");
   const std::string admin = s.login("admin", kAdminPassword);
   const json pupil = s.add_pupil(admin, "Fay");
   auto [st, j] = s.call("POST", "/api/sessions", admin,
@@ -250,8 +280,97 @@ TEST(Handlers, AnOverflowingNumberIsBadJsonNot500) {
   EXPECT_EQ(error_code(j), "bad_json");
 }
 
+// Every body endpoint's numbers: a boolean, a fraction or a whole number past its type is 400
+// naming the field (nlohmann would read true as 1, 1.5 as 1 and 2^64 - 1 as -1), as is a value out
+// of the field's own range; a string where a number belongs, and a number where a string does.
+TEST(Handlers, NumbersOutOfRangeForTheirFieldAre400NamingItOnEveryBodyEndpoint) {
+  InProcessServer s("numbers");
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json pupil = s.add_pupil(admin, "Ivy");
+  const json id = pupil["id"];
+  const std::vector<json> not_ids = {1.5, true, json(uint64_t{18446744073709551615u}), 1e20, -1e300, "1"};
+  auto session = [&](json extra) {
+    json b = {{"pupil_id", id}, {"cab_id", "cab1"}, {"scenario", "manoeuvre_1"}};
+    b.update(extra);
+    return b;
+  };
+  struct Case {
+    const char* method;
+    std::string path;
+    json body;
+    std::string field;  // the message names it
+  };
+  std::vector<Case> cases;
+  for (const json& v : not_ids) {
+    cases.push_back({"POST", "/api/sessions", session({{"pupil_id", v}}), "'pupil_id'"});
+    cases.push_back({"POST", "/api/users", {{"username", "ivy2"}, {"password", "ivy-pass-1"}, {"role", "pupil"}, {"pupil_id", v}}, "'pupil_id'"});
+    cases.push_back({"POST", "/api/theory/attempts", {{"pupil_id", v}}, "'pupil_id'"});
+  }
+  for (const json& v : {json(-5), json(0), json(1e308), json(true), json("30")})
+    cases.push_back({"POST", "/api/sessions", session({{"time_limit_s", v}}), "'time_limit_s'"});
+  for (const json& v : {json(-1), json(1e308), json(true)})
+    cases.push_back({"POST", "/api/sessions", session({{"load", {{"mass_kg", v}}}}), "'load.mass_kg'"});
+  for (const json& v : {json(-1), json(9007199254740992), json(1.5), json(true), json(1e300), json(uint64_t{18446744073709551615u})})
+    cases.push_back({"POST", "/api/theory/attempts", {{"pupil_id", id}, {"seed", v}}, "'seed'"});
+  auto [ast, attempt] = s.call("POST", "/api/theory/attempts", admin, json{{"pupil_id", id}}.dump());
+  ASSERT_EQ(ast, 201) << attempt;
+  const std::string question = attempt["questions"][0]["id"];
+  for (const json& v : {json(1.5), json(-1), json(true), json(1e300), json(uint64_t{18446744073709551615u})})
+    cases.push_back({"POST", "/api/theory/attempts/" + attempt["id"].dump() + "/answers", {{"answers", {{question, v}}}},
+                     "the answer to '" + question + "'"});
+  cases.push_back({"POST", "/api/login", {{"username", 5}, {"password", "x"}}, "'username'"});
+  cases.push_back({"POST", "/api/pupils", {{"name", 1e300}}, "'name'"});
+  cases.push_back({"PATCH", pupil_path(pupil), {{"email", 1}}, "'email'"});
+
+  for (const Case& c : cases) {
+    auto [st, j] = s.call(c.method, c.path, admin, c.body.dump());
+    EXPECT_EQ(st, 400) << c.path << " " << c.body << ": " << j;
+    EXPECT_EQ(error_code(j), "bad_request") << c.path << " " << c.body;
+    const std::string message = j.is_object() ? j.value("error", json::object()).value("message", "") : "";
+    EXPECT_NE(message.find(c.field), std::string::npos) << c.path << " " << c.body << ": " << j;
+  }
+  EXPECT_EQ(s.call("GET", pupil_path(pupil) + "/history", admin).second["sessions"].size(), 0u);
+  EXPECT_EQ(s.audit(admin).size(), 2u);  // Ivy's creation and her one paper
+}
+
+// A byte that is not UTF-8 (raw, or %-encoded) in a path, a query or a header: refused or not
+// found in words, never a 500. A query number must be one.
+TEST(Handlers, BytesThatAreNotUtf8InPathsQueriesAndHeadersAreNeverA500) {
+  InProcessServer s("not-utf8");
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json pupil = s.add_pupil(admin, "Jo");
+  const std::string p = pupil_path(pupil);
+  std::vector<std::string> paths;
+  for (const std::string bad : {"%FF%FE", "\xff\xfe", "%C0%AF"}) {
+    for (const std::string& path : {"/api/pupils/" + bad, p + bad + "/history", "/api/scenarios/" + bad, "/api/scenarios/" + bad + "/plan",
+                                    "/api/sessions/s-" + bad, "/api/sessions/s-1/events/" + bad + "/still.png",
+                                    "/api/theory/attempts/" + bad, "/" + bad, "/api/" + bad})
+      paths.push_back(path);
+    for (const std::string& query : {std::string("/api/pupils?search="), std::string("/api/pupils?limit="),
+                                     std::string("/api/audit?offset="), p + "/audit?limit=", std::string("/api/fleet?"),
+                                     std::string("/api/cabs?x=")})
+      paths.push_back(query + bad);
+  }
+  auto c = s.client();
+  c.set_url_encode(false);  // the raw bytes as they are
+  const httplib::Headers bad_headers = {{"Authorization", "Bearer \xff\xfe"}, {"X-Forwarded-For", "\xff"}, {"Accept", "\xc0\xaf"}};
+  for (const std::string& path : paths) {
+    for (const httplib::Headers& h : {httplib::Headers{{"Authorization", "Bearer " + admin}}, bad_headers}) {
+      for (const auto& r : {c.Get(path.c_str(), h), c.Post(path.c_str(), h, "{}", "application/json")}) {
+        ASSERT_TRUE(r) << path;
+        EXPECT_LT(r->status, 500) << path << ": " << r->body;
+        EXPECT_TRUE(json::accept(r->body)) << path << ": " << r->body;
+      }
+    }
+  }
+  // Query numbers: whole ones only, clamped to their range.
+  EXPECT_EQ(s.call("GET", "/api/pupils?limit=1x", admin).first, 400);
+  EXPECT_EQ(s.call("GET", "/api/pupils?limit=99999999999999999999", admin).second.size(), 1u);
+  EXPECT_EQ(s.call("GET", "/api/pupils?offset=-3", admin).second.size(), 1u);
+}
+
 TEST(Handlers, AidsAreRefusedInAnExamAndCheckedInTraining) {
-  InProcessServer s("aids-refused", 67);
+  InProcessServer s("aids-refused");
   const std::string admin = s.login("admin", kAdminPassword);
   const json pupil = s.add_pupil(admin, "Gil");
   const auto start = [&](const std::string& mode, const json& aids) {
@@ -298,7 +417,7 @@ std::string wait_for_file(const std::string& path) {
 }
 
 TEST(Handlers, TrainingAidsReachTheSpawnedWorkerAndAnAbortIsSignalledAsSuch) {
-  InProcessServer s("aids-spawn", 68);
+  InProcessServer s("aids-spawn");
   stand_in_worker(s.dir + "/bin");
   const std::string admin = s.login("admin", kAdminPassword);
   const json pupil = s.add_pupil(admin, "Hal");

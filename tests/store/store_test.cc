@@ -149,6 +149,26 @@ TEST_F(StoreTest, UsersAreUniqueAndRoundTrip) {
   EXPECT_FALSE(fs::parse_role("janitor").has_value());
 }
 
+// Usernames: capitals read as small letters, a-z 0-9 . _ - only, 1-64; unique and found so.
+TEST_F(StoreTest, UsernamesAreStoredLowerCaseUniqueAndFoundWhateverTheirCapitals) {
+  EXPECT_EQ(fs::canonical_username("Ann.Lee-2_b"), "ann.lee-2_b");
+  for (const std::string bad : {"", "ann ", " ann", "an n", "ann\n", "ann\t", "ann\x7f", "\xd0\xb0nn", "ann\xc2\xa0", "ann@school"})
+    EXPECT_FALSE(fs::canonical_username(bad).has_value()) << bad;
+  EXPECT_TRUE(fs::canonical_username(std::string(64, 'a')).has_value());
+  EXPECT_FALSE(fs::canonical_username(std::string(65, 'a')).has_value());
+
+  const int64_t ann = store_->create_user("ann", "h", fs::Role::kInstructor, school_);
+  EXPECT_EQ(ErrorKind([&] { store_->create_user("Ann", "h", fs::Role::kAdmin, school_); }), fs::StoreError::kInvalid);  // not canonical
+  EXPECT_EQ(store_->find_user("ANN")->id, ann);
+  EXPECT_FALSE(store_->find_user("ann ").has_value());
+  // A name stored before the rule keeps its capitals, is found without them and blocks a copy.
+  ASSERT_EQ(RawExec(path_, "INSERT INTO users(username, password_hash, role, school_id) VALUES ('Bob', 'h', 'admin', " +
+                               std::to_string(school_) + ")"),
+            "");
+  EXPECT_EQ(store_->find_user("bob")->username, "Bob");
+  EXPECT_EQ(ErrorKind([&] { store_->create_user("bob", "h", fs::Role::kAdmin, school_); }), fs::StoreError::kConflict);
+}
+
 TEST_F(StoreTest, CreateSessionValidatesAndAssignsPublicId) {
   const int64_t pupil = NewPupil("Ann");
   EXPECT_EQ(ErrorKind([&] { NewSession(pupil + 999); }), fs::StoreError::kNotFound);

@@ -31,6 +31,16 @@ std::optional<Role> parse_role(const std::string& name) {
   return std::nullopt;
 }
 
+std::optional<std::string> canonical_username(const std::string& name) {
+  if (name.empty() || name.size() > kMaxUsernameLength) return std::nullopt;
+  std::string out = name;
+  for (char& c : out) {
+    if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
+    if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '.' || c == '_' || c == '-')) return std::nullopt;
+  }
+  return out;
+}
+
 bool is_terminal(const std::string& state) { return state == "ended" || state == "failed" || state == "aborted"; }
 
 std::string now_iso8601() {
@@ -506,15 +516,20 @@ class SqliteStore final : public Store {
 
   int64_t create_user(const std::string& username, const std::string& password_hash, Role role, int64_t school_id,
                       std::optional<int64_t> pupil_id) override {
-    require(!username.empty(), StoreError::kInvalid, __func__, "empty username");
+    require(canonical_username(username) == username, StoreError::kInvalid, __func__,
+            "username '" + username + "' is not of lower-case letters, digits, '.', '_' and '-' (1 to 64)");
+    // NOCASE folds ASCII capitals only, as canonical_username() does.
     Query q = query(__func__,
-                    "INSERT INTO users(username, password_hash, role, school_id, pupil_id) VALUES (?, ?, ?, ?, ?)");
+                    "INSERT INTO users(username, password_hash, role, school_id, pupil_id) SELECT ?1, ?2, ?3, ?4, ?5 "
+                    "WHERE NOT EXISTS (SELECT 1 FROM users WHERE username = ?1 COLLATE NOCASE)");
     q.bind(username).bind(password_hash).bind(std::string(role_name(role))).bind(school_id).bind(pupil_id).run();
+    require(sqlite3_changes(db()) > 0, StoreError::kConflict, __func__, "username '" + username + "' is taken");
     return sqlite3_last_insert_rowid(db());
   }
 
   std::optional<User> find_user(const std::string& username) override {
-    Query q = query(__func__, "SELECT " USER_COLUMNS " FROM users WHERE username = ?");
+    Query q = query(__func__,
+                    "SELECT " USER_COLUMNS " FROM users WHERE username = ?1 COLLATE NOCASE ORDER BY username = ?1 DESC, id LIMIT 1");
     q.bind(username);
     return q.step() ? std::optional(read_user(q)) : std::nullopt;
   }

@@ -36,6 +36,13 @@ enum class Role { kAdmin, kInstructor, kExaminer, kPupil };
 const char* role_name(Role role);                          // "admin", "instructor", "examiner", "pupil"
 std::optional<Role> parse_role(const std::string& name);
 
+// Usernames: with ASCII capitals read as small letters, 1 to kMaxUsernameLength of a-z, 0-9, '.',
+// '_' and '-', and compared so. Nothing else (no spaces, control characters or letters that look
+// like others), so that "admin ", "ADMIN" or "admin\n" never name a second account. The name as
+// it is stored, or nullopt when it breaks the rule.
+constexpr size_t kMaxUsernameLength = 64;
+std::optional<std::string> canonical_username(const std::string& name);
+
 struct User {
   int64_t id = 0;
   std::string username;
@@ -189,8 +196,12 @@ class Store {
   virtual void batch(const std::function<void()>& writes) = 0;
 
   virtual int64_t create_school(const std::string& name) = 0;
+  // `username` must be its own canonical_username() (else kInvalid); kConflict if a user's name
+  // is the same but for capitals.
   virtual int64_t create_user(const std::string& username, const std::string& password_hash, Role role,
                               int64_t school_id, std::optional<int64_t> pupil_id = std::nullopt) = 0;
+  // The user of that name, capitals or not. Of names stored before the rule that differ only in
+  // capitals, the one spelled exactly so, else the oldest.
   virtual std::optional<User> find_user(const std::string& username) = 0;
   virtual std::optional<User> get_user(int64_t id) = 0;
 
