@@ -15,6 +15,8 @@ packages=(
   cyclonedds-dev cyclonedds-tools
   # store, server, tools
   libsqlite3-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libcpp-httplib-dev libsodium-dev
+  # data files checked against their JSON Schemas (data/schema/)
+  libvalijson-dev
   # secured exams: the school's certificate authority, exam-log signatures, the loopback capture test
   openssl libssl-dev tcpdump
   # tests and benchmarks
