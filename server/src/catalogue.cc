@@ -1,10 +1,10 @@
 #include "catalogue.h"
 
 #include <filesystem>
-#include <fstream>
 #include <stdexcept>
 
 #include "api.h"
+#include "forklift/schema/data_file.h"
 
 namespace forklift::server {
 
@@ -38,9 +38,8 @@ std::map<std::string, std::string> trucks(const std::string& data_dir) {
 }
 
 json read_json_file(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error(path + ": cannot open");
-  return json::parse(in);
+  // Only a regular file of a bounded size: a pipe left in data/ must not block a request.
+  return schema::read_json(path);
 }
 
 json truck_json(const std::string& data_dir, const std::string& stem) {

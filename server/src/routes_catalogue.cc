@@ -1,5 +1,4 @@
 // What sessions are made of: the scenarios (and their plans), the trucks, and the school's cabs.
-#include <fstream>
 #include <set>
 
 #include "api.h"
@@ -17,8 +16,7 @@ void catalogue_routes(httplib::Server& svr, Context& ctx) {
     for (const auto& [name, path] : scenarios(ctx.data_dir)) {
       json j = {{"name", name}};
       try {
-        std::ifstream in(path);
-        const json sc = json::parse(in);
+        const json sc = read_json_file(path);
         j["load"] = sc.value("load", json(nullptr));
         j["duration_s"] = sc.value("duration_s", json(nullptr));
         j["kind"] = path.find("/manoeuvres/") != std::string::npos ? "manoeuvre" : "scenario";

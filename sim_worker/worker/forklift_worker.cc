@@ -14,6 +14,7 @@
 #include <fstream>
 #include <iostream>
 #include <mutex>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <sys/resource.h>
@@ -360,7 +361,19 @@ int main(int argc, char** argv) {
     SessionSpec spec;
     spec.scenario_file = scenario_file;
     spec.mode = mode;
-    const SessionModel model = load_session_model(spec, FORKLIFT_DATA_DIR);
+    std::optional<SessionModel> loaded;
+    try {
+      loaded.emplace(load_session_model(spec, FORKLIFT_DATA_DIR));
+    } catch (const std::exception& e) {
+      // A broken scenario or truck file is bad input, not a fault of the run: exit 2 and say
+      // why, to the terminal and to the server.
+      const std::string why = std::string("cannot load the session: ") + e.what();
+      log_line(cab, why);
+      publish_status("failed", 0, why);
+      dds_sleepfor(DDS_MSECS(200));  // let the reliable status reach its readers
+      return 2;
+    }
+    const SessionModel& model = *loaded;
     SessionState state = initial_state(model);
     SessionWorkspace workspace(model);
     const TruckParams& truck = model.truck;

@@ -3,9 +3,10 @@
 
 #include <Eigen/Eigenvalues>
 #include <cmath>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
+
+#include "forklift/schema/data_file.h"
 
 namespace forklift {
 namespace {
@@ -99,13 +100,13 @@ double TruckParams::front_track_m() const {
 }
 
 TruckParams load_truck(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error(path + ": cannot open truck file");
+  // Checked against data/schema/truck.schema.json first: no number outside its range reaches
+  // the model below; what follows checks what a schema cannot say.
   json root;
   try {
-    root = json::parse(in);
-  } catch (const json::parse_error& e) {
-    throw std::runtime_error(path + ": not valid JSON: " + e.what());
+    root = schema::read_checked_json(path, schema::Schema::kTruck);
+  } catch (const schema::DataFileError& e) {
+    throw std::runtime_error(e.what());
   }
   Reader r(path, root);
   TruckParams t;

@@ -1,4 +1,5 @@
 // Loading meshes with assimp, meshes built in memory, and writing the shipped ones (mesh_builder.cc).
+#include <assimp/DefaultIOSystem.h>
 #include <assimp/Importer.hpp>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
@@ -6,6 +7,7 @@
 #include <filesystem>
 #include <functional>
 
+#include "forklift/schema/data_file.h"
 #include "forklift/scene/scene.h"
 #include "mesh_builder.h"
 #include "mesh_internal.h"
@@ -21,16 +23,53 @@ Eigen::Vector3f diffuse_of(const aiScene* scene, unsigned material) {
 
 bool starts_with(const std::string& s, const char* prefix) { return s.rfind(prefix, 0) == 0; }
 
+// A mesh has at most this many vertices in all: the shipped ones have under 2,000, and the
+// renderer and FCL build a copy of each.
+constexpr size_t kMaxMeshVertices = 1'000'000;
+// No vertex lies farther than this from its mesh's origin, scale applied: an object is not a
+// kilometre across, and float vertices far out lose their millimetres.
+constexpr float kMaxMeshExtent_m = 1000.0f;
+
+// assimp opens the mesh and the files it names (an OBJ's .mtl) through this: only regular files
+// of a bounded size, so that a pipe or a device named by a mesh cannot block or fill the loader.
+class GuardedIOSystem : public Assimp::DefaultIOSystem {
+ public:
+  Assimp::IOStream* Open(const char* file, const char* mode) override {
+    if (const auto problem = schema::file_problem(file, schema::kMaxMeshBytes)) {
+      if (refused.empty()) refused = std::string(file) + " " + *problem;
+      return nullptr;
+    }
+    return Assimp::DefaultIOSystem::Open(file, mode);
+  }
+  // The default opens the file to see whether it exists, which blocks on a pipe.
+  bool Exists(const char* file) const override {
+    std::error_code ec;
+    return std::filesystem::exists(file, ec);
+  }
+  std::string refused;  // the first file refused, and why
+};
+
 }  // namespace
 
 std::shared_ptr<const Mesh> load_mesh_scaled(const std::string& path, const Eigen::Vector3d& scale) {
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) throw SceneError(path + ": mesh file is missing");
+  if (!std::filesystem::exists(path, ec)) throw SceneError(path + ": mesh file is missing");
+  if (const auto problem = schema::file_problem(path, schema::kMaxMeshBytes)) throw SceneError(path + ": mesh file " + *problem);
+  if (!scale.allFinite() || (scale.array().abs() > kMaxMeshExtent_m).any())
+    throw SceneError(path + ": scale is out of range");
   Assimp::Importer importer;
+  auto* io = new GuardedIOSystem;  // the importer owns it
+  importer.SetIOHandler(io);
   const aiScene* scene = importer.ReadFile(
       path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_GenNormals);
+  if (!io->refused.empty()) throw SceneError(path + ": cannot read mesh: " + io->refused);
   if (!scene || !scene->mRootNode || (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE))
     throw SceneError(path + ": cannot read mesh: " + importer.GetErrorString());
+  size_t vertices = 0;
+  for (unsigned i = 0; i < scene->mNumMeshes; ++i) vertices += scene->mMeshes[i]->mNumVertices;
+  if (vertices > kMaxMeshVertices)
+    throw SceneError(path + ": mesh has " + std::to_string(vertices) + " vertices, more than the " +
+                     std::to_string(kMaxMeshVertices) + " a mesh may have");
 
   auto mesh = std::make_shared<Mesh>();
   mesh->source = path;
@@ -55,6 +94,11 @@ std::shared_ptr<const Mesh> load_mesh_scaled(const std::string& path, const Eige
       for (unsigned v = 0; v < m->mNumVertices; ++v) {
         const aiVector3D p = world * m->mVertices[v];
         part.positions.emplace_back(Eigen::Vector3f(p.x, p.y, p.z).cwiseProduct(s));
+        // NaN fails this too: nothing not finite reaches the bounds, the renderer or FCL.
+        if (!(part.positions.back().cwiseAbs().maxCoeff() <= kMaxMeshExtent_m))
+          throw SceneError(path + ": vertex " + std::to_string(v) + " of '" + m->mName.C_Str() +
+                           "' is not finite or lies more than " + std::to_string(int(kMaxMeshExtent_m)) +
+                           " m from the mesh's origin (scale applied)");
         Eigen::Vector3f n = Eigen::Vector3f::UnitZ();
         if (m->mNormals) {
           const aiVector3D an = normal_matrix * m->mNormals[v];

@@ -2,12 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <stdexcept>
 
 #include "forklift/dynamics/manoeuvre.h"
+#include "forklift/schema/data_file.h"
 
 namespace forklift {
 
@@ -18,13 +18,11 @@ Scenario default_scenario(const std::string& data_dir) {
 }
 
 Scenario load_scenario(const std::string& path, const std::string& data_dir) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error(path + ": cannot open scenario");
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    throw std::runtime_error(path + ": not valid JSON: " + e.what());
+    j = schema::read_checked_json(path, schema::Schema::kScenario);
+  } catch (const schema::DataFileError& e) {
+    throw std::runtime_error(e.what());
   }
   Scenario s = default_scenario(data_dir);
   try {
@@ -61,10 +59,8 @@ Scenario load_scenario(const std::string& path, const std::string& data_dir) {
 
 SessionSettings load_session_settings(const std::string& data_dir) {
   const std::string path = data_dir + "/session.json";
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error(path + ": cannot open");
   try {
-    const nlohmann::json j = nlohmann::json::parse(in);
+    const nlohmann::json j = schema::read_json(path);
     SessionSettings s;
     s.tick_s = j.at("tick_s").get<double>();
     if (!(s.tick_s >= 1e-4 && s.tick_s <= 0.01)) throw std::runtime_error("tick_s must be in [0.0001, 0.01] s");
@@ -73,6 +69,8 @@ SessionSettings load_session_settings(const std::string& data_dir) {
     s.load_cog_height_max_m = l.at("cog_height_max_m").get<double>();
     s.load_lateral_max_m = l.at("lateral_max_m").get<double>();
     return s;
+  } catch (const schema::DataFileError& e) {
+    throw std::runtime_error(e.what());  // names the file already
   } catch (const std::exception& e) {
     throw std::runtime_error(path + ": " + e.what());
   }

@@ -2,13 +2,13 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 #include <tuple>
 
+#include "forklift/schema/data_file.h"
 #include "forklift/scene/scene.h"
 #include "mesh_builder.h"
 #include "mesh_internal.h"
@@ -33,13 +33,13 @@ std::string resolve(const std::string& data_dir, const std::string& rel) {
   return (!rel.empty() && rel[0] == '/') ? rel : data_dir + "/" + rel;
 }
 
-json read_json(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw SceneError(path + ": cannot open file");
+// A scenario or layout file, checked against data/schema/scenario.schema.json before any of its
+// numbers is read: what follows checks what a schema cannot say.
+json read_scenario_json(const std::string& path) {
   try {
-    return json::parse(in);
-  } catch (const json::exception& e) {
-    throw SceneError(path + ": not valid JSON: " + e.what());
+    return schema::read_checked_json(path, schema::Schema::kScenario);
+  } catch (const schema::DataFileError& e) {
+    throw SceneError(e.what());
   }
 }
 
@@ -156,13 +156,13 @@ const std::set<std::string> kOwnKeys = {"truck", "start", "load", "manoeuvre", "
 
 void merge(const std::string& path, const std::string& data_dir, Merged& m, int depth) {
   if (depth > kMaxIncludeDepth) throw SceneError(path + ": 'include' nested too deep (a cycle?)");
-  const json j = read_json(path);
-  if (!j.is_object()) throw SceneError(path + ": the top level must be a JSON object");
+  const json j = read_scenario_json(path);
   if (j.contains("include")) {
     const Node inc(j.at("include"), path, "include");
     const std::string target = resolve(data_dir, inc.string());
     std::error_code ec;
-    if (!std::filesystem::is_regular_file(target, ec)) inc.fail("names a missing file " + target);
+    if (!std::filesystem::exists(target, ec)) inc.fail("names a missing file " + target);
+    if (const auto problem = schema::file_problem(target, schema::kMaxJsonBytes)) inc.fail("names " + target + ", which " + *problem);
     merge(target, data_dir, m, depth + 1);
   }
   for (auto it = j.begin(); it != j.end(); ++it) {
@@ -511,9 +511,16 @@ struct TruckModel {
 // The drawing's dimensions: the shape section, then the wheels and the mast from the sections
 // load_truck reads, then the checks that the body still fits around them.
 TruckModel read_truck_model(const std::string& truck_file) {
-  const json root = read_json(truck_file);
+  json root;
+  try {
+    root = schema::read_json(truck_file);
+  } catch (const schema::DataFileError& e) {
+    throw SceneError(e.what());
+  }
   const Node n = Node(root, truck_file, "").at("shape");
   n.require_object();
+  // The whole file against data/schema/truck.schema.json (load_truck below checks it again).
+  if (const auto problem = schema::schema_problem(root, schema::Schema::kTruck)) throw SceneError(truck_file + ": " + *problem);
   for (const char* old : kOldMeshKeys)
     if (n.has(old))
       n.at(old).fail("is no longer read: the truck's meshes are built from this file's dimensions (remove the key; "

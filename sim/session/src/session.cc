@@ -40,6 +40,16 @@ SessionModel finish_model(SessionModel m, const std::string& rules_file, const s
   m.shape = load_truck_shape(m.scene.scenario.truck_file, m.data_dir);
   m.rules = load_rules(rules_file.empty() ? m.data_dir + "/evaluation/rules.json" : rules_file);
   m.mode = parse_mode(mode);
+  // The evaluation's own checks of the files (a zone kind no speed rule covers, a truck with no
+  // static stability margin) run when an evaluator is built: build one here, so that a model
+  // this returns can always be stepped and a broken file is refused at load, naming itself.
+  try {
+    const Evaluator probe(m.rules, m.scene, m.truck, m.shape, m.mode);
+  } catch (const RulesError&) {
+    throw;  // names the rules file and the scene's
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(m.scene.scenario.truck_file + ": " + e.what());  // the truck's static margin
+  }
   return m;
 }
 
