@@ -58,7 +58,10 @@ bool wait_matched(dds::Writer<fk_Controls>& w, double s) {
 
 TEST(WorkerLoop, ScriptedCabDrivesManoeuvre17LikeTheOfflineModelAndReplaysExactly) {
   const int domain = forklift::test::free_domain();
-  Process w = worker(domain, "c17", "m17", {"--duration", "20", "--scenario", kData + "/manoeuvres/manoeuvre_17.json"});
+  // The dead man at 5 s, not 0.5 s: on a loaded machine the cab's samples can come late, and
+  // this test is about the drive, not the dead man (BadControlsAreRefused... tests that).
+  Process w = worker(domain, "c17", "m17",
+                     {"--duration", "20", "--scenario", kData + "/manoeuvres/manoeuvre_17.json", "--deadman-timeout", "5"});
   Process cab({kBin + "/forklift-cab", "--cab", "c17", "--script", kData + "/manoeuvres/manoeuvre_17.csv", "--dds-domain", std::to_string(domain)},
               tmp("m17.cab"));
   ASSERT_EQ(cab.wait(40), 0) << cab.err();
@@ -106,30 +109,51 @@ TEST(WorkerLoop, TheCabSetsTheParkingBrakeAndTheLogKeepsIt) {
 
 TEST(WorkerLoop, BadControlsAreRefusedSilenceStopsTheTruckAndTheWorkerStaysUp) {
   const int domain = forklift::test::free_domain();
-  Process w = worker(domain, "c1", "bad", {"--duration", "3"});
+  // A dead man of 1 s, not 0.5 s: a test process held up by a loaded machine must not trip it
+  // while the samples below are still coming.
+  Process w = worker(domain, "c1", "bad", {"--duration", "5", "--deadman-timeout", "1"});
   dds::Participant p(dds::DomainSettings::resolve(domain, ""));
   dds::Writer<fk_Controls> out(p, dds::cab_partition("c1"));
   dds::Reader<fk_TruckState> states(p, dds::cab_partition("c1"));
   dds::Reader<fk_Event> events(p, dds::worker_partition("c1"));
   ASSERT_TRUE(wait_matched(out, 10)) << w.err();
 
-  auto send = [&](const fk_Controls& c) {
+  // The worker's control reader keeps the last sample only: each sample is sent once the worker
+  // has dealt with the one before (applied it, as its states say, or refused it, as its log
+  // says), however slowly the machine runs. The bound only stops a test that would hang.
+  double speed_driving = 0;
+  auto dealt_with = [&](uint32_t seq, bool refused) {
+    const std::string line = "rejected control " + std::to_string(seq);
+    bool applied = false;
+    for (int i = 0; i < 3000 && !applied; ++i) {
+      states.take_each([&](const fk_TruckState& s) {
+        speed_driving = std::max(speed_driving, s.speed_m_s);
+        applied |= s.applied_control_sequence >= seq;
+      });
+      if (refused && w.err().find(line) != std::string::npos) return true;
+      if (!applied) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return applied && !refused;
+  };
+  auto send = [&](const fk_Controls& c, bool refused = false) {
     out.write(c);
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));  // keep-last-1: one at a time
+    EXPECT_TRUE(dealt_with(c.seq, refused)) << "control " << c.seq << (refused ? " not refused" : " not applied");
   };
   send(controls("c1", 1, 0.5));
   fk_Controls c = controls("c1", 2, NAN);
-  send(c);
+  send(c, true);
   c = controls("c1", 3, 0.5, INFINITY);
-  send(c);
+  send(c, true);
   c = controls("c1", 4, 2.0);
-  send(c);
+  send(c, true);
   c = controls("c9", 5, 1.0);  // another cab's id in this cab's partition
-  send(c);
-  for (uint32_t s = 6; s < 40; ++s) send(controls("c1", s, 0.5));  // about 0.7 s of driving
-  double speed_driving = 0;
+  send(c, true);
+  for (uint32_t s = 6; s < 40; ++s) {  // about 0.6 s of driving at the state rate
+    send(controls("c1", s, 0.5));
+    std::this_thread::sleep_for(std::chrono::milliseconds(15));
+  }
   states.take_each([&](const fk_TruckState& s) { speed_driving = std::max(speed_driving, s.speed_m_s); });
-  std::this_thread::sleep_for(std::chrono::milliseconds(1200));  // silence beyond the 0.5 s dead man
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));  // silence well beyond the 1 s dead man
 
   bool deadman_state = false;
   double last_speed = 1e9;
