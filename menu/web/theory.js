@@ -76,7 +76,7 @@
       el('td', {}, p.kind === 'exam' ? 'Supervised exam' : 'Practice (does not count)'),
       el('td', {}, dateTime(p.started_at)),
       el('td', {}, p.supervised_by || ''),
-      el('td', { class: 'outcome' }, p.outcome === null ? `open until ${dateTime(p.deadline)}`
+      el('td', { class: 'outcome' }, p.outcome === null ? (p.deadline ? `open until ${dateTime(p.deadline)}` : 'open')
         : p.outcome === 'timed_out' ? 'timed out' : p.passed ? 'passed' : 'not passed'),
       el('td', { class: 'num' }, p.outcome === 'marked' ? `${p.correct} of ${p.total}` : '')));
     clear($('papers').querySelector('tbody')).append(...rows);

@@ -244,9 +244,10 @@ Standing standing(Context& ctx, const store::Pupil& pupil, const std::string& ki
   const TheoryPolicy& policy = *ctx.theory_policy;
   const auto attempts = ctx.db().list_theory_attempts(pupil.id);
   Standing s;
-  // One paper at a time: a practice quiz waits for any open paper, an exam for an open exam.
+  // One paper at a time: a practice quiz waits for any open paper, an exam for an open exam. A
+  // paper from before time limits (no deadline) never ends by itself, so it holds nothing back.
   for (const auto& a : attempts)
-    if (a.finished_at.empty() && (kind == kPractice || a.kind == kExam)) {
+    if (a.finished_at.empty() && !a.deadline.empty() && (kind == kPractice || a.kind == kExam)) {
       s.allowed = false;
       s.code = "paper_open";
       s.open_paper = a.id;

@@ -499,9 +499,11 @@ TEST_F(TheoryApi, APracticeQuizCountsTowardNothing) {
   EXPECT_NE(refused["error"]["message"].get<std::string>().find(std::to_string(open["id"].get<int64_t>())), std::string::npos);
 }
 
-// Every key and string anywhere in `j`.
+// Every key and value anywhere in `j`, but for an open paper's questions (which show every
+// choice, the right one among them, by design).
 void walk(const json& j, const std::function<void(const std::string& key, const json& v)>& f, const std::string& key = "") {
   f(key, j);
+  if (key == "questions") return;
   if (j.is_object())
     for (const auto& [k, v] : j.items()) walk(v, f, k);
   else if (j.is_array())
@@ -509,15 +511,18 @@ void walk(const json& j, const std::function<void(const std::string& key, const 
 }
 
 // What in `j` would tell its reader the bank's answers: an answer, a choice made or marked right,
-// an explanation (each names the right answer).
+// an explanation (each names the right answer), or a right answer's text outside a paper's choices.
 std::vector<std::string> leaks(const json& j) {
-  std::set<std::string> explanations;
-  for (const auto& q : bank().questions) explanations.insert(q.explanation);
+  std::set<std::string> telling;
+  for (const auto& q : bank().questions) {
+    telling.insert(q.explanation);
+    telling.insert(q.choices[static_cast<size_t>(q.answer)]);
+  }
   std::vector<std::string> found;
   walk(j, [&](const std::string& key, const json& v) {
     for (const char* k : {"answer", "answers", "explanation", "chosen", "shown", "right", "items", "orders"})
       if (key == k) found.push_back("key '" + key + "'");
-    if (v.is_string() && explanations.count(v.get<std::string>())) found.push_back("an explanation: " + v.get<std::string>());
+    if (v.is_string() && telling.count(v.get<std::string>())) found.push_back("an answer or explanation: " + v.get<std::string>());
   });
   return found;
 }
