@@ -8,6 +8,7 @@
 #include "auth.h"
 #include "fleet.h"
 #include "forklift/store/store.h"
+#include "periodic.h"
 #include "plan.h"
 #include "stills.h"
 #include "theory.h"
@@ -20,8 +21,12 @@ struct Context {
   std::unique_ptr<LoginThrottle> logins;
   std::unique_ptr<Fleet> fleet;
   std::unique_ptr<QuestionBank> bank;  // data/theory/questions.json, loaded at start
+  std::unique_ptr<TheoryPolicy> theory_policy;  // data/theory/policy.json or --theory-policy, loaded at start
   std::unique_ptr<PlanCache> plans;
   std::unique_ptr<Stills> stills;
+  // Ends theory papers whose time is up (routes.h: end_overdue_papers). Last, so that it stops
+  // before anything it uses goes.
+  std::unique_ptr<Periodic> theory_clock;
 
   // One store connection per HTTP thread (a Store is used from one thread at a time).
   store::Store& db() {

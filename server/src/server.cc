@@ -58,6 +58,8 @@ Api::Api(ServerConfig c) : ctx_(std::make_unique<Context>()) {
   ctx.logins = std::make_unique<LoginThrottle>(LoginThrottle::Limits{
       c.login_attempts, c.login_address_attempts.value_or(kAddressAttemptsPerUserAttempt * c.login_attempts), c.login_window_s});
   ctx.bank = std::make_unique<QuestionBank>(load_question_bank(ctx.data_dir + "/theory/questions.json"));
+  ctx.theory_policy = std::make_unique<TheoryPolicy>(
+      load_theory_policy(c.theory_policy.empty() ? ctx.data_dir + "/theory/policy.json" : c.theory_policy, *ctx.bank));
   ctx.plans = std::make_unique<PlanCache>(ctx.data_dir);
   FleetConfig fc;
   fc.db_path = c.db_path;
@@ -82,6 +84,8 @@ Api::Api(ServerConfig c) : ctx_(std::make_unique<Context>()) {
     const int64_t school = ctx.db().create_school("Default school");
     ctx.db().create_user("admin", hash_password(password), store::Role::kAdmin, school);
   }
+  // A paper's time limit holds without anyone asking: the clock ends papers nobody hands in.
+  ctx.theory_clock = std::make_unique<Periodic>(std::chrono::seconds(1), [&ctx] { end_overdue_papers(ctx); });
 }
 
 Api::~Api() = default;

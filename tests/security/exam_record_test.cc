@@ -154,10 +154,12 @@ class RemoteExam : public testing::Test {
     ASSERT_EQ(st, 201) << a;
     std::ifstream in(kBank);
     const json bank = json::parse(in);
-    json answers = json::object();
+    json answers = json::object();  // the right choice's place on this paper, which shuffles them
     for (const json& q : a["questions"])
       for (const json& b : bank["questions"])
-        if (b["id"] == q["id"]) answers[q["id"].get<std::string>()] = b["answer"];
+        if (b["id"] == q["id"])
+          for (size_t k = 0; k < q["choices"].size(); ++k)
+            if (q["choices"][k] == b["choices"][b["answer"].get<size_t>()]) answers[q["id"].get<std::string>()] = k;
     auto [st2, r] = s.call("POST", "/api/theory/attempts/" + std::to_string(a["id"].get<int64_t>()) + "/answers", staff,
                            json{{"answers", answers}}.dump());
     ASSERT_EQ(st2, 200) << r;

@@ -498,6 +498,140 @@ TEST_F(StoreTest, TheoryAttemptIsMarkedExactlyOnce) {
   EXPECT_EQ(ErrorKind([&] { store_->create_theory_attempt(a); }), fs::StoreError::kInvalid);
 }
 
+TEST_F(StoreTest, TheoryPapersAreExamsOrPracticeAndEndOnce) {
+  const int64_t pupil = NewPupil("Ann");
+  const int64_t other = NewPupil("Ben");
+  const int64_t examiner = store_->create_user("eve", "hash", fs::Role::kExaminer, school_);
+  fs::TheoryAttempt exam;
+  exam.pupil_id = pupil;
+  exam.seed = 7;
+  exam.questions = R"({"ids":["q01"]})";
+  exam.started_at = "2026-02-01T09:00:00Z";
+  exam.started_by = examiner;
+  exam.deadline = "2026-02-01T09:45:00.250Z";
+  const int64_t exam_id = store_->create_theory_attempt(exam);
+  fs::TheoryAttempt practice = exam;
+  practice.kind = "practice";
+  practice.started_by.reset();
+  practice.deadline = "2026-02-01T09:15:00Z";
+  const int64_t practice_id = store_->create_theory_attempt(practice);
+  fs::TheoryAttempt undated = exam;  // no time limit
+  undated.pupil_id = other;
+  undated.deadline.clear();
+  const int64_t undated_id = store_->create_theory_attempt(undated);
+
+  const auto got = store_->get_theory_attempt(exam_id);
+  ASSERT_TRUE(got.has_value());
+  EXPECT_EQ(got->kind, "exam");
+  EXPECT_EQ(got->deadline, exam.deadline);  // milliseconds kept
+  EXPECT_EQ(got->started_by, examiner);
+  EXPECT_TRUE(got->finished_at.empty());
+  EXPECT_TRUE(got->outcome.empty());
+  EXPECT_EQ(store_->get_theory_attempt(practice_id)->kind, "practice");
+  // Open papers with a deadline, oldest first; the undated one never times out.
+  std::vector<int64_t> open;
+  for (const auto& a : store_->open_theory_attempts()) open.push_back(a.id);
+  EXPECT_EQ(open, (std::vector<int64_t>{exam_id, practice_id}));
+
+  // Refused: a kind that is neither, a paper that claims to be finished already.
+  fs::TheoryAttempt bad = exam;
+  bad.kind = "quiz";
+  EXPECT_EQ(ErrorKind([&] { store_->create_theory_attempt(bad); }), fs::StoreError::kInvalid);
+  bad = exam;
+  bad.outcome = "marked";
+  EXPECT_EQ(ErrorKind([&] { store_->create_theory_attempt(bad); }), fs::StoreError::kInvalid);
+
+  // An exam times out into its exam record; a practice paper keeps its marking and has none.
+  fs::ExamRecord r;
+  r.pupil_id = pupil;
+  r.kind = "theory";
+  r.score = 0;
+  r.passed = false;
+  r.taken_at = "2026-02-01T09:45:01Z";
+  r.details = R"({"outcome":"timed_out"})";
+  EXPECT_EQ(ErrorKind([&] { store_->finish_theory_attempt(practice_id, r); }), fs::StoreError::kInvalid);
+  EXPECT_EQ(ErrorKind([&] { store_->finish_theory_attempt(exam_id, r, "late"); }), fs::StoreError::kInvalid);
+  const int64_t record = store_->finish_theory_attempt(exam_id, r, "timed_out");
+  const auto timed_out = store_->get_theory_attempt(exam_id);
+  EXPECT_EQ(timed_out->exam_id, record);
+  EXPECT_EQ(timed_out->outcome, "timed_out");
+  EXPECT_EQ(timed_out->finished_at, r.taken_at);
+  EXPECT_EQ(ErrorKind([&] { store_->finish_practice_attempt(exam_id, "marked", "{}", ""); }), fs::StoreError::kInvalid);
+  EXPECT_EQ(ErrorKind([&] { store_->finish_practice_attempt(practice_id, "late", "{}", ""); }), fs::StoreError::kInvalid);
+  EXPECT_EQ(ErrorKind([&] { store_->finish_practice_attempt(practice_id + 99, "marked", "{}", ""); }), fs::StoreError::kNotFound);
+  store_->finish_practice_attempt(practice_id, "marked", R"({"correct":3})", "2026-02-01T09:10:00Z");
+  EXPECT_EQ(ErrorKind([&] { store_->finish_practice_attempt(practice_id, "marked", "{}", ""); }), fs::StoreError::kConflict);
+  const auto done = store_->get_theory_attempt(practice_id);
+  EXPECT_EQ(done->outcome, "marked");
+  EXPECT_EQ(done->result, R"({"correct":3})");
+  EXPECT_FALSE(done->exam_id.has_value());
+  // Practice never reaches the pupil's exam records.
+  ASSERT_EQ(store_->history(pupil, "2026-03-01T00:00:00Z")->exams.size(), 1u);
+  EXPECT_EQ(store_->history(pupil, "2026-03-01T00:00:00Z")->exams[0].id, record);
+  EXPECT_TRUE(store_->open_theory_attempts().empty());
+  std::vector<int64_t> anns;
+  for (const auto& a : store_->list_theory_attempts(pupil)) anns.push_back(a.id);
+  EXPECT_EQ(anns, (std::vector<int64_t>{exam_id, practice_id}));
+  EXPECT_EQ(store_->list_theory_attempts(other).size(), 1u);
+  EXPECT_EQ(store_->list_theory_attempts(other)[0].id, undated_id);
+}
+
+TEST_F(StoreTest, TheoryUnlocksAreKeptForEver) {
+  const int64_t pupil = NewPupil("Ann");
+  const int64_t ines = store_->create_user("ines", "hash", fs::Role::kInstructor, school_);
+  EXPECT_TRUE(store_->list_theory_unlocks(pupil).empty());
+  const int64_t first = store_->add_theory_unlock({0, pupil, ines, "2026-02-02T08:00:00Z", "retrained on ramps"});
+  store_->add_theory_unlock({0, pupil, ines, "", ""});
+  const auto unlocks = store_->list_theory_unlocks(pupil);
+  ASSERT_EQ(unlocks.size(), 2u);
+  EXPECT_EQ(unlocks[0].id, first);
+  EXPECT_EQ(unlocks[0].unlocked_by, ines);
+  EXPECT_EQ(unlocks[0].reason, "retrained on ramps");
+  EXPECT_FALSE(unlocks[1].at.empty());  // now
+  EXPECT_EQ(ErrorKind([&] { store_->add_theory_unlock({0, pupil + 99, ines, "", ""}); }), fs::StoreError::kNotFound);
+  EXPECT_EQ(ErrorKind([&] { store_->add_theory_unlock({0, pupil, ines + 99, "", ""}); }), fs::StoreError::kNotFound);
+  // The schema itself refuses edits, from any program.
+  EXPECT_NE(RawExec(path_, "UPDATE theory_unlocks SET reason = 'x'").find("append-only"), std::string::npos);
+  EXPECT_NE(RawExec(path_, "DELETE FROM theory_unlocks").find("append-only"), std::string::npos);
+  EXPECT_EQ(store_->list_theory_unlocks(pupil).size(), 2u);
+}
+
+// A database from before migration 5: its marked papers read as marked exams, its open ones as
+// open exams without a time limit.
+TEST_F(StoreTest, TheoryPapersFromBeforeTheirKindAreMarkedExams) {
+  const int64_t pupil = NewPupil("Ann");
+  fs::TheoryAttempt a;
+  a.pupil_id = pupil;
+  a.questions = R"({"ids":["q01"]})";
+  a.started_at = "2026-02-01T09:00:00Z";
+  const int64_t marked = store_->create_theory_attempt(a);
+  const int64_t open = store_->create_theory_attempt(a);
+  fs::ExamRecord r;
+  r.pupil_id = pupil;
+  r.kind = "theory";
+  r.score = 1;
+  r.passed = true;
+  r.taken_at = "2026-02-01T09:20:00Z";
+  store_->finish_theory_attempt(marked, r);
+  store_.reset();
+  // Back to schema 4, as an older program left it (keeping the rows).
+  ASSERT_EQ(RawExec(path_, "DROP INDEX theory_attempts_open; DROP TABLE theory_unlocks; "
+                           "ALTER TABLE theory_attempts DROP COLUMN kind; ALTER TABLE theory_attempts DROP COLUMN deadline; "
+                           "ALTER TABLE theory_attempts DROP COLUMN finished_at; ALTER TABLE theory_attempts DROP COLUMN outcome; "
+                           "ALTER TABLE theory_attempts DROP COLUMN result; DELETE FROM schema_migrations WHERE version >= 5"),
+            "");
+  store_ = fs::Store::open_sqlite(path_);
+  EXPECT_GE(store_->schema_version(), 5);
+  const auto m = store_->get_theory_attempt(marked), o = store_->get_theory_attempt(open);
+  EXPECT_EQ(m->kind, "exam");
+  EXPECT_EQ(m->outcome, "marked");
+  EXPECT_EQ(m->finished_at, "2026-02-01T09:20:00Z");
+  EXPECT_EQ(o->kind, "exam");
+  EXPECT_TRUE(o->outcome.empty());
+  EXPECT_TRUE(o->deadline.empty());
+  EXPECT_TRUE(store_->open_theory_attempts().empty());  // no deadline: the server never times it out
+}
+
 TEST_F(StoreTest, PathPointsAreKeptInTimeOrderOncePerSimTime) {
   const int64_t pupil = NewPupil("Ann");
   const std::string s = NewSession(pupil).public_id;

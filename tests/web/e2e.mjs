@@ -5,8 +5,10 @@
 //
 //   log in -> add a pupil -> choose a scenario, truck, load and cab, start -> watch the session run
 //   and finish on the fleet page -> the session page (path over the plan, timeline, mark) -> the
-//   pupil's page, whose chart has the new mark -> log in as the pupil, take the theory exam, see it
-//   stored -> the certification record.
+//   pupil's page, whose chart has the new mark -> hand the pupil a supervised theory exam -> log in
+//   as the pupil, take it against its clock, see the topics and clauses to read (not the answers)
+//   and the record with its supervisor -> a practice quiz that does not count -> the
+//   certification record.
 //
 // The marks are the worker's evaluator's: the server believes no other sender (issue 16).
 //
@@ -334,6 +336,35 @@ try {
     await page.waitForSelector('#exams tr[data-kind="practical"]');
   });
 
+  // The pupil's choices as the paper shows them (shuffled): the place of the right one, by its text.
+  const byId = Object.fromEntries(bank.questions.map((q) => [q.id, q]));
+  async function answerPaper(wrong) {
+    const shown = await page.$$eval('fieldset.question', (fs) => fs.map((f) => ({
+      id: f.dataset.question, choices: [...f.querySelectorAll('label.choice')].map((l) => l.textContent) })));
+    for (const [i, q] of shown.entries()) {
+      const b = byId[q.id];
+      const right = q.choices.indexOf(b.choices[b.answer]);
+      check(right >= 0, `question ${q.id} shows its right answer among its choices`);
+      await page.check(`#q-${q.id}-${i < wrong ? (right + 1) % q.choices.length : right}`);
+    }
+    await page.waitForFunction((n) => document.getElementById('progress').textContent.startsWith(`${n} of ${n}`), shown.length);
+    return shown;
+  }
+
+  await step('hand the pupil a supervised theory exam', async () => {
+    await page.goto(`${base}/theory.html?pupil=${pupilId}`);
+    await page.waitForFunction(() => document.getElementById('exam-standing').dataset.code === 'allowed');
+    check(await page.inputValue('#pupil') === String(pupilId), 'the pupil is chosen');
+    check(!(await page.isDisabled('#begin-exam')), 'the examiner may start an exam');
+    await page.click('#begin-exam');
+    await page.waitForSelector('#handed:not([hidden])');
+    const handed = await page.textContent('#handed-text');
+    check(handed.includes('Ann Driver') && handed.includes('supervised by admin'), `the paper is handed out under supervision: ${handed}`);
+    await page.waitForFunction(() => document.getElementById('exam-standing').dataset.code === 'paper_open');
+    check((await page.textContent('#papers tbody')).includes('open until'), 'the open paper is listed');
+    await shot('theory-handout');
+  });
+
   await step('log out, and log in as the pupil', async () => {
     await page.click('#top button.link');
     await page.waitForURL(/index\.html$/);
@@ -345,40 +376,67 @@ try {
   });
 
   let verdict;
-  await step('take the theory exam', async () => {
+  await step('take the supervised theory exam, against its clock', async () => {
     await page.click('#top a[href="theory.html"]');
     await page.waitForSelector('#topics tbody tr');
     check((await page.$$('#topics tbody tr')).length === Object.keys(bank.topics).length, 'every topic is listed');
-    await page.click('#begin');
+    await page.waitForSelector('#open-paper:not([hidden])');
+    check((await page.textContent('#exam-standing')).includes('supervised by admin'), 'the pupil is told who supervises the paper');
+    await page.click('#open-paper');
     await page.waitForSelector('fieldset.question');
-    const ids = await page.$$eval('fieldset.question', (fs) => fs.map((f) => f.dataset.question));
-    check(ids.length === bank.questions_per_exam, `${bank.questions_per_exam} questions on the paper`);
-    const answers = Object.fromEntries(bank.questions.map((q) => [q.id, q]));
-    for (const [i, id] of ids.entries()) {
-      const q = answers[id];
-      const choice = i === 0 ? (q.answer + 1) % q.choices.length : q.answer;  // one wrong on purpose
-      await page.check(`#q-${id}-${choice}`);
+    check(await page.getAttribute('#paper-kind', 'data-kind') === 'exam', 'a supervised exam paper');
+    await page.waitForFunction(() => /^Time left \d+:\d\d/.test(document.getElementById('clock').textContent));
+    const left = Number(await page.getAttribute('#clock', 'data-left'));
+    check(left > 60 && left <= 45 * 60, `the time limit is shown and counting: ${left} s left`);
+    const shown = await answerPaper(1);  // one wrong on purpose
+    check(shown.length === bank.questions_per_exam, `${bank.questions_per_exam} questions on the paper`);
+    for (const img of await page.$$('fieldset.question .picture')) {  // a question about a sign, plate or chart
+      await img.waitForSelector('img');
+      check(await img.$eval('img', (i) => i.complete && i.naturalWidth > 0 && i.alt.length > 0), 'its picture is shown, with words');
     }
-    await page.waitForFunction((n) => document.getElementById('progress').textContent.startsWith(`${n} of ${n}`), ids.length);
     await page.evaluate(() => window.scrollTo(0, 0));
     await shot('theory-paper', { fullPage: false });
     await page.click('#hand-in');
     await page.waitForSelector('#verdict');
     verdict = await page.textContent('#result-summary');
-    check(verdict.includes(`${ids.length - 1} of ${ids.length} right`), `marked by the server: ${verdict}`);
+    check(verdict.includes(`${shown.length - 1} of ${shown.length} right`), `marked by the server: ${verdict}`);
     check((await page.textContent('#verdict')) === 'Passed.', 'passed');
+    check(verdict.includes('supervised by admin'), `the result names its supervisor: ${verdict}`);
+    // The topic missed and the clause to read; not the answer.
+    const missed = byId[shown[0].id];
+    const revise = await page.textContent('#to-revise');
+    check(revise.includes(missed.reference), `the clause to read is named: ${revise}`);
+    const text = await page.textContent('main');
+    check(!text.includes(missed.explanation) && !text.includes('right answer'), 'the page does not give the answer away');
     await shot('theory-result', { fullPage: false });
   });
 
-  await step('the exam is stored', async () => {
+  await step('the exam is stored, with its supervisor', async () => {
     const h = await api('GET', `/pupils/${pupilId}/history`, adminToken);
     const theory = h.exams.filter((e) => e.kind === 'theory');
-    check(theory.length === 1 && theory[0].passed && theory[0].correct === bank.questions_per_exam - 1,
-          `one passed theory exam record: ${JSON.stringify(theory)}`);
+    check(theory.length === 1 && theory[0].passed && theory[0].correct === bank.questions_per_exam - 1 && theory[0].examiner === 'admin',
+          `one passed theory exam record, examined by admin: ${JSON.stringify(theory)}`);
     await page.click('#top a[href^="pupil.html"]');
     await page.waitForSelector('#exams tr[data-kind="theory"]');
     await page.waitForFunction(() => window.Chart && Chart.getChart(document.getElementById('faults-chart')));
     await shot('pupil');
+  });
+
+  await step('a practice quiz is marked, and does not count', async () => {
+    await page.click('#top a[href="theory.html"]');
+    await page.waitForSelector('#begin-practice:not([hidden]):not([disabled])');
+    check(await page.$('#begin-exam[hidden]') !== null, 'a pupil cannot start an exam');
+    await page.click('#begin-practice');
+    await page.waitForSelector('fieldset.question');
+    check(await page.getAttribute('#paper-kind', 'data-kind') === 'practice', 'a practice paper');
+    await answerPaper(0);
+    await page.click('#hand-in');
+    await page.waitForSelector('#practice-result');
+    check((await page.textContent('#verdict')) === 'Passed.', 'the quiz is marked');
+    const h = await api('GET', `/pupils/${pupilId}/history`, adminToken);
+    check(h.exams.filter((e) => e.kind === 'theory').length === 1, 'still one theory exam on the record');
+    await page.click('#back');
+    await page.waitForSelector('#papers tr[data-kind="practice"]');
   });
 
   await step('the certification record', async () => {

@@ -253,12 +253,44 @@ BEGIN
   SELECT RAISE(ABORT, 'exam_chain is append-only');
 END;
 )sql",
+    // 5: theory papers that stand up: supervised exams apart from self-service practice, a
+    // deadline and how each paper ended (practice keeps its marking here: it has no exam record),
+    // and instructors' unlocks of further attempts. Papers marked before this are "marked" exams.
+    R"sql(
+ALTER TABLE theory_attempts ADD COLUMN kind TEXT NOT NULL DEFAULT 'exam' CHECK (kind IN ('exam', 'practice'));
+ALTER TABLE theory_attempts ADD COLUMN deadline TEXT NOT NULL DEFAULT '';
+ALTER TABLE theory_attempts ADD COLUMN finished_at TEXT NOT NULL DEFAULT '';
+ALTER TABLE theory_attempts ADD COLUMN outcome TEXT NOT NULL DEFAULT '' CHECK (outcome IN ('', 'marked', 'timed_out'));
+ALTER TABLE theory_attempts ADD COLUMN result TEXT NOT NULL DEFAULT '';
+UPDATE theory_attempts SET outcome = 'marked', finished_at = (SELECT taken_at FROM exams WHERE exams.id = exam_id)
+  WHERE exam_id IS NOT NULL;
+-- Open papers are few: the server finds those whose time is up without reading them all.
+CREATE INDEX theory_attempts_open ON theory_attempts(id) WHERE finished_at = '';
+CREATE TABLE theory_unlocks (
+  id INTEGER PRIMARY KEY,
+  pupil_id INTEGER NOT NULL REFERENCES pupils(id),
+  unlocked_by INTEGER NOT NULL REFERENCES users(id),
+  at TEXT NOT NULL,
+  reason TEXT NOT NULL DEFAULT ''
+);
+CREATE INDEX theory_unlocks_by_pupil ON theory_unlocks(pupil_id, id);
+CREATE TRIGGER theory_unlocks_no_update BEFORE UPDATE ON theory_unlocks
+BEGIN
+  SELECT RAISE(ABORT, 'theory_unlocks is append-only');
+END;
+CREATE TRIGGER theory_unlocks_no_delete BEFORE DELETE ON theory_unlocks
+BEGIN
+  SELECT RAISE(ABORT, 'theory_unlocks is append-only');
+END;
+)sql",
 };
 
 // Column lists shared by the statements that read whole rows (see read_user and the like).
 #define USER_COLUMNS "id, username, password_hash, role, school_id, pupil_id"
 #define PUPIL_COLUMNS "id, school_id, name, email, created_at"
 #define AUDIT_COLUMNS "id, at, actor_user_id, actor, pupil_id, action, details"
+#define THEORY_ATTEMPT_COLUMNS \
+  "id, pupil_id, seed, questions, started_at, started_by, exam_id, kind, deadline, finished_at, outcome, result"
 #define SESSION_COLUMNS \
   "id, public_id, pupil_id, cab_id, scenario, mode, state, reason, examiner_id, created_at, ended_at, mark, passed"
 
@@ -464,6 +496,18 @@ Session read_session(const Query& q) {
   if (!q.is_null(12)) s.passed = q.int64(12) != 0;
   return s;
 }
+
+TheoryAttempt read_theory_attempt(const Query& q) {
+  TheoryAttempt a{q.int64(0), q.int64(1), q.int64(2), q.text(3), q.text(4), q.opt_int64(5), q.opt_int64(6)};
+  a.kind = q.text(7);
+  a.deadline = q.text(8);
+  a.finished_at = q.text(9);
+  a.outcome = q.text(10);
+  a.result = q.text(11);
+  return a;
+}
+
+bool is_theory_outcome(const std::string& outcome) { return outcome == "marked" || outcome == "timed_out"; }
 
 AuditRecord read_audit(const Query& q) {
   return AuditRecord{q.int64(0), q.text(1), Actor{q.opt_int64(2), q.text(3)}, q.int64(4), q.text(5), q.text(6)};
@@ -761,47 +805,108 @@ class SqliteStore final : public Store {
   }
 
   int64_t create_theory_attempt(const TheoryAttempt& a) override {
-    require(!a.exam_id, StoreError::kInvalid, __func__, "a new attempt is not marked yet");
+    require(!a.exam_id && a.finished_at.empty() && a.outcome.empty() && a.result.empty(), StoreError::kInvalid, __func__,
+            "a new attempt is not finished yet");
+    require(a.kind == "exam" || a.kind == "practice", StoreError::kInvalid, __func__,
+            "attempt kind '" + a.kind + "' is neither exam nor practice");
     require(a.seed >= 0 && a.seed < (int64_t{1} << 53), StoreError::kInvalid, __func__, "seed out of [0, 2^53)");
     require(!a.questions.empty(), StoreError::kInvalid, __func__, "no questions");
     Query q = query(__func__,
-                    "INSERT INTO theory_attempts(pupil_id, seed, questions, started_at, started_by) VALUES (?, ?, ?, ?, ?)");
+                    "INSERT INTO theory_attempts(pupil_id, seed, questions, started_at, started_by, kind, deadline) "
+                    "VALUES (?, ?, ?, ?, ?, ?, ?)");
     q.bind(a.pupil_id).bind(a.seed).bind(a.questions).bind(a.started_at.empty() ? now_iso8601() : a.started_at);
-    q.bind(a.started_by).run();
+    q.bind(a.started_by).bind(a.kind).bind(a.deadline).run();
     return sqlite3_last_insert_rowid(db());
   }
 
   std::optional<TheoryAttempt> get_theory_attempt(int64_t id) override {
-    Query q = query(__func__,
-                    "SELECT id, pupil_id, seed, questions, started_at, started_by, exam_id FROM theory_attempts "
-                    "WHERE id = ?");
+    Query q = query(__func__, "SELECT " THEORY_ATTEMPT_COLUMNS " FROM theory_attempts WHERE id = ?");
     q.bind(id);
     if (!q.step()) return std::nullopt;
-    return TheoryAttempt{q.int64(0), q.int64(1), q.int64(2), q.text(3), q.text(4), q.opt_int64(5), q.opt_int64(6)};
+    return read_theory_attempt(q);
   }
 
-  int64_t finish_theory_attempt(int64_t attempt_id, const ExamRecord& r) override {
+  int64_t finish_theory_attempt(int64_t attempt_id, const ExamRecord& r, const std::string& outcome) override {
+    require(is_theory_outcome(outcome), StoreError::kInvalid, __func__, "outcome '" + outcome + "' is neither marked nor timed_out");
     FullSync full_sync(db(), __func__);
     Transaction tx(db(), __func__, Transaction::kWrite);
     const std::optional<TheoryAttempt> a = get_theory_attempt(attempt_id);
     require(a.has_value(), StoreError::kNotFound, __func__, "no theory attempt " + std::to_string(attempt_id));
+    require(a->kind == "exam", StoreError::kInvalid, __func__,
+            "attempt " + std::to_string(attempt_id) + " is a practice paper: it has no exam record");
     require(r.kind == "theory" && !r.session_public_id, StoreError::kInvalid, __func__,
             "a theory attempt is marked with a theory record without a session");
     require(r.pupil_id == a->pupil_id, StoreError::kInvalid, __func__,
             "attempt " + std::to_string(attempt_id) + " is not pupil " + std::to_string(r.pupil_id) + "'s");
-    require(!a->exam_id, StoreError::kConflict, __func__,
-            "attempt " + std::to_string(attempt_id) + " was already marked");
-    const int64_t exam = insert_exam(__func__, r, std::nullopt);
+    require(!a->exam_id && a->finished_at.empty(), StoreError::kConflict, __func__,
+            "attempt " + std::to_string(attempt_id) + " was already finished");
+    ExamRecord record = r;
+    if (record.taken_at.empty()) record.taken_at = now_iso8601();
+    const int64_t exam = insert_exam(__func__, record, std::nullopt);
     // The guard repeats the check above in the statement itself, so that two connections cannot
-    // both mark one attempt.
-    query(__func__, "UPDATE theory_attempts SET exam_id = ? WHERE id = ? AND exam_id IS NULL")
+    // both finish one attempt.
+    query(__func__,
+          "UPDATE theory_attempts SET exam_id = ?, outcome = ?, finished_at = ? "
+          "WHERE id = ? AND exam_id IS NULL AND finished_at = ''")
         .bind(exam)
+        .bind(outcome)
+        .bind(record.taken_at)
         .bind(attempt_id)
         .run();
     require(sqlite3_changes(db()) > 0, StoreError::kConflict, __func__,
-            "attempt " + std::to_string(attempt_id) + " was already marked");
+            "attempt " + std::to_string(attempt_id) + " was already finished");
     tx.commit();
     return exam;
+  }
+
+  void finish_practice_attempt(int64_t attempt_id, const std::string& outcome, const std::string& result,
+                               const std::string& finished_at) override {
+    require(is_theory_outcome(outcome), StoreError::kInvalid, __func__, "outcome '" + outcome + "' is neither marked nor timed_out");
+    Transaction tx(db(), __func__, Transaction::kWrite);
+    const std::optional<TheoryAttempt> a = get_theory_attempt(attempt_id);
+    require(a.has_value(), StoreError::kNotFound, __func__, "no theory attempt " + std::to_string(attempt_id));
+    require(a->kind == "practice", StoreError::kInvalid, __func__,
+            "attempt " + std::to_string(attempt_id) + " is an exam paper: it is finished with its exam record");
+    query(__func__, "UPDATE theory_attempts SET outcome = ?, result = ?, finished_at = ? WHERE id = ? AND finished_at = ''")
+        .bind(outcome)
+        .bind(result)
+        .bind(finished_at.empty() ? now_iso8601() : finished_at)
+        .bind(attempt_id)
+        .run();
+    require(sqlite3_changes(db()) > 0, StoreError::kConflict, __func__,
+            "attempt " + std::to_string(attempt_id) + " was already finished");
+    tx.commit();
+  }
+
+  std::vector<TheoryAttempt> list_theory_attempts(int64_t pupil_id) override {
+    Query q = query(__func__, "SELECT " THEORY_ATTEMPT_COLUMNS " FROM theory_attempts WHERE pupil_id = ? ORDER BY id");
+    q.bind(pupil_id);
+    std::vector<TheoryAttempt> out;
+    while (q.step()) out.push_back(read_theory_attempt(q));
+    return out;
+  }
+
+  std::vector<TheoryAttempt> open_theory_attempts() override {
+    // "finished_at = ''" spelled as in the partial index, so that the planner uses it.
+    Query q = query(__func__, "SELECT " THEORY_ATTEMPT_COLUMNS " FROM theory_attempts "
+                              "WHERE finished_at = '' AND deadline <> '' ORDER BY id");
+    std::vector<TheoryAttempt> out;
+    while (q.step()) out.push_back(read_theory_attempt(q));
+    return out;
+  }
+
+  int64_t add_theory_unlock(const TheoryUnlock& u) override {
+    Query q = query(__func__, "INSERT INTO theory_unlocks(pupil_id, unlocked_by, at, reason) VALUES (?, ?, ?, ?)");
+    q.bind(u.pupil_id).bind(u.unlocked_by).bind(u.at.empty() ? now_iso8601() : u.at).bind(u.reason).run();
+    return sqlite3_last_insert_rowid(db());
+  }
+
+  std::vector<TheoryUnlock> list_theory_unlocks(int64_t pupil_id) override {
+    Query q = query(__func__, "SELECT id, pupil_id, unlocked_by, at, reason FROM theory_unlocks WHERE pupil_id = ? ORDER BY id");
+    q.bind(pupil_id);
+    std::vector<TheoryUnlock> out;
+    while (q.step()) out.push_back({q.int64(0), q.int64(1), q.int64(2), q.text(3), q.text(4)});
+    return out;
   }
 
   void add_path_points(const std::string& session_public_id, const std::vector<PathPoint>& points) override {

@@ -17,6 +17,9 @@ namespace forklift::server {
 struct ServerConfig {
   std::string db_path = "forklift.db";  // SQLite file, created if missing
   std::string data_dir;                 // data/: scenarios, trucks, the theory bank
+  // The school's rules for theory papers (time limits, retakes; data/theory/README.md). Empty:
+  // <data_dir>/theory/policy.json.
+  std::string theory_policy;
   std::string log_dir;                  // workers' logs and the stills cache; empty: <db_path>.logs
   // The exam chain's anchor, appended as each exam is chained; keep it where the database's
   // writers cannot write (docs/exam-evidence.md). Empty: <log_dir>/exam-chain.anchor.

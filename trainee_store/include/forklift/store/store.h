@@ -128,16 +128,33 @@ struct PathPoint {
   double lift_m = 0;        // fork lift
 };
 
-// A theory exam as handed out: the questions drawn (in order) from the bank with `seed`, so that
-// the same bank and seed give the same paper. Marked once: `exam_id` then names its ExamRecord.
+// A theory paper as handed out: the questions drawn (in order) from the bank with `seed` (and
+// the pupil's earlier papers), kept as the server wrote them. Finished once: marked, or timed out.
+// An exam paper (supervised) then names its ExamRecord in `exam_id`; a practice paper never has
+// one (it never counts) and keeps its marking in `result`.
 struct TheoryAttempt {
   int64_t id = 0;
   int64_t pupil_id = 0;
   int64_t seed = 0;                  // in [0, 2^53): exact in JSON
-  std::string questions;             // JSON text, opaque to the store (the question ids in order)
+  std::string questions;             // JSON text, opaque to the store (the question ids and choice orders)
   std::string started_at;
-  std::optional<int64_t> started_by;  // the user who asked for the paper
-  std::optional<int64_t> exam_id;     // set when marked
+  std::optional<int64_t> started_by;  // the user who handed the paper out: for an exam, its supervisor
+  std::optional<int64_t> exam_id;     // an exam paper's record, once finished
+  std::string kind = "exam";          // "exam" (supervised, counts) or "practice" (self-service, never counts)
+  std::string deadline;               // ISO-8601 UTC, perhaps with milliseconds; empty: no time limit
+  std::string finished_at;            // empty while open
+  std::string outcome;                // empty while open; "marked" or "timed_out"
+  std::string result;                 // a practice paper's marking, JSON text opaque to the store
+};
+
+// An instructor's leave for a pupil to sit the theory exam again at once, whatever the school's
+// waiting period and limit of attempts. Kept for ever.
+struct TheoryUnlock {
+  int64_t id = 0;
+  int64_t pupil_id = 0;
+  int64_t unlocked_by = 0;  // a user
+  std::string at;           // ISO-8601; empty when adding: now
+  std::string reason;       // may be empty
 };
 
 // Who made a change: a user, or a part of the platform writing on its own ("worker", "server").
@@ -240,15 +257,30 @@ class Store {
   virtual int64_t add_exam(const ExamRecord& r) = 0;  // id ignored; synchronous=FULL
   virtual std::optional<ExamRecord> get_exam(int64_t id) = 0;  // nullopt if no such exam
 
-  // A theory paper handed out (id ignored, exam_id must be empty; kNotFound for an unknown pupil
-  // or user). Returns its id.
+  // A theory paper handed out (id ignored; exam_id, finished_at, outcome and result must be empty;
+  // kind "exam" or "practice"; kNotFound for an unknown pupil or user). Returns its id.
   virtual int64_t create_theory_attempt(const TheoryAttempt& a) = 0;
   virtual std::optional<TheoryAttempt> get_theory_attempt(int64_t id) = 0;
-  // Marks an attempt exactly once: adds `r` (kind "theory", the attempt's pupil) as its exam record
-  // and links it, in one transaction written with synchronous=FULL. kNotFound for an unknown
-  // attempt, kInvalid if `r` is not a theory record of the attempt's pupil, kConflict if the
-  // attempt was already marked. Returns the exam record's id.
-  virtual int64_t finish_theory_attempt(int64_t attempt_id, const ExamRecord& r) = 0;
+  // Finishes an exam paper exactly once: adds `r` (kind "theory", the attempt's pupil) as its exam
+  // record and links it, with `outcome` ("marked" or "timed_out") and finished_at = r.taken_at, in
+  // one transaction written with synchronous=FULL. kNotFound for an unknown attempt, kInvalid if
+  // the attempt is a practice paper, `r` is not a theory record of its pupil or `outcome` is
+  // neither, kConflict if it was finished already. Returns the exam record's id.
+  virtual int64_t finish_theory_attempt(int64_t attempt_id, const ExamRecord& r,
+                                        const std::string& outcome = "marked") = 0;
+  // Finishes a practice paper exactly once, keeping its marking (`result`, JSON text). kNotFound
+  // for an unknown attempt, kInvalid for an exam paper or an unknown outcome, kConflict if it was
+  // finished already.
+  virtual void finish_practice_attempt(int64_t attempt_id, const std::string& outcome, const std::string& result,
+                                       const std::string& finished_at) = 0;
+  // A pupil's papers, exams and practice alike, oldest first.
+  virtual std::vector<TheoryAttempt> list_theory_attempts(int64_t pupil_id) = 0;
+  // Every paper not yet finished that has a deadline, oldest first (the server ends those whose
+  // time is up).
+  virtual std::vector<TheoryAttempt> open_theory_attempts() = 0;
+  // Adds an unlock (id ignored); kNotFound for an unknown pupil or user. Returns its id.
+  virtual int64_t add_theory_unlock(const TheoryUnlock& u) = 0;
+  virtual std::vector<TheoryUnlock> list_theory_unlocks(int64_t pupil_id) = 0;  // oldest first
 
   // Appends points to a session's truck path; a point at a sim time already stored is ignored
   // (a restarted ingest may see the same state twice). kNotFound for an unknown session.
