@@ -637,7 +637,14 @@ Session read_session(const Query& q) {
 }
 
 TheoryAttempt read_theory_attempt(const Query& q) {
-  TheoryAttempt a{q.int64(0), q.int64(1), q.int64(2), q.text(3), q.text(4), q.opt_int64(5), q.opt_int64(6)};
+  TheoryAttempt a;
+  a.id = q.int64(0);
+  a.pupil_id = q.int64(1);
+  a.seed = q.int64(2);
+  a.questions = q.text(3);
+  a.started_at = q.text(4);
+  a.started_by = q.opt_int64(5);
+  a.exam_id = q.opt_int64(6);
   a.kind = q.text(7);
   a.deadline = q.text(8);
   a.finished_at = q.text(9);
