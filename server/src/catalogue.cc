@@ -57,6 +57,8 @@ json truck_json(const std::string& data_dir, const std::string& stem) {
   return j;
 }
 
+bool is_exam_course(const json& scenario) { return scenario.is_object() && scenario.contains("exam_course") && scenario["exam_course"].is_object(); }
+
 std::pair<json, json> scenario_setup(const json& sc) {
   json truck = nullptr, load = nullptr;
   if (sc.contains("truck") && sc["truck"].is_string())

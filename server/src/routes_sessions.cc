@@ -12,6 +12,7 @@
 #include "outcome.h"
 #include "routes.h"
 #include "forklift/protocol/aids.h"
+#include "forklift/scene/scene.h"
 
 namespace forklift::server {
 
@@ -81,21 +82,25 @@ void session_routes(httplib::Server& svr, Context& ctx) {
     const std::string scenario_path = scenario_file(ctx.data_dir, scenario);
     const std::string mode = field<std::string>(b, "mode", std::string("training"));
     const std::optional<std::string> aids = aids_request(b, mode);
+    json run;  // the scenario as this session runs it
+    try {
+      run = read_json_file(scenario_path);
+    } catch (const std::exception&) {
+      throw ApiError(500, "bad_scenario", "scenario '" + scenario + "' is unreadable");
+    }
     if (mode == "exam") {
       require_role(p, {Role::kAdmin, Role::kExaminer});
+      if (!is_exam_course(run)) throw ApiError(400, "not_exam_course", not_an_exam_course("scenario '" + scenario + "'"));
+      // The course is marked as it is laid out: its truck and its loads are part of it.
+      if (b.contains("truck") || b.contains("load"))
+        throw ApiError(400, "bad_request", "an exam course runs as it is laid out: leave 'truck' and 'load' out of an exam session");
       // A licence exam's result must be trusted: authenticated cab, encrypted traffic, signed log.
       if (!ctx.fleet->secure())
         throw ApiError(409, "security_required", "exams need DDS Security: start the server with --security DIR (scripts/forklift-pki.sh)");
     }
     if (ctx.fleet->cab_busy(cab)) throw ApiError(409, "cab_busy", "cab " + cab + " is already running a session");
     std::optional<double> duration;
-    json run;  // the scenario as this session runs it
-    try {
-      run = read_json_file(scenario_path);
-      if (run.contains("duration_s") && run["duration_s"].is_number()) duration = run["duration_s"].get<double>();
-    } catch (const std::exception&) {
-      throw ApiError(500, "bad_scenario", "scenario '" + scenario + "' is unreadable");
-    }
+    if (run.contains("duration_s") && run["duration_s"].is_number()) duration = run["duration_s"].get<double>();
     // The truck and the load may replace the scenario's own (the paper's "characteristics of the
     // simulation environment"); the worker then runs a copy of the scenario with them.
     bool own_copy = false;

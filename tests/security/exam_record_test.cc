@@ -25,7 +25,8 @@ namespace {
 
 const std::string kBin = FORKLIFT_BIN_DIR;
 const std::string kPki = std::string(FORKLIFT_SOURCE_DIR) + "/scripts/forklift-pki.sh";
-const std::string kScript = std::string(FORKLIFT_DATA_DIR) + "/evaluation/scripts/first_drive_yard_faults.csv";
+// The exam course's clean drive (its first seconds: the exams here are cut short by their time limit).
+const std::string kScript = std::string(FORKLIFT_DATA_DIR) + "/evaluation/scripts/counterbalance_exam_clean.csv";
 
 std::string tmp(const std::string& name) { return forklift_test::process_path("exam-record", name); }
 
@@ -55,7 +56,7 @@ class RemoteExam : public testing::Test {
     EXPECT_EQ(st, 201) << p;
     e.pupil = p.value("id", int64_t(0));
     auto [st2, sess] = s.call("POST", "/api/sessions", e.examiner,
-                              json{{"pupil_id", e.pupil}, {"cab_id", "examcab"}, {"scenario", "first_drive_yard"}, {"mode", "exam"},
+                              json{{"pupil_id", e.pupil}, {"cab_id", "examcab"}, {"scenario", "counterbalance_exam"}, {"mode", "exam"},
                                    {"time_limit_s", time_limit}}.dump());
     EXPECT_EQ(st2, 201) << sess;
     e.id = sess.value("id", "");
@@ -455,7 +456,7 @@ TEST_F(RemoteExam, ServerWithoutSecurityRefusesExamsButRunsTraining) {
   auto [ps, p] = s.call("POST", "/api/pupils", admin, json{{"name", "P"}}.dump());
   ASSERT_EQ(ps, 201);
   auto [st, j] = s.call("POST", "/api/sessions", admin,
-                        json{{"pupil_id", p["id"]}, {"cab_id", "examcab"}, {"scenario", "first_drive_yard"}, {"mode", "exam"}}.dump());
+                        json{{"pupil_id", p["id"]}, {"cab_id", "examcab"}, {"scenario", "counterbalance_exam"}, {"mode", "exam"}}.dump());
   EXPECT_EQ(st, 409) << j;
   EXPECT_EQ(error_code(j), "security_required");
   auto [st2, j2] = s.call("POST", "/api/sessions", admin,
