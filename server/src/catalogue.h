@@ -30,6 +30,13 @@ std::pair<nlohmann::json, nlohmann::json> scenario_setup(const nlohmann::json& s
 // exam mode, and only their exams count toward a licence).
 bool is_exam_course(const nlohmann::json& scenario);
 
+// A scenario's exam course: its top-level "exam_course" object (issue 17, item 1: only an exam
+// course can be a practical exam, and only an exam on one counts toward a licence), else null.
+nlohmann::json exam_course(const nlohmann::json& scenario);
+// The scenario a session ran, from the store alone: the copy kept with it, else the file of that
+// name under `data_dir` (for sessions from before copies were kept); {} if neither is readable.
+nlohmann::json scenario_as_run(store::Store& db, const std::string& data_dir, const store::Session& s);
+
 // The scenario a session ran: the copy kept with it (with the truck and load chosen), else, for
 // sessions from before copies were kept, the scenario file of that name.
 nlohmann::json session_scenario(Context& ctx, const store::Session& s);

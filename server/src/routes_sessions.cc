@@ -9,6 +9,7 @@
 #include "catalogue.h"
 #include "exam_evidence.h"
 #include "load_request.h"
+#include "outcome.h"
 #include "routes.h"
 #include "forklift/protocol/aids.h"
 #include "forklift/scene/scene.h"
@@ -152,7 +153,16 @@ void session_routes(httplib::Server& svr, Context& ctx) {
     json j = session_json(s);
     j["events"] = json::array();
     for (const auto& e : ctx.db().list_events(s.public_id)) j["events"].push_back(event_json(e));
-    if (const auto sc = ctx.db().get_score(s.public_id)) j["score"] = {{"mark", sc->mark}, {"passed", sc->passed}, {"counts", sc->counts}};
+    // The score as a mark only when the session completed; else the faults it counted, unmarked.
+    if (const auto sc = ctx.db().get_score(s.public_id)) {
+      if (store::mark_of(s)) j["score"] = {{"mark", sc->mark}, {"passed", sc->passed}, {"counts", sc->counts}};
+      else j["counts"] = sc->counts;
+    }
+    if (store::is_terminal(s.state)) {
+      const auto sc = ctx.db().get_score(s.public_id);
+      j["reasons"] = reasons_json(session_reasons(ctx.fleet->marking_rules(), s, sc ? sc->counts : std::map<std::string, int>{},
+                                                  std::nullopt, sc ? std::optional<bool>(sc->passed) : std::nullopt));
+    }
     const auto [truck, load] = scenario_setup(session_scenario(ctx, s));
     j["truck"] = truck.is_null() ? json(nullptr) : truck_json(ctx.data_dir, truck.get<std::string>());
     j["load"] = load;
