@@ -486,6 +486,31 @@ TEST_P(StoreTest, BatchIsAllOrNothingAndACallFailingInsideItUndoesOnlyItself) {
   EXPECT_EQ(ErrorKind([&] { store_->batch([&] { store_->batch([] {}); }); }), fs::StoreError::kInvalid);
 }
 
+// A call the database itself refuses (a foreign key, a check) inside a batch undoes only itself:
+// the batch goes on and commits the rest (PostgreSQL would otherwise refuse the rest of it).
+TEST_P(StoreTest, ACallTheDatabaseRefusesInsideABatchUndoesOnlyItself) {
+  store_->batch([&] {
+    store_->create_pupil(school_, "Ann", "");
+    EXPECT_EQ(ErrorKind([&] { store_->create_pupil(school_ + 999, "Nobody", ""); }), fs::StoreError::kNotFound);
+    fs::AuditRecord bad;
+    bad.actor = {std::nullopt, "server"};
+    bad.pupil_id = store_->list_pupils(school_, "Ann", 1, 0).at(0).id;
+    bad.action = "pupil_created";
+    bad.details = "not json";
+    EXPECT_EQ(ErrorKind([&] { store_->add_audit(bad); }), fs::StoreError::kInvalid);
+    EXPECT_EQ(ErrorKind([&] { store_->batch([] {}); }), fs::StoreError::kInvalid);
+    store_->create_pupil(school_, "Bob", "");
+  });
+  std::vector<std::string> names;
+  for (const auto& p : store_->list_pupils(school_, "", 10, 0)) names.push_back(p.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"Ann", "Bob"}));
+  EXPECT_TRUE(store_->list_audit({}, 10, 0).empty());
+  // And a batch in which nothing reached the database commits nothing, and the store goes on.
+  store_->batch([] {});
+  EXPECT_EQ(ErrorKind([&] { store_->batch([&] { store_->update_pupil(12345, "Nobody", ""); }); }), fs::StoreError::kNotFound);
+  EXPECT_EQ(store_->list_pupils(school_, "", 10, 0).size(), 2u);
+}
+
 TEST(StoreTimeTest, AddYearsAndNow) {
   EXPECT_EQ(fs::add_years_iso8601("2024-02-29T08:00:00Z", 3), "2027-02-28T08:00:00Z");
   EXPECT_EQ(fs::add_years_iso8601("2024-02-29T08:00:00Z", 4), "2028-02-29T08:00:00Z");
@@ -725,8 +750,8 @@ TEST(StoreLocationTest, PostgresqlUrisOpenPostgresqlAndNeverPrintTheirPassword) 
   EXPECT_EQ(fs::printable_location("postgresql://db/forklift"), "postgresql://db/forklift");
 
   // Nothing listens on this port: the error says where, without the password.
-  const std::string where =
-      "postgresql://forklift:s3cret@127.0.0.1:" + std::to_string(forklift::test::free_port()) + "/forklift?connect_timeout=5";
+  const std::string port = std::to_string(forklift::test::free_port());
+  const std::string where = "postgresql://forklift:s3cret@127.0.0.1:" + port + "/forklift?connect_timeout=5";
   try {
     fs::Store::open(where);
     ADD_FAILURE() << "opened a database nobody serves";
@@ -734,6 +759,14 @@ TEST(StoreLocationTest, PostgresqlUrisOpenPostgresqlAndNeverPrintTheirPassword) 
     EXPECT_EQ(e.kind(), fs::StoreError::kIo);
     EXPECT_EQ(std::string(e.what()).find("s3cret"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("forklift:***@127.0.0.1"), std::string::npos) << e.what();
+  }
+  // Nor in the "key=value" form.
+  try {
+    fs::Store::open_postgresql("host=127.0.0.1 port=" + port + " dbname=forklift user=forklift password=s3cret connect_timeout=5");
+    ADD_FAILURE() << "opened a database nobody serves";
+  } catch (const fs::StoreError& e) {
+    EXPECT_EQ(e.kind(), fs::StoreError::kIo);
+    EXPECT_EQ(std::string(e.what()).find("s3cret"), std::string::npos) << e.what();
   }
 }
 

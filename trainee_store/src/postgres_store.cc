@@ -281,18 +281,40 @@ std::string trimmed(std::string s) {
   throw StoreError(StoreError::kIo, what);
 }
 
-// One connection: its prepared statements (prepared once each, on first use) and, when it broke,
-// a new connection at the next call outside a transaction.
+// `conninfo` fit for an error message: a URI without its password, or of a "key=value" string
+// the database, user, host and port alone.
+std::string printable(const std::string& conninfo) {
+  if (is_postgresql_location(conninfo)) return printable_location(conninfo);
+  std::string out;
+  if (PQconninfoOption* options = PQconninfoParse(conninfo.c_str(), nullptr)) {
+    for (PQconninfoOption* o = options; o->keyword; ++o) {
+      const std::string key = o->keyword;
+      if (o->val && (key == "dbname" || key == "user" || key == "host" || key == "hostaddr" || key == "port"))
+        out += (out.empty() ? "" : " ") + key + "=" + o->val;
+    }
+    PQconninfoFree(options);
+  }
+  return "PostgreSQL database '" + out + "'";
+}
+
+// One connection: its prepared statements (prepared once each, on first use), the transaction
+// commands not sent yet, and, when it broke, a new connection at the next call outside a
+// transaction.
+//
+// BEGIN, SAVEPOINT and RELEASE have no result to wait for: they wait ("deferred") and go with the
+// next statement in one round trip (libpq's pipeline mode), and a savepoint nothing ran in is
+// never sent. So a call inside a batch costs its own statements' round trips only, and a
+// transaction's BEGIN none.
 class Connection {
  public:
-  explicit Connection(const std::string& conninfo) : conninfo_(conninfo), where_(printable_location(conninfo)) {
+  explicit Connection(const std::string& conninfo) : where_(printable(conninfo)) {
     std::vector<const char*> keys, values;
     for (const auto& [k, v] : kConnectDefaults) {
       keys.push_back(k);
       values.push_back(v);
     }
     keys.push_back("dbname");  // expanded: a URI or "key=value" string, overriding the defaults
-    values.push_back(conninfo_.c_str());
+    values.push_back(conninfo.c_str());
     keys.push_back(nullptr);
     values.push_back(nullptr);
     conn_.reset(PQconnectdbParams(keys.data(), values.data(), 1));
@@ -303,19 +325,88 @@ class Connection {
   }
 
   PGconn* get() const { return conn_.get(); }
-  bool in_transaction() const { return PQtransactionStatus(get()) != PQTRANS_IDLE; }
+  // Whether a transaction is open, or begun and not sent yet.
+  bool in_transaction() const {
+    const PGTransactionStatusType t = PQtransactionStatus(get());
+    return begun_ || t == PQTRANS_INTRANS || t == PQTRANS_INERROR;
+  }
 
-  // Runs SQL without parameters (one or several statements).
-  void exec(const char* op, const char* sql) {
-    Result r(PQexec(get(), sql));
+  // Runs SQL without parameters (one or several statements), after the deferred commands.
+  void exec(const char* op, const std::string& sql) {
+    if (broken_) throw StoreError(StoreError::kIo, std::string(op) + ": " + where_ + ": the connection broke");
+    std::string all;
+    for (const std::string& d : deferred_) all += d + "; ";
+    deferred_.clear();
+    all += sql;
+    Result r(PQexec(get(), all.c_str()));
     const ExecStatusType s = r ? PQresultStatus(r.get()) : PGRES_FATAL_ERROR;
     if (s != PGRES_COMMAND_OK && s != PGRES_TUPLES_OK) throw_result_error(get(), r.get(), op);
+  }
+
+  // Runs prepared statement `name`, after the deferred commands, in one round trip.
+  Result run(const char* op, const std::string& name, const std::vector<const char*>& values) {
+    if (broken_) throw StoreError(StoreError::kIo, std::string(op) + ": " + where_ + ": the connection broke");
+    const int n = static_cast<int>(values.size());
+    if (deferred_.empty()) return Result(PQexecPrepared(get(), name.c_str(), n, values.data(), nullptr, nullptr, 0));
+    const std::vector<std::string> before = std::move(deferred_);
+    deferred_.clear();
+    if (PQenterPipelineMode(get()) != 1) return nullptr;
+    bool sent = true;
+    for (const std::string& d : before)
+      sent = sent && PQsendQueryParams(get(), d.c_str(), 0, nullptr, nullptr, nullptr, nullptr, 0) == 1;
+    sent = sent && PQsendQueryPrepared(get(), name.c_str(), n, values.data(), nullptr, nullptr, 0) == 1;
+    sent = sent && PQpipelineSync(get()) == 1;
+    Result failed, last;
+    for (size_t i = 0; sent && i <= before.size(); ++i) {
+      Result r(PQgetResult(get()));
+      while (PGresult* more = PQgetResult(get())) PQclear(more);  // a query's results end with a null
+      if (i == before.size()) last = std::move(r);
+      else if (!failed && (!r || PQresultStatus(r.get()) != PGRES_COMMAND_OK)) failed = std::move(r);
+    }
+    if (sent) Result(PQgetResult(get()));  // the sync
+    if (PQexitPipelineMode(get()) != 1) broken_ = true;  // results we could not read: start again
+    if (!sent || broken_) return nullptr;
+    return failed ? std::move(failed) : std::move(last);
+  }
+
+  // A transaction begun with `sql` (BEGIN ...), sent with its first statement.
+  void begin(const char* sql) {
+    begun_ = true;
+    deferred_.push_back(sql);
+  }
+  // More commands for the start of the transaction, before its first statement.
+  void defer(const char* sql) { deferred_.push_back(sql); }
+  // Ends the transaction. Nothing to send if nothing ran in it.
+  void commit(const char* op) {
+    begun_ = false;
+    if (unsent_begin()) return deferred_.clear();
+    try {
+      exec(op, "COMMIT");
+    } catch (...) {
+      Result(PQexec(get(), "ROLLBACK"));  // if a RELEASE before it failed, the transaction is still open
+      throw;
+    }
+  }
+  void rollback() {
+    begun_ = false;
+    const bool sent = !unsent_begin();
+    deferred_.clear();
+    if (sent && !broken_) Result(PQexec(get(), "ROLLBACK"));
+  }
+  void savepoint() { deferred_.push_back(kSavepoint); }
+  void release() {
+    if (!deferred_.empty() && deferred_.back() == kSavepoint) return deferred_.pop_back();  // nothing ran in it
+    deferred_.push_back("RELEASE SAVEPOINT op");
+  }
+  void rollback_to(const char* op) {
+    if (!deferred_.empty() && deferred_.back() == kSavepoint) return deferred_.pop_back();
+    exec(op, "ROLLBACK TO SAVEPOINT op; RELEASE SAVEPOINT op");
   }
 
   // A new connection in place of a broken one; only between transactions (see Transaction), so
   // that no call goes on in a new connection as if its transaction were still open.
   void ensure(const char* op) {
-    if (depth_ == 0 && PQstatus(get()) == CONNECTION_BAD) reconnect(op);
+    if (depth_ == 0 && (broken_ || PQstatus(get()) == CONNECTION_BAD)) reconnect(op);
   }
   // Transactions (and savepoints) open on this connection, counted by Transaction.
   int& depth() { return depth_; }
@@ -332,6 +423,11 @@ class Connection {
   }
 
  private:
+  static constexpr const char* kSavepoint = "SAVEPOINT op";
+
+  // Whether the transaction's BEGIN still waits: then nothing was sent since.
+  bool unsent_begin() const { return !deferred_.empty() && deferred_.front().rfind("BEGIN", 0) == 0; }
+
   void configure() {
     // Notices (such as "relation already exists, skipping") are not errors: libpq would print them.
     PQsetNoticeProcessor(get(), [](void*, const char*) {}, nullptr);
@@ -343,12 +439,17 @@ class Connection {
     if (PQstatus(get()) != CONNECTION_OK)
       throw StoreError(StoreError::kIo, std::string(op) + ": " + where_ + ": " + trimmed(PQerrorMessage(get())));
     prepared_.clear();  // they went with the old connection
+    deferred_.clear();
+    begun_ = broken_ = false;
     configure();
   }
 
-  std::string conninfo_, where_;
+  std::string where_;
   std::unique_ptr<PGconn, ConnCloser> conn_;
   std::unordered_map<std::string, std::string> prepared_;  // SQL text -> statement name
+  std::vector<std::string> deferred_;                      // commands waiting for the next statement
+  bool begun_ = false;                                     // a transaction is open (perhaps not sent yet)
+  bool broken_ = false;                                    // lost track of the connection's state
   int depth_ = 0;
 };
 
@@ -393,8 +494,7 @@ class Query {
     if (result_) return;
     std::vector<const char*> values;
     for (size_t i = 0; i < params_.size(); ++i) values.push_back(null_[i] ? nullptr : params_[i].c_str());
-    result_.reset(PQexecPrepared(c_.get(), name_.c_str(), static_cast<int>(values.size()), values.data(), nullptr,
-                                 nullptr, 0));
+    result_ = c_.run(op_, name_, values);
     const ExecStatusType s = result_ ? PQresultStatus(result_.get()) : PGRES_FATAL_ERROR;
     if (s != PGRES_COMMAND_OK && s != PGRES_TUPLES_OK) throw_result_error(c_.get(), result_.get(), op_);
   }
@@ -443,20 +543,21 @@ class Transaction {
     c_.ensure(op_);
     nested_ = c_.in_transaction();
     ++c_.depth();
-    try {
-      if (nested_) {
-        c_.exec(op_, "SAVEPOINT op");
-        open_ = true;  // only now: rolling back to "op" otherwise would undo the enclosing savepoint
-      } else if (mode != kStatement) {
-        open_ = true;  // a BEGIN that half worked is rolled back
-        c_.exec(op_, mode == kRead    ? "BEGIN ISOLATION LEVEL REPEATABLE READ, READ ONLY"
-                     : mode == kWrite ? "BEGIN"
-                                      : "BEGIN; SET LOCAL lock_timeout = 0");
-        if (mode != kRead) Query(c_, op_, "SELECT pg_advisory_xact_lock($1)").bind(kWriteLock).run();
+    if (nested_) {
+      c_.savepoint();
+      open_ = true;
+    } else if (mode != kStatement) {
+      c_.begin(mode == kRead ? "BEGIN ISOLATION LEVEL REPEATABLE READ, READ ONLY" : "BEGIN");
+      open_ = true;
+      if (mode == kMigrate) c_.defer("SET LOCAL lock_timeout = 0");
+      if (mode != kRead) {
+        try {
+          Query(c_, op_, "SELECT pg_advisory_xact_lock($1)").bind(kWriteLock).run();
+        } catch (...) {
+          end();
+          throw;
+        }
       }
-    } catch (...) {
-      end();
-      throw;
     }
   }
   ~Transaction() { end(); }
@@ -466,7 +567,8 @@ class Transaction {
   void commit() {
     if (!open_) return;
     open_ = false;  // a failed COMMIT has ended the transaction all the same
-    c_.exec(op_, nested_ ? "RELEASE SAVEPOINT op" : "COMMIT");
+    if (nested_) c_.release();
+    else c_.commit(op_);
   }
 
  private:
@@ -476,7 +578,12 @@ class Transaction {
     counted_ = false;
     if (!open_) return;
     open_ = false;
-    Result r(PQexec(c_.get(), nested_ ? "ROLLBACK TO SAVEPOINT op; RELEASE SAVEPOINT op" : "ROLLBACK"));
+    try {
+      if (nested_) c_.rollback_to(op_);
+      else c_.rollback();
+    } catch (const StoreError&) {
+      // The connection broke: the enclosing transaction fails when it goes on.
+    }
   }
 
   Connection& c_;
