@@ -36,9 +36,9 @@ menu session "$session"
 echo "== the pupil's history"
 menu history --pupil "$pupil"
 menu export --pupil "$pupil" --out "$out/history.csv"
-echo "== practical exam on cab1 (DDS Security on; the same driving, so it will not pass)"
-menu start --pupil "$pupil" --cab cab1 --scenario first_drive_yard --mode exam --time-limit 20 \
-  --drive data/evaluation/scripts/first_drive_yard_faults.csv
+echo "== practical exam on cab1 on the exam course (DDS Security on; cut short at 20 s, so it will not pass)"
+menu start --pupil "$pupil" --cab cab1 --scenario counterbalance_exam --mode exam --time-limit 20 \
+  --drive data/evaluation/scripts/counterbalance_exam_clean.csv
 exam=$(menu history --pupil "$pupil" | awk '/^s-/ {print $1}' | tail -1)
 echo "== forklift-menu verify $exam: the signed log and the exam chain, checked against the school's CA"
 # The record is chained a moment after the worker exits; until then the server says 404 (exit 2).

@@ -282,6 +282,8 @@ class CabProgram {
   bool capture_next_ = false;
   bool edge_ = false;  // a driving key went down or up this pass: send at once
   double frame_received_t_ = 0;
+  // The latest truck state's sim time and the cab time it came: the clock a script runs on.
+  std::optional<std::pair<double, double>> sim_anchor_;
   std::vector<std::string> last_texts_;
   Latency latency_;
   std::string mode_;
@@ -417,6 +419,7 @@ void CabProgram::take_dds() {
     hud_.on_state(s);
     if (session_.empty()) session_ = s.session_id;
     latency_.applied(s.applied_control_sequence, s.sim_time_s, t);
+    sim_anchor_ = {s.sim_time_s, t};
     trace_.write({{"type", "state"}, {"sim_time_s", s.sim_time_s}, {"speed_m_s", s.speed_m_s}, {"yaw_rad", s.yaw_rad},
                   {"x_m", s.x_m}, {"y_m", s.y_m}, {"steer_rad", s.steer_rad}, {"applied", s.applied_control_sequence},
                   {"aids", s.aids}, {"stability_fraction", s.stability_fraction}},
@@ -606,6 +609,7 @@ int CabProgram::run() {
   // command is sent again every 20 ms, so sparse scripts never trip the worker's dead man. After
   // the last row the cab goes silent.
   start_ = Clock::now();
+  sim_anchor_.reset();
   size_t next_row = 0;
   std::optional<fk_Controls> held;
   double last_t = 0;
@@ -614,8 +618,12 @@ int CabProgram::run() {
     pump_events();
     fk_Controls c{};
     if (!o_.script.empty()) {
+      // A row is due by the truck's sim time (the latest state's, run on by the wall clock since it
+      // came; the wall clock alone until the first state): a worker held back by a busy machine
+      // gets the script at its own pace, so a scripted drive is the same drive on any machine.
+      const double script_t = sim_anchor_ ? sim_anchor_->first + (t - sim_anchor_->second) : t;
       bool row_due = false;
-      while (next_row < rows.size() && rows[next_row].t <= t) {
+      while (next_row < rows.size() && rows[next_row].t <= script_t) {
         const ScriptRow& r = rows[next_row++];
         fk_Controls s = controls_from(CabCommand{});
         s.steer_rad = r.steer, s.accelerator = r.accelerator, s.brake = r.brake, s.lift = r.lift, s.tilt = r.tilt;
@@ -693,7 +701,7 @@ int main(int argc, char** argv) {
   Options o;
   app.add_option("--cab", o.cab_id, "this cab's id");
   auto* src = app.add_option_group("source", "where the controls come from");
-  src->add_option("--script", o.script, "timed CSV: t, steer, accelerator, brake, lift, tilt, shift")->check(CLI::ExistingFile);
+  src->add_option("--script", o.script, "timed CSV: t (the truck's sim time, s), steer, accelerator, brake, lift, tilt, shift")->check(CLI::ExistingFile);
   src->add_flag("--keyboard", o.keyboard, "drive with keys held in the window (in the terminal with --no-window); a plugged controller drives too");
   src->add_flag("--controller", o.controller, "drive with a game controller, wheel or pedal set (hot-plug; the keys work too)");
   src->add_option("--joystick", o.joystick, "the same as --controller (SDL finds the device; kept for older scripts)");

@@ -171,6 +171,6 @@ const FL = (() => {
     return () => clearTimeout(timer);
   }
 
-  return { api, ApiError, login, setLogin, clearLogin, el, svg, clear, requireLogin, homeOf, isStaff, param,
+  return { api, ApiError, login, setLogin, clearLogin, el, svg, clear, requireLogin, topBar, homeOf, isStaff, param,
            dateTime, day, pct, num, worryName, say, describeError, poll, STAFF };
 })();

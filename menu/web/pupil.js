@@ -1,5 +1,8 @@
 // A pupil's page: GET /api/pupils/{id}/history drawn as facts, two charts (Chart.js, from npm,
-// each with its data as a table too), and the sessions and exams.
+// each with its data as a table too), the training sessions, and the exams with their corrections.
+// Marks are the server's: only a session that ran its course has one (the API's "marks"); the
+// others ("unmarked": aborted, timed out, stopped, failed) are listed with their outcome, never
+// drawn. Training marks and exam marks are two series.
 'use strict';
 (() => {
   const { api, el, clear, requireLogin, say, describeError, dateTime, day, num, pct, param, isStaff } = FL;
@@ -7,42 +10,58 @@
   const id = param('id') || (me.role === 'pupil' ? String(me.pupil_id) : null);
   const message = document.getElementById('message');
   const charts = {};
+  const OUTCOME = { open: 'under way', completed: 'completed', timed_out: 'timed out', aborted: 'aborted', stopped: 'stopped',
+                    failed: 'failed' };
+  const outcomeText = (o) => OUTCOME[o] || o;
 
   function badge(cls, text) { return el('span', { class: `badge ${cls}` }, text); }
   function passBadge(passed) {
     return passed === null || passed === undefined ? '' : passed ? badge('passed', 'passed') : badge('not-passed', 'not passed');
   }
-  // A practical exam whose evidence does not hold counts for nothing: the page says why.
-  function evidenceNote(evidence) {
-    return evidence && evidence.verified === false ? el('div', { class: 'small warn', 'data-evidence': 'unverified' },
-                                                        `Evidence does not verify: ${evidence.problem}`) : '';
+  function outcomeBadge(o) { return badge(o === 'completed' ? 'ended' : o === 'open' ? 'running' : o === 'failed' || o === 'timed_out' ? 'failed' : 'aborted', outcomeText(o)); }
+  // Why a result is not a pass, in the server's words.
+  function reasonsList(reasons) {
+    return reasons && reasons.length ? el('ul', { class: 'small reasons' }, reasons.map((r) => el('li', { 'data-code': r.code }, r.text))) : '';
   }
 
   function fact(dl, term, ...value) { dl.append(el('dt', {}, term), el('dd', {}, ...value)); }
 
   function latest(exams, kind) {
-    const of = exams.filter((e) => e.kind === kind);
+    const of = exams.filter((e) => e.kind === kind && e.id !== null);
     return of.length ? of[of.length - 1] : null;
   }
-  function passed(exams, kind) { return exams.some((e) => e.kind === kind && e.passed); }
+  const counted = (exams, kind) => exams.some((e) => e.kind === kind && e.counts_toward_licence);
 
   function drawCharts(h) {
     const marksCanvas = document.getElementById('marks-chart');
-    const labels = h.marks.map((m) => [m.session, dateTime(m.at)]);  // two lines under each point
-    const data = h.marks.map((m) => m.mark);
+    // One label per marked session in time order; each series has its marks and gaps elsewhere.
+    const labels = h.marks.map((m) => [m.session, dateTime(m.at)]);
+    const series = (mode) => h.marks.map((m) => (m.mode === mode ? m.mark : null));
     if (charts.marks) charts.marks.destroy();
     charts.marks = new Chart(marksCanvas, {
       type: 'line',
-      data: { labels, datasets: [{ label: 'Mark', data, borderColor: '#0b5cad', backgroundColor: '#0b5cad', pointRadius: 4, tension: 0 }] },
-      options: { animation: false, maintainAspectRatio: false, plugins: { legend: { display: false } },
+      data: { labels, datasets: [
+        { label: 'Training', data: series('training'), borderColor: '#0b5cad', backgroundColor: '#0b5cad', pointRadius: 4, tension: 0, spanGaps: true },
+        { label: 'Practical exam', data: series('exam'), borderColor: '#c2410c', backgroundColor: '#c2410c', pointRadius: 6,
+          pointStyle: 'rectRot', showLine: false },
+      ] },
+      options: { animation: false, maintainAspectRatio: false, plugins: { legend: { display: true } },
                  scales: { y: { suggestedMin: 0, suggestedMax: 100, title: { display: true, text: 'mark' } },
                            x: { title: { display: true, text: 'session' } } } },
     });
+    const training = h.marks.filter((m) => m.mode === 'training'), exams = h.marks.filter((m) => m.mode === 'exam');
     marksCanvas.setAttribute('aria-label', h.marks.length === 0 ? 'Marks over time: no marked session yet'
-      : `Marks over time: ${h.marks.length} marked sessions, the latest ${num(data[data.length - 1])} on ${dateTime(h.marks[h.marks.length - 1].at)}`);
-    clear(document.querySelector('#marks-table tbody')).append(...h.marks.map((m) => el('tr', {},
+      : `Marks over time: ${training.length} marked training sessions and ${exams.length} marked practical exams, the latest ` +
+        `${num(h.marks[h.marks.length - 1].mark)} on ${dateTime(h.marks[h.marks.length - 1].at)}` +
+        (h.unmarked.length ? `; ${h.unmarked.length} sessions without a mark are not drawn` : ''));
+    clear(document.querySelector('#marks-table tbody')).append(...h.marks.map((m) => el('tr', { 'data-session': m.session },
       el('td', {}, el('a', { href: `session.html?id=${encodeURIComponent(m.session)}` }, m.session)),
-      el('td', {}, dateTime(m.at)), el('td', { class: 'num' }, num(m.mark)))));
+      el('td', {}, dateTime(m.at)), el('td', {}, m.mode === 'exam' ? 'practical exam' : 'training'), el('td', { class: 'num' }, num(m.mark)))));
+    document.getElementById('unmarked-box').hidden = h.unmarked.length === 0;
+    clear(document.querySelector('#unmarked tbody')).append(...h.unmarked.map((u) => el('tr', { 'data-session': u.session, 'data-outcome': u.outcome },
+      el('td', {}, el('a', { href: `session.html?id=${encodeURIComponent(u.session)}` }, u.session)),
+      el('td', {}, dateTime(u.at)), el('td', {}, u.mode === 'exam' ? 'practical exam' : 'training'),
+      el('td', {}, outcomeBadge(u.outcome), u.reason ? el('span', { class: 'small muted' }, ` ${u.reason}`) : ''))));
 
     const faults = Object.entries(h.faults_by_kind).sort((a, b) => b[1] - a[1]);
     const faultsCanvas = document.getElementById('faults-chart');
@@ -73,9 +92,9 @@
 
   async function issueLicence() {
     try {
-      await api('POST', `/pupils/${encodeURIComponent(id)}/licence`);
+      const l = await api('POST', `/pupils/${encodeURIComponent(id)}/licence`);
       await load();
-      say(message, 'Licence issued.', 'ok');
+      say(message, `Licence issued, with certificate ${l.certificate}.`, 'ok');
     } catch (e) {
       say(message, describeError(e));
     }
@@ -84,20 +103,75 @@
   function actions(h) {
     const box = document.getElementById('staff-actions');
     const q = encodeURIComponent(id);
-    const both = passed(h.exams, 'theory') && passed(h.exams, 'practical');
+    const both = counted(h.exams, 'theory') && counted(h.exams, 'practical');
     const items = [];
     if (isStaff(me)) {
       items.push(el('a', { href: `start.html?pupil=${q}` }, 'Start a session'));
       items.push(el('a', { href: `theory.html?pupil=${q}` }, 'Theory exam for this pupil'));
       items.push(el('button', { type: 'button', class: 'secondary', onclick: downloadCsv }, 'Download the history (CSV)'));
       if (both && (me.role === 'admin' || me.role === 'examiner'))
-        items.push(el('button', { type: 'button', class: 'secondary', onclick: issueLicence }, h.licence ? 'Issue a new licence' : 'Issue the licence'));
+        items.push(el('button', { type: 'button', class: 'secondary', id: 'issue-licence', onclick: issueLicence },
+                      h.licence ? 'Issue a new licence' : 'Issue the licence'));
     } else {
       items.push(el('a', { href: 'theory.html' }, 'Take the theory exam'));
     }
-    if (both) items.push(el('a', { href: `certificate.html?pupil=${q}`, id: 'certificate-link' }, 'Certification record'));
+    // The certificate is made with the licence: none to print before it is issued.
+    if (h.licence) items.push(el('a', { href: `certificate.html?pupil=${q}`, id: 'certificate-link' }, 'Certificate'));
     clear(box).append(...items);
     box.hidden = false;
+  }
+
+  // A correction, by an examiner or an administrator: a new record beside the exam, with its reason.
+  function correctionForm(e) {
+    const reason = el('input', { type: 'text', name: 'reason', required: true, maxlength: 1000, 'aria-label': 'Reason' });
+    const passed = el('select', { name: 'passed', 'aria-label': 'Result' },
+      el('option', { value: '' }, 'result unchanged'), el('option', { value: 'false' }, 'not passed (withdraw the pass)'),
+      el('option', { value: 'true' }, 'passed'));
+    const note = el('input', { type: 'text', name: 'note', maxlength: 1000, 'aria-label': 'Note' });
+    const form = el('form', { class: 'correction-form', 'data-exam': e.id },
+      el('label', {}, 'Reason', reason), el('label', {}, 'Result', passed), el('label', {}, 'Note', note),
+      el('button', { type: 'submit', class: 'secondary' }, 'Record the correction'));
+    form.addEventListener('submit', async (ev) => {
+      ev.preventDefault();
+      const body = { reason: reason.value };
+      if (passed.value) body.passed = passed.value === 'true';
+      if (note.value) body.note = note.value;
+      try {
+        await api('POST', `/exams/${e.id}/corrections`, body);
+        await load();
+        say(message, `Correction recorded beside exam ${e.id}; the exam itself is kept as it was.`, 'ok');
+      } catch (x) {
+        say(message, describeError(x));
+      }
+    });
+    return el('details', { class: 'no-print' }, el('summary', {}, 'Correct this exam…'), form);
+  }
+
+  function correctionsList(e) {
+    if (!e.corrections || e.corrections.length === 0) return '';
+    return el('ul', { class: 'small corrections' }, e.corrections.map((c) => el('li', { 'data-correction': c.id },
+      `Correction ${c.id}, ${dateTime(c.at)} by ${c.by_name || c.by}: `,
+      Object.entries(c.correction || {}).map(([k, v]) => `${k} ${typeof v === 'boolean' ? (v ? 'yes' : 'no') : v}`).join(', '),
+      ` (${c.reason})`)));
+  }
+
+  function examRow(e) {
+    const score = e.score === null ? el('span', { class: 'muted' }, 'no mark')
+      : e.kind === 'theory' ? `${e.correct ?? '?'} of ${e.total ?? '?'} (${pct(e.score)})` : `mark ${num(e.score)}`;
+    const counts = e.kind === 'practical' && e.passed
+      ? el('div', { class: 'small' }, e.counts_toward_licence ? 'counts toward the licence' : `does not count: ${e.not_counted}`) : '';
+    const detailsCell = e.kind === 'theory' && e.attempt ? el('a', { href: `theory.html?attempt=${encodeURIComponent(e.attempt)}` }, 'answers')
+      : e.session ? [el('a', { href: `session.html?id=${encodeURIComponent(e.session)}` }, e.session),
+                     e.exam_course ? el('div', { class: 'small' }, e.exam_course) : e.scenario ? el('div', { class: 'small muted' }, e.scenario) : ''] : '';
+    return el('tr', { 'data-exam': e.id === null ? '' : e.id, 'data-kind': e.kind, 'data-outcome': e.outcome },
+      el('th', { scope: 'row' }, e.kind === 'theory' ? 'Theory' : 'Practical', e.id === null ? '' : el('div', { class: 'small muted' }, `exam ${e.id}`)),
+      el('td', {}, dateTime(e.taken_at)),
+      el('td', {}, outcomeBadge(e.outcome)),
+      el('td', {}, score),
+      el('td', {}, passBadge(e.passed), reasonsList(e.passed ? [] : e.reasons), counts, correctionsList(e),
+         e.id !== null && (me.role === 'admin' || me.role === 'examiner') ? correctionForm(e) : ''),
+      el('td', {}, e.examiner_name || e.examiner || ''),
+      el('td', {}, detailsCell));
   }
 
   function render(h) {
@@ -107,11 +181,14 @@
     const dl = clear(document.getElementById('facts'));
     if (p.email) fact(dl, 'Email', p.email);
     fact(dl, 'Pupil since', day(p.created_at));
-    fact(dl, 'Sessions', `${h.sessions.length}, of which ${h.marks.length} marked`);
-    if (h.trend !== null) fact(dl, 'Trend', `${h.trend >= 0 ? '+' : ''}${num(h.trend, 2)} marks per marked session`);
+    const training = h.sessions.filter((s) => s.mode === 'training');
+    const marked = h.marks.filter((m) => m.mode === 'training').length;
+    fact(dl, 'Training sessions', `${training.length}, of which ${marked} marked`);
+    if (h.trend !== null) fact(dl, 'Trend', `${h.trend >= 0 ? '+' : ''}${num(h.trend, 2)} marks per marked training session`);
     const theory = latest(h.exams, 'theory'), practical = latest(h.exams, 'practical');
     fact(dl, 'Theory exam', theory ? [passBadge(theory.passed), ` ${pct(theory.score)} on ${day(theory.taken_at)}`] : 'not taken');
-    fact(dl, 'Practical exam', practical ? [passBadge(practical.passed), ` mark ${num(practical.score)} on ${day(practical.taken_at)}`] : 'not taken');
+    fact(dl, 'Practical exam', practical ? [passBadge(practical.passed), practical.score === null ? ` ${outcomeText(practical.outcome)}` : ` mark ${num(practical.score)}`,
+                                            ` on ${day(practical.taken_at)}`] : 'not taken');
     if (h.licence) {
       fact(dl, 'Licence', `issued ${day(h.licence.issued_at)} by ${h.licence.issued_by}`);
       fact(dl, 'Re-evaluation due', day(h.licence.reevaluation_due), ' ',
@@ -123,21 +200,18 @@
     actions(h);
     drawCharts(h);
 
-    clear(document.querySelector('#sessions tbody')).append(...[...h.sessions].reverse().map((s) => el('tr', { 'data-session': s.id },
+    const tbody = clear(document.querySelector('#sessions tbody'));
+    tbody.append(...[...training].reverse().map((s) => el('tr', { 'data-session': s.id, 'data-outcome': s.outcome },
       el('th', { scope: 'row' }, el('a', { href: `session.html?id=${encodeURIComponent(s.id)}` }, s.id)),
-      el('td', {}, dateTime(s.created_at)), el('td', {}, s.scenario), el('td', {}, s.mode), el('td', {}, s.cab_id),
-      el('td', {}, badge(s.state, s.state), s.reason ? el('div', { class: 'small muted' }, s.reason) : ''),
-      el('td', { class: 'num' }, s.mark === null ? '–' : num(s.mark)), el('td', {}, passBadge(s.passed), evidenceNote(s.evidence)))));
-    if (h.sessions.length === 0) document.querySelector('#sessions tbody').append(el('tr', {}, el('td', { colspan: 8, class: 'muted' }, 'No sessions yet.')));
+      el('td', {}, dateTime(s.created_at)), el('td', {}, s.scenario), el('td', {}, s.cab_id),
+      el('td', {}, outcomeBadge(s.outcome), s.reason ? el('div', { class: 'small muted' }, s.reason) : ''),
+      el('td', { class: 'num' }, s.mark === null ? el('span', { class: 'muted' }, 'no mark') : num(s.mark)),
+      el('td', {}, passBadge(s.passed)))));
+    if (training.length === 0) tbody.append(el('tr', {}, el('td', { colspan: 7, class: 'muted' }, 'No training sessions yet.')));
 
-    clear(document.querySelector('#exams tbody')).append(...[...h.exams].reverse().map((e) => el('tr', { 'data-exam': e.id, 'data-kind': e.kind },
-      el('th', { scope: 'row' }, e.kind === 'theory' ? 'Theory' : 'Practical'),
-      el('td', {}, dateTime(e.taken_at)),
-      el('td', {}, e.kind === 'theory' ? `${e.correct ?? '?'} of ${e.total ?? '?'} (${pct(e.score)})` : `mark ${num(e.score)}`),
-      el('td', {}, passBadge(e.passed), evidenceNote(e.evidence)),
-      el('td', {}, e.kind === 'theory' && e.attempt ? el('a', { href: `theory.html?attempt=${encodeURIComponent(e.attempt)}` }, 'answers')
-                 : e.session ? el('a', { href: `session.html?id=${encodeURIComponent(e.session)}` }, e.session) : ''))));
-    if (h.exams.length === 0) document.querySelector('#exams tbody').append(el('tr', {}, el('td', { colspan: 5, class: 'muted' }, 'No exams yet.')));
+    const exams = clear(document.querySelector('#exams tbody'));
+    exams.append(...[...h.exams].reverse().map(examRow));
+    if (h.exams.length === 0) exams.append(el('tr', {}, el('td', { colspan: 7, class: 'muted' }, 'No exams yet.')));
   }
 
   async function load() {

@@ -34,8 +34,14 @@
     fact(dl, 'State', badge(s.state, s.state), s.reason ? ` ${s.reason}` : '');
     fact(dl, 'Started', dateTime(s.created_at));
     if (s.ended_at) fact(dl, 'Ended', dateTime(s.ended_at));
-    fact(dl, 'Mark', s.mark === null ? el('span', { class: 'muted' }, TERMINAL.includes(s.state) ? 'no mark: the session was not marked' : 'not marked yet')
+    // Only a session that ran its course has a mark; the others say how they ended instead.
+    const unmarked = { timed_out: 'no mark: the time ran out', aborted: 'no mark: the session was aborted',
+                       stopped: 'no mark: the session was stopped before its end', failed: 'no mark: the session failed',
+                       completed: 'not marked yet', open: 'not marked yet' };
+    fact(dl, 'Mark', s.mark === null ? el('span', { class: 'muted', id: 'no-mark', 'data-outcome': s.outcome }, unmarked[s.outcome] || 'no mark')
                                      : [el('strong', { id: 'mark' }, num(s.mark)), ' ', s.passed === null ? '' : s.passed ? badge('passed', 'passed') : badge('not-passed', 'not passed')]);
+    if (s.reasons && s.reasons.length && s.passed !== true)
+      fact(dl, s.mode === 'exam' ? 'Why it did not pass' : 'Why', el('ul', { class: 'small reasons' }, s.reasons.map((r) => el('li', { 'data-code': r.code }, r.text))));
   }
 
   function actions(s) {
@@ -55,14 +61,14 @@
       worst[e.kind] = Math.max(worst[e.kind] || 0, e.worry_level);
       counted[e.kind] = (counted[e.kind] || 0) + 1;
     }
-    const counts = s.score ? s.score.counts : counted;
+    const counts = s.score ? s.score.counts : s.counts || counted;
     const rows = Object.entries(counts).sort((a, b) => b[1] - a[1]).map(([k, n]) => el('tr', {},
       el('th', { scope: 'row' }, k), el('td', {}, worst[k] ? badge(worryName(worst[k]), worryName(worst[k])) : ''), el('td', { class: 'num' }, n)));
     if (rows.length === 0) rows.push(el('tr', {}, el('td', { colspan: 3, class: 'muted' }, 'No faults.')));
     if (s.score) rows.push(el('tr', {}, el('th', { scope: 'row' }, 'Mark'), el('td', {}, s.score.passed ? badge('passed', 'passed') : badge('not-passed', 'not passed')),
                                  el('td', { class: 'num' }, num(s.score.mark))));
     clear(document.querySelector('#sheet tbody')).append(...rows);
-    document.getElementById('sheet-heading').textContent = s.score ? 'Marking sheet' : 'Marking sheet (faults noted; not marked)';
+    document.getElementById('sheet-heading').textContent = s.score ? 'Marking sheet' : 'Marking sheet (faults counted; no mark)';
   }
 
   async function showStill(s, e, box, button) {
@@ -207,6 +213,6 @@
     if (s && TERMINAL.includes(s.state)) live(s);  // hides the panel
     if (!s || !TERMINAL.includes(s.state)) return;
     endedAt = endedAt || Date.now();
-    done = s.mark !== null || Date.now() - endedAt > 30000;
+    done = s.mark !== null || s.outcome !== 'completed' || Date.now() - endedAt > 30000;
   }, 2000, () => done);
 })();

@@ -85,8 +85,10 @@
       const want = param('pupil');
       $('pupil').append(el('option', { value: '' }, pupils.length ? 'choose a pupil' : 'no pupils yet'),
         ...pupils.map((p) => el('option', { value: p.id, selected: String(p.id) === want }, p.name)));
-      const group = (kind, label) => el('optgroup', { label }, sc.filter((s) => s.kind === kind).map((s) => el('option', { value: s.name }, s.name)));
-      $('scenario').append(group('scenario', 'Warehouse and yard scenarios'), group('manoeuvre', "The paper's manoeuvres"));
+      const group = (label, keep) => el('optgroup', { label }, sc.filter(keep).map((s) => el('option', { value: s.name }, s.exam_title ? `${s.name}: ${s.exam_title}` : s.name)));
+      $('scenario').append(group('Exam courses (practical exams and training)', (s) => s.exam_course),
+        group('Warehouse and yard scenarios (training)', (s) => s.kind === 'scenario' && !s.exam_course),
+        group("The paper's manoeuvres (training and study)", (s) => s.kind === 'manoeuvre'));
       $('truck').append(el('option', { value: '' }, 'as the scenario sets it'), ...tr.map((t) => el('option', { value: t.name }, t.title)));
       const cabs = fleet.cabs;
       $('cab-list').append(...cabs.map((c) => el('option', { value: c.id }, `${c.id}: ${c.online ? 'online' : 'offline'}${c.session ? ', busy' : ''}`)));
@@ -102,8 +104,24 @@
       say(message, describeError(e));
     }
     $('scenario').addEventListener('change', () => { aboutScenario(); aboutTruck(); });
-    // An exam has no learning aids: the choice is greyed out rather than silently ignored.
-    const aids = () => { $('aids-set').disabled = $('mode').value !== 'training'; };
+    // An exam has no learning aids and runs only on an exam course as it is laid out (its truck
+    // and loads): the other choices are greyed out rather than refused after the click.
+    const aids = () => {
+      const exam = $('mode').value === 'exam';
+      $('aids-set').disabled = exam;
+      for (const o of $('scenario').querySelectorAll('option')) {
+        const s = scenarios.find((x) => x.name === o.value);
+        o.disabled = exam && !(s && s.exam_course);
+      }
+      if (exam && $('scenario').selectedOptions[0]?.disabled) {
+        const first = [...$('scenario').querySelectorAll('option')].find((o) => !o.disabled);
+        if (first) $('scenario').value = first.value;
+        aboutScenario();
+        aboutTruck();
+      }
+      for (const id of ['truck', 'load-scenario', 'load-none', 'load-custom']) if ($(id)) $(id).disabled = exam;
+      if (exam) { $('truck').value = ''; if ($('load-scenario')) $('load-scenario').checked = true; customLoad(); }
+    };
     $('mode').addEventListener('change', aids);
     aids();
     $('truck').addEventListener('change', () => { $('truck').dataset.touched = '1'; aboutTruck(); });

@@ -212,4 +212,24 @@ bool chains_to_ca(const std::vector<X509Ptr>& chain, const std::string& ca_pem, 
   return true;
 }
 
+Signer load_signer(const std::string& key_file, const std::string& cert_file, const std::string& who) {
+  Signer s;
+  {
+    std::string pem = read_file(key_file, who + " key");
+    struct Wipe {  // the key's text should not linger in freed memory
+      std::string& s;
+      ~Wipe() { OPENSSL_cleanse(s.data(), s.size()); }
+    } wipe{pem};
+    s.key = parse_private_key(pem, who + " key file '" + key_file + "'");
+  }
+  s.certs = parse_certificates(read_file(cert_file, who + " certificate"));
+  if (s.certs.empty()) throw std::runtime_error(who + " certificate file '" + cert_file + "' holds no PEM certificate");
+  if (EVP_PKEY_eq(X509_get0_pubkey(s.certs[0].get()), s.key.get()) != 1) {
+    openssl_error();  // drain
+    throw std::runtime_error(who + " key file '" + key_file + "' does not match the certificate in '" + cert_file +
+                             "'");
+  }
+  return s;
+}
+
 }  // namespace forklift::security::detail

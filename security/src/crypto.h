@@ -42,6 +42,14 @@ std::string base64_encode(std::string_view bytes);
 std::optional<std::string> base64_decode(std::string_view text);
 bool is_hex_sha256(std::string_view s);  // 64 lower-case hex digits
 
+// A key and the certificate(s) that go with it, read from their files and checked to belong
+// together; throws std::runtime_error naming `who` ("worker", "server") and the files.
+struct Signer {
+  PkeyPtr key;
+  std::vector<X509Ptr> certs;
+};
+Signer load_signer(const std::string& key_file, const std::string& cert_file, const std::string& who);
+
 // SHA-256 with the key's own scheme: ECDSA (DER) or RSA PKCS#1 v1.5. sign throws on failure.
 std::string sign_sha256(EVP_PKEY* key, std::string_view message);
 bool verify_sha256(EVP_PKEY* key, std::string_view message, std::string_view signature, std::string* why);

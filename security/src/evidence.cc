@@ -37,32 +37,6 @@ std::string entry_hash_of(const std::string& prev_hash, const json& record, cons
   return sha256_hex(prev_hash + "\n" + record.dump() + "\n" + log_sha256 + "\n" + log_signature + "\n");
 }
 
-// A key and the certificate(s) that go with it, read from their files and checked to belong together.
-struct Signer {
-  PkeyPtr key;
-  std::vector<X509Ptr> certs;
-};
-
-Signer load_signer(const std::string& key_file, const std::string& cert_file, const std::string& who) {
-  Signer s;
-  {
-    std::string pem = read_file(key_file, who + " key");
-    struct Wipe {  // the key's text should not linger in freed memory
-      std::string& s;
-      ~Wipe() { OPENSSL_cleanse(s.data(), s.size()); }
-    } wipe{pem};
-    s.key = parse_private_key(pem, who + " key file '" + key_file + "'");
-  }
-  s.certs = parse_certificates(read_file(cert_file, who + " certificate"));
-  if (s.certs.empty()) throw std::runtime_error(who + " certificate file '" + cert_file + "' holds no PEM certificate");
-  if (EVP_PKEY_eq(X509_get0_pubkey(s.certs[0].get()), s.key.get()) != 1) {
-    openssl_error();  // drain
-    throw std::runtime_error(who + " key file '" + key_file + "' does not match the certificate in '" + cert_file +
-                             "'");
-  }
-  return s;
-}
-
 // A string for a report line: quoted and escaped, so that odd bytes cannot forge a line.
 std::string show(const std::string& s) {
   const std::string q = json(s).dump(-1, ' ', false, json::error_handler_t::replace);

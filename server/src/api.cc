@@ -104,10 +104,17 @@ json pupil_json(const store::Pupil& p) {
 }
 
 json session_json(const store::Session& s) {
+  // A session has a mark only when it completed (store::session_outcome, the one rule); an exam
+  // that ended otherwise did not pass.
+  const store::Outcome o = store::session_outcome(s);
+  const std::optional<double> mark = store::mark_of(s);
+  const json passed = o == store::Outcome::kCompleted ? (s.passed ? json(*s.passed) : json(nullptr))
+                      : s.mode == "exam" && o != store::Outcome::kOpen ? json(false)
+                                                                        : json(nullptr);
   json j = {{"id", s.public_id}, {"pupil_id", s.pupil_id}, {"cab_id", s.cab_id}, {"scenario", s.scenario},
-            {"mode", s.mode}, {"state", s.state}, {"reason", s.reason}, {"created_at", s.created_at},
-            {"ended_at", s.ended_at}, {"mark", s.mark ? json(*s.mark) : json(nullptr)},
-            {"passed", s.passed ? json(*s.passed) : json(nullptr)}};
+            {"mode", s.mode}, {"state", s.state}, {"reason", s.reason}, {"outcome", store::outcome_name(o)},
+            {"created_at", s.created_at}, {"ended_at", s.ended_at}, {"mark", mark ? json(*mark) : json(nullptr)},
+            {"passed", passed}};
   if (s.examiner_id) j["examiner_id"] = *s.examiner_id;
   return j;
 }

@@ -104,6 +104,7 @@ store::Pupil visible_pupil(Context& ctx, const Principal& p, int64_t id);
 
 // ---------------------------------------------------------------- records shared by several routes
 json pupil_json(const store::Pupil& p);
+// A session with its outcome; its mark and passed only as the store's rule gives them (mark_of).
 json session_json(const store::Session& s);
 
 // ---------------------------------------------------------------- audit

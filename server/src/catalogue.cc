@@ -57,6 +57,8 @@ json truck_json(const std::string& data_dir, const std::string& stem) {
   return j;
 }
 
+bool is_exam_course(const json& scenario) { return scenario.is_object() && scenario.contains("exam_course") && scenario["exam_course"].is_object(); }
+
 std::pair<json, json> scenario_setup(const json& sc) {
   json truck = nullptr, load = nullptr;
   if (sc.contains("truck") && sc["truck"].is_string())
@@ -65,16 +67,23 @@ std::pair<json, json> scenario_setup(const json& sc) {
   return {truck, load};
 }
 
-json session_scenario(Context& ctx, const store::Session& s) {
-  if (const auto kept = ctx.db().get_session_log(s.public_id, "scenario")) {
+json exam_course(const json& scenario) {
+  return scenario.is_object() && scenario.contains("exam_course") && scenario["exam_course"].is_object() ? scenario["exam_course"]
+                                                                                                       : json(nullptr);
+}
+
+json scenario_as_run(store::Store& db, const std::string& data_dir, const store::Session& s) {
+  if (const auto kept = db.get_session_log(s.public_id, "scenario")) {
     json j = json::parse(*kept, nullptr, false);
     if (j.is_object()) return j;
   }
-  const auto all = scenarios(ctx.data_dir);
+  const auto all = scenarios(data_dir);
   const auto it = all.find(s.scenario);
   if (it == all.end()) return json::object();
   try { return read_json_file(it->second); } catch (const std::exception&) { return json::object(); }
 }
+
+json session_scenario(Context& ctx, const store::Session& s) { return scenario_as_run(ctx.db(), ctx.data_dir, s); }
 
 std::string session_scenario_file(Context& ctx, const store::Session& s) {
   const std::string own = ctx.fleet->config().log_dir + "/" + s.public_id + ".scenario.json";

@@ -26,6 +26,16 @@ nlohmann::json truck_json(const std::string& data_dir, const std::string& stem);
 // The truck and load a scenario (as run) sets: the truck file's stem, or null for the worker's
 // default truck; the load object, or null for none.
 std::pair<nlohmann::json, nlohmann::json> scenario_setup(const nlohmann::json& sc);
+// Whether a scenario file's JSON declares it an exam course ("exam_course": only these start in
+// exam mode, and only their exams count toward a licence).
+bool is_exam_course(const nlohmann::json& scenario);
+
+// A scenario's exam course: its top-level "exam_course" object (issue 17, item 1: only an exam
+// course can be a practical exam, and only an exam on one counts toward a licence), else null.
+nlohmann::json exam_course(const nlohmann::json& scenario);
+// The scenario a session ran, from the store alone: the copy kept with it, else the file of that
+// name under `data_dir` (for sessions from before copies were kept); {} if neither is readable.
+nlohmann::json scenario_as_run(store::Store& db, const std::string& data_dir, const store::Session& s);
 
 // The scenario a session ran: the copy kept with it (with the truck and load chosen), else, for
 // sessions from before copies were kept, the scenario file of that name.

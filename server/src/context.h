@@ -19,6 +19,9 @@ struct Context {
   std::string db_path, data_dir;
   std::unique_ptr<Tokens> tokens;
   std::unique_ptr<LoginThrottle> logins;
+  // Look-ups of certificate numbers that do not exist, limited per address as logins are.
+  std::unique_ptr<LoginThrottle> certificate_lookups;
+  std::string school_name;  // as certificates print it (ServerConfig::school_name, resolved at start)
   std::unique_ptr<Fleet> fleet;
   std::unique_ptr<QuestionBank> bank;  // data/theory/questions.json, loaded at start
   std::unique_ptr<TheoryPolicy> theory_policy;  // data/theory/policy.json or --theory-policy, loaded at start

@@ -358,7 +358,12 @@ void Fleet::settle(store::Store& db, const WorkerInfo& w, const std::string& rea
     uint64_t events = 0;
     for (const store::EventRecord& e : logged->events) events += db.add_event(e) ? 1 : 0;
     bool scored = false;
-    if (logged->score && !db.get_score(w.session)) scored = db.set_score_audited(*logged->score, store::now_iso8601(), kWorkerLog);
+    if (logged->score && !db.get_score(w.session)) {
+      store::ScoreRecord score = *logged->score;
+      score.exam_details = practical_exam_details(db, config_.data_dir, rules_, w.session, logged->end_reason.value_or(""),
+                                                  logged->points, score.counts, score.passed);
+      scored = db.set_score_audited(score, store::now_iso8601(), kWorkerLog);
+    }
     if (events || scored) {
       std::lock_guard<std::mutex> lock(mu_);
       refused_.recovered_events += events;
@@ -564,6 +569,8 @@ void Fleet::ingest() {
         refuse(&RefusedSamples::score_disagrees, "a score for session " + std::string(s.session_id) + " that its session log does not hold");
         return;
       }
+      r.exam_details = practical_exam_details(*db, config_.data_dir, rules_, r.session_public_id, logged->end_reason,
+                                              logged->points, r.counts, r.passed);
       db->set_score_audited(r, store::now_iso8601(), kWorker);
     });
     each(statuses, "fk_SessionStatus", [&](const fk_SessionStatus& s, const dds_sample_info_t& info) {

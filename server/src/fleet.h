@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "exam_evidence.h"
+#include "outcome.h"
 #include "forklift/protocol/protocol.h"
 #include "forklift/store/store.h"
 
@@ -91,6 +92,7 @@ class Fleet {
   bool cab_busy(const std::string& cab);
   const FleetConfig& config() const { return config_; }
   bool secure() const { return !config_.security_dir.empty(); }
+  const MarkingRules& marking_rules() const { return rules_; }
   RefusedSamples refused();
 
   // The exam chain's anchor, and the keys and CA it is checked with (read from the security
@@ -164,6 +166,8 @@ class Fleet {
   std::map<std::string, Followed> followed_;            // by cab
   std::map<std::string, std::unique_ptr<dds::Writer<fk_SessionStatus>>> cab_status_writers_;  // by cab
   // Read before the threads start (config_ is initialised first).
+  // The marking scheme, for the reasons a practical exam's record keeps (data/evaluation/rules.json).
+  const MarkingRules rules_ = load_marking_rules(config_.data_dir + "/evaluation/rules.json");
   std::unique_ptr<ChainAnchor> anchor_ = std::make_unique<ChainAnchor>(
       config_.chain_anchor.empty() ? config_.log_dir + "/exam-chain.anchor" : config_.chain_anchor);
   ChainStatus chain_status_;  // under mu_

@@ -81,6 +81,8 @@ int main(int argc, char** argv) {
                  "needed for exams")->envname("FORKLIFT_SECURITY_DIR");
   app.add_option("--identity", cfg.identity, "the server's identity in it");
   app.add_option("--admin-password", cfg.admin_password, "password of the 'admin' account created with a new database (else FORKLIFT_ADMIN_PASSWORD, else random)");
+  app.add_option("--school-name", cfg.school_name, "the school's name as certificates print it (default: the school of the "
+                 "--security folder's CA, else the database's)")->envname("FORKLIFT_SCHOOL_NAME");
   app.add_option("--theory-policy", cfg.theory_policy, "the school's rules for theory papers: time limits, the wait between "
                  "exam attempts and their limit (default: data/theory/policy.json)")->check(CLI::ExistingFile);
   app.add_option("--web-dir", web_dir, "the built web pages (default: web/ beside bin/ in the build tree)");

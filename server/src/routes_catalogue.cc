@@ -23,6 +23,8 @@ void catalogue_routes(httplib::Server& svr, Context& ctx) {
         j["description"] = sc.value("description", json(nullptr));
         j["time_limit_s"] = sc.value("time_limit_s", json(nullptr));
         j["truck"] = scenario_setup(sc).first;
+        j["exam_course"] = is_exam_course(sc);
+        if (is_exam_course(sc)) j["exam_title"] = sc["exam_course"].value("title", json(nullptr));
       } catch (const std::exception&) {
         j["error"] = "unreadable";
       }

@@ -9,8 +9,10 @@
 #include "catalogue.h"
 #include "exam_evidence.h"
 #include "load_request.h"
+#include "outcome.h"
 #include "routes.h"
 #include "forklift/protocol/aids.h"
+#include "forklift/scene/scene.h"
 
 namespace forklift::server {
 
@@ -80,21 +82,25 @@ void session_routes(httplib::Server& svr, Context& ctx) {
     const std::string scenario_path = scenario_file(ctx.data_dir, scenario);
     const std::string mode = field<std::string>(b, "mode", std::string("training"));
     const std::optional<std::string> aids = aids_request(b, mode);
+    json run;  // the scenario as this session runs it
+    try {
+      run = read_json_file(scenario_path);
+    } catch (const std::exception&) {
+      throw ApiError(500, "bad_scenario", "scenario '" + scenario + "' is unreadable");
+    }
     if (mode == "exam") {
       require_role(p, {Role::kAdmin, Role::kExaminer});
+      if (!is_exam_course(run)) throw ApiError(400, "not_exam_course", not_an_exam_course("scenario '" + scenario + "'"));
+      // The course is marked as it is laid out: its truck and its loads are part of it.
+      if (b.contains("truck") || b.contains("load"))
+        throw ApiError(400, "bad_request", "an exam course runs as it is laid out: leave 'truck' and 'load' out of an exam session");
       // A licence exam's result must be trusted: authenticated cab, encrypted traffic, signed log.
       if (!ctx.fleet->secure())
         throw ApiError(409, "security_required", "exams need DDS Security: start the server with --security DIR (scripts/forklift-pki.sh)");
     }
     if (ctx.fleet->cab_busy(cab)) throw ApiError(409, "cab_busy", "cab " + cab + " is already running a session");
     std::optional<double> duration;
-    json run;  // the scenario as this session runs it
-    try {
-      run = read_json_file(scenario_path);
-      if (run.contains("duration_s") && run["duration_s"].is_number()) duration = run["duration_s"].get<double>();
-    } catch (const std::exception&) {
-      throw ApiError(500, "bad_scenario", "scenario '" + scenario + "' is unreadable");
-    }
+    if (run.contains("duration_s") && run["duration_s"].is_number()) duration = run["duration_s"].get<double>();
     // The truck and the load may replace the scenario's own (the paper's "characteristics of the
     // simulation environment"); the worker then runs a copy of the scenario with them.
     bool own_copy = false;
@@ -147,7 +153,16 @@ void session_routes(httplib::Server& svr, Context& ctx) {
     json j = session_json(s);
     j["events"] = json::array();
     for (const auto& e : ctx.db().list_events(s.public_id)) j["events"].push_back(event_json(e));
-    if (const auto sc = ctx.db().get_score(s.public_id)) j["score"] = {{"mark", sc->mark}, {"passed", sc->passed}, {"counts", sc->counts}};
+    // The score as a mark only when the session completed; else the faults it counted, unmarked.
+    if (const auto sc = ctx.db().get_score(s.public_id)) {
+      if (store::mark_of(s)) j["score"] = {{"mark", sc->mark}, {"passed", sc->passed}, {"counts", sc->counts}};
+      else j["counts"] = sc->counts;
+    }
+    if (store::is_terminal(s.state)) {
+      const auto sc = ctx.db().get_score(s.public_id);
+      j["reasons"] = reasons_json(session_reasons(ctx.fleet->marking_rules(), s, sc ? sc->counts : std::map<std::string, int>{},
+                                                  std::nullopt, sc ? std::optional<bool>(sc->passed) : std::nullopt));
+    }
     const auto [truck, load] = scenario_setup(session_scenario(ctx, s));
     j["truck"] = truck.is_null() ? json(nullptr) : truck_json(ctx.data_dir, truck.get<std::string>());
     j["load"] = load;

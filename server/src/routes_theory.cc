@@ -41,6 +41,15 @@ std::optional<std::string> username_of(Context& ctx, std::optional<int64_t> user
 
 json or_null(const std::optional<std::string>& s) { return s ? json(*s) : json(nullptr); }
 
+// The names an exam record keeps as they were when it was written (a later edit changes no exam):
+// the supervisor's full name, and the pupil's.
+json names_then(Context& ctx, const store::TheoryAttempt& a) {
+  const auto u = a.started_by ? ctx.db().get_user(*a.started_by) : std::nullopt;
+  const auto pupil = ctx.db().get_pupil(a.pupil_id);
+  return {{"examiner_name", u && !u->full_name.empty() ? json(u->full_name) : json(nullptr)},
+          {"pupil_name", pupil ? json(pupil->name) : json(nullptr)}};
+}
+
 // Milliseconds of an ISO time this server wrote; a time it cannot read is an internal error.
 int64_t ms_of(const std::string& iso) {
   const auto ms = parse_iso8601_ms(iso);
@@ -188,7 +197,9 @@ bool end_timed_out(Context& ctx, const store::TheoryAttempt& a, const store::Act
         r.passed = false;
         r.examiner_id = a.started_by;
         r.taken_at = now;
-        r.details = d.dump();
+        json kept = d;
+        kept.update(names_then(ctx, a));
+        r.details = kept.dump();
         audit_details["exam_id"] = ctx.db().finish_theory_attempt(a.id, r, "timed_out");
       } else {
         ctx.db().finish_practice_attempt(a.id, "timed_out", d.dump(), now);
@@ -567,7 +578,9 @@ void theory_routes(httplib::Server& svr, Context& ctx) {
           r.passed = m.passed;
           r.examiner_id = a.started_by;  // the supervisor who handed it out
           r.taken_at = taken_at;
-          r.details = d.dump();
+          json kept = d;
+          kept.update(names_then(ctx, a));
+          r.details = kept.dump();
           audit_details["exam_id"] = ctx.db().finish_theory_attempt(a.id, r, "marked");
         } else {
           ctx.db().finish_practice_attempt(a.id, "marked", d.dump(), taken_at);

@@ -5,6 +5,7 @@
 #include <sodium.h>
 
 #include <filesystem>
+#include <fstream>
 #include <stdexcept>
 
 #include "api.h"
@@ -35,6 +36,20 @@ void security_headers(const httplib::Request& req, httplib::Response& res) {
   if (!res.has_header("Cache-Control")) res.set_header("Cache-Control", req.path.rfind("/api/", 0) == 0 ? "no-store" : "no-cache");
 }
 
+// The name certificates print: the configured one, else the security folder's school (as its CA
+// was made for), else the database's.
+std::string certificate_school_name(const ServerConfig& c, store::Store& db) {
+  if (!c.school_name.empty()) return c.school_name;
+  if (!c.security_dir.empty()) {
+    std::ifstream in(c.security_dir + "/school");
+    std::string name;
+    if (std::getline(in, name) && !name.empty()) return name;
+  }
+  const auto admin = db.find_user("admin");
+  const auto school = admin ? db.get_school(admin->school_id) : std::nullopt;
+  return school ? school->name : "Default school";
+}
+
 std::string random_password() {
   unsigned char raw[9];
   randombytes_buf(raw, sizeof raw);
@@ -55,8 +70,11 @@ Api::Api(ServerConfig c) : ctx_(std::make_unique<Context>()) {
   ctx.data_dir = c.data_dir;
   ctx.tokens = std::make_unique<Tokens>(c.token_ttl_s);
   decoy_hash();  // now, not in the time of the first login of an unknown username
-  ctx.logins = std::make_unique<LoginThrottle>(LoginThrottle::Limits{
-      c.login_attempts, c.login_address_attempts.value_or(kAddressAttemptsPerUserAttempt * c.login_attempts), c.login_window_s});
+  const int address_attempts = c.login_address_attempts.value_or(kAddressAttemptsPerUserAttempt * c.login_attempts);
+  ctx.logins = std::make_unique<LoginThrottle>(LoginThrottle::Limits{c.login_attempts, address_attempts, c.login_window_s});
+  // Keyed by address: an address gets as many unknown numbers as it would failed logins.
+  ctx.certificate_lookups =
+      std::make_unique<LoginThrottle>(LoginThrottle::Limits{address_attempts, address_attempts, c.login_window_s});
   ctx.bank = std::make_unique<QuestionBank>(load_question_bank(ctx.data_dir + "/theory/questions.json"));
   ctx.theory_policy = std::make_unique<TheoryPolicy>(
       load_theory_policy(c.theory_policy.empty() ? ctx.data_dir + "/theory/policy.json" : c.theory_policy, *ctx.bank));
@@ -84,6 +102,7 @@ Api::Api(ServerConfig c) : ctx_(std::make_unique<Context>()) {
     const int64_t school = ctx.db().create_school("Default school");
     ctx.db().create_user("admin", hash_password(password), store::Role::kAdmin, school);
   }
+  ctx.school_name = certificate_school_name(c, ctx.db());
   // A paper's time limit holds without anyone asking: the clock ends papers nobody hands in.
   ctx.theory_clock = std::make_unique<Periodic>(std::chrono::seconds(1), [&ctx] { end_overdue_papers(ctx); });
 }
@@ -118,6 +137,7 @@ void Api::mount(httplib::Server& svr) {
   catalogue_routes(svr, *ctx_);
   session_routes(svr, *ctx_);
   theory_routes(svr, *ctx_);
+  exam_routes(svr, *ctx_);
   svr.set_post_routing_handler(security_headers);
 }
 

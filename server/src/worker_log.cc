@@ -46,7 +46,14 @@ std::optional<LoggedMark> parse_score_line(const std::string& line) {
   errno = 0;
   const double mark = std::strtod(w[1].c_str(), &end);
   if (errno != 0 || *end != '\0' || !(mark >= 0 && mark <= 100)) return std::nullopt;
-  return LoggedMark{mark, w[2] == "1"};
+  LoggedMark m{mark, w[2] == "1"};
+  try {
+    m.points = std::stoi(w[3]);
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+  m.end_reason = w.size() >= 5 ? w.back() : "";
+  return m;
 }
 
 std::optional<LoggedSession> read_logged_session(const std::string& log_path, const std::string& session) {
@@ -84,7 +91,10 @@ std::optional<LoggedSession> read_logged_session(const std::string& log_path, co
         out.events.push_back(std::move(e));
       } else if (w[0] == "score") {
         mark = parse_score_line(line);
-        if (mark) out.end_reason = w.back();
+        if (mark) {
+          out.end_reason = mark->end_reason;
+          out.points = mark->points;
+        }
       } else if (w[0] == "end") {
         out.finished = true;
       }

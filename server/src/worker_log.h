@@ -18,6 +18,7 @@ struct LoggedSession {
   std::vector<store::EventRecord> events;  // in the order published: seq from 1, as on DDS
   std::optional<store::ScoreRecord> score; // mark and passed from the score line; counts from the events
   std::optional<std::string> end_reason;   // the score line's reason
+  std::optional<int> points;               // the score line's penalty points
   bool finished = false;                   // the log has its "end" line
   bool gave_up = false;                    // the worker's cab never spoke
 };
@@ -33,6 +34,8 @@ std::string logged_participant(const std::string& log_path);
 struct LoggedMark {
   double mark = 0;
   bool passed = false;
+  int points = 0;
+  std::string end_reason{};
 };
 std::optional<LoggedMark> parse_score_line(const std::string& line);
 

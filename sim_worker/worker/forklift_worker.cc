@@ -364,6 +364,8 @@ int main(int argc, char** argv) {
     std::optional<SessionModel> loaded;
     try {
       loaded.emplace(load_session_model(spec, FORKLIFT_DATA_DIR));
+      if (loaded->mode == Mode::kExam && !loaded->scene.exam_course)
+        throw std::runtime_error(not_an_exam_course(scenario_file.empty() ? "a bare floor" : scenario_file));
     } catch (const std::exception& e) {
       // A broken scenario or truck file is bad input, not a fault of the run: exit 2 and say
       // why, to the terminal and to the server.

@@ -8,8 +8,8 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "evaluation/forklift_sim.h"
 #include "evaluation/harness.h"
-#include "support/process.h"
 
 namespace {
 
@@ -47,24 +47,7 @@ void faulty_yard_drive(Session& s) {
 }
 
 std::string write_script(const Session& s, const std::string& name, const std::string& what) {
-  const std::string path = testing::TempDir() + "/" + name;
-  // The last row at the last tick: forklift-sim then runs exactly as many ticks as this session.
-  const double end_s = (s.ticks - 1) * Session::kTick;
-  const std::string comment = what + " (written by tests/evaluation/exam_test.cc; see data/evaluation/README.md)";
-  s.write_script(path, end_s, comment);
-  if (const char* dir = std::getenv("FORKLIFT_EVAL_SCRIPT_DIR")) s.write_script(std::string(dir) + "/" + name, end_s, comment);
-  return path;
-}
-
-// forklift-sim evaluate with `args`; its JSON.
-json evaluate(const std::vector<std::string>& args, const std::string& tag, std::string* raw = nullptr) {
-  std::vector<std::string> argv = {std::string(FORKLIFT_BIN_DIR) + "/forklift-sim", "evaluate"};
-  argv.insert(argv.end(), args.begin(), args.end());
-  Process p(argv, testing::TempDir() + "/evaluate_" + tag);
-  const int code = p.wait(300);
-  EXPECT_EQ(code, 0) << p.err();
-  if (raw) *raw = p.out();
-  return json::parse(p.out());
+  return evt::write_script(s, name, what, "tests/evaluation/exam_test.cc");
 }
 
 // The events as (seq, t, rule, level), for comparing runs.

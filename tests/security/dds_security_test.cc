@@ -26,6 +26,8 @@ namespace fs = std::filesystem;
 namespace {
 
 const std::string kBin = FORKLIFT_BIN_DIR;
+// Exams run only on an exam course (data/evaluation/README.md): the workers here run the shipped one.
+const std::string kExamCourse = std::string(FORKLIFT_DATA_DIR) + "/scenarios/counterbalance_exam.json";
 const std::string kPki = std::string(FORKLIFT_SOURCE_DIR) + "/scripts/forklift-pki.sh";
 // A throttle no script would use by chance: its eight bytes are looked for on the wire.
 constexpr double kMarkerThrottle = 0.3141592653;
@@ -61,7 +63,8 @@ class SecuredExam : public testing::Test {
 
   static Process worker(int domain, const std::string& name, const std::string& security_dir, std::vector<std::string> extra = {}) {
     std::vector<std::string> args = {kBin + "/forklift-worker", "--cab", "cab1", "--session", "s-" + name, "--mode", "exam",
-                                     "--dds-domain", std::to_string(domain), "--log", tmp(name + ".ctl"), "--fps", "10"};
+                                     "--scenario", kExamCourse, "--dds-domain", std::to_string(domain), "--log", tmp(name + ".ctl"),
+                                     "--fps", "10"};
     if (!security_dir.empty()) args.insert(args.end(), {"--security", security_dir});
     args.insert(args.end(), extra.begin(), extra.end());
     return Process(args, tmp(name + ".worker"));
@@ -156,7 +159,8 @@ TEST_F(SecuredExam, AnExamWorkerGrantsNoAidWhateverTheCabAsks) {
   auto session = [&](const std::string& name, const std::string& mode, bool ask_everything) {
     const int domain = forklift::test::free_domain();
     Process w({kBin + "/forklift-worker", "--cab", "cab1", "--session", "s-" + name, "--mode", mode, "--security", school(),
-               "--dds-domain", std::to_string(domain), "--log", tmp(name + ".ctl"), "--frame-size", "320x240", "--duration", "4"},
+               "--scenario", kExamCourse, "--dds-domain", std::to_string(domain), "--log", tmp(name + ".ctl"), "--frame-size",
+               "320x240", "--duration", "4"},
               tmp(name + ".worker"));
     // The cab, enrolled: cab1's identity, its own partition.
     dds::Participant p(dds::DomainSettings::resolve(domain, "", school(), "cab.cab1"));
@@ -213,6 +217,22 @@ TEST_F(SecuredExam, ExamModeRefusesToStartWithoutSecurity) {
   EXPECT_EQ(t.wait(20), 5) << "training starts and waits for a cab: " << t.err();
 }
 
+// An exam runs only on an exam course: the paper's manoeuvres, the training scenarios and a bare
+// floor are refused as bad input (exit 2), saying why, before the session starts.
+TEST_F(SecuredExam, ExamModeRefusesAScenarioThatIsNotAnExamCourse) {
+  const int domain = forklift::test::free_domain();
+  for (const std::string& scenario : {std::string(FORKLIFT_DATA_DIR) + "/manoeuvres/manoeuvre_1.json",
+                                      std::string(FORKLIFT_DATA_DIR) + "/scenarios/first_drive_yard.json", std::string()}) {
+    std::vector<std::string> args = {kBin + "/forklift-worker", "--cab", "cab1", "--session", "s-not-a-course", "--mode", "exam",
+                                     "--security", school(), "--dds-domain", std::to_string(domain), "--log", tmp("not-a-course.ctl")};
+    if (!scenario.empty()) args.insert(args.end(), {"--scenario", scenario});
+    Process w(args, tmp("not-a-course.worker"));
+    EXPECT_EQ(w.wait(30), 2) << scenario << ": " << w.err();
+    EXPECT_NE(w.err().find("is not an exam course"), std::string::npos) << w.err();
+    EXPECT_EQ(slurp(tmp("not-a-course.ctl")), "") << "no session ran";
+  }
+}
+
 // Byte windows of a frame the cab received: 32 pixels across an edge in the picture (two colours
 // at least), so that they cannot turn up in ciphertext or headers by chance.
 std::vector<std::string> frame_windows(const std::string& png) {
@@ -257,7 +277,7 @@ Capture capture_session(int domain, const std::string& name, const std::string& 
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   std::vector<std::string> sec = security_dir.empty() ? std::vector<std::string>{} : std::vector<std::string>{"--security", security_dir};
   std::vector<std::string> wargs = {kBin + "/forklift-worker", "--cab", "cab1", "--session", "s-" + name, "--mode",
-                                    security_dir.empty() ? "training" : "exam", "--dds-domain", std::to_string(domain),
+                                    security_dir.empty() ? "training" : "exam", "--scenario", kExamCourse, "--dds-domain", std::to_string(domain),
                                     "--log", tmp(name + ".ctl"), "--fps", "10", "--duration", "3"};
   wargs.insert(wargs.end(), sec.begin(), sec.end());
   Process w(wargs, tmp(name + ".worker"));

@@ -255,16 +255,39 @@ TEST(Handlers, ABadLoadIsRefusedBeforeAnySessionStarts) {
   EXPECT_EQ(s.call("GET", "/api/fleet", admin).second["workers"].size(), 0u);
 }
 
-TEST(Handlers, AnExamNeedsDdsSecurityAndAnExaminer) {
+TEST(Handlers, AnExamNeedsAnExamCourseDdsSecurityAndAnExaminer) {
   InProcessServer s("exam");
   const std::string admin = s.login("admin", kAdminPassword);
   const json pupil = s.add_pupil(admin, "Eva");
   EXPECT_EQ(s.call("POST", "/api/users", admin, R"({"username":"ines","password":"ines-pass-1","role":"instructor"})").first, 201);
-  const json body = {{"pupil_id", pupil["id"]}, {"cab_id", "cab1"}, {"scenario", "manoeuvre_1"}, {"mode", "exam"}};
+  const json body = {{"pupil_id", pupil["id"]}, {"cab_id", "cab1"}, {"scenario", "counterbalance_exam"}, {"mode", "exam"}};
   auto [st, j] = s.call("POST", "/api/sessions", admin, body.dump());
   EXPECT_EQ(st, 409);
   EXPECT_EQ(error_code(j), "security_required");  // this server runs without --security
   EXPECT_EQ(error_code(s.call("POST", "/api/sessions", s.login("ines", "ines-pass-1"), body.dump()).second), "forbidden");
+  // The paper's manoeuvres and the training scenarios are for practice: never an exam.
+  for (const char* training : {"manoeuvre_1", "first_drive_yard", "practical_exam"}) {
+    json other = body;
+    other["scenario"] = training;
+    auto [st2, j2] = s.call("POST", "/api/sessions", admin, other.dump());
+    EXPECT_EQ(st2, 400) << training;
+    EXPECT_EQ(error_code(j2), "not_exam_course") << training;
+    EXPECT_NE(j2["error"]["message"].get<std::string>().find("is not an exam course"), std::string::npos) << j2;
+  }
+  // An exam course runs as it is laid out: no other truck, no other load.
+  json other_truck = body;
+  other_truck["truck"] = "simucel_paper";
+  EXPECT_EQ(s.call("POST", "/api/sessions", admin, other_truck.dump()).first, 400);
+  // The catalogue says which scenarios are exam courses.
+  int courses = 0;
+  for (const json& sc : s.call("GET", "/api/scenarios", admin).second) {
+    EXPECT_TRUE(sc.contains("exam_course")) << sc;
+    if (sc.value("exam_course", false)) {
+      ++courses;
+      EXPECT_EQ(sc["name"], "counterbalance_exam");
+    }
+  }
+  EXPECT_EQ(courses, 1);
   EXPECT_EQ(s.call("GET", pupil_path(pupil) + "/history", admin).second["sessions"].size(), 0u);
 }
 

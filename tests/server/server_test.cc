@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -52,12 +54,12 @@ TEST(Server, LoginRolesAndVisibility) {
   EXPECT_EQ(s.call("GET", "/api/pupils?search=ben", ines).second.size(), 1u);      // case-insensitive search
   EXPECT_EQ(s.call("POST", "/api/users", ines, R"({"username":"x","password":"xxxxxxxx","role":"admin"})").first, 403);
   EXPECT_EQ(error_code(s.call("GET", "/api/pupils").second), "unauthenticated");
-  // A licence: only an examiner or admin issues it, and re-evaluation falls due 3 years on.
+  // A licence: only an examiner or admin issues it, and only on passed exams (certificate_test.cc).
   EXPECT_EQ(s.call("POST", "/api/pupils/" + a_id + "/licence", ines).first, 403);
   auto [stl, lic] = s.call("POST", "/api/pupils/" + a_id + "/licence", admin);
-  ASSERT_EQ(stl, 201) << lic;
-  EXPECT_EQ(std::stoi(lic["reevaluation_due"].get<std::string>().substr(0, 4)), std::stoi(lic["issued_at"].get<std::string>().substr(0, 4)) + 3);
-  EXPECT_EQ(s.call("GET", "/api/pupils/" + a_id + "/history", ana).second["reevaluation_overdue"], false);
+  EXPECT_EQ(stl, 409) << lic;
+  EXPECT_EQ(error_code(lic), "not_certified") << lic;
+  EXPECT_TRUE(s.call("GET", "/api/pupils/" + a_id + "/history", ana).second["licence"].is_null());
   EXPECT_EQ(s.call("GET", "/api/pupils", "not-a-token").first, 401);
 }
 
@@ -220,4 +222,104 @@ TEST(Server, AnAbortedSessionEndsAsAbortedAndTheCabIsToldWhy) {
   const json worker_out = json::parse(text.str(), nullptr, false);
   ASSERT_TRUE(worker_out.is_object()) << text.str();
   EXPECT_EQ(worker_out["score"]["end_reason"], "aborted");
+}
+
+// Issue 17, item 2: only a session that ran its course has a mark. An aborted session and one
+// whose time ran out with its task undone keep the evaluator's score in the store (their workers
+// sent one), but the API gives them an outcome and no mark, leaves them out of the marks the
+// pupil's chart draws and out of the trend, lists them apart, and exports no mark for them.
+TEST(Server, AbortedAndTimedOutSessionsHaveNoMarkAndStayOutOfTheChartAndTheTrend) {
+  Server s("unmarked");
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json pupil = s.call("POST", "/api/pupils", admin, R"({"name":"Ulla"})").second;
+  const std::string pupil_path = "/api/pupils/" + std::to_string(pupil["id"].get<int64_t>());
+  auto start = [&](const std::string& cab_id, const std::string& scenario, std::optional<double> limit) {
+    json b = {{"pupil_id", pupil["id"]}, {"cab_id", cab_id}, {"scenario", scenario}};
+    if (limit) b["time_limit_s"] = *limit;
+    auto [st, sess] = s.call("POST", "/api/sessions", admin, b.dump());
+    EXPECT_EQ(st, 201) << sess;
+    return sess.value("id", "");
+  };
+  // Two that run their course: the paper's manoeuvre 1 cut to 3 s (no task: its time is its course).
+  const std::string a = start("um1", "manoeuvre_1", 3);
+  Process ca = cab(s, "um1", kData + "/manoeuvres/manoeuvre_1.csv");
+  ASSERT_EQ(s.wait_session(admin, a, 30)["state"], "ended");
+  const std::string b = start("um2", "manoeuvre_1", 3);
+  Process cb = cab(s, "um2", short_script(s.dir, 3.0));
+  // One whose time runs out with its task undone: the practical exam course's scenario cut to 3 s.
+  const std::string t = start("ut1", "practical_exam", 3);
+  Process ct = cab(s, "ut1", short_script(s.dir, 3.0));
+  // One aborted while it runs.
+  const std::string d = start("ua1", "manoeuvre_1", std::nullopt);
+  Process cd = cab(s, "ua1", kData + "/manoeuvres/manoeuvre_1.csv");
+  std::string state;
+  for (int i = 0; i < 300 && state != "running"; ++i) {
+    state = s.call("GET", "/api/sessions/" + d, admin).second.value("state", "");
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_EQ(state, "running");
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  ASSERT_EQ(s.call("POST", "/api/sessions/" + d + "/abort", admin).first, 200);
+  for (const std::string& id : {b, t, d}) {
+    const std::string st = s.wait_session(admin, id, 30).value("state", "");
+    EXPECT_TRUE(st == "ended" || st == "aborted") << id << " is " << st;
+  }
+  // The worker's score of the aborted and the timed-out sessions arrives after their end: the
+  // session then shows the faults it counted, never a mark.
+  json ts, ds;
+  for (int i = 0; i < 100 && !(ts.contains("counts") && ds.contains("counts")); ++i) {
+    ts = s.call("GET", "/api/sessions/" + t, admin).second;
+    ds = s.call("GET", "/api/sessions/" + d, admin).second;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  ASSERT_TRUE(ts.contains("counts") && ds.contains("counts")) << ts << "\n" << ds;
+  EXPECT_EQ(ts["outcome"], "timed_out") << ts;
+  EXPECT_EQ(ds["outcome"], "aborted") << ds;
+  for (const json& x : {ts, ds}) {
+    EXPECT_TRUE(x["mark"].is_null()) << x;
+    EXPECT_TRUE(x["passed"].is_null()) << x;
+    EXPECT_FALSE(x.contains("score")) << x;
+    ASSERT_FALSE(x["reasons"].empty()) << x;
+  }
+  EXPECT_EQ(ts["reasons"][0]["code"], "timed_out");
+  EXPECT_EQ(ds["reasons"][0]["code"], "aborted");
+  // The evaluator did mark them: the audit log has each session's score as it was stored.
+  std::map<std::string, double> scored;
+  for (const json& r : s.call("GET", pupil_path + "/audit", admin).second)
+    if (r["action"] == "session_scored") scored[r["details"]["session"]] = r["details"]["mark"].get<double>();
+  EXPECT_TRUE(scored.count(t) && scored.count(d)) << "the worker sent no score to leave out";
+
+  const json h = s.call("GET", pupil_path + "/history", admin).second;
+  std::map<std::string, double> marks;
+  for (const json& m : h["marks"]) marks[m["session"]] = m["mark"].get<double>();
+  ASSERT_EQ(marks.size(), 2u) << h["marks"];
+  ASSERT_TRUE(marks.count(a) && marks.count(b)) << h["marks"];
+  std::map<std::string, std::string> unmarked;
+  for (const json& u : h["unmarked"]) unmarked[u["session"]] = u["outcome"];
+  EXPECT_EQ(unmarked[t], "timed_out") << h["unmarked"];
+  EXPECT_EQ(unmarked[d], "aborted") << h["unmarked"];
+  // The slope of two marks is their difference: the aborted and timed-out ones do not enter it.
+  ASSERT_TRUE(h["trend"].is_number()) << h;
+  EXPECT_NEAR(h["trend"].get<double>(), marks[b] - marks[a], 1e-9);
+  for (const json& x : h["sessions"])
+    if (x["id"] == t || x["id"] == d) {
+      EXPECT_TRUE(x["mark"].is_null()) << x;
+    }
+
+  // The export: no mark, and the outcome.
+  auto c = s.client();
+  const auto csv = c.Get(pupil_path + "/history.csv", {{"Authorization", "Bearer " + admin}});
+  ASSERT_TRUE(csv && csv->status == 200);
+  std::istringstream lines(csv->body);
+  int seen = 0;
+  for (std::string line; std::getline(lines, line);) {
+    std::vector<std::string> f;  // record,id,date,scenario_or_kind,mode,state,mark_or_score,passed,outcome,why_not_passed
+    std::istringstream fields(line);
+    for (std::string x; std::getline(fields, x, ',');) f.push_back(x);
+    if (f.size() < 9 || f[0] != "session" || (f[1] != t && f[1] != d)) continue;
+    ++seen;
+    EXPECT_EQ(f[6], "") << "no mark: " << line;
+    EXPECT_EQ(f[8], f[1] == t ? "timed_out" : "aborted") << line;
+  }
+  EXPECT_EQ(seen, 2) << csv->body;
 }

@@ -163,6 +163,30 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
   const char* Sql(const char* sqlite_sql, const char* postgres_sql) const { return sqlite() ? sqlite_sql : postgres_sql; }
 
   int64_t NewPupil(const std::string& name) { return store_->create_pupil(school_, name, ""); }
+  fs::ExamRecord TheoryRecord(int64_t pupil, double score, bool passed, const std::string& taken_at = "") {
+    fs::ExamRecord r;
+    r.pupil_id = pupil;
+    r.kind = "theory";
+    r.score = score;
+    r.passed = passed;
+    r.taken_at = taken_at;
+    return r;
+  }
+  // SQL that takes migration 6 back out of the database (its triggers, functions, tables and
+  // column), as a program from before it left the file.
+  std::string DropMigration6() {
+    std::string sql;
+    if (sqlite()) {
+      for (const std::string& t : RawQuery("SELECT name FROM sqlite_master WHERE type = 'trigger' AND name LIKE 'kept_%'"))
+        sql += "DROP TRIGGER " + t + "; ";
+    } else {
+      for (const std::string& t : RawQuery("SELECT tgname || ' ON ' || tgrelid::regclass FROM pg_trigger WHERE tgname LIKE 'kept\\_%'"))
+        sql += "DROP TRIGGER " + t + "; ";
+    }
+    sql += "DROP TABLE certificate_revocations; DROP TABLE certificates; DROP TABLE exam_corrections; ";
+    if (!sqlite()) sql += "DROP FUNCTION refuse_kept_edit, refuse_kept_truncate, is_kept_exam_session; ";
+    return sql + "ALTER TABLE users DROP COLUMN full_name; DELETE FROM schema_migrations WHERE version >= 6; ";
+  }
   fs::Session NewSession(int64_t pupil, const std::string& mode = "training",
                          const std::string& now = "2026-01-01T10:00:00Z",
                          std::optional<int64_t> examiner = std::nullopt) {
@@ -437,9 +461,12 @@ TEST_P(StoreTest, HistoryAggregatesFaultsTrendAndLicence) {
   store_->add_event(MakeEvent(s2, 2, "collision", 3));
   store_->add_event(MakeEvent(bobs, 1, "collision", 3));  // someone else's
   store_->set_session_state(aborted, "aborted", "cab lost", "2026-01-02T10:05:00Z");
+  // The worker's score follows an abort: an aborted session keeps it, and has no mark.
+  store_->set_score(fs::ScoreRecord{aborted, 95, true, {}}, "t");
   store_->set_score(fs::ScoreRecord{s1, 50, false, {}}, "t");
   store_->set_score(fs::ScoreRecord{s2, 60, false, {}}, "t");
   store_->set_score(fs::ScoreRecord{s3, 70, true, {}}, "t");
+  for (const std::string& s : {s1, s2, s3}) store_->set_session_state(s, "ended", "task_complete", "t");
   store_->add_licence(pupil, "2021-05-01T12:00:00Z", "inspector");
   const int64_t latest = store_->add_licence(pupil, "2022-05-01T12:00:00Z", "inspector");
 
@@ -451,7 +478,7 @@ TEST_P(StoreTest, HistoryAggregatesFaultsTrendAndLicence) {
   EXPECT_EQ(h->sessions.back().public_id, s3);
   EXPECT_EQ(h->faults_by_kind, (std::map<std::string, int>{{"collision", 1}, {"overspeed", 3}}));
   ASSERT_TRUE(h->trend.has_value());
-  EXPECT_NEAR(*h->trend, 10.0, 1e-9);  // 50, 60, 70 over the marked sessions
+  EXPECT_NEAR(*h->trend, 10.0, 1e-9);  // 50, 60, 70 over the marked sessions, not the aborted one's 95
   ASSERT_TRUE(h->licence.has_value());
   EXPECT_EQ(h->licence->id, latest);
   EXPECT_EQ(h->licence->reevaluation_due, "2025-05-01T12:00:00Z");
@@ -941,7 +968,7 @@ TEST_P(StoreTest, TheoryPapersFromBeforeTheirKindAreMarkedExams) {
   store_->finish_theory_attempt(marked, r);
   store_.reset();
   // Back to schema 4, as an older program left it (keeping the rows).
-  ASSERT_EQ(RawExec("DROP INDEX theory_attempts_open; DROP TABLE theory_unlocks; "
+  ASSERT_EQ(RawExec(DropMigration6() + "DROP INDEX theory_attempts_open; DROP TABLE theory_unlocks; "
                            "ALTER TABLE theory_attempts DROP COLUMN kind; ALTER TABLE theory_attempts DROP COLUMN deadline; "
                            "ALTER TABLE theory_attempts DROP COLUMN finished_at; ALTER TABLE theory_attempts DROP COLUMN outcome; "
                            "ALTER TABLE theory_attempts DROP COLUMN result; DELETE FROM schema_migrations WHERE version >= 5"),
@@ -1136,4 +1163,198 @@ TEST_P(StoreTest, ExamChainAppendsInOrderOncePerSessionAndRefusesEdits) {
             "");
   EXPECT_EQ(store_->count_chain_entries(), 1);
   EXPECT_EQ(store_->last_chain_entry()->seq, 2);
+}
+
+// Issue 17, item 2: one rule says what a session's end means. Only a session that ran its course
+// has a mark; aborted, timed-out, stopped and failed sessions have an outcome and no mark, even
+// when their worker sent a score, and count in no trend; exams are not training.
+TEST_P(StoreTest, OnlyCompletedSessionsHaveAMarkAndCountInTheTrend) {
+  const int64_t pupil = NewPupil("Ann");
+  struct Case {
+    std::string mode, state, reason;
+    std::map<std::string, int> counts;
+    double mark;
+    fs::Outcome outcome;
+  };
+  const std::vector<Case> cases = {
+      {"training", "ended", "task_complete", {}, 40, fs::Outcome::kCompleted},
+      {"training", "ended", "duration", {}, 50, fs::Outcome::kCompleted},  // a manoeuvre: no task, its time is its course
+      {"training", "aborted", "aborted by eric", {}, 96, fs::Outcome::kAborted},
+      {"training", "ended", "time_limit", {{"time_limit", 1}}, 91, fs::Outcome::kTimedOut},
+      {"training", "ended", "duration", {{"task_incomplete", 1}}, 82, fs::Outcome::kTimedOut},  // 0 of 5 steps
+      {"training", "ended", "signal", {}, 45, fs::Outcome::kStopped},
+      {"training", "ended", "numerical_failure", {}, 30, fs::Outcome::kFailed},
+      {"training", "ended", "tip_over", {}, 20, fs::Outcome::kFailed},
+      {"training", "ended", "parked", {}, 60, fs::Outcome::kCompleted},
+      {"exam", "ended", "task_complete", {}, 99, fs::Outcome::kCompleted},  // a result, not a training mark
+  };
+  std::vector<std::string> ids;
+  for (const Case& c : cases) {
+    const std::string id = NewSession(pupil, c.mode).public_id;
+    ids.push_back(id);
+    if (c.state == "aborted") store_->set_session_state(id, "aborted", c.reason, "t");
+    store_->set_score(fs::ScoreRecord{id, c.mark, true, c.counts}, "t");
+    if (c.state != "aborted") store_->set_session_state(id, c.state, c.reason, "t");
+  }
+  const std::string failed = NewSession(pupil).public_id;  // the worker crashed: no score at all
+  store_->set_session_state(failed, "failed", "worker killed by signal 9", "t");
+  const std::string open = NewSession(pupil).public_id;
+  store_->set_score(fs::ScoreRecord{open, 70, true, {}}, "t");  // the score comes before the end
+
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const fs::Session s = *store_->get_session(ids[i]);
+    EXPECT_EQ(fs::session_outcome(s), cases[i].outcome) << s.reason;
+    EXPECT_EQ(fs::mark_of(s).has_value(), cases[i].outcome == fs::Outcome::kCompleted) << s.reason;
+    EXPECT_DOUBLE_EQ(*s.mark, cases[i].mark) << "the evaluator's mark is kept as it came";
+  }
+  EXPECT_EQ(fs::session_outcome(*store_->get_session(failed)), fs::Outcome::kFailed);
+  EXPECT_EQ(fs::session_outcome(*store_->get_session(open)), fs::Outcome::kOpen);
+  EXPECT_FALSE(fs::mark_of(*store_->get_session(open)).has_value());
+  EXPECT_STREQ(fs::outcome_name(fs::Outcome::kTimedOut), "timed_out");
+
+  // The trend is over the marked training sessions alone: 40, 50, 60 in order.
+  const auto h = store_->history(pupil, "t");
+  ASSERT_TRUE(h->trend.has_value());
+  EXPECT_NEAR(*h->trend, 10.0, 1e-9);
+}
+
+// Issue 17, item 5: a finished exam is kept as written, whatever writes to the file: the schema
+// refuses to change or delete its record, its session once over, its score, events and logs, and
+// a finished theory exam paper. Training records are not held so.
+TEST_P(StoreTest, FinishedExamsAreKeptAsWritten) {
+  const int64_t pupil = NewPupil("Ann");
+  const int64_t examiner = store_->create_user("eve", "h", fs::Role::kExaminer, school_, std::nullopt, "Eve Examiner");
+  EXPECT_EQ(store_->get_user(examiner)->full_name, "Eve Examiner");
+  const std::string exam = NewSession(pupil, "exam", "2026-01-01T10:00:00Z", examiner).public_id;
+  store_->add_event(MakeEvent(exam, 1, "collision_rack", 3));
+  store_->put_session_log(exam, "control", "log v1");
+  // Aborted, then its score comes: the first score of a session that is over is still taken.
+  ASSERT_TRUE(store_->set_session_state(exam, "aborted", "aborted by eve", "2026-01-01T10:10:00Z"));
+  fs::ScoreRecord score{exam, 70, false, {{"collision_rack", 1}}};
+  score.exam_details = R"({"outcome":"aborted"})";
+  ASSERT_TRUE(store_->set_score(score, "2026-01-01T10:10:01Z"));
+  const auto exams = store_->history(pupil, "t")->exams;
+  ASSERT_EQ(exams.size(), 1u);
+  EXPECT_EQ(exams[0].details, score.exam_details) << "the server's reasons are in the record";
+  const std::string where = " WHERE session_id = (SELECT id FROM sessions WHERE public_id = '" + exam + "')";
+  for (const std::string& sql : std::vector<std::string>{"UPDATE exams SET passed = TRUE", "DELETE FROM exams",
+                                 "UPDATE sessions SET mark = 100 WHERE public_id = '" + exam + "'",
+                                 "UPDATE sessions SET pupil_id = pupil_id + 1 WHERE public_id = '" + exam + "'",
+                                 "UPDATE sessions SET examiner_id = NULL WHERE public_id = '" + exam + "'",
+                                 "DELETE FROM sessions WHERE public_id = '" + exam + "'",
+                                 "UPDATE scores SET passed = TRUE" + where, "DELETE FROM scores" + where,
+                                 "UPDATE score_counts SET count = 0" + where, "DELETE FROM score_counts" + where,
+                                 "UPDATE events SET worry_level = 0" + where, "DELETE FROM events" + where,
+                                 "UPDATE session_logs SET body = 'log v2'" + where, "DELETE FROM session_logs" + where}) {
+    const std::string error = RawExec(sql);
+    EXPECT_NE(error.find("kept"), std::string::npos) << sql << ": " << error;
+  }
+  EXPECT_EQ(ErrorKind([&] { store_->put_session_log(exam, "control", "log v2"); }), fs::StoreError::kConflict);
+  store_->put_session_log(exam, "control", "log v1");  // the same log again changes nothing: taken
+  store_->put_session_log(exam, "chain_refused", "a");  // the server's own note may be rewritten
+  store_->put_session_log(exam, "chain_refused", "b");
+  EXPECT_EQ(store_->get_session(exam)->mark, 70);
+  EXPECT_EQ(store_->list_events(exam).size(), 1u);
+
+  // A finished theory exam paper.
+  fs::TheoryAttempt a;
+  a.pupil_id = pupil;
+  a.questions = R"({"ids":["q01"]})";
+  const int64_t paper = store_->create_theory_attempt(a);
+  store_->finish_theory_attempt(paper, TheoryRecord(pupil, 0.4, false));
+  EXPECT_NE(RawExec("UPDATE theory_attempts SET questions = '{}' WHERE id = " + std::to_string(paper)).find("kept"), std::string::npos);
+  EXPECT_NE(RawExec("DELETE FROM theory_attempts WHERE id = " + std::to_string(paper)).find("kept"), std::string::npos);
+
+  // Training stays as it was: its logs are replaced, its rows are not held.
+  const std::string training = NewSession(pupil).public_id;
+  store_->set_session_state(training, "ended", "duration", "t");
+  store_->put_session_log(training, "control", "v1");
+  store_->put_session_log(training, "control", "v2");
+  EXPECT_EQ(RawExec("UPDATE sessions SET reason = 'x' WHERE public_id = '" + training + "'"), "");
+}
+
+// A correction is a new record beside the exam, with its reason, kept for ever.
+TEST_P(StoreTest, CorrectionsAreNewRecordsKeptForEver) {
+  const int64_t pupil = NewPupil("Ann");
+  const int64_t eve = store_->create_user("eve", "h", fs::Role::kExaminer, school_);
+  const int64_t exam = store_->add_exam(TheoryRecord(pupil, 0.9, true, "2026-02-01T09:00:00Z"));
+  fs::ExamCorrection c;
+  c.exam_id = exam;
+  c.corrected_by = eve;
+  c.reason = "question q07 was marked against the wrong clause";
+  c.correction = R"({"score":0.86})";
+  const int64_t first = store_->add_exam_correction(c);
+  c.reason = "the paper was sat with notes on the desk";
+  c.correction = R"({"passed":false})";
+  const int64_t second = store_->add_exam_correction(c);
+  const auto list = store_->list_exam_corrections(exam);
+  ASSERT_EQ(list.size(), 2u);
+  EXPECT_EQ(list[0].id, first);
+  EXPECT_EQ(list[1].id, second);
+  EXPECT_EQ(list[1].correction, R"({"passed":false})");
+  EXPECT_FALSE(list[0].at.empty());
+  EXPECT_EQ(store_->history(pupil, "t")->corrections.size(), 2u);
+  EXPECT_TRUE(store_->get_exam(exam)->passed) << "the exam itself is as it was";
+  c.reason = "";
+  EXPECT_EQ(ErrorKind([&] { store_->add_exam_correction(c); }), fs::StoreError::kInvalid);
+  c.reason = "x";
+  c.correction = "[1]";
+  EXPECT_EQ(ErrorKind([&] { store_->add_exam_correction(c); }), fs::StoreError::kInvalid);
+  c.correction = "{}";
+  c.exam_id = exam + 99;
+  EXPECT_EQ(ErrorKind([&] { store_->add_exam_correction(c); }), fs::StoreError::kNotFound);
+  EXPECT_NE(RawExec("UPDATE exam_corrections SET reason = 'x'").find("append-only"), std::string::npos);
+  EXPECT_NE(RawExec("DELETE FROM exam_corrections").find("append-only"), std::string::npos);
+}
+
+// Issue 17, item 4: a certificate per licence, its number unique, kept for ever; revoked once.
+TEST_P(StoreTest, CertificatesAreKeptAndRevokedOnce) {
+  const int64_t ann = NewPupil("Ann"), bob = NewPupil("Bob");
+  const int64_t eve = store_->create_user("eve", "h", fs::Role::kExaminer, school_);
+  store_->set_user_full_name(eve, "Eve Examiner");
+  EXPECT_EQ(store_->get_user(eve)->full_name, "Eve Examiner");
+  EXPECT_EQ(ErrorKind([&] { store_->set_user_full_name(eve + 99, "x"); }), fs::StoreError::kNotFound);
+  EXPECT_EQ(store_->get_school(school_)->name, "Depot school");
+  const int64_t licence = store_->add_licence(ann, "2026-05-01T12:00:00Z", "eve");
+  fs::CertificateRecord c;
+  c.number = "DS-AAAA-BBBB-CCCC-DDDD";
+  c.pupil_id = ann;
+  c.licence_id = licence;
+  c.issued_at = "2026-05-01T12:00:00Z";
+  c.issued_by = eve;
+  c.record = R"({"number":"DS-AAAA-BBBB-CCCC-DDDD"})";
+  c.signature = R"({"format":"x"})";
+  c.id = store_->add_certificate(c);
+  const auto found = store_->find_certificate(c.number);
+  ASSERT_TRUE(found.has_value());
+  EXPECT_EQ(found->id, c.id);
+  EXPECT_EQ(found->record, c.record);
+  EXPECT_EQ(found->issued_by, eve);
+  EXPECT_FALSE(store_->find_certificate("DS-0000-0000-0000-0000").has_value());
+  EXPECT_EQ(store_->list_certificates(ann).size(), 1u);
+  EXPECT_TRUE(store_->list_certificates(bob).empty());
+  EXPECT_EQ(ErrorKind([&] { store_->add_certificate(c); }), fs::StoreError::kConflict);  // the licence has one
+  fs::CertificateRecord other = c;
+  other.number = "DS-1111-2222-3333-4444";
+  other.pupil_id = bob;
+  EXPECT_EQ(ErrorKind([&] { store_->add_certificate(other); }), fs::StoreError::kInvalid);  // Ann's licence
+  other.licence_id = licence + 99;
+  EXPECT_EQ(ErrorKind([&] { store_->add_certificate(other); }), fs::StoreError::kNotFound);
+
+  EXPECT_FALSE(store_->certificate_revocation(c.id).has_value());
+  fs::CertificateRevocation r;
+  r.certificate_id = c.id;
+  r.revoked_by = eve;
+  r.reason = "the operator's practical exam was sat by someone else";
+  store_->revoke_certificate(r);
+  const auto revoked = store_->certificate_revocation(c.id);
+  ASSERT_TRUE(revoked.has_value());
+  EXPECT_EQ(revoked->reason, r.reason);
+  EXPECT_FALSE(revoked->at.empty());
+  EXPECT_EQ(ErrorKind([&] { store_->revoke_certificate(r); }), fs::StoreError::kConflict);
+  r.reason = "";
+  EXPECT_EQ(ErrorKind([&] { store_->revoke_certificate(r); }), fs::StoreError::kInvalid);
+  for (const char* sql : {"UPDATE certificates SET record = '{}'", "DELETE FROM certificates",
+                                 "UPDATE certificate_revocations SET reason = 'x'", "DELETE FROM certificate_revocations"})
+    EXPECT_NE(RawExec(sql).find("append-only"), std::string::npos) << sql;
 }

@@ -215,13 +215,13 @@ try {
   for (let t = 0; t <= 5.5 + 1e-9; t += 0.02) rows.push(`${t.toFixed(2)},${t < 3 ? 0 : -0.25},0.35,0,0,0,0`);
   fs.writeFileSync(script, rows.join('\n') + '\n');
   // Two cab stations: webcab1 for a training drive in the warehouse, webcab2 for a practical exam
-  // on the paper's manoeuvre 1 with its shipped script (a drive the evaluator passes).
+  // on the exam course with its shipped clean drive (cut short by the exam's time limit below).
   const noWindow = supports(cabBin, '--no-window') ? ['--no-window'] : [];
   start('cab', cabBin, ['--cab', 'webcab1', '--script', script, '--dds-domain', String(domain), '--wait-worker', '90',
                         '--security', pki, ...noWindow]);
   // The exam's cab saves its frames, so it asks the worker for them (as a cab with a window does):
   // the examiner's live view has frames to show.
-  start('cab2', cabBin, ['--cab', 'webcab2', '--script', path.join(args.data, 'manoeuvres', 'manoeuvre_1.csv'),
+  start('cab2', cabBin, ['--cab', 'webcab2', '--script', path.join(args.data, 'evaluation', 'scripts', 'counterbalance_exam_clean.csv'),
                          '--dds-domain', String(domain), '--wait-worker', '90', '--security', pki, ...noWindow,
                          '--save-frame', path.join(out, 'webcab2-last-frame.png')]);
 
@@ -252,7 +252,7 @@ try {
     await page.waitForFunction(() => /Session s-\d+/.test(document.getElementById('started-status').textContent));
     sessionId = (await page.textContent('#started-status')).match(/s-\d+/)[0];
     // The practical exam on the other cab, through the API as the menu would start it.
-    examId = (await api('POST', '/sessions', adminToken, { pupil_id: pupilId, cab_id: 'webcab2', scenario: 'manoeuvre_1',
+    examId = (await api('POST', '/sessions', adminToken, { pupil_id: pupilId, cab_id: 'webcab2', scenario: 'counterbalance_exam',
                                                             mode: 'exam', time_limit_s: 15 })).id;
   });
 

@@ -72,6 +72,26 @@ inline void check_chain_append(const char* op, const ChainEntry& e, const std::o
   require(!chained, StoreError::kConflict, op, "session " + e.session_public_id + " is already chained");
 }
 
+inline void check_new_correction(const char* op, const ExamCorrection& c) {
+  require(!c.reason.empty(), StoreError::kInvalid, op, "a correction needs its reason");
+}
+
+inline void check_new_certificate(const char* op, const CertificateRecord& c) {
+  require(!c.number.empty(), StoreError::kInvalid, op, "a certificate needs its number");
+}
+
+// The certificate's licence, whose pupil is `licence_pupil` (as read, inside the transaction),
+// is its pupil's.
+inline void check_certificate_licence(const char* op, const CertificateRecord& c, const std::optional<int64_t>& licence_pupil) {
+  require(licence_pupil.has_value(), StoreError::kNotFound, op, "no licence " + std::to_string(c.licence_id));
+  require(*licence_pupil == c.pupil_id, StoreError::kInvalid, op,
+          "licence " + std::to_string(c.licence_id) + " is not pupil " + std::to_string(c.pupil_id) + "'s");
+}
+
+inline void check_new_revocation(const char* op, const CertificateRevocation& r) {
+  require(!r.reason.empty(), StoreError::kInvalid, op, "a revocation needs its reason");
+}
+
 // The practical exam record an exam session's score makes.
 inline ExamRecord practical_exam(const Session& session, const ScoreRecord& s, const std::string& now) {
   ExamRecord exam;
@@ -82,6 +102,7 @@ inline ExamRecord practical_exam(const Session& session, const ScoreRecord& s, c
   exam.passed = s.passed;
   exam.examiner_id = session.examiner_id;
   exam.taken_at = now;
+  exam.details = s.exam_details;
   return exam;
 }
 
@@ -105,12 +126,13 @@ inline std::string contains_pattern(const std::string& text) {
   return p + "%";
 }
 
-// Least-squares slope of mark against the marked sessions' index 0, 1, 2, ... (sessions without
-// a mark, such as aborted ones, are not attempts and do not count).
+// Least-squares slope of mark against the marked training sessions' index 0, 1, 2, ...: sessions
+// without a mark (mark_of: aborted, timed out, failed...) are not attempts and do not count, and
+// exams are results, shown apart.
 inline std::optional<double> mark_trend(const std::vector<Session>& sessions) {
   std::vector<double> marks;
   for (const Session& s : sessions) {
-    if (s.mark) marks.push_back(*s.mark);
+    if (const auto m = mark_of(s); m && s.mode == "training") marks.push_back(*m);
   }
   if (marks.size() < 2) return std::nullopt;
   const double n = static_cast<double>(marks.size());
@@ -127,7 +149,8 @@ inline std::optional<double> mark_trend(const std::vector<Session>& sessions) {
 }
 
 // Rows read in the column order of the backends' USER_COLUMNS, PUPIL_COLUMNS, SESSION_COLUMNS,
-// THEORY_ATTEMPT_COLUMNS and AUDIT_COLUMNS.
+// THEORY_ATTEMPT_COLUMNS, AUDIT_COLUMNS, CERTIFICATE_COLUMNS, CORRECTION_COLUMNS and
+// REVOCATION_COLUMNS.
 template <class Row>
 User read_user(const Row& q) {
   User u;
@@ -139,6 +162,7 @@ User read_user(const Row& q) {
   u.role = *role;
   u.school_id = q.int64(4);
   u.pupil_id = q.opt_int64(5);
+  u.full_name = q.text(6);
   return u;
 }
 
@@ -163,6 +187,7 @@ Session read_session(const Row& q) {
   s.ended_at = q.text(10);
   s.mark = q.opt_real(11);
   if (!q.is_null(12)) s.passed = q.int64(12) != 0;
+  s.task_left_unfinished = q.int64(13) != 0;
   return s;
 }
 
@@ -187,6 +212,21 @@ TheoryAttempt read_theory_attempt(const Row& q) {
 template <class Row>
 AuditRecord read_audit(const Row& q) {
   return AuditRecord{q.int64(0), q.text(1), Actor{q.opt_int64(2), q.text(3)}, q.int64(4), q.text(5), q.text(6)};
+}
+
+template <class Row>
+CertificateRecord read_certificate(const Row& q) {
+  return CertificateRecord{q.int64(0), q.text(1), q.int64(2), q.int64(3), q.text(4), q.opt_int64(5), q.text(6), q.text(7)};
+}
+
+template <class Row>
+ExamCorrection read_correction(const Row& q) {
+  return ExamCorrection{q.int64(0), q.int64(1), q.int64(2), q.text(3), q.text(4), q.text(5)};
+}
+
+template <class Row>
+CertificateRevocation read_revocation(const Row& q) {
+  return CertificateRevocation{q.int64(0), q.int64(1), q.int64(2), q.text(3), q.text(4)};
 }
 
 }  // namespace forklift::store::detail

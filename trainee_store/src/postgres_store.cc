@@ -227,18 +227,141 @@ CREATE TRIGGER theory_unlocks_no_update BEFORE UPDATE ON theory_unlocks
 CREATE TRIGGER theory_unlocks_no_delete BEFORE DELETE OR TRUNCATE ON theory_unlocks
   FOR EACH STATEMENT EXECUTE FUNCTION refuse_append_only_edit();
 )sql",
+    // 6: exam records kept as written (issue 17, item 5): the triggers named kept_* refuse any
+    // change to an exam record, to an exam session once it is over (but for its first score: a
+    // score may follow an abort), to its score, events and logs (the server's note
+    // 'chain_refused' excepted), and to a finished theory exam paper, and a TRUNCATE that would
+    // take any of them; a correction is a new, append-only record. Certificates issued with
+    // licences and their revocations, append-only (issue 17, item 4), and staff's full names,
+    // which certificates print. A trigger's WHEN takes no subquery: is_kept_exam_session asks
+    // what SQLite's WHEN clauses ask of the session.
+    R"sql(
+ALTER TABLE users ADD COLUMN full_name TEXT NOT NULL DEFAULT '';
+-- The refusal of a change to a kept row; its message is the trigger's argument.
+CREATE FUNCTION refuse_kept_edit() RETURNS trigger LANGUAGE plpgsql AS $$
+BEGIN
+  RAISE EXCEPTION '%', TG_ARGV[0];
+END
+$$;
+-- TRUNCATE has no rows to look at one by one: it is refused when any row of the table meets the
+-- condition (the trigger's first argument) under which a DELETE of that row is refused.
+CREATE FUNCTION refuse_kept_truncate() RETURNS trigger LANGUAGE plpgsql AS $$
+DECLARE
+  kept BOOLEAN;
+BEGIN
+  EXECUTE format('SELECT EXISTS (SELECT 1 FROM %I WHERE %s)', TG_TABLE_NAME, TG_ARGV[0]) INTO kept;
+  IF kept THEN
+    RAISE EXCEPTION '%', TG_ARGV[1];
+  END IF;
+  RETURN NULL;
+END
+$$;
+-- Whether session `sid` is an exam (one that is over, if `over_only`).
+CREATE FUNCTION is_kept_exam_session(sid BIGINT, over_only BOOLEAN) RETURNS BOOLEAN LANGUAGE sql STABLE AS $$
+  SELECT EXISTS (SELECT 1 FROM sessions WHERE id = sid AND mode = 'exam'
+                 AND (NOT over_only OR state IN ('ended', 'failed', 'aborted')))
+$$;
+CREATE TRIGGER kept_exams_no_edit BEFORE UPDATE OR DELETE ON exams FOR EACH ROW
+  EXECUTE FUNCTION refuse_kept_edit('exam records are kept as written: a correction is a new record');
+CREATE TRIGGER kept_exams_no_truncate BEFORE TRUNCATE ON exams FOR EACH STATEMENT
+  EXECUTE FUNCTION refuse_kept_truncate('true', 'exam records are kept as written: a correction is a new record');
+CREATE TRIGGER kept_exam_sessions_no_update BEFORE UPDATE ON sessions FOR EACH ROW
+  WHEN (OLD.mode = 'exam' AND OLD.state IN ('ended', 'failed', 'aborted') AND (
+    (NEW.id, NEW.pupil_id, NEW.cab_id, NEW.scenario, NEW.mode, NEW.state, NEW.reason, NEW.examiner_id, NEW.created_at,
+     NEW.ended_at) IS DISTINCT FROM
+    (OLD.id, OLD.pupil_id, OLD.cab_id, OLD.scenario, OLD.mode, OLD.state, OLD.reason, OLD.examiner_id, OLD.created_at,
+     OLD.ended_at)
+    OR ((OLD.mark IS NOT NULL OR OLD.passed IS NOT NULL) AND (NEW.mark, NEW.passed) IS DISTINCT FROM (OLD.mark, OLD.passed))))
+  EXECUTE FUNCTION refuse_kept_edit('an exam session that is over is kept as it ended');
+CREATE TRIGGER kept_exam_sessions_no_delete BEFORE DELETE ON sessions FOR EACH ROW WHEN (OLD.mode = 'exam')
+  EXECUTE FUNCTION refuse_kept_edit('exam sessions are kept');
+CREATE TRIGGER kept_exam_sessions_no_truncate BEFORE TRUNCATE ON sessions FOR EACH STATEMENT
+  EXECUTE FUNCTION refuse_kept_truncate('mode = ''exam''', 'exam sessions are kept');
+CREATE TRIGGER kept_exam_scores_no_edit BEFORE UPDATE OR DELETE ON scores FOR EACH ROW
+  WHEN (is_kept_exam_session(OLD.session_id, false))
+  EXECUTE FUNCTION refuse_kept_edit('an exam''s score is kept as written');
+CREATE TRIGGER kept_exam_scores_no_truncate BEFORE TRUNCATE ON scores FOR EACH STATEMENT
+  EXECUTE FUNCTION refuse_kept_truncate('is_kept_exam_session(session_id, false)', 'an exam''s score is kept as written');
+CREATE TRIGGER kept_exam_score_counts_no_edit BEFORE UPDATE OR DELETE ON score_counts FOR EACH ROW
+  WHEN (is_kept_exam_session(OLD.session_id, false))
+  EXECUTE FUNCTION refuse_kept_edit('an exam''s score is kept as written');
+CREATE TRIGGER kept_exam_score_counts_no_truncate BEFORE TRUNCATE ON score_counts FOR EACH STATEMENT
+  EXECUTE FUNCTION refuse_kept_truncate('is_kept_exam_session(session_id, false)', 'an exam''s score is kept as written');
+CREATE TRIGGER kept_exam_events_no_edit BEFORE UPDATE OR DELETE ON events FOR EACH ROW
+  WHEN (is_kept_exam_session(OLD.session_id, false))
+  EXECUTE FUNCTION refuse_kept_edit('an exam''s events are kept as written');
+CREATE TRIGGER kept_exam_events_no_truncate BEFORE TRUNCATE ON events FOR EACH STATEMENT
+  EXECUTE FUNCTION refuse_kept_truncate('is_kept_exam_session(session_id, false)', 'an exam''s events are kept as written');
+CREATE TRIGGER kept_exam_logs_no_update BEFORE UPDATE ON session_logs FOR EACH ROW
+  WHEN (OLD.name <> 'chain_refused' AND NEW.body IS DISTINCT FROM OLD.body AND is_kept_exam_session(OLD.session_id, true))
+  EXECUTE FUNCTION refuse_kept_edit('the logs of an exam that is over are kept as written');
+CREATE TRIGGER kept_exam_logs_no_delete BEFORE DELETE ON session_logs FOR EACH ROW
+  WHEN (OLD.name <> 'chain_refused' AND is_kept_exam_session(OLD.session_id, false))
+  EXECUTE FUNCTION refuse_kept_edit('the logs of an exam are kept');
+CREATE TRIGGER kept_exam_logs_no_truncate BEFORE TRUNCATE ON session_logs FOR EACH STATEMENT
+  EXECUTE FUNCTION refuse_kept_truncate('name <> ''chain_refused'' AND is_kept_exam_session(session_id, false)',
+                                        'the logs of an exam are kept');
+CREATE TRIGGER kept_theory_exam_papers_no_edit BEFORE UPDATE OR DELETE ON theory_attempts FOR EACH ROW
+  WHEN (OLD.exam_id IS NOT NULL)
+  EXECUTE FUNCTION refuse_kept_edit('a finished theory exam paper is kept as written');
+CREATE TRIGGER kept_theory_exam_papers_no_truncate BEFORE TRUNCATE ON theory_attempts FOR EACH STATEMENT
+  EXECUTE FUNCTION refuse_kept_truncate('exam_id IS NOT NULL', 'a finished theory exam paper is kept as written');
+CREATE TABLE exam_corrections (
+  id BIGINT GENERATED BY DEFAULT AS IDENTITY PRIMARY KEY,
+  exam_id BIGINT NOT NULL REFERENCES exams(id),
+  corrected_by BIGINT NOT NULL REFERENCES users(id),
+  at TEXT NOT NULL,
+  reason TEXT NOT NULL CHECK (reason <> ''),
+  correction TEXT NOT NULL CHECK (json_typeof(correction::json) = 'object')
+);
+CREATE INDEX exam_corrections_by_exam ON exam_corrections(exam_id, id);
+CREATE TRIGGER exam_corrections_no_update BEFORE UPDATE ON exam_corrections
+  FOR EACH STATEMENT EXECUTE FUNCTION refuse_append_only_edit();
+CREATE TRIGGER exam_corrections_no_delete BEFORE DELETE OR TRUNCATE ON exam_corrections
+  FOR EACH STATEMENT EXECUTE FUNCTION refuse_append_only_edit();
+CREATE TABLE certificates (
+  id BIGINT GENERATED BY DEFAULT AS IDENTITY PRIMARY KEY,
+  number TEXT NOT NULL UNIQUE CHECK (number <> ''),
+  pupil_id BIGINT NOT NULL REFERENCES pupils(id),
+  licence_id BIGINT NOT NULL UNIQUE REFERENCES licences(id),
+  issued_at TEXT NOT NULL,
+  issued_by BIGINT REFERENCES users(id),
+  record TEXT NOT NULL CHECK (record::json IS NOT NULL),
+  signature TEXT NOT NULL CHECK (signature::json IS NOT NULL)
+);
+CREATE INDEX certificates_by_pupil ON certificates(pupil_id, id);
+CREATE TRIGGER certificates_no_edit BEFORE UPDATE OR DELETE OR TRUNCATE ON certificates FOR EACH STATEMENT
+  EXECUTE FUNCTION refuse_kept_edit('certificates is append-only: revoke a certificate instead');
+CREATE TABLE certificate_revocations (
+  id BIGINT GENERATED BY DEFAULT AS IDENTITY PRIMARY KEY,
+  certificate_id BIGINT NOT NULL UNIQUE REFERENCES certificates(id),
+  revoked_by BIGINT NOT NULL REFERENCES users(id),
+  at TEXT NOT NULL,
+  reason TEXT NOT NULL CHECK (reason <> '')
+);
+CREATE TRIGGER certificate_revocations_no_update BEFORE UPDATE ON certificate_revocations
+  FOR EACH STATEMENT EXECUTE FUNCTION refuse_append_only_edit();
+CREATE TRIGGER certificate_revocations_no_delete BEFORE DELETE OR TRUNCATE ON certificate_revocations
+  FOR EACH STATEMENT EXECUTE FUNCTION refuse_append_only_edit();
+)sql",
 };
 
 // Column lists shared by the statements that read whole rows (read_user and the like in
 // common.h); booleans as 0/1, as SQLite keeps them.
-#define USER_COLUMNS "id, username, password_hash, role, school_id, pupil_id"
+#define USER_COLUMNS "id, username, password_hash, role, school_id, pupil_id, full_name"
 #define PUPIL_COLUMNS "id, school_id, name, email, created_at"
 #define AUDIT_COLUMNS "id, at, actor_user_id, actor, pupil_id, action, details"
 #define THEORY_ATTEMPT_COLUMNS \
   "id, pupil_id, seed, questions, started_at, started_by, exam_id, kind, deadline, finished_at, outcome, result"
+// The last column reads score_counts by its key: whether the score notes the task left unfinished
+// (the evaluator's rule "task_incomplete"), which session_outcome() needs. The statements that
+// use it read FROM sessions, unaliased.
 #define SESSION_COLUMNS                                                                                   \
   "id, public_id, pupil_id, cab_id, scenario, mode, state, reason, examiner_id, created_at, ended_at, mark, " \
-  "passed::int"
+  "passed::int, (EXISTS (SELECT 1 FROM score_counts c WHERE c.session_id = sessions.id AND c.kind = 'task_incomplete'))::int"
+#define CERTIFICATE_COLUMNS "id, number, pupil_id, licence_id, issued_at, issued_by, record, signature"
+#define CORRECTION_COLUMNS "id, exam_id, corrected_by, at, reason, correction"
+#define REVOCATION_COLUMNS "id, certificate_id, revoked_by, at, reason"
 #define EXAM_ROWS                                                                                          \
   "e.id, e.pupil_id, e.kind, s.public_id, e.score, e.passed::int, e.examiner_id, e.taken_at, e.details FROM exams e " \
   "LEFT JOIN sessions s ON s.id = e.session_id"
@@ -276,6 +399,9 @@ std::string trimmed(std::string s) {
   const std::string code = state ? state : "";
   if (code == "23505") throw StoreError(StoreError::kConflict, what);  // unique_violation
   if (code == "23503") throw StoreError(StoreError::kNotFound, what);  // foreign_key_violation
+  // raise_exception: only the schema's triggers raise, refusing a change to a record it keeps
+  // (as SQLite's RAISE(ABORT) in a trigger)
+  if (code == "P0001") throw StoreError(StoreError::kConflict, what);
   // check and not-null violations, and data exceptions (text that is no JSON, a NUL byte, bad UTF-8)
   if (code == "23514" || code == "23502" || code.rfind("22", 0) == 0) throw StoreError(StoreError::kInvalid, what);
   throw StoreError(StoreError::kIo, what);
@@ -634,19 +760,35 @@ class PostgresStore final : public Store {
   }
 
   int64_t create_user(const std::string& username, const std::string& password_hash, Role role, int64_t school_id,
-                      std::optional<int64_t> pupil_id) override {
+                      std::optional<int64_t> pupil_id, const std::string& full_name) override {
     require(canonical_username(username) == username, StoreError::kInvalid, __func__,
             "username '" + username + "' is not of lower-case letters, digits, '.', '_' and '-' (1 to 64)");
     Transaction tx(c_, __func__, Transaction::kStatement);
     // The unique index on the folded name decides, even between two servers.
     Query q(c_, __func__,
-            "INSERT INTO users(username, password_hash, role, school_id, pupil_id) VALUES ($1, $2, $3, $4, $5) "
-            "ON CONFLICT DO NOTHING RETURNING id");
-    q.bind(username).bind(password_hash).bind(std::string(role_name(role))).bind(school_id).bind(pupil_id);
+            "INSERT INTO users(username, password_hash, role, school_id, pupil_id, full_name) "
+            "VALUES ($1, $2, $3, $4, $5, $6) ON CONFLICT DO NOTHING RETURNING id");
+    q.bind(username).bind(password_hash).bind(std::string(role_name(role))).bind(school_id).bind(pupil_id).bind(full_name);
     require(q.step(), StoreError::kConflict, __func__, "username '" + username + "' is taken");
     const int64_t id = q.int64(0);
     tx.commit();
     return id;
+  }
+
+  void set_user_full_name(int64_t id, const std::string& full_name) override {
+    Transaction tx(c_, __func__, Transaction::kStatement);
+    Query q(c_, __func__, "UPDATE users SET full_name = $1 WHERE id = $2");
+    require(q.bind(full_name).bind(id).changes() > 0, StoreError::kNotFound, __func__, "no user " + std::to_string(id));
+    tx.commit();
+  }
+
+  std::optional<School> get_school(int64_t id) override {
+    Transaction tx(c_, __func__, Transaction::kStatement);
+    Query q(c_, __func__, "SELECT id, name FROM schools WHERE id = $1");
+    q.bind(id);
+    std::optional<School> school = q.step() ? std::optional(School{q.int64(0), q.text(1)}) : std::nullopt;
+    tx.commit();
+    return school;
   }
 
   std::optional<User> find_user(const std::string& username) override {
@@ -887,6 +1029,25 @@ class PostgresStore final : public Store {
     return r;
   }
 
+  int64_t add_exam_correction(const ExamCorrection& c) override {
+    check_new_correction(__func__, c);
+    Query q(c_, __func__,
+            "INSERT INTO exam_corrections(exam_id, corrected_by, at, reason, correction) VALUES ($1, $2, $3, $4, $5) "
+            "RETURNING id");
+    q.bind(c.exam_id).bind(c.corrected_by).bind(c.at.empty() ? now_iso8601() : c.at).bind(c.reason);
+    return inserted(__func__, q.bind(c.correction));
+  }
+
+  std::vector<ExamCorrection> list_exam_corrections(int64_t exam_id) override {
+    Transaction tx(c_, __func__, Transaction::kStatement);
+    Query q(c_, __func__, "SELECT " CORRECTION_COLUMNS " FROM exam_corrections WHERE exam_id = $1 ORDER BY id");
+    q.bind(exam_id);
+    std::vector<ExamCorrection> out;
+    while (q.step()) out.push_back(read_correction(q));
+    tx.commit();
+    return out;
+  }
+
   int64_t create_theory_attempt(const TheoryAttempt& a) override {
     check_new_theory_attempt(__func__, a);
     Query q(c_, __func__,
@@ -1002,6 +1163,60 @@ class PostgresStore final : public Store {
     Query q(c_, __func__,
             "INSERT INTO licences(pupil_id, issued_at, reevaluation_due, issued_by) VALUES ($1, $2, $3, $4) RETURNING id");
     return inserted(__func__, q.bind(pupil_id).bind(issued_at).bind(due).bind(issued_by));
+  }
+
+  int64_t add_certificate(const CertificateRecord& c) override {
+    check_new_certificate(__func__, c);
+    Transaction tx(c_, __func__, Transaction::kWrite);
+    {
+      Query q(c_, __func__, "SELECT pupil_id FROM licences WHERE id = $1");
+      q.bind(c.licence_id);
+      check_certificate_licence(__func__, c, q.step() ? std::optional(q.int64(0)) : std::nullopt);
+    }
+    Query q(c_, __func__,
+            "INSERT INTO certificates(number, pupil_id, licence_id, issued_at, issued_by, record, signature) "
+            "VALUES ($1, $2, $3, $4, $5, $6, $7) RETURNING id");
+    q.bind(c.number).bind(c.pupil_id).bind(c.licence_id).bind(c.issued_at.empty() ? now_iso8601() : c.issued_at);
+    q.bind(c.issued_by).bind(c.record).bind(c.signature).step();
+    const int64_t id = q.int64(0);
+    tx.commit();
+    return id;
+  }
+
+  std::optional<CertificateRecord> find_certificate(const std::string& number) override {
+    Transaction tx(c_, __func__, Transaction::kStatement);
+    Query q(c_, __func__, "SELECT " CERTIFICATE_COLUMNS " FROM certificates WHERE number = $1");
+    q.bind(number);
+    std::optional<CertificateRecord> c = q.step() ? std::optional(read_certificate(q)) : std::nullopt;
+    tx.commit();
+    return c;
+  }
+
+  std::vector<CertificateRecord> list_certificates(int64_t pupil_id) override {
+    Transaction tx(c_, __func__, Transaction::kStatement);
+    Query q(c_, __func__, "SELECT " CERTIFICATE_COLUMNS " FROM certificates WHERE pupil_id = $1 ORDER BY id");
+    q.bind(pupil_id);
+    std::vector<CertificateRecord> out;
+    while (q.step()) out.push_back(read_certificate(q));
+    tx.commit();
+    return out;
+  }
+
+  int64_t revoke_certificate(const CertificateRevocation& r) override {
+    check_new_revocation(__func__, r);
+    // The unique key on certificate_id refuses a second revocation, even from another server.
+    Query q(c_, __func__,
+            "INSERT INTO certificate_revocations(certificate_id, revoked_by, at, reason) VALUES ($1, $2, $3, $4) RETURNING id");
+    return inserted(__func__, q.bind(r.certificate_id).bind(r.revoked_by).bind(r.at.empty() ? now_iso8601() : r.at).bind(r.reason));
+  }
+
+  std::optional<CertificateRevocation> certificate_revocation(int64_t certificate_id) override {
+    Transaction tx(c_, __func__, Transaction::kStatement);
+    Query q(c_, __func__, "SELECT " REVOCATION_COLUMNS " FROM certificate_revocations WHERE certificate_id = $1");
+    q.bind(certificate_id);
+    std::optional<CertificateRevocation> r = q.step() ? std::optional(read_revocation(q)) : std::nullopt;
+    tx.commit();
+    return r;
   }
 
   void put_session_log(const std::string& session_public_id, const std::string& name, const std::string& text) override {
@@ -1172,6 +1387,13 @@ class PostgresStore final : public Store {
               "WHERE pupil_id = $1 ORDER BY issued_at DESC, id DESC LIMIT 1");
       q.bind(pupil_id);
       if (q.step()) h.licence = LicenceRecord{q.int64(0), pupil_id, q.text(1), q.text(2), q.text(3)};
+    }
+    {
+      Query q(c_, __func__,
+              "SELECT " CORRECTION_COLUMNS " FROM exam_corrections "
+              "WHERE exam_id IN (SELECT id FROM exams WHERE pupil_id = $1) ORDER BY id");
+      q.bind(pupil_id);
+      while (q.step()) h.corrections.push_back(read_correction(q));
     }
     h.trend = mark_trend(h.sessions);
     h.reevaluation_overdue = h.licence && h.licence->reevaluation_due < now;  // same form: string order is time order

@@ -218,23 +218,161 @@ BEGIN
   SELECT RAISE(ABORT, 'theory_unlocks is append-only');
 END;
 )sql",
+    // 6: exam records kept as written (issue 17, item 5): the triggers named kept_* refuse any
+    // change to an exam record, to an exam session once it is over (but for its first score: a
+    // score may follow an abort), to its score, events and logs (the server's note
+    // 'chain_refused' excepted), and to a finished theory exam paper; a correction is a new,
+    // append-only record. Certificates issued with licences and their revocations, append-only
+    // (issue 17, item 4), and staff's full names, which certificates print.
+    R"sql(
+ALTER TABLE users ADD COLUMN full_name TEXT NOT NULL DEFAULT '';
+CREATE TRIGGER kept_exams_no_update BEFORE UPDATE ON exams
+BEGIN
+  SELECT RAISE(ABORT, 'exam records are kept as written: a correction is a new record');
+END;
+CREATE TRIGGER kept_exams_no_delete BEFORE DELETE ON exams
+BEGIN
+  SELECT RAISE(ABORT, 'exam records are kept as written: a correction is a new record');
+END;
+CREATE TRIGGER kept_exam_sessions_no_update BEFORE UPDATE ON sessions
+WHEN OLD.mode = 'exam' AND OLD.state IN ('ended', 'failed', 'aborted') AND NOT (
+  NEW.id IS OLD.id AND NEW.pupil_id IS OLD.pupil_id AND NEW.cab_id IS OLD.cab_id AND NEW.scenario IS OLD.scenario
+  AND NEW.mode IS OLD.mode AND NEW.state IS OLD.state AND NEW.reason IS OLD.reason AND NEW.examiner_id IS OLD.examiner_id
+  AND NEW.created_at IS OLD.created_at AND NEW.ended_at IS OLD.ended_at
+  AND ((OLD.mark IS NULL AND OLD.passed IS NULL) OR (NEW.mark IS OLD.mark AND NEW.passed IS OLD.passed)))
+BEGIN
+  SELECT RAISE(ABORT, 'an exam session that is over is kept as it ended');
+END;
+CREATE TRIGGER kept_exam_sessions_no_delete BEFORE DELETE ON sessions WHEN OLD.mode = 'exam'
+BEGIN
+  SELECT RAISE(ABORT, 'exam sessions are kept');
+END;
+CREATE TRIGGER kept_exam_scores_no_update BEFORE UPDATE ON scores
+WHEN (SELECT mode FROM sessions WHERE id = OLD.session_id) = 'exam'
+BEGIN
+  SELECT RAISE(ABORT, 'an exam''s score is kept as written');
+END;
+CREATE TRIGGER kept_exam_scores_no_delete BEFORE DELETE ON scores
+WHEN (SELECT mode FROM sessions WHERE id = OLD.session_id) = 'exam'
+BEGIN
+  SELECT RAISE(ABORT, 'an exam''s score is kept as written');
+END;
+CREATE TRIGGER kept_exam_score_counts_no_update BEFORE UPDATE ON score_counts
+WHEN (SELECT mode FROM sessions WHERE id = OLD.session_id) = 'exam'
+BEGIN
+  SELECT RAISE(ABORT, 'an exam''s score is kept as written');
+END;
+CREATE TRIGGER kept_exam_score_counts_no_delete BEFORE DELETE ON score_counts
+WHEN (SELECT mode FROM sessions WHERE id = OLD.session_id) = 'exam'
+BEGIN
+  SELECT RAISE(ABORT, 'an exam''s score is kept as written');
+END;
+CREATE TRIGGER kept_exam_events_no_update BEFORE UPDATE ON events
+WHEN (SELECT mode FROM sessions WHERE id = OLD.session_id) = 'exam'
+BEGIN
+  SELECT RAISE(ABORT, 'an exam''s events are kept as written');
+END;
+CREATE TRIGGER kept_exam_events_no_delete BEFORE DELETE ON events
+WHEN (SELECT mode FROM sessions WHERE id = OLD.session_id) = 'exam'
+BEGIN
+  SELECT RAISE(ABORT, 'an exam''s events are kept as written');
+END;
+CREATE TRIGGER kept_exam_logs_no_update BEFORE UPDATE ON session_logs
+WHEN OLD.name <> 'chain_refused' AND NEW.body IS NOT OLD.body AND EXISTS (SELECT 1 FROM sessions
+  WHERE id = OLD.session_id AND mode = 'exam' AND state IN ('ended', 'failed', 'aborted'))
+BEGIN
+  SELECT RAISE(ABORT, 'the logs of an exam that is over are kept as written');
+END;
+CREATE TRIGGER kept_exam_logs_no_delete BEFORE DELETE ON session_logs
+WHEN OLD.name <> 'chain_refused' AND (SELECT mode FROM sessions WHERE id = OLD.session_id) = 'exam'
+BEGIN
+  SELECT RAISE(ABORT, 'the logs of an exam are kept');
+END;
+CREATE TRIGGER kept_theory_exam_papers_no_update BEFORE UPDATE ON theory_attempts WHEN OLD.exam_id IS NOT NULL
+BEGIN
+  SELECT RAISE(ABORT, 'a finished theory exam paper is kept as written');
+END;
+CREATE TRIGGER kept_theory_exam_papers_no_delete BEFORE DELETE ON theory_attempts WHEN OLD.exam_id IS NOT NULL
+BEGIN
+  SELECT RAISE(ABORT, 'a finished theory exam paper is kept as written');
+END;
+CREATE TABLE exam_corrections (
+  id INTEGER PRIMARY KEY,
+  exam_id INTEGER NOT NULL REFERENCES exams(id),
+  corrected_by INTEGER NOT NULL REFERENCES users(id),
+  at TEXT NOT NULL,
+  reason TEXT NOT NULL CHECK (reason <> ''),
+  correction TEXT NOT NULL CHECK (json_valid(correction) AND json_type(correction) = 'object')
+);
+CREATE INDEX exam_corrections_by_exam ON exam_corrections(exam_id, id);
+CREATE TRIGGER exam_corrections_no_update BEFORE UPDATE ON exam_corrections
+BEGIN
+  SELECT RAISE(ABORT, 'exam_corrections is append-only');
+END;
+CREATE TRIGGER exam_corrections_no_delete BEFORE DELETE ON exam_corrections
+BEGIN
+  SELECT RAISE(ABORT, 'exam_corrections is append-only');
+END;
+CREATE TABLE certificates (
+  id INTEGER PRIMARY KEY,
+  number TEXT NOT NULL UNIQUE CHECK (number <> ''),
+  pupil_id INTEGER NOT NULL REFERENCES pupils(id),
+  licence_id INTEGER NOT NULL UNIQUE REFERENCES licences(id),
+  issued_at TEXT NOT NULL,
+  issued_by INTEGER REFERENCES users(id),
+  record TEXT NOT NULL CHECK (json_valid(record)),
+  signature TEXT NOT NULL CHECK (json_valid(signature))
+);
+CREATE INDEX certificates_by_pupil ON certificates(pupil_id, id);
+CREATE TRIGGER certificates_no_update BEFORE UPDATE ON certificates
+BEGIN
+  SELECT RAISE(ABORT, 'certificates is append-only: revoke a certificate instead');
+END;
+CREATE TRIGGER certificates_no_delete BEFORE DELETE ON certificates
+BEGIN
+  SELECT RAISE(ABORT, 'certificates is append-only: revoke a certificate instead');
+END;
+CREATE TABLE certificate_revocations (
+  id INTEGER PRIMARY KEY,
+  certificate_id INTEGER NOT NULL UNIQUE REFERENCES certificates(id),
+  revoked_by INTEGER NOT NULL REFERENCES users(id),
+  at TEXT NOT NULL,
+  reason TEXT NOT NULL CHECK (reason <> '')
+);
+CREATE TRIGGER certificate_revocations_no_update BEFORE UPDATE ON certificate_revocations
+BEGIN
+  SELECT RAISE(ABORT, 'certificate_revocations is append-only');
+END;
+CREATE TRIGGER certificate_revocations_no_delete BEFORE DELETE ON certificate_revocations
+BEGIN
+  SELECT RAISE(ABORT, 'certificate_revocations is append-only');
+END;
+)sql",
 };
 
 // Column lists shared by the statements that read whole rows (see read_user and the like).
-#define USER_COLUMNS "id, username, password_hash, role, school_id, pupil_id"
+#define USER_COLUMNS "id, username, password_hash, role, school_id, pupil_id, full_name"
 #define PUPIL_COLUMNS "id, school_id, name, email, created_at"
 #define AUDIT_COLUMNS "id, at, actor_user_id, actor, pupil_id, action, details"
 #define THEORY_ATTEMPT_COLUMNS \
   "id, pupil_id, seed, questions, started_at, started_by, exam_id, kind, deadline, finished_at, outcome, result"
-#define SESSION_COLUMNS \
-  "id, public_id, pupil_id, cab_id, scenario, mode, state, reason, examiner_id, created_at, ended_at, mark, passed"
+// The last column reads score_counts by its key: whether the score notes the task left unfinished
+// (the evaluator's rule "task_incomplete"), which session_outcome() needs. The statements that
+// use it read FROM sessions, unaliased.
+#define SESSION_COLUMNS                                                                                            \
+  "id, public_id, pupil_id, cab_id, scenario, mode, state, reason, examiner_id, created_at, ended_at, mark, passed, " \
+  "EXISTS (SELECT 1 FROM score_counts c WHERE c.session_id = sessions.id AND c.kind = 'task_incomplete')"
+#define CERTIFICATE_COLUMNS "id, number, pupil_id, licence_id, issued_at, issued_by, record, signature"
+#define CORRECTION_COLUMNS "id, exam_id, corrected_by, at, reason, correction"
+#define REVOCATION_COLUMNS "id, certificate_id, revoked_by, at, reason"
 
 // The last error on `db` as a StoreError of the contract's kind.
 [[noreturn]] void throw_db_error(sqlite3* db, const char* op) {
   const std::string what = std::string(op) + ": " + sqlite3_errmsg(db);
   switch (sqlite3_extended_errcode(db)) {
     case SQLITE_CONSTRAINT_UNIQUE:
-    case SQLITE_CONSTRAINT_PRIMARYKEY: throw StoreError(StoreError::kConflict, what);
+    case SQLITE_CONSTRAINT_PRIMARYKEY:
+    case SQLITE_CONSTRAINT_TRIGGER: throw StoreError(StoreError::kConflict, what);  // a record kept as written
     case SQLITE_CONSTRAINT_FOREIGNKEY: throw StoreError(StoreError::kNotFound, what);
     case SQLITE_CONSTRAINT_CHECK:
     case SQLITE_CONSTRAINT_NOTNULL: throw StoreError(StoreError::kInvalid, what);
@@ -405,16 +543,27 @@ class SqliteStore final : public Store {
   }
 
   int64_t create_user(const std::string& username, const std::string& password_hash, Role role, int64_t school_id,
-                      std::optional<int64_t> pupil_id) override {
+                      std::optional<int64_t> pupil_id, const std::string& full_name) override {
     require(canonical_username(username) == username, StoreError::kInvalid, __func__,
             "username '" + username + "' is not of lower-case letters, digits, '.', '_' and '-' (1 to 64)");
     // NOCASE folds ASCII capitals only, as canonical_username() does.
     Query q = query(__func__,
-                    "INSERT INTO users(username, password_hash, role, school_id, pupil_id) SELECT ?1, ?2, ?3, ?4, ?5 "
-                    "WHERE NOT EXISTS (SELECT 1 FROM users WHERE username = ?1 COLLATE NOCASE)");
-    q.bind(username).bind(password_hash).bind(std::string(role_name(role))).bind(school_id).bind(pupil_id).run();
+                    "INSERT INTO users(username, password_hash, role, school_id, pupil_id, full_name) "
+                    "SELECT ?1, ?2, ?3, ?4, ?5, ?6 WHERE NOT EXISTS (SELECT 1 FROM users WHERE username = ?1 COLLATE NOCASE)");
+    q.bind(username).bind(password_hash).bind(std::string(role_name(role))).bind(school_id).bind(pupil_id).bind(full_name).run();
     require(sqlite3_changes(db()) > 0, StoreError::kConflict, __func__, "username '" + username + "' is taken");
     return sqlite3_last_insert_rowid(db());
+  }
+
+  void set_user_full_name(int64_t id, const std::string& full_name) override {
+    query(__func__, "UPDATE users SET full_name = ? WHERE id = ?").bind(full_name).bind(id).run();
+    require(sqlite3_changes(db()) > 0, StoreError::kNotFound, __func__, "no user " + std::to_string(id));
+  }
+
+  std::optional<School> get_school(int64_t id) override {
+    Query q = query(__func__, "SELECT id, name FROM schools WHERE id = ?");
+    q.bind(id);
+    return q.step() ? std::optional(School{q.int64(0), q.text(1)}) : std::nullopt;
   }
 
   std::optional<User> find_user(const std::string& username) override {
@@ -637,6 +786,23 @@ class SqliteStore final : public Store {
     return r;
   }
 
+  int64_t add_exam_correction(const ExamCorrection& c) override {
+    check_new_correction(__func__, c);
+    FullSync full_sync(db(), __func__);
+    Query q = query(__func__,
+                    "INSERT INTO exam_corrections(exam_id, corrected_by, at, reason, correction) VALUES (?, ?, ?, ?, ?)");
+    q.bind(c.exam_id).bind(c.corrected_by).bind(c.at.empty() ? now_iso8601() : c.at).bind(c.reason).bind(c.correction).run();
+    return sqlite3_last_insert_rowid(db());
+  }
+
+  std::vector<ExamCorrection> list_exam_corrections(int64_t exam_id) override {
+    Query q = query(__func__, "SELECT " CORRECTION_COLUMNS " FROM exam_corrections WHERE exam_id = ? ORDER BY id");
+    q.bind(exam_id);
+    std::vector<ExamCorrection> out;
+    while (q.step()) out.push_back(read_correction(q));
+    return out;
+  }
+
   int64_t create_theory_attempt(const TheoryAttempt& a) override {
     check_new_theory_attempt(__func__, a);
     Query q = query(__func__,
@@ -760,6 +926,53 @@ class SqliteStore final : public Store {
                     "INSERT INTO licences(pupil_id, issued_at, reevaluation_due, issued_by) VALUES (?, ?, ?, ?)");
     q.bind(pupil_id).bind(issued_at).bind(due).bind(issued_by).run();
     return sqlite3_last_insert_rowid(db());
+  }
+
+  int64_t add_certificate(const CertificateRecord& c) override {
+    check_new_certificate(__func__, c);
+    FullSync full_sync(db(), __func__);
+    Transaction tx(db(), __func__, Transaction::kWrite);
+    {
+      Query q = query(__func__, "SELECT pupil_id FROM licences WHERE id = ?");
+      q.bind(c.licence_id);
+      check_certificate_licence(__func__, c, q.step() ? std::optional(q.int64(0)) : std::nullopt);
+    }
+    Query q = query(__func__,
+                    "INSERT INTO certificates(number, pupil_id, licence_id, issued_at, issued_by, record, signature) "
+                    "VALUES (?, ?, ?, ?, ?, ?, ?)");
+    q.bind(c.number).bind(c.pupil_id).bind(c.licence_id).bind(c.issued_at.empty() ? now_iso8601() : c.issued_at);
+    q.bind(c.issued_by).bind(c.record).bind(c.signature).run();
+    const int64_t id = sqlite3_last_insert_rowid(db());
+    tx.commit();
+    return id;
+  }
+
+  std::optional<CertificateRecord> find_certificate(const std::string& number) override {
+    Query q = query(__func__, "SELECT " CERTIFICATE_COLUMNS " FROM certificates WHERE number = ?");
+    q.bind(number);
+    return q.step() ? std::optional(read_certificate(q)) : std::nullopt;
+  }
+
+  std::vector<CertificateRecord> list_certificates(int64_t pupil_id) override {
+    Query q = query(__func__, "SELECT " CERTIFICATE_COLUMNS " FROM certificates WHERE pupil_id = ? ORDER BY id");
+    q.bind(pupil_id);
+    std::vector<CertificateRecord> out;
+    while (q.step()) out.push_back(read_certificate(q));
+    return out;
+  }
+
+  int64_t revoke_certificate(const CertificateRevocation& r) override {
+    check_new_revocation(__func__, r);
+    FullSync full_sync(db(), __func__);
+    Query q = query(__func__, "INSERT INTO certificate_revocations(certificate_id, revoked_by, at, reason) VALUES (?, ?, ?, ?)");
+    q.bind(r.certificate_id).bind(r.revoked_by).bind(r.at.empty() ? now_iso8601() : r.at).bind(r.reason).run();
+    return sqlite3_last_insert_rowid(db());
+  }
+
+  std::optional<CertificateRevocation> certificate_revocation(int64_t certificate_id) override {
+    Query q = query(__func__, "SELECT " REVOCATION_COLUMNS " FROM certificate_revocations WHERE certificate_id = ?");
+    q.bind(certificate_id);
+    return q.step() ? std::optional(read_revocation(q)) : std::nullopt;
   }
 
   void put_session_log(const std::string& session_public_id, const std::string& name,
@@ -928,6 +1141,12 @@ class SqliteStore final : public Store {
                       "WHERE pupil_id = ? ORDER BY issued_at DESC, id DESC LIMIT 1");
       q.bind(pupil_id);
       if (q.step()) h.licence = LicenceRecord{q.int64(0), pupil_id, q.text(1), q.text(2), q.text(3)};
+    }
+    {
+      Query q = query(__func__, "SELECT " CORRECTION_COLUMNS " FROM exam_corrections "
+                                "WHERE exam_id IN (SELECT id FROM exams WHERE pupil_id = ?) ORDER BY id");
+      q.bind(pupil_id);
+      while (q.step()) h.corrections.push_back(read_correction(q));
     }
     h.trend = mark_trend(h.sessions);
     h.reevaluation_overdue = h.licence && h.licence->reevaluation_due < now;  // same form: string order is time order

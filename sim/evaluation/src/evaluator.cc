@@ -490,13 +490,30 @@ struct Evaluator::Impl : EvaluationMemory::Data {
     const bool right_support = s.to_object.empty() ? h.on_object.empty() && s.area.contains(at)
                                                    : h.on_object == s.to_object && h.level == s.to_level;
     const double dist = (at - s.point).norm();
-    if (right_support && dist <= s.tolerance_m) return i == step;
+    // Square to the step's heading, either way round (a pallet has two faces).
+    double yaw_off = 0;
+    if (s.yaw_rad) {
+      const PalletState* st = nullptr;
+      for (const PalletState& p : in.pallets)
+        if (p.id == h.pallet) st = &p;
+      const Eigen::Vector3d axis = st ? Eigen::Vector3d(st->pose.linear().col(0)) : Eigen::Vector3d::UnitX();
+      const double off = std::remainder(std::atan2(axis.y(), axis.x()) - *s.yaw_rad, M_PI);
+      yaw_off = std::abs(off);
+    }
+    const bool square = !s.yaw_rad || yaw_off <= s.yaw_tolerance_rad;
+    if (right_support && dist <= s.tolerance_m && square) return i == step;
+    json measured = {{"object", h.on_object}, {"level", h.level}, {"distance_m", round6(dist)}};
+    json thresholds = {{"tolerance_m", s.tolerance_m}};
+    if (s.yaw_rad) {
+      measured["off_square_deg"] = round6(yaw_off * 180 / M_PI);
+      thresholds["yaw_tolerance_deg"] = round6(s.yaw_tolerance_rad * 180 / M_PI);
+    }
     emit(ev::kSetDownOffPlace, in.t_s, at,
          {{"pallet", h.pallet},
           {"step", i + 1},
           {"expected", {{"object", s.to_object}, {"level", s.to_level}, {"point_m", {s.point.x(), s.point.y()}}}},
-          {"measured", {{"object", h.on_object}, {"level", h.level}, {"distance_m", round6(dist)}}},
-          {"thresholds", {{"tolerance_m", s.tolerance_m}}}},
+          {"measured", measured},
+          {"thresholds", thresholds}},
          out);
     return false;
   }
@@ -545,6 +562,9 @@ struct Evaluator::Impl : EvaluationMemory::Data {
           if (h.kind == HandlingEvent::Kind::kSetDown) {
             unsafe_stack(in, h, out);
             if (judge_set_down(in, h, out)) ++step;
+          } else if (step < scene.task.steps.size() && scene.task.steps[step].kind == "take" &&
+                     scene.task.steps[step].pallet == h.pallet) {
+            ++step;  // de-stacked: the pallet the current step names is on the forks
           }
           for (size_t p = 0; p < in.pallets.size() && p < slides.size(); ++p)
             if (in.pallets[p].id == h.pallet) slides[p] = Slide{};
@@ -593,7 +613,7 @@ struct Evaluator::Impl : EvaluationMemory::Data {
            out);
   }
 
-  // reach and pass steps, in order (move steps complete in handling()).
+  // reach and pass steps, in order (take and move steps complete in handling()).
   void task(const TickInput& in) {
     const Eigen::Vector2d p = in.out.q.head<2>();
     const std::vector<TaskStep>& steps = scene.task.steps;

@@ -60,4 +60,9 @@ std::optional<double> Scene::speed_limit(const Eigen::Vector2d& p) const {
   return limit;
 }
 
+std::string not_an_exam_course(const std::string& what) {
+  return what + " is not an exam course: an exam runs only on a scenario laid out as a practical test and "
+                "marked \"exam_course\" (the paper's manoeuvres and the training scenarios are for practice)";
+}
+
 }  // namespace forklift

@@ -145,14 +145,15 @@ struct Merged {
   std::vector<Item> objects, zones, ramps;
 };
 
-const std::set<std::string> kTopKeys = {"name",   "description", "truck",        "start",
+const std::set<std::string> kTopKeys = {"name",   "description", "truck",        "start",  "exam_course",
                                         "load",   "include",     "objects",      "zones",
                                         "ramps",  "route",       "task",         "time_limit_s",
                                         "floor_m", "zone_speed_limits_m_s", "exclude_objects",
                                         "manoeuvre", "duration_s"};
 
 // Read by load_scenario (scenario.h) from the scenario file itself.
-const std::set<std::string> kOwnKeys = {"truck", "start", "load", "manoeuvre", "duration_s"};
+// An exam course is the scenario's own declaration: a layout may not make its includers exams.
+const std::set<std::string> kOwnKeys = {"truck", "start", "load", "manoeuvre", "duration_s", "exam_course"};
 
 void merge(const std::string& path, const std::string& data_dir, Merged& m, int depth) {
   if (depth > kMaxIncludeDepth) throw SceneError(path + ": 'include' nested too deep (a cycle?)");
@@ -438,8 +439,14 @@ TaskStep read_step(const Node& n, const Scene& scene) {
     s.gate_a = n.at("gate_a").vec2();
     s.gate_b = n.at("gate_b").vec2();
     if ((s.gate_a - s.gate_b).norm() <= 0) n.fail("gate_a and gate_b must differ");
+  } else if (s.kind == "take") {
+    n.only({"kind", "description", "pallet"});
+    s.pallet = n.at("pallet").string();
+    const SceneObject* p = scene.find(s.pallet);
+    if (!p || p->kind != ObjectKind::kPallet) n.at("pallet").fail("names no pallet '" + s.pallet + "'");
   } else if (s.kind == "move") {
-    n.only({"kind", "description", "pallet", "to_object", "to_level", "point", "area", "tolerance_m"});
+    n.only({"kind", "description", "pallet", "to_object", "to_level", "point", "area", "tolerance_m", "yaw_deg",
+            "yaw_tolerance_deg"});
     s.pallet = n.at("pallet").string();
     const SceneObject* p = scene.find(s.pallet);
     if (!p || p->kind != ObjectKind::kPallet) n.at("pallet").fail("names no pallet '" + s.pallet + "'");
@@ -468,8 +475,13 @@ TaskStep read_step(const Node& n, const Scene& scene) {
     }
     if (n.has("point")) s.point = n.at("point").vec2();
     s.tolerance_m = n.positive_or("tolerance_m", s.tolerance_m);
+    if (n.has("yaw_deg") != n.has("yaw_tolerance_deg")) n.fail("needs both yaw_deg and yaw_tolerance_deg, or neither");
+    if (n.has("yaw_deg")) {
+      s.yaw_rad = n.at("yaw_deg").number() * kDeg;
+      s.yaw_tolerance_rad = n.at("yaw_tolerance_deg").positive() * kDeg;
+    }
   } else {
-    n.at("kind").fail("is an unknown step kind '" + s.kind + "' (reach, pass, move)");
+    n.at("kind").fail("is an unknown step kind '" + s.kind + "' (reach, pass, take, move)");
   }
   s.description = n.string_or("description", "");
   return s;
@@ -687,6 +699,11 @@ Scene load_scene(const std::string& path, const std::string& data_dir) {
   scene.file = path;
   scene.name = key("name") ? node(*key("name")).string() : std::filesystem::path(path).stem().string();
   if (key("description")) scene.description = node(*key("description")).string();
+  if (key("exam_course")) {
+    const Node e = node(*key("exam_course"));
+    e.only({"title", "standard"});
+    scene.exam_course = ExamCourse{e.at("title").string(), e.at("standard").string()};
+  }
   // load_scenario reads these; checked here first so that a bad one is named by its key.
   if (key("truck")) node(*key("truck")).string();
   if (key("start")) {

@@ -31,6 +31,10 @@ struct ServerConfig {
   std::string bin_dir;                  // where forklift-worker and forklift-render are
   // The 'admin' account a new database gets; empty: a random password (see Api::generated_admin_password).
   std::string admin_password;
+  // The school's name as certificates print it. Empty: the school's name in the security folder
+  // (scripts/forklift-pki.sh init --school NAME) when there is one, else the name the database
+  // gives the school ("Default school" for a new one).
+  std::string school_name;
 
   double token_ttl_s = 8 * 3600;  // how long a login lasts
   int login_attempts = 5;         // failed logins of one username within the window before a lockout

@@ -7,9 +7,10 @@
 //
 // Contract: every call is atomic. Bad arguments (unknown ids, empty names, a mode that is not
 // "training" or "exam") throw StoreError with kind kInvalid or kNotFound; a duplicate unique value
-// (username, cab id) throws kConflict; I/O or database failure throws kIo. Times are ISO-8601 UTC
-// strings ("2026-11-23T10:30:00Z"). A Store object is used from one thread at a time; open one per
-// thread (SQLite's busy timeout lets them share the file; each PostgreSQL Store is one connection).
+// (username, cab id), or a change to a record the schema keeps as written, throws kConflict; I/O
+// or database failure throws kIo. Times are ISO-8601 UTC strings ("2026-11-23T10:30:00Z"). A Store
+// object is used from one thread at a time; open one per thread (SQLite's busy timeout lets them
+// share the file; each PostgreSQL Store is one connection).
 // Exactly-once holds across Store objects and processes, on either backend: two servers sharing
 // one database store an event, a score or a chain entry once (unique keys decide, not the caller).
 // What PostgreSQL stores is UTF-8 text without NUL bytes: other text is refused (kInvalid).
@@ -55,6 +56,15 @@ struct User {
   Role role = Role::kPupil;
   int64_t school_id = 0;
   std::optional<int64_t> pupil_id;  // set for role pupil: the pupil record this login is
+  // The person's full name, as certificates print it (staff: examiners, supervisors, whoever
+  // issues a licence); empty for accounts made before names were kept, and for pupils' logins
+  // (their pupil record has the name).
+  std::string full_name;
+};
+
+struct School {
+  int64_t id = 0;
+  std::string name;
 };
 
 struct Pupil {
@@ -82,9 +92,26 @@ struct Session {
   std::string reason;
   std::optional<int64_t> examiner_id;  // a user
   std::string created_at, ended_at;    // ended_at empty while open
-  std::optional<double> mark;
+  std::optional<double> mark;    // the evaluator's, as stored: mark_of() says whether it counts
   std::optional<bool> passed;
+  bool task_left_unfinished = false;  // its score counts a "task_incomplete" fault
 };
+
+// What a session's end means (issue 17, item 2), the one rule that the store's trend, the API,
+// its exports and the pages follow. A session is "completed" when it ran its course: its task
+// done ("task_complete", or "parked"), or the time it was given ran out ("duration") with no task
+// left unfinished (the paper's manoeuvres, which have no task, end so). It is "timed_out" when
+// its time ran out first: the scene's time limit ("time_limit"), or the time it was given with
+// its task unfinished; "aborted" when an instructor stopped it; "stopped" when its worker was
+// told to stop before its end ("signal": the server shut down); "failed" when the worker failed
+// or ended it for any other reason (a crash, a hang, a numerical failure, a tip-over that ends a
+// run); "open" until it ends. Only a completed session has a mark: the others have an outcome and
+// no mark, and count in no chart or trend.
+enum class Outcome { kOpen, kCompleted, kTimedOut, kAborted, kStopped, kFailed };
+const char* outcome_name(Outcome o);  // "open", "completed", "timed_out", "aborted", "stopped", "failed"
+Outcome session_outcome(const Session& s);
+// The session's mark as its record gives it: the evaluator's mark of a completed session, else none.
+std::optional<double> mark_of(const Session& s);
 
 struct EventRecord {
   std::string session_public_id;
@@ -101,6 +128,9 @@ struct ScoreRecord {
   double mark = 0;
   bool passed = false;
   std::map<std::string, int> counts;  // faults by kind
+  // For an exam session: its practical exam record's details (JSON text, opaque to the store: the
+  // server's reasons for the result, the names and the course as they were); empty: "".
+  std::string exam_details{};
 };
 
 struct ExamRecord {
@@ -115,12 +145,45 @@ struct ExamRecord {
   std::string details;  // JSON text, free form (e.g. the theory answers)
 };
 
+// A correction of a finished exam record: a new record, never a change to the old one (issue 17,
+// item 5). Kept for ever (the schema refuses UPDATE and DELETE).
+struct ExamCorrection {
+  int64_t id = 0;
+  int64_t exam_id = 0;
+  int64_t corrected_by = 0;        // a user
+  std::string at;                  // ISO-8601; empty when adding: now
+  std::string reason;              // why; never empty
+  std::string correction = "{}";   // a JSON object as text: the fields corrected and their new values
+};
+
 struct LicenceRecord {
   int64_t id = 0;
   int64_t pupil_id = 0;
   std::string issued_at;
   std::string reevaluation_due;  // issued_at + 3 years (OSHA 1910.178(l)(4))
   std::string issued_by;         // username
+};
+
+// A certificate, issued with a licence (issue 17, item 4): its number, and the record the server
+// signed (both JSON text, made and checked by the server, opaque to the store). Kept for ever.
+struct CertificateRecord {
+  int64_t id = 0;
+  std::string number;  // unique; the store does not make it
+  int64_t pupil_id = 0;
+  int64_t licence_id = 0;
+  std::string issued_at;
+  std::optional<int64_t> issued_by;  // a user
+  std::string record;     // what the certificate says, as signed
+  std::string signature;  // the server's signature over it
+};
+
+// A certificate's revocation, at most one per certificate, kept for ever.
+struct CertificateRevocation {
+  int64_t id = 0;
+  int64_t certificate_id = 0;
+  int64_t revoked_by = 0;  // a user
+  std::string at;          // ISO-8601; empty when adding: now
+  std::string reason;      // never empty
 };
 
 // One point of a session's truck path, downsampled from the worker's TruckState (the server keeps
@@ -199,9 +262,12 @@ struct PupilHistory {
   std::vector<Session> sessions;  // oldest first
   std::vector<ExamRecord> exams;  // oldest first
   std::map<std::string, int> faults_by_kind;  // over all their sessions' events with worry_level > 0
-  std::optional<double> trend;  // least-squares slope of mark per session over marked sessions (>= 2), else none
+  // Least-squares slope of mark per session over the marked training sessions (>= 2; mark_of():
+  // exams are results, shown apart), else none.
+  std::optional<double> trend;
   std::optional<LicenceRecord> licence;  // the latest
   bool reevaluation_overdue = false;     // licence.reevaluation_due before `now`
+  std::vector<ExamCorrection> corrections;  // of the pupil's exams, oldest first
 };
 
 class Store {
@@ -229,7 +295,11 @@ class Store {
   // `username` must be its own canonical_username() (else kInvalid); kConflict if a user's name
   // is the same but for capitals.
   virtual int64_t create_user(const std::string& username, const std::string& password_hash, Role role,
-                              int64_t school_id, std::optional<int64_t> pupil_id = std::nullopt) = 0;
+                              int64_t school_id, std::optional<int64_t> pupil_id = std::nullopt,
+                              const std::string& full_name = "") = 0;
+  // Sets a user's full name; kNotFound for an unknown user.
+  virtual void set_user_full_name(int64_t id, const std::string& full_name) = 0;
+  virtual std::optional<School> get_school(int64_t id) = 0;
   // The user of that name, capitals or not. Of names stored before the rule that differ only in
   // capitals, the one spelled exactly so, else the oldest.
   virtual std::optional<User> find_user(const std::string& username) = 0;
@@ -267,8 +337,15 @@ class Store {
   virtual bool set_score(const ScoreRecord& s, const std::string& now) = 0;
   virtual std::optional<ScoreRecord> get_score(const std::string& session_public_id) = 0;
 
+  // Exam records are written once and kept as written: the schema refuses UPDATE and DELETE on
+  // them, on an exam session once it is over (but for its first score), on its scores, events and
+  // logs, and on a finished theory paper; a correction is a new record (add_exam_correction).
   virtual int64_t add_exam(const ExamRecord& r) = 0;  // id ignored; synchronous=FULL
   virtual std::optional<ExamRecord> get_exam(int64_t id) = 0;  // nullopt if no such exam
+  // Adds a correction (id ignored); kNotFound for an unknown exam or user, kInvalid for an empty
+  // reason or a correction that is not a JSON object. synchronous=FULL. Returns its id.
+  virtual int64_t add_exam_correction(const ExamCorrection& c) = 0;
+  virtual std::vector<ExamCorrection> list_exam_corrections(int64_t exam_id) = 0;  // oldest first
 
   // A theory paper handed out (id ignored; exam_id, finished_at, outcome and result must be empty;
   // kind "exam" or "practice"; kNotFound for an unknown pupil or user). Returns its id.
@@ -302,7 +379,20 @@ class Store {
   virtual std::vector<PathPoint> list_path(const std::string& session_public_id) = 0;
   virtual int64_t add_licence(int64_t pupil_id, const std::string& issued_at, const std::string& issued_by) = 0;
 
-  // The session's control log and session log, stored as text.
+  // Certificates, append-only like their revocations. add_certificate: id ignored; kConflict for
+  // a number taken or a licence that has one; kNotFound for an unknown pupil, licence or user;
+  // kInvalid for a licence of another pupil or an empty number. synchronous=FULL.
+  virtual int64_t add_certificate(const CertificateRecord& c) = 0;
+  virtual std::optional<CertificateRecord> find_certificate(const std::string& number) = 0;
+  virtual std::vector<CertificateRecord> list_certificates(int64_t pupil_id) = 0;  // oldest first
+  // kConflict if the certificate is revoked already; kNotFound for an unknown one or user;
+  // kInvalid for an empty reason. Returns its id.
+  virtual int64_t revoke_certificate(const CertificateRevocation& r) = 0;
+  virtual std::optional<CertificateRevocation> certificate_revocation(int64_t certificate_id) = 0;
+
+  // The session's control log and session log, stored as text; replaced by a later put, but for
+  // an exam that is over, whose logs are kept as they are (the schema refuses a changed body; the
+  // server's note "chain_refused" excepted).
   virtual void put_session_log(const std::string& session_public_id, const std::string& name, const std::string& text) = 0;
   virtual std::optional<std::string> get_session_log(const std::string& session_public_id, const std::string& name) = 0;
 

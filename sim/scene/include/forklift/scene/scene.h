@@ -123,7 +123,7 @@ struct Route {
 // (`to_level` for racks, 0 = the object's only support; to_object empty = the floor inside
 // `area`), within `tolerance_m` of the target's centre.
 struct TaskStep {
-  std::string kind;  // "reach", "pass", "move"
+  std::string kind;  // "reach", "pass", "take" (a pallet picked up: de-stacking), "move"
   std::string description;
   Eigen::Vector2d point = Eigen::Vector2d::Zero();
   double radius_m = 0;
@@ -132,6 +132,10 @@ struct TaskStep {
   int to_level = 0;
   Eigen::AlignedBox2d area;
   double tolerance_m = 0.15;
+  // A move may also ask the pallet set down square to a heading: within yaw_tolerance_rad of
+  // yaw_rad (either way round: a pallet has two faces). Unset: any heading.
+  std::optional<double> yaw_rad;
+  double yaw_tolerance_rad = 0;
 };
 
 struct Task {
@@ -156,8 +160,21 @@ struct TruckShape {
 inline constexpr double kLookYawMaxRad = 2.6;    // + left
 inline constexpr double kLookPitchMaxRad = 0.6;  // + up
 
+// A scenario laid out as a recognised practical test: only these start in exam mode (the worker
+// and the server refuse others). Its marking sheet is data/evaluation/rules.json; `standard`
+// says what the course follows (data/evaluation/README.md traces each item to its source).
+struct ExamCourse {
+  std::string title;     // "Counterbalance truck practical test"
+  std::string standard;  // what the layout and the marking follow, in words
+};
+
+// Why `what` (a scenario file, or a name) cannot start an exam: only a scenario marked as an
+// exam course does. The worker and the server both say this.
+std::string not_an_exam_course(const std::string& what);
+
 struct Scene {
   std::string file, name, description;
+  std::optional<ExamCourse> exam_course;  // set: the scenario is an exam course
   Scenario scenario;  // truck file, start pose, initial load (scenario.h)
   Ground ground;      // ramps and dock plates
   std::vector<SceneObject> objects;
