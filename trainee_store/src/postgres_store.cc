@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <iterator>
+#include <type_traits>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -734,6 +735,9 @@ ExamRecord read_exam(const Row& q) {
   return r;
 }
 
+// A row of "c.seq, s.public_id, c.entry" (exam_chain c joined with its session s).
+ChainEntry read_chain_entry(const Query& q) { return ChainEntry{q.int64(0), q.text(1), q.text(2)}; }
+
 class PostgresStore final : public Store {
  public:
   explicit PostgresStore(const std::string& conninfo) : c_(conninfo) { migrate(); }
@@ -783,32 +787,20 @@ class PostgresStore final : public Store {
   }
 
   std::optional<School> get_school(int64_t id) override {
-    Transaction tx(c_, __func__, Transaction::kStatement);
     Query q(c_, __func__, "SELECT id, name FROM schools WHERE id = $1");
-    q.bind(id);
-    std::optional<School> school = q.step() ? std::optional(School{q.int64(0), q.text(1)}) : std::nullopt;
-    tx.commit();
-    return school;
+    return first_row(__func__, q.bind(id), [](const Query& r) { return School{r.int64(0), r.text(1)}; });
   }
 
   std::optional<User> find_user(const std::string& username) override {
-    Transaction tx(c_, __func__, Transaction::kStatement);
     Query q(c_, __func__,
             "SELECT " USER_COLUMNS " FROM users WHERE lower(username COLLATE \"C\") = lower($1::text COLLATE \"C\") "
             "ORDER BY username = $1 DESC, id LIMIT 1");
-    q.bind(username);
-    std::optional<User> u = q.step() ? std::optional(read_user(q)) : std::nullopt;
-    tx.commit();
-    return u;
+    return first_row(__func__, q.bind(username), read_user<Query>);
   }
 
   std::optional<User> get_user(int64_t id) override {
-    Transaction tx(c_, __func__, Transaction::kStatement);
     Query q(c_, __func__, "SELECT " USER_COLUMNS " FROM users WHERE id = $1");
-    q.bind(id);
-    std::optional<User> u = q.step() ? std::optional(read_user(q)) : std::nullopt;
-    tx.commit();
-    return u;
+    return first_row(__func__, q.bind(id), read_user<Query>);
   }
 
   int64_t create_pupil(int64_t school_id, const std::string& name, const std::string& email) override {
@@ -914,13 +906,9 @@ class PostgresStore final : public Store {
   }
 
   std::vector<Session> open_sessions() override {
-    Transaction tx(c_, __func__, Transaction::kStatement);
     Query q(c_, __func__, "SELECT " SESSION_COLUMNS " FROM sessions "
                           "WHERE state NOT IN ('ended', 'failed', 'aborted') ORDER BY id");
-    std::vector<Session> sessions;
-    while (q.step()) sessions.push_back(read_session(q));
-    tx.commit();
-    return sessions;
+    return rows(__func__, q, read_session<Query>);
   }
 
   bool set_session_state(const std::string& public_id, const std::string& state, const std::string& reason,
@@ -1021,12 +1009,8 @@ class PostgresStore final : public Store {
   }
 
   std::optional<ExamRecord> get_exam(int64_t id) override {
-    Transaction tx(c_, __func__, Transaction::kStatement);
     Query q(c_, __func__, "SELECT " EXAM_ROWS " WHERE e.id = $1");
-    q.bind(id);
-    std::optional<ExamRecord> r = q.step() ? std::optional(read_exam(q)) : std::nullopt;
-    tx.commit();
-    return r;
+    return first_row(__func__, q.bind(id), read_exam<Query>);
   }
 
   int64_t add_exam_correction(const ExamCorrection& c) override {
@@ -1039,13 +1023,8 @@ class PostgresStore final : public Store {
   }
 
   std::vector<ExamCorrection> list_exam_corrections(int64_t exam_id) override {
-    Transaction tx(c_, __func__, Transaction::kStatement);
     Query q(c_, __func__, "SELECT " CORRECTION_COLUMNS " FROM exam_corrections WHERE exam_id = $1 ORDER BY id");
-    q.bind(exam_id);
-    std::vector<ExamCorrection> out;
-    while (q.step()) out.push_back(read_correction(q));
-    tx.commit();
-    return out;
+    return rows(__func__, q.bind(exam_id), read_correction<Query>);
   }
 
   int64_t create_theory_attempt(const TheoryAttempt& a) override {
@@ -1096,24 +1075,15 @@ class PostgresStore final : public Store {
   }
 
   std::vector<TheoryAttempt> list_theory_attempts(int64_t pupil_id) override {
-    Transaction tx(c_, __func__, Transaction::kStatement);
     Query q(c_, __func__, "SELECT " THEORY_ATTEMPT_COLUMNS " FROM theory_attempts WHERE pupil_id = $1 ORDER BY id");
-    q.bind(pupil_id);
-    std::vector<TheoryAttempt> out;
-    while (q.step()) out.push_back(read_theory_attempt(q));
-    tx.commit();
-    return out;
+    return rows(__func__, q.bind(pupil_id), read_theory_attempt<Query>);
   }
 
   std::vector<TheoryAttempt> open_theory_attempts() override {
-    Transaction tx(c_, __func__, Transaction::kStatement);
     // "finished_at = ''" spelled as in the partial index, so that the planner uses it.
     Query q(c_, __func__, "SELECT " THEORY_ATTEMPT_COLUMNS " FROM theory_attempts "
                           "WHERE finished_at = '' AND deadline <> '' ORDER BY id");
-    std::vector<TheoryAttempt> out;
-    while (q.step()) out.push_back(read_theory_attempt(q));
-    tx.commit();
-    return out;
+    return rows(__func__, q, read_theory_attempt<Query>);
   }
 
   int64_t add_theory_unlock(const TheoryUnlock& u) override {
@@ -1122,13 +1092,9 @@ class PostgresStore final : public Store {
   }
 
   std::vector<TheoryUnlock> list_theory_unlocks(int64_t pupil_id) override {
-    Transaction tx(c_, __func__, Transaction::kStatement);
     Query q(c_, __func__, "SELECT id, pupil_id, unlocked_by, at, reason FROM theory_unlocks WHERE pupil_id = $1 ORDER BY id");
-    q.bind(pupil_id);
-    std::vector<TheoryUnlock> out;
-    while (q.step()) out.push_back({q.int64(0), q.int64(1), q.int64(2), q.text(3), q.text(4)});
-    tx.commit();
-    return out;
+    return rows(__func__, q.bind(pupil_id),
+                [](const Query& r) { return TheoryUnlock{r.int64(0), r.int64(1), r.int64(2), r.text(3), r.text(4)}; });
   }
 
   void add_path_points(const std::string& session_public_id, const std::vector<PathPoint>& points) override {
@@ -1184,22 +1150,13 @@ class PostgresStore final : public Store {
   }
 
   std::optional<CertificateRecord> find_certificate(const std::string& number) override {
-    Transaction tx(c_, __func__, Transaction::kStatement);
     Query q(c_, __func__, "SELECT " CERTIFICATE_COLUMNS " FROM certificates WHERE number = $1");
-    q.bind(number);
-    std::optional<CertificateRecord> c = q.step() ? std::optional(read_certificate(q)) : std::nullopt;
-    tx.commit();
-    return c;
+    return first_row(__func__, q.bind(number), read_certificate<Query>);
   }
 
   std::vector<CertificateRecord> list_certificates(int64_t pupil_id) override {
-    Transaction tx(c_, __func__, Transaction::kStatement);
     Query q(c_, __func__, "SELECT " CERTIFICATE_COLUMNS " FROM certificates WHERE pupil_id = $1 ORDER BY id");
-    q.bind(pupil_id);
-    std::vector<CertificateRecord> out;
-    while (q.step()) out.push_back(read_certificate(q));
-    tx.commit();
-    return out;
+    return rows(__func__, q.bind(pupil_id), read_certificate<Query>);
   }
 
   int64_t revoke_certificate(const CertificateRevocation& r) override {
@@ -1211,12 +1168,8 @@ class PostgresStore final : public Store {
   }
 
   std::optional<CertificateRevocation> certificate_revocation(int64_t certificate_id) override {
-    Transaction tx(c_, __func__, Transaction::kStatement);
     Query q(c_, __func__, "SELECT " REVOCATION_COLUMNS " FROM certificate_revocations WHERE certificate_id = $1");
-    q.bind(certificate_id);
-    std::optional<CertificateRevocation> r = q.step() ? std::optional(read_revocation(q)) : std::nullopt;
-    tx.commit();
-    return r;
+    return first_row(__func__, q.bind(certificate_id), read_revocation<Query>);
   }
 
   void put_session_log(const std::string& session_public_id, const std::string& name, const std::string& text) override {
@@ -1231,13 +1184,9 @@ class PostgresStore final : public Store {
   }
 
   std::optional<std::string> get_session_log(const std::string& session_public_id, const std::string& name) override {
-    Transaction tx(c_, __func__, Transaction::kStatement);
     Query q(c_, __func__,
             "SELECT l.body FROM session_logs l JOIN sessions s ON s.id = l.session_id WHERE s.public_id = $1 AND l.name = $2");
-    q.bind(session_public_id).bind(name);
-    std::optional<std::string> body = q.step() ? std::optional(q.text(0)) : std::nullopt;
-    tx.commit();
-    return body;
+    return first_row(__func__, q.bind(session_public_id).bind(name), [](const Query& r) { return r.text(0); });
   }
 
   void append_chain_entry(const ChainEntry& e) override {
@@ -1268,12 +1217,8 @@ class PostgresStore final : public Store {
   }
 
   std::vector<ChainEntry> list_chain() override {
-    Transaction tx(c_, __func__, Transaction::kStatement);
     Query q(c_, __func__, "SELECT c.seq, s.public_id, c.entry FROM exam_chain c JOIN sessions s ON s.id = c.session_id ORDER BY c.seq");
-    std::vector<ChainEntry> out;
-    while (q.step()) out.push_back({q.int64(0), q.text(1), q.text(2)});
-    tx.commit();
-    return out;
+    return rows(__func__, q, read_chain_entry);
   }
 
   int64_t count_chain_entries() override {
@@ -1286,14 +1231,10 @@ class PostgresStore final : public Store {
   }
 
   std::vector<std::string> unchained_signed_exams() override {
-    Transaction tx(c_, __func__, Transaction::kStatement);
     Query q(c_, __func__,
             "SELECT s.public_id FROM sessions s JOIN session_logs l ON l.session_id = s.id AND l.name = 'signature' "
             "LEFT JOIN exam_chain c ON c.session_id = s.id WHERE s.mode = 'exam' AND c.seq IS NULL ORDER BY s.id");
-    std::vector<std::string> out;
-    while (q.step()) out.push_back(q.text(0));
-    tx.commit();
-    return out;
+    return rows(__func__, q, [](const Query& r) { return r.text(0); });
   }
 
   int64_t add_audit(const AuditRecord& r) override {
@@ -1308,7 +1249,6 @@ class PostgresStore final : public Store {
 
   std::vector<AuditRecord> list_audit(const AuditScope& scope, int limit, int offset) override {
     require(limit >= 0 && offset >= 0, StoreError::kInvalid, __func__, "negative limit or offset");
-    Transaction tx(c_, __func__, Transaction::kStatement);
     // One statement per scope, so that each reads its rows straight from an index.
     Query q(c_, __func__,
             scope.pupil_id    ? "SELECT " AUDIT_COLUMNS " FROM audit_log WHERE pupil_id = $1 ORDER BY id DESC LIMIT $2 OFFSET $3"
@@ -1316,11 +1256,7 @@ class PostgresStore final : public Store {
                                 "(SELECT id FROM pupils WHERE school_id = $1) ORDER BY id DESC LIMIT $2 OFFSET $3"
                               : "SELECT " AUDIT_COLUMNS " FROM audit_log ORDER BY id DESC LIMIT $1 OFFSET $2");
     if (scope.pupil_id || scope.school_id) q.bind(scope.pupil_id ? *scope.pupil_id : *scope.school_id);
-    q.bind(limit).bind(offset);
-    std::vector<AuditRecord> rows;
-    while (q.step()) rows.push_back(read_audit(q));
-    tx.commit();
-    return rows;
+    return rows(__func__, q.bind(limit).bind(offset), read_audit<Query>);
   }
 
   bool set_score_audited(const ScoreRecord& s, const std::string& now, const Actor& actor) override {
@@ -1434,6 +1370,25 @@ class PostgresStore final : public Store {
   }
   int64_t inserted(const char* op, Query&& q) { return inserted(op, q); }
 
+  // The rows of `q`, each read by `read`, the statement being the whole call.
+  template <class Read, class Row = std::invoke_result_t<Read&, const Query&>>
+  std::vector<Row> rows(const char* op, Query& q, Read read) {
+    Transaction tx(c_, op, Transaction::kStatement);
+    std::vector<Row> out;
+    while (q.step()) out.push_back(read(q));
+    tx.commit();
+    return out;
+  }
+  // The first row of `q` read by `read`, if it has one, the statement being the whole call.
+  template <class Read, class Row = std::invoke_result_t<Read&, const Query&>>
+  std::optional<Row> first_row(const char* op, Query& q, Read read) {
+    Transaction tx(c_, op, Transaction::kStatement);
+    std::optional<Row> out;
+    if (q.step()) out = read(q);
+    tx.commit();
+    return out;
+  }
+
   std::optional<Pupil> pupil(const char* op, int64_t id) {
     Query q(c_, op, "SELECT " PUPIL_COLUMNS " FROM pupils WHERE id = $1");
     q.bind(id);
@@ -1484,12 +1439,9 @@ class PostgresStore final : public Store {
   }
 
   std::optional<ChainEntry> one_chain_entry(const char* op, const char* sql, const std::optional<std::string>& session) {
-    Transaction tx(c_, op, Transaction::kStatement);
     Query q(c_, op, sql);
     if (session) q.bind(*session);
-    std::optional<ChainEntry> e = q.step() ? std::optional(ChainEntry{q.int64(0), q.text(1), q.text(2)}) : std::nullopt;
-    tx.commit();
-    return e;
+    return first_row(op, q, read_chain_entry);
   }
 
   Connection c_;
