@@ -149,8 +149,8 @@ inline std::optional<double> mark_trend(const std::vector<Session>& sessions) {
 }
 
 // Rows read in the column order of the backends' USER_COLUMNS, PUPIL_COLUMNS, SESSION_COLUMNS,
-// THEORY_ATTEMPT_COLUMNS, AUDIT_COLUMNS, CERTIFICATE_COLUMNS, CORRECTION_COLUMNS and
-// REVOCATION_COLUMNS.
+// THEORY_ATTEMPT_COLUMNS, AUDIT_COLUMNS, CERTIFICATE_COLUMNS, CORRECTION_COLUMNS,
+// REVOCATION_COLUMNS and EXAM_ROWS.
 template <class Row>
 User read_user(const Row& q) {
   User u;
@@ -212,6 +212,21 @@ TheoryAttempt read_theory_attempt(const Row& q) {
 template <class Row>
 AuditRecord read_audit(const Row& q) {
   return AuditRecord{q.int64(0), q.text(1), Actor{q.opt_int64(2), q.text(3)}, q.int64(4), q.text(5), q.text(6)};
+}
+
+template <class Row>
+ExamRecord read_exam(const Row& q) {
+  ExamRecord r;
+  r.id = q.int64(0);
+  r.pupil_id = q.int64(1);
+  r.kind = q.text(2);
+  if (!q.is_null(3)) r.session_public_id = q.text(3);
+  r.score = q.real(4);
+  r.passed = q.int64(5) != 0;
+  r.examiner_id = q.opt_int64(6);
+  r.taken_at = q.text(7);
+  r.details = q.text(8);
+  return r;
 }
 
 template <class Row>

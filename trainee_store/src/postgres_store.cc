@@ -720,21 +720,6 @@ class Transaction {
   bool counted_ = true;
 };
 
-template <class Row>
-ExamRecord read_exam(const Row& q) {
-  ExamRecord r;
-  r.id = q.int64(0);
-  r.pupil_id = q.int64(1);
-  r.kind = q.text(2);
-  if (!q.is_null(3)) r.session_public_id = q.text(3);
-  r.score = q.real(4);
-  r.passed = q.int64(5) != 0;
-  r.examiner_id = q.opt_int64(6);
-  r.taken_at = q.text(7);
-  r.details = q.text(8);
-  return r;
-}
-
 // A row of "c.seq, s.public_id, c.entry" (exam_chain c joined with its session s).
 ChainEntry read_chain_entry(const Query& q) { return ChainEntry{q.int64(0), q.text(1), q.text(2)}; }
 

@@ -363,6 +363,9 @@ END;
   "id, public_id, pupil_id, cab_id, scenario, mode, state, reason, examiner_id, created_at, ended_at, mark, passed, " \
   "EXISTS (SELECT 1 FROM score_counts c WHERE c.session_id = sessions.id AND c.kind = 'task_incomplete')"
 #define CERTIFICATE_COLUMNS "id, number, pupil_id, licence_id, issued_at, issued_by, record, signature"
+#define EXAM_ROWS                                                                                           \
+  "e.id, e.pupil_id, e.kind, s.public_id, e.score, e.passed, e.examiner_id, e.taken_at, e.details FROM exams e " \
+  "LEFT JOIN sessions s ON s.id = e.session_id"
 #define CORRECTION_COLUMNS "id, exam_id, corrected_by, at, reason, correction"
 #define REVOCATION_COLUMNS "id, certificate_id, revoked_by, at, reason"
 
@@ -768,22 +771,9 @@ class SqliteStore final : public Store {
   }
 
   std::optional<ExamRecord> get_exam(int64_t id) override {
-    Query q = query(__func__,
-                    "SELECT e.id, e.pupil_id, e.kind, s.public_id, e.score, e.passed, e.examiner_id, e.taken_at, "
-                    "e.details FROM exams e LEFT JOIN sessions s ON s.id = e.session_id WHERE e.id = ?");
+    Query q = query(__func__, "SELECT " EXAM_ROWS " WHERE e.id = ?");
     q.bind(id);
-    if (!q.step()) return std::nullopt;
-    ExamRecord r;
-    r.id = q.int64(0);
-    r.pupil_id = q.int64(1);
-    r.kind = q.text(2);
-    if (!q.is_null(3)) r.session_public_id = q.text(3);
-    r.score = q.real(4);
-    r.passed = q.int64(5) != 0;
-    r.examiner_id = q.opt_int64(6);
-    r.taken_at = q.text(7);
-    r.details = q.text(8);
-    return r;
+    return q.step() ? std::optional(read_exam(q)) : std::nullopt;
   }
 
   int64_t add_exam_correction(const ExamCorrection& c) override {
@@ -1108,24 +1098,9 @@ class SqliteStore final : public Store {
     h.pupil = std::move(*p);
     h.sessions = sessions_of(__func__, pupil_id);
     {
-      Query q = query(__func__,
-                      "SELECT e.id, e.kind, s.public_id, e.score, e.passed, e.examiner_id, e.taken_at, e.details "
-                      "FROM exams e LEFT JOIN sessions s ON s.id = e.session_id "
-                      "WHERE e.pupil_id = ? ORDER BY e.taken_at, e.id");
+      Query q = query(__func__, "SELECT " EXAM_ROWS " WHERE e.pupil_id = ? ORDER BY e.taken_at, e.id");
       q.bind(pupil_id);
-      while (q.step()) {
-        ExamRecord r;
-        r.id = q.int64(0);
-        r.pupil_id = pupil_id;
-        r.kind = q.text(1);
-        if (!q.is_null(2)) r.session_public_id = q.text(2);
-        r.score = q.real(3);
-        r.passed = q.int64(4) != 0;
-        r.examiner_id = q.opt_int64(5);
-        r.taken_at = q.text(6);
-        r.details = q.text(7);
-        h.exams.push_back(std::move(r));
-      }
+      while (q.step()) h.exams.push_back(read_exam(q));
     }
     {
       // "worry_level > 0" spelled as in the partial index, so that the planner uses it.
