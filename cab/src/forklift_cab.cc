@@ -243,6 +243,10 @@ class CabProgram {
 
  private:
   double now() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
+  // The clock a script's rows are due by: the truck's sim time (the latest state's, run on by the
+  // wall clock since it came; the wall clock alone until the first state). A worker held back by
+  // a busy machine gets the script at its own pace, so a scripted drive is the same on any machine.
+  double script_time() const { return sim_anchor_ ? sim_anchor_->first + (now() - sim_anchor_->second) : now(); }
   void open_devices(bool want_window);
   void pump_events();
   void send(const fk_Controls& c);
@@ -605,9 +609,12 @@ int CabProgram::run() {
     return 5;
   }
 
-  // A script row holds until the next one, as a real cab's levers do: between rows the held
-  // command is sent again every 20 ms, so sparse scripts never trip the worker's dead man. After
-  // the last row the cab goes silent.
+  // A script row holds until the next one, as a real cab's levers do. Each row goes out up to
+  // kScriptLeadS ahead of its time, stamped with it (apply_at_sim_s): the worker applies it at
+  // its own tick, as the offline model does, whatever the network's delay or the machine's load.
+  // Between rows the last one sent is sent again every 20 ms, so sparse scripts never trip the
+  // worker's dead man. After the last row's time the cab goes silent.
+  constexpr double kScriptLeadS = 0.2;
   start_ = Clock::now();
   sim_anchor_.reset();
   size_t next_row = 0;
@@ -618,21 +625,20 @@ int CabProgram::run() {
     pump_events();
     fk_Controls c{};
     if (!o_.script.empty()) {
-      // A row is due by the truck's sim time (the latest state's, run on by the wall clock since it
-      // came; the wall clock alone until the first state): a worker held back by a busy machine
-      // gets the script at its own pace, so a scripted drive is the same drive on any machine.
-      const double script_t = sim_anchor_ ? sim_anchor_->first + (t - sim_anchor_->second) : t;
-      bool row_due = false;
-      while (next_row < rows.size() && rows[next_row].t <= script_t) {
+      const double script_t = script_time();
+      bool row_sent = false;
+      while (next_row < rows.size() && rows[next_row].t <= script_t + kScriptLeadS) {
         const ScriptRow& r = rows[next_row++];
         fk_Controls s = controls_from(CabCommand{});
         s.steer_rad = r.steer, s.accelerator = r.accelerator, s.brake = r.brake, s.lift = r.lift, s.tilt = r.tilt;
         s.side_shift = r.shift, s.parking_brake = r.parking_brake;
+        s.apply_at_sim_s = r.t;
         held = s;
-        row_due = true;
+        send(s);
+        row_sent = true;
       }
-      if (held && (row_due || t - last_sent_t_ >= 0.02)) send(*held);
-      if (next_row >= rows.size() && !row_due) break;
+      if (held && !row_sent && t - last_sent_t_ >= 0.02) send(*held);
+      if (next_row >= rows.size() && (rows.empty() || script_t >= rows.back().t)) break;
       c = held.value_or(fk_Controls{});
     } else if (live && calib_step_ < 0) {
       input_.update(t - last_t);
@@ -661,8 +667,15 @@ int CabProgram::run() {
       sound_->set(si);
     }
     if (ended_at_ && (!window_ || now() - *ended_at_ > 3)) break;
-    if (window_) SDL_WaitEventTimeout(nullptr, 2);
-    else std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    if (window_) {
+      SDL_WaitEventTimeout(nullptr, 2);
+    } else {
+      // A script's next row goes out on its time, not up to a pass late.
+      double wait_s = 0.005;
+      if (!o_.script.empty() && next_row < rows.size())
+        wait_s = std::clamp(rows[next_row].t - kScriptLeadS - script_time(), 0.0, wait_s);
+      std::this_thread::sleep_for(std::chrono::duration<double>(wait_s));
+    }
   }
   if (!window_ && isatty(STDOUT_FILENO) && hud_.has_state()) std::printf("\n");
   save_window();

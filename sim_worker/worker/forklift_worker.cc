@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <nlohmann/json.hpp>
@@ -424,6 +425,13 @@ int main(int argc, char** argv) {
         log_line(cab, why + (nth_of_its_kind == kRefusalsLogged ? " (further refusals of this kind are counted, not logged)" : ""));
     };
     std::optional<ControlSample> pending;
+    // A scripted cab's samples sent ahead of their time, by the tick they apply at (the newest
+    // sample for a tick wins), and the tick of the last one applied: a sample scheduled before it
+    // only keeps the cab alive, so a late resend never undoes a newer row.
+    std::map<int64_t, ControlSample> scheduled;
+    int64_t last_scheduled_tick = -1;
+    constexpr double kScheduleAheadMaxS = 2.0;
+    constexpr size_t kScheduledMax = 512;
     Clock::time_point last_valid{};
     bool have_cab = false;
     // What the newest good sample asks to see (frames_wanted off: nothing).
@@ -432,7 +440,8 @@ int main(int argc, char** argv) {
       controls.take_each([&](const fk_Controls& c) {
         ControlSample s{c.seq,     c.steer_rad,     c.accelerator,  c.brake,        c.lift,
                         c.tilt,    c.side_shift,    c.horn,         c.parking_brake, c.frames_wanted,
-                        c.camera,  c.look_yaw_rad,  c.look_pitch_rad, c.rear_view,  c.see_through_mast};
+                        c.camera,  c.look_yaw_rad,  c.look_pitch_rad, c.rear_view,  c.see_through_mast,
+                        c.apply_at_sim_s};
         auto which = [&] { return "rejected control " + std::to_string(c.seq); };
         if (cab != c.cab_id) return refuse(++rejected_cab, which() + " from cab '" + std::string(c.cab_id) + "'");
         if (const auto problem = control_problem(s, truck)) {
@@ -452,7 +461,24 @@ int main(int argc, char** argv) {
             break;
           default: break;
         }
-        pending = s;
+        if (s.apply_at_sim_s > 0) {
+          const int64_t at = static_cast<int64_t>(std::ceil(s.apply_at_sim_s / model.tick_s - 1e-6));
+          if (s.apply_at_sim_s > state.t_s + kScheduleAheadMaxS)
+            return refuse(++rejected_range, which() + ": scheduled for t = " + std::to_string(s.apply_at_sim_s) +
+                                                " s, more than 2 s ahead of the truck's " + std::to_string(state.t_s) + " s");
+          if (at > state.tick) {
+            if (scheduled.size() >= kScheduledMax && !scheduled.count(at))
+              return refuse(++rejected_range, which() + ": more than 512 samples scheduled ahead");
+            scheduled[at] = s;
+          } else if (at >= last_scheduled_tick) {
+            last_scheduled_tick = at;
+            pending = s;
+          }  // else: an older row sent again; it keeps the cab alive and changes nothing
+        } else {
+          scheduled.clear();  // a live sample: the newest word wins
+          last_scheduled_tick = -1;
+          pending = s;
+        }
         last_valid = Clock::now();
         have_cab = true;
         view_request.reset();
@@ -567,6 +593,7 @@ int main(int argc, char** argv) {
         deadman = true;
         ++deadman_count;
         pending.reset();
+        scheduled.clear();  // a silent cab's rows sent ahead do not drive the truck on
         view_request.reset();  // a silent cab's window gets no frames
         frame_publisher.ask(view_request);
         // The evaluation reports it (deadman_stop) on this tick, in the log as well.
@@ -610,10 +637,19 @@ int main(int argc, char** argv) {
       if (wall - state.t_s > max_lag_s) { max_lag_s = wall - state.t_s; max_lag_at_s = state.t_s; }
       const int64_t due = static_cast<int64_t>(std::floor(wall / model.tick_s)) + 1;
       // A wake-up between ticks (a sample arrived) only takes the sample; the next tick applies it.
-      const bool changed = state.tick < due && take_inputs();
+      bool changed = state.tick < due && take_inputs();
       unseen = unseen || changed;
       bool stepped = false;
       while (state.tick < due) {
+        // A scripted cab's row due at this very tick, as the offline model applies it.
+        if (!scheduled.empty() && scheduled.begin()->first <= state.tick) {
+          while (!scheduled.empty() && scheduled.begin()->first <= state.tick) {
+            last_scheduled_tick = scheduled.begin()->first;
+            pending = scheduled.begin()->second;
+            scheduled.erase(scheduled.begin());
+          }
+          if (take_inputs()) changed = unseen = true;
+        }
         step(model, state, workspace, {applied, deadman}, tick_events);
         stepped = true;
         report(tick_events);

@@ -23,6 +23,8 @@ std::optional<std::string> control_problem(const ControlSample& c, const TruckPa
       return s.str();
     }
   }
+  if (!std::isfinite(c.apply_at_sim_s)) return std::string("apply_at_sim_s is not finite");
+  if (c.apply_at_sim_s < 0) return "apply_at_sim_s = " + std::to_string(c.apply_at_sim_s) + " is before the session's start";
   if (c.camera != 0 && c.camera != 1) return "camera = " + std::to_string(c.camera) + " is neither 0 (driver) nor 1 (chase)";
   return std::nullopt;
 }

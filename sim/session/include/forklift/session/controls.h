@@ -24,6 +24,8 @@ struct ControlSample {
   double look_pitch_rad = 0;      // + up, within +-kLookPitchMaxRad
   bool rear_view = false;
   bool see_through_mast = false;
+  // A scripted cab's row time (sim s): applied from the first tick at or after it; 0: at once.
+  double apply_at_sim_s = 0;
 };
 
 
