@@ -1,16 +1,23 @@
 // forklift-bench-server: the server's two figures, measured against a real forklift-server over
-// loopback HTTP with a real SQLite file and a real forklift-worker.
+// loopback HTTP with a real store (an SQLite file, a PostgreSQL database, or both side by side)
+// and a real forklift-worker.
 //
 // 1. History: requests per second and latency of GET /api/pupils/{id}/history for random pupils of
 //    a store holding --pupils pupils of --sessions marked sessions each (10,000 x 50 by default;
 //    each session has events and fault counts). The baseline, measured in the same run with the
 //    same clients, is GET /api/health: the HTTP floor of this machine, so the history figure
-//    reads as a ratio to it. Targets: > 2,000 requests/s, p99 < 10 ms.
+//    reads as a ratio to it. Targets: > 2,000 requests/s, p99 < 10 ms. Also the store's own
+//    history() calls per second from one thread, without HTTP. With several --db, each store in
+//    turn under the same load, and a table of them side by side at the end.
 // 2. Start to first state: this program plays the cab (controls at 50 Hz over DDS), POSTs
 //    /api/sessions and times until the first TruckState of that session arrives: the server's
 //    spawn, the worker's start-up, DDS discovery and the first physics tick. Target: < 300 ms.
+//    On the first --db only.
 //
-// The populated database is kept (out/bench/) and reused by later runs of the same size.
+// --db sqlite: a file in --dir; --db postgresql: a database in a PostgreSQL server this program
+// starts in --dir/postgresql (Debian's postgresql package; tests/support/postgres.h), kept with
+// its data for later runs and stopped at exit; --db postgresql://...: a database someone runs.
+// The populated stores are kept (out/bench/) and reused by later runs of the same size.
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <atomic>
@@ -18,6 +25,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <httplib.h>
 #include <malloc.h>
 #include <nlohmann/json.hpp>
@@ -27,6 +35,7 @@
 
 #include "forklift/protocol/protocol.h"
 #include "forklift/store/store.h"
+#include "support/postgres.h"
 #include "support/process.h"
 
 using namespace forklift;
@@ -41,7 +50,7 @@ double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std
 
 // Fills the store through its public interface, in batches of one transaction each.
 void populate(const std::string& db, int pupils, int sessions_per_pupil) {
-  auto store = store::Store::open_sqlite(db);
+  auto store = store::Store::open(db);
   const int64_t school = store->find_user("admin")->school_id;
   const char* kinds[] = {"speeding", "collision_rack", "harsh_braking", "forks_high", "off_route"};
   std::mt19937 rng(42);
@@ -51,10 +60,13 @@ void populate(const std::string& db, int pupils, int sessions_per_pupil) {
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
   mallopt(M_MMAP_THRESHOLD, 512 << 20);
   const auto t0 = Clock::now();
-  constexpr int kPerBatch = 100;
-  for (int first = 0; first < pupils; first += kPerBatch) {
+  // On PostgreSQL each call in a batch is a savepoint, and the row locks that the foreign keys of
+  // many savepoints take on one row (the school's, a pupil's) grow with their number: batches of
+  // a few pupils there (100 pupils a batch took 10 ms a session, most of it reading those locks).
+  const int per_batch = store::is_postgresql_location(db) ? 5 : 100;
+  for (int first = 0; first < pupils; first += per_batch) {
     store->batch([&] {
-      for (int p = first; p < std::min(pupils, first + kPerBatch); ++p) {
+      for (int p = first; p < std::min(pupils, first + per_batch); ++p) {
         const int64_t pupil = store->create_pupil(school, "Pupil " + std::to_string(p), "");
         for (int s = 0; s < sessions_per_pupil; ++s) {
           char when[32];
@@ -68,8 +80,8 @@ void populate(const std::string& db, int pupils, int sessions_per_pupil) {
         }
       }
     });
-    if ((first / kPerBatch) % 10 == 9)
-      std::fprintf(stderr, "\rpopulating: %d of %d pupils (%.0f s)", first + kPerBatch, pupils, ms_since(t0) / 1e3);
+    if ((first + per_batch) % 1000 == 0)
+      std::fprintf(stderr, "\rpopulating: %d of %d pupils (%.0f s)", first + per_batch, pupils, ms_since(t0) / 1e3);
   }
   std::fprintf(stderr, "\rpopulated %d pupils x %d sessions in %.1f s\n", pupils, sessions_per_pupil, ms_since(t0) / 1e3);
 }
@@ -163,6 +175,27 @@ std::vector<double> start_to_state(int port, int domain, const std::string& toke
   return times;
 }
 
+// history() straight on the store from one thread, no HTTP: calls per second.
+double store_history_rate(const std::string& location, int64_t first_id, int pupils, double seconds) {
+  auto store = store::Store::open(location);
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int64_t> pick(first_id, first_id + pupils - 1);
+  const auto t0 = Clock::now();
+  long calls = 0;
+  while (ms_since(t0) < seconds * 1e3) {
+    if (!store->history(pick(rng), "2026-12-01T00:00:00Z")) return NAN;
+    ++calls;
+  }
+  return calls / (ms_since(t0) / 1e3);
+}
+
+// One store's figures, for the table at the end.
+struct Figures {
+  std::string name;
+  Load health, history;
+  double store_rate = NAN;
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -170,6 +203,7 @@ int main(int argc, char** argv) {
   int pupils = 10000, sessions = 50, clients = 4, port = 18180, domain = 77, runs = 5;
   double seconds = 10;
   std::string dir = "out/bench";
+  std::vector<std::string> dbs = {"sqlite"};
   app.add_option("--pupils", pupils, "pupils in the store")->check(CLI::Range(1, 1000000));
   app.add_option("--sessions", sessions, "marked sessions per pupil")->check(CLI::Range(1, 1000));
   app.add_option("--clients", clients, "concurrent keep-alive HTTP clients")->check(CLI::Range(1, 64));
@@ -177,77 +211,139 @@ int main(int argc, char** argv) {
   app.add_option("--runs", runs, "session starts to time")->check(CLI::Range(0, 100));
   app.add_option("--port", port, "loopback port for the server");
   app.add_option("--dds-domain", domain, "DDS domain")->check(CLI::Range(0, 232));
-  app.add_option("--dir", dir, "where the populated database is kept");
+  app.add_option("--dir", dir, "where the populated stores are kept");
+  app.add_option("--db", dbs, "the stores to measure, one after the other: sqlite (a file in --dir), postgresql (a server "
+                 "this program starts in --dir/postgresql) or a postgresql://... URI")
+      ->check([](const std::string& v) {
+        return v == "sqlite" || v == "postgresql" || store::is_postgresql_location(v)
+                   ? std::string()
+                   : "'" + v + "' is neither sqlite, postgresql nor a postgresql:// URI";
+      });
   CLI11_PARSE(app, argc, argv);
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // each figure as it is measured, into a file too
 
   std::filesystem::create_directories(dir);
-  const std::string db = dir + "/server-" + std::to_string(pupils) + "x" + std::to_string(sessions) + ".db";
-  const bool fresh = !std::filesystem::exists(db);
+  const std::string size = std::to_string(pupils) + "x" + std::to_string(sessions);
   const std::string bin = FORKLIFT_BIN_DIR;
-  auto start_server = [&] {
-    auto p = std::make_unique<Process>(
-        std::vector<std::string>{bin + "/forklift-server", "--db", db, "--listen", "127.0.0.1:" + std::to_string(port),
+  std::unique_ptr<forklift::test::PostgresServer> postgres;  // for --db postgresql; stopped at exit
+  std::vector<Figures> table;
+
+  for (const std::string& db : dbs) {
+    // Where the store is, and whether it must be filled first.
+    std::string location;
+    bool fresh = false;
+    if (db == "sqlite") {
+      location = dir + "/server-" + size + ".db";
+      fresh = !std::filesystem::exists(location);
+    } else {
+      location = db;
+      if (db == "postgresql") {
+        try {
+          // shared_buffers as the SQLite store's memory map (1 GiB): both keep the store in memory.
+          if (!postgres) postgres = std::make_unique<forklift::test::PostgresServer>(dir + "/postgresql", true,
+                                                                                     std::vector<std::string>{"shared_buffers=1GB"});
+        } catch (const std::exception& e) {
+          std::fprintf(stderr, "cannot start PostgreSQL: %s\n", e.what());
+          return 1;
+        }
+        // Kept once populated whole (a marker beside it says so); made again otherwise.
+        fresh = !std::filesystem::exists(dir + "/postgresql/server_" + size + ".populated");
+        if (fresh) postgres->drop_database("server_" + size);
+        location = fresh ? postgres->create_database("server_" + size) : postgres->uri("server_" + size);
+      }
+    }
+    const std::string shown = store::printable_location(location);
+    auto server = std::make_unique<Process>(
+        std::vector<std::string>{bin + "/forklift-server", "--db", location, "--listen", "127.0.0.1:" + std::to_string(port),
                                  "--dds-domain", std::to_string(domain), "--admin-password", kPassword,
                                  "--log-dir", dir + "/logs"},
         dir + "/server");
     httplib::Client c("127.0.0.1", port);
-    for (int i = 0; i < 400; ++i) {
-      if (auto r = c.Get("/api/health"); r && r->status == 200) return p;
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    bool up = false;
+    for (int i = 0; i < 400 && !up; ++i) {
+      if (auto r = c.Get("/api/health"); r && r->status == 200) up = true;
+      else std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
-    std::fprintf(stderr, "forklift-server did not come up:\n%s\n", p->err().c_str());
-    std::exit(1);
-  };
-  auto server = start_server();
-  if (fresh) {
-    try {
-      populate(db, pupils, sessions);
-    } catch (const std::exception& e) {
-      std::filesystem::remove(db);
-      std::fprintf(stderr, "populating failed: %s\n", e.what());
+    if (!up) {
+      std::fprintf(stderr, "forklift-server did not come up on %s:\n%s\n", shown.c_str(), server->err().c_str());
       return 1;
     }
-  }
-  httplib::Client c("127.0.0.1", port);
-  auto login = c.Post("/api/login", json{{"username", "admin"}, {"password", kPassword}}.dump(), "application/json");
-  if (!login || login->status != 200) {
-    std::fprintf(stderr, "login failed\n");
-    return 1;
-  }
-  const std::string token = json::parse(login->body)["token"];
-  auto first = c.Get("/api/pupils?limit=1", {{"Authorization", "Bearer " + token}});
-  const int64_t first_id = json::parse(first->body)[0]["id"];  // "Pupil 0", the first created
-  auto sample = c.Get("/api/pupils/" + std::to_string(first_id) + "/history", {{"Authorization", "Bearer " + token}});
-  const json h = json::parse(sample->body);
-  std::printf("store: %s, %d pupils x %zu sessions, history body %zu bytes\n", db.c_str(), pupils,
-              h["sessions"].size(), sample->body.size());
+    // A database someone else runs is filled if it holds no pupil yet.
+    if (!fresh && db != "sqlite" && db != "postgresql") {
+      auto store = store::Store::open(location);
+      fresh = store->list_pupils(store->find_user("admin")->school_id, "", 1, 0).empty();
+    }
+    if (fresh) {
+      try {
+        populate(location, pupils, sessions);
+      } catch (const std::exception& e) {
+        if (db == "sqlite") std::filesystem::remove(location);
+        if (db == "postgresql") postgres->drop_database("server_" + size);
+        std::fprintf(stderr, "populating failed: %s\n", e.what());
+        return 1;
+      }
+      // Statistics and the visibility map, as autovacuum makes them within minutes of a bulk load.
+      if (db == "postgresql") {
+        postgres->exec("server_" + size, "VACUUM (ANALYZE)");
+        std::ofstream(dir + "/postgresql/server_" + size + ".populated") << "populated\n";
+      }
+    }
 
-  const std::string head = "request (" + std::to_string(clients) + " clients)";
-  std::printf("\n%-28s %8s %10s %9s %9s %9s %7s\n", head.c_str(), "requests",
-              "req/s", "p50 ms", "p99 ms", "max ms", "errors");
-  auto row = [&](const char* name, const Load& l) {
-    std::printf("%-28s %8zu %10.0f %9.2f %9.2f %9.2f %7ld\n", name, l.latency_ms.size(), l.rps(), l.pct(0.5), l.pct(0.99),
-                l.latency_ms.empty() ? NAN : l.latency_ms.back(), l.errors);
-  };
-  const Load base = hammer(port, token, clients, seconds, [](std::mt19937&) { return std::string("/api/health"); });
-  row("GET /api/health (baseline)", base);
-  std::uniform_int_distribution<int64_t> pick(first_id, first_id + pupils - 1);
-  const Load hist = hammer(port, token, clients, seconds,
-                           [&](std::mt19937& rng) { return "/api/pupils/" + std::to_string(pick(rng)) + "/history"; });
-  row("GET /api/pupils/{id}/history", hist);
-  std::printf("history throughput = %.2f x baseline; target > 2000 req/s and p99 < 10 ms: %s\n", hist.rps() / base.rps(),
-              hist.rps() > 2000 && hist.pct(0.99) < 10 ? "met" : "NOT MET");
+    auto login = c.Post("/api/login", json{{"username", "admin"}, {"password", kPassword}}.dump(), "application/json");
+    if (!login || login->status != 200) {
+      std::fprintf(stderr, "login failed\n");
+      return 1;
+    }
+    const std::string token = json::parse(login->body)["token"];
+    auto first = c.Get("/api/pupils?limit=1", {{"Authorization", "Bearer " + token}});
+    const int64_t first_id = json::parse(first->body)[0]["id"];  // "Pupil 0", the first created
+    auto sample = c.Get("/api/pupils/" + std::to_string(first_id) + "/history", {{"Authorization", "Bearer " + token}});
+    const json h = json::parse(sample->body);
+    std::printf("store: %s, %d pupils x %zu sessions, history body %zu bytes\n", shown.c_str(), pupils,
+                h["sessions"].size(), sample->body.size());
 
-  if (runs > 0) {
-    // The last pupil takes the timed sessions, so the history sample above stays the same size.
-    const std::vector<double> t = start_to_state(port, domain, token, first_id + pupils - 1, runs);
-    std::printf("\nstart session -> first TruckState, %zu of %d runs (ms):", t.size(), runs);
-    for (double v : t) std::printf(" %.0f", v);
-    const double med = t.empty() ? NAN : t[t.size() / 2];
-    std::printf("\nmedian %.0f ms, max %.0f ms; target < 300 ms: %s\n", med, t.empty() ? NAN : t.back(),
-                !t.empty() && t.back() < 300 ? "met" : "NOT MET");
+    const std::string head = "request (" + std::to_string(clients) + " clients)";
+    std::printf("\n%-28s %8s %10s %9s %9s %9s %7s\n", head.c_str(), "requests",
+                "req/s", "p50 ms", "p99 ms", "max ms", "errors");
+    auto row = [&](const char* name, const Load& l) {
+      std::printf("%-28s %8zu %10.0f %9.2f %9.2f %9.2f %7ld\n", name, l.latency_ms.size(), l.rps(), l.pct(0.5), l.pct(0.99),
+                  l.latency_ms.empty() ? NAN : l.latency_ms.back(), l.errors);
+    };
+    Figures f;
+    f.name = db == "sqlite" || db == "postgresql" ? db : shown;
+    f.health = hammer(port, token, clients, seconds, [](std::mt19937&) { return std::string("/api/health"); });
+    row("GET /api/health (baseline)", f.health);
+    std::uniform_int_distribution<int64_t> pick(first_id, first_id + pupils - 1);
+    f.history = hammer(port, token, clients, seconds,
+                       [&](std::mt19937& rng) { return "/api/pupils/" + std::to_string(pick(rng)) + "/history"; });
+    row("GET /api/pupils/{id}/history", f.history);
+    std::printf("history throughput = %.2f x baseline; target > 2000 req/s and p99 < 10 ms: %s\n",
+                f.history.rps() / f.health.rps(), f.history.rps() > 2000 && f.history.pct(0.99) < 10 ? "met" : "NOT MET");
+    f.store_rate = store_history_rate(location, first_id, pupils, seconds);
+    std::printf("store history() from one thread, no HTTP: %.0f calls/s\n", f.store_rate);
+    table.push_back(f);
+
+    if (runs > 0 && &db == &dbs.front()) {
+      // The last pupil takes the timed sessions, so the history sample above stays the same size.
+      const std::vector<double> t = start_to_state(port, domain, token, first_id + pupils - 1, runs);
+      std::printf("\nstart session -> first TruckState, %zu of %d runs (ms):", t.size(), runs);
+      for (double v : t) std::printf(" %.0f", v);
+      const double med = t.empty() ? NAN : t[t.size() / 2];
+      std::printf("\nmedian %.0f ms, max %.0f ms; target < 300 ms: %s\n", med, t.empty() ? NAN : t.back(),
+                  !t.empty() && t.back() < 300 ? "met" : "NOT MET");
+    }
+    server->signal(SIGTERM);
+    server->wait(10);
+    std::printf("\n");
   }
-  server->signal(SIGTERM);
-  server->wait(10);
+
+  if (table.size() > 1) {
+    std::printf("side by side (%s, %d clients, %.0f s each):\n", size.c_str(), clients, seconds);
+    std::printf("%-12s %14s %10s %10s %12s %16s %14s\n", "store", "history req/s", "p50 ms", "p99 ms", "health req/s",
+                "store history/s", "vs the first");
+    for (const Figures& f : table)
+      std::printf("%-12s %14.0f %10.2f %10.2f %12.0f %16.0f %13.2fx\n", f.name.c_str(), f.history.rps(), f.history.pct(0.5),
+                  f.history.pct(0.99), f.health.rps(), f.store_rate, f.history.rps() / table.front().history.rps());
+  }
   return 0;
 }

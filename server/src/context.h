@@ -35,7 +35,7 @@ struct Context {
   store::Store& db() {
     thread_local std::unique_ptr<store::Store> s;
     thread_local std::string path;
-    if (!s || path != db_path) { s = store::Store::open_sqlite(db_path); path = db_path; }
+    if (!s || path != db_path) { s = store::Store::open(db_path); path = db_path; }
     return *s;
   }
 };

@@ -43,7 +43,7 @@ Fleet::Fleet(FleetConfig config) : config_(std::move(config)) {
   participant_ = std::make_unique<dds::Participant>(
       dds::DomainSettings::resolve(config_.dds_domain, config_.dds_config, config_.security_dir, config_.identity));
   status_writer_ = std::make_unique<dds::Writer<fk_SessionStatus>>(*participant_);
-  auto db = store::Store::open_sqlite(config_.db_path);
+  auto db = store::Store::open(config_.db_path);
   adopt(*db);
   supervisor_ = std::thread([this] { supervise(); });
   ingest_ = std::thread([this] { ingest(); });
@@ -276,7 +276,7 @@ void Fleet::fail(store::Store& db, const std::string& session, const std::string
 }
 
 void Fleet::supervise() {
-  auto db = store::Store::open_sqlite(config_.db_path);
+  auto db = store::Store::open(config_.db_path);
   std::vector<std::pair<std::string, Clock::time_point>> to_chain;  // ended exams, until when to wait
   // The database's chain must be the anchored one before anything is chained onto it.
   std::string chain_problem;
@@ -493,7 +493,7 @@ std::optional<std::string> bad_text(std::initializer_list<std::pair<const char*,
 }  // namespace
 
 void Fleet::ingest() {
-  auto db = store::Store::open_sqlite(config_.db_path);
+  auto db = store::Store::open(config_.db_path);
   // Workers report in their own partitions; cabs announce in theirs.
   dds::Reader<fk_Event> events(*participant_, "worker.*");
   dds::Reader<fk_Score> scores(*participant_, "worker.*");

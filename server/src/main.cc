@@ -15,6 +15,7 @@
 
 #include "forklift/server/listener.h"
 #include "forklift/server/server.h"
+#include "forklift/store/store.h"
 
 namespace {
 
@@ -54,11 +55,12 @@ int main(int argc, char** argv) {
   double frame_fps = 30;
   std::string frame_size = "640x480";
   bool frame_jpeg = false;
-  app.add_option("--db", cfg.db_path, "SQLite database file (created if missing)");
+  app.add_option("--db", cfg.db_path, "the store: an SQLite database file (created if missing), or a PostgreSQL "
+                 "database as postgresql://user@host:port/dbname (password from ~/.pgpass or PGPASSWORD)");
   app.add_option("--listen", listen, "address:port to serve on");
   app.add_option("--dds-domain", cfg.dds_domain, "DDS domain id (default FORKLIFT_DDS_DOMAIN or 0)")->check(CLI::Range(0, 232));
   app.add_option("--dds-config", cfg.dds_config, "Cyclone DDS configuration file")->check(CLI::ExistingFile);
-  app.add_option("--log-dir", cfg.log_dir, "where workers' logs go (default: <db>.logs/)");
+  app.add_option("--log-dir", cfg.log_dir, "where workers' logs go (default: <db>.logs/, or forklift.logs/ with PostgreSQL)");
   app.add_option("--chain-anchor", cfg.chain_anchor, "the exam chain's anchor file, appended as each exam is chained: keep it "
                  "where the database's writers cannot write (default: <log-dir>/exam-chain.anchor)");
   app.add_option("--max-workers", cfg.max_workers, "sim workers this machine may run at once")->check(CLI::Range(1, 256));
@@ -116,7 +118,7 @@ int main(int argc, char** argv) {
     std::signal(SIGTERM, on_signal);
     std::signal(SIGINT, on_signal);
     if (!svr->bind_to_port(host, port)) throw std::runtime_error("cannot listen on " + listen);
-    std::cerr << "forklift-server: listening on " << (tls_cert.empty() ? "http://" : "https://") << listen << " (db " << cfg.db_path
+    std::cerr << "forklift-server: listening on " << (tls_cert.empty() ? "http://" : "https://") << listen << " (db " << forklift::store::printable_location(cfg.db_path)
               << ", DDS domain " << api.dds_domain() << ")" << std::endl;
     svr->listen_after_bind();
     g_server = nullptr;

@@ -1,6 +1,7 @@
 // A real forklift-server for a test: its own loopback port, DDS domain and SQLite file in a
-// fresh folder, over https when given the CA of the server's certificate (whose --tls-cert and
-// --tls-key then go in `extra`). ApiClient has the helpers for its JSON API.
+// fresh folder (or the PostgreSQL database it is given), over https when given the CA of the
+// server's certificate (whose --tls-cert and --tls-key then go in `extra`). ApiClient has the
+// helpers for its JSON API.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -41,6 +42,18 @@ struct Server : ApiClient {
   // On a port and a domain of its own from support/ports.h.
   explicit Server(const std::string& name, std::vector<std::string> extra = {}, std::string ca_file = {})
       : Server(forklift::test::free_port(), forklift::test::free_domain(), name, std::move(extra), std::move(ca_file)) {}
+  // The same on a store of the test's choosing (--db: a PostgreSQL database's URI), its workers'
+  // logs in its folder.
+  struct Database {
+    std::string location;
+  };
+  Server(const std::string& name, const Database& database)
+      : port(forklift::test::free_port()), domain(forklift::test::free_domain()), dir(testing::TempDir() + "/server-" + name),
+        db(database.location) {
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    start({"--log-dir", dir + "/logs"});
+  }
   void start(std::vector<std::string> extra = {}) {
     std::vector<std::string> args = {std::string(kBin) + "/forklift-server", "--db", db, "--listen", "127.0.0.1:" + std::to_string(port),
                                      "--dds-domain", std::to_string(domain), "--admin-password", kAdminPassword};

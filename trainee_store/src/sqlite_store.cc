@@ -1,6 +1,8 @@
 // The SQLite backend of the trainee store. Every SQL statement of the store lives in this file.
 #include "forklift/store/store.h"
 
+#include "common.h"
+
 #include <sqlite3.h>
 
 #include <cctype>
@@ -14,76 +16,9 @@
 
 namespace forklift::store {
 
-const char* role_name(Role role) {
-  switch (role) {
-    case Role::kAdmin: return "admin";
-    case Role::kInstructor: return "instructor";
-    case Role::kExaminer: return "examiner";
-    case Role::kPupil: return "pupil";
-  }
-  return "unknown";  // not a Role; the schema's CHECK rejects it
-}
-
-std::optional<Role> parse_role(const std::string& name) {
-  for (Role r : {Role::kAdmin, Role::kInstructor, Role::kExaminer, Role::kPupil}) {
-    if (name == role_name(r)) return r;
-  }
-  return std::nullopt;
-}
-
-std::optional<std::string> canonical_username(const std::string& name) {
-  if (name.empty() || name.size() > kMaxUsernameLength) return std::nullopt;
-  std::string out = name;
-  for (char& c : out) {
-    if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
-    if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '.' || c == '_' || c == '-')) return std::nullopt;
-  }
-  return out;
-}
-
-bool is_terminal(const std::string& state) { return state == "ended" || state == "failed" || state == "aborted"; }
-
-std::string now_iso8601() {
-  const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-  std::tm utc{};
-  gmtime_r(&t, &utc);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &utc);
-  return buf;
-}
-
-std::string add_years_iso8601(const std::string& iso, int years) {
-  using namespace std::chrono;
-  // Only the form the store writes, "YYYY-MM-DDTHH:MM:SSZ", so that times compare as strings.
-  constexpr std::string_view kForm = "dddd-dd-ddTdd:dd:ddZ";
-  bool ok = iso.size() == kForm.size();
-  for (size_t i = 0; ok && i < iso.size(); ++i) {
-    ok = kForm[i] == 'd' ? std::isdigit(static_cast<unsigned char>(iso[i])) != 0 : iso[i] == kForm[i];
-  }
-  auto field = [&](size_t pos, size_t len) {
-    int v = 0;
-    for (size_t i = pos; i < pos + len; ++i) v = v * 10 + (iso[i] - '0');
-    return v;
-  };
-  if (ok) {
-    const year_month_day date{year{field(0, 4)}, month{static_cast<unsigned>(field(5, 2))},
-                              day{static_cast<unsigned>(field(8, 2))}};
-    ok = date.ok() && field(11, 2) < 24 && field(14, 2) < 60 && field(17, 2) < 60;
-  }
-  if (!ok) throw StoreError(StoreError::kInvalid, "not an ISO-8601 UTC time (YYYY-MM-DDTHH:MM:SSZ): '" + iso + "'");
-
-  const int y = field(0, 4) + years;
-  if (y < 0 || y > 9999) throw StoreError(StoreError::kInvalid, "year out of range adding to '" + iso + "'");
-  const month m{static_cast<unsigned>(field(5, 2))};
-  year_month_day date{year{y}, m, day{static_cast<unsigned>(field(8, 2))}};
-  if (!date.ok()) date = year_month_day{year{y} / m / last};  // 29 February into a common year: the 28th
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%04d-%02u-%02u", y, static_cast<unsigned>(date.month()),
-                static_cast<unsigned>(date.day()));
-  return buf + iso.substr(10);
-}
-
 namespace {
+
+using namespace detail;
 
 // Schema migrations in order: entry i brings the schema to version i + 1. Append new ones;
 // never edit one that has shipped.
@@ -428,14 +363,11 @@ END;
   "id, public_id, pupil_id, cab_id, scenario, mode, state, reason, examiner_id, created_at, ended_at, mark, passed, " \
   "EXISTS (SELECT 1 FROM score_counts c WHERE c.session_id = sessions.id AND c.kind = 'task_incomplete')"
 #define CERTIFICATE_COLUMNS "id, number, pupil_id, licence_id, issued_at, issued_by, record, signature"
-
-bool is_state(const std::string& state) {
-  return state == "starting" || state == "waiting" || state == "running" || is_terminal(state);
-}
-
-void require(bool ok, StoreError::Kind kind, const char* op, const std::string& what) {
-  if (!ok) throw StoreError(kind, std::string(op) + ": " + what);
-}
+#define EXAM_ROWS                                                                                           \
+  "e.id, e.pupil_id, e.kind, s.public_id, e.score, e.passed, e.examiner_id, e.taken_at, e.details FROM exams e " \
+  "LEFT JOIN sessions s ON s.id = e.session_id"
+#define CORRECTION_COLUMNS "id, exam_id, corrected_by, at, reason, correction"
+#define REVOCATION_COLUMNS "id, certificate_id, revoked_by, at, reason"
 
 // The last error on `db` as a StoreError of the contract's kind.
 [[noreturn]] void throw_db_error(sqlite3* db, const char* op) {
@@ -567,105 +499,6 @@ class FullSync {
   bool active_;
 };
 
-// LIKE pattern for "contains `text`", with '\' escaping so that % and _ in it match literally.
-std::string contains_pattern(const std::string& text) {
-  std::string p = "%";
-  for (char c : text) {
-    if (c == '%' || c == '_' || c == '\\') p += '\\';
-    p += c;
-  }
-  return p + "%";
-}
-
-// Least-squares slope of mark against the marked training sessions' index 0, 1, 2, ...: sessions
-// without a mark (mark_of: aborted, timed out, failed...) are not attempts and do not count, and
-// exams are results, shown apart.
-std::optional<double> mark_trend(const std::vector<Session>& sessions) {
-  std::vector<double> marks;
-  for (const Session& s : sessions) {
-    if (const auto m = mark_of(s); m && s.mode == "training") marks.push_back(*m);
-  }
-  if (marks.size() < 2) return std::nullopt;
-  const double n = static_cast<double>(marks.size());
-  const double x_mean = (n - 1) / 2;
-  double y_mean = 0;
-  for (double m : marks) y_mean += m / n;
-  double sxy = 0, sxx = 0;
-  for (size_t i = 0; i < marks.size(); ++i) {
-    const double dx = static_cast<double>(i) - x_mean;
-    sxy += dx * (marks[i] - y_mean);
-    sxx += dx * dx;
-  }
-  return sxy / sxx;
-}
-
-User read_user(const Query& q) {
-  User u;
-  u.id = q.int64(0);
-  u.username = q.text(1);
-  u.password_hash = q.text(2);
-  const std::optional<Role> role = parse_role(q.text(3));
-  if (!role) throw StoreError(StoreError::kIo, "user " + u.username + " has unknown role '" + q.text(3) + "'");
-  u.role = *role;
-  u.school_id = q.int64(4);
-  u.pupil_id = q.opt_int64(5);
-  u.full_name = q.text(6);
-  return u;
-}
-
-Pupil read_pupil(const Query& q) {
-  return Pupil{q.int64(0), q.int64(1), q.text(2), q.text(3), q.text(4)};
-}
-
-Session read_session(const Query& q) {
-  Session s;
-  s.id = q.int64(0);
-  s.public_id = q.text(1);
-  s.pupil_id = q.int64(2);
-  s.cab_id = q.text(3);
-  s.scenario = q.text(4);
-  s.mode = q.text(5);
-  s.state = q.text(6);
-  s.reason = q.text(7);
-  s.examiner_id = q.opt_int64(8);
-  s.created_at = q.text(9);
-  s.ended_at = q.text(10);
-  s.mark = q.opt_real(11);
-  if (!q.is_null(12)) s.passed = q.int64(12) != 0;
-  s.task_left_unfinished = q.int64(13) != 0;
-  return s;
-}
-
-TheoryAttempt read_theory_attempt(const Query& q) {
-  TheoryAttempt a;
-  a.id = q.int64(0);
-  a.pupil_id = q.int64(1);
-  a.seed = q.int64(2);
-  a.questions = q.text(3);
-  a.started_at = q.text(4);
-  a.started_by = q.opt_int64(5);
-  a.exam_id = q.opt_int64(6);
-  a.kind = q.text(7);
-  a.deadline = q.text(8);
-  a.finished_at = q.text(9);
-  a.outcome = q.text(10);
-  a.result = q.text(11);
-  return a;
-}
-
-bool is_theory_outcome(const std::string& outcome) { return outcome == "marked" || outcome == "timed_out"; }
-
-CertificateRecord read_certificate(const Query& q) {
-  return CertificateRecord{q.int64(0), q.text(1), q.int64(2), q.int64(3), q.text(4), q.opt_int64(5), q.text(6), q.text(7)};
-}
-
-ExamCorrection read_correction(const Query& q) {
-  return ExamCorrection{q.int64(0), q.int64(1), q.int64(2), q.text(3), q.text(4), q.text(5)};
-}
-
-AuditRecord read_audit(const Query& q) {
-  return AuditRecord{q.int64(0), q.text(1), Actor{q.opt_int64(2), q.text(3)}, q.int64(4), q.text(5), q.text(6)};
-}
 
 class SqliteStore final : public Store {
  public:
@@ -797,10 +630,7 @@ class SqliteStore final : public Store {
 
   Session create_session(int64_t pupil_id, const std::string& cab_id, const std::string& scenario,
                          const std::string& mode, std::optional<int64_t> examiner_id, const std::string& now) override {
-    require(mode == "training" || mode == "exam", StoreError::kInvalid, __func__,
-            "mode '" + mode + "' is neither training nor exam");
-    require(!cab_id.empty(), StoreError::kInvalid, __func__, "empty cab id");
-    require(!scenario.empty(), StoreError::kInvalid, __func__, "empty scenario");
+    check_new_session(__func__, mode, cab_id, scenario);
     require(pupil(__func__, pupil_id).has_value(), StoreError::kNotFound, __func__,
             "no pupil " + std::to_string(pupil_id));
     Query q = query(__func__,
@@ -899,18 +729,7 @@ class SqliteStore final : public Store {
         .bind(s.passed)
         .bind(session.id)
         .run();
-    if (session.mode == "exam") {
-      ExamRecord exam;
-      exam.pupil_id = session.pupil_id;
-      exam.kind = "practical";
-      exam.session_public_id = session.public_id;
-      exam.score = s.mark;
-      exam.passed = s.passed;
-      exam.examiner_id = session.examiner_id;
-      exam.taken_at = now;
-      exam.details = s.exam_details;
-      insert_exam(__func__, exam, session.id);
-    }
+    if (session.mode == "exam") insert_exam(__func__, practical_exam(session, s, now), session.id);
     tx.commit();
     return true;
   }
@@ -952,26 +771,13 @@ class SqliteStore final : public Store {
   }
 
   std::optional<ExamRecord> get_exam(int64_t id) override {
-    Query q = query(__func__,
-                    "SELECT e.id, e.pupil_id, e.kind, s.public_id, e.score, e.passed, e.examiner_id, e.taken_at, "
-                    "e.details FROM exams e LEFT JOIN sessions s ON s.id = e.session_id WHERE e.id = ?");
+    Query q = query(__func__, "SELECT " EXAM_ROWS " WHERE e.id = ?");
     q.bind(id);
-    if (!q.step()) return std::nullopt;
-    ExamRecord r;
-    r.id = q.int64(0);
-    r.pupil_id = q.int64(1);
-    r.kind = q.text(2);
-    if (!q.is_null(3)) r.session_public_id = q.text(3);
-    r.score = q.real(4);
-    r.passed = q.int64(5) != 0;
-    r.examiner_id = q.opt_int64(6);
-    r.taken_at = q.text(7);
-    r.details = q.text(8);
-    return r;
+    return q.step() ? std::optional(read_exam(q)) : std::nullopt;
   }
 
   int64_t add_exam_correction(const ExamCorrection& c) override {
-    require(!c.reason.empty(), StoreError::kInvalid, __func__, "a correction needs its reason");
+    check_new_correction(__func__, c);
     FullSync full_sync(db(), __func__);
     Query q = query(__func__,
                     "INSERT INTO exam_corrections(exam_id, corrected_by, at, reason, correction) VALUES (?, ?, ?, ?, ?)");
@@ -980,8 +786,7 @@ class SqliteStore final : public Store {
   }
 
   std::vector<ExamCorrection> list_exam_corrections(int64_t exam_id) override {
-    Query q = query(__func__, "SELECT id, exam_id, corrected_by, at, reason, correction FROM exam_corrections "
-                              "WHERE exam_id = ? ORDER BY id");
+    Query q = query(__func__, "SELECT " CORRECTION_COLUMNS " FROM exam_corrections WHERE exam_id = ? ORDER BY id");
     q.bind(exam_id);
     std::vector<ExamCorrection> out;
     while (q.step()) out.push_back(read_correction(q));
@@ -989,12 +794,7 @@ class SqliteStore final : public Store {
   }
 
   int64_t create_theory_attempt(const TheoryAttempt& a) override {
-    require(!a.exam_id && a.finished_at.empty() && a.outcome.empty() && a.result.empty(), StoreError::kInvalid, __func__,
-            "a new attempt is not finished yet");
-    require(a.kind == "exam" || a.kind == "practice", StoreError::kInvalid, __func__,
-            "attempt kind '" + a.kind + "' is neither exam nor practice");
-    require(a.seed >= 0 && a.seed < (int64_t{1} << 53), StoreError::kInvalid, __func__, "seed out of [0, 2^53)");
-    require(!a.questions.empty(), StoreError::kInvalid, __func__, "no questions");
+    check_new_theory_attempt(__func__, a);
     Query q = query(__func__,
                     "INSERT INTO theory_attempts(pupil_id, seed, questions, started_at, started_by, kind, deadline) "
                     "VALUES (?, ?, ?, ?, ?, ?, ?)");
@@ -1011,19 +811,11 @@ class SqliteStore final : public Store {
   }
 
   int64_t finish_theory_attempt(int64_t attempt_id, const ExamRecord& r, const std::string& outcome) override {
-    require(is_theory_outcome(outcome), StoreError::kInvalid, __func__, "outcome '" + outcome + "' is neither marked nor timed_out");
+    check_theory_outcome(__func__, outcome);
     FullSync full_sync(db(), __func__);
     Transaction tx(db(), __func__, Transaction::kWrite);
     const std::optional<TheoryAttempt> a = get_theory_attempt(attempt_id);
-    require(a.has_value(), StoreError::kNotFound, __func__, "no theory attempt " + std::to_string(attempt_id));
-    require(a->kind == "exam", StoreError::kInvalid, __func__,
-            "attempt " + std::to_string(attempt_id) + " is a practice paper: it has no exam record");
-    require(r.kind == "theory" && !r.session_public_id, StoreError::kInvalid, __func__,
-            "a theory attempt is marked with a theory record without a session");
-    require(r.pupil_id == a->pupil_id, StoreError::kInvalid, __func__,
-            "attempt " + std::to_string(attempt_id) + " is not pupil " + std::to_string(r.pupil_id) + "'s");
-    require(!a->exam_id && a->finished_at.empty(), StoreError::kConflict, __func__,
-            "attempt " + std::to_string(attempt_id) + " was already finished");
+    check_theory_finish(__func__, attempt_id, a, r);
     ExamRecord record = r;
     if (record.taken_at.empty()) record.taken_at = now_iso8601();
     const int64_t exam = insert_exam(__func__, record, std::nullopt);
@@ -1045,12 +837,10 @@ class SqliteStore final : public Store {
 
   void finish_practice_attempt(int64_t attempt_id, const std::string& outcome, const std::string& result,
                                const std::string& finished_at) override {
-    require(is_theory_outcome(outcome), StoreError::kInvalid, __func__, "outcome '" + outcome + "' is neither marked nor timed_out");
+    check_theory_outcome(__func__, outcome);
     Transaction tx(db(), __func__, Transaction::kWrite);
     const std::optional<TheoryAttempt> a = get_theory_attempt(attempt_id);
-    require(a.has_value(), StoreError::kNotFound, __func__, "no theory attempt " + std::to_string(attempt_id));
-    require(a->kind == "practice", StoreError::kInvalid, __func__,
-            "attempt " + std::to_string(attempt_id) + " is an exam paper: it is finished with its exam record");
+    check_practice_finish(__func__, attempt_id, a);
     query(__func__, "UPDATE theory_attempts SET outcome = ?, result = ?, finished_at = ? WHERE id = ? AND finished_at = ''")
         .bind(outcome)
         .bind(result)
@@ -1129,15 +919,13 @@ class SqliteStore final : public Store {
   }
 
   int64_t add_certificate(const CertificateRecord& c) override {
-    require(!c.number.empty(), StoreError::kInvalid, __func__, "a certificate needs its number");
+    check_new_certificate(__func__, c);
     FullSync full_sync(db(), __func__);
     Transaction tx(db(), __func__, Transaction::kWrite);
     {
       Query q = query(__func__, "SELECT pupil_id FROM licences WHERE id = ?");
       q.bind(c.licence_id);
-      require(q.step(), StoreError::kNotFound, __func__, "no licence " + std::to_string(c.licence_id));
-      require(q.int64(0) == c.pupil_id, StoreError::kInvalid, __func__,
-              "licence " + std::to_string(c.licence_id) + " is not pupil " + std::to_string(c.pupil_id) + "'s");
+      check_certificate_licence(__func__, c, q.step() ? std::optional(q.int64(0)) : std::nullopt);
     }
     Query q = query(__func__,
                     "INSERT INTO certificates(number, pupil_id, licence_id, issued_at, issued_by, record, signature) "
@@ -1164,7 +952,7 @@ class SqliteStore final : public Store {
   }
 
   int64_t revoke_certificate(const CertificateRevocation& r) override {
-    require(!r.reason.empty(), StoreError::kInvalid, __func__, "a revocation needs its reason");
+    check_new_revocation(__func__, r);
     FullSync full_sync(db(), __func__);
     Query q = query(__func__, "INSERT INTO certificate_revocations(certificate_id, revoked_by, at, reason) VALUES (?, ?, ?, ?)");
     q.bind(r.certificate_id).bind(r.revoked_by).bind(r.at.empty() ? now_iso8601() : r.at).bind(r.reason).run();
@@ -1172,11 +960,9 @@ class SqliteStore final : public Store {
   }
 
   std::optional<CertificateRevocation> certificate_revocation(int64_t certificate_id) override {
-    Query q = query(__func__, "SELECT id, certificate_id, revoked_by, at, reason FROM certificate_revocations "
-                              "WHERE certificate_id = ?");
+    Query q = query(__func__, "SELECT " REVOCATION_COLUMNS " FROM certificate_revocations WHERE certificate_id = ?");
     q.bind(certificate_id);
-    if (!q.step()) return std::nullopt;
-    return CertificateRevocation{q.int64(0), q.int64(1), q.int64(2), q.text(3), q.text(4)};
+    return q.step() ? std::optional(read_revocation(q)) : std::nullopt;
   }
 
   void put_session_log(const std::string& session_public_id, const std::string& name,
@@ -1200,10 +986,7 @@ class SqliteStore final : public Store {
   void append_chain_entry(const ChainEntry& e) override {
     const int64_t session_id = require_session(__func__, e.session_public_id).id;
     const auto last = last_chain_entry();
-    require(e.seq == (last ? last->seq + 1 : 1), StoreError::kConflict, __func__,
-            "chain entry " + std::to_string(e.seq) + " does not follow the last one");
-    require(!get_chain_entry(e.session_public_id), StoreError::kConflict, __func__,
-            "session " + e.session_public_id + " is already chained");
+    check_chain_append(__func__, e, last, get_chain_entry(e.session_public_id).has_value());
     Query q = query(__func__, "INSERT INTO exam_chain(seq, session_id, entry) VALUES (?, ?, ?)");
     q.bind(e.seq).bind(session_id).bind(e.entry).run();
   }
@@ -1296,11 +1079,7 @@ class SqliteStore final : public Store {
     Transaction tx(db(), __func__, Transaction::kWrite);
     const Session before = require_session(__func__, public_id);
     if (!set_session_state(public_id, state, reason, now)) return false;
-    AuditRecord r;
-    r.at = now;
-    r.actor = actor;
-    r.pupil_id = before.pupil_id;
-    r.action = "session_" + state;
+    AuditRecord r = state_audit(before, state, now, actor);
     {
       Query q = query(__func__, "SELECT json_object('session', ?, 'from', ?, 'to', ?, 'reason', ?)");
       q.bind(public_id).bind(before.state).bind(state).bind(reason).step();
@@ -1319,24 +1098,9 @@ class SqliteStore final : public Store {
     h.pupil = std::move(*p);
     h.sessions = sessions_of(__func__, pupil_id);
     {
-      Query q = query(__func__,
-                      "SELECT e.id, e.kind, s.public_id, e.score, e.passed, e.examiner_id, e.taken_at, e.details "
-                      "FROM exams e LEFT JOIN sessions s ON s.id = e.session_id "
-                      "WHERE e.pupil_id = ? ORDER BY e.taken_at, e.id");
+      Query q = query(__func__, "SELECT " EXAM_ROWS " WHERE e.pupil_id = ? ORDER BY e.taken_at, e.id");
       q.bind(pupil_id);
-      while (q.step()) {
-        ExamRecord r;
-        r.id = q.int64(0);
-        r.pupil_id = pupil_id;
-        r.kind = q.text(1);
-        if (!q.is_null(2)) r.session_public_id = q.text(2);
-        r.score = q.real(3);
-        r.passed = q.int64(4) != 0;
-        r.examiner_id = q.opt_int64(5);
-        r.taken_at = q.text(6);
-        r.details = q.text(7);
-        h.exams.push_back(std::move(r));
-      }
+      while (q.step()) h.exams.push_back(read_exam(q));
     }
     {
       // "worry_level > 0" spelled as in the partial index, so that the planner uses it.
@@ -1354,8 +1118,8 @@ class SqliteStore final : public Store {
       if (q.step()) h.licence = LicenceRecord{q.int64(0), pupil_id, q.text(1), q.text(2), q.text(3)};
     }
     {
-      Query q = query(__func__, "SELECT c.id, c.exam_id, c.corrected_by, c.at, c.reason, c.correction "
-                                "FROM exam_corrections c JOIN exams e ON e.id = c.exam_id WHERE e.pupil_id = ? ORDER BY c.id");
+      Query q = query(__func__, "SELECT " CORRECTION_COLUMNS " FROM exam_corrections "
+                                "WHERE exam_id IN (SELECT id FROM exams WHERE pupil_id = ?) ORDER BY id");
       q.bind(pupil_id);
       while (q.step()) h.corrections.push_back(read_correction(q));
     }

@@ -15,12 +15,16 @@ class Server;
 namespace forklift::server {
 
 struct ServerConfig {
-  std::string db_path = "forklift.db";  // SQLite file, created if missing
+  // The store: an SQLite file, created if missing, or a PostgreSQL database's URI
+  // ("postgresql://...", store::Store::open).
+  std::string db_path = "forklift.db";
   std::string data_dir;                 // data/: scenarios, trucks, the theory bank
   // The school's rules for theory papers (time limits, retakes; data/theory/README.md). Empty:
   // <data_dir>/theory/policy.json.
   std::string theory_policy;
-  std::string log_dir;                  // workers' logs and the stills cache; empty: <db_path>.logs
+  // Workers' logs and the stills cache; empty: <db_path>.logs, or forklift.logs in the working
+  // directory for a PostgreSQL database.
+  std::string log_dir;
   // The exam chain's anchor, appended as each exam is chained; keep it where the database's
   // writers cannot write (docs/exam-evidence.md). Empty: <log_dir>/exam-chain.anchor.
   std::string chain_anchor;

@@ -1,15 +1,20 @@
 // The trainee store: pupils, users and roles, cabs, sessions, events, scores, theory and practical
 // exam records, licence records, session logs, theory papers, truck paths and the audit log of
-// changes to pupils' records. One narrow interface; SQLite is the embedded
-// default (one file, WAL, foreign keys, versioned migrations at open), and every SQL statement
-// lives in the backend's source so that a PostgreSQL backend can follow.
+// changes to pupils' records. One narrow interface, two backends with the same schema
+// versions (migrations applied at open) and the same behaviour: SQLite, the embedded default (one
+// file, WAL, foreign keys), and PostgreSQL (libpq), for several servers sharing one database.
+// Every SQL statement lives in its backend's source (sqlite_store.cc, postgres_store.cc).
 //
 // Contract: every call is atomic. Bad arguments (unknown ids, empty names, a mode that is not
 // "training" or "exam") throw StoreError with kind kInvalid or kNotFound; a duplicate unique value
 // (username, cab id), or a change to a record the schema keeps as written, throws kConflict; I/O
 // or database failure throws kIo. Times are ISO-8601 UTC strings ("2026-11-23T10:30:00Z"). A Store
 // object is used from one thread at a time; open one per thread (SQLite's busy timeout lets them
-// share the file).
+// share the file; each PostgreSQL Store is one connection).
+// Exactly-once holds across Store objects and processes, on either backend: two servers sharing
+// one database store an event, a score or a chain entry once (unique keys decide, not the caller).
+// What PostgreSQL stores is UTF-8 text without NUL bytes: other text is refused (kInvalid).
+// "synchronous=FULL" below is SQLite's; on PostgreSQL every commit is durable so (synchronous_commit).
 #pragma once
 
 #include <cstdint>
@@ -267,8 +272,16 @@ struct PupilHistory {
 
 class Store {
  public:
+  // Opens the store at `location`: a PostgreSQL connection URI ("postgresql://" or "postgres://",
+  // is_postgresql_location) opens PostgreSQL, anything else is an SQLite file's path.
+  static std::unique_ptr<Store> open(const std::string& location);
   // Opens (creating if need be) an SQLite database and applies pending migrations.
   static std::unique_ptr<Store> open_sqlite(const std::string& path);
+  // Connects to a PostgreSQL database (a libpq connection URI or "key=value" string; the
+  // password best comes from ~/.pgpass or PGPASSWORD, not the URI) and applies pending
+  // migrations, one server at a time. The database must exist; the tables are made in it.
+  // kIo if it cannot connect, naming the location without its password.
+  static std::unique_ptr<Store> open_postgresql(const std::string& conninfo);
   virtual ~Store() = default;
 
   virtual int schema_version() = 0;
@@ -415,6 +428,11 @@ class Store {
   // PupilHistory for `pupil_id`, with overdue computed against `now`; nullopt if no such pupil.
   virtual std::optional<PupilHistory> history(int64_t pupil_id, const std::string& now) = 0;
 };
+
+// Whether `location` names a PostgreSQL database ("postgresql://..." or "postgres://...").
+bool is_postgresql_location(const std::string& location);
+// `location` fit to print: a PostgreSQL URI's password (user:password@, password=...) as "***".
+std::string printable_location(const std::string& location);
 
 // Whether a session in `state` is over (ended, failed or aborted): such a session never changes.
 bool is_terminal(const std::string& state);

@@ -1,0 +1,247 @@
+// What the store's backends share besides the interface: argument checks and the reading of
+// whole rows, so that SQLite and PostgreSQL refuse and return the same. No SQL here: each
+// backend's statements live in its own source. `Row` is a backend's query positioned on a row,
+// with int64, real, text, is_null, opt_int64 and opt_real of a column by index.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "forklift/store/store.h"
+
+namespace forklift::store::detail {
+
+inline bool is_state(const std::string& state) {
+  return state == "starting" || state == "waiting" || state == "running" || is_terminal(state);
+}
+
+inline bool is_theory_outcome(const std::string& outcome) { return outcome == "marked" || outcome == "timed_out"; }
+
+inline void require(bool ok, StoreError::Kind kind, const char* op, const std::string& what) {
+  if (!ok) throw StoreError(kind, std::string(op) + ": " + what);
+}
+
+// The checks of a call's arguments that need no database, the same for every backend. Each
+// throws StoreError naming `op`.
+inline void check_new_session(const char* op, const std::string& mode, const std::string& cab_id,
+                              const std::string& scenario) {
+  require(mode == "training" || mode == "exam", StoreError::kInvalid, op, "mode '" + mode + "' is neither training nor exam");
+  require(!cab_id.empty(), StoreError::kInvalid, op, "empty cab id");
+  require(!scenario.empty(), StoreError::kInvalid, op, "empty scenario");
+}
+
+inline void check_new_theory_attempt(const char* op, const TheoryAttempt& a) {
+  require(!a.exam_id && a.finished_at.empty() && a.outcome.empty() && a.result.empty(), StoreError::kInvalid, op,
+          "a new attempt is not finished yet");
+  require(a.kind == "exam" || a.kind == "practice", StoreError::kInvalid, op,
+          "attempt kind '" + a.kind + "' is neither exam nor practice");
+  require(a.seed >= 0 && a.seed < (int64_t{1} << 53), StoreError::kInvalid, op, "seed out of [0, 2^53)");
+  require(!a.questions.empty(), StoreError::kInvalid, op, "no questions");
+}
+
+inline void check_theory_outcome(const char* op, const std::string& outcome) {
+  require(is_theory_outcome(outcome), StoreError::kInvalid, op, "outcome '" + outcome + "' is neither marked nor timed_out");
+}
+
+// An exam paper `a` (as read, inside the transaction) finished with the record `r`.
+inline void check_theory_finish(const char* op, int64_t attempt_id, const std::optional<TheoryAttempt>& a,
+                                const ExamRecord& r) {
+  require(a.has_value(), StoreError::kNotFound, op, "no theory attempt " + std::to_string(attempt_id));
+  require(a->kind == "exam", StoreError::kInvalid, op,
+          "attempt " + std::to_string(attempt_id) + " is a practice paper: it has no exam record");
+  require(r.kind == "theory" && !r.session_public_id, StoreError::kInvalid, op,
+          "a theory attempt is marked with a theory record without a session");
+  require(r.pupil_id == a->pupil_id, StoreError::kInvalid, op,
+          "attempt " + std::to_string(attempt_id) + " is not pupil " + std::to_string(r.pupil_id) + "'s");
+  require(!a->exam_id && a->finished_at.empty(), StoreError::kConflict, op,
+          "attempt " + std::to_string(attempt_id) + " was already finished");
+}
+
+// A practice paper `a` (as read, inside the transaction) about to be finished.
+inline void check_practice_finish(const char* op, int64_t attempt_id, const std::optional<TheoryAttempt>& a) {
+  require(a.has_value(), StoreError::kNotFound, op, "no theory attempt " + std::to_string(attempt_id));
+  require(a->kind == "practice", StoreError::kInvalid, op,
+          "attempt " + std::to_string(attempt_id) + " is an exam paper: it is finished with its exam record");
+}
+
+// Entry `e` follows `last` (the chain's last entry) and its session `chained` is not chained yet.
+inline void check_chain_append(const char* op, const ChainEntry& e, const std::optional<ChainEntry>& last, bool chained) {
+  require(e.seq == (last ? last->seq + 1 : 1), StoreError::kConflict, op,
+          "chain entry " + std::to_string(e.seq) + " does not follow the last one");
+  require(!chained, StoreError::kConflict, op, "session " + e.session_public_id + " is already chained");
+}
+
+inline void check_new_correction(const char* op, const ExamCorrection& c) {
+  require(!c.reason.empty(), StoreError::kInvalid, op, "a correction needs its reason");
+}
+
+inline void check_new_certificate(const char* op, const CertificateRecord& c) {
+  require(!c.number.empty(), StoreError::kInvalid, op, "a certificate needs its number");
+}
+
+// The certificate's licence, whose pupil is `licence_pupil` (as read, inside the transaction),
+// is its pupil's.
+inline void check_certificate_licence(const char* op, const CertificateRecord& c, const std::optional<int64_t>& licence_pupil) {
+  require(licence_pupil.has_value(), StoreError::kNotFound, op, "no licence " + std::to_string(c.licence_id));
+  require(*licence_pupil == c.pupil_id, StoreError::kInvalid, op,
+          "licence " + std::to_string(c.licence_id) + " is not pupil " + std::to_string(c.pupil_id) + "'s");
+}
+
+inline void check_new_revocation(const char* op, const CertificateRevocation& r) {
+  require(!r.reason.empty(), StoreError::kInvalid, op, "a revocation needs its reason");
+}
+
+// The practical exam record an exam session's score makes.
+inline ExamRecord practical_exam(const Session& session, const ScoreRecord& s, const std::string& now) {
+  ExamRecord exam;
+  exam.pupil_id = session.pupil_id;
+  exam.kind = "practical";
+  exam.session_public_id = session.public_id;
+  exam.score = s.mark;
+  exam.passed = s.passed;
+  exam.examiner_id = session.examiner_id;
+  exam.taken_at = now;
+  exam.details = s.exam_details;
+  return exam;
+}
+
+// The audit row of a session's move from `before`'s state to `state`, but for its details.
+inline AuditRecord state_audit(const Session& before, const std::string& state, const std::string& now, const Actor& actor) {
+  AuditRecord r;
+  r.at = now;
+  r.actor = actor;
+  r.pupil_id = before.pupil_id;
+  r.action = "session_" + state;
+  return r;
+}
+
+// LIKE pattern for "contains `text`", with '\' escaping so that % and _ in it match literally.
+inline std::string contains_pattern(const std::string& text) {
+  std::string p = "%";
+  for (char c : text) {
+    if (c == '%' || c == '_' || c == '\\') p += '\\';
+    p += c;
+  }
+  return p + "%";
+}
+
+// Least-squares slope of mark against the marked training sessions' index 0, 1, 2, ...: sessions
+// without a mark (mark_of: aborted, timed out, failed...) are not attempts and do not count, and
+// exams are results, shown apart.
+inline std::optional<double> mark_trend(const std::vector<Session>& sessions) {
+  std::vector<double> marks;
+  for (const Session& s : sessions) {
+    if (const auto m = mark_of(s); m && s.mode == "training") marks.push_back(*m);
+  }
+  if (marks.size() < 2) return std::nullopt;
+  const double n = static_cast<double>(marks.size());
+  const double x_mean = (n - 1) / 2;
+  double y_mean = 0;
+  for (double m : marks) y_mean += m / n;
+  double sxy = 0, sxx = 0;
+  for (size_t i = 0; i < marks.size(); ++i) {
+    const double dx = static_cast<double>(i) - x_mean;
+    sxy += dx * (marks[i] - y_mean);
+    sxx += dx * dx;
+  }
+  return sxy / sxx;
+}
+
+// Rows read in the column order of the backends' USER_COLUMNS, PUPIL_COLUMNS, SESSION_COLUMNS,
+// THEORY_ATTEMPT_COLUMNS, AUDIT_COLUMNS, CERTIFICATE_COLUMNS, CORRECTION_COLUMNS,
+// REVOCATION_COLUMNS and EXAM_ROWS.
+template <class Row>
+User read_user(const Row& q) {
+  User u;
+  u.id = q.int64(0);
+  u.username = q.text(1);
+  u.password_hash = q.text(2);
+  const std::optional<Role> role = parse_role(q.text(3));
+  if (!role) throw StoreError(StoreError::kIo, "user " + u.username + " has unknown role '" + q.text(3) + "'");
+  u.role = *role;
+  u.school_id = q.int64(4);
+  u.pupil_id = q.opt_int64(5);
+  u.full_name = q.text(6);
+  return u;
+}
+
+template <class Row>
+Pupil read_pupil(const Row& q) {
+  return Pupil{q.int64(0), q.int64(1), q.text(2), q.text(3), q.text(4)};
+}
+
+template <class Row>
+Session read_session(const Row& q) {
+  Session s;
+  s.id = q.int64(0);
+  s.public_id = q.text(1);
+  s.pupil_id = q.int64(2);
+  s.cab_id = q.text(3);
+  s.scenario = q.text(4);
+  s.mode = q.text(5);
+  s.state = q.text(6);
+  s.reason = q.text(7);
+  s.examiner_id = q.opt_int64(8);
+  s.created_at = q.text(9);
+  s.ended_at = q.text(10);
+  s.mark = q.opt_real(11);
+  if (!q.is_null(12)) s.passed = q.int64(12) != 0;
+  s.task_left_unfinished = q.int64(13) != 0;
+  return s;
+}
+
+template <class Row>
+TheoryAttempt read_theory_attempt(const Row& q) {
+  TheoryAttempt a;
+  a.id = q.int64(0);
+  a.pupil_id = q.int64(1);
+  a.seed = q.int64(2);
+  a.questions = q.text(3);
+  a.started_at = q.text(4);
+  a.started_by = q.opt_int64(5);
+  a.exam_id = q.opt_int64(6);
+  a.kind = q.text(7);
+  a.deadline = q.text(8);
+  a.finished_at = q.text(9);
+  a.outcome = q.text(10);
+  a.result = q.text(11);
+  return a;
+}
+
+template <class Row>
+AuditRecord read_audit(const Row& q) {
+  return AuditRecord{q.int64(0), q.text(1), Actor{q.opt_int64(2), q.text(3)}, q.int64(4), q.text(5), q.text(6)};
+}
+
+template <class Row>
+ExamRecord read_exam(const Row& q) {
+  ExamRecord r;
+  r.id = q.int64(0);
+  r.pupil_id = q.int64(1);
+  r.kind = q.text(2);
+  if (!q.is_null(3)) r.session_public_id = q.text(3);
+  r.score = q.real(4);
+  r.passed = q.int64(5) != 0;
+  r.examiner_id = q.opt_int64(6);
+  r.taken_at = q.text(7);
+  r.details = q.text(8);
+  return r;
+}
+
+template <class Row>
+CertificateRecord read_certificate(const Row& q) {
+  return CertificateRecord{q.int64(0), q.text(1), q.int64(2), q.int64(3), q.text(4), q.opt_int64(5), q.text(6), q.text(7)};
+}
+
+template <class Row>
+ExamCorrection read_correction(const Row& q) {
+  return ExamCorrection{q.int64(0), q.int64(1), q.int64(2), q.text(3), q.text(4), q.text(5)};
+}
+
+template <class Row>
+CertificateRevocation read_revocation(const Row& q) {
+  return CertificateRevocation{q.int64(0), q.int64(1), q.int64(2), q.text(3), q.text(4)};
+}
+
+}  // namespace forklift::store::detail
