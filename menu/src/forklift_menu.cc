@@ -203,7 +203,7 @@ int main(int argc, char** argv) {
   start->add_option("--aids", aids, "training: the learning aids the cab may use, comma-separated (rear_view, see_through_mast, "
                                     "chase_camera) or none; default all (an exam has none)");
   start->add_option("--drive", drive, "drive it with a scripted cab (forklift-cab --script)")->check(CLI::ExistingFile);
-  start->add_option("--dds-domain", dds_domain, "DDS domain of the scripted cab (default: environment)");
+  start->add_option("--dds-domain", dds_domain, "DDS domain of the scripted cab (default: the server's)")->check(CLI::Range(0, 232));
   std::string cab_frame;
   double time_limit = 0;
   start->add_option("--time-limit", time_limit, "end the session after this many seconds (the scenario's own limit if shorter)")->check(CLI::Range(0.0, 86400.0));
@@ -273,7 +273,10 @@ int main(int argc, char** argv) {
       if (!drive.empty()) {
         const std::string self = std::filesystem::canonical("/proc/self/exe").parent_path().string();
         std::vector<std::string> args = {self + "/forklift-cab", "--cab", cab, "--script", drive, "--wait-worker", "30"};
-        if (dds_domain >= 0) { args.push_back("--dds-domain"); args.push_back(std::to_string(dds_domain)); }
+        // The cab meets the worker in the server's domain (GET /api/fleet), unless told another.
+        if (dds_domain < 0) dds_domain = cl.call("GET", "/api/fleet").at("dds_domain").get<int>();
+        args.push_back("--dds-domain");
+        args.push_back(std::to_string(dds_domain));
         if (!cab_frame.empty()) { args.push_back("--save-frame"); args.push_back(cab_frame); }
         const pid_t pid = fork();
         if (pid == 0) {

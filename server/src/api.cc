@@ -81,6 +81,7 @@ Principal authenticate(Context& ctx, const httplib::Request& req) {
   const auto c = ctx.tokens->check(h.substr(7));
   if (c.expired) throw ApiError(401, "token_expired", "this login has expired: log in again");
   if (!c.principal) throw ApiError(401, "unauthenticated", "the token is unknown or was logged out: log in again");
+  request_notes().user = c.principal->username;  // for the access log
   return *c.principal;
 }
 

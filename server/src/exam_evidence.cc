@@ -1,6 +1,7 @@
 #include "exam_evidence.h"
 
 #include <fcntl.h>
+#include <spdlog/spdlog.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -359,8 +360,7 @@ std::string check_chain_at_start(store::Store& db, ChainAnchor& anchor, const Ch
   for (const json& e : chain)
     if (e["seq"].get<int64_t>() > head_seq) anchor.append(e);
   if (!had_anchor && !chain.empty())
-    std::fprintf(stderr, "forklift-server: no exam chain anchor at %s: anchored the %zu entries the database holds\n",
-                 anchor.path().c_str(), chain.size());
+    spdlog::warn("no exam chain anchor at {}: anchored the {} entries the database holds", anchor.path(), chain.size());
   return "";
 }
 

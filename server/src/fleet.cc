@@ -8,6 +8,7 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <spdlog/spdlog.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -17,7 +18,6 @@
 #include <cstring>
 #include <set>
 #include <fstream>
-#include <iostream>
 #include <sstream>
 
 namespace forklift::server {
@@ -76,8 +76,7 @@ void Fleet::adopt(store::Store& db) {
       w.start_ticks = p->second.start_ticks;
       running.erase(p);
       cabs_taken.insert(s.cab_id);
-      std::cerr << "forklift-server: adopted the worker (pid " << w.pid << ") of session " << s.public_id << " on cab "
-                << s.cab_id << std::endl;
+      spdlog::info("adopted the worker (pid {}) of session {} on cab {}", w.pid, s.public_id, s.cab_id);
       workers_[s.public_id] = w;
       bindings_[s.public_id] = {w.cab, w.participant, std::nullopt};
     } else {
@@ -92,8 +91,7 @@ void Fleet::adopt(store::Store& db) {
   // Workers of this server with no open session, or a second one for a cab: no cab has two.
   for (const auto& [id, p] : running) strays.push_back(p);
   for (const WorkerProcess& p : strays) {
-    std::cerr << "forklift-server: stopping worker pid " << p.pid << " (session " << p.session << ", cab " << p.cab
-              << "): its session is not open here or its cab runs another" << std::endl;
+    spdlog::warn("stopping worker pid {} (session {}, cab {}): its session is not open here or its cab runs another", p.pid, p.session, p.cab);
     kill(p.pid, SIGTERM);
   }
 }
@@ -255,7 +253,7 @@ void Fleet::take_followed_frames() {
         continue;  // not a frame this server can show
       }
     } catch (const std::exception& e) {
-      std::cerr << "forklift-server: frame from cab " << n.cab << ": " << e.what() << std::endl;
+      spdlog::warn("frame from cab {}: {}", n.cab, e.what());
       continue;
     }
     std::lock_guard<std::mutex> lock(mu_);
@@ -270,7 +268,7 @@ void Fleet::take_followed_frames() {
 void Fleet::fail(store::Store& db, const std::string& session, const std::string& cab, const std::string& reason) {
   // Never a pass: a session whose worker died is failed with the reason, and the cab is told.
   if (db.set_session_state_audited(session, "failed", reason, store::now_iso8601(), kServer)) {
-    std::cerr << "forklift-server: session " << session << " failed: " << reason << std::endl;
+    spdlog::warn("session {} failed: {}", session, reason);
     publish_status(session, cab, "failed", reason);
   }
 }
@@ -286,8 +284,8 @@ void Fleet::supervise() {
     chain_problem = std::string("the exam chain cannot be checked: ") + e.what();
   }
   if (!chain_problem.empty()) {
-    std::cerr << "forklift-server: " << chain_problem << ". No exam is chained, and no certificate counts a practical "
-              << "exam, until the database's exam_chain is restored from a backup" << std::endl;
+    spdlog::error("{}. No exam is chained, and no certificate counts a practical exam, until the database's exam_chain is "
+                  "restored from a backup", chain_problem);
     std::lock_guard<std::mutex> lock(mu_);
     chain_status_.problem = chain_problem;
   }
@@ -337,7 +335,7 @@ void Fleet::supervise() {
       try {
         settle(*db, it->worker, it->reason, to_chain);
       } catch (const std::exception& e) {
-        std::cerr << "forklift-server: settling session " << it->worker.session << ": " << e.what() << std::endl;
+        spdlog::error("settling session {}: {}", it->worker.session, e.what());
       }
       it = finishing_.erase(it);
     }
@@ -370,8 +368,8 @@ void Fleet::settle(store::Store& db, const WorkerInfo& w, const std::string& rea
       refused_.recovered_scores += scored ? 1 : 0;
     }
     if (events || scored)
-      std::cerr << "forklift-server: session " << w.session << ": " << events << " event(s)" << (scored ? " and the score" : "")
-                << " taken from the worker's log (their samples never arrived)" << std::endl;
+      spdlog::warn("session {}: {} event(s){} taken from the worker's log (their samples never arrived)", w.session, events,
+                   scored ? " and the score" : "");
   }
   if (std::ifstream(log + ".sig")) {
     db.put_session_log(w.session, "signature", slurp(log + ".sig"));
@@ -417,13 +415,13 @@ void Fleet::chain_ended_exams(store::Store& db, std::vector<std::pair<std::strin
       // Its score and events come over DDS and may still be on their way.
       r = broken.empty() ? chain_exam(db, it->first, *anchor_, keys, late) : ChainOutcome{ChainResult::kChainBroken, broken};
     } catch (const std::exception& e) {
-      std::cerr << "forklift-server: cannot chain exam " << it->first << ": " << e.what() << std::endl;
+      spdlog::error("cannot chain exam {}: {}", it->first, e.what());
     }
     if (r.result == ChainResult::kNotReady && !late) { ++it; continue; }
-    if (r.result == ChainResult::kNotReady) std::cerr << "forklift-server: exam " << it->first << " never got its score: not chained" << std::endl;
+    if (r.result == ChainResult::kNotReady) spdlog::error("exam {} never got its score: not chained", it->first);
     if (r.result == ChainResult::kChainBroken || r.result == ChainResult::kRefused) {
       const std::string why = r.result == ChainResult::kRefused ? r.why : "the exam chain is broken: " + r.why;
-      std::cerr << "forklift-server: exam " << it->first << " is not chained: " << why << std::endl;
+      spdlog::error("exam {} is not chained: {}", it->first, why);
       {
         std::lock_guard<std::mutex> lock(mu_);
         if (r.result == ChainResult::kChainBroken && chain_status_.problem.empty()) chain_status_.problem = r.why;
@@ -432,7 +430,7 @@ void Fleet::chain_ended_exams(store::Store& db, std::vector<std::pair<std::strin
       try {
         record_chain_refusal(db, it->first, why);
       } catch (const std::exception& e) {
-        std::cerr << "forklift-server: cannot record the refusal of exam " << it->first << ": " << e.what() << std::endl;
+        spdlog::error("cannot record the refusal of exam {}: {}", it->first, e.what());
       }
     }
     it = pending.erase(it);
@@ -451,7 +449,7 @@ void Fleet::refuse(uint64_t RefusedSamples::*counter, const std::string& what) {
     n = ++(refused_.*counter);
   }
   // Named in the log, but a flood of them does not flood it.
-  if (n <= 20 || (n & (n - 1)) == 0) std::cerr << "forklift-server: refused " << what << " (" << n << " so far)" << std::endl;
+  if (n <= 20 || (n & (n - 1)) == 0) spdlog::warn("refused {} ({} so far)", what, n);
 }
 
 Fleet::Verdict Fleet::check_sender(const std::string& session, dds_entity_t reader, const dds_sample_info_t& info,
@@ -514,7 +512,7 @@ void Fleet::ingest() {
         }
       });
     } catch (const std::exception& e) {
-      std::cerr << "forklift-server: ingest: " << e.what() << std::endl;  // counted, never fatal
+      spdlog::warn("ingest: {}", e.what());  // counted, never fatal
     }
   };
   // Whether a report for `session` is to be stored; refusals counted with the reason.
@@ -625,7 +623,7 @@ void Fleet::ingest() {
       for (const std::string& cab : announced) db->cab_seen(cab, 1, store::now_iso8601());  // the default school
       for (const auto& [session, points] : path) db->add_path_points(session, points);
     } catch (const std::exception& e) {
-      std::cerr << "forklift-server: ingest: " << e.what() << std::endl;  // counted, never fatal
+      spdlog::warn("ingest: {}", e.what());  // counted, never fatal
     }
   }
 }

@@ -322,6 +322,7 @@ struct Connection {
   Connection& operator=(const Connection&) = delete;
 
   std::optional<Refusal> refusal;  // of the current request
+  RequestNotes notes;              // of the current request
   bool close_after = false;        // the stream is out of step with the requests
   BoundedStream stream;
 };
@@ -356,6 +357,7 @@ bool serve(Transport& t, const Settings& s, const ProcessRequest& process,
   for (size_t left = s.keep_alive_max_count; left > 0 && s.server_sock != INVALID_SOCKET; --left) {
     if (!c.stream.wait_for_request()) break;
     c.refusal.reset();
+    c.notes = RequestNotes{Clock::now(), {}};
     c.stream.allow(kMaxHeadBytes, &kHeadTooLarge, false);
     bool closed = false;
     ok = process(c.stream, left == 1, closed, [&](httplib::Request& req) {
@@ -371,9 +373,17 @@ bool serve(Transport& t, const Settings& s, const ProcessRequest& process,
   return ok;
 }
 
+// SO_REUSEADDR, so that a restarted server binds while its old connections linger in TIME_WAIT;
+// not SO_REUSEPORT (httplib's default), which lets a second server listen on the same port.
+void reuse_address_only(socket_t sock) {
+  const int yes = 1;
+  setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+}
+
 // Answers a refused request without reading its body or routing it; the API's error handler
-// words it (request_refusal()).
+// words it (request_refusal()); and binds its port alone.
 void refuse_before_routing(httplib::Server& svr) {
+  svr.set_socket_options(reuse_address_only);
   svr.set_pre_routing_handler([](const httplib::Request&, httplib::Response& res) {
     const Refusal* r = request_refusal();
     if (!r) return httplib::Server::HandlerResponse::Unhandled;
@@ -396,6 +406,11 @@ const Refusal kBodyTooLarge{413, "too_large", "the body is larger than 1 MiB"};
 
 const Refusal* request_refusal() {
   return t_connection && t_connection->refusal ? &*t_connection->refusal : nullptr;
+}
+
+RequestNotes& request_notes() {
+  thread_local RequestNotes elsewhere;
+  return t_connection ? t_connection->notes : elsewhere;
 }
 
 Listener::Listener() { refuse_before_routing(*this); }

@@ -2,18 +2,24 @@
 // trainee store, and the supervisor of one sim worker per cab session. The API is the
 // forklift_server_core library; this is its command line, its HTTP(S) listener and its web pages.
 #include <httplib.h>
+#include <netdb.h>
+#include <spdlog/spdlog.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <cerrno>
 #include <csignal>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <iostream>
 
 #include "forklift/server/listener.h"
+#include "forklift/server/logs.h"
 #include "forklift/server/server.h"
 #include "forklift/store/store.h"
 
@@ -37,6 +43,71 @@ std::unique_ptr<httplib::Server> make_http_server(const std::string& cert, const
   if (!svr->is_valid())
     throw std::runtime_error("--tls-cert " + cert + " and --tls-key " + key + " are not a PEM certificate and its private key");
   return svr;
+}
+
+// A database file goes only in a folder that exists: making the folders of a mistyped path
+// would start a new, empty school there.
+void require_db_folder(const std::string& db) {
+  if (forklift::store::is_postgresql_location(db)) return;
+  const std::filesystem::path folder = std::filesystem::path(db).parent_path();
+  if (folder.empty()) return;  // the working directory
+  std::error_code ec;
+  if (!std::filesystem::exists(folder, ec))
+    throw std::runtime_error("--db " + db + ": the folder " + folder.string() + " does not exist. Create it first, or give the " +
+                             "database a place in a folder that exists (the server makes no folders for its database)");
+  if (!std::filesystem::is_directory(folder, ec)) throw std::runtime_error("--db " + db + ": " + folder.string() + " is not a folder");
+}
+
+// Why the listener could not bind `host` port `port`, in words: the same bind, tried again to
+// read its errno (httplib says only no).
+std::string why_not_listening(const std::string& host, int port) {
+  const std::string where = "cannot listen on address " + host + ", port " + std::to_string(port) + ": ";
+  addrinfo hints{};
+  hints.ai_socktype = SOCK_STREAM;
+  hints.ai_flags = AI_PASSIVE;
+  addrinfo* found = nullptr;
+  if (getaddrinfo(host.c_str(), std::to_string(port).c_str(), &hints, &found) != 0 || !found)
+    return where + "this machine does not know the address " + host + " (--listen ADDRESS:PORT)";
+  int err = EADDRINUSE;
+  for (addrinfo* a = found; a; a = a->ai_next) {
+    const int sock = socket(a->ai_family, a->ai_socktype, a->ai_protocol);
+    if (sock < 0) { err = errno; continue; }
+    const int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+    err = bind(sock, a->ai_addr, a->ai_addrlen) == 0 ? 0 : errno;
+    close(sock);
+    if (err != EADDRINUSE) break;
+  }
+  freeaddrinfo(found);
+  switch (err) {
+    case EADDRINUSE:
+    case 0:  // free again: it was taken a moment ago
+      return where + "another program is already using port " + std::to_string(port) +
+             " (perhaps another forklift-server). Stop it, or start this one on another port with --listen " + host + ":PORT";
+    case EACCES:
+      return where + "ports below 1024 need administrator rights: choose one from 1024 up with --listen " + host + ":PORT";
+    case EADDRNOTAVAIL:
+      return where + "this machine has no address " + host + " (127.0.0.1: this machine only; 0.0.0.0: every network it is on)";
+    default:
+      return where + std::strerror(err);
+  }
+}
+
+// The admin password made up for a new database goes to a file only its owner reads, never to
+// the log; to the terminal alone if that file cannot be written, so that it is not lost.
+void keep_admin_password(const std::string& log_dir, const std::string& password) {
+  const std::string path = log_dir + "/admin-password";
+  const mode_t old = umask(077);
+  std::ofstream out(path);
+  out << password << '\n';
+  out.close();
+  umask(old);
+  if (out) {
+    spdlog::warn("created user 'admin'; its password is in {} (readable by this user only): note it, then delete the file", path);
+  } else {
+    spdlog::warn("created user 'admin'; cannot write its password to {}: it follows on stderr, outside the log", path);
+    std::fprintf(stderr, "admin password: %s\n", password.c_str());
+  }
 }
 
 std::atomic<httplib::Server*> g_server{nullptr};
@@ -86,18 +157,32 @@ int main(int argc, char** argv) {
   app.add_option("--theory-policy", cfg.theory_policy, "the school's rules for theory papers: time limits, the wait between "
                  "exam attempts and their limit (default: data/theory/policy.json)")->check(CLI::ExistingFile);
   app.add_option("--web-dir", web_dir, "the built web pages (default: web/ beside bin/ in the build tree)");
+  std::string log_format = "text", access_log;
+  app.add_option("--log-format", log_format, "the server's log (stderr) and access log: text, or json (one object per line)")
+      ->check(CLI::IsMember({"text", "json"}));
+  app.add_option("--access-log", access_log, "one line per HTTP request, appended to this file (- for stdout; default: "
+                 "<log-dir>/access.log)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;  // --help and --version: 0; bad usage: 2, as every program
   }
 
+  const auto format = log_format == "json" ? forklift::server::LogFormat::kJson : forklift::server::LogFormat::kText;
+  forklift::server::start_server_log(format);
   try {
     const std::unique_ptr<httplib::Server> svr = make_http_server(tls_cert, tls_key);  // first: a bad flag changes nothing
     const auto colon = listen.rfind(':');
-    if (colon == std::string::npos) throw std::runtime_error("--listen must be address:port");
-    const std::string host = listen.substr(0, colon);
-    const int port = std::stoi(listen.substr(colon + 1));
+    const std::string host = colon == std::string::npos ? "" : listen.substr(0, colon);
+    const std::string port_text = colon == std::string::npos ? "" : listen.substr(colon + 1);
+    if (host.empty() || port_text.empty() || port_text.size() > 5 || port_text.find_first_not_of("0123456789") != std::string::npos ||
+        std::stoi(port_text) < 1 || std::stoi(port_text) > 65535)
+      throw std::runtime_error("--listen " + listen + ": give an address and a port from 1 to 65535, as 127.0.0.1:8080");
+    const int port = std::stoi(port_text);
+    require_db_folder(cfg.db_path);
+    // The port before anything else: a second server started by mistake changes nothing (its
+    // fleet would adopt and stop the first one's workers).
+    if (!svr->bind_to_port(host, port)) throw std::runtime_error(why_not_listening(host, port));
     if (cfg.admin_password.empty())
       if (const char* env = std::getenv("FORKLIFT_ADMIN_PASSWORD")) cfg.admin_password = env;
     const std::filesystem::path self = std::filesystem::canonical("/proc/self/exe");
@@ -108,23 +193,23 @@ int main(int argc, char** argv) {
     if (web_dir.empty()) web_dir = (self.parent_path().parent_path() / "web").string();
 
     forklift::server::Api api(cfg);
-    if (!api.generated_admin_password().empty())
-      std::cerr << "forklift-server: created user 'admin' with password " << api.generated_admin_password() << std::endl;
+    if (!api.generated_admin_password().empty()) keep_admin_password(api.log_dir(), api.generated_admin_password());
     api.mount(*svr);
+    forklift::server::start_access_log(*svr, access_log.empty() ? api.log_dir() + "/access.log" : access_log, format);
     // The web pages (menu/web/, copied with the chart library into the build's web/), at /.
     if (!std::filesystem::is_directory(web_dir) || !svr->set_mount_point("/", web_dir))
-      std::cerr << "forklift-server: no web pages at " << web_dir << ": serving the API only" << std::endl;
+      spdlog::warn("no web pages at {}: serving the API only", web_dir);
     g_server = svr.get();
     std::signal(SIGTERM, on_signal);
     std::signal(SIGINT, on_signal);
-    if (!svr->bind_to_port(host, port)) throw std::runtime_error("cannot listen on " + listen);
-    std::cerr << "forklift-server: listening on " << (tls_cert.empty() ? "http://" : "https://") << listen << " (db " << forklift::store::printable_location(cfg.db_path)
-              << ", DDS domain " << api.dds_domain() << ")" << std::endl;
+    spdlog::info("listening on {}{} (db {}, DDS domain {})", tls_cert.empty() ? "http://" : "https://", listen,
+                 forklift::store::printable_location(cfg.db_path), api.dds_domain());
     svr->listen_after_bind();
     g_server = nullptr;
+    spdlog::info("stopped");
     return 0;
   } catch (const std::exception& e) {
-    std::cerr << "forklift-server: " << e.what() << '\n';
-    return 2;
+    spdlog::error("{}", e.what());
+    return 2;  // bad arguments or data, as every program: a flag, a file, a port that cannot be used
   }
 }

@@ -288,7 +288,9 @@ void session_routes(httplib::Server& svr, Context& ctx) {
     const json recovered = {{"events", r.recovered_events}, {"scores", r.recovered_scores}};
     // Whether exams can be chained (and so certified), and how many were refused since start.
     const Fleet::ChainStatus chain = ctx.fleet->chain_status();
+    // The DDS domain its workers and cabs meet in: forklift-menu start --drive runs its cab there.
     send_json(res, 200, {{"workers", workers}, {"cabs_online", cabs}, {"cabs", every}, {"max_workers", ctx.fleet->config().max_workers},
+                         {"dds_domain", ctx.fleet->config().dds_domain},
                          {"refused_samples", refused}, {"recovered_from_logs", recovered},
                          {"exam_chain", {{"ok", chain.problem.empty()}, {"problem", chain.problem.empty() ? json(nullptr) : json(chain.problem)},
                                          {"refused", chain.refused}}}});

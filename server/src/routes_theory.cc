@@ -7,12 +7,12 @@
 // to read. The answers, the choices made and the explanations are for staff (the bank, and
 // GET /api/theory/attempts/{id}/review once a paper is finished).
 #include <sodium.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <iostream>
 #include <map>
 #include <sstream>
 
@@ -376,9 +376,9 @@ void end_overdue_papers(Context& ctx) {
     const int64_t now = now_ms();
     for (const auto& a : ctx.db().open_theory_attempts())
       if (overdue(ctx, a, now) && end_timed_out(ctx, a, kServerActor, std::nullopt))
-        std::cerr << "forklift-server: theory paper " << a.id << " (" << a.kind << ") timed out at " << a.deadline << std::endl;
+        spdlog::info("theory paper {} ({}) timed out at {}", a.id, a.kind, a.deadline);
   } catch (const std::exception& e) {
-    std::cerr << "forklift-server: ending overdue theory papers: " << e.what() << std::endl;
+    spdlog::error("ending overdue theory papers: {}", e.what());
   }
 }
 

@@ -64,6 +64,7 @@ Api::Api(ServerConfig c) : ctx_(std::make_unique<Context>()) {
   if (sodium_init() < 0) throw std::runtime_error("libsodium failed to initialise");
   if (c.log_dir.empty()) c.log_dir = store::is_postgresql_location(c.db_path) ? "forklift.logs" : c.db_path + ".logs";
   std::filesystem::create_directories(c.log_dir);
+  log_dir_ = c.log_dir;
 
   Context& ctx = *ctx_;
   ctx.db_path = c.db_path;

@@ -14,10 +14,15 @@
 // (most do) still reads why. A request line past the allowance is closed unanswered.
 //
 // The listener's pre-routing and 100-continue handlers are its own: leave them.
+//
+// Its socket takes SO_REUSEADDR only, not httplib's default SO_REUSEPORT: with that, a second
+// server bound the same port and the kernel split the connections between the two (and their
+// databases); now the second one's bind fails.
 #pragma once
 
 #include <httplib.h>
 
+#include <chrono>
 #include <cstddef>
 #include <string>
 
@@ -38,6 +43,15 @@ const Refusal* request_refusal();
 // A body past kMaxBodyBytes; the listener can count only a chunked body's bytes with its framing,
 // so the API also checks the size of the body it was given.
 extern const Refusal kBodyTooLarge;
+
+// What the access log tells of the request now being answered on this thread: when its first
+// byte came, and who it was authenticated as (empty: nobody). Reset for each request a listener
+// reads; outside a listener's thread, a thread-local that nothing resets.
+struct RequestNotes {
+  std::chrono::steady_clock::time_point started;
+  std::string user;
+};
+RequestNotes& request_notes();
 
 // Plain HTTP.
 class Listener : public httplib::Server {

@@ -68,10 +68,12 @@ class Api {
   // The admin password made up for a new database, to be shown once; empty if none was made.
   const std::string& generated_admin_password() const { return generated_admin_password_; }
   int dds_domain() const;  // the domain the fleet resolved
+  const std::string& log_dir() const { return log_dir_; }  // ServerConfig::log_dir, or its default
 
  private:
   std::unique_ptr<Context> ctx_;
   std::string generated_admin_password_;
+  std::string log_dir_;
 };
 
 }  // namespace forklift::server
