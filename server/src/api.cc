@@ -81,6 +81,17 @@ Principal authenticate(Context& ctx, const httplib::Request& req) {
   const auto c = ctx.tokens->check(h.substr(7));
   if (c.expired) throw ApiError(401, "token_expired", "this login has expired: log in again");
   if (!c.principal) throw ApiError(401, "unauthenticated", "the token is unknown or was logged out: log in again");
+  // The account as it is now, read from the store so that a deactivation or a password reset made
+  // through any server sharing it ends this login at once.
+  const auto u = ctx.db().get_user(c.principal->user_id);
+  if (!u || !u->active) {
+    ctx.tokens->revoke(h.substr(7));
+    throw ApiError(401, "account_deactivated", "this account has been deactivated: ask the school's administrator");
+  }
+  if (u->login_generation != c.principal->login_generation) {
+    ctx.tokens->revoke(h.substr(7));
+    throw ApiError(401, "unauthenticated", "this login was ended by the school's administrator (a new password, or the account deactivated): log in again");
+  }
   request_notes().user = c.principal->username;  // for the access log
   return *c.principal;
 }
@@ -133,20 +144,40 @@ void audit(store::Store& db, const Principal& p, int64_t pupil_id, const std::st
   db.add_audit(r);
 }
 
+void staff_audit(store::Store& db, const Principal& p, int64_t user_id, const std::string& action, const json& details) {
+  store::StaffAuditRecord r;
+  r.actor = actor_of(p);
+  r.user_id = user_id;
+  r.action = action;
+  r.details = details.dump();
+  db.add_staff_audit(r);
+}
+
 namespace {
 
-json audit_json(const store::AuditRecord& r) {
+// A row of either audit log; `subject` names what it is about ("pupil_id" or "user_id").
+template <class Row>
+json audit_json(const Row& r, const char* subject, int64_t subject_id) {
   return {{"id", r.id}, {"at", r.at}, {"actor_user_id", r.actor.user_id ? json(*r.actor.user_id) : json(nullptr)},
-          {"actor", r.actor.name}, {"pupil_id", r.pupil_id}, {"action", r.action},
+          {"actor", r.actor.name}, {subject, subject_id}, {"action", r.action},
           {"details", json::parse(r.details, nullptr, false)}};
 }
+
+int audit_limit(const httplib::Request& req) { return query_int(req, "limit", 100, 1000); }
+int audit_offset(const httplib::Request& req) { return query_int(req, "offset", 0, 1 << 30); }
 
 }  // namespace
 
 json audit_page(store::Store& db, const store::AuditScope& scope, const httplib::Request& req) {
   json out = json::array();
-  for (const auto& r : db.list_audit(scope, query_int(req, "limit", 100, 1000), query_int(req, "offset", 0, 1 << 30)))
-    out.push_back(audit_json(r));
+  for (const auto& r : db.list_audit(scope, audit_limit(req), audit_offset(req))) out.push_back(audit_json(r, "pupil_id", r.pupil_id));
+  return out;
+}
+
+json staff_audit_page(store::Store& db, int64_t school_id, std::optional<int64_t> user_id, const httplib::Request& req) {
+  json out = json::array();
+  for (const auto& r : db.list_staff_audit(school_id, user_id, audit_limit(req), audit_offset(req)))
+    out.push_back(audit_json(r, "user_id", r.user_id));
   return out;
 }
 

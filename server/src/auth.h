@@ -43,6 +43,8 @@ struct Principal {
   int64_t school_id = 0;
   std::optional<int64_t> pupil_id;
   Clock::time_point expires;
+  // The account's store::User::login_generation at login: a token of an earlier one is refused.
+  int64_t login_generation = 0;
 };
 
 // Random tokens, each valid for one TTL after login or until logout.

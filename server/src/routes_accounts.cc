@@ -28,7 +28,46 @@ std::string full_name_field(const json& b) {
 json user_json(const store::User& u) {
   return {{"id", u.id}, {"username", u.username}, {"role", store::role_name(u.role)},
           {"full_name", u.full_name.empty() ? json(nullptr) : json(u.full_name)},
-          {"pupil_id", u.pupil_id ? json(*u.pupil_id) : json(nullptr)}};
+          {"pupil_id", u.pupil_id ? json(*u.pupil_id) : json(nullptr)}, {"active", u.active}};
+}
+
+// The most rows a page of accounts has (the API's documented limit).
+constexpr int kMaxPageLimit = 1000;
+
+// The account the path names, of the admin's own school, else 404 (another school's reads as none).
+store::User school_user(Context& ctx, const Principal& p, const httplib::Request& req) {
+  const auto u = ctx.db().get_user(path_id(req));
+  if (!u || u->school_id != p.school_id) throw ApiError(404, "not_found", "no user " + std::string(req.matches[1]));
+  return *u;
+}
+
+// A query parameter that is "true" or "false", if given.
+std::optional<bool> query_bool(const httplib::Request& req, const char* key) {
+  if (!req.has_param(key)) return std::nullopt;
+  const std::string v = req.get_param_value(key);
+  if (v == "true") return true;
+  if (v == "false") return false;
+  throw ApiError(400, "bad_request", std::string("'") + key + "' must be true or false");
+}
+
+// Ends or restores an account's logins: `active` false refuses its login and its tokens at once.
+// An admin cannot deactivate their own account, nor the school's last active admin (the store
+// decides that one, in the transaction that changes it).
+void set_active(Context& ctx, const Principal& p, const httplib::Request& req, httplib::Response& res, bool active) {
+  require_role(p, {Role::kAdmin});
+  const store::User u = school_user(ctx, p, req);
+  if (!active && u.id == p.user_id)
+    throw ApiError(409, "cannot_deactivate_self", "you cannot deactivate your own account: ask another admin");
+  try {
+    ctx.db().batch([&] {
+      if (ctx.db().set_user_active(u.id, active))
+        staff_audit(ctx.db(), p, u.id, active ? "account_reactivated" : "account_deactivated", {{"username", u.username}});
+    });
+  } catch (const store::StoreError& e) {
+    if (e.kind() != store::StoreError::kConflict) throw;
+    throw ApiError(409, "last_admin", "this is the school's last active admin: make another admin first");
+  }
+  send_json(res, 200, user_json(*ctx.db().get_user(u.id)));
 }
 
 }  // namespace
@@ -51,8 +90,11 @@ void account_routes(httplib::Server& svr, Context& ctx) {
     }
     const auto user = ctx.db().find_user(username);
     if (!password_matches(user, password)) throw ApiError(401, "bad_credentials", "unknown user or wrong password");
+    // Said only to whoever knows the password.
+    if (!user->active)
+      throw ApiError(403, "account_deactivated", "this account has been deactivated: ask the school's administrator");
     attempt.succeeded();
-    Principal p{user->id, user->username, user->role, user->school_id, user->pupil_id, {}};
+    Principal p{user->id, user->username, user->role, user->school_id, user->pupil_id, {}, user->login_generation};
     send_json(res, 200, {{"token", ctx.tokens->issue(p)}, {"role", store::role_name(user->role)}, {"user_id", user->id},
                          {"expires_in_s", ctx.tokens->ttl()}, {"pupil_id", user->pupil_id ? json(*user->pupil_id) : json(nullptr)}});
   }));
@@ -79,6 +121,8 @@ void account_routes(httplib::Server& svr, Context& ctx) {
     ctx.db().batch([&] {
       id = ctx.db().create_user(username, hash, *role, p.school_id, pupil, full_name);
       if (pupil) audit(ctx.db(), p, *pupil, "login_created", {{"user_id", id}, {"username", username}});
+      staff_audit(ctx.db(), p, id, "account_created",
+                  {{"username", username}, {"role", store::role_name(*role)}, {"full_name", full_name}});
     });
     send_json(res, 201, {{"id", id}});
   }));
@@ -96,8 +140,69 @@ void account_routes(httplib::Server& svr, Context& ctx) {
       if (key != "full_name") throw ApiError(400, "bad_request", "'" + key + "' cannot be edited: only full_name");
     const std::string name = full_name_field(b);
     if (name.empty()) throw ApiError(400, "bad_request", "'full_name' is required");
-    ctx.db().set_user_full_name(u->id, name);
+    ctx.db().batch([&] {
+      ctx.db().set_user_full_name(u->id, name);
+      staff_audit(ctx.db(), p, u->id, "full_name_changed", {{"before", u->full_name}, {"after", name}});
+    });
     send_json(res, 200, user_json(*ctx.db().get_user(u->id)));
+  }));
+
+  // The school's accounts by full name (admin): staff, and pupils' logins when asked
+  // (include_pupils=true, or role=pupil); of one role, active or not; paged with the total.
+  svr.Get("/api/users", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    require_role(p, {Role::kAdmin});
+    store::UserFilter f;
+    f.school_id = p.school_id;
+    if (req.has_param("role")) {
+      f.role = store::parse_role(req.get_param_value("role"));
+      if (!f.role) throw ApiError(400, "bad_request", "'role' must be admin, instructor, examiner or pupil");
+    }
+    f.active = query_bool(req, "active");
+    f.include_pupils = query_bool(req, "include_pupils").value_or(false) || f.role == Role::kPupil;
+    const int limit = query_int(req, "limit", 100, 1 << 30), offset = query_int(req, "offset", 0, 1 << 30);
+    if (limit > kMaxPageLimit)
+      throw ApiError(400, "bad_request", "'limit' must be at most " + std::to_string(kMaxPageLimit));
+    const store::UserPage page = ctx.db().list_users(f, limit, offset);
+    json users = json::array();
+    for (const auto& u : page.users) users.push_back(user_json(u));
+    send_json(res, 200, {{"users", users}, {"total", page.total}, {"limit", limit}, {"offset", offset}});
+  }));
+
+  // A new password for an account (admin): {"password"}. The account's logins end at once.
+  svr.Post(R"(/api/users/(\d+)/password)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    require_role(p, {Role::kAdmin});
+    const store::User u = school_user(ctx, p, req);
+    const json b = body_json(req);
+    for (const auto& [key, value] : b.items())
+      if (key != "password") throw ApiError(400, "bad_request", "'" + key + "' is not a field of a password reset");
+    const std::string hash = new_password_hash(b);
+    ctx.db().batch([&] {
+      ctx.db().set_user_password(u.id, hash);
+      staff_audit(ctx.db(), p, u.id, "password_reset", {{"username", u.username}});
+    });
+    send_json(res, 200, user_json(*ctx.db().get_user(u.id)));
+  }));
+
+  svr.Post(R"(/api/users/(\d+)/deactivate)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    set_active(ctx, authenticate(ctx, req), req, res, false);
+  }));
+  svr.Post(R"(/api/users/(\d+)/reactivate)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    set_active(ctx, authenticate(ctx, req), req, res, true);
+  }));
+
+  // The staff audit log (admin): one account's rows, or the school's, newest first.
+  svr.Get(R"(/api/users/(\d+)/audit)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    require_role(p, {Role::kAdmin});
+    const store::User u = school_user(ctx, p, req);
+    send_json(res, 200, staff_audit_page(ctx.db(), p.school_id, u.id, req));
+  }));
+  svr.Get("/api/staff-audit", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    require_role(p, {Role::kAdmin});
+    send_json(res, 200, staff_audit_page(ctx.db(), p.school_id, std::nullopt, req));
   }));
 
   svr.Get(R"(/api/users/(\d+))", guarded([&](const httplib::Request& req, httplib::Response& res) {

@@ -172,10 +172,16 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
     r.taken_at = taken_at;
     return r;
   }
-  // SQL that takes migration 6 back out of the database (its triggers, functions, tables and
-  // column), as a program from before it left the file.
+  // SQL that takes migration 7 back out of the database (staff administration: its table, index
+  // and columns), as a program from before it left the file.
+  std::string DropMigration7() {
+    return "DROP TABLE staff_audit_log; DROP INDEX users_by_school_name; ALTER TABLE users DROP COLUMN active; "
+           "ALTER TABLE users DROP COLUMN login_generation; DELETE FROM schema_migrations WHERE version >= 7; ";
+  }
+  // SQL that takes migrations 6 and on back out of the database (their triggers, functions,
+  // tables and columns), as a program from before them left the file.
   std::string DropMigration6() {
-    std::string sql;
+    std::string sql = DropMigration7();
     if (sqlite()) {
       for (const std::string& t : RawQuery("SELECT name FROM sqlite_master WHERE type = 'trigger' AND name LIKE 'kept_%'"))
         sql += "DROP TRIGGER " + t + "; ";
@@ -1382,4 +1388,151 @@ TEST_P(StoreTest, CertificatesAreKeptAndRevokedOnce) {
     for (const char* sql : {"TRUNCATE certificates CASCADE", "TRUNCATE certificate_revocations"})
       EXPECT_NE(RawExec(sql).find("append-only"), std::string::npos) << sql;
   }
+}
+
+// Staff administration (issue 18, item 2): accounts listed by full name with a total, passwords
+// reset and accounts deactivated ending their logins (login_generation), never the school's last
+// active admin; the staff audit log, append-only.
+TEST_P(StoreTest, UsersAreListedByFullNamePagedAndFiltered) {
+  const int64_t other_school = store_->create_school("Other school");
+  store_->create_user("zed", "h", fs::Role::kAdmin, school_, std::nullopt, "Zed Admin");
+  store_->create_user("carl", "h", fs::Role::kInstructor, school_, std::nullopt, "carl Instructor");
+  store_->create_user("bea", "h", fs::Role::kExaminer, school_, std::nullopt, "Bea Examiner");
+  store_->create_user("noname", "h", fs::Role::kInstructor, school_);
+  store_->create_user("ana", "h", fs::Role::kPupil, school_, NewPupil("Ana"));
+  store_->create_user("elsewhere", "h", fs::Role::kAdmin, other_school, std::nullopt, "Abe Elsewhere");
+
+  auto names = [&](const fs::UserFilter& f, int limit = 100, int offset = 0) {
+    std::vector<std::string> out;
+    for (const auto& u : store_->list_users(f, limit, offset).users) out.push_back(u.username);
+    return out;
+  };
+  fs::UserFilter staff;
+  staff.school_id = school_;
+  // By full name, capitals read as small letters; an account without one last.
+  EXPECT_EQ(names(staff), (std::vector<std::string>{"bea", "carl", "zed", "noname"}));
+  const fs::UserPage page = store_->list_users(staff, 2, 1);
+  EXPECT_EQ(page.total, 4);
+  ASSERT_EQ(page.users.size(), 2u);
+  EXPECT_EQ(page.users[0].username, "carl");
+  EXPECT_EQ(page.users[0].full_name, "carl Instructor");
+  EXPECT_TRUE(page.users[0].active);
+  EXPECT_EQ(store_->list_users(staff, 10, 10).total, 4);  // past the end: no rows, the total still
+
+  fs::UserFilter instructors = staff;
+  instructors.role = fs::Role::kInstructor;
+  EXPECT_EQ(names(instructors), (std::vector<std::string>{"carl", "noname"}));
+  fs::UserFilter everyone = staff;
+  everyone.include_pupils = true;
+  EXPECT_EQ(names(everyone).size(), 5u);
+  fs::UserFilter inactive = staff;
+  inactive.active = false;
+  EXPECT_TRUE(names(inactive).empty());
+  store_->set_user_active(store_->find_user("bea")->id, false);
+  EXPECT_EQ(names(inactive), std::vector<std::string>{"bea"});
+  EXPECT_EQ(ErrorKind([&] { store_->list_users(staff, -1, 0); }), fs::StoreError::kInvalid);
+}
+
+TEST_P(StoreTest, ResetsAndDeactivationsEndLoginsAndTheLastActiveAdminStays) {
+  const int64_t ada = store_->create_user("ada", "h", fs::Role::kAdmin, school_, std::nullopt, "Ada Admin");
+  const int64_t erin = store_->create_user("erin", "old", fs::Role::kExaminer, school_);
+  const int64_t generation = store_->get_user(erin)->login_generation;
+
+  store_->set_user_password(erin, "new");
+  EXPECT_EQ(store_->get_user(erin)->password_hash, "new");
+  EXPECT_EQ(store_->get_user(erin)->login_generation, generation + 1);
+  EXPECT_EQ(ErrorKind([&] { store_->set_user_password(erin + 99, "x"); }), fs::StoreError::kNotFound);
+
+  EXPECT_TRUE(store_->set_user_active(erin, false));
+  EXPECT_FALSE(store_->get_user(erin)->active);
+  EXPECT_FALSE(store_->find_user("erin")->active);
+  EXPECT_EQ(store_->get_user(erin)->login_generation, generation + 2);
+  EXPECT_FALSE(store_->set_user_active(erin, false));  // no change
+  EXPECT_TRUE(store_->set_user_active(erin, true));
+  EXPECT_TRUE(store_->get_user(erin)->active);
+  EXPECT_EQ(store_->get_user(erin)->login_generation, generation + 2);  // old tokens stay ended
+  EXPECT_EQ(ErrorKind([&] { store_->set_user_active(erin + 99, false); }), fs::StoreError::kNotFound);
+
+  // The school's last active admin cannot go, whichever Store asks; another school's admin does
+  // not count.
+  store_->create_user("other", "h", fs::Role::kAdmin, store_->create_school("Other school"));
+  EXPECT_EQ(ErrorKind([&] { store_->set_user_active(ada, false); }), fs::StoreError::kConflict);
+  EXPECT_TRUE(store_->get_user(ada)->active);
+  const int64_t bob = store_->create_user("bob", "h", fs::Role::kAdmin, school_);
+  auto second = Open();
+  EXPECT_TRUE(second->set_user_active(ada, false));
+  EXPECT_EQ(ErrorKind([&] { store_->set_user_active(bob, false); }), fs::StoreError::kConflict);
+  EXPECT_TRUE(store_->set_user_active(ada, true));
+  EXPECT_TRUE(store_->set_user_active(bob, false));
+}
+
+TEST_P(StoreTest, StaffAuditRowsRoundTripNewestFirstPerAccountOrSchoolAndAreKept) {
+  const int64_t ada = store_->create_user("ada", "h", fs::Role::kAdmin, school_);
+  const int64_t erin = store_->create_user("erin", "h", fs::Role::kExaminer, school_);
+  const int64_t other = store_->create_user("other", "h", fs::Role::kAdmin, store_->create_school("Other school"));
+  auto row = [&](int64_t user, const std::string& action, const std::string& details = "{}") {
+    fs::StaffAuditRecord r;
+    r.actor = {ada, "ada"};
+    r.user_id = user;
+    r.action = action;
+    r.details = details;
+    return r;
+  };
+  fs::StaffAuditRecord first = row(erin, "account_created", R"({"role":"examiner"})");
+  first.at = "2026-01-01T10:00:00Z";
+  const int64_t first_id = store_->add_staff_audit(first);
+  store_->batch([&] {
+    store_->set_user_active(erin, false);
+    store_->add_staff_audit(row(erin, "account_deactivated"));
+  });
+  store_->add_staff_audit(row(ada, "password_reset"));
+  store_->add_staff_audit(row(other, "password_reset"));
+
+  const auto erins = store_->list_staff_audit(school_, erin, 10, 0);
+  ASSERT_EQ(erins.size(), 2u);
+  EXPECT_EQ(erins[0].action, "account_deactivated");  // newest first
+  EXPECT_FALSE(erins[0].at.empty());                  // stamped now
+  EXPECT_EQ(erins[1].id, first_id);
+  EXPECT_EQ(erins[1].at, "2026-01-01T10:00:00Z");
+  EXPECT_EQ(erins[1].actor.user_id, ada);
+  EXPECT_EQ(erins[1].actor.name, "ada");
+  EXPECT_EQ(erins[1].details, first.details);
+  EXPECT_EQ(store_->list_staff_audit(school_, std::nullopt, 10, 0).size(), 3u);  // not the other school's
+  EXPECT_EQ(store_->list_staff_audit(school_, std::nullopt, 1, 1)[0].action, "account_deactivated");
+  EXPECT_TRUE(store_->list_staff_audit(school_, other, 10, 0).empty());
+
+  // A failed batch leaves neither the change nor its row.
+  EXPECT_THROW(store_->batch([&] {
+    store_->set_user_active(erin, true);
+    store_->add_staff_audit(row(erin, "account_reactivated"));
+    throw std::runtime_error("refused later");
+  }), std::runtime_error);
+  EXPECT_FALSE(store_->get_user(erin)->active);
+  EXPECT_EQ(store_->list_staff_audit(school_, erin, 10, 0).size(), 2u);
+
+  EXPECT_EQ(ErrorKind([&] { store_->add_staff_audit(row(erin, "")); }), fs::StoreError::kInvalid);
+  EXPECT_EQ(ErrorKind([&] { store_->add_staff_audit(row(erin, "x", "[1]")); }), fs::StoreError::kInvalid);
+  EXPECT_EQ(ErrorKind([&] { store_->add_staff_audit(row(erin + 99, "x")); }), fs::StoreError::kNotFound);
+  EXPECT_EQ(ErrorKind([&] { store_->list_staff_audit(school_, std::nullopt, -1, 0); }), fs::StoreError::kInvalid);
+
+  EXPECT_NE(RawExec("UPDATE staff_audit_log SET actor = 'mallory'").find("append-only"), std::string::npos);
+  EXPECT_NE(RawExec("DELETE FROM staff_audit_log").find("append-only"), std::string::npos);
+  if (!sqlite()) {
+    EXPECT_NE(RawExec("TRUNCATE staff_audit_log").find("append-only"), std::string::npos);
+  }
+  EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM staff_audit_log"), std::vector<std::string>{"4"});
+}
+
+TEST_P(StoreTest, AccountsFromBeforeStaffAdministrationAreActive) {
+  const int64_t erin = store_->create_user("erin", "h", fs::Role::kExaminer, school_, std::nullopt, "Erin Examiner");
+  store_->set_user_active(erin, false);
+  store_.reset();
+  ASSERT_EQ(RawExec(DropMigration7()), "");  // schema 6, as an older program left it
+  store_ = Open();
+  EXPECT_GE(store_->schema_version(), 7);
+  const auto u = store_->get_user(erin);
+  EXPECT_TRUE(u->active);
+  EXPECT_EQ(u->login_generation, 0);
+  EXPECT_EQ(u->full_name, "Erin Examiner");
+  EXPECT_TRUE(store_->list_staff_audit(school_, std::nullopt, 10, 0).empty());
 }

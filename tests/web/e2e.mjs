@@ -3,7 +3,7 @@
 // a real sim worker driven by a scripted forklift-cab, and Debian's headless Chromium driven
 // through playwright-core.
 //
-//   log in -> add a pupil -> choose a scenario, truck and cab, start a training drive, and a
+//   log in -> add an examiner on the staff page, reset, deactivate, reactivate -> add a pupil -> choose a scenario, truck and cab, start a training drive, and a
 //   practical exam on the exam course on a second cab -> follow the exam live -> watch both run and
 //   finish on the fleet page -> the session page (path over the plan, timeline, mark) -> the
 //   pupil's page, whose chart has the training mark and the exam's apart -> hand the pupil a
@@ -191,6 +191,37 @@ try {
     await page.waitForURL(/fleet\.html$/);
     await page.waitForSelector('#top .who');
     check((await page.textContent('#top .who')).includes('admin'), 'the top bar names the login');
+  });
+
+  // Staff administration (issue 18, item 2): the staff page, for admins only.
+  await step('add an examiner on the staff page, reset their password, deactivate and reactivate them', async () => {
+    await page.click('#top a[href="staff.html"]');
+    await page.waitForSelector('#staff tbody tr');
+    await page.fill('#full-name', 'Erin <b>Examiner</b>');  // data is shown as text, never as HTML
+    await page.selectOption('#role', 'examiner');
+    await page.fill('#new-username', 'erin');
+    await page.fill('#new-password', 'erin-pass-1');
+    await page.click('#add button[type=submit]');
+    const erinRow = '#staff tbody tr:has(td:text-is("erin"))';
+    await page.waitForSelector(erinRow);
+    check((await page.textContent(`${erinRow} th`)) === 'Erin <b>Examiner</b>', 'the full name is shown as typed');
+    check((await page.textContent('#count')).includes('of 2 accounts'), `the total: ${await page.textContent('#count')}`);
+    await page.click(`${erinRow} button[data-action=reset]`);
+    await page.fill(`${erinRow} input[type=password]`, 'erin-pass-2');
+    await page.click(`${erinRow} form button[type=submit]`);
+    await page.waitForFunction(() => /New password set for erin/.test(document.getElementById('message').textContent));
+    await page.click(`${erinRow} button[data-action=deactivate]`);
+    await page.waitForSelector(`${erinRow} button[data-action=reactivate]`);
+    check((await page.textContent(`${erinRow} .badge`)) === 'deactivated', 'the status says deactivated');
+    const refused = await fetch(base + '/api/login', { method: 'POST', headers: { 'Content-Type': 'application/json' },
+                                                       body: JSON.stringify({ username: 'erin', password: 'erin-pass-2' }) });
+    check(refused.status === 403, `a deactivated examiner cannot log in: ${refused.status}`);
+    await shot('staff');
+    await page.click(`${erinRow} button[data-action=reactivate]`);
+    await page.waitForSelector(`${erinRow} button[data-action=deactivate]`);
+    const audit = await api('GET', '/staff-audit', adminToken);
+    check(audit.map((r) => r.action).join() === 'account_reactivated,account_deactivated,password_reset,account_created',
+          `each action audited: ${audit.map((r) => r.action).join()}`);
   });
 
   await step('add a pupil with a login, and find them by search', async () => {

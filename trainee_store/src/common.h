@@ -149,7 +149,7 @@ inline std::optional<double> mark_trend(const std::vector<Session>& sessions) {
 }
 
 // Rows read in the column order of the backends' USER_COLUMNS, PUPIL_COLUMNS, SESSION_COLUMNS,
-// THEORY_ATTEMPT_COLUMNS, AUDIT_COLUMNS, CERTIFICATE_COLUMNS, CORRECTION_COLUMNS,
+// THEORY_ATTEMPT_COLUMNS, AUDIT_COLUMNS, STAFF_AUDIT_COLUMNS, CERTIFICATE_COLUMNS, CORRECTION_COLUMNS,
 // REVOCATION_COLUMNS and EXAM_ROWS.
 template <class Row>
 User read_user(const Row& q) {
@@ -163,6 +163,8 @@ User read_user(const Row& q) {
   u.school_id = q.int64(4);
   u.pupil_id = q.opt_int64(5);
   u.full_name = q.text(6);
+  u.active = q.int64(7) != 0;
+  u.login_generation = q.int64(8);
   return u;
 }
 
@@ -212,6 +214,16 @@ TheoryAttempt read_theory_attempt(const Row& q) {
 template <class Row>
 AuditRecord read_audit(const Row& q) {
   return AuditRecord{q.int64(0), q.text(1), Actor{q.opt_int64(2), q.text(3)}, q.int64(4), q.text(5), q.text(6)};
+}
+
+template <class Row>
+StaffAuditRecord read_staff_audit(const Row& q) {
+  return StaffAuditRecord{q.int64(0), q.text(1), Actor{q.opt_int64(2), q.text(3)}, q.int64(4), q.text(5), q.text(6)};
+}
+
+inline void check_new_audit(const char* op, const Actor& actor, const std::string& action) {
+  require(!actor.name.empty(), StoreError::kInvalid, op, "empty actor");
+  require(!action.empty(), StoreError::kInvalid, op, "empty action");
 }
 
 template <class Row>

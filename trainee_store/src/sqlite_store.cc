@@ -348,12 +348,39 @@ BEGIN
   SELECT RAISE(ABORT, 'certificate_revocations is append-only');
 END;
 )sql",
+    // 7: staff administration (issue 18, item 2): accounts deactivated and their logins ended
+    // (login_generation, raised by a password reset or a deactivation), listed by full name, and
+    // the staff audit log of administrators' changes to accounts, append-only like the audit log.
+    R"sql(
+ALTER TABLE users ADD COLUMN active INTEGER NOT NULL DEFAULT 1 CHECK (active IN (0, 1));
+ALTER TABLE users ADD COLUMN login_generation INTEGER NOT NULL DEFAULT 0;
+CREATE INDEX users_by_school_name ON users(school_id, full_name COLLATE NOCASE);
+CREATE TABLE staff_audit_log (
+  id INTEGER PRIMARY KEY,
+  at TEXT NOT NULL,
+  actor_user_id INTEGER REFERENCES users(id),
+  actor TEXT NOT NULL CHECK (actor <> ''),
+  user_id INTEGER NOT NULL REFERENCES users(id),
+  action TEXT NOT NULL CHECK (action <> ''),
+  details TEXT NOT NULL CHECK (json_valid(details) AND json_type(details) = 'object')
+);
+CREATE INDEX staff_audit_log_by_user ON staff_audit_log(user_id, id);
+CREATE TRIGGER staff_audit_log_no_update BEFORE UPDATE ON staff_audit_log
+BEGIN
+  SELECT RAISE(ABORT, 'staff_audit_log is append-only');
+END;
+CREATE TRIGGER staff_audit_log_no_delete BEFORE DELETE ON staff_audit_log
+BEGIN
+  SELECT RAISE(ABORT, 'staff_audit_log is append-only');
+END;
+)sql",
 };
 
 // Column lists shared by the statements that read whole rows (see read_user and the like).
-#define USER_COLUMNS "id, username, password_hash, role, school_id, pupil_id, full_name"
+#define USER_COLUMNS "id, username, password_hash, role, school_id, pupil_id, full_name, active, login_generation"
 #define PUPIL_COLUMNS "id, school_id, name, email, created_at"
 #define AUDIT_COLUMNS "id, at, actor_user_id, actor, pupil_id, action, details"
+#define STAFF_AUDIT_COLUMNS "id, at, actor_user_id, actor, user_id, action, details"
 #define THEORY_ATTEMPT_COLUMNS \
   "id, pupil_id, seed, questions, started_at, started_by, exam_id, kind, deadline, finished_at, outcome, result"
 // The last column reads score_counts by its key: whether the score notes the task left unfinished
@@ -580,6 +607,55 @@ class SqliteStore final : public Store {
     Query q = query(__func__, "SELECT " USER_COLUMNS " FROM users WHERE id = ?");
     q.bind(id);
     return q.step() ? std::optional(read_user(q)) : std::nullopt;
+  }
+
+  UserPage list_users(const UserFilter& f, int limit, int offset) override {
+    require(limit >= 0 && offset >= 0, StoreError::kInvalid, __func__, "negative limit or offset");
+    Transaction tx(db(), __func__, Transaction::kRead);
+    // ?1 school, ?2 pupils too, ?3 role or NULL, ?4 active or NULL.
+#define USERS_WHERE \
+  " FROM users WHERE school_id = ?1 AND (?2 OR role <> 'pupil') AND (?3 IS NULL OR role = ?3) AND (?4 IS NULL OR active = ?4)"
+    const auto bind_filter = [&](Query& q) {
+      q.bind(f.school_id).bind(f.include_pupils);
+      q.bind(f.role ? std::optional<std::string>(role_name(*f.role)) : std::nullopt).bind(f.active);
+    };
+    UserPage page;
+    {
+      Query q = query(__func__, "SELECT COUNT(*)" USERS_WHERE);
+      bind_filter(q);
+      q.step();
+      page.total = q.int64(0);
+    }
+    Query q = query(__func__, "SELECT " USER_COLUMNS USERS_WHERE
+                              " ORDER BY full_name = '', full_name COLLATE NOCASE, username, id LIMIT ?5 OFFSET ?6");
+#undef USERS_WHERE
+    bind_filter(q);
+    q.bind(limit).bind(offset);
+    while (q.step()) page.users.push_back(read_user(q));
+    tx.commit();
+    return page;
+  }
+
+  void set_user_password(int64_t id, const std::string& password_hash) override {
+    query(__func__, "UPDATE users SET password_hash = ?, login_generation = login_generation + 1 WHERE id = ?")
+        .bind(password_hash).bind(id).run();
+    require(sqlite3_changes(db()) > 0, StoreError::kNotFound, __func__, "no user " + std::to_string(id));
+  }
+
+  bool set_user_active(int64_t id, bool active) override {
+    Transaction tx(db(), __func__, Transaction::kWrite);
+    const std::optional<User> u = get_user(id);
+    require(u.has_value(), StoreError::kNotFound, __func__, "no user " + std::to_string(id));
+    if (u->active == active) return false;
+    if (!active && u->role == Role::kAdmin) {
+      Query q = query(__func__, "SELECT COUNT(*) FROM users WHERE school_id = ? AND role = 'admin' AND active = 1 AND id <> ?");
+      q.bind(u->school_id).bind(id).step();
+      require(q.int64(0) > 0, StoreError::kConflict, __func__, "user " + std::to_string(id) + " is the school's last active admin");
+    }
+    query(__func__, "UPDATE users SET active = ?, login_generation = login_generation + ? WHERE id = ?")
+        .bind(active).bind(active ? 0 : 1).bind(id).run();
+    tx.commit();
+    return true;
   }
 
   int64_t create_pupil(int64_t school_id, const std::string& name, const std::string& email) override {
@@ -1032,8 +1108,7 @@ class SqliteStore final : public Store {
   }
 
   int64_t add_audit(const AuditRecord& r) override {
-    require(!r.actor.name.empty(), StoreError::kInvalid, __func__, "empty actor");
-    require(!r.action.empty(), StoreError::kInvalid, __func__, "empty action");
+    check_new_audit(__func__, r.actor, r.action);
     Query q = query(__func__,
                     "INSERT INTO audit_log(at, actor_user_id, actor, pupil_id, action, details) VALUES (?, ?, ?, ?, ?, ?)");
     q.bind(r.at.empty() ? now_iso8601() : r.at).bind(r.actor.user_id).bind(r.actor.name).bind(r.pupil_id);
@@ -1053,6 +1128,27 @@ class SqliteStore final : public Store {
     q.bind(limit).bind(offset);
     std::vector<AuditRecord> rows;
     while (q.step()) rows.push_back(read_audit(q));
+    return rows;
+  }
+
+  int64_t add_staff_audit(const StaffAuditRecord& r) override {
+    check_new_audit(__func__, r.actor, r.action);
+    Query q = query(__func__,
+                    "INSERT INTO staff_audit_log(at, actor_user_id, actor, user_id, action, details) VALUES (?, ?, ?, ?, ?, ?)");
+    q.bind(r.at.empty() ? now_iso8601() : r.at).bind(r.actor.user_id).bind(r.actor.name).bind(r.user_id);
+    q.bind(r.action).bind(r.details).run();
+    return sqlite3_last_insert_rowid(db());
+  }
+
+  std::vector<StaffAuditRecord> list_staff_audit(int64_t school_id, std::optional<int64_t> user_id, int limit,
+                                                 int offset) override {
+    require(limit >= 0 && offset >= 0, StoreError::kInvalid, __func__, "negative limit or offset");
+    Query q = query(__func__, "SELECT " STAFF_AUDIT_COLUMNS " FROM staff_audit_log WHERE user_id IN "
+                              "(SELECT id FROM users WHERE school_id = ?1) AND (?2 IS NULL OR user_id = ?2) "
+                              "ORDER BY id DESC LIMIT ?3 OFFSET ?4");
+    q.bind(school_id).bind(user_id).bind(limit).bind(offset);
+    std::vector<StaffAuditRecord> rows;
+    while (q.step()) rows.push_back(read_staff_audit(q));
     return rows;
   }
 

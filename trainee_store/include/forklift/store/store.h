@@ -60,6 +60,26 @@ struct User {
   // issues a licence); empty for accounts made before names were kept, and for pupils' logins
   // (their pupil record has the name).
   std::string full_name;
+  // A deactivated account cannot log in and its tokens are refused (issue 18, item 2).
+  bool active = true;
+  // Raised when the password is reset or the account deactivated: the server refuses a token
+  // issued under an earlier one, so those logins end at once, on every server sharing the store.
+  int64_t login_generation = 0;
+};
+
+// Which accounts list_users() returns: a school's staff (admins, instructors, examiners) and,
+// when asked, its pupils' logins; of one role, active or not, when set.
+struct UserFilter {
+  int64_t school_id = 0;
+  std::optional<Role> role;
+  std::optional<bool> active;
+  bool include_pupils = false;
+};
+
+// One page of accounts and how many match the filter in all.
+struct UserPage {
+  std::vector<User> users;
+  int64_t total = 0;
 };
 
 struct School {
@@ -249,6 +269,18 @@ struct ChainEntry {
   std::string entry;
 };
 
+// One row of the staff audit log: an administrator's change to an account (its creation, a full
+// name, a password reset, a deactivation or reactivation), who made it and what changed. Kept
+// apart from the pupils' audit log, whose every row is about a pupil's record.
+struct StaffAuditRecord {
+  int64_t id = 0;
+  std::string at;  // ISO-8601; empty when adding: now
+  Actor actor;
+  int64_t user_id = 0;         // the account changed
+  std::string action;          // e.g. "account_created", "password_reset", "account_deactivated"
+  std::string details = "{}";  // a JSON object as text
+};
+
 // Which audit rows to list: one pupil's (pupil_id set), else every pupil's of one school
 // (school_id set), else all.
 struct AuditScope {
@@ -304,6 +336,16 @@ class Store {
   // capitals, the one spelled exactly so, else the oldest.
   virtual std::optional<User> find_user(const std::string& username) = 0;
   virtual std::optional<User> get_user(int64_t id) = 0;
+  // The accounts `f` selects, by full name (capitals read as small letters; accounts without one
+  // last), then username; with the total that match. kInvalid for a negative limit or offset.
+  virtual UserPage list_users(const UserFilter& f, int limit, int offset) = 0;
+  // Replaces an account's password hash and raises its login_generation; kNotFound for an
+  // unknown user.
+  virtual void set_user_password(int64_t id, const std::string& password_hash) = 0;
+  // Deactivates an account (raising its login_generation) or reactivates it; returns whether it
+  // changed. kNotFound for an unknown user; kConflict for the last active admin of its school
+  // (checked in the same transaction, so two admins deactivating each other leave one).
+  virtual bool set_user_active(int64_t id, bool active) = 0;
 
   virtual int64_t create_pupil(int64_t school_id, const std::string& name, const std::string& email) = 0;
   virtual std::optional<Pupil> get_pupil(int64_t id) = 0;
@@ -416,6 +458,13 @@ class Store {
   virtual int64_t add_audit(const AuditRecord& r) = 0;
   // Rows in `scope`, newest first.
   virtual std::vector<AuditRecord> list_audit(const AuditScope& scope, int limit, int offset) = 0;
+
+  // The staff audit log, append-only as the audit log is, and added to the same way (in the batch
+  // of the change). kNotFound for an unknown account or actor user; kInvalid as add_audit.
+  virtual int64_t add_staff_audit(const StaffAuditRecord& r) = 0;
+  // Rows about the accounts of `school_id` (only `user_id`'s when set), newest first.
+  virtual std::vector<StaffAuditRecord> list_staff_audit(int64_t school_id, std::optional<int64_t> user_id, int limit,
+                                                         int offset) = 0;
 
   // set_score and set_session_state with their audit row ("session_scored"; "session_<state>",
   // with the state before and after) in one transaction, for writers outside the HTTP API (the
