@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "forklift/session/controls.h"
 #include "forklift/session/session.h"
 
 namespace forklift {
@@ -96,7 +97,7 @@ int evaluate_main(const EvaluateOptions& o, const std::string& data_dir) {
     std::cerr << "forklift-sim evaluate: " << e.what() << '\n';
     return 2;
   }
-  if (o.duration_s >= 0) end = int64_t(std::ceil(o.duration_s / model->tick_s - 1e-6));
+  if (o.duration_s >= 0) end = first_tick_at(o.duration_s, model->tick_s);
 
   std::optional<ControlLogWriter> writer;
   if (!o.out_log.empty()) {

@@ -462,7 +462,7 @@ int main(int argc, char** argv) {
           default: break;
         }
         if (s.apply_at_sim_s > 0) {
-          const int64_t at = static_cast<int64_t>(std::ceil(s.apply_at_sim_s / model.tick_s - 1e-6));
+          const int64_t at = first_tick_at(s.apply_at_sim_s, model.tick_s);
           if (s.apply_at_sim_s > state.t_s + kScheduleAheadMaxS)
             return refuse(++rejected_range, which() + ": scheduled for t = " + std::to_string(s.apply_at_sim_s) +
                                                 " s, more than 2 s ahead of the truck's " + std::to_string(state.t_s) + " s");

@@ -29,6 +29,8 @@ std::optional<std::string> control_problem(const ControlSample& c, const TruckPa
   return std::nullopt;
 }
 
+int64_t first_tick_at(double t_s, double tick_s) { return static_cast<int64_t>(std::ceil(t_s / tick_s - 1e-6)); }
+
 DriverInputs driver_inputs(const ControlSample& c, const TruckParams& t) {
   DriverInputs u;
   u.drive_torque_N_m = c.accelerator * t.drive.drive_torque_max_N_m;

@@ -29,6 +29,11 @@ struct ControlSample {
 };
 
 
+// The first tick at or after sim time `t_s`: where a script row, a scheduled sample
+// (apply_at_sim_s) or an end time lands. One rule for the worker and the offline model, so that a
+// scripted drive is the same drive in both (1e-6 of a tick absorbs t_s's rounding).
+int64_t first_tick_at(double t_s, double tick_s);
+
 // Why a sample must not reach the integrator, or nullopt if it is fine: a non-finite value or
 // one outside its documented range (protocol/idl/Forklift.idl), the look angles and the camera
 // (0 or 1) included.
@@ -47,7 +52,8 @@ bool identical(const DriverInputs& a, const DriverInputs& b);
 // The order of one cab's samples (fk_Controls.seq rises by one per sample a cab program sends).
 // A sample is judged against the newest one accepted:
 //  - newer (a higher seq): accepted; a jump over missing numbers is counted (samples are lost on
-//    the wire, and a keep-last-1 reader drops those it had no time to take), never refused;
+//    the wire, and a reader drops those it had no time to take when more than its history of 32
+//    wait), never refused;
 //  - not newer (the same seq: a duplicate; a lower one: old, a replay): refused and counted,
 //  - unless the cab has been silent for at least `restart_after_s` (the dead-man interval: the
 //    truck has been stopped for its silence): then it is the first sample of a restarted cab
