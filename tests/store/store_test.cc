@@ -174,8 +174,10 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
   }
   // SQL that takes migration 7 back out of the database (staff administration: its table, index
   // and columns), as a program from before it left the file.
+  // Later migrations go first: a test that goes back to schema 6 must come forward through them.
+  std::string DropMigration8() { return "DROP TABLE session_notes; DROP TABLE session_sign_offs; DELETE FROM schema_migrations WHERE version >= 8; "; }
   std::string DropMigration7() {
-    return "DROP TABLE staff_audit_log; DROP INDEX users_by_school_name; ALTER TABLE users DROP COLUMN active; "
+    return DropMigration8() + "DROP TABLE staff_audit_log; DROP INDEX users_by_school_name; ALTER TABLE users DROP COLUMN active; "
            "ALTER TABLE users DROP COLUMN login_generation; DELETE FROM schema_migrations WHERE version >= 7; ";
   }
   // SQL that takes migrations 6 and on back out of the database (their triggers, functions,
@@ -1535,4 +1537,50 @@ TEST_P(StoreTest, AccountsFromBeforeStaffAdministrationAreActive) {
   EXPECT_EQ(u->login_generation, 0);
   EXPECT_EQ(u->full_name, "Erin Examiner");
   EXPECT_TRUE(store_->list_staff_audit(school_, std::nullopt, 10, 0).empty());
+}
+
+// The debrief (issue 18, item 3): notes in order, a sign-off once, no note after it, both kept.
+TEST_P(StoreTest, SessionNotesAndSignOffAreAppendOnlyAndNoNoteFollowsTheSignOff) {
+  const int64_t ida = store_->create_user("ida", "h", fs::Role::kInstructor, school_);
+  const int64_t pupil = store_->create_pupil(school_, "Ann Driver", "");
+  const std::string s = NewSession(pupil).public_id;
+  const std::string other = NewSession(pupil).public_id;
+  auto note = [&](const std::string& session, const std::string& text) {
+    return fs::SessionNote{0, session, ida, "", text};
+  };
+  const int64_t first = store_->add_session_note(note(s, "Look over the shoulder before reversing."));
+  store_->add_session_note(note(s, "Lowered the forks at the end: good."));
+  store_->add_session_note(note(other, "Another session's note."));
+  const auto notes = store_->list_session_notes(s);
+  ASSERT_EQ(notes.size(), 2u);
+  EXPECT_EQ(notes[0].id, first);
+  EXPECT_EQ(notes[0].text, "Look over the shoulder before reversing.");
+  EXPECT_EQ(notes[0].author_id, ida);
+  EXPECT_EQ(notes[0].session_public_id, s);
+  EXPECT_FALSE(notes[0].at.empty());
+  EXPECT_EQ(notes[1].text, "Lowered the forks at the end: good.");
+
+  EXPECT_EQ(ErrorKind([&] { store_->add_session_note(note(s, "")); }), fs::StoreError::kInvalid);
+  EXPECT_EQ(ErrorKind([&] { store_->add_session_note(note("s-999999", "x")); }), fs::StoreError::kNotFound);
+  EXPECT_EQ(ErrorKind([&] { store_->add_session_note(fs::SessionNote{0, s, ida + 99, "", "x"}); }), fs::StoreError::kNotFound);
+
+  EXPECT_FALSE(store_->get_session_sign_off(s).has_value());
+  EXPECT_TRUE(store_->sign_off_session(fs::SessionSignOff{s, ida, "2026-01-02T09:00:00Z", "Ready for the exam."}));
+  auto second = Open();  // another server: the sign-off is one, whoever asks
+  EXPECT_FALSE(second->sign_off_session(fs::SessionSignOff{s, ida, "", "again"}));
+  const auto off = store_->get_session_sign_off(s);
+  ASSERT_TRUE(off.has_value());
+  EXPECT_EQ(off->signed_by, ida);
+  EXPECT_EQ(off->at, "2026-01-02T09:00:00Z");
+  EXPECT_EQ(off->comment, "Ready for the exam.");
+  EXPECT_EQ(ErrorKind([&] { second->add_session_note(note(s, "too late")); }), fs::StoreError::kConflict);
+  EXPECT_EQ(store_->list_session_notes(s).size(), 2u);
+  store_->add_session_note(note(other, "still open"));  // the other session is not signed off
+  EXPECT_EQ(ErrorKind([&] { store_->sign_off_session(fs::SessionSignOff{"s-999999", ida, "", ""}); }), fs::StoreError::kNotFound);
+
+  for (const char* table : {"session_notes", "session_sign_offs"}) {
+    EXPECT_NE(RawExec(std::string("UPDATE ") + table + " SET at = 'x'").find("append-only"), std::string::npos) << table;
+    EXPECT_NE(RawExec(std::string("DELETE FROM ") + table).find("append-only"), std::string::npos) << table;
+  }
+  EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM session_notes"), std::vector<std::string>{"4"});
 }

@@ -221,6 +221,16 @@ StaffAuditRecord read_staff_audit(const Row& q) {
   return StaffAuditRecord{q.int64(0), q.text(1), Actor{q.opt_int64(2), q.text(3)}, q.int64(4), q.text(5), q.text(6)};
 }
 
+template <class Row>
+SessionNote read_session_note(const Row& q) {
+  return SessionNote{q.int64(0), q.text(1), q.int64(2), q.text(3), q.text(4)};
+}
+
+template <class Row>
+SessionSignOff read_session_sign_off(const Row& q) {
+  return SessionSignOff{q.text(0), q.int64(1), q.text(2), q.text(3)};
+}
+
 inline void check_new_audit(const char* op, const Actor& actor, const std::string& action) {
   require(!actor.name.empty(), StoreError::kInvalid, op, "empty actor");
   require(!action.empty(), StoreError::kInvalid, op, "empty action");

@@ -374,6 +374,40 @@ BEGIN
   SELECT RAISE(ABORT, 'staff_audit_log is append-only');
 END;
 )sql",
+    // 8: the debrief (issue 18, item 3): instructors' notes on a session and its sign-off, both
+    // kept for ever like the audit log.
+    R"sql(
+CREATE TABLE session_notes (
+  id INTEGER PRIMARY KEY,
+  session_id INTEGER NOT NULL REFERENCES sessions(id),
+  author_user_id INTEGER NOT NULL REFERENCES users(id),
+  at TEXT NOT NULL,
+  text TEXT NOT NULL CHECK (text <> '')
+);
+CREATE INDEX session_notes_by_session ON session_notes(session_id, id);
+CREATE TRIGGER session_notes_no_update BEFORE UPDATE ON session_notes
+BEGIN
+  SELECT RAISE(ABORT, 'session_notes is append-only');
+END;
+CREATE TRIGGER session_notes_no_delete BEFORE DELETE ON session_notes
+BEGIN
+  SELECT RAISE(ABORT, 'session_notes is append-only');
+END;
+CREATE TABLE session_sign_offs (
+  session_id INTEGER PRIMARY KEY REFERENCES sessions(id),
+  signed_by INTEGER NOT NULL REFERENCES users(id),
+  at TEXT NOT NULL,
+  comment TEXT NOT NULL DEFAULT ''
+);
+CREATE TRIGGER session_sign_offs_no_update BEFORE UPDATE ON session_sign_offs
+BEGIN
+  SELECT RAISE(ABORT, 'session_sign_offs is append-only');
+END;
+CREATE TRIGGER session_sign_offs_no_delete BEFORE DELETE ON session_sign_offs
+BEGIN
+  SELECT RAISE(ABORT, 'session_sign_offs is append-only');
+END;
+)sql",
 };
 
 // Column lists shared by the statements that read whole rows (see read_user and the like).
@@ -1150,6 +1184,48 @@ class SqliteStore final : public Store {
     std::vector<StaffAuditRecord> rows;
     while (q.step()) rows.push_back(read_staff_audit(q));
     return rows;
+  }
+
+  int64_t add_session_note(const SessionNote& n) override {
+    require(!n.text.empty(), StoreError::kInvalid, __func__, "empty note");
+    Transaction tx(db(), __func__, Transaction::kWrite);
+    const int64_t session_id = require_session(__func__, n.session_public_id).id;
+    Query signed_off = query(__func__, "SELECT 1 FROM session_sign_offs WHERE session_id = ?");
+    require(!signed_off.bind(session_id).step(), StoreError::kConflict, __func__,
+            "session " + n.session_public_id + " is signed off");
+    Query q = query(__func__, "INSERT INTO session_notes(session_id, author_user_id, at, text) VALUES (?, ?, ?, ?)");
+    q.bind(session_id).bind(n.author_id).bind(n.at.empty() ? now_iso8601() : n.at).bind(n.text).run();
+    const int64_t id = sqlite3_last_insert_rowid(db());
+    tx.commit();
+    return id;
+  }
+
+  std::vector<SessionNote> list_session_notes(const std::string& session_public_id) override {
+    Query q = query(__func__, "SELECT n.id, s.public_id, n.author_user_id, n.at, n.text FROM session_notes n "
+                              "JOIN sessions s ON s.id = n.session_id WHERE s.public_id = ? ORDER BY n.id");
+    q.bind(session_public_id);
+    std::vector<SessionNote> rows;
+    while (q.step()) rows.push_back(read_session_note(q));
+    return rows;
+  }
+
+  bool sign_off_session(const SessionSignOff& s) override {
+    Transaction tx(db(), __func__, Transaction::kWrite);
+    const int64_t session_id = require_session(__func__, s.session_public_id).id;
+    Query q = query(__func__, "INSERT INTO session_sign_offs(session_id, signed_by, at, comment) VALUES (?, ?, ?, ?) "
+                              "ON CONFLICT (session_id) DO NOTHING");
+    q.bind(session_id).bind(s.signed_by).bind(s.at.empty() ? now_iso8601() : s.at).bind(s.comment).run();
+    const bool added = sqlite3_changes(db()) > 0;
+    tx.commit();
+    return added;
+  }
+
+  std::optional<SessionSignOff> get_session_sign_off(const std::string& session_public_id) override {
+    Query q = query(__func__, "SELECT s.public_id, o.signed_by, o.at, o.comment FROM session_sign_offs o "
+                              "JOIN sessions s ON s.id = o.session_id WHERE s.public_id = ?");
+    q.bind(session_public_id);
+    if (!q.step()) return std::nullopt;
+    return read_session_sign_off(q);
   }
 
   bool set_score_audited(const ScoreRecord& s, const std::string& now, const Actor& actor) override {

@@ -281,6 +281,24 @@ struct StaffAuditRecord {
   std::string details = "{}";  // a JSON object as text
 };
 
+// An instructor's note on a session, for the debrief (issue 18, item 3). Kept for ever.
+struct SessionNote {
+  int64_t id = 0;
+  std::string session_public_id;
+  int64_t author_id = 0;  // a user
+  std::string at;         // ISO-8601; empty when adding: now
+  std::string text;       // never empty
+};
+
+// A session's sign-off: the instructor's word that its debrief is done. At most one per session,
+// kept for ever; no note is added after it.
+struct SessionSignOff {
+  std::string session_public_id;
+  int64_t signed_by = 0;  // a user
+  std::string at;         // ISO-8601; empty when adding: now
+  std::string comment;    // may be empty
+};
+
 // Which audit rows to list: one pupil's (pupil_id set), else every pupil's of one school
 // (school_id set), else all.
 struct AuditScope {
@@ -437,6 +455,16 @@ class Store {
   // server's note "chain_refused" excepted).
   virtual void put_session_log(const std::string& session_public_id, const std::string& name, const std::string& text) = 0;
   virtual std::optional<std::string> get_session_log(const std::string& session_public_id, const std::string& name) = 0;
+
+  // The debrief's notes and sign-off, append-only (the schema refuses UPDATE and DELETE).
+  // add_session_note: id ignored; kNotFound for an unknown session or user, kInvalid for empty
+  // text, kConflict once the session is signed off. Returns its id.
+  virtual int64_t add_session_note(const SessionNote& n) = 0;
+  virtual std::vector<SessionNote> list_session_notes(const std::string& session_public_id) = 0;  // oldest first
+  // Signs a session off exactly once: false (and nothing written) if it was signed off already.
+  // kNotFound for an unknown session or user.
+  virtual bool sign_off_session(const SessionSignOff& s) = 0;
+  virtual std::optional<SessionSignOff> get_session_sign_off(const std::string& session_public_id) = 0;
 
   // The exam hash chain, append-only (the schema refuses UPDATE and DELETE). kConflict unless
   // seq follows the last entry's and the session has none yet; kNotFound for an unknown session.
