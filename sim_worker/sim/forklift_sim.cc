@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "evaluate.h"
+#include "trace.h"
 #include "figures.h"
 #include "forklift/dynamics/manoeuvre.h"
 #include "forklift/scene/scene.h"
@@ -151,6 +152,9 @@ int main(int argc, char** argv) {
   // evaluate: a scripted session offline, its events and mark (evaluate.cc)
   EvaluateOptions evaluate_options;
   auto* evaluate = add_evaluate_command(app, evaluate_options);
+  // trace: a logged session re-simulated and sampled, for the debrief's replay (trace.cc)
+  TraceOptions trace_options;
+  auto* trace = add_trace_command(app, trace_options);
 
   try {
     app.parse(argc, argv);
@@ -158,6 +162,7 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? 0 : 2;  // --help and --version: 0; bad usage: 2, as every program
   }
 
+  if (*trace) return trace_main(trace_options, FORKLIFT_DATA_DIR);
   if (*evaluate) {
     evaluate_options.truck = truck_file;
     return evaluate_main(evaluate_options, FORKLIFT_DATA_DIR);

@@ -2,8 +2,10 @@
 // marks live, through `forklift-sim evaluate --replay` and through `forklift-worker --replay`.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "evaluation/harness.h"
@@ -129,6 +131,43 @@ TEST_P(ShippedScript, ReplaysGiveTheLiveMarks) {
   const json worker = run_json({bin + "/forklift-worker", "--replay", log}, s.name + "_worker");
   EXPECT_EQ(worker["matches_log"], true) << "final state bit for bit";
   EXPECT_EQ(worker["events_match_log"], true) << "the same events and the same mark";
+}
+
+// The debrief's replay (issue 18, item 3): `forklift-sim trace` re-simulates a log and samples it
+// every 0.1 s of sim time, ending where the log's session ended; a broken log is refused.
+TEST(Trace, SamplesTheReplayedSessionEveryTenthOfASecond) {
+  const std::string bin = FORKLIFT_BIN_DIR, d = FORKLIFT_DATA_DIR, log = testing::TempDir() + "/session_trace.ctl";
+  const json live = run_json({bin + "/forklift-sim", "evaluate", "--scenario", d + "/scenarios/first_drive_yard.json", "--script",
+                              d + "/evaluation/scripts/first_drive_yard_faults.csv", "--out-log", log}, "trace_live");
+  const json trace = run_json({bin + "/forklift-sim", "trace", log}, "trace");
+  const int64_t ticks = live["ticks"];
+  EXPECT_EQ(trace["ticks"], ticks);
+  const json& samples = trace["samples"];
+  ASSERT_EQ(samples.size(), static_cast<size_t>(ticks / 100));
+  double travelled = 0;
+  for (size_t i = 0; i < samples.size(); ++i) {
+    EXPECT_NEAR(samples[i]["t"].get<double>(), 0.1 * double(i + 1), 1e-9);
+    EXPECT_EQ(samples[i]["pallets"].size(), trace["pallet_ids"].size());
+    if (i) travelled += std::hypot(samples[i]["x_m"].get<double>() - samples[i - 1]["x_m"].get<double>(),
+                                   samples[i]["y_m"].get<double>() - samples[i - 1]["y_m"].get<double>());
+    // The forks' tips lie a fork's length ahead of their heels.
+    const json &heel = samples[i]["fork_heel_m"], &tip = samples[i]["fork_tip_m"];
+    EXPECT_NEAR(std::hypot(tip[0].get<double>() - heel[0].get<double>(), tip[1].get<double>() - heel[1].get<double>()),
+                trace["truck"]["fork_length_m"].get<double>(), 0.05);
+  }
+  EXPECT_GT(travelled, 5.0);  // the faults drive covers the yard's first stretch
+  // Every tick: the last sample is the session's final state, at its last tick.
+  const json every = run_json({bin + "/forklift-sim", "trace", log, "--every", "0.001"}, "trace_every");
+  EXPECT_NEAR(every["samples"].back()["t"].get<double>(), 0.001 * double(ticks), 1e-9);
+  EXPECT_EQ(every["samples"][99], samples[0]);  // the same replay, sampled finer
+
+  {
+    std::ofstream broken(log + ".broken");
+    broken << "not a control log\n";
+  }
+  Process p({bin + "/forklift-sim", "trace", log + ".broken"}, testing::TempDir() + "/session_trace_broken");
+  EXPECT_EQ(p.wait(60), 2);
+  EXPECT_NE(p.err().find("forklift-sim trace:"), std::string::npos) << p.err();
 }
 
 INSTANTIATE_TEST_SUITE_P(All, ShippedScript, testing::ValuesIn(shipped()),

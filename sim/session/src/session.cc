@@ -233,7 +233,8 @@ LogHeader log_header(const SessionModel& m, const SessionState& first, const std
 }
 
 OfflineRun run_offline(const SessionModel& model, SessionState state, const std::vector<InputChange>& changes,
-                       int64_t end_tick, const std::optional<std::string>& finish_reason, ControlLogWriter* log) {
+                       int64_t end_tick, const std::optional<std::string>& finish_reason, ControlLogWriter* log,
+                       const TickObserver& after_tick) {
   SessionWorkspace ws(model);
   OfflineRun run;
   run.end_reason = finish_reason.value_or("");
@@ -249,6 +250,7 @@ OfflineRun run_offline(const SessionModel& model, SessionState state, const std:
         held = c.inputs;
       }
       step(model, state, ws, held, found, nullptr);
+      if (after_tick) after_tick(state, ws);
       bool over_time = false;
       for (const SessionEvent& e : found) {
         run.events.emplace_back(state.tick, e);
@@ -295,8 +297,11 @@ std::vector<InputChange> script_changes(const std::string& path, const SessionMo
   return out;
 }
 
-ReplayResult replay_session(const ControlLog& log, const std::string& data_dir) {
-  const SessionModel model = load_session_model(log.header, data_dir);
+ReplayResult replay_session(const ControlLog& log, const std::string& data_dir, const TickObserver& after_tick) {
+  return replay_session(log, load_session_model(log.header, data_dir), after_tick);
+}
+
+ReplayResult replay_session(const ControlLog& log, const SessionModel& model, const TickObserver& after_tick) {
   // The inputs and the dead-man switches, merged by tick in the order the worker applied them.
   std::vector<InputChange> changes;
   SessionInputs held;
@@ -322,7 +327,7 @@ ReplayResult replay_session(const ControlLog& log, const std::string& data_dir) 
   // whose worker died before its end has no end-of-session lines to compare.
   std::optional<std::string> reason;
   if (log.ticks) reason = log.end_reason().value_or("signal");
-  const OfflineRun run = run_offline(model, initial_state(model, log.header), changes, end, reason);
+  const OfflineRun run = run_offline(model, initial_state(model, log.header), changes, end, reason, nullptr, after_tick);
   ReplayResult r;
   for (const auto& [tick, e] : run.events) r.event_lines.push_back(event_line(tick, e.kind, e.worry_level));
   if (run.score) {

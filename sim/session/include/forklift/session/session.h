@@ -12,6 +12,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -158,11 +159,17 @@ struct OfflineRun {
   int64_t ticks = 0;
   SessionState final_state;
 };
+// Called after each tick's step with the state and the workspace that stepped it (its outputs and
+// poses are that tick's): how a debrief samples a replay without a second model evaluation.
+using TickObserver = std::function<void(const SessionState&, const SessionWorkspace&)>;
+
 // `finish_reason`: the reason the session ends with when it runs to end_tick (a replay gives the
 // logged one); nullopt: it is not finished (a log whose worker died before its end). `log`, when
-// given, records every applied input, the events, the score and the end.
+// given, records every applied input, the events, the score and the end; `after_tick`, when
+// given, sees every tick.
 OfflineRun run_offline(const SessionModel& model, SessionState state, const std::vector<InputChange>& changes,
-                       int64_t end_tick, const std::optional<std::string>& finish_reason, ControlLogWriter* log = nullptr);
+                       int64_t end_tick, const std::optional<std::string>& finish_reason, ControlLogWriter* log = nullptr,
+                       const TickObserver& after_tick = {});
 
 // A cab script's rows as input changes at tick boundaries: a row at time t is applied at the
 // first tick boundary at or after t. Rows a cab would have refused are refused here, with their
@@ -179,6 +186,8 @@ struct ReplayResult {
   std::string score_line;                // re-derived, when the log has an end
   Score score;
 };
-ReplayResult replay_session(const ControlLog& log, const std::string& data_dir);
+ReplayResult replay_session(const ControlLog& log, const std::string& data_dir, const TickObserver& after_tick = {});
+// The same replay with a model already loaded from the log's header (load_session_model).
+ReplayResult replay_session(const ControlLog& log, const SessionModel& model, const TickObserver& after_tick = {});
 
 }  // namespace forklift
