@@ -111,6 +111,13 @@ store::Pupil visible_pupil(Context& ctx, const Principal& p, int64_t id) {
   return *pupil;
 }
 
+store::Session visible_session(Context& ctx, const Principal& p, const std::string& public_id) {
+  const auto s = ctx.db().get_session(public_id);
+  if (!s) throw ApiError(404, "not_found", "no session " + public_id);
+  visible_pupil(ctx, p, s->pupil_id);
+  return *s;
+}
+
 json pupil_json(const store::Pupil& p) {
   return {{"id", p.id}, {"name", p.name}, {"email", p.email}, {"created_at", p.created_at}};
 }

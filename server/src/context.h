@@ -10,6 +10,7 @@
 #include "forklift/store/store.h"
 #include "periodic.h"
 #include "plan.h"
+#include "replays.h"
 #include "stills.h"
 #include "theory.h"
 
@@ -27,6 +28,7 @@ struct Context {
   std::unique_ptr<TheoryPolicy> theory_policy;  // data/theory/policy.json or --theory-policy, loaded at start
   std::unique_ptr<PlanCache> plans;
   std::unique_ptr<Stills> stills;
+  std::unique_ptr<Replays> replays;  // the debrief's replays of finished sessions
   // Ends theory papers whose time is up (routes.h: end_overdue_papers). Last, so that it stops
   // before anything it uses goes.
   std::unique_ptr<Periodic> theory_clock;

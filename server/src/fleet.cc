@@ -78,6 +78,7 @@ void Fleet::adopt(store::Store& db) {
       cabs_taken.insert(s.cab_id);
       spdlog::info("adopted the worker (pid {}) of session {} on cab {}", w.pid, s.public_id, s.cab_id);
       workers_[s.public_id] = w;
+      unsettled_.insert(s.public_id);
       bindings_[s.public_id] = {w.cab, w.participant, std::nullopt};
     } else {
       // Gone (or a second worker on a cab that has one): settled by the supervisor from its log.
@@ -154,6 +155,7 @@ void Fleet::start_worker(const store::Session& s, const std::string& scenario_fi
   w.child = true;
   w.started = w.last_state = Clock::now();
   workers_[s.public_id] = w;
+  unsettled_.insert(s.public_id);
   // The worker writes its participant beside its log before it publishes; read on first sample.
   bindings_[s.public_id] = {w.cab, "", std::nullopt};
 }
@@ -164,6 +166,11 @@ bool Fleet::abort(const std::string& session) {
   if (it == workers_.end()) return false;
   signal_worker(it->second, SIGUSR1);  // an adopted worker too
   return true;
+}
+
+bool Fleet::settling(const std::string& session) {
+  std::lock_guard<std::mutex> lock(mu_);
+  return unsettled_.count(session) > 0;
 }
 
 std::vector<WorkerInfo> Fleet::workers() {
@@ -336,6 +343,10 @@ void Fleet::supervise() {
         settle(*db, it->worker, it->reason, to_chain);
       } catch (const std::exception& e) {
         spdlog::error("settling session {}: {}", it->worker.session, e.what());
+      }
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        unsettled_.erase(it->worker.session);
       }
       it = finishing_.erase(it);
     }

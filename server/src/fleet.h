@@ -7,6 +7,7 @@
 #include <atomic>
 #include <chrono>
 #include <map>
+#include <set>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -88,6 +89,9 @@ class Fleet {
   bool abort(const std::string& session);
 
   std::vector<WorkerInfo> workers();
+  // Whether the session's worker runs here or has ended without its logs stored yet (they are
+  // stored a moment after it exits, when its last samples have had time to arrive).
+  bool settling(const std::string& session);
   std::vector<CabInfo> cabs_online(double within_s = 3.0);
   bool cab_busy(const std::string& cab);
   const FleetConfig& config() const { return config_; }
@@ -160,6 +164,7 @@ class Fleet {
     std::chrono::steady_clock::time_point at;
   };
   std::vector<Finishing> finishing_;  // supervisor thread
+  std::set<std::string> unsettled_;    // sessions with a worker here whose logs are not stored yet
   RefusedSamples refused_;
   std::map<dds_instance_handle_t, dds::Sender> senders_;  // ingest thread: who each publication is
   std::map<std::string, CabInfo> cabs_;

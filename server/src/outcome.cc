@@ -1,5 +1,7 @@
 #include "outcome.h"
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 
 #include "catalogue.h"
@@ -16,8 +18,13 @@ MarkingRules load_marking_rules(const std::string& rules_json) {
   m.serious_worry_level = scheme.at("serious_worry_level").get<int>();
   m.max_same_serious_fault = scheme.at("max_same_serious_fault").get<int>();
   m.mark_start = scheme.at("mark_start").get<double>();
-  for (const json& r : j.at("rules"))
-    m.rules[r.at("id").get<std::string>()] = {r.value("description", ""), r.value("worry_level", 0), r.value("automatic_fail", false)};
+  for (const json& r : j.at("rules")) {
+    const std::string id = r.at("id").get<std::string>();
+    std::string words = id;
+    std::replace(words.begin(), words.end(), '_', ' ');
+    if (!words.empty()) words[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(words[0])));
+    m.rules[id] = {r.value("title", words), r.value("description", ""), r.value("worry_level", 0), r.value("automatic_fail", false)};
+  }
   return m;
 }
 
@@ -51,7 +58,10 @@ std::vector<Reason> session_reasons(const MarkingRules& rules, const store::Sess
   }
   const auto described = [&](const std::string& id) {
     const auto it = rules.rules.find(id);
-    return it == rules.rules.end() || it->second.description.empty() ? id : id + ": " + it->second.description;
+    if (it == rules.rules.end()) return id;
+    std::string title = it->second.title;  // words, not the rule's code
+    if (!title.empty()) title[0] = static_cast<char>(std::tolower(static_cast<unsigned char>(title[0])));
+    return it->second.description.empty() ? title : title + ": " + it->second.description;
   };
   for (const auto& [id, n] : counts) {
     const auto it = rules.rules.find(id);

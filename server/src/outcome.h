@@ -17,6 +17,7 @@ namespace forklift::server {
 // The marking scheme and the rules' words, as the evaluator reads them (data/evaluation/).
 struct MarkingRules {
   struct Rule {
+    std::string title;  // a few words for the pages ("Violent collision"); the id's words when the file has none
     std::string description;
     int worry_level = 0;
     bool automatic_fail = false;

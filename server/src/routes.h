@@ -12,6 +12,7 @@ void pupil_routes(httplib::Server& svr, Context& ctx);      // pupils, audit, hi
 void catalogue_routes(httplib::Server& svr, Context& ctx);  // scenarios, plans, trucks, cabs
 void session_routes(httplib::Server& svr, Context& ctx);    // sessions, stills, live follow, evidence, fleet
 void theory_routes(httplib::Server& svr, Context& ctx);     // the theory bank, papers, their marking and the retake rules
+void debrief_routes(httplib::Server& svr, Context& ctx);    // a session's notes, sign-off and replay
 void exam_routes(httplib::Server& svr, Context& ctx);       // exams and corrections, licences, certificates and their check
 
 // Records every open theory paper whose time (with the policy's grace) is up as timed out. The

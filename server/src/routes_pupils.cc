@@ -55,8 +55,12 @@ json history_json(Context& ctx, const store::PupilHistory& h, const std::vector<
     }
   }
   for (const auto& r : results) exams.push_back(exam_result_json(ctx, r));
+  json fault_titles = json::object();  // the kinds in words, for the pages
+  for (const auto& [kind, n] : h.faults_by_kind)
+    if (const auto it = ctx.fleet->marking_rules().rules.find(kind); it != ctx.fleet->marking_rules().rules.end())
+      fault_titles[kind] = it->second.title;
   return {{"pupil", pupil_json(h.pupil)}, {"sessions", sessions}, {"exams", exams}, {"marks", marks}, {"unmarked", unmarked},
-          {"faults_by_kind", h.faults_by_kind}, {"trend", h.trend ? json(*h.trend) : json(nullptr)},
+          {"faults_by_kind", h.faults_by_kind}, {"fault_titles", fault_titles}, {"trend", h.trend ? json(*h.trend) : json(nullptr)},
           {"licence", licence_json(h.licence)}, {"reevaluation_overdue", h.reevaluation_overdue}};
 }
 

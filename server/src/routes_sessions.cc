@@ -7,6 +7,7 @@
 
 #include "api.h"
 #include "catalogue.h"
+#include "event_words.h"
 #include "exam_evidence.h"
 #include "load_request.h"
 #include "outcome.h"
@@ -20,18 +21,17 @@ using store::Role;
 
 namespace {
 
-json event_json(const store::EventRecord& e) {
+// With the event in words (its title, what was measured and its limit), for the pages.
+json event_json(Context& ctx, const store::EventRecord& e) {
   return {{"seq", e.seq}, {"sim_time_s", e.sim_time_s}, {"kind", e.kind}, {"worry_level", e.worry_level},
-          {"x_m", e.x_m}, {"y_m", e.y_m}, {"details", e.details}};
+          {"x_m", e.x_m}, {"y_m", e.y_m}, {"details", e.details},
+          {"words", event_words(ctx.fleet->marking_rules(), e.kind, e.details)}};
 }
 
 // The session named by the path's first match, if `p` may see it. A function, not a lambda local
 // to routes(): handlers run after routes() has returned.
 store::Session session_for(Context& ctx, const httplib::Request& req, const Principal& p) {
-  const auto s = ctx.db().get_session(req.matches[1]);
-  if (!s) throw ApiError(404, "not_found", "no session " + std::string(req.matches[1]));
-  visible_pupil(ctx, p, s->pupil_id);
-  return *s;
+  return visible_session(ctx, p, req.matches[1]);
 }
 
 // The session of the request, for staff, with what the fleet sees of it now (live follow).
@@ -152,7 +152,7 @@ void session_routes(httplib::Server& svr, Context& ctx) {
     const store::Session s = session_for(ctx, req, p);
     json j = session_json(s);
     j["events"] = json::array();
-    for (const auto& e : ctx.db().list_events(s.public_id)) j["events"].push_back(event_json(e));
+    for (const auto& e : ctx.db().list_events(s.public_id)) j["events"].push_back(event_json(ctx, e));
     // The score as a mark only when the session completed; else the faults it counted, unmarked.
     if (const auto sc = ctx.db().get_score(s.public_id)) {
       if (store::mark_of(s)) j["score"] = {{"mark", sc->mark}, {"passed", sc->passed}, {"counts", sc->counts}};

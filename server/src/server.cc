@@ -95,6 +95,7 @@ Api::Api(ServerConfig c) : ctx_(std::make_unique<Context>()) {
   fc.worker_args = c.worker_args;
   ctx.fleet = std::make_unique<Fleet>(fc);
   ctx.stills = std::make_unique<Stills>(c.bin_dir + "/forklift-render", c.log_dir + "/stills", ctx.data_dir);
+  ctx.replays = std::make_unique<Replays>(c.bin_dir + "/forklift-sim", c.log_dir + "/replays");
   // A new database gets the default school and its administrator; last, so that a start that
   // fails leaves no admin whose made-up password nobody was shown.
   if (!ctx.db().find_user("admin")) {
@@ -137,6 +138,7 @@ void Api::mount(httplib::Server& svr) {
   pupil_routes(svr, *ctx_);
   catalogue_routes(svr, *ctx_);
   session_routes(svr, *ctx_);
+  debrief_routes(svr, *ctx_);
   theory_routes(svr, *ctx_);
   exam_routes(svr, *ctx_);
   svr.set_post_routing_handler(security_headers);

@@ -112,7 +112,8 @@ void check_level(const Scheme& s, const Node& n, int level) {
 }
 
 Rule read_rule(const Node& n, const Scheme& scheme) {
-  n.only({"id", "description", "worry_level", "automatic_fail", "source", "applies_to", "thresholds"});
+  // "title": the rule's name in a few words, for the pages (the server reads it; optional).
+  n.only({"id", "title", "description", "worry_level", "automatic_fail", "source", "applies_to", "thresholds"});
   Rule r;
   r.id = n.at("id").string();
   const auto& specs = rule_specs();
