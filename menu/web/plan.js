@@ -1,11 +1,13 @@
 // The warehouse plan in SVG, from GET /api/scenarios/{name}/plan: floor, zones, objects by their
 // footprints, the marked route and task, and over it the truck's path and the session's events
 // where they happened. World x to the right, y up (the SVG's y runs down, so it is flipped here);
-// one SVG unit is one metre. A manoeuvre has no layout: its path is drawn on a grid.
+// one SVG unit is one metre. A manoeuvre has no layout: its path is drawn on a grid. The plan
+// zooms (wheel, buttons, drag to pan) with its event markers kept the same size on screen and
+// spread apart where several happened in one place; the replay draws the truck over it (its overlay).
 'use strict';
 
 const FLPlan = (() => {
-  const { svg, clear } = FL;
+  const { svg, el, clear } = FL;
 
   const OBJECT_FILL = { rack: '#4a6fa5', pallet: '#b07d48', wall: '#444', door: '#d9d9d9', dock: '#9aa5b1',
                         lorry: '#2f6b3b', cone: '#f28c28', obstacle: '#7b8794', pedestrian: '#8e44ad' };
@@ -108,25 +110,94 @@ const FLPlan = (() => {
                       svg('title', {}, "The truck's path")));
     if (last) root.append(arrow(last.x_m, last.y_m, last.yaw_deg, '#0b5cad', `The truck at t = ${last.t.toFixed(1)} s`));
 
-    // the events, numbered as in the timeline
-    const marks = new Map();
+    // the replay's truck and moving pallets, over the plan and under the event markers
+    const overlay = svg('g', { class: 'overlay' });
+    root.append(overlay);
+
+    // the events, numbered as in the timeline; events within a marker's width of each other are
+    // spread round their place, so that each can be seen and clicked.
+    const marks = new Map(), scaled = [];
+    const near = [];
     for (const e of events) {
-      const g = svg('g', { class: 'event', 'data-seq': e.seq, 'aria-hidden': 'true' },
-        svg('circle', { cx: X(e.x_m), cy: Y(e.y_m), r: u * 1.6, fill: WORRY_FILL[e.worry_level] || '#555', stroke: '#fff', 'stroke-width': u * 0.2 }),
-        svg('text', { x: X(e.x_m), y: Y(e.y_m) + u * 0.8, 'text-anchor': 'middle', 'font-size': u * 2.2, fill: '#fff', 'font-weight': 700 }, e.seq),
-        svg('title', {}, `${e.seq}: ${e.kind} (${FL.worryName(e.worry_level)}) at t = ${e.sim_time_s.toFixed(1)} s`));
-      if (onEvent) g.addEventListener('click', () => onEvent(e.seq));
-      marks.set(e.seq, g);
-      root.append(g);
+      let group = near.find((g) => Math.hypot(g.x - e.x_m, g.y - e.y_m) < u * 3);
+      if (!group) near.push(group = { x: e.x_m, y: e.y_m, members: [] });
+      group.members.push(e);
+    }
+    for (const group of near) {
+      group.members.forEach((e, i) => {
+        const n = group.members.length, a = 2 * Math.PI * i / n, spread = n > 1 ? u * 2 : 0;
+        const cx = X(e.x_m), cy = Y(e.y_m), dx = Math.cos(a) * spread, dy = -Math.sin(a) * spread;
+        const g = svg('g', { class: 'event', 'data-seq': e.seq, 'aria-hidden': 'true' },
+          n > 1 ? svg('line', { x1: cx, y1: cy, x2: cx + dx, y2: cy + dy, stroke: '#555', 'stroke-width': u * 0.15 }) : null,
+          svg('circle', { cx: cx + dx, cy: cy + dy, r: u * 1.6, fill: WORRY_FILL[e.worry_level] || '#555', stroke: '#fff', 'stroke-width': u * 0.2 }),
+          svg('text', { x: cx + dx, y: cy + dy + u * 0.8, 'text-anchor': 'middle', 'font-size': u * 2.2, fill: '#fff', 'font-weight': 700 }, e.seq),
+          svg('title', {}, `${e.seq}: ${e.words ? e.words.title : e.kind} (${FL.worryName(e.worry_level)}) at t = ${e.sim_time_s.toFixed(1)} s`));
+        if (onEvent) g.addEventListener('click', () => onEvent(e.seq));
+        marks.set(e.seq, g);
+        scaled.push({ g, cx, cy });
+        root.append(g);
+      });
     }
 
-    clear(container).append(root);
+    // Zoom: the view box shrinks round a point; markers and the truck keep their size on screen.
+    const full = { x: 0, y: 0, w: W, h: H };
+    let view = { ...full };
+    function applyView() {
+      root.setAttribute('viewBox', `${view.x.toFixed(3)} ${view.y.toFixed(3)} ${view.w.toFixed(3)} ${view.h.toFixed(3)}`);
+      const k = view.w / W;  // 1 at full view, smaller zoomed in
+      for (const { g, cx, cy } of scaled) g.setAttribute('transform', `translate(${cx} ${cy}) scale(${k}) translate(${-cx} ${-cy})`);
+      root.dataset.zoom = (1 / k).toFixed(2);
+    }
+    function zoomAt(factor, px = view.x + view.w / 2, py = view.y + view.h / 2) {
+      const w = Math.min(W, Math.max(W / 40, view.w / factor)), h = w * H / W;
+      view = { x: px - (px - view.x) * w / view.w, y: py - (py - view.y) * h / view.h, w, h };
+      view.x = Math.min(Math.max(view.x, 0), W - w);
+      view.y = Math.min(Math.max(view.y, 0), H - h);
+      applyView();
+    }
+    function toSvg(ev) {
+      const r = root.getBoundingClientRect();
+      return [view.x + (ev.clientX - r.left) / r.width * view.w, view.y + (ev.clientY - r.top) / r.height * view.h];
+    }
+    root.addEventListener('wheel', (ev) => { ev.preventDefault(); zoomAt(ev.deltaY < 0 ? 1.25 : 0.8, ...toSvg(ev)); }, { passive: false });
+    let drag = null;
+    root.addEventListener('pointerdown', (ev) => { if (view.w < W) { drag = toSvg(ev); root.setPointerCapture(ev.pointerId); } });
+    root.addEventListener('pointermove', (ev) => {
+      if (!drag) return;
+      const [x, y] = toSvg(ev);
+      view.x = Math.min(Math.max(view.x + drag[0] - x, 0), W - view.w);
+      view.y = Math.min(Math.max(view.y + drag[1] - y, 0), H - view.h);
+      applyView();
+    });
+    root.addEventListener('pointerup', () => { drag = null; });
+    const zoomBar = el('div', { class: 'zoom', role: 'group', 'aria-label': 'Zoom the plan' },
+      el('button', { type: 'button', class: 'secondary', id: 'zoom-in', 'aria-label': 'Zoom in', onclick: () => zoomAt(1.5) }, '+'),
+      el('button', { type: 'button', class: 'secondary', id: 'zoom-out', 'aria-label': 'Zoom out', onclick: () => zoomAt(1 / 1.5) }, '−'),
+      el('button', { type: 'button', class: 'secondary', id: 'zoom-reset', onclick: () => { view = { ...full }; applyView(); } }, 'Whole plan'));
+
+    clear(container).append(zoomBar, root);
+    applyView();
     return {
       select(seq) {
         for (const [s, g] of marks) g.classList.toggle('current', s === seq);
         const g = marks.get(seq);
         if (g) root.append(g);  // on top
       },
+      // Keeps a world point (the replay's truck) in the middle of a zoomed view: moves the view
+      // only when the point nears its edge, so that the plan does not jitter.
+      keepInView(x, y) {
+        if (view.w >= W) return;
+        const px = X(x), py = Y(y), mx = view.w * 0.2, my = view.h * 0.2;
+        if (px > view.x + mx && px < view.x + view.w - mx && py > view.y + my && py < view.y + view.h - my) return;
+        view.x = Math.min(Math.max(px - view.w / 2, 0), W - view.w);
+        view.y = Math.min(Math.max(py - view.h / 2, 0), H - view.h);
+        applyView();
+      },
+      zoomAt,
+      // What the replay draws with: the overlay group (above the plan, under the markers), world
+      // to SVG coordinates, one marker unit, and the plan's objects by id (pallets move).
+      overlay, X, Y, u, objectsById: new Map(objects.map((o) => [o.id, o])),
+      shapeOf: (id) => root.querySelector(`[data-object="${CSS.escape(id)}"]`),
     };
   }
 

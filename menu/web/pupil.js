@@ -63,19 +63,20 @@
       el('td', {}, dateTime(u.at)), el('td', {}, u.mode === 'exam' ? 'practical exam' : 'training'),
       el('td', {}, outcomeBadge(u.outcome), u.reason ? el('span', { class: 'small muted' }, ` ${u.reason}`) : ''))));
 
+    const title = (k) => (h.fault_titles || {})[k] || k.replace(/_/g, ' ');  // words, not the rule's code
     const faults = Object.entries(h.faults_by_kind).sort((a, b) => b[1] - a[1]);
     const faultsCanvas = document.getElementById('faults-chart');
     if (charts.faults) charts.faults.destroy();
     charts.faults = new Chart(faultsCanvas, {
       type: 'bar',
-      data: { labels: faults.map((f) => f[0]), datasets: [{ label: 'Faults', data: faults.map((f) => f[1]), backgroundColor: '#c2410c' }] },
+      data: { labels: faults.map((f) => title(f[0])), datasets: [{ label: 'Faults', data: faults.map((f) => f[1]), backgroundColor: '#c2410c' }] },
       options: { animation: false, maintainAspectRatio: false, indexAxis: 'y', plugins: { legend: { display: false } },
                  scales: { x: { beginAtZero: true, ticks: { precision: 0 }, title: { display: true, text: 'count' } } } },
     });
     faultsCanvas.setAttribute('aria-label', faults.length === 0 ? 'Faults by kind: none recorded'
-      : 'Faults by kind: ' + faults.map(([k, n]) => `${k} ${n}`).join(', '));
+      : 'Faults by kind: ' + faults.map(([k, n]) => `${title(k)} ${n}`).join(', '));
     clear(document.querySelector('#faults-table tbody')).append(...faults.map(([k, n]) => el('tr', {},
-      el('td', {}, k), el('td', { class: 'num' }, n))));
+      el('td', { 'data-kind': k }, title(k)), el('td', { class: 'num' }, n))));
   }
 
   async function downloadCsv() {

@@ -1,6 +1,8 @@
 // A session's page: GET /api/sessions/{id} (facts, events, score), its path and its scenario's
 // plan; the timeline with worry levels and the marking sheet; stills at events when the renderer
-// exists. While the session runs, the page refreshes every two seconds.
+// exists. While the session runs, the page refreshes every two seconds. Once it has ended, the
+// debrief: a replay re-simulated from its control log (GET .../replay), scrubbed in time over the
+// plan with the events on the same timeline, and the instructor's notes and sign-off.
 'use strict';
 (() => {
   const { api, el, clear, requireLogin, say, describeError, dateTime, num, param, isStaff, worryName, pct } = FL;
@@ -62,8 +64,10 @@
       counted[e.kind] = (counted[e.kind] || 0) + 1;
     }
     const counts = s.score ? s.score.counts : s.counts || counted;
+    const titles = {};
+    for (const e of s.events) if (e.words) titles[e.kind] = e.words.title;
     const rows = Object.entries(counts).sort((a, b) => b[1] - a[1]).map(([k, n]) => el('tr', {},
-      el('th', { scope: 'row' }, k), el('td', {}, worst[k] ? badge(worryName(worst[k]), worryName(worst[k])) : ''), el('td', { class: 'num' }, n)));
+      el('th', { scope: 'row', 'data-kind': k }, titles[k] || k.replace(/_/g, ' ')), el('td', {}, worst[k] ? badge(worryName(worst[k]), worryName(worst[k])) : ''), el('td', { class: 'num' }, n)));
     if (rows.length === 0) rows.push(el('tr', {}, el('td', { colspan: 3, class: 'muted' }, 'No faults.')));
     if (s.score) rows.push(el('tr', {}, el('th', { scope: 'row' }, 'Mark'), el('td', {}, s.score.passed ? badge('passed', 'passed') : badge('not-passed', 'not passed')),
                                  el('td', { class: 'num' }, num(s.score.mark))));
@@ -76,7 +80,7 @@
     button.textContent = 'Rendering…';
     try {
       const blob = await api('GET', `/sessions/${encodeURIComponent(s.id)}/events/${e.seq}/still.png`);
-      box.append(el('img', { src: URL.createObjectURL(blob), alt: `The scene from behind the truck at event ${e.seq} (${e.kind}), t = ${num(e.sim_time_s)} s` }));
+      box.append(el('img', { src: URL.createObjectURL(blob), alt: `The scene from behind the truck at event ${e.seq} (${e.words ? e.words.title : e.kind}), t = ${num(e.sim_time_s)} s` }));
       button.remove();
     } catch (err) {
       button.textContent = 'No still';
@@ -84,33 +88,26 @@
     }
   }
 
-  // An event's details: the evaluator writes JSON (a description for the pupil, what it measured,
-  // where its rule comes from); anything else is shown as it is.
-  function details(text) {
-    if (!text) return '';
+  // An event's details: what the pupil did in the rule's words, what was measured against its
+  // limit in units (the server's words for the evaluator's numbers), and where the rule comes from.
+  function details(e) {
     let d = null;
-    try { d = JSON.parse(text); } catch (e) { /* plain text, or JSON cut short by the message's 255 characters */ }
-    if (!d || typeof d !== 'object' || Array.isArray(d)) {
-      const cut = /^\{"description":"((?:[^"\\]|\\.)*)"/.exec(text);
-      if (!cut) return el('div', { class: 'small' }, text);
-      let description = cut[1];
-      try { description = JSON.parse(`"${cut[1]}"`); } catch (e) { /* as it came */ }
-      return el('div', { class: 'small' }, el('div', {}, description), el('div', { class: 'muted' }, '(the rest of the details was cut short in transit)'));
-    }
-    const round = (v) => (typeof v === 'number' ? String(Math.round(v * 1000) / 1000) : Array.isArray(v) ? v.join(', ') : String(v));
-    const measured = d.measured && typeof d.measured === 'object'
-      ? Object.entries(d.measured).map(([k, v]) => `${k.replace(/_/g, ' ')} ${round(v)}`).join('; ') : '';
-    const rest = Object.entries(d).filter(([k]) => !['description', 'measured', 'source'].includes(k))
-      .map(([k, v]) => `${k.replace(/_/g, ' ')}: ${typeof v === 'object' && !Array.isArray(v) ? JSON.stringify(v) : round(v)}`).join('; ');
+    try { d = JSON.parse(e.details); } catch (err) { /* plain text, or cut short in transit */ }
+    if (!d || typeof d !== 'object' || Array.isArray(d)) return e.details ? el('div', { class: 'small' }, e.details) : '';
+    const words = e.words || {};
+    const what = Object.entries(d).filter(([k, v]) => typeof v === 'string' && !['description', 'source'].includes(k))
+      .map(([k, v]) => `${k.replace(/_/g, ' ')}: ${v.replace(/_/g, ' ')}`).join('; ');
     return el('div', { class: 'small' },
       d.description ? el('div', {}, d.description) : '',
-      measured ? el('div', { class: 'muted' }, `measured: ${measured}`) : '',
-      rest ? el('div', { class: 'muted' }, rest) : '',
+      words.summary ? el('div', { class: 'measured' }, words.summary) : '',
+      what ? el('div', { class: 'muted' }, what) : '',
       d.source ? el('div', { class: 'muted' }, `rule: ${d.source}`) : '');
   }
 
   function select(seq) {
     current = seq;
+    const e = shownEvents.find((x) => x.seq === seq);
+    if (e && replay) setTime(e.sim_time_s);
     if (drawn) drawn.select(seq);
     for (const li of document.querySelectorAll('#timeline li')) li.classList.toggle('current', Number(li.dataset.seq) === seq);
   }
@@ -122,10 +119,11 @@
       const still = el('div', { class: 'still' });
       const li = el('li', { class: `w${e.worry_level}`, 'data-seq': e.seq },
         el('span', { class: 'when' }, `${e.seq}. t = ${num(e.sim_time_s)} s`),
-        el('strong', {}, e.kind), ' ', badge(worryName(e.worry_level), worryName(e.worry_level)),
-        details(e.details),
+        el('strong', { 'data-kind': e.kind }, e.words ? e.words.title : e.kind), ' ', badge(worryName(e.worry_level), worryName(e.worry_level)),
+        details(e),
         el('div', { class: 'small muted' }, `at x ${num(e.x_m)} m, y ${num(e.y_m)} m `,
-           el('button', { type: 'button', class: 'link', onclick: () => select(e.seq) }, 'show on the plan')),
+           el('button', { type: 'button', class: 'link show-event', onclick: () => select(e.seq) },
+              replay ? 'show in the replay' : 'show on the plan')),
         still);
       if (s.stills_available) {
         const b = el('button', { type: 'button', class: 'secondary' }, 'Show the still');
@@ -158,10 +156,173 @@
       sheet(s);
       drawn = FLPlan.draw(document.getElementById('plan'), { plan, path: path.points, events: s.events,
         title: `Plan of ${s.scenario} with the path of session ${s.id}`, onEvent: select });
+      shownEvents = s.events;
       timeline(s);
+      if (replay) drawReplay();
+    }
+    if (TERMINAL.includes(s.state)) {
+      loadReplay(s);
+      debrief(s);
     }
     return s;
   }
+
+  // ---------------------------------------------------------------- the replay
+  let replay = null, replayAsked = false, replayT = 0, playing = false, shownEvents = [];
+  const rs = { section: document.getElementById('replay'), status: document.getElementById('replay-status'),
+               play: document.getElementById('replay-play'), speed: document.getElementById('replay-speed'),
+               time: document.getElementById('replay-time'), clock: document.getElementById('replay-clock'),
+               marks: document.getElementById('replay-marks'), state: document.getElementById('replay-state') };
+
+  async function loadReplay(s) {
+    if (replayAsked) return;
+    replayAsked = true;
+    rs.section.hidden = false;
+    say(rs.status, 'Preparing the replay: the session is re-simulated from its control log…', 'status');
+    try {
+      let r = null;
+      for (let i = 0; !r; i++) {
+        try {
+          r = await api('GET', `/sessions/${encodeURIComponent(s.id)}/replay`);
+        } catch (e) {  // just ended: its log is on its way to the store
+          if (e.code !== 'not_ready' || i >= 60) throw e;
+          await new Promise((ok) => setTimeout(ok, 1000));
+        }
+      }
+      if (!r.samples || r.samples.length === 0) throw new Error('the replay has no states');
+      replay = r;
+    } catch (e) {
+      say(rs.status, `No replay: ${describeError(e)}`);
+      return;
+    }
+    const end = replay.samples[replay.samples.length - 1].t;
+    clear(rs.status).append(`${replay.samples.length} states over ${num(end)} s, re-simulated from the cab's controls`,
+      replay.failure ? ` (the simulation failed at its end: ${replay.failure})` : '', '.');
+    rs.time.max = String(end);
+    rs.time.disabled = rs.play.disabled = false;
+    clear(rs.marks).append(...shownEvents.map((e) => {
+      const b = el('button', { type: 'button', class: `w${e.worry_level}`, 'data-seq': e.seq, tabindex: -1,
+        title: `${e.seq}: ${e.words ? e.words.title : e.kind} at ${num(e.sim_time_s)} s`, onclick: () => select(e.seq) });
+      b.style.left = `${Math.min(100, 100 * e.sim_time_s / end).toFixed(2)}%`;  // CSSOM: the pages' CSP allows no style attribute
+      return b;
+    }));
+    for (const b of document.querySelectorAll('#timeline .show-event')) b.textContent = 'show in the replay';
+    rs.section.dataset.ready = 'true';
+    setTime(current !== null ? (shownEvents.find((e) => e.seq === current) || { sim_time_s: 0 }).sim_time_s : 0);
+  }
+
+  // The state at time t, between the two samples around it (angles the short way round).
+  function stateAt(t) {
+    const ss = replay.samples;
+    let lo = 0, hi = ss.length - 1;
+    if (t <= ss[0].t) return ss[0];
+    if (t >= ss[hi].t) return ss[hi];
+    while (hi - lo > 1) { const mid = (lo + hi) >> 1; if (ss[mid].t <= t) lo = mid; else hi = mid; }
+    const a = ss[lo], b = ss[hi], f = (t - a.t) / (b.t - a.t);
+    const mix = (p, q) => p + (q - p) * f;
+    const angle = (p, q) => p + ((((q - p) % 360) + 540) % 360 - 180) * f;
+    const pair = (p, q) => [mix(p[0], q[0]), mix(p[1], q[1])];
+    return { ...a, t, x_m: mix(a.x_m, b.x_m), y_m: mix(a.y_m, b.y_m), yaw_deg: angle(a.yaw_deg, b.yaw_deg),
+             body_m: pair(a.body_m, b.body_m), body_yaw_deg: angle(a.body_yaw_deg, b.body_yaw_deg),
+             speed_m_s: mix(a.speed_m_s, b.speed_m_s), lift_m: mix(a.lift_m, b.lift_m), tilt_deg: mix(a.tilt_deg, b.tilt_deg),
+             fork_height_m: mix(a.fork_height_m, b.fork_height_m), fork_heel_m: pair(a.fork_heel_m, b.fork_heel_m),
+             fork_tip_m: pair(a.fork_tip_m, b.fork_tip_m),
+             pallets: a.pallets.map((p, i) => [mix(p[0], b.pallets[i][0]), mix(p[1], b.pallets[i][1]), mix(p[2], b.pallets[i][2]),
+                                                angle(p[3], b.pallets[i][3])]) };
+  }
+
+  function setTime(t) {
+    replayT = Math.max(0, Math.min(t, Number(rs.time.max)));
+    rs.time.value = String(replayT);
+    drawReplay();
+  }
+
+  function drawReplay() {
+    if (!replay || !drawn) return;
+    const st = stateAt(replayT);
+    const { overlay, X, Y, u } = drawn;
+    const pts = (ps) => ps.map(([x, y]) => `${X(x).toFixed(3)},${Y(y).toFixed(3)}`).join(' ');
+    // the pallets where they stand now: each drawn at its plan pose, moved by the difference
+    replay.pallet_ids.forEach((pid, i) => {
+      const shape = drawn.shapeOf(pid), o = drawn.objectsById.get(pid);
+      if (!shape || !o) return;
+      const [x, y, , yaw] = st.pallets[i];
+      shape.setAttribute('transform', `translate(${X(x)} ${Y(y)}) rotate(${-(yaw - (o.yaw_deg || 0))}) translate(${-X(o.x_m)} ${-Y(o.y_m)})`);
+    });
+    // the truck: the chassis's footprint at its pose, and the forks from heel to tip
+    const fp = replay.truck.chassis_footprint_m || [-2.2, -0.5, 0.3, 0.5];
+    const a = st.body_yaw_deg * Math.PI / 180, c = Math.cos(a), sn = Math.sin(a), [bx, by] = st.body_m;
+    const body = [[fp[0], fp[1]], [fp[2], fp[1]], [fp[2], fp[3]], [fp[0], fp[3]]].map(([x, y]) => [bx + c * x - sn * y, by + sn * x + c * y]);
+    const half = replay.truck.fork_centres_y_m / 2, nx = -sn * half, ny = c * half;
+    const fork = (k) => FL.svg('line', { x1: X(st.fork_heel_m[0] + k * nx), y1: Y(st.fork_heel_m[1] + k * ny), x2: X(st.fork_tip_m[0] + k * nx),
+                                        y2: Y(st.fork_tip_m[1] + k * ny), stroke: st.load ? '#6e3b0a' : '#222', 'stroke-width': replay.truck.fork_width_m });
+    const g = FL.svg('g', { id: 'replay-truck', 'data-t': st.t.toFixed(2), 'data-x': st.x_m.toFixed(3), 'data-y': st.y_m.toFixed(3),
+                            'data-yaw': st.yaw_deg.toFixed(2), 'data-fork-height': st.fork_height_m.toFixed(3), 'data-load': st.load || '' },
+      FL.svg('polygon', { points: pts(body), fill: '#f2c230', 'fill-opacity': 0.9, stroke: '#222', 'stroke-width': u * 0.25 }),
+      fork(1), fork(-1),
+      FL.svg('circle', { cx: X(st.x_m), cy: Y(st.y_m), r: u * 0.5, fill: '#222' }),
+      FL.svg('title', {}, `The truck at t = ${num(st.t)} s`));
+    clear(overlay).append(g);
+    drawn.keepInView(st.x_m, st.y_m);
+    rs.clock.textContent = `t = ${num(st.t)} s`;
+    const dl = clear(rs.state);
+    fact(dl, 'Speed', `${num(Math.abs(st.speed_m_s), 2)} m/s (${num(Math.abs(st.speed_m_s) * 3.6)} km/h)${st.speed_m_s < -0.02 ? ', reversing' : ''}`);
+    fact(dl, 'Forks', st.fork_height_m < 1 ? `${num(st.fork_height_m * 100, 0)} cm up` : `${num(st.fork_height_m, 2)} m up`);
+    fact(dl, 'Mast tilt', `${num(Math.abs(st.tilt_deg))}° ${st.tilt_deg > 0.05 ? 'back' : st.tilt_deg < -0.05 ? 'forward' : ''}`);
+    fact(dl, 'Load', st.load ? `pallet ${st.load} on the forks` : 'none on the forks');
+  }
+
+  rs.time.addEventListener('input', () => { playing = false; rs.play.textContent = 'Play'; setTime(Number(rs.time.value)); });
+  rs.play.addEventListener('click', () => {
+    playing = !playing;
+    rs.play.textContent = playing ? 'Pause' : 'Play';
+    if (!playing) return;
+    if (replayT >= Number(rs.time.max)) setTime(0);
+    let before = performance.now();
+    const frame = (now) => {
+      if (!playing) return;
+      setTime(replayT + (now - before) / 1000 * Number(rs.speed.value));
+      before = now;
+      if (replayT >= Number(rs.time.max)) { playing = false; rs.play.textContent = 'Play'; return; }
+      requestAnimationFrame(frame);
+    };
+    requestAnimationFrame(frame);
+  });
+
+  // ---------------------------------------------------------------- notes and sign-off
+  const ds = { notes: document.getElementById('notes'), signed: document.getElementById('signed-off'),
+               noteForm: document.getElementById('note-form'), noteText: document.getElementById('note-text'),
+               signForm: document.getElementById('sign-off-form'), comment: document.getElementById('sign-off-comment') };
+  let debriefFor = null;
+  function showDebrief(d) {
+    clear(ds.notes).append(...(d.notes.length ? d.notes.map((n) => el('li', { 'data-note': n.id },
+      el('div', { class: 'small muted' }, `${n.author.name}, ${dateTime(n.at)}`), n.text)) : [el('li', { class: 'muted' }, 'No notes yet.')]));
+    ds.signed.hidden = !d.sign_off;
+    if (d.sign_off) clear(ds.signed).append(badge('passed', 'signed off'), ` by ${d.sign_off.by.name}, ${dateTime(d.sign_off.at)}`,
+                                            d.sign_off.comment ? `: ${d.sign_off.comment}` : '');
+    ds.noteForm.hidden = !isStaff(me) || !!d.sign_off;
+    ds.signForm.hidden = !isStaff(me) || !!d.sign_off || !d.finished;
+  }
+  async function debrief(s) {
+    if (debriefFor === s.id) return;
+    debriefFor = s.id;
+    try { showDebrief(await api('GET', `/sessions/${encodeURIComponent(s.id)}/debrief`)); } catch (e) { say(message, describeError(e)); }
+  }
+  ds.noteForm.addEventListener('submit', async (ev) => {
+    ev.preventDefault();
+    try {
+      showDebrief(await api('POST', `/sessions/${encodeURIComponent(id)}/notes`, { text: ds.noteText.value }));
+      ds.noteText.value = '';
+      say(message, 'Note added.', 'status');
+    } catch (e) { say(message, describeError(e)); }
+  });
+  ds.signForm.addEventListener('submit', async (ev) => {
+    ev.preventDefault();
+    try {
+      showDebrief(await api('POST', `/sessions/${encodeURIComponent(id)}/sign-off`, { comment: ds.comment.value }));
+      say(message, 'The debrief is signed off.', 'status');
+    } catch (e) { say(message, describeError(e)); }
+  });
 
   // Live follow for staff (the remote examiner): the truck's state and the cab's view, twice a
   // second while the session runs. The frame comes as a blob (the token never goes in a URL).

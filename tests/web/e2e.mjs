@@ -28,77 +28,26 @@
 // forklift-test-alloc takes the port and the DDS domain from the tests' allocator
 // (tests/support/ports.h), holds them while this test and its children run, and passes them in
 // FORKLIFT_TEST_PORT and FORKLIFT_TEST_DOMAIN.
-import { spawn, execFileSync } from 'node:child_process';
+import { execFileSync } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
+import { setup, check, sleep, supports, Processes, apiOf, browserPage } from './harness.mjs';
 
-let chromium, jsQR;
+let jsQR;
 try {
   ({ default: jsQR } = await import('jsqr'));
-  ({ chromium } = await import('playwright-core'));
 } catch (e) {
-  console.error('e2e: playwright-core or jsqr is missing: run `npm ci --prefix tests/web` (scripts/install-deps.sh does)');
+  console.error('e2e: jsqr is missing: run `npm ci --prefix tests/web` (scripts/install-deps.sh does)');
   process.exit(1);
 }
 
 // ---------------------------------------------------------------- arguments and helpers
-const args = { chromium: '/usr/bin/chromium', out: path.resolve('web-e2e') };
-for (let i = 2; i < process.argv.length; i++) {
-  const a = process.argv[i];
-  if (a === '--headed') args.headed = true;
-  else if (a.startsWith('--')) args[a.slice(2)] = process.argv[++i];
-}
-for (const need of ['bin', 'data']) {
-  if (!args[need]) { console.error(`e2e: --${need} is required`); process.exit(2); }
-}
-const port = Number(process.env.FORKLIFT_TEST_PORT), domain = Number(process.env.FORKLIFT_TEST_DOMAIN);
-if (!(port > 0) || !(domain > 0)) {
-  console.error('e2e: no FORKLIFT_TEST_PORT and FORKLIFT_TEST_DOMAIN: run it as `BUILD/tests/forklift-test-alloc node e2e.mjs ...` (ctest does)');
-  process.exit(2);
-}
-if (!fs.existsSync(args.chromium)) {
-  console.error(`e2e: no Chromium at ${args.chromium}: install Debian's chromium (scripts/install-deps.sh does)`);
-  process.exit(1);
-}
-const out = path.resolve(args.out);
+const { args, port, domain, out } = setup('web-e2e');
 const shots = path.resolve(args.screenshots || path.join(out, 'screenshots'));
-fs.rmSync(out, { recursive: true, force: true });
-fs.mkdirSync(out, { recursive: true });
 fs.mkdirSync(shots, { recursive: true });
-
-const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 const started = Date.now();
-
-// A program's --help mentions the flag (the cab's and server's options are still growing).
-function supports(binary, flag) {
-  try {
-    return execFileSync(binary, ['--help'], { encoding: 'utf8', stdio: ['ignore', 'pipe', 'pipe'] }).includes(flag);
-  } catch (e) {
-    return String(e.stdout || '').includes(flag);
-  }
-}
-
-const children = [];
-function start(name, binary, argv) {
-  const log = fs.openSync(path.join(out, `${name}.log`), 'w');
-  const child = spawn(binary, argv, { stdio: ['ignore', log, log] });
-  child.name = name;
-  children.push(child);
-  return child;
-}
-function tail(name, lines = 25) {
-  try { return fs.readFileSync(path.join(out, `${name}.log`), 'utf8').split('\n').slice(-lines).join('\n'); } catch (e) { return ''; }
-}
-async function stopAll() {
-  for (const c of children.reverse()) {
-    if (c.exitCode !== null || c.signalCode !== null) continue;
-    c.kill('SIGTERM');
-    const done = new Promise((r) => c.once('exit', r));
-    if (await Promise.race([done.then(() => true), sleep(5000).then(() => false)]) === false) c.kill('SIGKILL');
-  }
-}
-
-function check(cond, what) { if (!cond) throw new Error(what); }
+const procs = new Processes(out);
+const start = (...a) => procs.start(...a), tail = (...a) => procs.tail(...a), stopAll = () => procs.stopAll();
 
 // ---------------------------------------------------------------- the platform
 const base = `http://127.0.0.1:${port}`;
@@ -118,29 +67,10 @@ const serverArgs = ['--db', path.join(out, 'forklift.db'), '--listen', `127.0.0.
 if (supports(serverBin, '--frame-fps')) serverArgs.push('--frame-fps', '4', '--frame-size', '480x360');
 const server = start('server', serverBin, serverArgs);
 
-async function api(method, p, token, body) {
-  const res = await fetch(base + '/api' + p, {
-    method, headers: { ...(token ? { Authorization: `Bearer ${token}` } : {}), ...(body ? { 'Content-Type': 'application/json' } : {}) },
-    body: body ? JSON.stringify(body) : undefined,
-  });
-  const j = await res.json();
-  if (!res.ok) throw new Error(`${method} ${p}: ${res.status} ${JSON.stringify(j)}`);
-  return j;
-}
+const api = apiOf(base);
 
 // ---------------------------------------------------------------- the browser
-const browser = await chromium.launch({ executablePath: args.chromium, headless: !args.headed });
-const context = await browser.newContext({ viewport: { width: 1280, height: 860 }, locale: 'en-GB', timezoneId: 'UTC' });
-const page = await context.newPage();
-page.setDefaultTimeout(15000);
-const problems = [];
-page.on('pageerror', (e) => problems.push(`page error: ${e.message}`));
-page.on('console', (m) => { if (m.type() === 'error') problems.push(`console error on ${page.url()}: ${m.text()}`); });
-page.on('requestfailed', (r) => {
-  const why = r.failure() ? r.failure().errorText : '';
-  if (!why.includes('ERR_ABORTED')) problems.push(`request failed: ${r.method()} ${r.url()} ${why}`);  // aborted: we navigated away
-});
-page.on('response', (r) => { if (r.status() >= 400) problems.push(`HTTP ${r.status()} for ${r.request().method()} ${r.url()}`); });
+const { browser, page, problems, step } = await browserPage(args);
 
 // Whole pages are shot by growing the viewport to the page's height and back: playwright's own
 // fullPage mode leaves this Chromium clicking at stale coordinates afterwards.
@@ -152,15 +82,6 @@ async function shot(name, { fullPage = true, of = page } = {}) {
   }
   await of.screenshot({ path: path.join(shots, `${name}.png`), animations: 'disabled' });
   if (fullPage) await of.setViewportSize(viewport);
-}
-
-let stepNo = 0;
-async function step(name, fn) {
-  const t0 = Date.now();
-  process.stdout.write(`${++stepNo}. ${name} ... `);
-  await fn();
-  check(problems.length === 0, problems.join('\n'));
-  console.log(`ok (${((Date.now() - t0) / 1000).toFixed(1)} s)`);
 }
 
 const bank = JSON.parse(fs.readFileSync(path.join(args.data, 'theory', 'questions.json'), 'utf8'));

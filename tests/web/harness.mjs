@@ -1,0 +1,122 @@
+// What the browser tests share: their arguments, the processes they start (each with its log in
+// the output folder, stopped at the end), the API over fetch, Debian's headless Chromium through
+// playwright-core with every page error, console error, failed request and HTTP error caught,
+// and numbered steps. Each test file is one script: `setup()` first, then its steps.
+import { spawn, execFileSync } from 'node:child_process';
+import fs from 'node:fs';
+import path from 'node:path';
+
+let chromium;
+try {
+  ({ chromium } = await import('playwright-core'));
+} catch (e) {
+  console.error('playwright-core is missing: run `npm ci --prefix tests/web` (scripts/install-deps.sh does)');
+  process.exit(1);
+}
+
+export const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+export function check(cond, what) { if (!cond) throw new Error(what); }
+
+// --bin and --data are required; the port and DDS domain come from forklift-test-alloc.
+export function setup(name) {
+  const args = { chromium: '/usr/bin/chromium', out: path.resolve(name) };
+  for (let i = 2; i < process.argv.length; i++) {
+    const a = process.argv[i];
+    if (a === '--headed') args.headed = true;
+    else if (a.startsWith('--')) args[a.slice(2)] = process.argv[++i];
+  }
+  for (const need of ['bin', 'data']) {
+    if (!args[need]) { console.error(`${name}: --${need} is required`); process.exit(2); }
+  }
+  const port = Number(process.env.FORKLIFT_TEST_PORT), domain = Number(process.env.FORKLIFT_TEST_DOMAIN);
+  if (!(port > 0) || !(domain > 0)) {
+    console.error(`${name}: no FORKLIFT_TEST_PORT and FORKLIFT_TEST_DOMAIN: run it as \`BUILD/tests/forklift-test-alloc node ${name}.mjs ...\` (ctest does)`);
+    process.exit(2);
+  }
+  if (!fs.existsSync(args.chromium)) {
+    console.error(`${name}: no Chromium at ${args.chromium}: install Debian's chromium (scripts/install-deps.sh does)`);
+    process.exit(1);
+  }
+  const out = path.resolve(args.out);
+  fs.rmSync(out, { recursive: true, force: true });
+  fs.mkdirSync(out, { recursive: true });
+  return { args, port, domain, out, base: `http://127.0.0.1:${port}` };
+}
+
+// A program's --help mentions the flag.
+export function supports(binary, flag) {
+  try {
+    return execFileSync(binary, ['--help'], { encoding: 'utf8', stdio: ['ignore', 'pipe', 'pipe'] }).includes(flag);
+  } catch (e) {
+    return String(e.stdout || '').includes(flag);
+  }
+}
+
+export class Processes {
+  constructor(out) { this.out = out; this.children = []; }
+  start(name, binary, argv) {
+    const log = fs.openSync(path.join(this.out, `${name}.log`), 'w');
+    const child = spawn(binary, argv, { stdio: ['ignore', log, log] });
+    child.name = name;
+    this.children.push(child);
+    return child;
+  }
+  tail(name, lines = 25) {
+    try { return fs.readFileSync(path.join(this.out, `${name}.log`), 'utf8').split('\n').slice(-lines).join('\n'); } catch (e) { return ''; }
+  }
+  async stopAll() {
+    for (const c of this.children.reverse()) {
+      if (c.exitCode !== null || c.signalCode !== null) continue;
+      c.kill('SIGTERM');
+      const done = new Promise((r) => c.once('exit', r));
+      if (await Promise.race([done.then(() => true), sleep(5000).then(() => false)]) === false) c.kill('SIGKILL');
+    }
+  }
+}
+
+// The JSON API: the body parsed, or an Error naming the call and the answer.
+export function apiOf(base) {
+  return async function api(method, p, token, body) {
+    const res = await fetch(base + '/api' + p, {
+      method, headers: { ...(token ? { Authorization: `Bearer ${token}` } : {}), ...(body ? { 'Content-Type': 'application/json' } : {}) },
+      body: body ? JSON.stringify(body) : undefined,
+    });
+    const j = await res.json();
+    if (!res.ok) throw new Error(`${method} ${p}: ${res.status} ${JSON.stringify(j)}`);
+    return j;
+  };
+}
+
+export async function waitForServer(base, procs, server) {
+  for (let i = 0; i < 100; i++) {
+    try { if ((await fetch(base + '/api/health')).ok) return; } catch (e) { /* not yet */ }
+    if (server.exitCode !== null) break;
+    await sleep(100);
+  }
+  throw new Error('the server did not come up:\n' + procs.tail('server'));
+}
+
+// The browser and one page whose problems (errors of any kind) fail the step they happen in.
+export async function browserPage(args, viewport = { width: 1280, height: 860 }) {
+  const browser = await chromium.launch({ executablePath: args.chromium, headless: !args.headed });
+  const context = await browser.newContext({ viewport, locale: 'en-GB', timezoneId: 'UTC' });
+  const page = await context.newPage();
+  page.setDefaultTimeout(15000);
+  const problems = [];
+  page.on('pageerror', (e) => problems.push(`page error: ${e.message}`));
+  page.on('console', (m) => { if (m.type() === 'error') problems.push(`console error on ${page.url()}: ${m.text()}`); });
+  page.on('requestfailed', (r) => {
+    const why = r.failure() ? r.failure().errorText : '';
+    if (!why.includes('ERR_ABORTED')) problems.push(`request failed: ${r.method()} ${r.url()} ${why}`);
+  });
+  page.on('response', (r) => { if (r.status() >= 400) problems.push(`HTTP ${r.status()} for ${r.request().method()} ${r.url()}`); });
+  let stepNo = 0;
+  async function step(name, fn) {
+    const t0 = Date.now();
+    process.stdout.write(`${++stepNo}. ${name} ... `);
+    await fn();
+    check(problems.length === 0, problems.join('\n'));
+    console.log(`ok (${((Date.now() - t0) / 1000).toFixed(1)} s)`);
+  }
+  return { browser, context, page, problems, step };
+}
