@@ -3,6 +3,8 @@
 #include <unistd.h>
 
 #include <cstdlib>
+#include <fstream>
+#include <iterator>
 #include <vector>
 
 namespace forklift::dds {
@@ -77,6 +79,24 @@ DomainSettings DomainSettings::resolve(std::optional<int> domain_flag, const std
     s.config_uri = env;
   } else {
     s.config_uri = "file://" FORKLIFT_DDS_CONFIG;
+  }
+  // The shipped network configurations take their interface and peers from the environment
+  // (protocol/config/lan.xml and the others): say which is missing in words, before Cyclone
+  // refuses a nameless interface or an empty peer.
+  if (s.config_uri.rfind("file://", 0) == 0) {
+    std::string file = s.config_uri.substr(7);
+    file = file.substr(0, file.find(','));  // a list: the file, then fragments
+    std::ifstream in(file);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const auto unset = [](const char* name) { const char* v = std::getenv(name); return !v || !*v; };
+    if (text.find("${FORKLIFT_DDS_INTERFACE") != std::string::npos && unset("FORKLIFT_DDS_INTERFACE") && unset("FORKLIFT_DDS_NETWORK"))
+      throw std::runtime_error("the DDS configuration " + file +
+                               " needs the network to use: set FORKLIFT_DDS_INTERFACE to its interface's name (such as eth0; "
+                               "`ip -br addr` lists them) or FORKLIFT_DDS_NETWORK to an address on it (such as 10.20.0.0)");
+    if (text.find("${FORKLIFT_DDS_PEER}") != std::string::npos && unset("FORKLIFT_DDS_PEER"))
+      throw std::runtime_error("the DDS configuration " + file +
+                               " finds the other machines by unicast: set FORKLIFT_DDS_PEER to the address or host name of the "
+                               "machine this one must reach (the simulation PC for a cab, the server for a simulation PC)");
   }
   std::string dir = security_dir_flag;
   if (dir.empty())
