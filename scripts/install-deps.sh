@@ -19,6 +19,8 @@ packages=(
   libpq-dev postgresql
   # data files checked against their JSON Schemas (data/schema/)
   libvalijson-dev
+  # the server's API description (server/openapi.yaml), read as the contract its requests are checked against
+  libyaml-cpp-dev
   # secured exams: the school's certificate authority, exam-log signatures, the loopback capture test
   openssl libssl-dev tcpdump
   # tests and benchmarks

@@ -1,4 +1,5 @@
-// Shared by every page: the login (kept in sessionStorage, never in a URL), calls to /api/ with
+// Shared by every page: the login (one per browser, in localStorage, never in a URL; every tab
+// follows it: logged out or expired in one, logged out in all), calls to /api/ with
 // its bearer token, elements built from data as text only (never HTML from data), the top bar
 // by role, and small formatters. Pages are plain scripts loaded with `defer`; no framework.
 'use strict';
@@ -7,18 +8,54 @@ const FL = (() => {
   const KEY = 'forklift.login';
   const STAFF = ['admin', 'instructor', 'examiner'];
 
-  function login() {
+  // The browser's login, shared by its tabs (issue 18, item 7): an instructor watching four cabs
+  // logs in once. On a school's shared PC "Log out" in any tab ends it in every tab (and on the
+  // server); an expired one is removed by the first tab that sees it.
+  function stored() {
     try {
-      const l = JSON.parse(sessionStorage.getItem(KEY));
-      if (l && l.token && l.expires_at > Date.now()) return l;
+      return JSON.parse(localStorage.getItem(KEY));
     } catch (e) {
-      // unreadable: treated as logged out
+      return null;  // unreadable: treated as logged out
     }
+  }
+
+  function login() {
+    const l = stored();
+    if (l && l.token && l.expires_at > Date.now()) return l;
+    if (l) localStorage.removeItem(KEY);  // expired: every other tab hears it and goes to the login
     return null;
   }
 
-  function setLogin(l) { sessionStorage.setItem(KEY, JSON.stringify(l)); }
-  function clearLogin() { sessionStorage.removeItem(KEY); }
+  function setLogin(l) { localStorage.setItem(KEY, JSON.stringify(l)); }
+  function clearLogin() { localStorage.removeItem(KEY); }
+  // Only the login `l` itself: a tab holding an older token must not end a newer login.
+  function clearLoginOf(l) {
+    const now = stored();
+    if (!now || now.token === l.token) clearLogin();
+  }
+
+  // This page, as the login page's `next` (it comes back here afterwards).
+  const here = () => location.pathname.replace(/^\//, '') + location.search;
+
+  // A page shown for login `l` leaves when that login ends, in this tab or another: logged out
+  // (to the login page), expired (the same, saying so), or replaced by another user's (reloaded
+  // for them).
+  function followLogin(l) {
+    const expired = () => {
+      clearLoginOf(l);
+      location.replace('index.html?expired=1&next=' + encodeURIComponent(here()));
+    };
+    const check = () => {
+      const now = stored();
+      if (!now || !now.token) location.replace('index.html?next=' + encodeURIComponent(here()));
+      else if (now.token !== l.token) location.reload();
+      else if (now.expires_at <= Date.now()) expired();
+    };
+    window.addEventListener('storage', (ev) => { if (ev.key === KEY || ev.key === null) check(); });
+    // A background tab's timers may run late: look again whenever it is shown.
+    document.addEventListener('visibilitychange', () => { if (!document.hidden) check(); });
+    setTimeout(expired, Math.min(Math.max(0, l.expires_at - Date.now()), 2 ** 31 - 1));
+  }
 
   class ApiError extends Error {
     constructor(status, code, message) {
@@ -50,7 +87,7 @@ const FL = (() => {
     if (!res.ok) {
       const err = data && data.error ? data.error : { code: 'error', message: res.statusText };
       if (res.status === 401 && l) {
-        clearLogin();
+        clearLoginOf(l);
         location.assign('index.html?expired=1');
       }
       throw new ApiError(res.status, err.code, err.message);
@@ -89,7 +126,7 @@ const FL = (() => {
   function requireLogin(roles) {
     const l = login();
     if (!l) {
-      location.replace('index.html?next=' + encodeURIComponent(location.pathname.replace(/^\//, '') + location.search));
+      location.replace('index.html?next=' + encodeURIComponent(here()));
       throw new Error('not logged in');
     }
     if (roles && !roles.includes(l.role)) {
@@ -97,6 +134,7 @@ const FL = (() => {
       throw new Error('not for this role');
     }
     topBar(l);
+    followLogin(l);
     return l;
   }
 

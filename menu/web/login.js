@@ -1,5 +1,5 @@
-// The login page: POST /api/login, keep the token for this browser tab, go on by role (or to
-// the page that sent us here, if it is one of ours).
+// The login page: POST /api/login, keep the token for this browser (every tab shares it: app.js),
+// go on by role (or to the page that sent us here, if it is one of ours).
 'use strict';
 (() => {
   const { api, setLogin, login, homeOf, say, describeError, param } = FL;
@@ -13,7 +13,12 @@
   }
 
   const already = login();
-  if (already && !param('expired')) location.replace(safeNext() || homeOf(already));
+  if (already) location.replace(safeNext() || homeOf(already));
+  // Logged in meanwhile in another tab of this browser: go on as that login.
+  window.addEventListener('storage', () => {
+    const l = login();
+    if (l) location.replace(safeNext() || homeOf(l));
+  });
 
   document.getElementById('login').addEventListener('submit', async (ev) => {
     ev.preventDefault();

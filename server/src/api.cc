@@ -1,7 +1,10 @@
 #include "api.h"
 
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 
+#include "contract.h"
 #include "forklift/server/listener.h"
 
 namespace forklift::server {
@@ -19,6 +22,34 @@ void send_error(httplib::Response& res, int status, const std::string& code, con
   send_json(res, status, {{"error", {{"code", code}, {"message", message}}}});
 }
 
+void internal_error(httplib::Response& res, const httplib::Request& req, const std::string& detail) {
+  spdlog::error("{} {}: {}", req.method, req.path, detail);  // the detail for the administrator, never the client
+  send_error(res, 500, "internal", "the server could not do this just now: try again, or ask the school's administrator (the server's log says why)");
+}
+
+namespace {
+
+// A store's refusal in words a school reads: what() has the store's function and, for some, the
+// database's own text (SQLite's or PostgreSQL's), which go to the server's log only.
+void store_refusal(httplib::Response& res, const httplib::Request& req, const store::StoreError& e) {
+  switch (e.kind()) {
+    case store::StoreError::kNotFound:
+      spdlog::info("{} {}: {}", req.method, req.path, e.what());
+      return send_error(res, 404, "not_found", "a record this needs does not exist (or is another school's)");
+    case store::StoreError::kConflict:
+      spdlog::info("{} {}: {}", req.method, req.path, e.what());
+      return send_error(res, 409, "conflict", "this conflicts with what the school's records hold: a name already taken, or a record that is kept as it was written");
+    case store::StoreError::kInvalid:
+      spdlog::info("{} {}: {}", req.method, req.path, e.what());
+      return send_error(res, 400, "bad_request", "the school's records cannot hold a value of this request");
+    case store::StoreError::kIo: break;
+  }
+  spdlog::error("{} {}: {}", req.method, req.path, e.what());
+  send_error(res, 500, "store_error", "the school's records could not be read or written just now: try again, or ask the school's administrator");
+}
+
+}  // namespace
+
 Handler guarded(Handler h) {
   return [h](const httplib::Request& req, httplib::Response& res) {
     try {
@@ -28,23 +59,25 @@ Handler guarded(Handler h) {
     } catch (const ApiError& e) {
       send_error(res, e.status, e.code, e.what());
     } catch (const store::StoreError& e) {
-      const int status = e.kind() == store::StoreError::kNotFound ? 404 : e.kind() == store::StoreError::kConflict ? 409
-                         : e.kind() == store::StoreError::kInvalid ? 400 : 500;
-      const char* code = status == 404 ? "not_found" : status == 409 ? "conflict" : status == 400 ? "bad_request" : "store_error";
-      send_error(res, status, code, e.what());
+      store_refusal(res, req, e);
     }
   };
 }
 
 json body_json(const httplib::Request& req) {
   if (req.body.empty()) throw ApiError(400, "bad_request", "a JSON body is required");
+  json j;
   try {
-    json j = json::parse(req.body);
-    if (!j.is_object()) throw ApiError(400, "bad_request", "the body must be a JSON object");
-    return j;
-  } catch (const json::exception& e) {  // parse_error, and out_of_range for a number beyond a double
-    throw ApiError(400, "bad_json", std::string("the body is not valid JSON: ") + e.what());
+    j = json::parse(req.body);
+  } catch (const json::parse_error& e) {  // its what() is the parser's: say where, in words
+    throw ApiError(400, "bad_json", "the body is not valid JSON (it goes wrong at character " + std::to_string(e.byte) + ")");
+  } catch (const json::exception&) {  // out_of_range: a number beyond a double
+    throw ApiError(400, "bad_json", "the body is not valid JSON (a number in it is too large)");
   }
+  if (!j.is_object()) throw ApiError(400, "bad_request", "the body must be a JSON object");
+  // The body as server/openapi.yaml has it for this request (issue 18, item 6).
+  if (const Operation* op = api_contract().find(req.method, req.path)) api_contract().check_body(*op, j);
+  return j;
 }
 
 std::string username_field(const json& j) {
@@ -66,13 +99,14 @@ int64_t path_id(const httplib::Request& req, int i) {
 int query_int(const httplib::Request& req, const char* key, int dflt, int hi) {
   if (!req.has_param(key)) return dflt;
   const std::string text = req.get_param_value(key);
-  const bool negative = !text.empty() && text[0] == '-';
-  const std::string digits = text.substr(negative ? 1 : 0);
-  if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos)
-    throw ApiError(400, "bad_request", std::string("'") + key + "' must be a whole number");
-  if (negative) return 0;
-  // Past `hi` (or past any int) is `hi`.
-  return digits.size() > 9 ? hi : std::min(std::stoi(digits), hi);
+  // A whole number in [0, hi] (server/openapi.yaml's range, which the contract has checked
+  // already for a documented operation), else 400: never clamped, so no client reads a short page
+  // as the whole.
+  if (text.empty() || text.size() > 12 || text.find_first_not_of("0123456789") != std::string::npos)
+    throw ApiError(400, "bad_request", std::string("'") + key + "' must be a whole number from 0 to " + std::to_string(hi));
+  const int64_t v = std::stoll(text);
+  if (v > hi) throw ApiError(400, "bad_request", std::string("'") + key + "' must be at most " + std::to_string(hi) + " (found " + text + ")");
+  return static_cast<int>(v);
 }
 
 Principal authenticate(Context& ctx, const httplib::Request& req) {

@@ -35,8 +35,11 @@ void send_json(httplib::Response& res, int status, const json& body);
 void send_error(httplib::Response& res, int status, const std::string& code, const std::string& message);
 
 using Handler = std::function<void(const httplib::Request&, httplib::Response&)>;
-// `h` with ApiError and StoreError answered as JSON errors (404, 409, 400 or 500 for the store's).
+// `h` with ApiError and StoreError answered as JSON errors (404, 409, 400 or 500 for the store's,
+// in words: the store's own text goes to the server's log only).
 Handler guarded(Handler h);
+// 500 internal, saying nothing of `detail` (an exception's text), which goes to the server's log.
+void internal_error(httplib::Response& res, const httplib::Request& req, const std::string& detail);
 
 // ---------------------------------------------------------------- the request
 json body_json(const httplib::Request& req);  // a JSON object, else 400
@@ -91,8 +94,8 @@ T field(const json& j, const char* key, std::optional<T> fallback = std::nullopt
 std::string username_field(const json& j);
 
 int64_t path_id(const httplib::Request& req, int i = 1);  // the path's i-th match as an id, else 404
-// A whole-number query parameter clamped to [0, hi], or `dflt` when absent; 400 if it is not
-// one (digits, perhaps after a minus sign, and nothing else).
+// A whole-number query parameter in [0, hi], or `dflt` when absent; 400 if it is not one (digits
+// and nothing else) or is above `hi`.
 int query_int(const httplib::Request& req, const char* key, int dflt, int hi);
 
 // ---------------------------------------------------------------- who asks

@@ -7,9 +7,9 @@
 
 namespace forklift::server {
 
-// `load` (an object of mass_kg, and optionally cog_height_m and lateral_m) with each value as a
-// number in its range; throws ApiError(400) naming the first bad key. A null load (none) is the
-// caller's business.
+// `load` (an object of mass_kg, and optionally cog_height_m and lateral_m, as the Load schema of
+// server/openapi.yaml has it: body_json has checked that) within the simulation's own limits;
+// throws ApiError(400) naming the first bad key. A null load (none) is the caller's business.
 nlohmann::json check_load_request(const nlohmann::json& load, const std::string& data_dir);
 
 }  // namespace forklift::server

@@ -1,6 +1,8 @@
 // What sessions are made of: the scenarios (and their plans), the trucks, and the school's cabs.
 #include <set>
 
+#include <spdlog/spdlog.h>
+
 #include "api.h"
 #include "catalogue.h"
 #include "routes.h"
@@ -9,7 +11,7 @@ namespace forklift::server {
 
 using store::Role;
 
-void catalogue_routes(httplib::Server& svr, Context& ctx) {
+void catalogue_routes(Routes& svr, Context& ctx) {
   svr.Get("/api/scenarios", guarded([&](const httplib::Request& req, httplib::Response& res) {
     authenticate(ctx, req);
     json out = json::array();
@@ -40,7 +42,8 @@ void catalogue_routes(httplib::Server& svr, Context& ctx) {
     try {
       send_json(res, 200, read_json_file(file));
     } catch (const std::exception& e) {
-      throw ApiError(500, "bad_scenario", e.what());
+      spdlog::error("scenario {}: {}", file, e.what());  // the file's problem for the administrator, not the client
+      throw ApiError(500, "bad_scenario", "the scenario '" + std::string(req.matches[1]) + "' cannot be read: the server's log says why");
     }
   }));
 
@@ -50,7 +53,8 @@ void catalogue_routes(httplib::Server& svr, Context& ctx) {
     try {
       send_json(res, 200, ctx.plans->plan(file));
     } catch (const std::exception& e) {
-      throw ApiError(500, "bad_scenario", e.what());
+      spdlog::error("scenario {}: {}", file, e.what());  // the file's problem for the administrator, not the client
+      throw ApiError(500, "bad_scenario", "the scenario '" + std::string(req.matches[1]) + "' cannot be read: the server's log says why");
     }
   }));
 

@@ -44,7 +44,7 @@ std::string typed_text(const json& b, const char* key, size_t max_chars, bool re
 
 }  // namespace
 
-void debrief_routes(httplib::Server& svr, Context& ctx) {
+void debrief_routes(Routes& svr, Context& ctx) {
   // The notes and sign-off; a pupil reads their own sessions' debriefs.
   svr.Get(R"(/api/sessions/(s-\d+)/debrief)", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);

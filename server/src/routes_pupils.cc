@@ -66,7 +66,7 @@ json history_json(Context& ctx, const store::PupilHistory& h, const std::vector<
 
 }  // namespace
 
-void pupil_routes(httplib::Server& svr, Context& ctx) {
+void pupil_routes(Routes& svr, Context& ctx) {
   svr.Get("/api/pupils", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
     require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
@@ -96,6 +96,7 @@ void pupil_routes(httplib::Server& svr, Context& ctx) {
       if (username) ctx.db().create_user(*username, *hash, Role::kPupil, p.school_id, id);
       audit(ctx.db(), p, id, "pupil_created", {{"name", name}, {"email", email}, {"username", username ? json(*username) : json(nullptr)}});
     });
+    res.set_header("Location", "/api/pupils/" + std::to_string(id));
     send_json(res, 201, pupil_json(*ctx.db().get_pupil(id)));
   }));
 
@@ -103,9 +104,7 @@ void pupil_routes(httplib::Server& svr, Context& ctx) {
   svr.Patch(R"(/api/pupils/(\d+))", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
     require_role(p, {Role::kAdmin, Role::kInstructor});
-    const json b = body_json(req);
-    for (const auto& [key, value] : b.items())
-      if (key != "name" && key != "email") throw ApiError(400, "bad_request", "'" + key + "' cannot be edited: only name and email");
+    const json b = body_json(req);  // name and email only (PupilEdit)
     store::Pupil after;
     ctx.db().batch([&] {  // read inside, so that the "before" recorded is the version replaced
       const store::Pupil before = visible_pupil(ctx, p, path_id(req));

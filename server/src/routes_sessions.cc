@@ -3,7 +3,8 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
-#include <regex>
+
+#include <spdlog/spdlog.h>
 
 #include "api.h"
 #include "catalogue.h"
@@ -46,10 +47,10 @@ std::pair<store::Session, LiveView> followed(Context& ctx, const httplib::Reques
 
 // The training aids asked for ("aids": ["rear_view", ...]) as the worker's --aids list; none
 // given: the worker's default (all of them in training, none in an exam). An exam takes no aids.
+// A list of known aids' names: body_json has checked it against NewSession.
 std::optional<std::string> aids_request(const json& b, const std::string& mode) {
   if (!b.contains("aids")) return std::nullopt;
   const json& a = b["aids"];
-  if (!a.is_array()) throw ApiError(400, "bad_request", std::string("'aids' must be a list of ") + aids::kNameList);
   if (mode == "exam" && !a.empty())
     throw ApiError(400, "bad_request", "an exam is taken without training aids: leave 'aids' out of an exam session");
   uint8_t asked = 0;
@@ -70,14 +71,13 @@ std::optional<std::string> aids_request(const json& b, const std::string& mode) 
 
 }  // namespace
 
-void session_routes(httplib::Server& svr, Context& ctx) {
+void session_routes(Routes& svr, Context& ctx) {
   svr.Post("/api/sessions", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
     require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
     const json b = body_json(req);
     const store::Pupil pupil = visible_pupil(ctx, p, field<int64_t>(b, "pupil_id"));
-    const std::string cab = field<std::string>(b, "cab_id");
-    if (!std::regex_match(cab, std::regex("[A-Za-z0-9_-]{1,32}"))) throw ApiError(400, "bad_request", "'cab_id' must be 1-32 letters, digits, - or _");
+    const std::string cab = field<std::string>(b, "cab_id");  // its form, as every field's, checked by body_json (NewSession)
     const std::string scenario = field<std::string>(b, "scenario");
     const std::string scenario_path = scenario_file(ctx.data_dir, scenario);
     const std::string mode = field<std::string>(b, "mode", std::string("training"));
@@ -118,8 +118,7 @@ void session_routes(httplib::Server& svr, Context& ctx) {
     }
     // An instructor may shorten a session (never lengthen an exam's time limit).
     if (b.contains("time_limit_s")) {
-      const double limit = field<double>(b, "time_limit_s");
-      if (!(limit > 0 && limit <= 24 * 3600)) throw ApiError(400, "bad_request", "'time_limit_s' must be in (0, 86400]");
+      const double limit = field<double>(b, "time_limit_s");  // in (0, 86400]: NewSession
       duration = duration ? std::min(*duration, limit) : limit;
     }
     store::Session s;
@@ -142,8 +141,10 @@ void session_routes(httplib::Server& svr, Context& ctx) {
       ctx.fleet->start_worker(s, file, duration, aids);
     } catch (const std::exception& e) {
       ctx.db().set_session_state_audited(s.public_id, "failed", e.what(), store::now_iso8601(), kServerActor);
-      throw ApiError(503, "no_worker", e.what());
+      spdlog::error("session {}: no worker: {}", s.public_id, e.what());
+      throw ApiError(503, "no_worker", "no simulation could be started for this session: the server's log says why");
     }
+    res.set_header("Location", "/api/sessions/" + s.public_id);
     send_json(res, 201, session_json(*ctx.db().get_session(s.public_id)));
   }));
 
@@ -209,7 +210,8 @@ void session_routes(httplib::Server& svr, Context& ctx) {
       res.set_content(ctx.stills->png(r), "image/png");
       res.set_header("Cache-Control", "private, max-age=86400");
     } catch (const std::runtime_error& e) {
-      throw ApiError(500, "render_failed", e.what());
+      spdlog::error("session {} event {}: still: {}", s.public_id, seq, e.what());
+      throw ApiError(500, "render_failed", "the picture of this event could not be made: the server's log says why");
     }
   }));
 

@@ -382,7 +382,7 @@ void end_overdue_papers(Context& ctx) {
   }
 }
 
-void theory_routes(httplib::Server& svr, Context& ctx) {
+void theory_routes(Routes& svr, Context& ctx) {
   svr.Get("/api/theory", guarded([&](const httplib::Request& req, httplib::Response& res) {
     authenticate(ctx, req);
     const QuestionBank& bank = *ctx.bank;
@@ -471,6 +471,7 @@ void theory_routes(httplib::Server& svr, Context& ctx) {
             {{"attempt", a.id}, {"kind", kind}, {"seed", a.seed}, {"bank_version", ctx.bank->version}, {"questions", count},
              {"time_limit_s", limit_s}, {"deadline", a.deadline}, {"supervised_by", kind == kExam ? json(p.username) : json(nullptr)}});
     });
+    res.set_header("Location", "/api/theory/attempts/" + std::to_string(a.id));
     send_json(res, 201, attempt_json(ctx, a, now));
   }));
 
@@ -628,6 +629,7 @@ void theory_routes(httplib::Server& svr, Context& ctx) {
             {{"unlock", id}, {"reason", reason}, {"attempts_before", before.attempts},
              {"was", before.allowed ? json(nullptr) : json(before.code)}});
     });
+    res.set_header("Location", "/api/theory/pupils/" + std::to_string(pupil.id));  // the standing, with its unlocks
     send_json(res, 201, pupil_theory_json(ctx, pupil));
   }));
 }

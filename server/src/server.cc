@@ -10,6 +10,7 @@
 
 #include "api.h"
 #include "context.h"
+#include "contract.h"
 #include "forklift/server/listener.h"
 #include "routes.h"
 
@@ -29,6 +30,8 @@ const char* const kContentSecurityPolicy =
     "base-uri 'none'; form-action 'self'; frame-ancestors 'none'";
 
 void security_headers(const httplib::Request& req, httplib::Response& res) {
+  // RFC 9110: a 401 names the scheme that would let the client in.
+  if (res.status == 401 && !res.has_header("WWW-Authenticate")) res.set_header("WWW-Authenticate", "Bearer realm=\"forklift\"");
   res.set_header("X-Content-Type-Options", "nosniff");
   res.set_header("Content-Security-Policy", kContentSecurityPolicy);
   res.set_header("Referrer-Policy", "no-referrer");
@@ -60,7 +63,26 @@ std::string random_password() {
 
 }  // namespace
 
-Api::Api(ServerConfig c) : ctx_(std::make_unique<Context>()) {
+void Routes::add(const char* method, const std::string& pattern) {
+  routes_.push_back({method, pattern});
+  patterns_.emplace_back(pattern);  // httplib matches the whole path against it, as here
+}
+
+std::string Routes::allowed(const std::string& path) const {
+  std::string out;
+  for (size_t i = 0; i < routes_.size(); ++i)
+    if (std::regex_match(path, patterns_[i]) && out.find(routes_[i].method) == std::string::npos)
+      out += (out.empty() ? "" : ", ") + routes_[i].method;
+  return out;
+}
+
+std::vector<RouteInfo> documented_operations() {
+  std::vector<RouteInfo> out;
+  for (const auto& o : api_contract().operations()) out.push_back({o.method, o.path, o.operation_id});
+  return out;
+}
+
+Api::Api(ServerConfig c) : ctx_(std::make_unique<Context>()), contract_(&api_contract()) {
   if (sodium_init() < 0) throw std::runtime_error("libsodium failed to initialise");
   if (c.log_dir.empty()) c.log_dir = store::is_postgresql_location(c.db_path) ? "forklift.logs" : c.db_path + ".logs";
   std::filesystem::create_directories(c.log_dir);
@@ -118,29 +140,56 @@ void Api::mount(httplib::Server& svr) {
   // Headers and body go out as separate writes; without this, Nagle and delayed ACKs hold each
   // keep-alive answer for 40 ms.
   svr.set_tcp_nodelay(true);
-  svr.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
-    std::string what = "internal error";
+  svr.set_exception_handler([](const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
+    std::string what = "unknown exception";
     try { std::rethrow_exception(ep); } catch (const std::exception& e) { what = e.what(); } catch (...) {}
-    send_error(res, 500, "internal", what);
+    internal_error(res, req, what);
   });
-  svr.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
+  auto routes = std::make_shared<Routes>(svr);
+  svr.set_error_handler([routes](const httplib::Request& req, httplib::Response& res) {
     if (const Refusal* r = request_refusal()) {
       res.set_header("Connection", "close");  // the listener closes it after the answer
       return send_error(res, r->status, r->code, r->message);
     }
     if (!res.body.empty()) return;
     if (res.status == 413 || req.body.size() > kMaxBodyBytes) return send_error(res, 413, kBodyTooLarge.code, kBodyTooLarge.message);
+    if (res.status == 404) {
+      if (const std::string allow = routes->allowed(req.path); !allow.empty()) {
+        res.set_header("Allow", allow);
+        return send_error(res, 405, "method_not_allowed", "this address does not take " + req.method + ", only " + allow);
+      }
+    }
     const int s = res.status;
     send_error(res, s, s == 404 ? "not_found" : s == 400 ? "bad_request" : "error",
                s == 404 ? "no such endpoint" : s == 400 ? "the request is malformed or was cut short" : "request refused");
   });
-  account_routes(svr, *ctx_);
-  pupil_routes(svr, *ctx_);
-  catalogue_routes(svr, *ctx_);
-  session_routes(svr, *ctx_);
-  debrief_routes(svr, *ctx_);
-  theory_routes(svr, *ctx_);
-  exam_routes(svr, *ctx_);
+  // Every request's query parameters are checked against server/openapi.yaml before its handler
+  // (its body, which httplib reads after this, by body_json). A request that needs a login and has
+  // none that holds goes on unchecked, so that its handler answers 401 first.
+  svr.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    const Operation* op = contract_->find(req.method, req.path);
+    if (!op) return httplib::Server::HandlerResponse::Unhandled;
+    if (op->secured) {
+      const std::string h = req.get_header_value("Authorization");
+      if (h.rfind("Bearer ", 0) != 0 || !ctx_->tokens->check(h.substr(7)).principal) return httplib::Server::HandlerResponse::Unhandled;
+    }
+    try {
+      contract_->check_query(*op, req);
+      return httplib::Server::HandlerResponse::Unhandled;
+    } catch (const ApiError& e) {
+      send_error(res, e.status, e.code, e.what());
+      return httplib::Server::HandlerResponse::Handled;
+    }
+  });
+  account_routes(*routes, *ctx_);
+  pupil_routes(*routes, *ctx_);
+  catalogue_routes(*routes, *ctx_);
+  session_routes(*routes, *ctx_);
+  debrief_routes(*routes, *ctx_);
+  theory_routes(*routes, *ctx_);
+  exam_routes(*routes, *ctx_);
+  routes_.clear();
+  for (const auto& r : routes->all()) routes_.push_back({r.method, r.pattern, ""});
   svr.set_post_routing_handler(security_headers);
 }
 

@@ -3,7 +3,6 @@
 #include <cmath>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <regex>
 #include <sstream>
 #include <valijson/adapters/nlohmann_json_adapter.hpp>
@@ -12,6 +11,7 @@
 #include <valijson/validation_results.hpp>
 #include <valijson/validator.hpp>
 
+#include "forklift/schema/checker.h"
 #include "forklift/schema/data_file.h"
 #include "schemas.h"
 
@@ -19,28 +19,6 @@ namespace forklift::schema {
 namespace {
 
 using nlohmann::json;
-
-struct Compiled {
-  json text;  // the schema as JSON, walked again to word a problem
-  valijson::Schema schema;
-};
-
-// Parsed and compiled once per program (the schemas never change while it runs).
-const Compiled& compiled(Schema which) {
-  static std::once_flag once;
-  static std::map<Schema, std::unique_ptr<Compiled>> all;
-  std::call_once(once, [] {
-    for (const auto& [s, text] : {std::pair{Schema::kTruck, kTruckSchemaText}, std::pair{Schema::kScenario, kScenarioSchemaText}}) {
-      auto c = std::make_unique<Compiled>();
-      c->text = json::parse(text);  // our own file: a parse error here is a build mistake and aborts
-      valijson::SchemaParser parser;
-      valijson::adapters::NlohmannJsonAdapter adapter(c->text);
-      parser.populateSchema(adapter, c->schema);
-      all.emplace(s, std::move(c));
-    }
-  });
-  return *all.at(which);
-}
 
 // One step of valijson's context ("[objects]", "[3]"), without its brackets.
 std::string step_of(const std::string& context) {
@@ -166,6 +144,9 @@ std::string words_for(const json& s, const json& value) {
     if (s.contains("maxLength") && n > s["maxLength"].get<size_t>())
       return "is longer than " + std::to_string(s["maxLength"].get<size_t>()) + " characters";
   }
+  // "x-rule" says in words what a pattern asks for (the API description's own key).
+  if (value.is_string() && s.contains("pattern") && !std::regex_search(value.get<std::string>(), std::regex(s["pattern"].get<std::string>())))
+    return s.contains("x-rule") ? "must be " + s["x-rule"].get<std::string>() : "is not in the form it must have";
   if (s.contains("enum") && std::find(s["enum"].begin(), s["enum"].end(), value) == s["enum"].end()) {
     // "must be chassis, mast or carriage (found wheel)"
     const auto word = [](const json& v) { return v.is_string() ? v.get<std::string>() : v.dump(); };
@@ -179,8 +160,23 @@ std::string words_for(const json& s, const json& value) {
 
 }  // namespace
 
-std::optional<std::string> schema_problem(const json& doc, Schema which) {
-  const Compiled& c = compiled(which);
+struct SchemaChecker::Compiled {
+  json text;  // the schema as JSON, walked again to word a problem
+  valijson::Schema schema;
+};
+
+SchemaChecker::SchemaChecker(json schema) : compiled_(std::make_unique<Compiled>()) {
+  compiled_->text = std::move(schema);
+  valijson::SchemaParser parser;
+  valijson::adapters::NlohmannJsonAdapter adapter(compiled_->text);
+  parser.populateSchema(adapter, compiled_->schema);
+}
+SchemaChecker::~SchemaChecker() = default;
+SchemaChecker::SchemaChecker(SchemaChecker&&) noexcept = default;
+SchemaChecker& SchemaChecker::operator=(SchemaChecker&&) noexcept = default;
+
+std::optional<SchemaChecker::Problem> SchemaChecker::problem(const json& doc) const {
+  const Compiled& c = *compiled_;
   valijson::Validator validator;
   valijson::ValidationResults results;
   valijson::adapters::NlohmannJsonAdapter adapter(doc);
@@ -213,14 +209,35 @@ std::optional<std::string> schema_problem(const json& doc, Schema which) {
       return start == std::string::npos ? std::string() : d.substr(start + 1, end - start - 1);
     };
     const std::string prefix = key.empty() ? "" : key + ".";
-    if (d.rfind("Missing required property", 0) == 0) return "'" + prefix + quoted() + "' is missing";
+    if (d.rfind("Missing required property", 0) == 0) return Problem{Problem::kMissing, prefix + quoted(), "", d};
     if (d.find("could not be validated using 'properties' or 'additionalProperties'") != std::string::npos)
-      return "'" + prefix + quoted() + "' is not a known key";
-    std::string words = value && sub ? words_for(*sub, *value) : "";
-    if (words.empty()) words = "breaks the file's schema: " + d;
-    return (key.empty() ? std::string("the top level") : "'" + key + "'") + " " + words;
+      return Problem{Problem::kUnknownKey, prefix + quoted(), "", d};
+    return Problem{Problem::kRule, key, value && sub ? words_for(*sub, *value) : "", d};
   }
-  return "breaks the file's schema";
+  return Problem{Problem::kRule, "", "", "no error listed"};
+}
+
+namespace {
+
+// The built-in schemas, compiled once per program (they never change while it runs).
+const SchemaChecker& built_in(Schema which) {
+  static const SchemaChecker truck(json::parse(kTruckSchemaText));  // our own files: a parse error is a build mistake
+  static const SchemaChecker scenario(json::parse(kScenarioSchemaText));
+  return which == Schema::kTruck ? truck : scenario;
+}
+
+}  // namespace
+
+std::optional<std::string> schema_problem(const json& doc, Schema which) {
+  const auto p = built_in(which).problem(doc);
+  if (!p) return std::nullopt;
+  switch (p->kind) {
+    case SchemaChecker::Problem::kMissing: return "'" + p->key + "' is missing";
+    case SchemaChecker::Problem::kUnknownKey: return "'" + p->key + "' is not a known key";
+    case SchemaChecker::Problem::kRule: break;
+  }
+  const std::string words = p->words.empty() ? "breaks the file's schema: " + p->detail : p->words;
+  return (p->key.empty() ? std::string("the top level") : "'" + p->key + "'") + " " + words;
 }
 
 }  // namespace forklift::schema

@@ -51,6 +51,17 @@ struct ServerConfig {
 };
 
 struct Context;
+class Contract;
+
+// A route: what the server registered (path: httplib's pattern, /api/pupils/(\d+)) or what
+// server/openapi.yaml documents (path: /api/pupils/{id}, with its operationId).
+struct RouteInfo {
+  std::string method;
+  std::string path;
+  std::string operation_id;
+};
+// Every operation of the API description built into the server.
+std::vector<RouteInfo> documented_operations();
 
 // The server's state (logins, store, fleet, question bank, caches) and its routes. Constructing
 // it opens the store, gives a new database its school and admin, and starts the fleet (DDS).
@@ -64,6 +75,8 @@ class Api {
   // Every /api route on `svr`, with the server's error answers, security headers and body limit.
   // `svr` must not outlive this Api.
   void mount(httplib::Server& svr);
+  // What mount() registered, in its order.
+  const std::vector<RouteInfo>& routes() const { return routes_; }
 
   // The admin password made up for a new database, to be shown once; empty if none was made.
   const std::string& generated_admin_password() const { return generated_admin_password_; }
@@ -72,6 +85,8 @@ class Api {
 
  private:
   std::unique_ptr<Context> ctx_;
+  const Contract* contract_;  // api_contract()
+  std::vector<RouteInfo> routes_;
   std::string generated_admin_password_;
   std::string log_dir_;
 };
