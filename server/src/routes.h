@@ -21,11 +21,11 @@ class Routes {
     std::string pattern;  // as registered: /api/pupils/(\d+)
   };
   explicit Routes(httplib::Server& svr) : svr_(svr) {}
-  void Get(const std::string& pattern, httplib::Server::Handler h) { add("GET", pattern), svr_.Get(pattern, std::move(h)); }
-  void Post(const std::string& pattern, httplib::Server::Handler h) { add("POST", pattern), svr_.Post(pattern, std::move(h)); }
-  void Put(const std::string& pattern, httplib::Server::Handler h) { add("PUT", pattern), svr_.Put(pattern, std::move(h)); }
-  void Patch(const std::string& pattern, httplib::Server::Handler h) { add("PATCH", pattern), svr_.Patch(pattern, std::move(h)); }
-  void Delete(const std::string& pattern, httplib::Server::Handler h) { add("DELETE", pattern), svr_.Delete(pattern, std::move(h)); }
+  void Get(const std::string& pattern, httplib::Server::Handler h) { add("GET", pattern); svr_.Get(pattern, std::move(h)); }
+  void Post(const std::string& pattern, httplib::Server::Handler h) { add("POST", pattern); svr_.Post(pattern, std::move(h)); }
+  void Put(const std::string& pattern, httplib::Server::Handler h) { add("PUT", pattern); svr_.Put(pattern, std::move(h)); }
+  void Patch(const std::string& pattern, httplib::Server::Handler h) { add("PATCH", pattern); svr_.Patch(pattern, std::move(h)); }
+  void Delete(const std::string& pattern, httplib::Server::Handler h) { add("DELETE", pattern); svr_.Delete(pattern, std::move(h)); }
 
   const std::vector<Route>& all() const { return routes_; }
   // The methods registered for `path`, as an Allow header lists them ("GET, PATCH"); empty: none.

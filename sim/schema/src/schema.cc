@@ -146,7 +146,7 @@ std::string words_for(const json& s, const json& value) {
   }
   // "x-rule" says in words what a pattern asks for (the API description's own key).
   if (value.is_string() && s.contains("pattern") && !std::regex_search(value.get<std::string>(), std::regex(s["pattern"].get<std::string>())))
-    return s.contains("x-rule") ? "must be " + s["x-rule"].get<std::string>() : "is not in the form it must have";
+    return s.contains("x-rule") ? s["x-rule"].get<std::string>() : "is not in the form it must have";
   if (s.contains("enum") && std::find(s["enum"].begin(), s["enum"].end(), value) == s["enum"].end()) {
     // "must be chassis, mast or carriage (found wheel)"
     const auto word = [](const json& v) { return v.is_string() ? v.get<std::string>() : v.dump(); };
