@@ -3,6 +3,8 @@
 #include "forklift/server/listener.h"
 
 #include <netdb.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
 #include <openssl/ssl.h>
 #include <poll.h>
 #include <pthread.h>
@@ -374,10 +376,14 @@ bool serve(Transport& t, const Settings& s, const ProcessRequest& process,
 }
 
 // SO_REUSEADDR, so that a restarted server binds while its old connections linger in TIME_WAIT;
-// not SO_REUSEPORT (httplib's default), which lets a second server listen on the same port.
+// not SO_REUSEPORT (httplib's default), which lets a second server listen on the same port. And
+// TCP_NODELAY, which the connections inherit: the port is bound before the API sets httplib's own
+// flag, and without it every answer of a kept-alive connection waited ~40 ms for the client's
+// delayed ACK (Nagle), holding the server to some 140 requests a second.
 void reuse_address_only(socket_t sock) {
   const int yes = 1;
   setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+  setsockopt(sock, IPPROTO_TCP, TCP_NODELAY, &yes, sizeof yes);
 }
 
 // Answers a refused request without reading its body or routing it; the API's error handler
