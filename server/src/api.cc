@@ -112,7 +112,8 @@ store::Pupil visible_pupil(Context& ctx, const Principal& p, int64_t id) {
 }
 
 json pupil_json(const store::Pupil& p) {
-  return {{"id", p.id}, {"name", p.name}, {"email", p.email}, {"created_at", p.created_at}};
+  return {{"id", p.id}, {"name", p.name}, {"email", p.email}, {"created_at", p.created_at},
+          {"group_id", p.group_id ? json(*p.group_id) : json(nullptr)}};
 }
 
 json session_json(const store::Session& s) {

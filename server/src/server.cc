@@ -139,6 +139,7 @@ void Api::mount(httplib::Server& svr) {
   session_routes(svr, *ctx_);
   theory_routes(svr, *ctx_);
   exam_routes(svr, *ctx_);
+  list_routes(svr, *ctx_);
   svr.set_post_routing_handler(security_headers);
 }
 
