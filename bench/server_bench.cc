@@ -198,6 +198,36 @@ double store_history_rate(const std::string& location, int64_t first_id, int pup
   return calls / (ms_since(t0) / 1e3);
 }
 
+// The lists' store calls straight on the store from one thread, no HTTP: calls per second of a
+// page of pupils and of a day's sessions, each with its total.
+std::pair<double, double> store_list_rates(const std::string& location, int pupils, double seconds) {
+  auto store = store::Store::open(location);
+  const int64_t school = store->find_user("admin")->school_id;
+  std::mt19937 rng(9);
+  std::uniform_int_distribution<int> offset(0, std::max(0, pupils - 50)), day(1, 28);
+  const auto rate = [&](const std::function<void()>& call) {
+    const auto t0 = Clock::now();
+    long calls = 0;
+    for (; ms_since(t0) < seconds * 1e3; ++calls) call();
+    return calls / (ms_since(t0) / 1e3);
+  };
+  store::PupilFilter pf;
+  pf.school_id = school;
+  const double pupil_rate = rate([&] { store->find_pupils(pf, 50, offset(rng)); });
+  store::SessionFilter sf;
+  sf.school_id = school;
+  const double session_rate = rate([&] {
+    char from[32], to[32];
+    const int d = day(rng);
+    std::snprintf(from, sizeof from, "2026-01-%02dT00:00:00Z", d);
+    std::snprintf(to, sizeof to, "2026-01-%02dT00:00:00Z", d + 1);
+    sf.from = from;
+    sf.to = to;
+    store->find_sessions(sf, 50, 0);
+  });
+  return {pupil_rate, session_rate};
+}
+
 // One store's figures, for the table at the end.
 struct Figures {
   std::string name;
@@ -363,6 +393,9 @@ int main(int argc, char** argv) {
     std::printf("store history() from one thread, no HTTP: %.0f calls/s\n", f.store_rate);
     table.push_back(f);
     for (const auto& [name, path] : lists) row(name, hammer(port, token, clients, seconds, path));
+    const auto [pupil_rate, session_rate] = store_list_rates(location, pupils, seconds);
+    std::printf("store from one thread, no HTTP: find_pupils (a page of 50 and the total) %.0f calls/s, "
+                "find_sessions (a day's first 50 and the total) %.0f calls/s\n", pupil_rate, session_rate);
 
     if (runs > 0 && &db == &dbs.front()) {
       // The last pupil takes the timed sessions, so the history sample above stays the same size.
