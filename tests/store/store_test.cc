@@ -178,6 +178,7 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
     return "DROP TABLE bookings; DROP INDEX pupils_by_group; ALTER TABLE pupils DROP COLUMN group_id; DROP TABLE pupil_groups; "
            "DROP INDEX pupils_by_school_email; DROP INDEX exams_by_time; DROP INDEX sessions_by_starter; "
            "DROP INDEX sessions_by_cab; DROP INDEX sessions_by_time; ALTER TABLE sessions DROP COLUMN started_by; "
+           "DROP INDEX sessions_by_school_time; ALTER TABLE sessions DROP COLUMN school_id; "
            "DELETE FROM schema_migrations WHERE version >= 8; ";
   }
   // SQL that takes migration 7 back out of the database (staff administration: its table, index

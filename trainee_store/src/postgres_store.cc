@@ -368,6 +368,9 @@ CREATE TRIGGER staff_audit_log_no_delete BEFORE DELETE OR TRUNCATE ON staff_audi
 )sql",    // 8: lists a school works with, groups and bookings (issue 18, items 1 and 4), as SQLite's 8.
     R"sql(
 ALTER TABLE sessions ADD COLUMN started_by BIGINT REFERENCES users(id);
+ALTER TABLE sessions ADD COLUMN school_id BIGINT REFERENCES schools(id);
+UPDATE sessions SET school_id = (SELECT school_id FROM pupils WHERE pupils.id = sessions.pupil_id);
+CREATE INDEX sessions_by_school_time ON sessions(school_id, created_at);
 CREATE INDEX sessions_by_time ON sessions(created_at);
 CREATE INDEX sessions_by_cab ON sessions(cab_id, created_at);
 CREATE INDEX sessions_by_starter ON sessions(started_by, created_at);
@@ -993,7 +996,7 @@ class PostgresStore final : public Store {
                                         {"mark", "COALESCE(sessions.mark, -1)"}},
                                        f.sort, f.descending, "sessions.id");
     Conditions where;
-    where.add("p.school_id = ?", {f.school_id});
+    where.add("sessions.school_id = ?", {f.school_id});
     if (f.pupil_id) where.add("sessions.pupil_id = ?", {*f.pupil_id});
     if (!f.search.empty()) {
       const std::string like = contains_pattern(f.search);
@@ -1015,7 +1018,9 @@ class PostgresStore final : public Store {
     const std::string from = " FROM sessions JOIN pupils p ON p.id = sessions.pupil_id" + where.sql();
     Transaction tx(c_, __func__, Transaction::kRead);
     SessionPage page;
-    page.total = count(__func__, "SELECT COUNT(*)" + from, where);
+    // Counted without the pupils unless a filter needs them.
+    const bool by_pupil = !f.search.empty() || f.group_id;
+    page.total = count(__func__, "SELECT COUNT(*)" + (by_pupil ? from : " FROM sessions" + where.sql()), where);
     Query q(c_, __func__, numbered_parameters("SELECT " SESSION_COLUMNS ", p.name" + from + " ORDER BY " + order + " LIMIT ? OFFSET ?").c_str());
     where.bind(q);
     q.bind(limit).bind(offset);
@@ -1194,12 +1199,12 @@ class PostgresStore final : public Store {
                          std::optional<int64_t> started_by) override {
     check_new_session(__func__, mode, cab_id, scenario);
     Transaction tx(c_, __func__, Transaction::kStatement);
-    require(pupil(__func__, pupil_id).has_value(), StoreError::kNotFound, __func__,
-            "no pupil " + std::to_string(pupil_id));
+    const std::optional<Pupil> of = pupil(__func__, pupil_id);
+    require(of.has_value(), StoreError::kNotFound, __func__, "no pupil " + std::to_string(pupil_id));
     Query q(c_, __func__,
-            "INSERT INTO sessions(pupil_id, cab_id, scenario, mode, state, examiner_id, created_at, started_by) "
-            "VALUES ($1, $2, $3, $4, 'starting', $5, $6, $7) RETURNING id, public_id");
-    q.bind(pupil_id).bind(cab_id).bind(scenario).bind(mode).bind(examiner_id).bind(now).bind(started_by);
+            "INSERT INTO sessions(pupil_id, cab_id, scenario, mode, state, examiner_id, created_at, started_by, school_id) "
+            "VALUES ($1, $2, $3, $4, 'starting', $5, $6, $7, $8) RETURNING id, public_id");
+    q.bind(pupil_id).bind(cab_id).bind(scenario).bind(mode).bind(examiner_id).bind(now).bind(started_by).bind(of->school_id);
     q.step();
     Session s;
     s.id = q.int64(0);

@@ -379,6 +379,11 @@ END;
     // instructor, a pupil in at most one; cabs booked for a session at a time.
     R"sql(
 ALTER TABLE sessions ADD COLUMN started_by INTEGER REFERENCES users(id);
+-- The pupil's school, kept with the session so that a list counts a school's sessions from one
+-- index (joining every session to its pupil cost 40 ms for a day of 10,000).
+ALTER TABLE sessions ADD COLUMN school_id INTEGER REFERENCES schools(id);
+UPDATE sessions SET school_id = (SELECT school_id FROM pupils WHERE pupils.id = sessions.pupil_id);
+CREATE INDEX sessions_by_school_time ON sessions(school_id, created_at);
 CREATE INDEX sessions_by_time ON sessions(created_at);
 CREATE INDEX sessions_by_cab ON sessions(cab_id, created_at);
 CREATE INDEX sessions_by_starter ON sessions(started_by, created_at);
@@ -781,7 +786,7 @@ class SqliteStore final : public Store {
                                         {"mark", "COALESCE(sessions.mark, -1)"}},
                                        f.sort, f.descending, "sessions.id");
     Conditions where;
-    where.add("p.school_id = ?", {f.school_id});
+    where.add("sessions.school_id = ?", {f.school_id});
     if (f.pupil_id) where.add("sessions.pupil_id = ?", {*f.pupil_id});
     if (!f.search.empty()) {
       const std::string like = contains_pattern(f.search);
@@ -802,7 +807,9 @@ class SqliteStore final : public Store {
     const std::string from = " FROM sessions JOIN pupils p ON p.id = sessions.pupil_id" + where.sql();
     Transaction tx(db(), __func__, Transaction::kRead);
     SessionPage page;
-    page.total = count(__func__, "SELECT COUNT(*)" + from, where);
+    // Counted without the pupils unless a filter needs them.
+    const bool by_pupil = !f.search.empty() || f.group_id;
+    page.total = count(__func__, "SELECT COUNT(*)" + (by_pupil ? from : " FROM sessions" + where.sql()), where);
     // The page reads sessions first (CROSS JOIN fixes SQLite's join order): through the index of
     // their order or filter, it stops after a page; pupils first, it sorted every session of the
     // day (35 ms for a day of 10,000 sessions, 0.3 ms so). The count keeps the planner's order.
@@ -987,12 +994,12 @@ class SqliteStore final : public Store {
                          const std::string& mode, std::optional<int64_t> examiner_id, const std::string& now,
                          std::optional<int64_t> started_by) override {
     check_new_session(__func__, mode, cab_id, scenario);
-    require(pupil(__func__, pupil_id).has_value(), StoreError::kNotFound, __func__,
-            "no pupil " + std::to_string(pupil_id));
+    const std::optional<Pupil> of = pupil(__func__, pupil_id);
+    require(of.has_value(), StoreError::kNotFound, __func__, "no pupil " + std::to_string(pupil_id));
     Query q = query(__func__,
-                    "INSERT INTO sessions(pupil_id, cab_id, scenario, mode, state, examiner_id, created_at, started_by) "
-                    "VALUES (?, ?, ?, ?, 'starting', ?, ?, ?) RETURNING id, public_id");
-    q.bind(pupil_id).bind(cab_id).bind(scenario).bind(mode).bind(examiner_id).bind(now).bind(started_by);
+                    "INSERT INTO sessions(pupil_id, cab_id, scenario, mode, state, examiner_id, created_at, started_by, school_id) "
+                    "VALUES (?, ?, ?, ?, 'starting', ?, ?, ?, ?) RETURNING id, public_id");
+    q.bind(pupil_id).bind(cab_id).bind(scenario).bind(mode).bind(examiner_id).bind(now).bind(started_by).bind(of->school_id);
     q.step();
     Session s;
     s.id = q.int64(0);
