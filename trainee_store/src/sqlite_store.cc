@@ -786,7 +786,9 @@ class SqliteStore final : public Store {
                                         {"mark", "COALESCE(sessions.mark, -1)"}},
                                        f.sort, f.descending, "sessions.id");
     Conditions where;
-    where.add("sessions.school_id = ?", {f.school_id});
+    // A pupil's sessions are found by the pupil's index: "+" keeps the school's (a planner without
+    // statistics took it, and read all 500,000 sessions of a school for one pupil's 50: 3.4 s).
+    where.add(f.pupil_id ? "+sessions.school_id = ?" : "sessions.school_id = ?", {f.school_id});
     if (f.pupil_id) where.add("sessions.pupil_id = ?", {*f.pupil_id});
     if (!f.search.empty()) {
       const std::string like = contains_pattern(f.search);
