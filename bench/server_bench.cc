@@ -14,6 +14,14 @@
 //    spawn, the worker's start-up, DDS discovery and the first physics tick. Target: < 300 ms.
 //    On the first --db only.
 //
+// 3. Lists (issue 18): requests per second and latency of a page of the pupils list (GET
+//    /api/pupils, paged, and searched) and of the sessions list (a day's, a cab's day filtered by
+//    result, a pupil's, and the whole school's newest first, each with its total), on the same
+//    store. With --lists-only, these alone (no history, no start, the store not opened by this
+//    program), against --server-bin: a server from before the lists (whose GET /api/pupils is a
+//    bare list and which has no GET /api/sessions: those rows then count errors) measured on a
+//    store it made, for a before-and-after.
+//
 // --db sqlite: a file in --dir; --db postgresql: a database in a PostgreSQL server this program
 // starts in --dir/postgresql (Debian's postgresql package; tests/support/postgres.h), kept with
 // its data for later runs and stopped at exit; --db postgresql://...: a database someone runs.
@@ -25,6 +33,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <httplib.h>
 #include <malloc.h>
@@ -189,6 +198,36 @@ double store_history_rate(const std::string& location, int64_t first_id, int pup
   return calls / (ms_since(t0) / 1e3);
 }
 
+// The lists' store calls straight on the store from one thread, no HTTP: calls per second of a
+// page of pupils and of a day's sessions, each with its total.
+std::pair<double, double> store_list_rates(const std::string& location, int pupils, double seconds) {
+  auto store = store::Store::open(location);
+  const int64_t school = store->find_user("admin")->school_id;
+  std::mt19937 rng(9);
+  std::uniform_int_distribution<int> offset(0, std::max(0, pupils - 50)), day(1, 28);
+  const auto rate = [&](const std::function<void()>& call) {
+    const auto t0 = Clock::now();
+    long calls = 0;
+    for (; ms_since(t0) < seconds * 1e3; ++calls) call();
+    return calls / (ms_since(t0) / 1e3);
+  };
+  store::PupilFilter pf;
+  pf.school_id = school;
+  const double pupil_rate = rate([&] { store->find_pupils(pf, 50, offset(rng)); });
+  store::SessionFilter sf;
+  sf.school_id = school;
+  const double session_rate = rate([&] {
+    char from[32], to[32];
+    const int d = day(rng);
+    std::snprintf(from, sizeof from, "2026-01-%02dT00:00:00Z", d);
+    std::snprintf(to, sizeof to, "2026-01-%02dT00:00:00Z", d + 1);
+    sf.from = from;
+    sf.to = to;
+    store->find_sessions(sf, 50, 0);
+  });
+  return {pupil_rate, session_rate};
+}
+
 // One store's figures, for the table at the end.
 struct Figures {
   std::string name;
@@ -204,6 +243,8 @@ int main(int argc, char** argv) {
   double seconds = 10;
   std::string dir = "out/bench";
   std::vector<std::string> dbs = {"sqlite"};
+  std::string server_bin;
+  bool lists_only = false;
   app.add_option("--pupils", pupils, "pupils in the store")->check(CLI::Range(1, 1000000));
   app.add_option("--sessions", sessions, "marked sessions per pupil")->check(CLI::Range(1, 1000));
   app.add_option("--clients", clients, "concurrent keep-alive HTTP clients")->check(CLI::Range(1, 64));
@@ -219,6 +260,8 @@ int main(int argc, char** argv) {
                    ? std::string()
                    : "'" + v + "' is neither sqlite, postgresql nor a postgresql:// URI";
       });
+  app.add_option("--server-bin", server_bin, "the forklift-server to measure (default: this build's)")->check(CLI::ExistingFile);
+  app.add_flag("--lists-only", lists_only, "measure the lists alone, on a store made already (see above)");
   CLI11_PARSE(app, argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // each figure as it is measured, into a file too
 
@@ -254,7 +297,7 @@ int main(int argc, char** argv) {
     }
     const std::string shown = store::printable_location(location);
     auto server = std::make_unique<Process>(
-        std::vector<std::string>{bin + "/forklift-server", "--db", location, "--listen", "127.0.0.1:" + std::to_string(port),
+        std::vector<std::string>{server_bin.empty() ? bin + "/forklift-server" : server_bin, "--db", location, "--listen", "127.0.0.1:" + std::to_string(port),
                                  "--dds-domain", std::to_string(domain), "--admin-password", kPassword,
                                  "--log-dir", dir + "/logs"},
         dir + "/server");
@@ -272,6 +315,10 @@ int main(int argc, char** argv) {
     if (!fresh && db != "sqlite" && db != "postgresql") {
       auto store = store::Store::open(location);
       fresh = store->list_pupils(store->find_user("admin")->school_id, "", 1, 0).empty();
+    }
+    if (fresh && lists_only) {
+      std::fprintf(stderr, "--lists-only measures a store made already: %s has none\n", shown.c_str());
+      return 1;
     }
     if (fresh) {
       try {
@@ -296,7 +343,9 @@ int main(int argc, char** argv) {
     }
     const std::string token = json::parse(login->body)["token"];
     auto first = c.Get("/api/pupils?limit=1", {{"Authorization", "Bearer " + token}});
-    const int64_t first_id = json::parse(first->body)[0]["id"];  // "Pupil 0", the first created
+    const json first_page = json::parse(first->body);
+    // "Pupil 0", the first created: a page with its total, or (before issue 18) a bare list.
+    const int64_t first_id = (first_page.is_array() ? first_page : first_page["pupils"])[0]["id"];
     auto sample = c.Get("/api/pupils/" + std::to_string(first_id) + "/history", {{"Authorization", "Bearer " + token}});
     const json h = json::parse(sample->body);
     std::printf("store: %s, %d pupils x %zu sessions, history body %zu bytes\n", shown.c_str(), pupils,
@@ -309,6 +358,27 @@ int main(int argc, char** argv) {
       std::printf("%-28s %8zu %10.0f %9.2f %9.2f %9.2f %7ld\n", name, l.latency_ms.size(), l.rps(), l.pct(0.5), l.pct(0.99),
                   l.latency_ms.empty() ? NAN : l.latency_ms.back(), l.errors);
     };
+    // The lists: a page of 50 with its total, as the pages ask for them.
+    std::uniform_int_distribution<int> offset(0, std::max(0, pupils - 50)), day(1, 28), pupil_no(0, pupils - 1);
+    const auto two = [](int n) { char b[8]; std::snprintf(b, sizeof b, "%02d", n); return std::string(b); };
+    const std::pair<const char*, std::function<std::string(std::mt19937&)>> lists[] = {
+        {"GET /api/pupils (a page)", [&](std::mt19937& r) { return "/api/pupils?limit=50&offset=" + std::to_string(offset(r)); }},
+        {"GET /api/pupils?search=",
+         [&](std::mt19937& r) { return "/api/pupils?limit=50&search=Pupil%20" + std::to_string(pupil_no(r) / 10); }},
+        {"GET /api/sessions (a day)", [&](std::mt19937& r) { return "/api/sessions?limit=50&date=2026-01-" + two(day(r)); }},
+        {"GET /api/sessions (cab,day,pass)",
+         [&](std::mt19937& r) { return "/api/sessions?limit=50&cab=cab1&result=passed&date=2026-02-" + two(day(r) % 22 + 1); }},
+        {"GET /api/sessions?pupil=",
+         [&](std::mt19937& r) { return "/api/sessions?limit=50&pupil=" + std::to_string(first_id + pupil_no(r)); }},
+        {"GET /api/sessions (all)", [&](std::mt19937&) { return std::string("/api/sessions?limit=50"); }},
+    };
+    if (lists_only) {
+      for (const auto& [name, path] : lists) row(name, hammer(port, token, clients, seconds, path));
+      server->signal(SIGTERM);
+      server->wait(10);
+      continue;
+    }
+
     Figures f;
     f.name = db == "sqlite" || db == "postgresql" ? db : shown;
     f.health = hammer(port, token, clients, seconds, [](std::mt19937&) { return std::string("/api/health"); });
@@ -322,6 +392,10 @@ int main(int argc, char** argv) {
     f.store_rate = store_history_rate(location, first_id, pupils, seconds);
     std::printf("store history() from one thread, no HTTP: %.0f calls/s\n", f.store_rate);
     table.push_back(f);
+    for (const auto& [name, path] : lists) row(name, hammer(port, token, clients, seconds, path));
+    const auto [pupil_rate, session_rate] = store_list_rates(location, pupils, seconds);
+    std::printf("store from one thread, no HTTP: find_pupils (a page of 50 and the total) %.0f calls/s, "
+                "find_sessions (a day's first 50 and the total) %.0f calls/s\n", pupil_rate, session_rate);
 
     if (runs > 0 && &db == &dbs.front()) {
       // The last pupil takes the timed sessions, so the history sample above stays the same size.

@@ -253,8 +253,10 @@ int main(int argc, char** argv) {
       const json r = cl.call("POST", "/api/pupils", b);
       std::printf("pupil %lld: %s\n", static_cast<long long>(r["id"].get<int64_t>()), r["name"].get<std::string>().c_str());
     } else if (*list) {
-      const json r = cl.call("GET", "/api/pupils?search=" + httplib::detail::encode_query_param(search));
-      for (const auto& p : r) std::printf("%6lld  %s\n", static_cast<long long>(p["id"].get<int64_t>()), p["name"].get<std::string>().c_str());
+      const json r = cl.call("GET", "/api/pupils?limit=1000&search=" + httplib::detail::encode_query_param(search));
+      for (const auto& p : r["pupils"]) std::printf("%6lld  %s\n", static_cast<long long>(p["id"].get<int64_t>()), p["name"].get<std::string>().c_str());
+      if (r["total"].get<int64_t>() > static_cast<int64_t>(r["pupils"].size()))
+        std::printf("(%zu of %lld pupils: narrow the search)\n", r["pupils"].size(), static_cast<long long>(r["total"].get<int64_t>()));
     } else if (*scen) {
       for (const auto& s : cl.call("GET", "/api/scenarios")) std::printf("%-16s load %s\n", s["name"].get<std::string>().c_str(), s["load"].dump().c_str());
     } else if (*start) {

@@ -148,7 +148,8 @@ const FL = (() => {
     if (!header) return;
     const here = location.pathname.split('/').pop() || 'index.html';
     const links = isStaff(l)
-      ? [['fleet.html', 'Fleet'], ['pupils.html', 'Pupils'], ['start.html', 'Start a session'], ['theory.html', 'Theory exam'],
+      ? [['fleet.html', 'Fleet'], ['pupils.html', 'Pupils'], ['day.html', 'The day'], ['sessions.html', 'Sessions'], ['exams.html', 'Exams'],
+         ['start.html', 'Start a session'], ['theory.html', 'Theory exam'],
          ...(l.role === 'admin' ? [['staff.html', 'Staff']] : [])]
       : [['pupil.html?id=' + encodeURIComponent(l.pupil_id), 'My record'], ['theory.html', 'Theory exam'],
          ['certificate.html?pupil=' + encodeURIComponent(l.pupil_id), 'Certificate']];

@@ -1,40 +1,64 @@
-// The pupils page: GET /api/pupils?search= as the name is typed; POST /api/pupils to add one.
+// The pupils page: GET /api/pupils a page at a time with the total, searched by name or email,
+// filtered by group, sorted by a column, and the same list as CSV; the add form above the list
+// (POST /api/pupils, then PUT /api/pupils/{id}/group); the school's groups (GET/POST /api/groups).
 'use strict';
 (() => {
   const { api, el, clear, requireLogin, say, describeError, day } = FL;
   const me = requireLogin(FL.STAFF);
-  const tbody = document.querySelector('#pupils tbody');
-  const count = document.getElementById('count');
-  const search = document.getElementById('search');
-  const message = document.getElementById('message');
-  if (me.role === 'examiner') document.getElementById('add').hidden = document.getElementById('add-heading').hidden = true;
+  const $ = (id) => document.getElementById(id);
+  const message = $('message');
+  if (me.role === 'examiner') $('add-section').hidden = $('add-group').hidden = true;
 
-  let asked = 0;
-  async function list() {
-    const mine = ++asked;
-    const q = search.value.trim();
+  const list = FL_LIST.pagedList({
+    path: '/pupils', key: 'pupils', noun: 'pupil', table: $('pupils'), count: $('count'), previous: $('previous'),
+    next: $('next'), message, csv: $('csv'), sort: 'name', order: 'asc',
+    filters: () => ({ search: $('search').value.trim(), group: $('filter-group').value }),
+    row: (p) => el('tr', { 'data-pupil': p.id },
+      el('th', { scope: 'row' }, el('a', { href: `pupil.html?id=${encodeURIComponent(p.id)}` }, p.name)),
+      el('td', {}, p.email), el('td', {}, p.group || ''), el('td', {}, p.instructor ? p.instructor.name || p.instructor.username : ''),
+      el('td', {}, day(p.created_at))),
+  });
+
+  async function groups() {
     try {
-      const pupils = await api('GET', `/pupils?limit=200&search=${encodeURIComponent(q)}`);
-      if (mine !== asked) return;  // a later search has been sent
-      clear(tbody).append(...pupils.map((p) => el('tr', { 'data-pupil': p.id },
-        el('th', { scope: 'row' }, el('a', { href: `pupil.html?id=${encodeURIComponent(p.id)}` }, p.name)),
-        el('td', {}, p.email), el('td', {}, day(p.created_at)))));
-      count.textContent = pupils.length === 0 ? (q ? `No pupil's name contains "${q}".` : 'No pupils yet.')
-                                              : `${pupils.length} pupil${pupils.length === 1 ? '' : 's'}${q ? ` matching "${q}"` : ''}`;
+      const g = (await api('GET', '/groups')).groups;
+      const options = (sel, first) => clear(sel).append(...first, ...g.map((x) => el('option', { value: x.id }, x.name)));
+      const keep = $('filter-group').value;
+      options($('filter-group'), [el('option', { value: '' }, 'any'), el('option', { value: '0' }, 'in no group')]);
+      $('filter-group').value = keep;
+      options($('new-group'), [el('option', { value: '' }, 'none')]);
+      clear($('groups')).append(...g.map((x) => el('li', {}, `${x.name}: ${x.pupils} pupil${x.pupils === 1 ? '' : 's'}`,
+        x.instructor ? `, with ${x.instructor.name || x.instructor.username}` : '')));
+      if (!g.length) $('groups').append(el('li', { class: 'muted' }, 'No groups yet.'));
     } catch (e) {
       say(message, describeError(e));
     }
   }
 
-  let timer = null;
-  search.addEventListener('input', () => { clearTimeout(timer); timer = setTimeout(list, 200); });
-  document.getElementById('search-form').addEventListener('submit', (ev) => { ev.preventDefault(); list(); });
+  async function instructors() {
+    if (me.role !== 'admin') {
+      clear($('group-instructor')).append(el('option', { value: '' }, 'me'));  // the server's default for an instructor
+      return;
+    }
+    try {
+      const staff = (await api('GET', '/users?role=instructor&active=true&limit=1000')).users;
+      $('group-instructor').append(...staff.map((u) => el('option', { value: u.id }, u.full_name || u.username)));
+    } catch (e) {
+      console.warn(e);
+    }
+  }
 
-  document.getElementById('add').addEventListener('submit', async (ev) => {
+  let timer = null;
+  $('search').addEventListener('input', () => { clearTimeout(timer); timer = setTimeout(list.reload, 200); });
+  $('search-form').addEventListener('submit', (ev) => { ev.preventDefault(); list.reload(); });
+  $('filter-group').addEventListener('change', list.reload);
+
+  $('add').addEventListener('submit', async (ev) => {
     ev.preventDefault();
-    const body = { name: document.getElementById('name').value.trim(), email: document.getElementById('email').value.trim() };
-    const username = document.getElementById('new-username').value.trim();
-    const password = document.getElementById('new-password').value;
+    const body = { name: $('name').value.trim(), email: $('email').value.trim() };
+    const username = $('new-username').value.trim();
+    const password = $('new-password').value;
+    const group = $('new-group').value;
     if (!body.name) { say(message, 'A pupil needs a name.'); return; }
     if (username) {
       if (password.length < 8) { say(message, 'Their password needs at least 8 characters.'); return; }
@@ -43,14 +67,34 @@
     }
     try {
       const p = await api('POST', '/pupils', body);
+      if (group) await api('PUT', `/pupils/${encodeURIComponent(p.id)}/group`, { group_id: Number(group) });
       ev.target.reset();
       clear(message).append(el('p', { class: 'ok', role: 'status' }, 'Added ',
         el('a', { href: `pupil.html?id=${encodeURIComponent(p.id)}`, id: 'added-pupil' }, p.name), '.'));
-      list();
+      list.load();
+      if (group) groups();
     } catch (e) {
       say(message, describeError(e));
     }
   });
 
-  list();
+  $('add-group').addEventListener('submit', async (ev) => {
+    ev.preventDefault();
+    const name = $('group-name').value.trim();
+    if (!name) { say(message, 'A group needs a name.'); return; }
+    const body = { name };
+    if ($('group-instructor').value) body.instructor_id = Number($('group-instructor').value);
+    try {
+      await api('POST', '/groups', body);
+      ev.target.reset();
+      say(message, `Added the group ${name}.`, 'ok');
+      groups();
+    } catch (e) {
+      say(message, describeError(e));
+    }
+  });
+
+  list.load();
+  groups();
+  instructors();
 })();

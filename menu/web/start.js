@@ -57,7 +57,7 @@
     ev.preventDefault();
     clear(message);
     const body = { pupil_id: Number($('pupil').value), scenario: $('scenario').value, cab_id: $('cab').value.trim(), mode: $('mode').value };
-    if (!body.pupil_id) { say(message, 'Choose a pupil (add one on the Pupils page).'); return; }
+    if (!body.pupil_id) { say(message, 'Choose a pupil: type part of their name and pick them from the list (add one on the Pupils page).'); $('pupil-search').focus(); return; }
     if (!/^[A-Za-z0-9_-]{1,32}$/.test(body.cab_id)) { say(message, 'Name the cab: 1-32 letters, digits, - or _.'); $('cab').focus(); return; }
     if ($('truck').value) body.truck = $('truck').value;
     if ($('load-none').checked) body.load = null;
@@ -79,18 +79,25 @@
 
   async function init() {
     try {
-      const [pupils, sc, tr, fleet] = await Promise.all([api('GET', '/pupils?limit=1000'), api('GET', '/scenarios'), api('GET', '/trucks'), api('GET', '/fleet')]);
+      // The pupil typed and picked from the server's matches (a school has hundreds).
+      await FL_LIST.pupilPicker($('pupil-search'), $('pupil'), $('pupil-options'),
+        (p) => { $('pupil-about').textContent = p ? `${p.name}${p.group ? `, ${p.group}` : ''}` : ''; }, param('pupil'));
+      const [sc, tr, fleet] = await Promise.all([api('GET', '/scenarios'), api('GET', '/trucks'), api('GET', '/fleet')]);
       scenarios = sc;
       trucks = tr;
-      const want = param('pupil');
-      $('pupil').append(el('option', { value: '' }, pupils.length ? 'choose a pupil' : 'no pupils yet'),
-        ...pupils.map((p) => el('option', { value: p.id, selected: String(p.id) === want }, p.name)));
       const group = (label, keep) => el('optgroup', { label }, sc.filter(keep).map((s) => el('option', { value: s.name }, s.exam_title ? `${s.name}: ${s.exam_title}` : s.name)));
       $('scenario').append(group('Exam courses (practical exams and training)', (s) => s.exam_course),
         group('Warehouse and yard scenarios (training)', (s) => s.kind === 'scenario' && !s.exam_course),
         group("The paper's manoeuvres (training and study)", (s) => s.kind === 'manoeuvre'));
       $('truck').append(el('option', { value: '' }, 'as the scenario sets it'), ...tr.map((t) => el('option', { value: t.name }, t.title)));
       const cabs = fleet.cabs;
+      // A cab typed that the fleet has never seen is said at once (under DDS Security the server
+      // refuses it; without, its session waits for that cab to connect).
+      $('cab').addEventListener('change', () => {
+        const typed = $('cab').value.trim();
+        $('cab-warning').textContent = typed && !cabs.some((c) => c.id === typed)
+          ? `No cab called ${typed} has connected to this server: check the name.` : '';
+      });
       $('cab-list').append(...cabs.map((c) => el('option', { value: c.id }, `${c.id}: ${c.online ? 'online' : 'offline'}${c.session ? ', busy' : ''}`)));
       const free = cabs.find((c) => c.online && !c.session);
       if (free) $('cab').value = free.id;

@@ -153,7 +153,8 @@ store::Session visible_session(Context& ctx, const Principal& p, const std::stri
 }
 
 json pupil_json(const store::Pupil& p) {
-  return {{"id", p.id}, {"name", p.name}, {"email", p.email}, {"created_at", p.created_at}};
+  return {{"id", p.id}, {"name", p.name}, {"email", p.email}, {"created_at", p.created_at},
+          {"group_id", p.group_id ? json(*p.group_id) : json(nullptr)}};
 }
 
 json session_json(const store::Session& s) {

@@ -3,11 +3,15 @@
 
 #include <httplib.h>
 
+#include <functional>
+#include <nlohmann/json.hpp>
 #include <regex>
 #include <string>
 #include <vector>
 
+#include "auth.h"
 #include "context.h"
+#include "forklift/store/store.h"
 
 namespace forklift::server {
 
@@ -45,10 +49,20 @@ void session_routes(Routes& svr, Context& ctx);    // sessions, stills, live fol
 void theory_routes(Routes& svr, Context& ctx);     // the theory bank, papers, their marking and the retake rules
 void debrief_routes(Routes& svr, Context& ctx);    // a session's notes, sign-off and replay
 void exam_routes(Routes& svr, Context& ctx);       // exams and corrections, licences, certificates and their check
+void list_routes(Routes& svr, Context& ctx);       // the lists of sessions and exams, groups, bookings and the day
 
 // Records every open theory paper whose time (with the policy's grace) is up as timed out. The
 // server runs it every second (Context::theory_clock); the theory routes run it for the papers
 // they touch, so that no answer is marked after its deadline whatever the clock's timing.
 void end_overdue_papers(Context& ctx);
+
+// Starts a session from a request's body (pupil_id, cab_id, scenario, mode, aids, truck, load,
+// time_limit_s) for `p`, as POST /api/sessions does; `in_batch`, if given, runs in the transaction
+// that records it (a booking started links its session there).
+store::Session start_session(Context& ctx, const Principal& p, const nlohmann::json& b,
+                             const std::function<void(const store::Session&)>& in_batch);
+// 400 unknown_cab for a cab that the school's fleet does not have, when the fleet is known: under
+// DDS Security, the cabs with identities; without it, any well-formed cab id.
+void check_known_cab(Context& ctx, const Principal& p, const std::string& cab);
 
 }  // namespace forklift::server

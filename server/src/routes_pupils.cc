@@ -1,12 +1,14 @@
 // Pupils' records: the list, a pupil's record and its edits, the audit log, the history (JSON and
 // CSV). Licences and certificates: routes_exams.cc.
 #include <algorithm>
+#include <tuple>
 #include <map>
 #include <optional>
 
 #include "api.h"
 #include "catalogue.h"
 #include "exam_results.h"
+#include "lists.h"
 #include "routes.h"
 
 namespace forklift::server {
@@ -20,13 +22,6 @@ json pupil_fields(const store::Pupil& p) { return {{"name", p.name}, {"email", p
 
 void check_pupil_name(const std::string& name) {
   if (name.empty() || name.size() > 200) throw ApiError(400, "bad_request", "'name' must have 1-200 characters");
-}
-
-std::string csv_escape(const std::string& s) {
-  if (s.find_first_of(",\"\n") == std::string::npos) return s;
-  std::string out = "\"";
-  for (char c : s) { if (c == '"') out += '"'; out += c; }
-  return out + "\"";
 }
 
 // The history as the API gives it: sessions with their outcome (a mark only when completed), the
@@ -67,14 +62,47 @@ json history_json(Context& ctx, const store::PupilHistory& h, const std::vector<
 }  // namespace
 
 void pupil_routes(Routes& svr, Context& ctx) {
+  // The school's pupils a page at a time with the total: searched by name or email, filtered by
+  // group or instructor, sorted; an instructor's own pupils (their groups') first unless they ask
+  // otherwise (mine_first=false); as CSV with format=csv, exactly as listed.
   svr.Get("/api/pupils", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
     require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
+    const PageRequest page = page_request(req);
+    store::PupilFilter f;
+    f.school_id = p.school_id;
+    f.search = req.get_param_value("search");
+    f.group_id = query_id(req, "group");
+    f.instructor_id = query_id(req, "instructor");
+    std::tie(f.sort, f.descending) = sort_request(req, "name", false);
+    if (p.role == Role::kInstructor && req.get_param_value("mine_first") != "false") f.first_for = p.user_id;
+    const bool csv = wants_csv(req);
+    const store::PupilPage found = listed([&] { return ctx.db().find_pupils(f, page.limit, page.offset); });
+    People people(ctx.db());
+    std::map<int64_t, store::Group> groups;
+    for (const auto& g : ctx.db().list_groups(p.school_id)) groups[g.id] = g;
+    const auto group_of = [&](const store::Pupil& pupil) -> const store::Group* {
+      const auto it = pupil.group_id ? groups.find(*pupil.group_id) : groups.end();
+      return it == groups.end() ? nullptr : &it->second;
+    };
+    if (csv) {
+      std::vector<std::vector<std::string>> rows;
+      for (const auto& pupil : found.pupils) {
+        const store::Group* g = group_of(pupil);
+        rows.push_back({std::to_string(pupil.id), pupil.name, pupil.email, g ? g->name : "",
+                        g ? people.name(g->instructor_id) : "", pupil.created_at});
+      }
+      return send_csv(res, "pupils.csv", csv_table({"id", "name", "email", "group", "instructor", "added"}, rows));
+    }
     json out = json::array();
-    for (const auto& pupil : ctx.db().list_pupils(p.school_id, req.get_param_value("search"), query_int(req, "limit", 100, 1000),
-                                                  query_int(req, "offset", 0, 1 << 30)))
-      out.push_back(pupil_json(pupil));
-    send_json(res, 200, out);
+    for (const auto& pupil : found.pupils) {
+      json j = pupil_json(pupil);
+      const store::Group* g = group_of(pupil);
+      j["group"] = g ? json(g->name) : json(nullptr);
+      j["instructor"] = g ? people.json(g->instructor_id) : json(nullptr);
+      out.push_back(std::move(j));
+    }
+    send_json(res, 200, {{"pupils", out}, {"total", found.total}, {"limit", page.limit}, {"offset", page.offset}});
   }));
 
   svr.Post("/api/pupils", guarded([&](const httplib::Request& req, httplib::Response& res) {
@@ -146,6 +174,8 @@ void pupil_routes(Routes& svr, Context& ctx) {
     send_json(res, 200, history_json(ctx, h, exam_results(ctx, h)));
   }));
 
+  // The history as a spreadsheet reads it: the pupil's name on every row, marks to 1 decimal, a
+  // theory exam's score as a percentage in its own column, apart from practical marks.
   svr.Get(R"(/api/pupils/(\d+)/history\.csv)", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
     const store::Pupil pupil = visible_pupil(ctx, p, path_id(req));
@@ -157,26 +187,30 @@ void pupil_routes(Routes& svr, Context& ctx) {
     const auto why = [](const std::vector<Reason>& reasons) {
       std::string out;
       for (const auto& r : reasons) out += (out.empty() ? "" : "; ") + r.text;
-      return csv_escape(out);
+      return out;
     };
+    const auto yes_no = [](const json& passed) { return passed.is_boolean() ? (passed.get<bool>() ? "yes" : "no") : ""; };
     // A mark only for a session that completed; the outcome says how the others ended.
-    std::string csv = "record,id,date,scenario_or_kind,mode,state,mark_or_score,passed,outcome,why_not_passed\n";
+    std::vector<std::vector<std::string>> rows;
     for (const auto& s : h->sessions) {
       const json j = session_json(s);
       const auto exam = exam_of.find(s.public_id);
       const json passed = exam != exam_of.end() ? json(exam->second->passed) : j["passed"];
-      csv += "session," + s.public_id + "," + s.created_at + "," + csv_escape(s.scenario) + "," + s.mode + "," + s.state + "," +
-             (store::mark_of(s) ? std::to_string(*store::mark_of(s)) : "") + "," +
-             (passed.is_boolean() ? (passed.get<bool>() ? "yes" : "no") : "") + "," + j["outcome"].get<std::string>() + "," +
-             (exam != exam_of.end() ? why(exam->second->reasons) : "") + "\n";
+      rows.push_back({pupil.name, "session", s.public_id, s.created_at, s.scenario, s.mode, s.state,
+                      csv_number(store::mark_of(s)), "", yes_no(passed), j["outcome"].get<std::string>(),
+                      exam != exam_of.end() ? why(exam->second->reasons) : ""});
     }
     for (const auto& r : results) {
       if (!r.record) continue;  // its session's row says it
-      csv += "exam," + std::to_string(r.record->id) + "," + r.taken_at + "," + r.kind + ",,," +
-             (r.mark ? std::to_string(*r.mark) : "") + "," + (r.passed ? "yes" : "no") + "," + r.outcome + "," + why(r.reasons) + "\n";
+      const bool theory = r.kind == "theory";
+      rows.push_back({pupil.name, "exam", std::to_string(r.record->id), r.taken_at, r.kind, "", "",
+                      theory ? "" : csv_number(r.mark), theory && r.mark ? csv_number(*r.mark * 100) : "",
+                      r.passed ? "yes" : "no", r.outcome, why(r.reasons)});
     }
-    res.set_header("Content-Disposition", "attachment; filename=\"pupil-" + std::to_string(pupil.id) + "-history.csv\"");
-    res.set_content(csv, "text/csv");
+    send_csv(res, "pupil-" + std::to_string(pupil.id) + "-history.csv",
+             csv_table({"pupil", "record", "id", "date", "scenario_or_kind", "mode", "state", "practical_mark", "theory_percent",
+                        "passed", "outcome", "why_not_passed"},
+                       rows));
   }));
 }
 

@@ -1,6 +1,7 @@
 // Sessions in the cabs: starting one (with its truck and load), its record, path and event stills,
 // aborting it, following it live, its exam evidence, and the fleet that runs them.
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 
@@ -71,81 +72,106 @@ std::optional<std::string> aids_request(const json& b, const std::string& mode) 
 
 }  // namespace
 
+void check_known_cab(Context& ctx, const Principal&, const std::string& cab) {
+  // Under DDS Security the school's fleet is its cabs' identities (forklift-pki.sh add-cab): a cab
+  // is one with its own and its worker's. Without it (the embedded default) any cab may come on
+  // line after its session is made, so none is refused; the pages pick cabs from the fleet.
+  if (!ctx.fleet->secure()) return;
+  const std::string dir = ctx.fleet->config().security_dir + "/identities/";
+  std::error_code ec;
+  if (std::filesystem::is_directory(dir + "cab." + cab, ec) && std::filesystem::is_directory(dir + "worker." + cab, ec)) return;
+  std::string known;
+  for (const auto& e : std::filesystem::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind("cab.", 0) == 0) known += (known.empty() ? "" : ", ") + name.substr(4);
+  }
+  throw ApiError(400, "unknown_cab", "there is no cab '" + cab + "' in the school's fleet" + (known.empty() ? "" : " (" + known + ")"));
+}
+
+store::Session start_session(Context& ctx, const Principal& p, const json& b,
+                             const std::function<void(const store::Session&)>& in_batch) {
+  const store::Pupil pupil = visible_pupil(ctx, p, field<int64_t>(b, "pupil_id"));
+  const std::string cab = field<std::string>(b, "cab_id");
+  if (!std::regex_match(cab, std::regex("[A-Za-z0-9_-]{1,32}"))) throw ApiError(400, "bad_request", "'cab_id' must be 1-32 letters, digits, - or _");
+  const std::string scenario = field<std::string>(b, "scenario");
+  const std::string scenario_path = scenario_file(ctx.data_dir, scenario);
+  const std::string mode = field<std::string>(b, "mode", std::string("training"));
+  const std::optional<std::string> aids = aids_request(b, mode);
+  json run;  // the scenario as this session runs it
+  try {
+    run = read_json_file(scenario_path);
+  } catch (const std::exception&) {
+    throw ApiError(500, "bad_scenario", "scenario '" + scenario + "' is unreadable");
+  }
+  if (mode == "exam") {
+    require_role(p, {Role::kAdmin, Role::kExaminer});
+    if (!is_exam_course(run)) throw ApiError(400, "not_exam_course", not_an_exam_course("scenario '" + scenario + "'"));
+    // The course is marked as it is laid out: its truck and its loads are part of it.
+    if (b.contains("truck") || b.contains("load"))
+      throw ApiError(400, "bad_request", "an exam course runs as it is laid out: leave 'truck' and 'load' out of an exam session");
+    // A licence exam's result must be trusted: authenticated cab, encrypted traffic, signed log.
+    if (!ctx.fleet->secure())
+      throw ApiError(409, "security_required", "exams need DDS Security: start the server with --security DIR (scripts/forklift-pki.sh)");
+  }
+  check_known_cab(ctx, p, cab);
+  if (ctx.fleet->cab_busy(cab)) throw ApiError(409, "cab_busy", "cab " + cab + " is already running a session");
+  std::optional<double> duration;
+  if (run.contains("duration_s") && run["duration_s"].is_number()) duration = run["duration_s"].get<double>();
+  // The truck and the load may replace the scenario's own (the paper's "characteristics of the
+  // simulation environment"); the worker then runs a copy of the scenario with them.
+  bool own_copy = false;
+  if (b.contains("truck")) {
+    const std::string truck = field<std::string>(b, "truck");
+    if (!trucks(ctx.data_dir).count(truck)) throw ApiError(404, "not_found", "no truck '" + truck + "'");
+    run["truck"] = "trucks/" + truck + ".json";  // relative to data/, as scenario files name it
+    own_copy = true;
+  }
+  if (b.contains("load")) {
+    const json& l = b["load"];
+    if (l.is_null()) run.erase("load");
+    else run["load"] = check_load_request(l, ctx.data_dir);
+    own_copy = true;
+  }
+  // An instructor may shorten a session (never lengthen an exam's time limit).
+  if (b.contains("time_limit_s")) {
+    const double limit = field<double>(b, "time_limit_s");
+    if (!(limit > 0 && limit <= 24 * 3600)) throw ApiError(400, "bad_request", "'time_limit_s' must be in (0, 86400]");
+    duration = duration ? std::min(*duration, limit) : limit;
+  }
+  store::Session s;
+  ctx.db().batch([&] {
+    s = ctx.db().create_session(pupil.id, cab, scenario, mode, mode == "exam" ? std::optional<int64_t>(p.user_id) : std::nullopt,
+                                store::now_iso8601(), p.user_id);
+    if (in_batch) in_batch(s);
+    ctx.db().put_session_log(s.public_id, "scenario", run.dump(2));
+    const auto [truck, load] = scenario_setup(run);
+    audit(ctx.db(), p, pupil.id, "session_started",
+          {{"session", s.public_id}, {"mode", mode}, {"cab", cab}, {"scenario", scenario},
+           {"time_limit_s", duration ? json(*duration) : json(nullptr)}, {"truck", truck}, {"load", load},
+           {"aids", aids ? json(*aids) : json(nullptr)}});
+  });
+  std::string file = scenario_path;
+  if (own_copy) {
+    file = ctx.fleet->config().log_dir + "/" + s.public_id + ".scenario.json";
+    std::ofstream(file) << run.dump(2) << '\n';
+  }
+  try {
+    ctx.fleet->start_worker(s, file, duration, aids);
+  } catch (const std::exception& e) {
+    ctx.db().set_session_state_audited(s.public_id, "failed", e.what(), store::now_iso8601(), kServerActor);
+    spdlog::error("session {}: no worker: {}", s.public_id, e.what());
+    throw ApiError(503, "no_worker", "no simulation could be started for this session: the server's log says why");
+  }
+  return *ctx.db().get_session(s.public_id);
+}
+
 void session_routes(Routes& svr, Context& ctx) {
   svr.Post("/api/sessions", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
     require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
-    const json b = body_json(req);
-    const store::Pupil pupil = visible_pupil(ctx, p, field<int64_t>(b, "pupil_id"));
-    const std::string cab = field<std::string>(b, "cab_id");  // its form, as every field's, checked by body_json (NewSession)
-    const std::string scenario = field<std::string>(b, "scenario");
-    const std::string scenario_path = scenario_file(ctx.data_dir, scenario);
-    const std::string mode = field<std::string>(b, "mode", std::string("training"));
-    const std::optional<std::string> aids = aids_request(b, mode);
-    json run;  // the scenario as this session runs it
-    try {
-      run = read_json_file(scenario_path);
-    } catch (const std::exception&) {
-      throw ApiError(500, "bad_scenario", "scenario '" + scenario + "' is unreadable");
-    }
-    if (mode == "exam") {
-      require_role(p, {Role::kAdmin, Role::kExaminer});
-      if (!is_exam_course(run)) throw ApiError(400, "not_exam_course", not_an_exam_course("scenario '" + scenario + "'"));
-      // The course is marked as it is laid out: its truck and its loads are part of it.
-      if (b.contains("truck") || b.contains("load"))
-        throw ApiError(400, "bad_request", "an exam course runs as it is laid out: leave 'truck' and 'load' out of an exam session");
-      // A licence exam's result must be trusted: authenticated cab, encrypted traffic, signed log.
-      if (!ctx.fleet->secure())
-        throw ApiError(409, "security_required", "exams need DDS Security: start the server with --security DIR (scripts/forklift-pki.sh)");
-    }
-    if (ctx.fleet->cab_busy(cab)) throw ApiError(409, "cab_busy", "cab " + cab + " is already running a session");
-    std::optional<double> duration;
-    if (run.contains("duration_s") && run["duration_s"].is_number()) duration = run["duration_s"].get<double>();
-    // The truck and the load may replace the scenario's own (the paper's "characteristics of the
-    // simulation environment"); the worker then runs a copy of the scenario with them.
-    bool own_copy = false;
-    if (b.contains("truck")) {
-      const std::string truck = field<std::string>(b, "truck");
-      if (!trucks(ctx.data_dir).count(truck)) throw ApiError(404, "not_found", "no truck '" + truck + "'");
-      run["truck"] = "trucks/" + truck + ".json";  // relative to data/, as scenario files name it
-      own_copy = true;
-    }
-    if (b.contains("load")) {
-      const json& l = b["load"];
-      if (l.is_null()) run.erase("load");
-      else run["load"] = check_load_request(l, ctx.data_dir);
-      own_copy = true;
-    }
-    // An instructor may shorten a session (never lengthen an exam's time limit).
-    if (b.contains("time_limit_s")) {
-      const double limit = field<double>(b, "time_limit_s");  // in (0, 86400]: NewSession
-      duration = duration ? std::min(*duration, limit) : limit;
-    }
-    store::Session s;
-    ctx.db().batch([&] {
-      s = ctx.db().create_session(pupil.id, cab, scenario, mode, mode == "exam" ? std::optional<int64_t>(p.user_id) : std::nullopt,
-                                  store::now_iso8601());
-      ctx.db().put_session_log(s.public_id, "scenario", run.dump(2));
-      const auto [truck, load] = scenario_setup(run);
-      audit(ctx.db(), p, pupil.id, "session_started",
-            {{"session", s.public_id}, {"mode", mode}, {"cab", cab}, {"scenario", scenario},
-             {"time_limit_s", duration ? json(*duration) : json(nullptr)}, {"truck", truck}, {"load", load},
-             {"aids", aids ? json(*aids) : json(nullptr)}});
-    });
-    std::string file = scenario_path;
-    if (own_copy) {
-      file = ctx.fleet->config().log_dir + "/" + s.public_id + ".scenario.json";
-      std::ofstream(file) << run.dump(2) << '\n';
-    }
-    try {
-      ctx.fleet->start_worker(s, file, duration, aids);
-    } catch (const std::exception& e) {
-      ctx.db().set_session_state_audited(s.public_id, "failed", e.what(), store::now_iso8601(), kServerActor);
-      spdlog::error("session {}: no worker: {}", s.public_id, e.what());
-      throw ApiError(503, "no_worker", "no simulation could be started for this session: the server's log says why");
-    }
+    const store::Session s = start_session(ctx, p, body_json(req), nullptr);  // the body checked against NewSession
     res.set_header("Location", "/api/sessions/" + s.public_id);
-    send_json(res, 201, session_json(*ctx.db().get_session(s.public_id)));
+    send_json(res, 201, session_json(s));
   }));
 
   svr.Get(R"(/api/sessions/(s-\d+))", guarded([&](const httplib::Request& req, httplib::Response& res) {

@@ -188,6 +188,7 @@ void Api::mount(httplib::Server& svr) {
   debrief_routes(*routes, *ctx_);
   theory_routes(*routes, *ctx_);
   exam_routes(*routes, *ctx_);
+  list_routes(*routes, *ctx_);
   routes_.clear();
   for (const auto& r : routes->all()) routes_.push_back({r.method, r.pattern, ""});
   svr.set_post_routing_handler(security_headers);

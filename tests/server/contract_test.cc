@@ -113,6 +113,7 @@ TEST(Contract, EveryDocumentedOperationAnswersOnARealServer) {
     httplib::Result r = o.method == "GET"     ? c.Get(path, h)
                         : o.method == "PATCH" ? c.Patch(path, h, "{}", "application/json")
                         : o.method == "POST"  ? c.Post(path, h, "{}", "application/json")
+                        : o.method == "PUT"   ? c.Put(path, h, "{}", "application/json")
                                               : c.Delete(path, h);
     ASSERT_TRUE(r) << o.method << " " << path;
     json j;

@@ -115,8 +115,10 @@ TEST(Handlers, APupilCreatedIsListedAndFetched) {
   const json p = s.add_pupil(admin, "Ana Pupil");
   ASSERT_TRUE(p["id"].is_number_integer()) << p;
 
-  const json list = s.call("GET", "/api/pupils", admin).second;
-  ASSERT_EQ(list.size(), 1u) << list;
+  const json page = s.call("GET", "/api/pupils", admin).second;
+  EXPECT_EQ(page["total"], 1) << page;
+  const json list = page["pupils"];
+  ASSERT_EQ(list.size(), 1u) << page;
   EXPECT_EQ(list[0]["id"], p["id"]);
   EXPECT_EQ(list[0]["name"], "Ana Pupil");
   auto [st, got] = s.call("GET", pupil_path(p), admin);
@@ -152,7 +154,7 @@ TEST(Handlers, AMalformedBodyIs400WithItsReasonAndChangesNothing) {
     EXPECT_EQ(error_code(j), "bad_json") << j;
   }
 
-  EXPECT_EQ(s.call("GET", "/api/pupils", admin).second.size(), 1u);
+  EXPECT_EQ(s.call("GET", "/api/pupils", admin).second["pupils"].size(), 1u);
   EXPECT_EQ(s.call("GET", pupil_path(p), admin).second["name"], "Ben");
   EXPECT_EQ(s.audit(admin).size(), 1u);  // only Ben's creation
 }
@@ -210,7 +212,7 @@ TEST(Handlers, APupilSeesOnlyTheirOwnRecordAndNoList) {
   EXPECT_EQ(s.call("GET", pupil_path(ana) + "/audit", token).first, 403);  // not even their own
   EXPECT_EQ(s.call("POST", "/api/pupils", token, R"({"name":"Eve"})").first, 403);
   EXPECT_EQ(s.call("PATCH", pupil_path(ana), token, R"({"name":"Queen Ana"})").first, 403);
-  EXPECT_EQ(s.call("GET", "/api/pupils", admin).second.size(), 2u);
+  EXPECT_EQ(s.call("GET", "/api/pupils", admin).second["pupils"].size(), 2u);
   EXPECT_EQ(s.call("GET", pupil_path(ana), admin).second["name"], "Ana");
 }
 
@@ -383,8 +385,9 @@ TEST(Handlers, BytesThatAreNotUtf8InPathsQueriesAndHeadersAreNeverA500) {
   // clamped (issue 18, item 6).
   EXPECT_EQ(s.call("GET", "/api/pupils?limit=1x", admin).first, 400);
   EXPECT_EQ(s.call("GET", "/api/pupils?limit=99999999999999999999", admin).first, 400);
+  EXPECT_EQ(s.call("GET", "/api/pupils?limit=1001", admin).first, 400);
   EXPECT_EQ(s.call("GET", "/api/pupils?offset=-3", admin).first, 400);
-  EXPECT_EQ(s.call("GET", "/api/pupils?limit=1000&offset=0", admin).second.size(), 1u);
+  EXPECT_EQ(s.call("GET", "/api/pupils?limit=1000&offset=0", admin).second["pupils"].size(), 1u);
 }
 
 TEST(Handlers, AidsAreRefusedInAnExamAndCheckedInTraining) {

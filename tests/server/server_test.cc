@@ -51,7 +51,7 @@ TEST(Server, LoginRolesAndVisibility) {
   EXPECT_EQ(s.call("GET", "/api/pupils/" + a_id + "/history", ana).first, 200);   // her own
   EXPECT_EQ(error_code(s.call("GET", "/api/pupils/" + b_id + "/history", ana).second), "forbidden");
   EXPECT_EQ(s.call("GET", "/api/pupils", ana).first, 403);                        // no list for pupils
-  EXPECT_EQ(s.call("GET", "/api/pupils?search=ben", ines).second.size(), 1u);      // case-insensitive search
+  EXPECT_EQ(s.call("GET", "/api/pupils?search=ben", ines).second["total"], 1);      // case-insensitive search
   EXPECT_EQ(s.call("POST", "/api/users", ines, R"({"username":"x","password":"xxxxxxxx","role":"admin"})").first, 403);
   EXPECT_EQ(error_code(s.call("GET", "/api/pupils").second), "unauthenticated");
   // A licence: only an examiner or admin issues it, and only on passed exams (certificate_test.cc).
@@ -306,20 +306,34 @@ TEST(Server, AbortedAndTimedOutSessionsHaveNoMarkAndStayOutOfTheChartAndTheTrend
       EXPECT_TRUE(x["mark"].is_null()) << x;
     }
 
-  // The export: no mark, and the outcome.
+  // The export: the pupil's name on each row, no mark, and the outcome; a completed session's mark
+  // to one decimal, in the practical marks' column.
   auto c = s.client();
   const auto csv = c.Get(pupil_path + "/history.csv", {{"Authorization", "Bearer " + admin}});
   ASSERT_TRUE(csv && csv->status == 200);
   std::istringstream lines(csv->body);
-  int seen = 0;
+  int seen = 0, marked = 0;
+  std::string header;
+  std::getline(lines, header);
+  EXPECT_EQ(header, "pupil,record,id,date,scenario_or_kind,mode,state,practical_mark,theory_percent,passed,outcome,why_not_passed\r");
   for (std::string line; std::getline(lines, line);) {
-    std::vector<std::string> f;  // record,id,date,scenario_or_kind,mode,state,mark_or_score,passed,outcome,why_not_passed
+    std::vector<std::string> f;
     std::istringstream fields(line);
     for (std::string x; std::getline(fields, x, ',');) f.push_back(x);
-    if (f.size() < 9 || f[0] != "session" || (f[1] != t && f[1] != d)) continue;
+    ASSERT_GE(f.size(), 11u) << line;
+    EXPECT_EQ(f[0], pupil["name"]) << line;
+    if (f[1] == "session" && (f[2] == a || f[2] == b)) {
+      ++marked;
+      char expected[32];
+      std::snprintf(expected, sizeof expected, "%.1f", marks[f[2]]);
+      EXPECT_EQ(f[7], expected) << line;
+      EXPECT_EQ(f[8], "") << "a practical mark is not a theory score: " << line;
+    }
+    if (f[1] != "session" || (f[2] != t && f[2] != d)) continue;
     ++seen;
-    EXPECT_EQ(f[6], "") << "no mark: " << line;
-    EXPECT_EQ(f[8], f[1] == t ? "timed_out" : "aborted") << line;
+    EXPECT_EQ(f[7], "") << "no mark: " << line;
+    EXPECT_EQ(f[10], f[2] == t ? "timed_out" : "aborted") << line;
   }
+  EXPECT_EQ(marked, 2) << csv->body;
   EXPECT_EQ(seen, 2) << csv->body;
 }

@@ -172,10 +172,19 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
     r.taken_at = taken_at;
     return r;
   }
+  // Later migrations go first: a test that goes back to an older schema must come forward through them.
+  std::string DropMigration9() { return "DROP TABLE session_notes; DROP TABLE session_sign_offs; DELETE FROM schema_migrations WHERE version >= 9; "; }
+  // SQL that takes migration 8 back out (lists, groups and bookings: their tables, indexes and
+  // columns), as a program from before it left the file.
+  std::string DropMigration8() {
+    return DropMigration9() + "DROP TABLE bookings; DROP INDEX pupils_by_group; ALTER TABLE pupils DROP COLUMN group_id; DROP TABLE pupil_groups; "
+           "DROP INDEX pupils_by_school_email; DROP INDEX exams_by_time; DROP INDEX sessions_by_starter; "
+           "DROP INDEX sessions_by_cab; DROP INDEX sessions_by_time; ALTER TABLE sessions DROP COLUMN started_by; "
+           "DROP INDEX sessions_by_school_time; ALTER TABLE sessions DROP COLUMN school_id; "
+           "DELETE FROM schema_migrations WHERE version >= 8; ";
+  }
   // SQL that takes migration 7 back out of the database (staff administration: its table, index
   // and columns), as a program from before it left the file.
-  // Later migrations go first: a test that goes back to schema 6 must come forward through them.
-  std::string DropMigration8() { return "DROP TABLE session_notes; DROP TABLE session_sign_offs; DELETE FROM schema_migrations WHERE version >= 8; "; }
   std::string DropMigration7() {
     return DropMigration8() + "DROP TABLE staff_audit_log; DROP INDEX users_by_school_name; ALTER TABLE users DROP COLUMN active; "
            "ALTER TABLE users DROP COLUMN login_generation; DELETE FROM schema_migrations WHERE version >= 7; ";
@@ -200,6 +209,15 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
                          std::optional<int64_t> examiner = std::nullopt) {
     return store_->create_session(pupil, "cab1", "manoeuvre_4", mode, examiner, now);
   }
+  // A session of `pupil` on `cab` at `now`, started by `by`, ended with `reason` and, when given, a mark.
+  std::string EndedSession(int64_t pupil, const std::string& cab, const std::string& scenario, const std::string& now,
+                           std::optional<int64_t> by, const std::string& reason, std::optional<double> mark = std::nullopt,
+                           bool passed = true) {
+    const std::string id = store_->create_session(pupil, cab, scenario, "training", std::nullopt, now, by).public_id;
+    if (mark) store_->set_score({id, *mark, passed, {}}, now);
+    store_->set_session_state(id, "ended", reason, now);
+    return id;
+  }
   fs::EventRecord MakeEvent(const std::string& session, int64_t seq, const std::string& kind, int worry) {
     return fs::EventRecord{session, seq, 0.1 * static_cast<double>(seq), kind, worry, 1.0, 2.0, "{}"};
   }
@@ -212,6 +230,259 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
   std::string Database() const { return location_.substr(location_.rfind('/') + 1); }
   std::vector<std::string> made_;
 };
+
+// ---------------------------------------------------------------- lists, groups and bookings (issue 18)
+
+TEST_P(StoreTest, PupilsAreFoundByNameOrEmailSortedAndPagedWithTheTotal) {
+  const int64_t ann = store_->create_pupil(school_, "Ann Archer", "ann@depot.example");
+  const int64_t bob = store_->create_pupil(school_, "bob Baker", "BOB@yard.example");
+  const int64_t cy = store_->create_pupil(school_, "Cy Cole", "cy@depot.example");
+  store_->create_pupil(store_->create_school("Other"), "Ann Elsewhere", "ann@depot.example");
+  auto ids = [&](const fs::PupilFilter& f, int limit = 100, int offset = 0) {
+    std::vector<int64_t> out;
+    for (const auto& p : store_->find_pupils(f, limit, offset).pupils) out.push_back(p.id);
+    return out;
+  };
+  using V = std::vector<int64_t>;
+  fs::PupilFilter f;
+  f.school_id = school_;
+  EXPECT_EQ(ids(f), (V{ann, bob, cy}));  // by name, capitals read as small letters
+  f.search = "DEPOT";                     // in the email, whatever its capitals
+  EXPECT_EQ(ids(f), (V{ann, cy}));
+  EXPECT_EQ(store_->find_pupils(f, 1, 1).total, 2);
+  EXPECT_EQ(ids(f, 1, 1), V{cy});
+  f.search = "bob@";
+  EXPECT_EQ(ids(f), V{bob});
+  f.search = "";
+  f.sort = "email";
+  f.descending = true;
+  EXPECT_EQ(ids(f), (V{cy, bob, ann}));
+  f.sort = "password";
+  EXPECT_EQ(ErrorKind([&] { store_->find_pupils(f, 10, 0); }), fs::StoreError::kInvalid);
+  f.sort = "name";
+  EXPECT_EQ(ErrorKind([&] { store_->find_pupils(f, -1, 0); }), fs::StoreError::kInvalid);
+}
+
+TEST_P(StoreTest, GroupsHaveAnInstructorAndPupilsAndFilterTheLists) {
+  const int64_t ines = store_->create_user("ines", "h", fs::Role::kInstructor, school_, std::nullopt, "Ines Instructor");
+  const int64_t ivan = store_->create_user("ivan", "h", fs::Role::kInstructor, school_, std::nullopt, "Ivan Instructor");
+  const int64_t morning = store_->create_group(school_, "Morning course", ines);
+  const int64_t evening = store_->create_group(school_, "Evening course", ivan);
+  EXPECT_EQ(ErrorKind([&] { store_->create_group(school_, "MORNING course", ines); }), fs::StoreError::kConflict);
+  EXPECT_EQ(ErrorKind([&] { store_->create_group(school_, "", ines); }), fs::StoreError::kInvalid);
+  const int64_t pupil_user = store_->create_user("pia", "h", fs::Role::kPupil, school_, NewPupil("Pia"));
+  EXPECT_EQ(ErrorKind([&] { store_->create_group(school_, "Pupils teach", pupil_user); }), fs::StoreError::kInvalid);
+
+  const int64_t ann = NewPupil("Ann"), bob = NewPupil("Bob"), cy = NewPupil("Cy");
+  store_->set_pupil_group(ann, evening);
+  store_->set_pupil_group(bob, morning);
+  store_->set_pupil_group(cy, morning);
+  store_->set_pupil_group(cy, std::nullopt);  // out again: in at most one group
+  EXPECT_EQ(store_->get_pupil(bob)->group_id, morning);
+  EXPECT_FALSE(store_->get_pupil(cy)->group_id.has_value());
+  const int64_t elsewhere = store_->create_group(store_->create_school("Other"), "Morning course", std::nullopt);
+  EXPECT_EQ(ErrorKind([&] { store_->set_pupil_group(ann, elsewhere); }), fs::StoreError::kInvalid);
+
+  const auto groups = store_->list_groups(school_);
+  ASSERT_EQ(groups.size(), 2u);
+  EXPECT_EQ(groups[0].name, "Evening course");  // by name
+  EXPECT_EQ(groups[1].pupils, 1);
+  EXPECT_EQ(groups[1].instructor_id, ines);
+  store_->update_group(morning, "Morning course A", ivan);
+  EXPECT_EQ(store_->get_group(morning)->name, "Morning course A");
+  EXPECT_EQ(store_->get_group(morning)->instructor_id, ivan);
+  store_->update_group(morning, "Morning course", ines);
+
+  auto names = [&](const fs::PupilFilter& f) {
+    std::vector<std::string> out;
+    for (const auto& p : store_->find_pupils(f, 100, 0).pupils) out.push_back(p.name);
+    return out;
+  };
+  using V = std::vector<std::string>;
+  fs::PupilFilter f;
+  f.school_id = school_;
+  f.group_id = morning;
+  EXPECT_EQ(names(f), V{"Bob"});
+  f.group_id = 0;  // in no group
+  EXPECT_EQ(names(f), (V{"Cy", "Pia"}));
+  f.group_id.reset();
+  f.instructor_id = ivan;
+  EXPECT_EQ(names(f), V{"Ann"});
+  f.instructor_id.reset();
+  f.first_for = ines;  // Ines's pupils first, then the rest by name
+  EXPECT_EQ(names(f), (V{"Bob", "Ann", "Cy", "Pia"}));
+  f.first_for.reset();
+  f.sort = "group";
+  EXPECT_EQ(names(f), (V{"Pia", "Cy", "Ann", "Bob"}));  // no group (ties by id), Evening, Morning
+}
+
+TEST_P(StoreTest, SessionsAreFoundByDateCabScenarioInstructorOutcomeAndResult) {
+  const int64_t ines = store_->create_user("ines", "h", fs::Role::kInstructor, school_, std::nullopt, "Ines Instructor");
+  const int64_t ann = store_->create_pupil(school_, "Ann", "ann@depot.example"), bob = NewPupil("Bob");
+  const int64_t group = store_->create_group(school_, "Morning", ines);
+  store_->set_pupil_group(bob, group);
+  const std::string a1 = EndedSession(ann, "cab1", "manoeuvre_4", "2026-11-23T08:00:00Z", ines, "task_complete", 82.5, true);
+  const std::string a2 = EndedSession(ann, "cab2", "manoeuvre_4", "2026-11-23T09:00:00Z", std::nullopt, "time_limit");
+  const std::string b1 = EndedSession(bob, "cab1", "yard_drive", "2026-11-23T10:00:00Z", ines, "task_complete", 40, false);
+  const std::string b2 = EndedSession(bob, "cab1", "manoeuvre_4", "2026-11-24T08:00:00Z", ines, "signal");
+  const std::string open = store_->create_session(bob, "cab2", "yard_drive", "training", std::nullopt, "2026-11-24T09:00:00Z", ines).public_id;
+  store_->create_session(store_->create_pupil(store_->create_school("Other"), "Zed", ""), "cab1", "yard_drive", "training",
+                         std::nullopt, "2026-11-23T08:30:00Z");
+
+  auto ids = [&](fs::SessionFilter f) {
+    f.school_id = school_;
+    std::vector<std::string> out;
+    for (const auto& r : store_->find_sessions(f, 100, 0).sessions) out.push_back(r.session.public_id);
+    return out;
+  };
+  using V = std::vector<std::string>;
+  EXPECT_EQ(ids({}), (V{open, b2, b1, a2, a1}));  // newest first; not another school's
+  fs::SessionFilter day;
+  day.from = "2026-11-23T00:00:00Z";
+  day.to = "2026-11-24T00:00:00Z";
+  EXPECT_EQ(ids(day), (V{b1, a2, a1}));
+  fs::SessionFilter f = day;
+  f.cab_id = "cab1";
+  EXPECT_EQ(ids(f), (V{b1, a1}));
+  f.scenario = "yard_drive";
+  EXPECT_EQ(ids(f), V{b1});
+  f = {};
+  f.instructor_id = ines;
+  f.descending = false;
+  EXPECT_EQ(ids(f), (V{a1, b1, b2, open}));
+  f = {};
+  f.group_id = group;
+  f.outcome = "stopped";
+  EXPECT_EQ(ids(f), V{b2});
+  f = {};
+  f.outcome = "open";
+  EXPECT_EQ(ids(f), V{open});
+  f = {};
+  f.result = "passed";
+  EXPECT_EQ(ids(f), V{a1});
+  f.result = "not_passed";
+  EXPECT_EQ(ids(f), (V{b2, b1, a2}));
+  f = {};
+  f.search = "DEPOT";
+  EXPECT_EQ(ids(f), (V{a2, a1}));
+  f = {};
+  f.sort = "mark";  // unmarked lowest
+  EXPECT_EQ(ids(f).front(), a1);
+  f.sort = "pupil";
+  f.descending = false;
+  EXPECT_EQ(ids(f).front(), a1);
+
+  fs::SessionFilter page;
+  page.school_id = school_;
+  const fs::SessionPage p = store_->find_sessions(page, 2, 1);
+  EXPECT_EQ(p.total, 5);
+  ASSERT_EQ(p.sessions.size(), 2u);
+  EXPECT_EQ(p.sessions[0].session.public_id, b2);
+  EXPECT_EQ(p.sessions[0].pupil_name, "Bob");
+  EXPECT_EQ(p.sessions[0].session.started_by, ines);
+  page.sort = "password";
+  EXPECT_EQ(ErrorKind([&] { store_->find_sessions(page, 10, 0); }), fs::StoreError::kInvalid);
+  page.sort = "created_at";
+  page.outcome = "won";
+  EXPECT_EQ(ErrorKind([&] { store_->find_sessions(page, 10, 0); }), fs::StoreError::kInvalid);
+}
+
+TEST_P(StoreTest, ExamsAreFoundByKindDateAndResultWithTheirCorrections) {
+  const int64_t ann = NewPupil("Ann"), bob = NewPupil("Bob");
+  const int64_t erin = store_->create_user("erin", "h", fs::Role::kExaminer, school_, std::nullopt, "Erin Examiner");
+  const int64_t t1 = store_->add_exam(TheoryRecord(ann, 0.9, true, "2026-11-23T08:00:00Z"));
+  const int64_t t2 = store_->add_exam(TheoryRecord(bob, 0.5, false, "2026-11-24T08:00:00Z"));
+  fs::ExamRecord practical;
+  practical.pupil_id = bob;
+  practical.kind = "practical";
+  practical.score = 71.25;
+  practical.passed = true;
+  practical.examiner_id = erin;
+  practical.taken_at = "2026-11-24T10:00:00Z";
+  const int64_t p1 = store_->add_exam(practical);
+  store_->add_exam_correction({0, t2, erin, "", "marked again", R"({"passed": true})"});
+
+  auto ids = [&](fs::ExamFilter f) {
+    f.school_id = school_;
+    std::vector<int64_t> out;
+    for (const auto& r : store_->find_exams(f, 100, 0).exams) out.push_back(r.exam.id);
+    return out;
+  };
+  using V = std::vector<int64_t>;
+  EXPECT_EQ(ids({}), (V{p1, t2, t1}));
+  fs::ExamFilter f;
+  f.kind = "theory";
+  EXPECT_EQ(ids(f), (V{t2, t1}));
+  f.passed = false;
+  EXPECT_EQ(ids(f), V{t2});
+  f = {};
+  f.from = "2026-11-24T00:00:00Z";
+  f.examiner_id = erin;
+  EXPECT_EQ(ids(f), V{p1});
+  f = {};
+  f.sort = "score";
+  f.descending = false;
+  EXPECT_EQ(ids(f), (V{t2, t1, p1}));
+  fs::ExamFilter all;
+  all.school_id = school_;
+  const fs::ExamPage page = store_->find_exams(all, 1, 1);
+  EXPECT_EQ(page.total, 3);
+  ASSERT_EQ(page.exams.size(), 1u);
+  EXPECT_EQ(page.exams[0].pupil_name, "Bob");
+  EXPECT_EQ(page.exams[0].corrections, 1);
+  all.kind = "oral";
+  EXPECT_EQ(ErrorKind([&] { store_->find_exams(all, 10, 0); }), fs::StoreError::kInvalid);
+}
+
+TEST_P(StoreTest, ACabIsNeverBookedTwiceAtOnce) {
+  const int64_t ines = store_->create_user("ines", "h", fs::Role::kInstructor, school_, std::nullopt, "Ines Instructor");
+  const int64_t ann = NewPupil("Ann"), bob = NewPupil("Bob");
+  fs::Booking b;
+  b.pupil_id = ann;
+  b.cab_id = "cab1";
+  b.starts_at = "2026-11-23T09:00:00Z";
+  b.ends_at = "2026-11-23T10:00:00Z";
+  b.scenario = "manoeuvre_4";
+  b.instructor_id = ines;
+  const int64_t first = store_->create_booking(b);
+  fs::Booking overlap = b;
+  overlap.pupil_id = bob;
+  overlap.starts_at = "2026-11-23T09:30:00Z";
+  overlap.ends_at = "2026-11-23T10:30:00Z";
+  EXPECT_EQ(ErrorKind([&] { store_->create_booking(overlap); }), fs::StoreError::kConflict);
+  overlap.starts_at = "2026-11-23T08:00:00Z";  // around it
+  overlap.ends_at = "2026-11-23T11:00:00Z";
+  EXPECT_EQ(ErrorKind([&] { store_->create_booking(overlap); }), fs::StoreError::kConflict);
+  fs::Booking after = overlap;
+  after.starts_at = "2026-11-23T10:00:00Z";  // back to back is not double
+  after.ends_at = "2026-11-23T10:30:00Z";
+  const int64_t second = store_->create_booking(after);
+  fs::Booking other_cab = overlap;
+  other_cab.cab_id = "cab2";
+  const int64_t third = store_->create_booking(other_cab);
+  fs::Booking backwards = b;
+  backwards.cab_id = "cab3";
+  backwards.ends_at = b.starts_at;
+  EXPECT_EQ(ErrorKind([&] { store_->create_booking(backwards); }), fs::StoreError::kInvalid);
+
+  const auto day = store_->list_bookings(school_, "2026-11-23T00:00:00Z", "2026-11-24T00:00:00Z");
+  ASSERT_EQ(day.size(), 3u);
+  EXPECT_EQ(day[0].id, first);  // by cab, then time
+  EXPECT_EQ(day[1].id, second);
+  EXPECT_EQ(day[2].id, third);
+  EXPECT_EQ(day[0].pupil_name, "Ann");
+  EXPECT_EQ(day[0].school_id, school_);
+  EXPECT_TRUE(store_->list_bookings(school_, "2026-11-24T00:00:00Z", "2026-11-25T00:00:00Z").empty());
+
+  const std::string s = NewSession(ann).public_id;
+  store_->set_booking_session(first, s);
+  EXPECT_EQ(store_->get_booking(first)->session_public_id, s);
+  EXPECT_EQ(ErrorKind([&] { store_->set_booking_session(first, s); }), fs::StoreError::kConflict);
+  EXPECT_EQ(ErrorKind([&] { store_->delete_booking(first); }), fs::StoreError::kConflict);
+  store_->delete_booking(second);
+  EXPECT_FALSE(store_->get_booking(second).has_value());
+  EXPECT_EQ(ErrorKind([&] { store_->delete_booking(second); }), fs::StoreError::kNotFound);
+}
 
 INSTANTIATE_TEST_SUITE_P(, StoreTest, ::testing::Values(Backend::kSqlite, Backend::kPostgresql),
                          [](const ::testing::TestParamInfo<Backend>& info) { return std::string(Name(info.param)); });

@@ -28,8 +28,10 @@ struct ApiClient {
     httplib::Headers h;
     if (!token.empty()) h.emplace("Authorization", "Bearer " + token);
     auto r = method == "GET"     ? c.Get(path, h)
-             : method == "PATCH" ? c.Patch(path, h, body, "application/json")
-                                 : c.Post(path, h, body, "application/json");
+             : method == "PATCH"  ? c.Patch(path, h, body, "application/json")
+             : method == "PUT"    ? c.Put(path, h, body, "application/json")
+             : method == "DELETE" ? c.Delete(path, h)
+                                  : c.Post(path, h, body, "application/json");
     if (!r) return {0, nullptr};
     json j;
     try { j = json::parse(r->body); } catch (...) { j = r->body; }

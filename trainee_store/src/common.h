@@ -1,11 +1,16 @@
 // What the store's backends share besides the interface: argument checks and the reading of
-// whole rows, so that SQLite and PostgreSQL refuse and return the same. No SQL here: each
-// backend's statements live in its own source. `Row` is a backend's query positioned on a row,
+// whole rows, so that SQLite and PostgreSQL refuse and return the same. No SQL here but a
+// session's outcome (SESSION_OUTCOME_SQL, the same text in both dialects): each backend's
+// statements live in its own source. `Row` is a backend's query positioned on a row,
 // with int64, real, text, is_null, opt_int64 and opt_real of a column by index.
 #pragma once
 
+#include <algorithm>
+#include <iterator>
 #include <optional>
 #include <string>
+#include <utility>
+#include <variant>
 #include <vector>
 
 #include "forklift/store/store.h"
@@ -116,6 +121,86 @@ inline AuditRecord state_audit(const Session& before, const std::string& state, 
   return r;
 }
 
+// The WHERE clause of a list (find_pupils and the like) as its filters add up: each condition in
+// the backend's dialect with `?` for its values, bound in order. PostgreSQL numbers them ($n).
+class Conditions {
+ public:
+  using Value = std::variant<int64_t, std::string>;
+  void add(const std::string& condition, std::vector<Value> values = {}) {
+    sql_ += (sql_.empty() ? " WHERE " : " AND ") + condition;
+    for (auto& v : values) values_.push_back(std::move(v));
+  }
+  // A value bound after the conditions' (for a parameter in the ORDER BY).
+  void add_value(Value v) { values_.push_back(std::move(v)); }
+  const std::string& sql() const { return sql_; }
+  const std::vector<Value>& values() const { return values_; }
+  template <class Q>
+  void bind(Q& q) const {
+    for (const Value& v : values_) std::visit([&](const auto& x) { q.bind(x); }, v);
+  }
+
+ private:
+  std::string sql_;
+  std::vector<Value> values_;
+};
+
+// `sql` with each `?` as $1, $2, ... (PostgreSQL's parameters); none of the store's statements
+// has a `?` in a literal.
+inline std::string numbered_parameters(const std::string& sql) {
+  std::string out;
+  int n = 0;
+  for (char c : sql) {
+    if (c == '?') out += "$" + std::to_string(++n);
+    else out += c;
+  }
+  return out;
+}
+
+// The ORDER BY terms of the sort key a list was asked for, looked up in its allow-list of (key,
+// expression), ties broken by `tie_breaker`; else kInvalid naming the keys it has.
+inline std::string order_by(const char* op, const std::vector<std::pair<std::string, std::string>>& keys,
+                            const std::string& key, bool descending, const std::string& tie_breaker) {
+  std::string names;
+  for (const auto& [name, expr] : keys) {
+    if (name == key) {
+      const char* dir = descending ? " DESC" : " ASC";
+      return expr + dir + ", " + tie_breaker + dir;
+    }
+    names += (names.empty() ? "" : ", ") + name;
+  }
+  throw StoreError(StoreError::kInvalid, std::string(op) + ": cannot sort by '" + key + "' (" + names + ")");
+}
+
+inline void check_page(const char* op, int limit, int offset) {
+  require(limit >= 0 && offset >= 0, StoreError::kInvalid, op, "negative limit or offset");
+}
+
+// A session's outcome in SQL, as session_outcome() says it (the same text in both dialects); the
+// statement reads FROM sessions, unaliased.
+#define SESSION_OUTCOME_SQL                                                                                            \
+  "(CASE WHEN sessions.state NOT IN ('ended', 'failed', 'aborted') THEN 'open' "                                       \
+  "WHEN sessions.state = 'aborted' THEN 'aborted' WHEN sessions.state = 'failed' THEN 'failed' "                       \
+  "WHEN sessions.reason IN ('task_complete', 'parked') THEN 'completed' "                                              \
+  "WHEN sessions.reason = 'duration' THEN CASE WHEN EXISTS (SELECT 1 FROM score_counts c WHERE c.session_id = "       \
+  "sessions.id AND c.kind = 'task_incomplete') THEN 'timed_out' ELSE 'completed' END "                                 \
+  "WHEN sessions.reason = 'time_limit' THEN 'timed_out' WHEN sessions.reason = 'aborted' THEN 'aborted' "             \
+  "WHEN sessions.reason = 'signal' THEN 'stopped' ELSE 'failed' END)"
+
+inline void check_outcome_filter(const char* op, const SessionFilter& f) {
+  static const char* const kOutcomes[] = {"open", "completed", "timed_out", "aborted", "stopped", "failed"};
+  require(f.outcome.empty() || std::find(std::begin(kOutcomes), std::end(kOutcomes), f.outcome) != std::end(kOutcomes),
+          StoreError::kInvalid, op, "unknown outcome '" + f.outcome + "'");
+  require(f.result.empty() || f.result == "passed" || f.result == "not_passed", StoreError::kInvalid, op,
+          "result '" + f.result + "' is neither passed nor not_passed");
+  require(f.mode.empty() || f.mode == "training" || f.mode == "exam", StoreError::kInvalid, op, "unknown mode '" + f.mode + "'");
+}
+
+inline void check_booking(const char* op, const Booking& b) {
+  require(b.mode == "training" || b.mode == "exam", StoreError::kInvalid, op, "mode '" + b.mode + "' is neither training nor exam");
+  require(!b.cab_id.empty() && !b.scenario.empty(), StoreError::kInvalid, op, "a booking needs its cab and scenario");
+  require(!b.starts_at.empty() && b.ends_at > b.starts_at, StoreError::kInvalid, op, "a booking ends after it starts");
+}
+
 // LIKE pattern for "contains `text`", with '\' escaping so that % and _ in it match literally.
 inline std::string contains_pattern(const std::string& text) {
   std::string p = "%";
@@ -170,7 +255,7 @@ User read_user(const Row& q) {
 
 template <class Row>
 Pupil read_pupil(const Row& q) {
-  return Pupil{q.int64(0), q.int64(1), q.text(2), q.text(3), q.text(4)};
+  return Pupil{q.int64(0), q.int64(1), q.text(2), q.text(3), q.text(4), q.opt_int64(5)};
 }
 
 template <class Row>
@@ -190,6 +275,7 @@ Session read_session(const Row& q) {
   s.mark = q.opt_real(11);
   if (!q.is_null(12)) s.passed = q.int64(12) != 0;
   s.task_left_unfinished = q.int64(13) != 0;
+  s.started_by = q.opt_int64(14);
   return s;
 }
 
@@ -249,6 +335,17 @@ ExamRecord read_exam(const Row& q) {
   r.taken_at = q.text(7);
   r.details = q.text(8);
   return r;
+}
+
+template <class Row>
+Group read_group(const Row& q) {
+  return Group{q.int64(0), q.int64(1), q.text(2), q.opt_int64(3), q.text(4), q.int64(5)};
+}
+
+template <class Row>
+Booking read_booking(const Row& q) {
+  return Booking{q.int64(0), q.int64(1), q.int64(2), q.text(3), q.text(4), q.text(5), q.text(6),
+                 q.text(7), q.opt_int64(8), q.text(9), q.text(10), q.text(11)};
 }
 
 template <class Row>

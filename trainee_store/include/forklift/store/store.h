@@ -93,6 +93,17 @@ struct Pupil {
   std::string name;
   std::string email;  // may be empty
   std::string created_at;
+  std::optional<int64_t> group_id;  // the group (course) the pupil is in, if any: at most one
+};
+
+// A course or group of pupils with the instructor who teaches it (issue 18, item 4).
+struct Group {
+  int64_t id = 0;
+  int64_t school_id = 0;
+  std::string name;                     // unique in the school, capitals or not
+  std::optional<int64_t> instructor_id;  // a user of the school
+  std::string created_at;
+  int64_t pupils = 0;  // how many pupils it has (as read)
 };
 
 struct Cab {
@@ -115,6 +126,61 @@ struct Session {
   std::optional<double> mark;    // the evaluator's, as stored: mark_of() says whether it counts
   std::optional<bool> passed;
   bool task_left_unfinished = false;  // its score counts a "task_incomplete" fault
+  std::optional<int64_t> started_by;  // the user who started it (none for sessions from before it was kept)
+};
+
+// Lists a school works with (issue 18, item 1): filtered and sorted in SQL, a page at a time with
+// the total that match. Sort keys come from a fixed list (the store refuses others, kInvalid);
+// ties are broken by id. Text filters are exact unless said otherwise; dates are ISO-8601 UTC
+// strings compared as such ("2026-11-23" matches from the start of that day).
+struct PupilFilter {
+  int64_t school_id = 0;
+  std::string search;                     // in the name or the email, capitals or not; empty: all
+  std::optional<int64_t> group_id;        // 0: pupils in no group
+  std::optional<int64_t> instructor_id;   // pupils of this instructor's groups
+  std::optional<int64_t> first_for;       // an instructor: their groups' pupils first, then the rest
+  std::string sort = "name";              // "name", "email", "created_at", "group"
+  bool descending = false;
+};
+struct PupilPage {
+  std::vector<Pupil> pupils;
+  int64_t total = 0;
+};
+
+struct SessionFilter {
+  int64_t school_id = 0;
+  std::optional<int64_t> pupil_id;
+  std::string search;                    // in the pupil's name or email, capitals or not
+  std::string from, to;                  // created_at in [from, to); empty: open-ended
+  std::string cab_id, scenario, mode;    // exact; empty: any
+  std::optional<int64_t> instructor_id;  // started by this user
+  std::optional<int64_t> group_id;       // of pupils in this group
+  std::string outcome;                   // an outcome_name(); empty: any
+  std::string result;                    // "passed" (completed and passed), "not_passed" (over, and not so); empty: any
+  std::string sort = "created_at";       // "created_at", "pupil", "cab", "scenario", "mode", "mark"
+  bool descending = true;
+};
+// A session as a list shows it: with its pupil's name.
+struct SessionRow {
+  Session session;
+  std::string pupil_name;
+};
+struct SessionPage {
+  std::vector<SessionRow> sessions;
+  int64_t total = 0;
+};
+
+struct ExamFilter {
+  int64_t school_id = 0;
+  std::optional<int64_t> pupil_id;
+  std::string search;                   // in the pupil's name or email
+  std::string kind;                     // "theory" or "practical"; empty: both
+  std::string from, to;                 // taken_at in [from, to)
+  std::optional<bool> passed;           // as recorded (a correction may say otherwise: the record's page shows it)
+  std::optional<int64_t> examiner_id;
+  std::optional<int64_t> group_id;
+  std::string sort = "taken_at";        // "taken_at", "pupil", "kind", "score"
+  bool descending = true;
 };
 
 // What a session's end means (issue 17, item 2), the one rule that the store's trend, the API,
@@ -163,6 +229,33 @@ struct ExamRecord {
   std::optional<int64_t> examiner_id;
   std::string taken_at;
   std::string details;  // JSON text, free form (e.g. the theory answers)
+};
+
+// An exam record as a list shows it: with its pupil's name, and whether it has corrections.
+struct ExamRow {
+  ExamRecord exam;
+  std::string pupil_name;
+  int64_t corrections = 0;
+};
+struct ExamPage {
+  std::vector<ExamRow> exams;
+  int64_t total = 0;
+};
+
+// A cab booked for a pupil's session at a time (issue 18, item 4). A cab is never booked twice at
+// once: bookings of one cab do not overlap ([starts_at, ends_at) intervals).
+struct Booking {
+  int64_t id = 0;
+  int64_t school_id = 0;
+  int64_t pupil_id = 0;
+  std::string cab_id;
+  std::string starts_at, ends_at;  // ISO-8601 UTC, "YYYY-MM-DDTHH:MM:SSZ"; ends_at after starts_at
+  std::string scenario;
+  std::string mode = "training";   // "training" or "exam"
+  std::optional<int64_t> instructor_id;
+  std::string session_public_id;   // the session started from it; empty until then
+  std::string created_at;
+  std::string pupil_name;          // as read
 };
 
 // A correction of a finished exam record: a new record, never a change to the old one (issue 17,
@@ -371,6 +464,30 @@ class Store {
   virtual void update_pupil(int64_t id, const std::string& name, const std::string& email) = 0;
   // Pupils of a school whose name contains `search` (case-insensitive; empty: all), by name.
   virtual std::vector<Pupil> list_pupils(int64_t school_id, const std::string& search, int limit, int offset) = 0;
+  // The lists of issue 18 (PupilFilter and the like): kInvalid for an unknown sort key, outcome or
+  // result, or a negative limit or offset.
+  virtual PupilPage find_pupils(const PupilFilter& f, int limit, int offset) = 0;
+  virtual SessionPage find_sessions(const SessionFilter& f, int limit, int offset) = 0;
+  virtual ExamPage find_exams(const ExamFilter& f, int limit, int offset) = 0;
+
+  // Groups: kInvalid for an empty name, kConflict for a name the school has (capitals or not),
+  // kNotFound for an unknown school, group or instructor.
+  virtual int64_t create_group(int64_t school_id, const std::string& name, std::optional<int64_t> instructor_id) = 0;
+  virtual std::optional<Group> get_group(int64_t id) = 0;
+  virtual std::vector<Group> list_groups(int64_t school_id) = 0;  // by name
+  virtual void update_group(int64_t id, const std::string& name, std::optional<int64_t> instructor_id) = 0;
+  // Moves a pupil into a group (of the pupil's school, else kInvalid), or out of any (nullopt).
+  virtual void set_pupil_group(int64_t pupil_id, std::optional<int64_t> group_id) = 0;
+
+  // Bookings: kConflict when the cab is booked at an overlapping time, kInvalid for a booking that
+  // ends before it starts or an unknown mode, kNotFound for an unknown pupil or instructor.
+  virtual int64_t create_booking(const Booking& b) = 0;
+  virtual std::optional<Booking> get_booking(int64_t id) = 0;
+  // A school's bookings that overlap [from, to), by cab and start.
+  virtual std::vector<Booking> list_bookings(int64_t school_id, const std::string& from, const std::string& to) = 0;
+  // Records the session started from a booking, once (kConflict if it has one).
+  virtual void set_booking_session(int64_t booking_id, const std::string& session_public_id) = 0;
+  virtual void delete_booking(int64_t booking_id) = 0;  // kNotFound; kConflict once a session started from it
 
   // A cab announced itself (inserted if new, last_seen_at set to now).
   virtual void cab_seen(const std::string& cab_id, int64_t school_id, const std::string& now) = 0;
@@ -378,7 +495,8 @@ class Store {
 
   // New session in state "starting"; public_id assigned by the store ("s-" + zero-padded id).
   virtual Session create_session(int64_t pupil_id, const std::string& cab_id, const std::string& scenario,
-                                 const std::string& mode, std::optional<int64_t> examiner_id, const std::string& now) = 0;
+                                 const std::string& mode, std::optional<int64_t> examiner_id, const std::string& now,
+                                 std::optional<int64_t> started_by = std::nullopt) = 0;
   virtual std::optional<Session> get_session(const std::string& public_id) = 0;
   virtual std::vector<Session> list_sessions_for_pupil(int64_t pupil_id) = 0;
   // Sessions not yet ended, failed or aborted (a restarted server resumes supervising these).

@@ -1,0 +1,113 @@
+// The day view: GET /api/day, the school's cabs by the hour (UTC), each with its bookings and the
+// sessions that ran; a cab booked (POST /api/bookings, 409 when it is taken then), a booking
+// started (POST /api/bookings/{id}/start) or cancelled (DELETE /api/bookings/{id}).
+'use strict';
+(() => {
+  const { api, el, clear, requireLogin, say, describeError, param } = FL;
+  requireLogin(FL.STAFF);
+  const $ = (id) => document.getElementById(id);
+  const message = $('message');
+  $('date').value = param('date') || FL_LIST.today();
+  const FIRST_HOUR = 6, LAST_HOUR = 20;
+  const hm = (iso) => iso.slice(11, 16);
+  const hour = (iso) => Number(iso.slice(11, 13));
+
+  function cell(items) {
+    return el('td', {}, items);
+  }
+
+  function bookingItem(b) {
+    const item = el('div', { class: 'booking', 'data-booking': b.id },
+      `${hm(b.starts_at)}–${hm(b.ends_at)} `, el('strong', {}, b.pupil.name), ` ${b.scenario}${b.mode === 'exam' ? ' (exam)' : ''}`);
+    if (b.session) {
+      item.append(' ', el('a', { href: `session.html?id=${encodeURIComponent(b.session)}` }, b.session));
+    } else {
+      item.append(' ', el('button', { type: 'button', class: 'link', 'data-action': 'start', onclick: () => start(b) }, 'Start'),
+        ' ', el('button', { type: 'button', class: 'link', 'data-action': 'cancel', onclick: () => cancel(b) }, 'Cancel'));
+    }
+    return item;
+  }
+
+  function ranItem(s) {
+    return el('div', { class: 'ran', 'data-session': s.id }, `${hm(s.created_at)} `,
+      el('a', { href: `session.html?id=${encodeURIComponent(s.id)}` }, s.pupil_name), ` ${s.scenario}: ${s.outcome}`);
+  }
+
+  async function load() {
+    try {
+      const d = await api('GET', `/day?date=${encodeURIComponent($('date').value)}`);
+      const hours = [];
+      for (let h = FIRST_HOUR; h < LAST_HOUR; ++h) hours.push(h);
+      const head = $('grid').querySelector('thead tr');
+      clear(head).append(el('th', { scope: 'col' }, 'Cab'),
+        el('th', { scope: 'col' }, `before ${FIRST_HOUR}:00`),
+        ...hours.map((h) => el('th', { scope: 'col' }, `${String(h).padStart(2, '0')}:00`)),
+        el('th', { scope: 'col' }, `from ${LAST_HOUR}:00`));
+      const slot = (iso) => Math.min(Math.max(hour(iso), FIRST_HOUR - 1), LAST_HOUR) - (FIRST_HOUR - 1);
+      clear($('grid').querySelector('tbody')).append(...d.cabs.map((cab) => {
+        const cells = [];
+        for (let i = 0; i < hours.length + 2; ++i) cells.push([]);
+        for (const b of d.bookings.filter((x) => x.cab_id === cab)) cells[slot(b.starts_at)].push(bookingItem(b));
+        for (const s of d.sessions.filter((x) => x.cab_id === cab)) cells[slot(s.created_at)].push(ranItem(s));
+        return el('tr', { 'data-cab': cab }, el('th', { scope: 'row' }, cab), ...cells.map(cell));
+      }));
+      $('summary').textContent = `${d.date}: ${d.bookings.length} booking${d.bookings.length === 1 ? '' : 's'}, ` +
+        `${d.sessions_total} session${d.sessions_total === 1 ? '' : 's'} run, on ${d.cabs.length} cab${d.cabs.length === 1 ? '' : 's'}`;
+      clear($('cab-list')).append(...d.cabs.map((c) => el('option', { value: c })));
+    } catch (e) {
+      say(message, describeError(e));
+    }
+  }
+
+  async function start(b) {
+    try {
+      const s = await api('POST', `/bookings/${encodeURIComponent(b.id)}/start`);
+      clear(message).append(el('p', { class: 'ok', role: 'status' }, `Started ${b.pupil.name}'s session on ${b.cab_id}: `,
+        el('a', { href: `session.html?id=${encodeURIComponent(s.id)}`, id: 'started-session' }, s.id), '.'));
+      load();
+    } catch (e) {
+      say(message, describeError(e));
+    }
+  }
+
+  async function cancel(b) {
+    try {
+      await api('DELETE', `/bookings/${encodeURIComponent(b.id)}`);
+      say(message, `Cancelled ${b.pupil.name}'s booking of ${b.cab_id} at ${hm(b.starts_at)}.`, 'ok');
+      load();
+    } catch (e) {
+      say(message, describeError(e));
+    }
+  }
+
+  $('book').addEventListener('submit', async (ev) => {
+    ev.preventDefault();
+    const body = { pupil_id: Number($('pupil').value), cab_id: $('cab').value.trim(), starts_at: `${$('date').value}T${$('start').value}:00Z`,
+                   duration_min: Number($('minutes').value), scenario: $('scenario').value, mode: $('mode').value };
+    if (!body.pupil_id) { say(message, 'Choose a pupil: type part of their name and pick them from the list.'); return; }
+    if (!/^[A-Za-z0-9_-]{1,32}$/.test(body.cab_id)) { say(message, 'Name the cab: 1-32 letters, digits, - or _.'); return; }
+    try {
+      const b = await api('POST', '/bookings', body);
+      say(message, `Booked ${b.cab_id} for ${b.pupil.name}, ${hm(b.starts_at)}–${hm(b.ends_at)}.`, 'ok');
+      load();
+    } catch (e) {
+      say(message, describeError(e));
+    }
+  });
+
+  async function choices() {
+    try {
+      const [scenarios, fleet] = await Promise.all([api('GET', '/scenarios'), api('GET', '/fleet')]);
+      $('scenario').append(...scenarios.map((s) => el('option', { value: s.name }, s.name)));
+      $('cab-list').append(...fleet.cabs.map((c) => el('option', { value: c.id })));
+    } catch (e) {
+      console.warn(e);
+    }
+  }
+
+  FL_LIST.pupilPicker($('pupil-search'), $('pupil'), $('pupil-options'), null, param('pupil'));
+  $('date').addEventListener('change', load);
+  $('which').addEventListener('submit', (ev) => { ev.preventDefault(); load(); });
+  choices();
+  load();
+})();
