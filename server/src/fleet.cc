@@ -4,6 +4,7 @@
 #include "worker_log.h"
 
 #include "forklift/image/image.h"
+#include "forklift/server/logs.h"
 #include "forklift/session/session_log.h"
 
 #include <fcntl.h>
@@ -22,6 +23,20 @@
 
 namespace forklift::server {
 namespace {
+
+// The store's audited state change and score, each also a line in the session log when it
+// changes something.
+bool set_state(store::Store& db, const std::string& session, const std::string& state, const std::string& reason,
+               const store::Actor& actor) {
+  const bool changed = db.set_session_state_audited(session, state, reason, store::now_iso8601(), actor);
+  if (changed) session_log(session, state, {{"reason", reason}, {"by", actor.name}});
+  return changed;
+}
+bool set_score(store::Store& db, const store::ScoreRecord& score, const store::Actor& actor) {
+  const bool changed = db.set_score_audited(score, store::now_iso8601(), actor);
+  if (changed) session_log(score.session_public_id, "scored", {{"mark", score.mark}, {"passed", score.passed}, {"by", actor.name}});
+  return changed;
+}
 
 using Clock = std::chrono::steady_clock;
 
@@ -274,7 +289,7 @@ void Fleet::take_followed_frames() {
 
 void Fleet::fail(store::Store& db, const std::string& session, const std::string& cab, const std::string& reason) {
   // Never a pass: a session whose worker died is failed with the reason, and the cab is told.
-  if (db.set_session_state_audited(session, "failed", reason, store::now_iso8601(), kServer)) {
+  if (set_state(db, session, "failed", reason, kServer)) {
     spdlog::warn("session {} failed: {}", session, reason);
     publish_status(session, cab, "failed", reason);
   }
@@ -371,7 +386,7 @@ void Fleet::settle(store::Store& db, const WorkerInfo& w, const std::string& rea
       store::ScoreRecord score = *logged->score;
       score.exam_details = practical_exam_details(db, config_.data_dir, rules_, w.session, logged->end_reason.value_or(""),
                                                   logged->points, score.counts, score.passed);
-      scored = db.set_score_audited(score, store::now_iso8601(), kWorkerLog);
+      scored = set_score(db, score, kWorkerLog);
     }
     if (events || scored) {
       std::lock_guard<std::mutex> lock(mu_);
@@ -390,7 +405,7 @@ void Fleet::settle(store::Store& db, const WorkerInfo& w, const std::string& rea
   if (!s || store::is_terminal(s->state)) return;
   if (logged && logged->score && logged->end_reason) {
     // The log's end is the session's, whatever became of the worker's last status.
-    if (db.set_session_state_audited(w.session, "ended", *logged->end_reason, store::now_iso8601(), kWorkerLog))
+    if (set_state(db, w.session, "ended", *logged->end_reason, kWorkerLog))
       publish_status(w.session, w.cab, "ended", *logged->end_reason);
   } else if (logged && logged->gave_up) {
     fail(db, w.session, w.cab, "the cab never spoke");
@@ -402,7 +417,7 @@ void Fleet::settle(store::Store& db, const WorkerInfo& w, const std::string& rea
   } else {
     // A clean exit with no mark in the log (a session that never ran): ended, which carries no
     // mark and so is never a pass.
-    db.set_session_state_audited(w.session, "ended", "worker exited", store::now_iso8601(), kServer);
+    set_state(db, w.session, "ended", "worker exited", kServer);
   }
 }
 
@@ -580,14 +595,14 @@ void Fleet::ingest() {
       }
       r.exam_details = practical_exam_details(*db, config_.data_dir, rules_, r.session_public_id, logged->end_reason,
                                               logged->points, r.counts, r.passed);
-      db->set_score_audited(r, store::now_iso8601(), kWorker);
+      set_score(*db, r, kWorker);
     });
     each(statuses, "fk_SessionStatus", [&](const fk_SessionStatus& s, const dds_sample_info_t& info) {
       if (!believed("fk_SessionStatus", s.session_id, statuses.handle(), info)) return;
       if (auto bad = bad_text({{"its state", s.state}, {"its reason", s.reason}})) throw std::runtime_error(*bad);
       const std::string state = s.state;
       if (state == "waiting" || state == "running" || state == "ended" || state == "failed")
-        db->set_session_state_audited(s.session_id, state, s.reason, store::now_iso8601(), kWorker);
+        set_state(*db, s.session_id, state, s.reason, kWorker);
     });
     std::vector<std::string> announced;
     std::map<std::string, std::vector<store::PathPoint>> path;  // by session, downsampled

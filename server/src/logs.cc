@@ -14,6 +14,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
+#include <memory>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
@@ -109,7 +111,10 @@ void start_server_log(LogFormat format) {
   spdlog::set_default_logger(std::move(log));
 }
 
-void start_access_log(httplib::Server& svr, const std::string& path, LogFormat format) {
+namespace {
+
+// A log of whole lines (made by the caller) appended to `path` ("-": stdout), each on disk at once.
+std::shared_ptr<spdlog::logger> line_log(const char* name, const std::string& option, const std::string& path) {
   std::shared_ptr<spdlog::sinks::sink> sink;
   try {
     if (path == "-")
@@ -117,11 +122,50 @@ void start_access_log(httplib::Server& svr, const std::string& path, LogFormat f
     else
       sink = std::make_shared<spdlog::sinks::basic_file_sink_mt>(path);  // appended to
   } catch (const spdlog::spdlog_ex& e) {
-    throw std::runtime_error("--access-log " + path + ": cannot write to it (" + e.what() + ")");
+    throw std::runtime_error(option + " " + path + ": cannot write to it (" + e.what() + ")");
   }
-  auto log = std::make_shared<spdlog::logger>("access", std::move(sink));
-  log->set_pattern("%v");  // each line made whole below
-  log->flush_on(spdlog::level::trace);  // a line is on disk when the next request comes
+  auto log = std::make_shared<spdlog::logger>(name, std::move(sink));
+  log->set_pattern("%v");
+  log->flush_on(spdlog::level::trace);
+  return log;
+}
+
+std::mutex session_log_mu;
+std::shared_ptr<spdlog::logger> session_log_sink;
+LogFormat session_log_format = LogFormat::kText;
+
+}  // namespace
+
+void start_session_log(const std::string& path, LogFormat format) {
+  auto log = line_log("sessions", "--session-log", path);
+  std::lock_guard<std::mutex> lock(session_log_mu);
+  session_log_sink = std::move(log);
+  session_log_format = format;
+}
+
+void session_log(const std::string& session, const std::string& event, const nlohmann::json& fields) {
+  std::shared_ptr<spdlog::logger> log;
+  LogFormat format;
+  {
+    std::lock_guard<std::mutex> lock(session_log_mu);
+    log = session_log_sink;
+    format = session_log_format;
+  }
+  if (!log) return;
+  const std::string time = utc_time(std::chrono::system_clock::now());
+  if (format == LogFormat::kJson) {
+    json line = {{"time", time}, {"session", session}, {"event", event}};
+    for (const auto& [k, v] : fields.items()) line[k] = v;
+    log->info(json_line(line));
+  } else {
+    std::string text = time + " " + printable(session) + " " + printable(event);
+    for (const auto& [k, v] : fields.items()) text += " " + k + "=" + printable(v.is_string() ? v.get<std::string>() : json_line(v));
+    log->info(text);
+  }
+}
+
+void start_access_log(httplib::Server& svr, const std::string& path, LogFormat format) {
+  auto log = line_log("access", "--access-log", path);  // each line made whole below
   svr.set_logger([log, format](const httplib::Request& req, const httplib::Response& res) {
     const RequestNotes& notes = request_notes();
     const auto now = std::chrono::steady_clock::now();

@@ -157,11 +157,13 @@ int main(int argc, char** argv) {
   app.add_option("--theory-policy", cfg.theory_policy, "the school's rules for theory papers: time limits, the wait between "
                  "exam attempts and their limit (default: data/theory/policy.json)")->check(CLI::ExistingFile);
   app.add_option("--web-dir", web_dir, "the built web pages (default: web/ beside bin/ in the build tree)");
-  std::string log_format = "text", access_log;
-  app.add_option("--log-format", log_format, "the server's log (stderr) and access log: text, or json (one object per line)")
+  std::string log_format = "text", access_log, session_log;
+  app.add_option("--log-format", log_format, "the server's log (stderr), access log and session log: text, or json (one object per line)")
       ->check(CLI::IsMember({"text", "json"}));
   app.add_option("--access-log", access_log, "one line per HTTP request, appended to this file (- for stdout; default: "
                  "<log-dir>/access.log)");
+  app.add_option("--session-log", session_log, "one line per thing that happens to a session (started, its states, its mark), "
+                 "appended to this file (- for stdout; default: <log-dir>/sessions.log)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -193,6 +195,7 @@ int main(int argc, char** argv) {
     if (web_dir.empty()) web_dir = (self.parent_path().parent_path() / "web").string();
 
     forklift::server::Api api(cfg);
+    forklift::server::start_session_log(session_log.empty() ? api.log_dir() + "/sessions.log" : session_log, format);
     if (!api.generated_admin_password().empty()) keep_admin_password(api.log_dir(), api.generated_admin_password());
     api.mount(*svr);
     forklift::server::start_access_log(*svr, access_log.empty() ? api.log_dir() + "/access.log" : access_log, format);

@@ -14,6 +14,7 @@
 #include "load_request.h"
 #include "outcome.h"
 #include "routes.h"
+#include "forklift/server/logs.h"
 #include "forklift/protocol/aids.h"
 #include "forklift/scene/scene.h"
 
@@ -150,6 +151,7 @@ store::Session start_session(Context& ctx, const Principal& p, const json& b,
            {"time_limit_s", duration ? json(*duration) : json(nullptr)}, {"truck", truck}, {"load", load},
            {"aids", aids ? json(*aids) : json(nullptr)}});
   });
+  session_log(s.public_id, "started", {{"pupil", pupil.id}, {"cab", cab}, {"scenario", scenario}, {"mode", mode}, {"by", p.username}});
   std::string file = scenario_path;
   if (own_copy) {
     file = ctx.fleet->config().log_dir + "/" + s.public_id + ".scenario.json";
@@ -159,6 +161,7 @@ store::Session start_session(Context& ctx, const Principal& p, const json& b,
     ctx.fleet->start_worker(s, file, duration, aids);
   } catch (const std::exception& e) {
     ctx.db().set_session_state_audited(s.public_id, "failed", e.what(), store::now_iso8601(), kServerActor);
+    session_log(s.public_id, "failed", {{"reason", "no worker could start"}, {"by", "server"}});
     spdlog::error("session {}: no worker: {}", s.public_id, e.what());
     throw ApiError(503, "no_worker", "no simulation could be started for this session: the server's log says why");
   }
@@ -247,6 +250,7 @@ void session_routes(Routes& svr, Context& ctx) {
     const store::Session s = session_for(ctx, req, p);
     if (!ctx.db().set_session_state_audited(s.public_id, "aborted", "aborted by " + p.username, store::now_iso8601(), actor_of(p)))
       throw ApiError(409, "session_over", "session " + s.public_id + " is already " + s.state);
+    session_log(s.public_id, "aborted", {{"reason", "aborted by " + p.username}, {"by", p.username}});
     ctx.fleet->abort(s.public_id);
     send_json(res, 200, session_json(*ctx.db().get_session(s.public_id)));
   }));

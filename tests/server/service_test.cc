@@ -239,3 +239,46 @@ TEST(Service, MenusScriptedCabDrivesInTheServersDomain) {
   EXPECT_TRUE(contains(menu.out(), ": ended")) << menu.out() << menu.err();
   EXPECT_EQ(s.call("GET", "/api/fleet", token).second["dds_domain"], s.domain);
 }
+
+// The session log (issue 18, item 5): a line for each thing that happens to a session, started to
+// scored, as JSON objects with --log-format json, and nothing from HTTP requests.
+TEST(Service, TheSessionLogFollowsASessionFromItsStartToItsMark) {
+  const std::string dir = testing::TempDir() + "/service-session-log";
+  std::filesystem::create_directories(dir);
+  const std::string log = dir + "/sessions.jsonl";
+  std::filesystem::remove(log);
+  Server s("service-session-log", {"--log-format", "json", "--session-log", log});
+  const std::string token = s.login("admin", kAdminPassword);
+  const json pupil = s.call("POST", "/api/pupils", token, R"({"name":"Sam Session"})").second;
+  auto [st, sess] = s.call("POST", "/api/sessions", token,
+                           json{{"pupil_id", pupil["id"]}, {"cab_id", "cabL"}, {"scenario", "manoeuvre_1"}, {"time_limit_s", 3}}.dump());
+  ASSERT_EQ(st, 201) << sess;
+  Process cab({kBin + "/forklift-cab", "--cab", "cabL", "--script", forklift_test::short_script(s.dir, 1.0), "--dds-domain",
+               std::to_string(s.domain), "--wait-worker", "20"},
+              s.dir + "/cab");
+  const json done = s.wait_session(token, sess["id"], 60);
+  ASSERT_EQ(done["state"], "ended") << done;
+  // The score follows the end a moment later.
+  std::vector<std::string> events;
+  for (int i = 0; i < 100; ++i) {
+    events.clear();
+    for (const std::string& line : lines_of(log)) {
+      const json j = json::parse(line);  // every line one JSON object
+      EXPECT_EQ(j["session"], sess["id"]) << line;
+      EXPECT_TRUE(j["time"].is_string()) << line;
+      events.push_back(j["event"]);
+      if (j["event"] == "started") {
+        EXPECT_EQ(j["cab"], "cabL");
+        EXPECT_EQ(j["by"], "admin");
+        EXPECT_EQ(j["pupil"], pupil["id"]);
+      }
+      if (j["event"] == "scored") EXPECT_TRUE(j["mark"].is_number()) << line;
+    }
+    if (std::find(events.begin(), events.end(), "scored") != events.end()) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  ASSERT_FALSE(events.empty());
+  EXPECT_EQ(events.front(), "started");
+  for (const char* e : {"running", "ended", "scored"})
+    EXPECT_NE(std::find(events.begin(), events.end(), e), events.end()) << e << " missing from " << json(events);
+}
