@@ -272,7 +272,9 @@ TEST(Service, TheSessionLogFollowsASessionFromItsStartToItsMark) {
         EXPECT_EQ(j["by"], "admin");
         EXPECT_EQ(j["pupil"], pupil["id"]);
       }
-      if (j["event"] == "scored") EXPECT_TRUE(j["mark"].is_number()) << line;
+      if (j["event"] == "scored") {
+        EXPECT_TRUE(j["mark"].is_number()) << line;
+      }
     }
     if (std::find(events.begin(), events.end(), "scored") != events.end()) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
