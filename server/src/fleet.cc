@@ -22,16 +22,17 @@
 #include <sstream>
 
 namespace forklift::server {
-namespace {
 
-// The store's audited state change and score, each also a line in the session log when it
-// changes something.
 bool set_state(store::Store& db, const std::string& session, const std::string& state, const std::string& reason,
                const store::Actor& actor) {
   const bool changed = db.set_session_state_audited(session, state, reason, store::now_iso8601(), actor);
   if (changed) session_log(session, state, {{"reason", reason}, {"by", actor.name}});
   return changed;
 }
+
+namespace {
+
+// The score likewise: audited, and a line in the session log when it is new.
 bool set_score(store::Store& db, const store::ScoreRecord& score, const store::Actor& actor) {
   const bool changed = db.set_score_audited(score, store::now_iso8601(), actor);
   if (changed) session_log(score.session_public_id, "scored", {{"mark", score.mark}, {"passed", score.passed}, {"by", actor.name}});

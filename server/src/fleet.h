@@ -74,6 +74,10 @@ struct CabInfo {
   std::chrono::steady_clock::time_point last_seen;
 };
 
+// The store's audited state change, also a line in the session log when it changes something.
+bool set_state(store::Store& db, const std::string& session, const std::string& state, const std::string& reason,
+               const store::Actor& actor);
+
 class Fleet {
  public:
   explicit Fleet(FleetConfig config);

@@ -5,6 +5,7 @@
 
 #include "api.h"
 #include "catalogue.h"
+#include "lists.h"
 #include "routes.h"
 
 namespace forklift::server {
@@ -16,18 +17,14 @@ namespace {
 constexpr size_t kMaxNoteChars = 4000;     // a page of notes; more belongs in a document
 constexpr size_t kMaxCommentChars = 1000;
 
-json person_json(Context& ctx, int64_t user_id) {
-  const auto u = ctx.db().get_user(user_id);
-  return {{"id", user_id}, {"name", !u ? "" : u->full_name.empty() ? u->username : u->full_name}};
-}
-
 json debrief_json(Context& ctx, const store::Session& s) {
+  People people(ctx.db());  // each author read once
   json notes = json::array();
   for (const auto& n : ctx.db().list_session_notes(s.public_id))
-    notes.push_back({{"id", n.id}, {"at", n.at}, {"text", n.text}, {"author", person_json(ctx, n.author_id)}});
+    notes.push_back({{"id", n.id}, {"at", n.at}, {"text", n.text}, {"author", people.json(n.author_id)}});
   json sign_off = nullptr;
   if (const auto o = ctx.db().get_session_sign_off(s.public_id))
-    sign_off = {{"at", o->at}, {"comment", o->comment}, {"by", person_json(ctx, o->signed_by)}};
+    sign_off = {{"at", o->at}, {"comment", o->comment}, {"by", people.json(o->signed_by)}};
   return {{"session", s.public_id}, {"finished", store::is_terminal(s.state)}, {"notes", notes}, {"sign_off", sign_off}};
 }
 

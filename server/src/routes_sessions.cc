@@ -248,9 +248,8 @@ void session_routes(Routes& svr, Context& ctx) {
     const Principal p = authenticate(ctx, req);
     require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
     const store::Session s = session_for(ctx, req, p);
-    if (!ctx.db().set_session_state_audited(s.public_id, "aborted", "aborted by " + p.username, store::now_iso8601(), actor_of(p)))
+    if (!set_state(ctx.db(), s.public_id, "aborted", "aborted by " + p.username, actor_of(p)))
       throw ApiError(409, "session_over", "session " + s.public_id + " is already " + s.state);
-    session_log(s.public_id, "aborted", {{"reason", "aborted by " + p.username}, {"by", p.username}});
     ctx.fleet->abort(s.public_id);
     send_json(res, 200, session_json(*ctx.db().get_session(s.public_id)));
   }));
