@@ -28,7 +28,7 @@
 #include "forklift/evaluation/evaluation.h"
 #include "forklift/protocol/aids.h"
 #include "forklift/protocol/protocol.h"
-#include "forklift/render/render.h"
+#include "forklift/render/loader.h"
 #include "forklift/security/evidence.h"
 #include "forklift/session/controls.h"
 #include "forklift/session/session.h"
@@ -157,7 +157,7 @@ class FramePublisher {
 
  private:
   void run() {
-    std::unique_ptr<Renderer> renderer;
+    std::unique_ptr<FrameRenderer> renderer;
     const auto period = std::chrono::duration<double>(1.0 / opt_.fps);
     auto next = Clock::now();
     std::unique_lock<std::mutex> lock(m_);
@@ -175,7 +175,7 @@ class FramePublisher {
       lock.unlock();
       if (!renderer) {
         try {
-          renderer = std::make_unique<Renderer>(model_.scene, model_.shape, model_.truck, opt_.width, opt_.height);
+          renderer = load_renderer(model_.scene, model_.shape, model_.truck, opt_.width, opt_.height);
         } catch (const std::exception& e) {
           log_line(cab_, std::string("no frames: ") + e.what());
           return;
@@ -624,23 +624,31 @@ int main(int argc, char** argv) {
       return changed;
     };
 
-    // Real-time health: how far the simulation fell behind the wall clock, and how many states
-    // went out more than one state period after the sim time they show.
+    // Real-time health: how far the simulation fell behind the wall clock (the loop woke later
+    // than it meant to, or a catch-up took long), and how many states went out more than one state
+    // period after the sim time they show.
     double max_lag_s = 0, max_lag_at_s = 0;
     long late_states = 0;
     bool unseen = false;  // the inputs changed and no state has shown it yet
     std::string end_reason = "signal";
+    // The loop sleeps until something must be seen (the next state, the dead-man deadline) or a
+    // control sample arrives, then runs the ticks the wall clock has passed in one go: each tick
+    // has the inputs it would have had had the loop woken for it (a sample applies from the tick
+    // in which it arrived, a scripted row at its own tick), with a wake-up per state period
+    // instead of per tick; a sample is stepped at once, not at the next tick's start.
+    double wake_at_s = 0;  // wall time, from `start`, the loop meant to wake at
     while (!g_stop) {
       take_controls();
       const double wall = std::chrono::duration<double>(Clock::now() - start).count();
-      // Physics catches up with the wall clock, one tick at a time; how far behind it was first.
-      if (wall - state.t_s > max_lag_s) { max_lag_s = wall - state.t_s; max_lag_at_s = state.t_s; }
+      if (wall - std::max(wake_at_s, state.t_s) > max_lag_s) {
+        max_lag_s = wall - std::max(wake_at_s, state.t_s);
+        max_lag_at_s = state.t_s;
+      }
       const int64_t due = static_cast<int64_t>(std::floor(wall / model.tick_s)) + 1;
-      // A wake-up between ticks (a sample arrived) only takes the sample; the next tick applies it.
-      bool changed = state.tick < due && take_inputs();
-      unseen = unseen || changed;
-      bool stepped = false;
+      bool changed = false, stepped = false;
       while (state.tick < due) {
+        // The newest sample (or the dead man) applies from the tick the wall clock is in.
+        if (state.tick == due - 1 && take_inputs()) changed = unseen = true;
         // A scripted cab's row due at this very tick, as the offline model applies it.
         if (!scheduled.empty() && scheduled.begin()->first <= state.tick) {
           while (!scheduled.empty() && scheduled.begin()->first <= state.tick) {
@@ -679,8 +687,13 @@ int main(int argc, char** argv) {
         unseen = false;
       }
       if (duration > 0 && state.t_s >= duration - 1e-12) { end_reason = "duration"; break; }
-      const double until_next = state.tick * model.tick_s - std::chrono::duration<double>(Clock::now() - start).count();
-      if (until_next > 0) waitset.wait(until_next);
+      // Next: the end of the tick in which the period's state falls due, or the dead-man deadline
+      // (its stop applies from the next tick); a control sample wakes the loop earlier.
+      wake_at_s = std::ceil(pacer.period_end_s() / model.tick_s - 1e-9) * model.tick_s - model.tick_s;
+      if (!deadman) wake_at_s = std::min(wake_at_s, std::chrono::duration<double>(last_valid - start).count() + deadman_s);
+      wake_at_s = std::max(wake_at_s, state.t_s);  // not before the wall clock reaches the truck's time
+      const double until = wake_at_s - std::chrono::duration<double>(Clock::now() - start).count();
+      if (until > 0) waitset.wait(until);
     }
 
     frame_publisher.stop();

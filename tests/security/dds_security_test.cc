@@ -2,6 +2,7 @@
 // scripts/forklift-pki.sh, a sim worker in exam mode, and cabs with the right identity, none,
 // another cab's, one from another CA, and a revoked one. Each test has its own DDS
 // domain from the allocator (support/ports.h).
+#include <csignal>
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -160,7 +161,7 @@ TEST_F(SecuredExam, AnExamWorkerGrantsNoAidWhateverTheCabAsks) {
     const int domain = forklift::test::free_domain();
     Process w({kBin + "/forklift-worker", "--cab", "cab1", "--session", "s-" + name, "--mode", mode, "--security", school(),
                "--scenario", kExamCourse, "--dds-domain", std::to_string(domain), "--log", tmp(name + ".ctl"), "--frame-size",
-               "320x240", "--duration", "4"},
+               "320x240", "--duration", "60"},
               tmp(name + ".worker"));
     // The cab, enrolled: cab1's identity, its own partition.
     dds::Participant p(dds::DomainSettings::resolve(domain, "", school(), "cab.cab1"));
@@ -176,13 +177,15 @@ TEST_F(SecuredExam, AnExamWorkerGrantsNoAidWhateverTheCabAsks) {
     c.see_through_mast = ask_everything;
     c.camera = ask_everything ? 1 : 0;
     Seen seen;
-    for (uint32_t seq = 1; seq <= 75; ++seq) {  // 1.5 s
+    // 1.5 s, and on until a frame has come (the renderer loads on the first one), at most 30 s.
+    for (uint32_t seq = 1; seq <= 75 || (seen.frame.empty() && seq <= 1500); ++seq) {
       c.seq = seq;
       controls.write(c);
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
       states.take_each([&](const fk_TruckState& t) { seen.aids = t.aids; });
       frames.take_each([&](const fk_Frame& f) { seen.frame.assign(f.pixels._buffer, f.pixels._buffer + f.pixels._length); });
     }
+    w.signal(SIGTERM);
     EXPECT_EQ(w.wait(30), 0) << w.err();
     return seen;
   };

@@ -106,6 +106,8 @@ class StatePacer {
   // After a tick ending at t that applied a change of inputs no state has shown yet: true if its
   // state may go out now.
   bool early(double t);
+  // Sim time at which the current period ends: the next state owed (a loop may sleep till then).
+  double period_end_s() const { return period_end_s_; }
 
  private:
   void refill(double t);
