@@ -15,6 +15,8 @@ packages=(
   cyclonedds-dev cyclonedds-tools
   # store, server, tools
   libsqlite3-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libcpp-httplib-dev libsodium-dev
+  # the most read answers (a pupil's history) written as a stream
+  rapidjson-dev
   # the store's PostgreSQL backend (libpq), and the server its tests start themselves (initdb, pg_ctl)
   libpq-dev postgresql
   # data files checked against their JSON Schemas (data/schema/)

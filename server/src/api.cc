@@ -18,6 +18,12 @@ void send_json(httplib::Response& res, int status, const json& body) {
   res.set_content(body.dump(-1, ' ', false, json::error_handler_t::replace), "application/json");
 }
 
+void send_json_text(httplib::Response& res, int status, std::string body) {
+  res.status = status;
+  res.body = std::move(body);
+  res.set_header("Content-Type", "application/json");
+}
+
 void send_error(httplib::Response& res, int status, const std::string& code, const std::string& message) {
   send_json(res, status, {{"error", {{"code", code}, {"message", message}}}});
 }
@@ -158,18 +164,13 @@ json pupil_json(const store::Pupil& p) {
 }
 
 json session_json(const store::Session& s) {
-  // A session has a mark only when it completed (store::session_outcome, the one rule); an exam
-  // that ended otherwise did not pass.
-  const store::Outcome o = store::session_outcome(s);
-  const std::optional<double> mark = store::mark_of(s);
-  const json passed = o == store::Outcome::kCompleted ? (s.passed ? json(*s.passed) : json(nullptr))
-                      : s.mode == "exam" && o != store::Outcome::kOpen ? json(false)
-                                                                        : json(nullptr);
-  json j = {{"id", s.public_id}, {"pupil_id", s.pupil_id}, {"cab_id", s.cab_id}, {"scenario", s.scenario},
-            {"mode", s.mode}, {"state", s.state}, {"reason", s.reason}, {"outcome", store::outcome_name(o)},
-            {"created_at", s.created_at}, {"ended_at", s.ended_at}, {"mark", mark ? json(*mark) : json(nullptr)},
-            {"passed", passed}};
-  if (s.examiner_id) j["examiner_id"] = *s.examiner_id;
+  json j = json::object();
+  session_fields(s, [&](const char* key, const auto& value) {
+    if constexpr (requires { value.has_value(); })
+      j[key] = value ? json(*value) : json(nullptr);
+    else
+      j[key] = value;
+  });
   return j;
 }
 

@@ -32,6 +32,8 @@ struct ApiError : std::runtime_error {
 };
 
 void send_json(httplib::Response& res, int status, const json& body);
+// A body written already (JsonStream), sent as send_json sends a document.
+void send_json_text(httplib::Response& res, int status, std::string body);
 void send_error(httplib::Response& res, int status, const std::string& code, const std::string& message);
 
 using Handler = std::function<void(const httplib::Request&, httplib::Response&)>;
@@ -111,6 +113,30 @@ store::Session visible_session(Context& ctx, const Principal& p, const std::stri
 json pupil_json(const store::Pupil& p);
 // A session with its outcome; its mark and passed only as the store's rule gives them (mark_of).
 json session_json(const store::Session& s);
+// The same fields, one put(key, value) each, for a document (session_json) or a stream (the
+// history): values are strings, integers, the mark (optional<double>) and passed (optional<bool>).
+template <class Put>
+void session_fields(const store::Session& s, Put&& put) {
+  // A session has a mark only when it completed (store::session_outcome, the one rule); an exam
+  // that ended otherwise did not pass.
+  const store::Outcome o = store::session_outcome(s);
+  std::optional<bool> passed;
+  if (o == store::Outcome::kCompleted) passed = s.passed;
+  else if (s.mode == "exam" && o != store::Outcome::kOpen) passed.emplace(false);
+  put("id", s.public_id);
+  put("pupil_id", s.pupil_id);
+  put("cab_id", s.cab_id);
+  put("scenario", s.scenario);
+  put("mode", s.mode);
+  put("state", s.state);
+  put("reason", s.reason);
+  put("outcome", store::outcome_name(o));
+  put("created_at", s.created_at);
+  put("ended_at", s.ended_at);
+  put("mark", store::mark_of(s));
+  put("passed", passed);
+  if (s.examiner_id) put("examiner_id", *s.examiner_id);
+}
 
 // ---------------------------------------------------------------- audit
 extern const store::Actor kServerActor;  // writers that are not a logged-in user
