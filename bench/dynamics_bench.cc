@@ -216,7 +216,11 @@ int main(int argc, char** argv) {
   app.add_option("--repeat", repeat, "runs per row; the median wall time is reported")->check(CLI::Range(1, 1000));
   app.add_option("--truck", truck_files, "truck data files (one table each)")->check(CLI::ExistingFile);
   app.set_version_flag("--version", "forklift-bench-dynamics 1");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help and --version: 0; bad usage: 2, as every program
+  }
 
 #ifdef FORKLIFT_HAVE_MUJOCO
   double mujoco_travel_m = 0;
