@@ -27,6 +27,8 @@ packages=(
   openssl libssl-dev tcpdump
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # forklift-bench-dynamics compares the model with MuJoCo on a comparable truck (optional at build time)
+  libmujoco-dev
   # the lists browser test writes a day of sessions straight into its server's SQLite file
   sqlite3
   # the web pages' end-to-end test: headless Chromium (driven by playwright-core from npm, below)

@@ -137,11 +137,20 @@ TEST(Manoeuvre, SharpTurnWithUnbalancedLoadSaturatesTheFrontTyres) {
 
 TEST(Manoeuvre, IntegratorsAgreeOnTheZigZag) {
   // Manoeuvre 17, a normal operating manoeuvre: "all three integrators give analogous results".
+  // Each is compared with a converged CVODE run (rtol 1e-9): after 50 m of zig-zag the default
+  // tolerance leaves CVODE itself several cm from it, so a rounding change in the model moves the
+  // default run by cm, and comparing the integrators with that run measured its tolerance.
+  IntegratorOptions tight;
+  tight.rtol = 1e-9;
+  const ManoeuvreResult ref = run_manoeuvre(paper_truck(), 17, tight, 0.002);
   const ManoeuvreResult &bdf = run(17), &dp = run(17, IntegratorKind::kDopri5), &rk = run(17, IntegratorKind::kRk4);
-  for (const ManoeuvreResult* r : {&dp, &rk}) {
-    EXPECT_LT((r->final_pose.head<2>() - bdf.final_pose.head<2>()).norm(), 0.10);
-    EXPECT_LT(std::abs(r->final_pose.z() - bdf.final_pose.z()) * kDeg, 1.5);
-    EXPECT_NEAR(r->max_roll_deg, bdf.max_roll_deg, 0.05);
+  for (const ManoeuvreResult* r : {&bdf, &dp, &rk}) {
+    // CVODE at the default rtol (chosen for manoeuvre 4's 1 cm) ends 18 cm and 2.3 deg of
+    // heading from the converged run here; the explicit methods within 1 cm.
+    const bool loose = r == &bdf;
+    EXPECT_LT((r->final_pose.head<2>() - ref.final_pose.head<2>()).norm(), loose ? 0.25 : 0.10);
+    EXPECT_LT(std::abs(r->final_pose.z() - ref.final_pose.z()) * kDeg, loose ? 3.0 : 1.5);
+    EXPECT_NEAR(r->max_roll_deg, ref.max_roll_deg, 0.05);
   }
 }
 
@@ -185,4 +194,19 @@ TEST(Manoeuvre, WorkEnergyBalanceClosesWithEveryForceOn) {
       ASSERT_GT(peak, 100.0);  // the truck did work: a kilojoule-scale balance
       EXPECT_NEAR(dyn.energy(sim.state(), false) - e0, work, 1e-4 * peak);
     }
+}
+
+TEST(Manoeuvre, DefaultToleranceHoldsManoeuvre4WithinACentimetreInAtMost500Steps) {
+  // Issue 19's accuracy goal, on both shipped trucks: CVODE at its default tolerance (with the
+  // structured Newton solver and Jacobian) against a converged run.
+  for (const TruckParams* truck : {&paper_truck(), &shipped_truck()}) {
+    SCOPED_TRACE(truck->name);
+    IntegratorOptions tight;
+    tight.rtol = 1e-9;
+    const ManoeuvreResult ref = run_manoeuvre(*truck, 4, tight, 0);
+    const ManoeuvreResult r = run_manoeuvre(*truck, 4, IntegratorOptions{}, 0);
+    EXPECT_LE(r.stats.steps, 500);
+    EXPECT_LT((r.final_pose.head<2>() - ref.final_pose.head<2>()).norm(), 0.01);
+    EXPECT_GT(ref.final_pose.x(), 1.0);  // it drove
+  }
 }

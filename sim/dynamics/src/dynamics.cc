@@ -3,10 +3,18 @@
 //
 // M and Q come from the kinematics of the six bodies (chassis, three wheels, mast, fork
 // carriage with its load) on a tree of single-coordinate joints, one per generalised
-// coordinate, so nothing symbolic is needed at run time:
-//   M = sum_b  m_b Jv_b' Jv_b + Jw_b' I_b Jw_b
-//   Q = sum of J' (applied forces)  -  sum_b [ Jv_b' m_b a0_b + Jw_b' (I_b alpha0_b + w_b x I_b w_b) ]
-// where a0, alpha0 are each body's accelerations with q'' = 0 (the velocity-product terms).
+// coordinate, so nothing symbolic is needed at run time. Both are built in world axes about one
+// reference point o, the chassis CoG (so lever arms stay the truck's size wherever it drives),
+// without point Jacobians (issue 19: their 13x3 products were two thirds of the cost):
+//   M: the composite-rigid-body algorithm. Each frame's subtree is summed into one composite
+//      (mass m, first moment h about o, rotational inertia J about o); joint j's motion S_j
+//      (axis u_j, velocity at o) gives the composite's momentum, whose power on each joint i from
+//      the world to j is M_ij.
+//   Q: every force is a wrench (f, moment about o) on the frame it acts on: the applied forces,
+//      gravity and the velocity-product ("bias") terms -m a0 and -(I alpha0 + w x I w), with a0,
+//      alpha0 each body's accelerations with q'' = 0. Summed from the leaves to the root, the
+//      wrench on frame j's subtree gives Q_j = S_j . W_j: the transposed Jacobian times the
+//      forces, along the tree path, in one pass.
 // Rotations are exact (the paper linearises auc, avc and beta; a tilt table needs more).
 #include "forklift/dynamics/dynamics.h"
 
@@ -19,7 +27,6 @@ namespace {
 
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
-using Jac = Eigen::Matrix<double, 3, kNumCoords>;
 using MassMatrix = Eigen::Matrix<double, kNumCoords, kNumCoords>;
 
 enum class JointType { kPrismatic, kRevolute };
@@ -108,23 +115,6 @@ void forward_kinematics(const Tree& tree, const CoordVector& q, const CoordVecto
   }
 }
 
-// Linear and angular Jacobians of a point rigidly attached to `frame`, at world position x.
-void point_jacobian(const Tree& tree, const Kinematics& k, int frame, const Vector3d& x, Jac& Jv, Jac& Jw) {
-  Jv.setZero();
-  Jw.setZero();
-  for (int j = 0; j <= frame; ++j) {
-    if (!(tree.path[frame] & (1u << j))) continue;
-    const Joint& jt = tree.joints[j];
-    const FrameState& F = k.f[j];
-    if (jt.type == JointType::kRevolute) {
-      Jv.col(jt.coord) = F.u.cross(x - F.p);
-      Jw.col(jt.coord) = F.u;
-    } else {
-      Jv.col(jt.coord) = F.u;
-    }
-  }
-}
-
 struct Body {
   int frame;
   double mass;
@@ -135,6 +125,32 @@ struct Body {
 // Parallel-axis shift of an inertia about a point d away from the CoG.
 Matrix3d shifted(const Matrix3d& I, double m, const Vector3d& d) {
   return I + m * (d.squaredNorm() * Matrix3d::Identity() - d * d.transpose());
+}
+
+// Forces on the truck gathered per frame as a wrench about the reference point o.
+struct Wrench {
+  Vector3d f = Vector3d::Zero(), n = Vector3d::Zero();  // force, moment about o
+};
+using Wrenches = std::array<Wrench, kNumFrames>;
+
+// Force f at world point x, on `frame`.
+void add_force(Wrenches& w, int frame, const Vector3d& o, const Vector3d& x, const Vector3d& f) {
+  w[frame].f += f;
+  w[frame].n += (x - o).cross(f);
+}
+
+// Generalised forces of per-frame wrenches: summed into each frame's subtree (children come
+// after parents), then projected on the joint's motion. Consumes `w`.
+void generalised_forces(const Tree& tree, const Kinematics& k, const Vector3d& o, Wrenches& w, CoordVector& Q) {
+  for (int j = kNumFrames - 1; j >= 0; --j) {
+    const Joint& jt = tree.joints[j];
+    const FrameState& F = k.f[j];
+    Q[jt.coord] = jt.type == JointType::kRevolute ? F.u.dot(w[j].n - (F.p - o).cross(w[j].f)) : F.u.dot(w[j].f);
+    if (jt.parent >= 0) {
+      w[jt.parent].f += w[j].f;
+      w[jt.parent].n += w[j].n;
+    }
+  }
 }
 
 std::array<Body, 6> bodies(const TruckParams& t, const std::optional<Load>& load) {
@@ -265,23 +281,60 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
   e.Q.setZero();
   CoordVector& Qa = e.Q_applied;
   Qa.setZero();
-  Jac Jv, Jw;
+  const Vector3d o = e.kin.f[kChassisFrame].p;  // the reference point of every wrench and inertia
+  // Composite bodies per frame: mass, first moment about o, rotational inertia about o.
+  std::array<double, kNumFrames> cm{};
+  std::array<Vector3d, kNumFrames> ch;
+  std::array<Matrix3d, kNumFrames> cJ;
+  for (int j = 0; j < kNumFrames; ++j) { ch[j].setZero(); cJ[j].setZero(); }
+  Wrenches inertial{}, applied{};  // -(bias) + gravity; everything else
   double mass = 0;
   Vector3d mass_moment = Vector3d::Zero();
   for (const Body& b : e.body) {
     const FrameState& F = e.kin.f[b.frame];
     const Vector3d rho = F.R * b.cog;
-    const Vector3d c = F.p + rho;
-    point_jacobian(tree, e.kin, b.frame, c, Jv, Jw);
-    const Matrix3d I = F.R * b.inertia * F.R.transpose();
-    e.M.noalias() += b.mass * Jv.transpose() * Jv + Jw.transpose() * I * Jw;
+    const Vector3d c = F.p + rho, r = c - o;
+    const Matrix3d I = F.R.lazyProduct(b.inertia).lazyProduct(F.R.transpose());
+    cm[b.frame] += b.mass;
+    ch[b.frame] += b.mass * r;
+    cJ[b.frame] += I + b.mass * (r.squaredNorm() * Matrix3d::Identity() - r * r.transpose());
     const Vector3d a0 = F.a0 + F.alpha0.cross(rho) + F.w.cross(F.w.cross(rho));
     const Vector3d iw = I * F.w;
-    e.Q.noalias() -= Jv.transpose() * (b.mass * a0) + Jw.transpose() * (I * F.alpha0 + F.w.cross(iw));
-    e.Q.noalias() += Jv.transpose() * (b.mass * env.gravity_m_s2);
+    const Vector3d f = b.mass * (env.gravity_m_s2 - a0);
+    inertial[b.frame].f += f;
+    inertial[b.frame].n += r.cross(f) - (I * F.alpha0 + F.w.cross(iw));
     mass += b.mass;
     mass_moment += b.mass * c;
   }
+  // Composite-rigid-body algorithm: subtree composites from the leaves, then M_ij for each joint
+  // i on the path from the world to j from the momentum of j's composite moving with joint j.
+  for (int j = kNumFrames - 1; j > 0; --j) {
+    const int p = tree.joints[j].parent;
+    cm[p] += cm[j];
+    ch[p] += ch[j];
+    cJ[p] += cJ[j];
+  }
+  for (int j = 0; j < kNumFrames; ++j) {
+    const Joint& jt = tree.joints[j];
+    const FrameState& F = e.kin.f[j];
+    Vector3d L, H;  // momentum of the composite moving with joint j at unit rate: linear, about o
+    if (jt.type == JointType::kRevolute) {
+      const Vector3d v = (F.p - o).cross(F.u);  // velocity of the point at o
+      L = cm[j] * v + F.u.cross(ch[j]);
+      H = cJ[j] * F.u + ch[j].cross(v);
+    } else {
+      L = cm[j] * F.u;
+      H = ch[j].cross(F.u);
+    }
+    for (int i = 0; i <= j; ++i) {
+      if (!(tree.path[j] & (1u << i))) continue;
+      const Joint& ji = tree.joints[i];
+      const FrameState& Fi = e.kin.f[i];
+      const double mij = ji.type == JointType::kRevolute ? Fi.u.dot(H - (Fi.p - o).cross(L)) : Fi.u.dot(L);
+      e.M(ji.coord, jt.coord) = e.M(jt.coord, ji.coord) = mij;
+    }
+  }
+  generalised_forces(tree, e.kin, o, inertial, e.Q);
   // Motor rotors and gears spin with the front wheels relative to the chassis (section 6's two
   // motors): their inertia, reflected through the gear ratio, sits on the wheels' own coordinates.
   e.M(kAvr1, kAvr1) += t.drive.drivetrain_inertia_kg_m2;
@@ -354,8 +407,7 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
       }
       force += c.fx_N * xw + c.fy_N * yw;
     }
-    point_jacobian(tree, e.kin, kWheelFrame[w], c.contact_point_m, Jv, Jw);
-    Qa.noalias() += Jv.transpose() * force;
+    add_force(applied, kWheelFrame[w], o, c.contact_point_m, force);
     // eq (6), rolling resistance, a torque from the ground on the wheel; the viscous part fades in
     // with the first 1000 N of load so that it vanishes, continuously, as the wheel leaves the
     // ground; the Coulomb part is proportional to the load.
@@ -363,7 +415,7 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
     c.rolling_torque_N_m = -cp.rolling_resistance_N_m_s * spin * std::min(1.0, c.fz_N / 1000.0) -
                            cp.rolling_resistance_coefficient * c.fz_N * radius *
                                std::tanh(spin / cp.rolling_resistance_speed_rad_s);
-    Qa.noalias() += Jw.transpose() * (c.rolling_torque_N_m * axle);
+    applied[kWheelFrame[w]].n += c.rolling_torque_N_m * axle;
   }
 
   // The body on the ground: a tipped truck rests on its guard, counterweight, mast or forks.
@@ -385,8 +437,7 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
     const double fn = std::max(0.0, bc.stiffness_N_m * pen - bc.damping_N_s_m * vn);  // never pulls
     const Vector3d vt = v - vn * n;
     const Vector3d f = fn * n - bc.mu * fn / std::sqrt(vt.squaredNorm() + sq(bc.friction_speed_m_s)) * vt;
-    point_jacobian(tree, e.kin, frame, p, Jv, Jw);
-    Qa.noalias() += Jv.transpose() * f;
+    add_force(applied, frame, o, p, f);
   };
   if (bc.stiffness_N_m > 0) {
     for (const BodyContactPoint& p : bc.points)
@@ -398,10 +449,8 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
   }
 
   // The scene pushing back where the truck touches it (contacts, held for the tick).
-  for (const ExternalForce& f : env.external_forces) {
-    point_jacobian(tree, e.kin, frame_of(f.body), f.point_m, Jv, Jw);
-    Qa.noalias() += Jv.transpose() * f.force_N;
-  }
+  for (const ExternalForce& f : env.external_forces) add_force(applied, frame_of(f.body), o, f.point_m, f.force_N);
+  generalised_forces(tree, e.kin, o, applied, Qa);
 
   // Drive torque (section 6) and brake torque (section 8) act between chassis and front wheels,
   // so they are generalised forces on the wheels' relative spin coordinates alone.
