@@ -18,6 +18,7 @@
 #include <cstring>
 #include <vector>
 
+#include "figure.h"
 #include "forklift/dynamics/manoeuvre.h"
 
 #ifdef FORKLIFT_HAVE_MUJOCO
@@ -204,6 +205,9 @@ double mujoco_realtime(int repeat, double& travel_m) {
 }
 #endif
 
+using bench::figure;
+using bench::fmt;
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -271,7 +275,13 @@ int main(int argc, char** argv) {
         ok &= r.stats.steps <= 500;
         if (row.manoeuvre == 4) {
           ok &= (20.0 / wall >= kGoalRealtime) && err_cm <= 1.0;
-          if (first_m4_x == 0) first_m4_x = 20.0 / wall;
+          if (first_m4_x == 0) {
+            first_m4_x = 20.0 / wall;
+            figure("dynamics, manoeuvre 4 (" + truck.name + "), CVODE: times real time", ">= 10,000x",
+                   fmt("%.0fx", first_m4_x), first_m4_x >= kGoalRealtime);
+            figure("dynamics, manoeuvre 4: steps; distance from an rtol 1e-9 run", "<= 500; <= 1 cm",
+                   fmt("%ld; %.2f cm", r.stats.steps, err_cm), r.stats.steps <= 500 && err_cm <= 1.0);
+          }
           if (mujoco_x > 0) ok &= 20.0 / wall >= kGoalVsMujoco * mujoco_x;
         }
       }
@@ -284,6 +294,9 @@ int main(int argc, char** argv) {
       ticks = run_ticks(truck, IntegratorOptions{});
       tick_us.insert(tick_us.end(), ticks.tick_us.begin(), ticks.tick_us.end());
     }
+    if (truck_file == truck_files.front())
+      figure("dynamics alone in the worker's 1 ms tick (manoeuvre 4): median; p99", "(the whole tick below)",
+             fmt("%.1f us; %.1f us", median(tick_us), percentile(tick_us, 0.99)), percentile(tick_us, 0.99) < 150);
     std::printf("worker's 1 ms tick, manoeuvre 4 (cvode, inputs set each tick): median %.1f us, p99 %.1f us, max %.0f us; "
                 "%ld steps, %ld rhs, %.0fx real time, err %.3f cm\n",
                 median(tick_us), percentile(tick_us, 0.99), *std::max_element(tick_us.begin(), tick_us.end()),
@@ -297,6 +310,9 @@ int main(int argc, char** argv) {
     std::printf("MuJoCo %s, 6-body three-wheel truck, Euler 1 ms, 20 s of manoeuvre 4's inputs (%.1f m driven): "
                 "%.0fx real time; ours (CVODE, manoeuvre 4, first truck) / MuJoCo's = %.0fx (goal >= %.0fx)\n",
                 mj_versionString(), mujoco_travel_m, mujoco_x, first_m4_x / mujoco_x, kGoalVsMujoco);
+  if (mujoco_x > 0)
+    figure(std::string("dynamics against MuJoCo ") + mj_versionString() + " (6 bodies, Euler 1 ms): ratio of real-time factors",
+           ">= 100x", fmt("%.0fx (MuJoCo %.0fx real time)", first_m4_x / mujoco_x, mujoco_x), first_m4_x >= kGoalVsMujoco * mujoco_x);
   else
     std::printf("MuJoCo failed to load the truck; comparison skipped\n");
 #else

@@ -209,7 +209,9 @@ int main(int argc, char** argv) {
 
     if (*man) {
       const ManoeuvreSpec spec = manoeuvre(number, truck);  // validates N before running
-      const ManoeuvreResult r = run_manoeuvre(truck, number, opts);
+      // The model is evaluated at each sample only for a series that is written.
+      const Sampling sampling = csv.empty() && plot.empty() ? Sampling::kMetrics : Sampling::kSeries;
+      const ManoeuvreResult r = run_manoeuvre(truck, number, opts, 0.002, sampling);
       if (!csv.empty()) write_csv(r, csv);
       if (!plot.empty()) write_manoeuvre_figure(truck, r, spec.description, plot);
       std::cout << result_json(r).dump(2) << std::endl;

@@ -89,6 +89,30 @@ TEST(Manoeuvre, GentlerBrakingNearlyLiftsItAndTakesTwoSeconds) {
   EXPECT_GT(stop_time(r5, 0.1), stop_time(r4, 0.1) + 0.2);
 }
 
+TEST(Manoeuvre, MetricsAloneAreTheSeriesOwnFiguresBitForBit) {
+  // forklift-sim manoeuvre without --csv or --plot keeps the metrics alone (Sampling::kMetrics,
+  // the wheels' loads without the rest of the model): the same figures as a run that keeps every
+  // output, bit for bit; 4 stops and unloads its rear wheel, 14 turns laden.
+  for (int n : {4, 14}) {
+    SCOPED_TRACE(n);
+    const ManoeuvreResult& series = run(n);
+    const ManoeuvreResult metrics = run_manoeuvre(paper_truck(), n, {}, 0.002, Sampling::kMetrics);
+    EXPECT_TRUE(metrics.samples.empty());
+    ASSERT_FALSE(series.samples.empty());
+    EXPECT_EQ(metrics.max_pitch_deg, series.max_pitch_deg);
+    EXPECT_EQ(metrics.max_roll_deg, series.max_roll_deg);
+    for (int w = 0; w < kNumWheels; ++w) {
+      double lowest = INFINITY;
+      for (const Sample& s : series.samples) lowest = std::min(lowest, s.out.wheels[w].fz_N);
+      EXPECT_EQ(metrics.min_fz_N[w], lowest) << wheel_name(w);
+    }
+    EXPECT_EQ(metrics.rear_wheel_lifted, series.rear_wheel_lifted);
+    EXPECT_EQ(metrics.tipped_over, series.tipped_over);
+    for (size_t k = 0; k < series.stop_times.size(); ++k) EXPECT_EQ(metrics.stop_times[k].s, series.stop_times[k].s);
+    EXPECT_EQ(metrics.final_pose, series.final_pose);
+  }
+}
+
 TEST(Manoeuvre, OuterWheelCarriesMoreWhenTurning) {
   // Manoeuvres 10-12: the rear wheel peaks at t = 10.5 s, turning right: left is outside.
   for (int n : {10, 11, 12}) {

@@ -211,6 +211,46 @@ void torque_split(double M, double phi, double phi_c, double& M1, double& M2) {
   }
 }
 
+// A wheel on the ground (section 7): where it touches, how deep, how the contact point slips,
+// and the normal force, eq (7); the tyre's friction forces are the evaluation's.
+struct ContactFrame {
+  Vector3d n, axle, xw, yw, vs;  // ground normal, axle, rolling and lateral directions, slip velocity
+  bool upright = false;          // a wheel lying flat has no rolling direction
+};
+ContactFrame wheel_on_ground(const FrameState& F, double radius, const Ground& ground, const ContactParams& cp,
+                             WheelContact& c) {
+  ContactFrame cf;
+  double h;
+  ground_under(ground, F.p, h, cf.n);
+  const Vector3d& n = cf.n;
+  cf.axle = F.R.col(1);
+  const Vector3d& axle = cf.axle;
+  const double height_over_ground = (F.p - Vector3d(F.p.x(), F.p.y(), h)).dot(n);
+  // The disc's lowest point lies the radius times the cosine of the camber below its centre, a
+  // little to one side: a wheel lying on its side reaches no lower than its centre.
+  const Vector3d down = -(n - n.dot(axle) * axle);
+  const double reach = radius * down.norm();
+  c.penetration_m = reach - height_over_ground;
+  c.contact_point_m = F.p - height_over_ground * n;
+  if (reach > 1e-9 * radius) c.contact_point_m += radius * down / down.norm() + reach * n;
+  const Vector3d rolling = axle.cross(n);
+  cf.upright = rolling.norm() > 1e-6;
+  cf.xw = cf.upright ? Vector3d(rolling.normalized()) : Vector3d(F.R.col(0));
+  cf.yw = n.cross(cf.xw);
+  cf.vs = F.v + F.w.cross(c.contact_point_m - F.p);  // VS: the contact point on the wheel
+  c.slip_x_m_s = cf.vs.dot(cf.xw);
+  c.slip_y_m_s = cf.vs.dot(cf.yw);
+  const double vwx = F.v.dot(cf.xw), vwy = F.v.dot(cf.yw);
+  const double vfloor = cp.slip_angle_speed_floor_m_s;
+  c.slip_angle_rad = sign(vwy) * std::atan(std::abs(vwy) / std::sqrt(vwx * vwx + vfloor * vfloor + 1e-12));
+  if (c.penetration_m > 0) {
+    // eq (7); the damper may not pull the wheel into the ground.
+    c.fz_N = std::max(0.0, cp.stiffness_N_m * c.penetration_m - cp.damping_N_s_m * F.v.dot(n));
+  }
+  c.on_ground = c.fz_N > 0;
+  return cf;
+}
+
 // Everything evaluated at one state, shared by the derivative and the energy.
 struct Evaluation {
   Kinematics kin;
@@ -348,32 +388,9 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
     const FrameState& F = e.kin.f[kWheelFrame[w]];
     WheelContact& c = wc[w];
     const double radius = t.wheels[w].radius_m;
-    double h;
-    Vector3d n;
-    ground_under(env.ground, F.p, h, n);
-    const Vector3d axle = F.R.col(1);
-    const double height_over_ground = (F.p - Vector3d(F.p.x(), F.p.y(), h)).dot(n);
-    // The disc's lowest point lies the radius times the cosine of the camber below its centre, a
-    // little to one side: a wheel lying on its side reaches no lower than its centre.
-    const Vector3d down = -(n - n.dot(axle) * axle);
-    const double reach = radius * down.norm();
-    c.penetration_m = reach - height_over_ground;
-    c.contact_point_m = F.p - height_over_ground * n;
-    if (reach > 1e-9 * radius) c.contact_point_m += radius * down / down.norm() + reach * n;
-    const Vector3d rolling = axle.cross(n);
-    const bool upright = rolling.norm() > 1e-6;  // a wheel lying flat has no rolling direction
-    const Vector3d xw = upright ? Vector3d(rolling.normalized()) : Vector3d(F.R.col(0)), yw = n.cross(xw);
-    const Vector3d vs = F.v + F.w.cross(c.contact_point_m - F.p);  // VS: the contact point on the wheel
-    c.slip_x_m_s = vs.dot(xw);
-    c.slip_y_m_s = vs.dot(yw);
-    const double vwx = F.v.dot(xw), vwy = F.v.dot(yw);
-    const double vfloor = cp.slip_angle_speed_floor_m_s;
-    c.slip_angle_rad = sign(vwy) * std::atan(std::abs(vwy) / std::sqrt(vwx * vwx + vfloor * vfloor + 1e-12));
-    if (c.penetration_m > 0) {
-      // eq (7); the damper may not pull the wheel into the ground.
-      c.fz_N = std::max(0.0, cp.stiffness_N_m * c.penetration_m - cp.damping_N_s_m * F.v.dot(n));
-    }
-    c.on_ground = c.fz_N > 0;
+    const ContactFrame cf = wheel_on_ground(F, radius, env.ground, cp, c);
+    const Vector3d &n = cf.n, &axle = cf.axle, &xw = cf.xw, &yw = cf.yw, &vs = cf.vs;
+    const bool upright = cf.upright;
     e.tyre_rate[w].setZero();
     double stribeck = 0, mu = 0;
     if (bristle) {
@@ -466,7 +483,7 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
     const double den = std::abs(m1 * w1) + std::abs(m2 * w2);
     if (den > 1e-12) { m1 = std::abs(M) * m1 * w1 / den; m2 = std::abs(M) * m2 * w2 / den; }
   }
-  const double forward_speed = std::cos(q[kAwc]) * qd[kX] + std::sin(q[kAwc]) * qd[kY];
+  const double forward_speed = forklift::forward_speed(x);
   // The speed governor: full torque up to the band below the cap, none at it, braking above.
   const double governor =
       std::isfinite(dp.speed_max_m_s)
@@ -674,6 +691,24 @@ bool TruckDynamics::settle_static(StateVector& x) const {
 }
 
 CoordVector coordinates(const StateVector& x) { return coords(x); }
+
+double forward_speed(const StateVector& x) {
+  const double yaw = x[StateIndex::kQ + kAwc];
+  return std::cos(yaw) * x[StateIndex::kQdot + kX] + std::sin(yaw) * x[StateIndex::kQdot + kY];
+}
+
+std::array<double, kNumWheels> TruckDynamics::wheel_loads_N(const StateVector& x) const {
+  const Tree tree = build_tree(truck_);
+  Kinematics k;
+  forward_kinematics(tree, coords(x), rates(x), k);
+  std::array<double, kNumWheels> fz;
+  for (int w = 0; w < kNumWheels; ++w) {
+    WheelContact c;
+    wheel_on_ground(k.f[kWheelFrame[w]], truck_.wheels[w].radius_m, env_.ground, truck_.contact, c);
+    fz[w] = c.fz_N;
+  }
+  return fz;
+}
 
 BodyPoses body_poses(const TruckParams& truck, const CoordVector& q) {
   const Tree tree = build_tree(truck);

@@ -122,7 +122,7 @@ ManoeuvreSpec manoeuvre(int n, const TruckParams& truck) {
 }
 
 ManoeuvreResult run_manoeuvre(const TruckParams& truck, int number, const IntegratorOptions& options,
-                              double sample_dt_s) {
+                              double sample_dt_s, Sampling sampling) {
   const ManoeuvreSpec spec = manoeuvre(number, truck);
   TruckDynamics dynamics(truck);
   if (spec.load) dynamics.attach_load(*spec.load);
@@ -148,20 +148,25 @@ ManoeuvreResult run_manoeuvre(const TruckParams& truck, int number, const Integr
   stops.erase(std::unique(stops.begin(), stops.end(), [](double a, double b) { return std::abs(a - b) < 1e-9; }),
               stops.end());
 
+  // The metrics read the state and the wheels' loads alone, so that a run that writes no series
+  // does not evaluate the model at every sample (the same bits as the outputs give).
   auto record = [&](double t) {
+    const StateVector& x = sim.state();
+    const double pitch = std::abs(x[StateIndex::kQ + kAvc]) * kDeg, roll = std::abs(x[StateIndex::kQ + kAuc]) * kDeg;
+    r.max_pitch_deg = std::max(r.max_pitch_deg, pitch);
+    r.max_roll_deg = std::max(r.max_roll_deg, roll);
+    const std::array<double, kNumWheels> fz = sim.dynamics().wheel_loads_N(x);
+    for (int w = 0; w < kNumWheels; ++w) r.min_fz_N[w] = std::min(r.min_fz_N[w], fz[w]);
+    for (ManoeuvreResult::StopTime& stop : r.stop_times)
+      if (spec.brake_onset_s && !stop.s && t > *spec.brake_onset_s && std::abs(forward_speed(x)) < stop.below_m_s)
+        stop.s = t - *spec.brake_onset_s;
+    if (std::max(pitch, roll) > truck.tipped_over_rad * kDeg) r.tipped_over = true;
+    if (sampling == Sampling::kMetrics) return;
     Sample s;
     s.t = t;
     s.out = sim.outputs();
-    s.drive_torque_N_m = sim.state()[StateIndex::kTorque];
-    s.brake_torque_N_m = sim.state()[StateIndex::kBrake];
-    const double pitch = std::abs(s.out.q[kAvc]) * kDeg, roll = std::abs(s.out.q[kAuc]) * kDeg;
-    r.max_pitch_deg = std::max(r.max_pitch_deg, pitch);
-    r.max_roll_deg = std::max(r.max_roll_deg, roll);
-    for (int w = 0; w < kNumWheels; ++w) r.min_fz_N[w] = std::min(r.min_fz_N[w], s.out.wheels[w].fz_N);
-    for (ManoeuvreResult::StopTime& stop : r.stop_times)
-      if (spec.brake_onset_s && !stop.s && t > *spec.brake_onset_s && std::abs(s.out.forward_speed_m_s) < stop.below_m_s)
-        stop.s = t - *spec.brake_onset_s;
-    if (std::max(pitch, roll) > truck.tipped_over_rad * kDeg) r.tipped_over = true;
+    s.drive_torque_N_m = x[StateIndex::kTorque];
+    s.brake_torque_N_m = x[StateIndex::kBrake];
     r.samples.push_back(std::move(s));
   };
   if (nsamples > 0) record(0);

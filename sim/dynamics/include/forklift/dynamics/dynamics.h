@@ -127,6 +127,8 @@ struct BodyPoses {
 BodyPoses body_poses(const TruckParams& truck, const CoordVector& q);
 // The 13 coordinates held in a state vector (the driven ones from their filters).
 CoordVector coordinates(const StateVector& x);
+// The chassis CoG's velocity along the heading (Outputs::forward_speed_m_s).
+double forward_speed(const StateVector& x);
 
 class TruckDynamics {
  public:
@@ -157,6 +159,10 @@ class TruckDynamics {
   // damping or torque and the driven coordinates are still.
   // Without the ground springs: kinetic + gravitational only, whose rate is Outputs::applied_power_W.
   double energy(const StateVector& x, bool with_ground_springs = true) const;
+
+  // The wheels' normal forces (WheelContact::fz_N of derivative()'s Outputs, the same bits)
+  // without the rest of the evaluation: for a sampler that needs the loads alone.
+  std::array<double, kNumWheels> wheel_loads_N(const StateVector& x) const;
 
   // A state at rest at (x, y, yaw) with the driven coordinates given, wheels at their free
   // radius above the ground (not yet settled: see settle_static).

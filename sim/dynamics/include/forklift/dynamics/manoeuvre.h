@@ -59,11 +59,16 @@ struct ManoeuvreResult {
   std::vector<Sample> samples;
 };
 
+// What a run keeps of each sample: every output (for a time series or a figure), or only the
+// metrics (from the state and the wheels' loads: the same figures, without evaluating the model).
+enum class Sampling { kSeries, kMetrics };
+
 // Runs manoeuvre `number` from static equilibrium. Metrics are taken every `sample_dt_s` of sim
 // time (interpolated by variable-step integrators, so sampling does not add steps); 0 records
-// nothing but the final state. Throws IntegratorError on numerical failure.
+// nothing but the final state. With Sampling::kMetrics, `samples` stays empty. Throws
+// IntegratorError on numerical failure.
 ManoeuvreResult run_manoeuvre(const TruckParams& truck, int number, const IntegratorOptions& options,
-                              double sample_dt_s = 0.002);
+                              double sample_dt_s = 0.002, Sampling sampling = Sampling::kSeries);
 
 // The time series as CSV (one row per sample, SI units, angles in degrees).
 void write_csv(const ManoeuvreResult& result, const std::string& path, int every_nth = 1);

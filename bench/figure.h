@@ -1,0 +1,22 @@
+// A row of the README's table of figures: bench/figures.sh collects the lines a benchmark prints
+// as "FIGURE<tab>figure<tab>goal<tab>measured<tab>met".
+#pragma once
+
+#include <cstdio>
+#include <string>
+
+namespace forklift::bench {
+
+inline void figure(const std::string& what, const std::string& goal, const std::string& measured, bool met) {
+  std::printf("FIGURE\t%s\t%s\t%s\t%s\n", what.c_str(), goal.c_str(), measured.c_str(), met ? "yes" : "NO");
+  std::fflush(stdout);
+}
+
+template <class... A>
+std::string fmt(const char* f, A... a) {
+  char buf[256];
+  std::snprintf(buf, sizeof buf, f, a...);
+  return buf;
+}
+
+}  // namespace forklift::bench

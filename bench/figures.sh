@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# The README's table of figures (issue 19's goals): runs each benchmark behind it, collects the
+# lines they print as "FIGURE<tab>figure<tab>goal<tab>measured<tab>met", and prints the table
+# with the command that measured each row and the machine it ran on. With --readme it also writes
+# the table into README.md between its "bench-table" markers.
+#
+#   bench/figures.sh [--readme] [--quick]     # --quick: shorter runs (a smoke test of the table)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+readme=0 quick=0
+for a in "$@"; do
+  case "$a" in
+    --readme) readme=1 ;;
+    --quick) quick=1 ;;
+    -h|--help) sed -n '2,7p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "figures.sh: unknown option '$a' (--readme, --quick)" >&2; exit 2 ;;
+  esac
+done
+bin=build/bin
+for b in forklift-bench-dynamics forklift-bench-evaluation forklift-bench-dds forklift-bench-render forklift-bench-server forklift-sim; do
+  [ -x "$bin/$b" ] || { echo "figures.sh: $bin/$b is missing: build first (scripts/build.sh)" >&2; exit 2; }
+done
+work=$(mktemp -d "${TMPDIR:-/tmp}/forklift-figures.XXXXXX")
+trap 'rm -rf "$work"' EXIT
+rows="$work/rows"
+: > "$rows"
+# Ports and DDS domains from the tests' allocator, as every program that listens takes them.
+alloc=build/tests/forklift-test-alloc
+
+# Runs a benchmark; its FIGURE lines become rows, with the command that printed them.
+measure() {
+  local shown="$1"; shift
+  echo "figures.sh: $shown" >&2
+  "$@" > "$work/out" 2> "$work/err" || { cat "$work/err" >&2; echo "figures.sh: '$shown' failed" >&2; exit 1; }
+  grep -P '^FIGURE\t' "$work/out" | while IFS=$'\t' read -r _ figure goal measured met; do
+    printf '| %s | %s | %s | %s | `%s` |\n' "$figure" "$goal" "$measured" "$met" "$shown" >> "$rows"
+  done
+}
+
+repeat=9 seconds=10
+[ "$quick" = 1 ] && repeat=3 seconds=3
+measure "forklift-bench-dynamics --repeat $repeat" "$bin/forklift-bench-dynamics" --repeat "$repeat"
+measure "forklift-bench-evaluation --benchmark_filter=pipeline" "$bin/forklift-bench-evaluation" --benchmark_filter=pipeline
+
+# forklift-sim manoeuvre 4 as a whole process (start-up included): the median of 11 runs.
+times=()
+for _ in $(seq 11); do
+  t0=$(date +%s%N); "$bin/forklift-sim" manoeuvre 4 > /dev/null; t1=$(date +%s%N)
+  times+=($(( (t1 - t0) / 1000 )))
+done
+median_us=$(printf '%s\n' "${times[@]}" | sort -n | sed -n 6p)
+met=$([ "$median_us" -lt 40000 ] && echo yes || echo NO)
+printf '| `forklift-sim manoeuvre 4`, the whole process | < 40 ms | %s ms | %s | `bench/figures.sh` (median of 11) |\n' \
+  "$(awk "BEGIN{printf \"%.1f\", $median_us/1000}")" "$met" >> "$rows"
+
+measure "forklift-bench-dds --samples 500 --seconds $seconds --fleet 8 --fps 30" \
+  "$alloc" sh -c "exec $bin/forklift-bench-dds --samples 500 --seconds $seconds --fleet 8 --fps 30 --dds-domain \$FORKLIFT_TEST_DOMAIN"
+measure "forklift-bench-render" "$bin/forklift-bench-render" --benchmark_filter=driver
+measure "forklift-bench-server --runs 0 --seconds $seconds" \
+  "$alloc" sh -c "exec $bin/forklift-bench-server --runs 0 --seconds $seconds --dir ${FORKLIFT_BENCH_DIR:-build/bench-data} --port \$FORKLIFT_TEST_PORT --dds-domain \$FORKLIFT_TEST_DOMAIN"
+
+machine="$(nproc) cores ($(lscpu | sed -n 's/^Model name: *//p' | head -1)), $(free -g | awk '/^Mem:/{print $2}') GiB, $(uname -sr), load average $(cut -d' ' -f1-3 /proc/loadavg) at the end, $(date -u +%Y-%m-%d)"
+{
+  echo "Measured by \`bench/figures.sh\` on $machine."
+  echo
+  echo "| figure | goal | measured | met | command |"
+  echo "|---|---|---|---|---|"
+  cat "$rows"
+} > "$work/table"
+cat "$work/table"
+if [ "$readme" = 1 ]; then
+  grep -q '<!-- bench-table:begin -->' README.md || { echo "figures.sh: README.md has no bench-table markers" >&2; exit 1; }
+  awk -v table="$work/table" '
+    /<!-- bench-table:begin -->/ { print; while ((getline line < table) > 0) print line; skip = 1; next }
+    /<!-- bench-table:end -->/ { skip = 0 }
+    !skip' README.md > "$work/readme" && cp "$work/readme" README.md
+  echo "figures.sh: README.md's table rewritten" >&2
+fi
