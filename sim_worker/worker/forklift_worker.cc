@@ -181,26 +181,27 @@ class FramePublisher {
           return;
         }
       }
-      publish(renderer->render(state, view, options), t);
+      if (opt_.jpeg) {
+        // The read-back pixels (RGBX) straight into JPEG: no copy to RGB first.
+        const RgbxPixels pixels = renderer->render_rgbx(state, view, options);
+        publish(pixels.width, pixels.height, encode_jpeg(pixels, opt_.jpeg_quality), "jpeg", t);
+      } else {
+        const Image& img = renderer->render(state, view, options);
+        publish(img.width, img.height, img.rgb, "rgb8", t);
+      }
       lock.lock();
     }
   }
-  void publish(const Image& img, double t) {
+  void publish(int width, int height, const std::vector<uint8_t>& bytes, const char* encoding, double t) {
     fk_Frame f{};
     dds::set_string(f.cab_id, cab_);
     f.seq = static_cast<uint32_t>(++frames_);
     f.sim_time_s = t;
-    f.width = static_cast<uint16_t>(img.width);
-    f.height = static_cast<uint16_t>(img.height);
-    std::vector<uint8_t> jpeg;
-    const std::vector<uint8_t>* bytes = &img.rgb;
-    if (opt_.jpeg) {
-      jpeg = encode_jpeg(img, opt_.jpeg_quality);
-      bytes = &jpeg;
-    }
-    dds::set_string(f.encoding, opt_.jpeg ? "jpeg" : "rgb8");
-    f.pixels._buffer = const_cast<uint8_t*>(bytes->data());
-    f.pixels._length = f.pixels._maximum = static_cast<uint32_t>(bytes->size());
+    f.width = static_cast<uint16_t>(width);
+    f.height = static_cast<uint16_t>(height);
+    dds::set_string(f.encoding, encoding);
+    f.pixels._buffer = const_cast<uint8_t*>(bytes.data());
+    f.pixels._length = f.pixels._maximum = static_cast<uint32_t>(bytes.size());
     f.pixels._release = false;
     writer_.write(f);
   }
