@@ -386,7 +386,11 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingDirectory);
   bool framed_only = false;
   app.add_flag("--framed-only", framed_only, "run only the framed fleet");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help: 0; bad usage: 2, as every program
+  }
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // each figure as it is measured, into a file too
   if (secure && domain > 230) {
     std::fprintf(stderr, "forklift-bench-dds: --secure needs --dds-domain 0-230 (the school's governance covers those)\n");
