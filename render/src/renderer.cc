@@ -58,6 +58,7 @@ struct GpuMesh {
   Eigen::AlignedBox3d bounds;  // in the mesh's frame
   std::vector<Eigen::Matrix4f> transforms;
   bool see_through = false;  // drawn translucent when the view asks for a see-through mast
+  bool truck_part = false;   // drawn first, and without shadows on it (see MainProgram)
 
   explicit GpuMesh(const Geometry& g) : bounds(g.bounds) {
     vao = gl::make_vertex_array();
@@ -260,9 +261,29 @@ struct Renderer::Impl {
   Image image;
   FrameStats stats;
 
-  gl::Program program;
-  GLint u_view_projection = -1, u_light_view_projection = -1, u_eye = -1, u_alpha = -1,
-        u_grid_centre = -1, u_haze = -1;
+  // The main shaders twice: for what the shadows fall on (the warehouse, pallets and loads), and
+  // without the shadow map's tap for the truck itself, which is most of the driver's picture
+  // (guard, mast): the pixels llvmpipe shades on the CPU are the frame's cost.
+  struct MainProgram {
+    gl::Program program;
+    GLint view_projection = -1, light_view_projection = -1, eye = -1, alpha = -1, grid_centre = -1, haze = -1;
+    void make(const std::string& head) {
+      program = gl::make_program((head + render::kVertexShader).c_str(), (head + render::kFragmentShader).c_str());
+      const GLuint p = program.get();
+      view_projection = glGetUniformLocation(p, "u_view_projection");
+      light_view_projection = glGetUniformLocation(p, "u_light_view_projection");
+      eye = glGetUniformLocation(p, "u_eye");
+      alpha = glGetUniformLocation(p, "u_alpha");
+      grid_centre = glGetUniformLocation(p, "u_grid_centre");
+      haze = glGetUniformLocation(p, "u_haze");
+      glUseProgram(p);
+      glUniform3f(glGetUniformLocation(p, "u_sky"), kSky.x(), kSky.y(), kSky.z());
+      const Vector3f key = Eigen::Map<const Vector3f>(render::kKeyLight).normalized();
+      glUniform3fv(glGetUniformLocation(p, "u_key_light"), 1, key.data());
+      glUniform1i(glGetUniformLocation(p, "u_shadow_map"), 0);
+    }
+  };
+  MainProgram shadowed, unshadowed;
   StaticBatch static_batch;
   // The key light's shadow map: a depth texture the moving meshes are drawn into first.
   gl::Program shadow_program;
@@ -326,7 +347,8 @@ struct Renderer::Impl {
     shadow_program.reset();
     by_mesh.clear();
     meshes.clear();
-    program.reset();
+    shadowed.program.reset();
+    unshadowed.program.reset();
     // Unbind before destroying, so a later context at the same address is never taken for
     // one that is already current (make_current's shortcut).
     OSMesaMakeCurrent(nullptr, nullptr, 0, 0, 0);
@@ -369,20 +391,12 @@ struct Renderer::Impl {
 
   void upload() {
     // The main shaders with what this quality draws compiled in, and nothing else.
-    const std::string head = std::string("#version 330 core\n#define SHADOWS ") + (quality.shadow_map_px > 0 ? "1" : "0") +
-                             "\n#define HAZE " + (quality.haze ? "1" : "0") + "\n#define GRID " + (quality.grid ? "1" : "0") + "\n";
-    program = gl::make_program((head + render::kVertexShader).c_str(), (head + render::kFragmentShader).c_str());
-    u_view_projection = glGetUniformLocation(program.get(), "u_view_projection");
-    u_light_view_projection = glGetUniformLocation(program.get(), "u_light_view_projection");
-    u_eye = glGetUniformLocation(program.get(), "u_eye");
-    u_alpha = glGetUniformLocation(program.get(), "u_alpha");
-    u_grid_centre = glGetUniformLocation(program.get(), "u_grid_centre");
-    u_haze = glGetUniformLocation(program.get(), "u_haze");
-    glUseProgram(program.get());
-    glUniform3f(glGetUniformLocation(program.get(), "u_sky"), kSky.x(), kSky.y(), kSky.z());
-    const Vector3f key = Eigen::Map<const Vector3f>(render::kKeyLight).normalized();
-    glUniform3fv(glGetUniformLocation(program.get(), "u_key_light"), 1, key.data());
-    glUniform1i(glGetUniformLocation(program.get(), "u_shadow_map"), 0);
+    auto head = [&](bool shadows) {
+      return std::string("#version 330 core\n#define SHADOWS ") + (shadows ? "1" : "0") + "\n#define HAZE " +
+             (quality.haze ? "1" : "0") + "\n#define GRID " + (quality.grid ? "1" : "0") + "\n";
+    };
+    shadowed.make(head(quality.shadow_map_px > 0));
+    unshadowed.make(head(false));
     if (quality.shadow_map_px > 0) make_shadow_map();
 
     // The truck's parts first (nearest the driver's and the chase camera: drawn first); wheels
@@ -402,6 +416,8 @@ struct Renderer::Impl {
     }
     front_wheel = mesh_for(shape.front_wheel);
     rear_wheel = mesh_for(shape.rear_wheel);
+    for (GpuMesh* m : {chassis, guard, mast, carriage_frame, forks, front_wheel, rear_wheel})
+      if (m) m->truck_part = true;
 
     // Everything that never moves, in world coordinates, in one buffer, a part per object:
     // objects before the floor they stand on (drawn in this order: see draw()).
@@ -551,15 +567,17 @@ struct Renderer::Impl {
       Eigen::Matrix4d to_texture = 0.5 * Eigen::Matrix4d::Identity();
       to_texture.col(3) = Eigen::Vector4d(0.5, 0.5, 0.5, 1);
       const Eigen::Matrix4f m = (to_texture * light).cast<float>();
-      glUseProgram(program.get());
-      glUniformMatrix4fv(u_light_view_projection, 1, GL_FALSE, m.data());
+      glUseProgram(shadowed.program.get());
+      glUniformMatrix4fv(shadowed.light_view_projection, 1, GL_FALSE, m.data());
       glActiveTexture(GL_TEXTURE0);
       glBindTexture(GL_TEXTURE_2D, shadow_map.get());
     }
-    glUseProgram(program.get());
     const Eigen::Vector2f truck_at = poses.chassis.translation().head<2>().cast<float>();
-    glUniform2fv(u_grid_centre, 1, truck_at.data());
-    glUniform1f(u_haze, hazed ? kHaze : 0.0f);
+    for (MainProgram* p : {&shadowed, &unshadowed}) {
+      glUseProgram(p->program.get());
+      glUniform2fv(p->grid_centre, 1, truck_at.data());
+      glUniform1f(p->haze, hazed ? kHaze : 0.0f);
+    }
     glViewport(0, 0, width, height);
     glClearColor(kSky.x(), kSky.y(), kSky.z(), 1.0f);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
@@ -614,17 +632,25 @@ struct Renderer::Impl {
     const Eigen::Matrix4f vp = view_projection.cast<float>();
     const Eigen::Vector3f e = eye.cast<float>();
     const render::Frustum seen(view_projection);
-    glUniformMatrix4fv(u_view_projection, 1, GL_FALSE, vp.data());
-    glUniform3fv(u_eye, 1, e.data());
-    glUniform1f(u_alpha, 1.0f);
+    for (MainProgram* p : {&shadowed, &unshadowed}) {
+      glUseProgram(p->program.get());
+      glUniformMatrix4fv(p->view_projection, 1, GL_FALSE, vp.data());
+      glUniform3fv(p->eye, 1, e.data());
+      glUniform1f(p->alpha, 1.0f);
+    }
+    // The truck (unshadowed, still current), then what its shadows fall on.
     for (const auto& m : meshes)
-      if (!(see_through && m->see_through)) stats.draw_calls += m->draw(&seen);
+      if (m->truck_part && !(see_through && m->see_through)) stats.draw_calls += m->draw(&seen);
+    glUseProgram(shadowed.program.get());
+    for (const auto& m : meshes)
+      if (!m->truck_part) stats.draw_calls += m->draw(&seen);
     const int parts = static_batch.draw(seen, stats.draw_calls);
     if (!see_through) return parts;
     glEnable(GL_BLEND);
     glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
     glDepthMask(GL_FALSE);
-    glUniform1f(u_alpha, kSeeThroughAlpha);
+    glUseProgram(unshadowed.program.get());
+    glUniform1f(unshadowed.alpha, kSeeThroughAlpha);
     for (const auto& m : meshes)
       if (m->see_through) stats.draw_calls += m->draw(&seen);
     glDepthMask(GL_TRUE);
