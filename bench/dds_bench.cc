@@ -18,7 +18,9 @@
 //    how far behind the wall clock the states arrive (wall time at arrival less the state's sim
 //    time, less the least of that over the run, so delivery's fixed part drops out), p50, p99,
 //    max. A cab holds real time when its lag p99 is under 2 ms and at least 29 frames a second
-//    arrive. --lp-threads sets llvmpipe's rasteriser threads per worker (LP_NUM_THREADS).
+//    arrive. --lp-threads sets llvmpipe's rasteriser threads per worker (LP_NUM_THREADS; a worker
+//    renders in its render thread alone unless told), --frame-shadows and --jpeg-quality the
+//    workers' own options of those names (the picture's cost).
 // With --secure, the round trip and the frames run twice, in clear and under DDS Security (a school
 // CA made for the run by scripts/forklift-pki.sh): the cost of authentication and encryption,
 // measured against the clear run in the same process.
@@ -55,6 +57,7 @@ namespace {
 
 std::string g_bin;
 std::string g_dir;  // logs and captures
+std::vector<std::string> g_frame_args;  // more of a framed fleet's workers' arguments (--frame-shadows, --jpeg-quality)
 std::string g_security;  // the school folder while a secured run is measured; empty in clear
 
 // The worker's and this cab's DDS Security arguments for cab `cab` (none in clear).
@@ -264,8 +267,9 @@ bool framed_fleet(int domain, int n, double fps, double seconds) {
   std::vector<std::string> cabs;
   for (int k = 0; k < n; ++k) {
     cabs.push_back("ff" + std::to_string(n) + "-" + std::to_string(k));
-    workers.push_back(spawn_worker(domain, cabs.back(), seconds + kWarmUpS + 1,
-                                   {"--fps", std::to_string(fps), "--jpeg", "--frame-size", "640x480", "--scenario", warehouse()}));
+    std::vector<std::string> extra = {"--fps", std::to_string(fps), "--jpeg", "--frame-size", "640x480", "--scenario", warehouse()};
+    extra.insert(extra.end(), g_frame_args.begin(), g_frame_args.end());
+    workers.push_back(spawn_worker(domain, cabs.back(), seconds + kWarmUpS + 1, extra));
   }
   dds::Participant p(dds::DomainSettings::resolve(domain, ""));
   dds::WaitSet ws(p);
@@ -380,10 +384,14 @@ int main(int argc, char** argv) {
   int lp_threads = -1;
   app.add_option("--framed-fleet", framed_sizes, "framed fleet sizes to try (each cab 640x480 JPEG frames at --framed-fps)");
   app.add_option("--framed-fps", framed_fps, "frame rate each cab of a framed fleet asks for")->check(CLI::Range(1.0, 240.0));
-  app.add_option("--lp-threads", lp_threads, "llvmpipe rasteriser threads per worker (LP_NUM_THREADS; default: llvmpipe's, one per core)")
+  app.add_option("--lp-threads", lp_threads, "llvmpipe rasteriser threads per worker (LP_NUM_THREADS; default: the worker's, 0: in its render thread)")
       ->check(CLI::Range(0, 16));
   app.add_option("--bin-dir", g_bin, "where forklift-worker is (default: this build's; another build's to compare)")
       ->check(CLI::ExistingDirectory);
+  int frame_shadows = -1, jpeg_quality = -1;
+  app.add_option("--frame-shadows", frame_shadows, "a framed fleet's workers' shadow map size (their --frame-shadows; 0: none)")
+      ->check(CLI::Range(0, 4096));
+  app.add_option("--jpeg-quality", jpeg_quality, "a framed fleet's workers' JPEG quality (their --jpeg-quality)")->check(CLI::Range(1, 100));
   bool framed_only = false;
   app.add_flag("--framed-only", framed_only, "run only the framed fleet");
   try {
@@ -402,9 +410,11 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "forklift-bench-dds: cannot make --dir %s: %s\n", g_dir.c_str(), e.what());
     return 2;
   }
+  if (frame_shadows >= 0) g_frame_args.insert(g_frame_args.end(), {"--frame-shadows", std::to_string(frame_shadows)});
+  if (jpeg_quality >= 0) g_frame_args.insert(g_frame_args.end(), {"--jpeg-quality", std::to_string(jpeg_quality)});
   if (lp_threads >= 0) setenv("LP_NUM_THREADS", std::to_string(lp_threads).c_str(), 1);  // the workers inherit it
   std::printf("domain %d, logs in %s, LP_NUM_THREADS=%s\n", domain, g_dir.c_str(),
-              std::getenv("LP_NUM_THREADS") ? std::getenv("LP_NUM_THREADS") : "(llvmpipe's default)");
+              std::getenv("LP_NUM_THREADS") ? std::getenv("LP_NUM_THREADS") : "(the worker's: 0)");
   if (!framed_sizes.empty()) {
     std::printf("framed fleet: every cab 640x480 JPEG at %g fps in the full warehouse, %g s measured\n", framed_fps, seconds);
     std::printf("%6s %-8s %8s %8s %8s %10s %10s %10s %12s %6s\n", "cabs", "cab", "cpu_pct", "fps", "states", "lag_p50_ms",

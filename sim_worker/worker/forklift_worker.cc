@@ -98,6 +98,7 @@ class FramePublisher {
     int width = 640, height = 480;
     bool jpeg = false;
     int jpeg_quality = 85;
+    RenderQuality quality;  // the depth cues drawn (shadow map size, haze): the picture's cost
     View view = View::kDriver;  // the cab's camera 0 (the driver's eye unless --view says otherwise)
     uint8_t aids = 0;           // granted: aids::Bit
   };
@@ -112,6 +113,11 @@ class FramePublisher {
 
   void start() {
     if (opt_.fps <= 0) return;
+    // llvmpipe rasterises in this render thread, not on threads of its own (one per core), unless
+    // LP_NUM_THREADS says otherwise: with a worker per cab the cores are already shared, and eight
+    // framed cabs on two cores got 26 frames a second each this way against 19 with llvmpipe's
+    // threads (forklift-bench-dds --framed-fleet 8). Read when the first context is made.
+    setenv("LP_NUM_THREADS", "0", 0);
     thread_ = std::thread([this] {
       // Frames give way to physics: on a machine with fewer cores than busy threads the tick
       // loop (and with it the cab's controls taking effect) must not wait behind a frame.
@@ -175,7 +181,7 @@ class FramePublisher {
       lock.unlock();
       if (!renderer) {
         try {
-          renderer = std::make_unique<Renderer>(model_.scene, model_.shape, model_.truck, opt_.width, opt_.height);
+          renderer = std::make_unique<Renderer>(model_.scene, model_.shape, model_.truck, opt_.width, opt_.height, opt_.quality);
         } catch (const std::exception& e) {
           log_line(cab_, std::string("no frames: ") + e.what());
           return;
@@ -278,6 +284,10 @@ int main(int argc, char** argv) {
                  "training aids a cab may ask for: a comma list of rear_view, see_through_mast, chase_camera, or all or none "
                  "(training default: all; an exam allows none)");
   app.add_flag("--jpeg", frames.jpeg, "publish JPEG frames (for cabs on a real network) instead of raw RGB");
+  app.add_option("--jpeg-quality", frames.jpeg_quality, "JPEG quality of --jpeg frames, 1-100")->check(CLI::Range(1, 100));
+  app.add_option("--frame-shadows", frames.quality.shadow_map_px,
+                 "shadow map size of the frames, texels a side (0: no shadows; fewer texels, coarser shadows, cheaper frames)")
+      ->check(CLI::Range(0, 4096));
   app.add_option("--replay", replay_file, "re-simulate a control log with no cab and print its final state")->check(CLI::ExistingFile);
   try {
     app.parse(argc, argv);
