@@ -114,9 +114,10 @@ class FramePublisher {
   void start() {
     if (opt_.fps <= 0) return;
     // llvmpipe rasterises in this render thread, not on threads of its own (one per core), unless
-    // LP_NUM_THREADS says otherwise: with a worker per cab the cores are already shared, and eight
-    // framed cabs on two cores got 26 frames a second each this way against 19 with llvmpipe's
-    // threads (forklift-bench-dds --framed-fleet 8). Read when the first context is made.
+    // LP_NUM_THREADS says otherwise: with a worker per cab the cores are already shared, and in
+    // eight framed cabs on two cores each got 25-28 frames a second this way against 18-23 with
+    // llvmpipe's threads (forklift-bench-dds --framed-fleet 8, on a busy shared machine). Read
+    // when the first context is made.
     setenv("LP_NUM_THREADS", "0", 0);
     thread_ = std::thread([this] {
       // Frames give way to physics: on a machine with fewer cores than busy threads the tick
