@@ -86,7 +86,8 @@ int replay_main(const std::string& path) {
 }
 
 // Frames on their own clock, only while the cab asks for them (its newest control sample has
-// frames_wanted; a scripted or windowless cab, and a silent one, get none): the render thread owns
+// frames_wanted; a scripted or windowless cab, and a silent one, get none) and something reads
+// them (no frame reader matched: no frame drawn): the render thread owns
 // the OSMesa context (made when frames are first wanted), draws the newest snapshot the physics
 // loop left as the cab asked to see it, within the aids granted, and publishes it. A renderer that
 // cannot start costs the session its frames, never the session.
@@ -174,6 +175,7 @@ class FramePublisher {
       cv_.wait_until(lock, next, [this] { return stop_; });
       if (stop_) break;
       if (!request_) continue;  // the cab stopped asking meanwhile
+      if (writer_.matched() == 0) continue;  // nobody reads frames (a cab asking, but gone or blind): none drawn
       next += std::chrono::duration_cast<Clock::duration>(period);
       if (next < Clock::now()) next = Clock::now();  // a slow frame skips, never queues
       const RenderState state = state_;
