@@ -12,6 +12,11 @@
 //               inset: a second pass from the eye looking back), and both; with the head turned
 //               60 degrees left (look_left: the plain view's cost from another direction)
 //   jpeg        encode_jpeg of a 640x480 driver frame at quality 85 (the worker's stream)
+//   quality     the driver view at 640x480 with each depth cue (RenderQuality) alone and none:
+//               what the shadow map (two sizes), the haze and the metre grid cost
+//   jpeg_frame  what the worker does for a JPEG frame: render, RGBX read-back, encode
+// Counters: calls (draw calls in the frame, the shadow map's included), parts (static parts
+// drawn of the scene's, after frustum culling).
 // Wall time is what counts (llvmpipe renders on its own threads), so every row uses real time.
 // LP_NUM_THREADS (llvmpipe's rasteriser threads; default: one per core) is read when the
 // first context is made: set it in the environment to compare 1 and 2 threads.
@@ -76,6 +81,16 @@ RenderState frame_state(const World& w, int64_t i) {
   return s;
 }
 
+// The world, or null with the row skipped when the scenario cannot be loaded.
+const World* world_or_skip(benchmark::State& state) {
+  try {
+    return &world();
+  } catch (const std::exception& e) {
+    state.SkipWithError(e.what());
+    return nullptr;
+  }
+}
+
 void BM_Baseline(benchmark::State& state, int width, int height) {
   Renderer r(Scene{}, TruckShape{}, TruckParams{}, width, height);
   const RenderState s;
@@ -83,18 +98,25 @@ void BM_Baseline(benchmark::State& state, int width, int height) {
   state.counters["fps"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate);
 }
 
-void BM_Frame(benchmark::State& state, View view, ViewOptions options, int width, int height) {
-  const World* w = nullptr;
-  try {
-    w = &world();
-  } catch (const std::exception& e) {
-    state.SkipWithError(e.what());
-    return;
-  }
-  Renderer r(w->scene, w->shape, w->truck, width, height);
+void BM_Frame(benchmark::State& state, View view, ViewOptions options, int width, int height,
+              RenderQuality quality) {
+  const World* w = world_or_skip(state);
+  if (!w) return;
+  Renderer r(w->scene, w->shape, w->truck, width, height, quality);
   int64_t i = 0;
   for (auto _ : state) benchmark::DoNotOptimize(r.render(frame_state(*w, i++), view, options).rgb.data());
   state.counters["fps"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["calls"] = r.last_frame().draw_calls;
+  state.counters["parts"] = r.last_frame().static_parts_drawn;
+}
+
+// What the worker does for a JPEG frame: the picture as read back (RGBX), straight into JPEG.
+void BM_JpegFrame(benchmark::State& state, int width, int height, RenderQuality quality) {
+  const World* w = world_or_skip(state);
+  if (!w) return;
+  Renderer r(w->scene, w->shape, w->truck, width, height, quality);
+  int64_t i = 0;
+  for (auto _ : state) benchmark::DoNotOptimize(encode_jpeg(r.render_rgbx(frame_state(*w, i++), View::kDriver), 85).data());
 }
 
 // The driver view's options the aids rows use.
@@ -106,14 +128,16 @@ const std::pair<const char*, ViewOptions> kAidRows[] = {
     {"aids/see_through+mirror", {0, 0, true, true}},
 };
 
+// The depth cues (RenderQuality) the quality rows compare; the driver view at 640x480.
+const std::pair<const char*, RenderQuality> kQualityRows[] = {
+    {"none", {0, false, false}},          {"haze", {0, true, false}},
+    {"grid", {0, false, true}},           {"shadow_512", {512, false, false}},
+    {"shadow_1024", {1024, false, false}}, {"all_512", {512, true, true}},
+};
+
 void BM_JpegEncode(benchmark::State& state, int width, int height) {
-  const World* w = nullptr;
-  try {
-    w = &world();
-  } catch (const std::exception& e) {
-    state.SkipWithError(e.what());
-    return;
-  }
+  const World* w = world_or_skip(state);
+  if (!w) return;
   Renderer r(w->scene, w->shape, w->truck, width, height);
   const Image image = r.render(frame_state(*w, 0), View::kDriver);
   size_t bytes = 0;
@@ -172,12 +196,17 @@ int main(int argc, char** argv) {
     timed(benchmark::RegisterBenchmark(("baseline/" + size).c_str(), BM_Baseline, w, h));
     for (View v : {View::kDriver, View::kChase, View::kPlan}) {
       if (v == View::kPlan && w != 640) continue;
-      timed(benchmark::RegisterBenchmark(("frame/" + std::string(view_name(v)) + "/" + size).c_str(), BM_Frame, v, ViewOptions{}, w, h));
+      timed(benchmark::RegisterBenchmark(("frame/" + std::string(view_name(v)) + "/" + size).c_str(), BM_Frame, v, ViewOptions{}, w, h, RenderQuality{}));
     }
   }
   for (const auto& [name, options] : kAidRows)
-    timed(benchmark::RegisterBenchmark((std::string(name) + "/640x480").c_str(), BM_Frame, View::kDriver, options, 640, 480));
+    timed(benchmark::RegisterBenchmark((std::string(name) + "/640x480").c_str(), BM_Frame, View::kDriver, options, 640, 480, RenderQuality{}));
   timed(benchmark::RegisterBenchmark("jpeg_encode/640x480", BM_JpegEncode, 640, 480));
+  // What each depth cue costs: none of them, each alone, and the shadow map's size.
+  for (const auto& [name, quality] : kQualityRows)
+    timed(benchmark::RegisterBenchmark(("quality/" + std::string(name) + "/640x480").c_str(), BM_Frame, View::kDriver,
+                                       ViewOptions{}, 640, 480, quality));
+  timed(benchmark::RegisterBenchmark("jpeg_frame/640x480", BM_JpegFrame, 640, 480, RenderQuality{}));
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 2;
 
   const char* threads = std::getenv("LP_NUM_THREADS");

@@ -171,5 +171,33 @@ Eigen::Matrix4d view_projection(const Camera& camera, int width, int height, con
          look_at(camera.eye, camera.target, camera.up);
 }
 
+Eigen::Matrix4d orthographic(double half_x, double half_y, double near_m, double far_m) {
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  m(0, 0) = 1.0 / half_x;
+  m(1, 1) = 1.0 / half_y;
+  m(2, 2) = -2.0 / (far_m - near_m);
+  m(2, 3) = -(far_m + near_m) / (far_m - near_m);
+  return m;
+}
+
+// Gribb and Hartmann: a clip-space point is inside when -w <= x, y, z <= w, each a plane in world.
+Frustum::Frustum(const Eigen::Matrix4d& m) {
+  for (int axis = 0; axis < 3; ++axis) {
+    planes.row(2 * axis) = m.row(3) + m.row(axis);
+    planes.row(2 * axis + 1) = m.row(3) - m.row(axis);
+  }
+}
+
+bool Frustum::may_see(const Eigen::AlignedBox3d& box) const {
+  if (box.isEmpty()) return false;
+  for (int i = 0; i < 6; ++i) {
+    // The box's corner furthest along the plane's normal: if even that is outside, all is.
+    const Eigen::Vector3d n = planes.row(i).head<3>().transpose();
+    const Eigen::Vector3d far_corner = (n.array() >= 0).select(box.max(), box.min());
+    if (n.dot(far_corner) + planes(i, 3) < 0) return false;
+  }
+  return true;
+}
+
 }  // namespace render
 }  // namespace forklift

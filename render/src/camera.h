@@ -19,4 +19,16 @@ void depth_range(const Eigen::Vector3d& eye, const Eigen::AlignedBox3d& extent, 
 // Projection times view for `camera` on a width x height image.
 Eigen::Matrix4d view_projection(const Camera& camera, int width, int height, const Eigen::AlignedBox3d& extent);
 
+// An orthographic projection (glOrtho's): x in [-half_x, half_x], y likewise, depth near..far.
+Eigen::Matrix4d orthographic(double half_x, double half_y, double near_m, double far_m);
+
+// The volume a view-projection sees, as six planes in world coordinates: what lies wholly
+// outside one of them is not drawn (frustum culling). Conservative: a box that only crosses a
+// corner region outside the volume may still count as seen, never the other way round.
+struct Frustum {
+  explicit Frustum(const Eigen::Matrix4d& view_projection);
+  bool may_see(const Eigen::AlignedBox3d& box) const;
+  Eigen::Matrix<double, 6, 4> planes;  // rows: a.x + b.y + c.z + d >= 0 inside
+};
+
 }  // namespace forklift::render

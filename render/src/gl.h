@@ -13,7 +13,7 @@
 
 namespace forklift::gl {
 
-// A GL name with its deleter: buffers, vertex arrays, programs.
+// A GL name with its deleter: buffers, vertex arrays, programs, textures, framebuffers.
 template <void (*Delete)(GLuint)>
 class Name {
  public:
@@ -41,10 +41,14 @@ class Name {
 inline void delete_buffer(GLuint id) { glDeleteBuffers(1, &id); }
 inline void delete_vertex_array(GLuint id) { glDeleteVertexArrays(1, &id); }
 inline void delete_program(GLuint id) { glDeleteProgram(id); }
+inline void delete_texture(GLuint id) { glDeleteTextures(1, &id); }
+inline void delete_framebuffer(GLuint id) { glDeleteFramebuffers(1, &id); }
 
 using Buffer = Name<delete_buffer>;
 using VertexArray = Name<delete_vertex_array>;
 using Program = Name<delete_program>;
+using Texture = Name<delete_texture>;
+using Framebuffer = Name<delete_framebuffer>;
 
 Buffer make_buffer();
 VertexArray make_vertex_array();

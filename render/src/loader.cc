@@ -11,7 +11,8 @@
 namespace forklift {
 namespace {
 
-using OpenFn = FrameRenderer* (*)(const Scene*, const TruckShape*, const TruckParams*, int, int, char*, unsigned);
+using OpenFn = FrameRenderer* (*)(const Scene*, const TruckShape*, const TruckParams*, int, int, const RenderQuality*, char*,
+                                  unsigned);
 
 std::string module_path() {
   if (const char* p = std::getenv("FORKLIFT_RENDER_MODULE"); p && *p) return p;
@@ -38,9 +39,9 @@ OpenFn open_fn() {
 }  // namespace
 
 std::unique_ptr<FrameRenderer> load_renderer(const Scene& scene, const TruckShape& shape, const TruckParams& truck,
-                                             int width, int height) {
+                                             int width, int height, const RenderQuality& quality) {
   char error[512] = {};
-  FrameRenderer* r = open_fn()(&scene, &shape, &truck, width, height, error, sizeof error);
+  FrameRenderer* r = open_fn()(&scene, &shape, &truck, width, height, &quality, error, sizeof error);
   if (!r) throw std::runtime_error(error);
   return std::unique_ptr<FrameRenderer>(r);
 }

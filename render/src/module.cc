@@ -10,10 +10,14 @@ namespace {
 
 class ModuleRenderer final : public FrameRenderer {
  public:
-  ModuleRenderer(const Scene& scene, const TruckShape& shape, const TruckParams& truck, int width, int height)
-      : renderer_(scene, shape, truck, width, height) {}
+  ModuleRenderer(const Scene& scene, const TruckShape& shape, const TruckParams& truck, int width, int height,
+                 const RenderQuality& quality)
+      : renderer_(scene, shape, truck, width, height, quality) {}
   const Image& render(const RenderState& state, View view, const ViewOptions& options) override {
     return renderer_.render(state, view, options);
+  }
+  RgbxPixels render_rgbx(const RenderState& state, View view, const ViewOptions& options) override {
+    return renderer_.render_rgbx(state, view, options);
   }
 
  private:
@@ -26,9 +30,9 @@ class ModuleRenderer final : public FrameRenderer {
 // nullptr and the reason in `error` when the renderer cannot start (no exception crosses dlopen).
 extern "C" __attribute__((visibility("default"))) forklift::FrameRenderer* forklift_render_module_open(
     const forklift::Scene* scene, const forklift::TruckShape* shape, const forklift::TruckParams* truck, int width,
-    int height, char* error, unsigned error_size) {
+    int height, const forklift::RenderQuality* quality, char* error, unsigned error_size) {
   try {
-    return new forklift::ModuleRenderer(*scene, *shape, *truck, width, height);
+    return new forklift::ModuleRenderer(*scene, *shape, *truck, width, height, *quality);
   } catch (const std::exception& e) {
     std::snprintf(error, error_size, "%s", e.what());
   } catch (...) {

@@ -1,7 +1,9 @@
 // The off-screen Graphic Engine: one OSMesa context per Renderer, the static warehouse in one
-// vertex buffer drawn with one call, and every moving mesh (truck parts, pallets, loads)
-// drawn instanced, one call per distinct mesh. A frame is about ten draw calls whatever the
-// number of pallets (each costs about 130 us on llvmpipe).
+// vertex buffer drawn with one call (its objects outside the view left out), and every moving
+// mesh (truck parts, pallets, loads) drawn instanced, one call per distinct mesh with instances
+// in view. Before the picture, the moving meshes near the truck are drawn once more into the key
+// light's shadow map. A frame is about twenty draw calls whatever the number of pallets (each
+// costs about 130 us on llvmpipe).
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <map>
@@ -26,9 +28,16 @@ constexpr int kMaxSize = 8192;
 const Vector3f kSky{0.66f, 0.77f, 0.88f};
 const Vector3f kForkColour{0.17f, 0.17f, 0.18f};
 const Vector3f kLoadColour{0.74f, 0.56f, 0.34f};  // cardboard
+// The last 10 cm of each fork, painted as a training truck's are, so the tips read at 3 m
+// against the floor and a pallet's dark openings.
+const Vector3f kForkTipColour{0.98f, 0.62f, 0.05f};
+constexpr double kForkTipM = 0.10;
 constexpr double kForkShankHeightM = 0.5;
 // See-through mast: how much of a see-through part's colour covers what is behind it.
 constexpr float kSeeThroughAlpha = 0.22f;
+// The distance haze of the driver's and chase views: at most this share of a far surface's
+// colour (100 m and beyond) is the sky's.
+constexpr float kHaze = 0.35f;
 // The rear-view mirror inset: its share of the frame's width and height, its distance from the
 // top edge (share of the height), and its frame's width in pixels.
 constexpr double kMirrorWidthShare = 0.36, kMirrorHeightShare = 0.18, kMirrorTopShare = 0.025;
@@ -49,6 +58,7 @@ struct GpuMesh {
   Eigen::AlignedBox3d bounds;  // in the mesh's frame
   std::vector<Eigen::Matrix4f> transforms;
   bool see_through = false;  // drawn translucent when the view asks for a see-through mast
+  bool truck_part = false;   // drawn first, and without shadows on it (see MainProgram)
 
   explicit GpuMesh(const Geometry& g) : bounds(g.bounds) {
     vao = gl::make_vertex_array();
@@ -82,27 +92,109 @@ struct GpuMesh {
     gl::check_error("uploading a mesh");
   }
 
-  void add(const Eigen::Affine3d& model) { transforms.push_back(model.matrix().cast<float>()); }
-  void add(const Isometry3d& model) { transforms.push_back(model.matrix().cast<float>()); }
+  void clear() {
+    transforms.clear();
+    world_bounds.clear();
+  }
+  void add(const Eigen::Affine3d& model) { add(model.matrix()); }
+  void add(const Isometry3d& model) { add(model.matrix()); }
+  void add(const Eigen::Matrix4d& model) {
+    transforms.push_back(model.cast<float>());
+    Eigen::AlignedBox3d box;
+    if (!bounds.isEmpty())
+      for (int i = 0; i < 8; ++i)
+        box.extend((model * bounds.corner(Eigen::AlignedBox3d::CornerType(i)).homogeneous()).head<3>());
+    world_bounds.push_back(box);
+  }
 
-  // Draws this frame's instances (kept for the frame's other passes: the mirror).
-  void draw() {
-    if (transforms.empty() || index_count == 0) return;
+  // Draws this frame's instances that `view` may see (all: null); one call, none if none.
+  // Returns the draw calls made.
+  int draw(const render::Frustum* view) {
+    if (transforms.empty() || index_count == 0) return 0;
+    const std::vector<Eigen::Matrix4f>* drawn = &transforms;
+    if (view) {
+      visible.clear();
+      for (size_t i = 0; i < transforms.size(); ++i)
+        if (view->may_see(world_bounds[i])) visible.push_back(transforms[i]);
+      if (visible.empty()) return 0;
+      drawn = &visible;
+    }
     glBindVertexArray(vao.get());
     glBindBuffer(GL_ARRAY_BUFFER, instances.get());
-    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(transforms.size() * sizeof(Eigen::Matrix4f)), transforms.data(),
-                 GL_STREAM_DRAW);
-    glDrawElementsInstanced(GL_TRIANGLES, index_count, GL_UNSIGNED_INT, nullptr, GLsizei(transforms.size()));
+    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(drawn->size() * sizeof(Eigen::Matrix4f)), drawn->data(), GL_STREAM_DRAW);
+    glDrawElementsInstanced(GL_TRIANGLES, index_count, GL_UNSIGNED_INT, nullptr, GLsizei(drawn->size()));
+    return 1;
   }
 
   // World bounds of this frame's instances.
   void extend(Eigen::AlignedBox3d& box) const {
-    if (bounds.isEmpty()) return;
-    for (const Eigen::Matrix4f& m : transforms)
-      for (int i = 0; i < 8; ++i) {
-        const Vector3d c = bounds.corner(Eigen::AlignedBox3d::CornerType(i));
-        box.extend((m.cast<double>() * c.homogeneous()).head<3>());
+    for (const Eigen::AlignedBox3d& b : world_bounds) box.extend(b);
+  }
+
+ private:
+  std::vector<Eigen::AlignedBox3d> world_bounds;  // this frame's instances', in world
+  std::vector<Eigen::Matrix4f> visible;           // scratch: the instances one pass draws
+};
+
+// Everything that never moves, in world coordinates, in one buffer drawn with one call: each
+// part (an object, or the floor with its paint) a range of indices with its bounds, so that a
+// pass draws only the parts its camera may see (glMultiDrawElements: still one call).
+// Ranges are kept in the order added, which is the order drawn.
+struct StaticBatch {
+  struct Part {
+    GLsizei first = 0, count = 0;  // indices
+    Eigen::AlignedBox3d bounds;
+  };
+  std::unique_ptr<GpuMesh> mesh;
+  std::vector<Part> parts;
+  std::vector<GLsizei> counts;           // scratch for a pass
+  std::vector<const void*> offsets;      // scratch for a pass
+
+  // Records what `add` put into `g` as one part.
+  template <class Add>
+  void add_part(Geometry& g, Add add) {
+    const size_t first_vertex = g.vertices.size(), first_index = g.indices.size();
+    add();
+    if (g.indices.size() == first_index) return;
+    Part p;
+    p.first = GLsizei(first_index);
+    p.count = GLsizei(g.indices.size() - first_index);
+    for (size_t i = first_vertex; i < g.vertices.size(); ++i)
+      p.bounds.extend(Vector3d(g.vertices[i].position[0], g.vertices[i].position[1], g.vertices[i].position[2]));
+    parts.push_back(p);
+  }
+
+  void upload(const Geometry& g) {
+    if (g.empty()) return;
+    mesh = std::make_unique<GpuMesh>(g);
+    mesh->add(Isometry3d::Identity());
+    glBindBuffer(GL_ARRAY_BUFFER, mesh->instances.get());  // one instance, for good
+    glBufferData(GL_ARRAY_BUFFER, sizeof(Eigen::Matrix4f), mesh->transforms.data(), GL_STATIC_DRAW);
+  }
+
+  // Draws the parts `view` may see, adjacent ranges merged; returns how many parts that was.
+  int draw(const render::Frustum& view, int& calls) {
+    if (!mesh) return 0;
+    counts.clear();
+    offsets.clear();
+    int drawn = 0;
+    GLsizei end = -1;
+    for (const Part& p : parts) {
+      if (!view.may_see(p.bounds)) continue;
+      ++drawn;
+      if (p.first == end) {
+        counts.back() += p.count;
+      } else {
+        counts.push_back(p.count);
+        offsets.push_back(reinterpret_cast<const void*>(size_t(p.first) * sizeof(uint32_t)));
       }
+      end = p.first + p.count;
+    }
+    if (counts.empty()) return 0;
+    glBindVertexArray(mesh->vao.get());
+    glMultiDrawElements(GL_TRIANGLES, counts.data(), GL_UNSIGNED_INT, offsets.data(), GLsizei(counts.size()));
+    ++calls;
+    return drawn;
   }
 };
 
@@ -118,16 +210,29 @@ Geometry parts_geometry(const Mesh& mesh, Keep keep) {
 // The carriage's forks as drawn: the mesh's parts named "fork...", or, when it has none, two
 // forks made from the shape's fork dimensions (carriage frame: fork heel at the origin, forks
 // along +x with their top face at z = 0). The rest of the carriage is its frame.
+// Each fork's tip gets a painted cap: a box 2 mm proud of the blade's end (so it wins the depth
+// test), kForkTipM long.
 Geometry fork_geometry(const TruckShape& shape) {
   Geometry g = parts_geometry(*shape.carriage, fork_part);
-  if (!g.empty()) return g;
-  const double t = shape.fork_thickness_m, w = shape.fork_width_m;
-  for (double side : {-0.5, 0.5}) {
-    const double y = side * shape.fork_centres_y_m;
-    g.add_box(Eigen::AlignedBox3d(Vector3d(-t, y - 0.5 * w, -t), Vector3d(shape.fork_length_m, y + 0.5 * w, 0)),
-              Isometry3d::Identity(), kForkColour);
-    g.add_box(Eigen::AlignedBox3d(Vector3d(-t, y - 0.5 * w, 0), Vector3d(0, y + 0.5 * w, kForkShankHeightM)),
-              Isometry3d::Identity(), kForkColour);
+  std::vector<Eigen::AlignedBox3d> blades;
+  for (const MeshPart& p : shape.carriage->parts)
+    if (fork_part(p) && !p.bounds.isEmpty()) blades.push_back(p.bounds);
+  if (g.empty()) {
+    const double t = shape.fork_thickness_m, w = shape.fork_width_m;
+    for (double side : {-0.5, 0.5}) {
+      const double y = side * shape.fork_centres_y_m;
+      blades.emplace_back(Vector3d(-t, y - 0.5 * w, -t), Vector3d(shape.fork_length_m, y + 0.5 * w, 0));
+      g.add_box(blades.back(), Isometry3d::Identity(), kForkColour);
+      g.add_box(Eigen::AlignedBox3d(Vector3d(-t, y - 0.5 * w, 0), Vector3d(0, y + 0.5 * w, kForkShankHeightM)),
+                Isometry3d::Identity(), kForkColour);
+    }
+  }
+  constexpr double kProud = 0.002;
+  for (const Eigen::AlignedBox3d& b : blades) {
+    const double length = std::min(kForkTipM, 0.5 * b.sizes().x());
+    g.add_box(Eigen::AlignedBox3d(Vector3d(b.max().x() - length, b.min().y() - kProud, b.min().z() - kProud),
+                                  b.max() + Vector3d::Constant(kProud)),
+              Isometry3d::Identity(), kForkTipColour);
   }
   return g;
 }
@@ -150,13 +255,41 @@ struct Renderer::Impl {
   TruckShape shape;
   TruckParams truck;
   int width, height;
+  RenderQuality quality;
   OSMesaContext context = nullptr;
   std::vector<uint8_t> framebuffer;  // RGBA, rows top to bottom (OSMESA_Y_UP = 0)
   Image image;
+  FrameStats stats;
 
-  gl::Program program;
-  GLint u_view_projection = -1, u_eye = -1, u_alpha = -1;
-  std::unique_ptr<GpuMesh> static_batch;
+  // The main shaders twice: for what the shadows fall on (the warehouse, pallets and loads), and
+  // without the shadow map's tap for the truck itself, which is most of the driver's picture
+  // (guard, mast): the pixels llvmpipe shades on the CPU are the frame's cost.
+  struct MainProgram {
+    gl::Program program;
+    GLint view_projection = -1, light_view_projection = -1, eye = -1, alpha = -1, grid_centre = -1, haze = -1;
+    void make(const std::string& head) {
+      program = gl::make_program((head + render::kVertexShader).c_str(), (head + render::kFragmentShader).c_str());
+      const GLuint p = program.get();
+      view_projection = glGetUniformLocation(p, "u_view_projection");
+      light_view_projection = glGetUniformLocation(p, "u_light_view_projection");
+      eye = glGetUniformLocation(p, "u_eye");
+      alpha = glGetUniformLocation(p, "u_alpha");
+      grid_centre = glGetUniformLocation(p, "u_grid_centre");
+      haze = glGetUniformLocation(p, "u_haze");
+      glUseProgram(p);
+      glUniform3f(glGetUniformLocation(p, "u_sky"), kSky.x(), kSky.y(), kSky.z());
+      const Vector3f key = Eigen::Map<const Vector3f>(render::kKeyLight).normalized();
+      glUniform3fv(glGetUniformLocation(p, "u_key_light"), 1, key.data());
+      glUniform1i(glGetUniformLocation(p, "u_shadow_map"), 0);
+    }
+  };
+  MainProgram shadowed, unshadowed;
+  StaticBatch static_batch;
+  // The key light's shadow map: a depth texture the moving meshes are drawn into first.
+  gl::Program shadow_program;
+  GLint u_shadow_view_projection = -1;
+  gl::Texture shadow_map;
+  gl::Framebuffer shadow_target;
   std::vector<std::unique_ptr<GpuMesh>> meshes;  // moving meshes, each drawn once a frame
   std::map<const Mesh*, GpuMesh*> by_mesh;
   // The truck's parts; the guard, the mast and the carriage's frame can be drawn see-through.
@@ -174,8 +307,10 @@ struct Renderer::Impl {
   std::unordered_map<std::string, size_t> pallet_index;
   std::vector<Isometry3d> pallet_poses;  // this frame's
 
-  Impl(const Scene& s, const TruckShape& sh, const TruckParams& t, int w, int h)
-      : scene(s), shape(sh), truck(t), width(w), height(h) {
+  Impl(const Scene& s, const TruckShape& sh, const TruckParams& t, int w, int h, const RenderQuality& q)
+      : scene(s), shape(sh), truck(t), width(w), height(h), quality(q) {
+    if (q.shadow_map_px < 0 || q.shadow_map_px > kMaxSize)
+      throw std::invalid_argument("shadow map size " + std::to_string(q.shadow_map_px) + " is outside 0..8192");
     if (w <= 0 || h <= 0 || w > kMaxSize || h > kMaxSize)
       throw std::invalid_argument("render size " + std::to_string(w) + "x" + std::to_string(h) +
                                   " is outside 1..8192");
@@ -206,10 +341,14 @@ struct Renderer::Impl {
     if (!context) return;
     OSMesaMakeCurrent(context, framebuffer.data(), GL_UNSIGNED_BYTE, width, height);
     // GL objects go while their context is current.
-    static_batch.reset();
+    static_batch.mesh.reset();
+    shadow_target.reset();
+    shadow_map.reset();
+    shadow_program.reset();
     by_mesh.clear();
     meshes.clear();
-    program.reset();
+    shadowed.program.reset();
+    unshadowed.program.reset();
     // Unbind before destroying, so a later context at the same address is never taken for
     // one that is already current (make_current's shortcut).
     OSMesaMakeCurrent(nullptr, nullptr, 0, 0, 0);
@@ -251,10 +390,14 @@ struct Renderer::Impl {
   }
 
   void upload() {
-    program = gl::make_program(render::kVertexShader, render::kFragmentShader);
-    u_view_projection = glGetUniformLocation(program.get(), "u_view_projection");
-    u_eye = glGetUniformLocation(program.get(), "u_eye");
-    u_alpha = glGetUniformLocation(program.get(), "u_alpha");
+    // The main shaders with what this quality draws compiled in, and nothing else.
+    auto head = [&](bool shadows) {
+      return std::string("#version 330 core\n#define SHADOWS ") + (shadows ? "1" : "0") + "\n#define HAZE " +
+             (quality.haze ? "1" : "0") + "\n#define GRID " + (quality.grid ? "1" : "0") + "\n";
+    };
+    shadowed.make(head(quality.shadow_map_px > 0));
+    unshadowed.make(head(false));
+    if (quality.shadow_map_px > 0) make_shadow_map();
 
     // The truck's parts first (nearest the driver's and the chase camera: drawn first); wheels
     // share a mesh when the shape does.
@@ -273,9 +416,11 @@ struct Renderer::Impl {
     }
     front_wheel = mesh_for(shape.front_wheel);
     rear_wheel = mesh_for(shape.rear_wheel);
+    for (GpuMesh* m : {chassis, guard, mast, carriage_frame, forks, front_wheel, rear_wheel})
+      if (m) m->truck_part = true;
 
-    // Everything that never moves, in world coordinates, in one buffer: objects before the
-    // floor they stand on (drawn in this order: see draw()).
+    // Everything that never moves, in world coordinates, in one buffer, a part per object:
+    // objects before the floor they stand on (drawn in this order: see draw()).
     Geometry world;
     for (const SceneObject& o : scene.objects) {
       if (o.kind == ObjectKind::kPallet) {
@@ -288,13 +433,12 @@ struct Renderer::Impl {
         pallet_index[o.id] = pallets.size();
         pallets.push_back(p);
       } else if (o.mesh) {
-        world.add_mesh(*o.mesh, o.pose);
+        static_batch.add_part(world, [&] { world.add_mesh(*o.mesh, o.pose); });
       }
     }
-    render::add_floor(scene, floor_area(scene), world);
-    if (!world.empty()) {
-      static_batch = std::make_unique<GpuMesh>(world);
-    }
+    static_batch.add_part(world, [&] { render::add_floor(scene, floor_area(scene), world); });
+    static_batch.upload(world);
+    stats.static_parts = int(static_batch.parts.size());
 
     glEnable(GL_DEPTH_TEST);
     glDepthFunc(GL_LESS);
@@ -304,6 +448,74 @@ struct Renderer::Impl {
     glCullFace(GL_BACK);
     glFrontFace(GL_CCW);
     gl::check_error("setting up the renderer");
+  }
+
+  // A depth texture the key light's view is drawn into, read back with one compared tap
+  // (GL_NEAREST: four blended taps, GL_LINEAR, cost a fifth of the frame on llvmpipe for softer
+  // edges); outside it, depth 1: lit.
+  void make_shadow_map() {
+    const int n = quality.shadow_map_px;
+    shadow_program = gl::make_program(render::kShadowVertexShader, render::kShadowFragmentShader);
+    u_shadow_view_projection = glGetUniformLocation(shadow_program.get(), "u_view_projection");
+    GLuint id = 0;
+    glGenTextures(1, &id);
+    shadow_map = gl::Texture(id);
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_2D, id);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT24, n, n, 0, GL_DEPTH_COMPONENT, GL_UNSIGNED_INT, nullptr);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_BORDER);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_BORDER);
+    const float border[4] = {1, 1, 1, 1};
+    glTexParameterfv(GL_TEXTURE_2D, GL_TEXTURE_BORDER_COLOR, border);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
+    id = 0;
+    glGenFramebuffers(1, &id);
+    shadow_target = gl::Framebuffer(id);
+    glBindFramebuffer(GL_FRAMEBUFFER, id);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, shadow_map.get(), 0);
+    glDrawBuffer(GL_NONE);
+    glReadBuffer(GL_NONE);
+    const GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    if (status != GL_FRAMEBUFFER_COMPLETE) throw std::runtime_error("OSMesa cannot draw into a shadow map");
+    gl::check_error("making the shadow map");
+  }
+
+  // The key light's view: orthographic, straight along the light onto the square of
+  // kShadowAreaM round the truck (its chassis origin), from 30 m away along the light. The
+  // square moves a whole texel at a time, so a shadow's edge does not crawl as the truck drives.
+  Eigen::Matrix4d light_view_projection(const BodyPoses& poses) const {
+    const Vector3d towards = Eigen::Map<const Eigen::Vector3f>(render::kKeyLight).cast<double>().normalized();
+    constexpr double kLightDistanceM = 30;
+    Vector3d centre = poses.chassis.translation();
+    centre.z() = 0;
+    Eigen::Matrix4d view = render::look_at(centre + kLightDistanceM * towards, centre, Vector3d::UnitX());
+    const double half = 0.5 * kShadowAreaM, texel = kShadowAreaM / quality.shadow_map_px;
+    const Eigen::Vector4d c = view * centre.homogeneous();
+    view(0, 3) += std::round(c.x() / texel) * texel - c.x();
+    view(1, 3) += std::round(c.y() / texel) * texel - c.y();
+    return render::orthographic(half, half, 1.0, 2 * kLightDistanceM) * view;
+  }
+
+  // The moving meshes (truck, pallets, loads) the light sees, into the shadow map; depth pushed
+  // back a little (polygon offset), so a lit surface does not shadow itself.
+  void draw_shadow_map(const Eigen::Matrix4d& light) {
+    const int n = quality.shadow_map_px;
+    glBindFramebuffer(GL_FRAMEBUFFER, shadow_target.get());
+    glViewport(0, 0, n, n);
+    glClear(GL_DEPTH_BUFFER_BIT);
+    glUseProgram(shadow_program.get());
+    const Eigen::Matrix4f m = light.cast<float>();
+    glUniformMatrix4fv(u_shadow_view_projection, 1, GL_FALSE, m.data());
+    glEnable(GL_POLYGON_OFFSET_FILL);
+    glPolygonOffset(1.5f, 4.0f);
+    const render::Frustum seen(light);
+    for (const auto& mesh : meshes) stats.draw_calls += mesh->draw(&seen);
+    glDisable(GL_POLYGON_OFFSET_FILL);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
   }
 
   // Where each pallet is this frame: the state's pose for the pallets it names, else the scene's.
@@ -316,16 +528,14 @@ struct Renderer::Impl {
     }
   }
 
-  const Image& draw(const RenderState& state, const BodyPoses& poses, const Camera& camera,
-                    const ViewOptions& options = {}) {
+  // `hazed`: a view from in the warehouse (driver, chase), where far things fade towards the sky.
+  RgbxPixels draw(const RenderState& state, const BodyPoses& poses, const Camera& camera, bool hazed,
+                  const ViewOptions& options = {}) {
     make_current();
 
     // This frame's instances (none left over from a frame that threw).
-    for (const auto& m : meshes) m->transforms.clear();
-    if (static_batch) {
-      static_batch->transforms.clear();
-      static_batch->add(Isometry3d::Identity());
-    }
+    for (const auto& m : meshes) m->clear();
+    stats.static_parts_drawn = stats.draw_calls = 0;
     for (GpuMesh* m : {chassis, guard}) if (m) m->add(poses.chassis);
     if (mast) mast->add(poses.mast);
     for (GpuMesh* m : {carriage_frame, forks}) if (m) m->add(poses.carriage);
@@ -347,14 +557,32 @@ struct Renderer::Impl {
 
     // Depth range from what is in the scene this frame.
     Eigen::AlignedBox3d extent;
-    if (static_batch) extent.extend(static_batch->bounds);
+    if (static_batch.mesh) extent.extend(static_batch.mesh->bounds);
     for (const auto& m : meshes) m->extend(extent);
 
-    glUseProgram(program.get());
+    if (quality.shadow_map_px > 0) {
+      const Eigen::Matrix4d light = light_view_projection(poses);
+      draw_shadow_map(light);
+      // From clip space (-1..1) to the map's texture coordinates and depth (0..1).
+      Eigen::Matrix4d to_texture = 0.5 * Eigen::Matrix4d::Identity();
+      to_texture.col(3) = Eigen::Vector4d(0.5, 0.5, 0.5, 1);
+      const Eigen::Matrix4f m = (to_texture * light).cast<float>();
+      glUseProgram(shadowed.program.get());
+      glUniformMatrix4fv(shadowed.light_view_projection, 1, GL_FALSE, m.data());
+      glActiveTexture(GL_TEXTURE0);
+      glBindTexture(GL_TEXTURE_2D, shadow_map.get());
+    }
+    const Eigen::Vector2f truck_at = poses.chassis.translation().head<2>().cast<float>();
+    for (MainProgram* p : {&shadowed, &unshadowed}) {
+      glUseProgram(p->program.get());
+      glUniform2fv(p->grid_centre, 1, truck_at.data());
+      glUniform1f(p->haze, hazed ? kHaze : 0.0f);
+    }
     glViewport(0, 0, width, height);
     glClearColor(kSky.x(), kSky.y(), kSky.z(), 1.0f);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-    draw_pass(render::view_projection(camera, width, height, extent), camera.eye, options.see_through_mast);
+    stats.static_parts_drawn =
+        draw_pass(render::view_projection(camera, width, height, extent), camera.eye, options.see_through_mast);
 
     // The mirror: the same instances from the eye looking back, in a rectangle at the top centre
     // (GL's y runs up; the framebuffer's rows run down), flipped left-right as a mirror shows it.
@@ -379,8 +607,12 @@ struct Renderer::Impl {
     glBindVertexArray(0);
     glFinish();  // OSMesa copies the picture into `framebuffer` here
     gl::check_error("rendering a frame");
+    if (options.rear_view) frame_inset(mx, height - my - mh, mw, mh);
+    return {width, height, framebuffer.data()};
+  }
 
-    // RGBA to RGB.
+  // The picture as RGB: the one pass over the pixels, for those who want RGB (PNG, raw frames).
+  const Image& to_rgb() {
     const uint8_t* src = framebuffer.data();
     uint8_t* dst = image.rgb.data();
     const size_t n = size_t(width) * height;
@@ -389,65 +621,85 @@ struct Renderer::Impl {
       dst[1] = src[1];
       dst[2] = src[2];
     }
-    if (options.rear_view) frame_inset(mx, height - my - mh, mw, mh);
     return image;
   }
 
-  // One camera's picture into the current viewport. Nearest first, so llvmpipe's early depth
-  // test spares the pixels behind: the truck and the pallets, then the warehouse; then, for a
-  // see-through view, the see-through parts blended over all of it (depth tested, not written).
-  void draw_pass(const Eigen::Matrix4d& view_projection, const Vector3d& eye, bool see_through) {
+  // One camera's picture into the current viewport, leaving out what the camera cannot see.
+  // Nearest first, so llvmpipe's early depth test spares the pixels behind: the truck and the
+  // pallets, then the warehouse; then, for a see-through view, the see-through parts blended
+  // over all of it (depth tested, not written). Returns the static parts drawn.
+  int draw_pass(const Eigen::Matrix4d& view_projection, const Vector3d& eye, bool see_through) {
     const Eigen::Matrix4f vp = view_projection.cast<float>();
     const Eigen::Vector3f e = eye.cast<float>();
-    glUniformMatrix4fv(u_view_projection, 1, GL_FALSE, vp.data());
-    glUniform3fv(u_eye, 1, e.data());
-    glUniform1f(u_alpha, 1.0f);
+    const render::Frustum seen(view_projection);
+    for (MainProgram* p : {&shadowed, &unshadowed}) {
+      glUseProgram(p->program.get());
+      glUniformMatrix4fv(p->view_projection, 1, GL_FALSE, vp.data());
+      glUniform3fv(p->eye, 1, e.data());
+      glUniform1f(p->alpha, 1.0f);
+    }
+    // The truck (unshadowed, still current), then what its shadows fall on.
     for (const auto& m : meshes)
-      if (!(see_through && m->see_through)) m->draw();
-    if (static_batch) static_batch->draw();
-    if (!see_through) return;
+      if (m->truck_part && !(see_through && m->see_through)) stats.draw_calls += m->draw(&seen);
+    glUseProgram(shadowed.program.get());
+    for (const auto& m : meshes)
+      if (!m->truck_part) stats.draw_calls += m->draw(&seen);
+    const int parts = static_batch.draw(seen, stats.draw_calls);
+    if (!see_through) return parts;
     glEnable(GL_BLEND);
     glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
     glDepthMask(GL_FALSE);
-    glUniform1f(u_alpha, kSeeThroughAlpha);
+    glUseProgram(unshadowed.program.get());
+    glUniform1f(unshadowed.alpha, kSeeThroughAlpha);
     for (const auto& m : meshes)
-      if (m->see_through) m->draw();
+      if (m->see_through) stats.draw_calls += m->draw(&seen);
     glDepthMask(GL_TRUE);
     glDisable(GL_BLEND);
+    return parts;
   }
 
-  // A dark frame round the mirror inset (image rows from the top).
+  // A dark frame round the mirror inset (rows from the top), into the read-back pixels.
   void frame_inset(int x0, int y0, int w, int h) {
     for (int y = std::max(0, y0 - kMirrorFramePx); y < std::min(height, y0 + h + kMirrorFramePx); ++y)
       for (int x = std::max(0, x0 - kMirrorFramePx); x < std::min(width, x0 + w + kMirrorFramePx); ++x) {
         if (x >= x0 && x < x0 + w && y >= y0 && y < y0 + h) continue;
-        uint8_t* p = &image.rgb[(size_t(y) * width + x) * 3];
+        uint8_t* p = &framebuffer[(size_t(y) * width + x) * 4];
         std::copy(kMirrorFrameColour, kMirrorFrameColour + 3, p);
       }
   }
 };
 
-Renderer::Renderer(const Scene& scene, const TruckShape& shape, const TruckParams& truck, int width, int height)
-    : impl_(std::make_unique<Impl>(scene, shape, truck, width, height)) {}
+Renderer::Renderer(const Scene& scene, const TruckShape& shape, const TruckParams& truck, int width, int height,
+                   const RenderQuality& quality)
+    : impl_(std::make_unique<Impl>(scene, shape, truck, width, height, quality)) {}
 
 Renderer::~Renderer() = default;
 
 const Image& Renderer::render(const RenderState& state, View view) {
   const BodyPoses poses = body_poses(impl_->truck, state.q);
-  return impl_->draw(state, poses, view_camera(view, poses, impl_->shape, impl_->scene));
+  impl_->draw(state, poses, view_camera(view, poses, impl_->shape, impl_->scene), view != View::kPlan);
+  return impl_->to_rgb();
 }
 
 const Image& Renderer::render(const RenderState& state, const Camera& camera) {
-  return impl_->draw(state, body_poses(impl_->truck, state.q), camera);
+  impl_->draw(state, body_poses(impl_->truck, state.q), camera, false);
+  return impl_->to_rgb();
 }
 
 const Image& Renderer::render(const RenderState& state, View view, const ViewOptions& options) {
+  render_rgbx(state, view, options);
+  return impl_->to_rgb();
+}
+
+RgbxPixels Renderer::render_rgbx(const RenderState& state, View view, const ViewOptions& options) {
   const BodyPoses poses = body_poses(impl_->truck, state.q);
   const Camera camera = view == View::kDriver
                             ? driver_camera(poses, impl_->shape, options.look_yaw_rad, options.look_pitch_rad)
                             : view_camera(view, poses, impl_->shape, impl_->scene);
-  return impl_->draw(state, poses, camera, options);
+  return impl_->draw(state, poses, camera, view != View::kPlan, options);
 }
+
+FrameStats Renderer::last_frame() const { return impl_->stats; }
 
 int Renderer::width() const { return impl_->width; }
 int Renderer::height() const { return impl_->height; }

@@ -1,46 +1,84 @@
-// Private: the one shader pair. Every draw is instanced: a vertex carries position, normal and
+// Private: the shader pairs. Every draw is instanced: a vertex carries position, normal and
 // colour (its alpha byte names a floor Pattern, geometry.h); each instance carries the model
 // matrix (world from the mesh's frame).
 //
 // Lighting is a key and a fill directional light plus ambient, computed per vertex: every
 // surface we draw is flat with face normals, so this equals per-pixel lighting, and llvmpipe
 // shades pixels on the CPU, where each instruction per pixel shows in the frame rate. Normals
-// are turned towards the eye, so a mesh's winding does not matter. Only the floor's patterns
-// (walkway stripes, slab joints) are worked out per pixel. See-through parts (the training aid)
-// are the same surfaces at a uniform alpha, blended over what stands behind them.
+// are turned towards the eye, so a mesh's winding does not matter. Per pixel: the key light's
+// shadow (one compare-filtered tap of the shadow map, which the truck, the pallets and the loads
+// are drawn into from the key light first), a distance haze towards the sky colour in the driver's
+// and chase views (how far away a rack is reads from its colour too), and the floor's patterns (walkway stripes, slab joints,
+// a faint metre grid near the truck to judge distances by). See-through parts (the training
+// aid) are the same surfaces at a uniform alpha, blended over what stands behind them.
 #pragma once
 
 namespace forklift::render {
 
-inline constexpr const char* kVertexShader = R"glsl(#version 330 core
+// Towards the key light (world): high, from ahead-left of +x, so shadows fall a little behind
+// and to the right of what casts them, where the driver sees them beside the forks.
+inline constexpr float kKeyLight[3] = {0.35f, 0.25f, 0.90f};
+
+// Both main shaders are compiled with SHADOWS, HAZE and GRID defined 0 or 1 (RenderQuality):
+// what a renderer does not draw costs its pixels nothing.
+inline constexpr const char* kVertexShader = R"glsl(
 layout(location = 0) in vec3 a_position;
 layout(location = 1) in vec3 a_normal;
 layout(location = 2) in vec4 a_colour;
 layout(location = 3) in mat4 a_model;  // locations 3..6, one per instance
 uniform mat4 u_view_projection;
 uniform vec3 u_eye;
-out vec2 v_floor;   // world x, y, for the floor's patterns
+uniform vec3 u_key_light;  // towards the key light, unit
 out vec4 v_colour;  // base colour, pattern
-out float v_light;
-const vec3 kKeyLight = normalize(vec3(0.35, 0.25, 0.90));  // towards the light
+out vec2 v_floor;   // world x, y: the floor's patterns
+out float v_ambient;  // ambient and fill: what a shadow leaves
+out float v_key;      // the key light: what a shadow takes away
+#if GRID
+out float v_height;  // world z: the metre grid is on the floor only
+#endif
+#if SHADOWS
+uniform mat4 u_light_view_projection;  // world to the shadow map's [0, 1] texture and depth
+out vec3 v_shadow;    // where this point is in the shadow map
+#endif
 const vec3 kFillLight = normalize(vec3(-0.50, -0.70, 0.30));
 void main() {
   vec4 world = a_model * vec4(a_position, 1.0);
   // Models are rigid, or scale boxes along their own axes: mat3 keeps face normals' directions.
   vec3 n = normalize(mat3(a_model) * a_normal);
   if (dot(n, u_eye - world.xyz) < 0.0) n = -n;
-  v_light = 0.42 + 0.48 * max(dot(n, kKeyLight), 0.0) + 0.15 * max(dot(n, kFillLight), 0.0);
+  v_ambient = 0.42 + 0.15 * max(dot(n, kFillLight), 0.0);
+  v_key = 0.48 * max(dot(n, u_key_light), 0.0);
   v_floor = world.xy;
   v_colour = a_colour;
+#if GRID
+  v_height = world.z;
+#endif
+#if SHADOWS
+  v_shadow = (u_light_view_projection * world).xyz;
+#endif
   gl_Position = u_view_projection * world;
 }
 )glsl";
 
-inline constexpr const char* kFragmentShader = R"glsl(#version 330 core
-in vec2 v_floor;
+inline constexpr const char* kFragmentShader = R"glsl(
 in vec4 v_colour;
-in float v_light;
+in vec2 v_floor;
+in float v_ambient;
+in float v_key;
 uniform float u_alpha;  // 1 opaque; below 1 for a see-through part (blended)
+#if GRID
+in float v_height;
+uniform vec2 u_grid_centre;  // the metre grid fades out 6 m from here (the truck)
+#endif
+#if SHADOWS
+in vec3 v_shadow;
+uniform sampler2DShadow u_shadow_map;
+#endif
+#if HAZE
+uniform vec3 u_sky;
+uniform float u_haze;  // the most the haze takes of a far surface's colour (0: none, the plan view)
+const float kHazeStartM = 15.0, kHazeFullM = 100.0;
+#endif
 out vec4 o_colour;
 const vec3 kStripe = vec3(0.95, 0.80, 0.10);
 void main() {
@@ -55,8 +93,37 @@ void main() {
       if (min(d.x, d.y) < 0.025) base *= 0.82;
     }
   }
-  o_colour = vec4(base * v_light, u_alpha);
+#if GRID
+  // Near the truck, faint lines every metre on the floor and its paint (all within 3 cm of z = 0).
+  if (v_height < 0.03 && distance(v_floor, u_grid_centre) < 6.0) {
+    vec2 m = abs(fract(v_floor + 0.5) - 0.5);
+    if (min(m.x, m.y) < 0.008) base *= 0.9;
+  }
+#endif
+  float key = v_key;
+#if SHADOWS
+  // Outside the map (border depth 1) a point is lit; the map's depth is biased when drawn.
+  if (key > 0.0) key *= texture(u_shadow_map, v_shadow);
+#endif
+  vec3 colour = base * (v_ambient + key);
+#if HAZE
+  // By the distance along the view (1 / w): no per-pixel square root.
+  colour = mix(colour, u_sky, u_haze * clamp((1.0 / gl_FragCoord.w - kHazeStartM) / (kHazeFullM - kHazeStartM), 0.0, 1.0));
+#endif
+  o_colour = vec4(colour, u_alpha);
 }
+)glsl";
+
+// The shadow map: depth alone, seen from the key light.
+inline constexpr const char* kShadowVertexShader = R"glsl(#version 330 core
+layout(location = 0) in vec3 a_position;
+layout(location = 3) in mat4 a_model;
+uniform mat4 u_view_projection;
+void main() { gl_Position = u_view_projection * (a_model * vec4(a_position, 1.0)); }
+)glsl";
+
+inline constexpr const char* kShadowFragmentShader = R"glsl(#version 330 core
+void main() {}
 )glsl";
 
 }  // namespace forklift::render

@@ -86,7 +86,8 @@ int replay_main(const std::string& path) {
 }
 
 // Frames on their own clock, only while the cab asks for them (its newest control sample has
-// frames_wanted; a scripted or windowless cab, and a silent one, get none): the render thread owns
+// frames_wanted; a scripted or windowless cab, and a silent one, get none) and something reads
+// them (no frame reader matched: no frame drawn): the render thread owns
 // the OSMesa context (made when frames are first wanted), draws the newest snapshot the physics
 // loop left as the cab asked to see it, within the aids granted, and publishes it. A renderer that
 // cannot start costs the session its frames, never the session.
@@ -98,6 +99,7 @@ class FramePublisher {
     int width = 640, height = 480;
     bool jpeg = false;
     int jpeg_quality = 85;
+    RenderQuality quality;  // the depth cues drawn (shadow map size, haze): the picture's cost
     View view = View::kDriver;  // the cab's camera 0 (the driver's eye unless --view says otherwise)
     uint8_t aids = 0;           // granted: aids::Bit
   };
@@ -112,6 +114,12 @@ class FramePublisher {
 
   void start() {
     if (opt_.fps <= 0) return;
+    // llvmpipe rasterises in this render thread, not on threads of its own (one per core), unless
+    // LP_NUM_THREADS says otherwise: with a worker per cab the cores are already shared, and in
+    // eight framed cabs on two cores each got 25-28 frames a second this way against 18-23 with
+    // llvmpipe's threads (forklift-bench-dds --framed-fleet 8, on a busy shared machine). Read
+    // when the first context is made.
+    setenv("LP_NUM_THREADS", "0", 0);
     thread_ = std::thread([this] {
       // Frames give way to physics: on a machine with fewer cores than busy threads the tick
       // loop (and with it the cab's controls taking effect) must not wait behind a frame.
@@ -167,6 +175,7 @@ class FramePublisher {
       cv_.wait_until(lock, next, [this] { return stop_; });
       if (stop_) break;
       if (!request_) continue;  // the cab stopped asking meanwhile
+      if (writer_.matched() == 0) continue;  // nobody reads frames (a cab asking, but gone or blind): none drawn
       next += std::chrono::duration_cast<Clock::duration>(period);
       if (next < Clock::now()) next = Clock::now();  // a slow frame skips, never queues
       const RenderState state = state_;
@@ -175,32 +184,33 @@ class FramePublisher {
       lock.unlock();
       if (!renderer) {
         try {
-          renderer = load_renderer(model_.scene, model_.shape, model_.truck, opt_.width, opt_.height);
+          renderer = load_renderer(model_.scene, model_.shape, model_.truck, opt_.width, opt_.height, opt_.quality);
         } catch (const std::exception& e) {
           log_line(cab_, std::string("no frames: ") + e.what());
           return;
         }
       }
-      publish(renderer->render(state, view, options), t);
+      if (opt_.jpeg) {
+        // The read-back pixels (RGBX) straight into JPEG: no copy to RGB first.
+        const RgbxPixels pixels = renderer->render_rgbx(state, view, options);
+        publish(pixels.width, pixels.height, encode_jpeg(pixels, opt_.jpeg_quality), "jpeg", t);
+      } else {
+        const Image& img = renderer->render(state, view, options);
+        publish(img.width, img.height, img.rgb, "rgb8", t);
+      }
       lock.lock();
     }
   }
-  void publish(const Image& img, double t) {
+  void publish(int width, int height, const std::vector<uint8_t>& bytes, const char* encoding, double t) {
     fk_Frame f{};
     dds::set_string(f.cab_id, cab_);
     f.seq = static_cast<uint32_t>(++frames_);
     f.sim_time_s = t;
-    f.width = static_cast<uint16_t>(img.width);
-    f.height = static_cast<uint16_t>(img.height);
-    std::vector<uint8_t> jpeg;
-    const std::vector<uint8_t>* bytes = &img.rgb;
-    if (opt_.jpeg) {
-      jpeg = encode_jpeg(img, opt_.jpeg_quality);
-      bytes = &jpeg;
-    }
-    dds::set_string(f.encoding, opt_.jpeg ? "jpeg" : "rgb8");
-    f.pixels._buffer = const_cast<uint8_t*>(bytes->data());
-    f.pixels._length = f.pixels._maximum = static_cast<uint32_t>(bytes->size());
+    f.width = static_cast<uint16_t>(width);
+    f.height = static_cast<uint16_t>(height);
+    dds::set_string(f.encoding, encoding);
+    f.pixels._buffer = const_cast<uint8_t*>(bytes.data());
+    f.pixels._length = f.pixels._maximum = static_cast<uint32_t>(bytes.size());
     f.pixels._release = false;
     writer_.write(f);
   }
@@ -277,6 +287,10 @@ int main(int argc, char** argv) {
                  "training aids a cab may ask for: a comma list of rear_view, see_through_mast, chase_camera, or all or none "
                  "(training default: all; an exam allows none)");
   app.add_flag("--jpeg", frames.jpeg, "publish JPEG frames (for cabs on a real network) instead of raw RGB");
+  app.add_option("--jpeg-quality", frames.jpeg_quality, "JPEG quality of --jpeg frames, 1-100")->check(CLI::Range(1, 100));
+  app.add_option("--frame-shadows", frames.quality.shadow_map_px,
+                 "shadow map size of the frames, texels a side (0: no shadows; fewer texels, coarser shadows, cheaper frames)")
+      ->check(CLI::Range(0, 4096));
   app.add_option("--replay", replay_file, "re-simulate a control log with no cab and print its final state")->check(CLI::ExistingFile);
   try {
     app.parse(argc, argv);

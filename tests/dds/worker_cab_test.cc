@@ -266,6 +266,38 @@ TEST(CabFrames, RenderedOnlyWhileTheCabAsksAndNotForASilentCab) {
   EXPECT_EQ(output_json(none)["frames"], 0);
 }
 
+TEST(CabFrames, NotDrawnWhileNothingReadsThem) {
+  // A cab that asks for frames but reads none (its window gone): the worker draws nothing.
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "blind", {"--frame-size", "160x120", "--duration", "4"});
+  {
+    dds::Participant p(dds::DomainSettings::resolve(domain, ""));
+    dds::Writer<fk_Controls> controls(p, dds::cab_partition("hud"));
+    for (int i = 0; i < 2000 && controls.matched() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    ASSERT_GT(controls.matched(), 0) << w.err();
+    fk_Controls c{};
+    dds::set_string(c.cab_id, "hud");
+    c.frames_wanted = true;
+    for (uint32_t seq = 1; seq <= 75; ++seq) {  // 1.5 s at 50 Hz
+      c.seq = seq;
+      controls.write(c);
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  }
+  // Then a cab that reads them: they come.
+  Cab cab(domain);
+  ASSERT_TRUE(cab.wait_worker(20)) << w.err();
+  cab.sample.frames_wanted = true;
+  cab.drive(1.0);
+  long received = cab.take_frames();
+  EXPECT_GT(received, 0) << w.err();
+  cab.listen(2.0);  // until the worker's session ends (those of the dead man's half second too)
+  received += cab.take_frames();
+  ASSERT_EQ(w.wait(20), 0) << w.err();
+  // Every frame drawn was one this cab received (a few may be lost on the way): none for the blind one.
+  EXPECT_LE(output_json(w)["frames"].get<long>() - received, 5);
+}
+
 TEST(CabFrames, ARearViewIsDrawnOnlyWhenTheWorkerAllowsIt) {
   // The same standing truck, the cab asking for the mirror: granted (the default aids) it draws
   // the inset at the top centre; with --aids none the picture is the plain one.

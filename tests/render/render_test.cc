@@ -329,6 +329,156 @@ TEST(Renderer, ForksAreVisibleInTheChaseView) {
   EXPECT_LE(count_around(up, px, 2, fork_dark), 3);
 }
 
+TEST(Renderer, ForkTipsArePaintedToReadAgainstTheFloor) {
+  const TruckShape shape = test_truck_shape();
+  Renderer r(floor_scene(), shape, truck());
+  const RenderState state = truck_at(0, 0, 0.3);
+  const BodyPoses poses = body_poses(truck(), state.q);
+  const Image& im = r.render(state, View::kChase);
+  const Camera cam = view_camera(View::kChase, poses, shape, floor_scene());
+  auto orange = [](const uint8_t* p) { return p[0] > 120 && p[0] > p[1] + 30 && p[1] > p[2] + 40; };
+  for (double side : {-0.5, 0.5}) {
+    const Vector3d tip = poses.carriage * Vector3d(shape.fork_length_m - 0.04, side * shape.fork_centres_y_m, 0);
+    EXPECT_GE(count_around(im, project(cam, im.width, im.height, tip), 2, orange), 4) << "fork tip at y " << side;
+    // Half way along, the blade is its own dark steel.
+    const Vector3d mid = poses.carriage * Vector3d(0.5 * shape.fork_length_m, side * shape.fork_centres_y_m, 0);
+    EXPECT_EQ(count_around(im, project(cam, im.width, im.height, mid), 2, orange), 0);
+  }
+}
+
+// ---- shadows ----------------------------------------------------------------------------------
+
+// Where the key light throws the shadow of the world point p onto the floor (z = 0).
+Vector3d shadow_on_floor(const Vector3d& p) {
+  const Vector3d towards = Vector3d(0.35, 0.25, 0.90).normalized();  // shaders.h's kKeyLight
+  return p - towards * (p.z() / towards.z());
+}
+
+double brightness(const Image& im, const Vector2d& px) {
+  double sum = 0;
+  int n = 0;
+  for (int y = int(px.y()) - 2; y <= int(px.y()) + 2; ++y)
+    for (int x = int(px.x()) - 2; x <= int(px.x()) + 2; ++x, ++n) sum += im.pixel(x, y)[0] + im.pixel(x, y)[1] + im.pixel(x, y)[2];
+  return sum / n / 3;
+}
+
+// A camera 12 m above (0, 0), looking straight down, x to the right.
+Camera camera_above() {
+  Camera c;
+  c.eye = Vector3d(0, 0, 12);
+  c.target = Vector3d(0, 0, 0);
+  c.up = Vector3d::UnitY();
+  c.fov_y_deg = 40;
+  return c;
+}
+
+TEST(Shadows, TheTrucksShadowDarkensTheFloorAndMovesWithIt) {
+  const TruckShape shape = test_truck_shape();
+  const Camera above = camera_above();
+  // The floor under the roof's right-hand part, in the light: beside the body, not under it.
+  auto roof_shadow = [&](const RenderState& s) {
+    return shadow_on_floor(body_poses(truck(), s.q).chassis * Vector3d(-0.8, -0.3, 2.15));
+  };
+  const RenderState here = truck_at(0, 0, 0), moved = truck_at(3, 2.5, 0);
+  Renderer r(floor_scene(), shape, truck());
+  const Image a = r.render(here, above);
+  const Image b = r.render(moved, above);
+  dump("shadow_here", a);
+  dump("shadow_moved", b);
+  const Vector2d spot = project(above, a.width, a.height, roof_shadow(here));
+  const Vector2d spot_moved = project(above, a.width, a.height, roof_shadow(moved));
+  // The same floor: in the shadow it is darker than lit; the shadow goes where the truck goes.
+  EXPECT_LT(brightness(a, spot), 0.8 * brightness(b, spot));
+  EXPECT_LT(brightness(b, spot_moved), 0.8 * brightness(a, spot_moved));
+  // Without a shadow map nothing darkens it.
+  Renderer flat(floor_scene(), shape, truck(), 640, 480, RenderQuality{0, false, false});
+  const Image c = flat.render(here, above);
+  EXPECT_NEAR(brightness(c, spot), brightness(b, spot), 3.0);
+}
+
+TEST(Shadows, AnUnloadedPalletsLoadThrowsAShadowWhereverThePalletGoes) {
+  Scene scene = floor_scene();
+  scene.objects.push_back(pallet_at("P1", 2, 1));
+  const Camera above = camera_above();
+  Renderer r(scene, test_truck_shape(), truck());
+  RenderState state = truck_at(-4, -3, 0);  // near enough that the pallet is in the shadow map's square
+  const Image at_scene_pose = r.render(state, above);
+  dump("load_shadow", at_scene_pose);
+  PalletState away;
+  away.id = "P1";
+  away.pose = pose_at(-3, 3);
+  state.pallets.push_back(away);
+  const Image moved = r.render(state, above);
+  // The floor just beyond the pallet's deck on the side away from the light, well inside the
+  // load's shadow (the load's top, 0.944 m up, thrown 0.37 m along -x and 0.26 m along -y).
+  ASSERT_LT((shadow_on_floor(Vector3d(1.5, 0.65, 0.944)) - Vector3d(1.5, 0.65, 0)).norm(), 0.5);
+  const Vector2d spot = project(above, moved.width, moved.height, Vector3d(1.28, 0.75, 0));
+  EXPECT_LT(brightness(at_scene_pose, spot), 0.8 * brightness(moved, spot));
+}
+
+// ---- frustum culling --------------------------------------------------------------------------
+
+SceneObject low_box_at(const std::string& id, double x, double y) {
+  SceneObject o = rack_at(x, y);
+  o.id = id;
+  o.mesh = box_mesh({{"box", box(-0.5, -0.5, 0, 0.5, 0.5, 1.0), kRackRed}});
+  return o;
+}
+
+TEST(Culling, AnObjectOutOfViewIsNotDrawnAndChangesNothing) {
+  Scene without = floor_scene();
+  without.objects.push_back(rack_at(6.5, 0));
+  Scene with = without;
+  with.objects.push_back(low_box_at("B1", -8, 0));  // behind the truck facing +x
+  Renderer a(without, test_truck_shape(), truck()), b(with, test_truck_shape(), truck());
+  const RenderState state = truck_at(0, 0, 0);
+  const Image plain = a.render(state, View::kDriver);
+  const Image culled = b.render(state, View::kDriver);
+  const FrameStats stats = b.last_frame();
+  EXPECT_EQ(stats.static_parts, 3);  // the rack, the box and the floor
+  EXPECT_EQ(stats.static_parts_drawn, 2);
+  EXPECT_TRUE(plain.rgb == culled.rgb);
+  // Turned round, the box is drawn and seen.
+  const Image behind = b.render(truck_at(0, 0, M_PI), View::kDriver);
+  EXPECT_EQ(b.last_frame().static_parts_drawn, 2);  // the box and the floor; now the rack is behind
+  EXPECT_GT(fraction(behind, 0, 0, 1, 1, reddish), 0.003);
+}
+
+TEST(Culling, AnObjectWhoseMiddleIsOutOfViewStillShowsItsEdge) {
+  // A rack ahead and to the left: its middle beyond the view's left edge, its near end inside.
+  Scene scene = floor_scene();
+  scene.objects.push_back(rack_at(6.5, 7.9));
+  Renderer r(scene, test_truck_shape(), truck());
+  const RenderState state = truck_at(0, 0, 0);
+  const Image& im = r.render(state, View::kDriver);
+  dump("culling_edge", im);
+  const Camera cam = view_camera(View::kDriver, body_poses(truck(), state.q), test_truck_shape(), scene);
+  ASSERT_LT(project(cam, im.width, im.height, Vector3d(6.5, 7.9, 1.25)).x(), 0);  // the middle: off the picture
+  EXPECT_EQ(r.last_frame().static_parts_drawn, 2);
+  EXPECT_GT(fraction(im, 0, 0.2, 0.08, 0.6, reddish), 0.1);
+}
+
+// ---- RGBX straight into JPEG -------------------------------------------------------------------
+
+TEST(Images, RgbxFrameIsTheRgbFrameAndEncodesToTheSameJpeg) {
+  Scene scene = floor_scene();
+  scene.objects.push_back(rack_at(6.5, 1));
+  Renderer r(scene, test_truck_shape(), truck());
+  const RenderState state = truck_at(0, 0, 0.1);
+  const ViewOptions mirror{0, 0, false, true};  // the inset's frame is drawn into the RGBX too
+  const Image rgb = r.render(state, View::kDriver, mirror);
+  const RgbxPixels rgbx = r.render_rgbx(state, View::kDriver, mirror);
+  ASSERT_EQ(rgbx.width, rgb.width);
+  ASSERT_EQ(rgbx.height, rgb.height);
+  size_t differing = 0;
+  for (int y = 0; y < rgb.height; ++y)
+    for (int x = 0; x < rgb.width; ++x) differing += !std::equal(rgb.pixel(x, y), rgb.pixel(x, y) + 3, rgbx.pixel(x, y));
+  EXPECT_EQ(differing, 0u);
+  EXPECT_TRUE(encode_jpeg(rgbx, 85) == encode_jpeg(rgb, 85));
+  EXPECT_THROW(encode_jpeg(RgbxPixels{640, 480, nullptr}), std::runtime_error);
+  EXPECT_THROW(encode_jpeg(RgbxPixels{0, 480, rgbx.data}), std::runtime_error);
+}
+
 // ---- pallets and loads ----------------------------------------------------------------------
 
 TEST(Renderer, PalletsAreDrawnWhereTheStatePutsThem) {

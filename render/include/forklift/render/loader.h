@@ -16,12 +16,13 @@ class FrameRenderer {
  public:
   virtual ~FrameRenderer() = default;
   virtual const Image& render(const RenderState& state, View view, const ViewOptions& options) = 0;
+  virtual RgbxPixels render_rgbx(const RenderState& state, View view, const ViewOptions& options) = 0;
 };
 
 // Loads the render module (FORKLIFT_RENDER_MODULE, or lib/libforklift_render_module.so beside the
 // program's bin/) and makes a renderer of the scene, as Renderer's constructor does. Throws
 // std::runtime_error naming the module and what went wrong.
 std::unique_ptr<FrameRenderer> load_renderer(const Scene& scene, const TruckShape& shape, const TruckParams& truck,
-                                             int width, int height);
+                                             int width, int height, const RenderQuality& quality = {});
 
 }  // namespace forklift

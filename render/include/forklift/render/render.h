@@ -48,12 +48,32 @@ struct RenderState {
   std::vector<PalletState> pallets;     // empty: every pallet where the scene puts it
 };
 
+// What a picture may cost beyond the plain shaded scene.
+struct RenderQuality {
+  // The key light's shadow map, texels a side (0: no shadows). It covers kShadowAreaM around
+  // the truck, so 512 is about 2.3 cm a texel: a fork's shadow is four or five texels wide.
+  int shadow_map_px = 512;
+  bool haze = true;   // far things fade towards the sky's colour (driver and chase views)
+  bool grid = false;  // faint lines every metre on the floor within 6 m of the truck (costs
+                      // about an eighth of a frame on llvmpipe: forklift-bench-render's quality rows)
+};
+inline constexpr double kShadowAreaM = 12.0;  // the square round the truck whose floor shows shadows
+
+// What the last frame drew: the static scene's parts (each object other than a pallet, and the
+// floor with its paint) and how many of them the frame's camera could see, so drew (frustum
+// culling; the mirror's pass not counted), and the draw calls made in all its passes.
+struct FrameStats {
+  int static_parts = 0, static_parts_drawn = 0;
+  int draw_calls = 0;
+};
+
 class Renderer {
  public:
   // Creates the OSMesa context and uploads the scene's meshes once (batched: draw calls cost
   // about 130 us each on llvmpipe). The context belongs to the calling thread: render from it.
   // Throws std::runtime_error if OSMesa cannot make a context.
-  Renderer(const Scene& scene, const TruckShape& shape, const TruckParams& truck, int width = 640, int height = 480);
+  Renderer(const Scene& scene, const TruckShape& shape, const TruckParams& truck, int width = 640, int height = 480,
+           const RenderQuality& quality = {});
   ~Renderer();
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;
@@ -62,6 +82,10 @@ class Renderer {
   const Image& render(const RenderState& state, const Camera& camera);
   // The view as `options` change it (the worker's frames for its cab).
   const Image& render(const RenderState& state, View view, const ViewOptions& options);
+  // The same picture as read back, 4 bytes a pixel, without the copy to RGB: what JPEG takes
+  // (encode_jpeg). Valid until the next render.
+  RgbxPixels render_rgbx(const RenderState& state, View view, const ViewOptions& options = {});
+  FrameStats last_frame() const;
   int width() const;
   int height() const;
 
