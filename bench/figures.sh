@@ -31,7 +31,9 @@ alloc=build/tests/forklift-test-alloc
 measure() {
   local shown="$1"; shift
   echo "figures.sh: $shown" >&2
-  "$@" > "$work/out" 2> "$work/err" || { cat "$work/err" >&2; echo "figures.sh: '$shown' failed" >&2; exit 1; }
+  # A benchmark whose goals are not met says so in its exit status; its figures are what count.
+  "$@" > "$work/out" 2> "$work/err" || true
+  grep -qP '^FIGURE\t' "$work/out" || { cat "$work/err" >&2; echo "figures.sh: '$shown' printed no figures" >&2; exit 1; }
   grep -P '^FIGURE\t' "$work/out" | while IFS=$'\t' read -r _ figure goal measured met; do
     printf '| %s | %s | %s | %s | `%s` |\n' "$figure" "$goal" "$measured" "$met" "$shown" >> "$rows"
   done
@@ -53,9 +55,12 @@ met=$([ "$median_us" -lt 40000 ] && echo yes || echo NO)
 printf '| `forklift-sim manoeuvre 4`, the whole process | < 40 ms | %s ms | %s | `bench/figures.sh` (median of 11) |\n' \
   "$(awk "BEGIN{printf \"%.1f\", $median_us/1000}")" "$met" >> "$rows"
 
-measure "forklift-bench-dds --samples 500 --seconds $seconds --fleet 8 --fps 30" \
-  "$alloc" sh -c "exec $bin/forklift-bench-dds --samples 500 --seconds $seconds --fleet 8 --fps 30 --dds-domain \$FORKLIFT_TEST_DOMAIN"
-measure "forklift-bench-render" "$bin/forklift-bench-render" --benchmark_filter=driver
+measure "forklift-bench-dds --samples 500 --seconds 3 --fleet 1 --frame-sizes 640x480" \
+  "$alloc" sh -c "exec $bin/forklift-bench-dds --samples 500 --seconds 3 --fleet 1 --frame-sizes 640x480 --dds-domain \$FORKLIFT_TEST_DOMAIN --dir $work/dds"
+measure "forklift-bench-dds --framed-fleet 8 --framed-only --seconds $seconds" \
+  "$alloc" sh -c "exec $bin/forklift-bench-dds --framed-fleet 8 --framed-only --seconds $seconds --dds-domain \$FORKLIFT_TEST_DOMAIN --dir $work/dds"
+measure "LP_NUM_THREADS=0 forklift-bench-render --benchmark_filter=jpeg_frame" \
+  env LP_NUM_THREADS=0 "$bin/forklift-bench-render" --benchmark_filter=jpeg_frame --benchmark_repetitions=3
 measure "forklift-bench-server --runs 0 --seconds $seconds" \
   "$alloc" sh -c "exec $bin/forklift-bench-server --runs 0 --seconds $seconds --dir ${FORKLIFT_BENCH_DIR:-build/bench-data} --port \$FORKLIFT_TEST_PORT --dds-domain \$FORKLIFT_TEST_DOMAIN"
 

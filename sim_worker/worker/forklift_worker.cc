@@ -9,6 +9,8 @@
 #include <chrono>
 #include <condition_variable>
 #include <csignal>
+#include <pthread.h>
+#include <sched.h>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -123,7 +125,11 @@ class FramePublisher {
     thread_ = std::thread([this] {
       // Frames give way to physics: on a machine with fewer cores than busy threads the tick
       // loop (and with it the cab's controls taking effect) must not wait behind a frame.
-      setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kRenderNice);
+      // SCHED_IDLE: the render thread runs only when no physics thread of any worker wants the
+      // core, which needs no privilege (a lower priority); else a nice value above the worker's.
+      sched_param idle{};
+      if (pthread_setschedparam(pthread_self(), SCHED_IDLE, &idle) != 0)
+        setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kRenderNice);
       run();
     });
   }
@@ -701,10 +707,13 @@ int main(int argc, char** argv) {
         unseen = false;
       }
       if (duration > 0 && state.t_s >= duration - 1e-12) { end_reason = "duration"; break; }
-      // Next: the end of the tick in which the period's state falls due, or the dead-man deadline
-      // (its stop applies from the next tick); a control sample wakes the loop earlier.
+      // Next: the end of the tick in which the period's state falls due, the dead-man deadline
+      // (its stop applies from the next tick), or the next tick for a sample not yet applied; a
+      // control sample arriving wakes the loop earlier.
       wake_at_s = std::ceil(pacer.period_end_s() / model.tick_s - 1e-9) * model.tick_s - model.tick_s;
       if (!deadman) wake_at_s = std::min(wake_at_s, std::chrono::duration<double>(last_valid - start).count() + deadman_s);
+      // A sample that came after this wake's last tick applies from the next one, at once.
+      if (pending) wake_at_s = std::min(wake_at_s, state.t_s);
       wake_at_s = std::max(wake_at_s, state.t_s);  // not before the wall clock reaches the truck's time
       const double until = wake_at_s - std::chrono::duration<double>(Clock::now() - start).count();
       if (until > 0) waitset.wait(until);
