@@ -149,22 +149,30 @@ ManoeuvreResult run_manoeuvre(const TruckParams& truck, int number, const Integr
               stops.end());
 
   // The metrics read the state and the wheels' loads alone, so that a run that writes no series
-  // does not evaluate the model at every sample (the same bits as the outputs give).
+  // does not evaluate the model at every sample: its loads come from wheel_loads_N, a series'
+  // from the outputs it keeps anyway (the same bits).
   auto record = [&](double t) {
     const StateVector& x = sim.state();
     const double pitch = std::abs(x[StateIndex::kQ + kAvc]) * kDeg, roll = std::abs(x[StateIndex::kQ + kAuc]) * kDeg;
     r.max_pitch_deg = std::max(r.max_pitch_deg, pitch);
     r.max_roll_deg = std::max(r.max_roll_deg, roll);
-    const std::array<double, kNumWheels> fz = sim.dynamics().wheel_loads_N(x);
+    std::optional<Outputs> out;
+    std::array<double, kNumWheels> fz;
+    if (sampling == Sampling::kSeries) {
+      out = sim.outputs();
+      for (int w = 0; w < kNumWheels; ++w) fz[w] = out->wheels[w].fz_N;
+    } else {
+      fz = sim.dynamics().wheel_loads_N(x);
+    }
     for (int w = 0; w < kNumWheels; ++w) r.min_fz_N[w] = std::min(r.min_fz_N[w], fz[w]);
     for (ManoeuvreResult::StopTime& stop : r.stop_times)
       if (spec.brake_onset_s && !stop.s && t > *spec.brake_onset_s && std::abs(forward_speed(x)) < stop.below_m_s)
         stop.s = t - *spec.brake_onset_s;
     if (std::max(pitch, roll) > truck.tipped_over_rad * kDeg) r.tipped_over = true;
-    if (sampling == Sampling::kMetrics) return;
+    if (!out) return;
     Sample s;
     s.t = t;
-    s.out = sim.outputs();
+    s.out = std::move(*out);
     s.drive_torque_N_m = x[StateIndex::kTorque];
     s.brake_torque_N_m = x[StateIndex::kBrake];
     r.samples.push_back(std::move(s));
