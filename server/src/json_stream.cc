@@ -1,28 +1,14 @@
 #include "json_stream.h"
 
 #include <cmath>
-#include <rapidjson/encodings.h>
+
+#include "forklift/protocol/protocol.h"
 
 namespace forklift::server {
-namespace {
 
-// Whether s[0, n) is well-formed UTF-8, by RapidJSON's own decoder (a sequence cut short at the
-// end meets the NUL after it, which no sequence continues with).
-bool is_utf8(const char* s, size_t n) {
-  struct Sink {
-    void Put(char) {}
-  } sink;
-  rapidjson::GenericStringStream<rapidjson::UTF8<>> in(s);
-  while (in.Tell() < n)
-    if (!rapidjson::UTF8<>::Validate(in, sink)) return false;
-  return true;
-}
-
-}  // namespace
-
-JsonStream& JsonStream::text_value(const char* s, size_t n) {
-  if (!is_utf8(s, n)) return raw(nlohmann::json(std::string(s, n)));
-  writer_.String(s, static_cast<rapidjson::SizeType>(n));
+JsonStream& JsonStream::text_value(std::string_view s) {
+  if (!dds::valid_utf8(s)) return raw(nlohmann::json(std::string(s)));
+  writer_.String(s.data(), static_cast<rapidjson::SizeType>(s.size()));
   return *this;
 }
 

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 
 #include <rapidjson/stringbuffer.h>
 #include <rapidjson/writer.h>
@@ -24,8 +25,8 @@ class JsonStream {
 
   // Text that is not UTF-8 (a reason quoted from the wire, say) goes out with U+FFFD in place of
   // the bad bytes, as send_json() writes it, never as an invalid document.
-  JsonStream& value(const std::string& s) { return text_value(s.data(), s.size()); }
-  JsonStream& value(const char* s) { return text_value(s, std::char_traits<char>::length(s)); }
+  JsonStream& value(const std::string& s) { return text_value(s); }
+  JsonStream& value(const char* s) { return text_value(s); }
   JsonStream& value(bool b) { writer_.Bool(b); return *this; }
   JsonStream& value(int v) { writer_.Int(v); return *this; }
   JsonStream& value(int64_t v) { writer_.Int64(v); return *this; }
@@ -41,7 +42,7 @@ class JsonStream {
   std::string text() const { return std::string(buffer_.GetString(), buffer_.GetSize()); }
 
  private:
-  JsonStream& text_value(const char* s, size_t n);  // s[n] is a NUL, as std::string's
+  JsonStream& text_value(std::string_view s);
   rapidjson::StringBuffer buffer_;
   rapidjson::Writer<rapidjson::StringBuffer> writer_;
 };
