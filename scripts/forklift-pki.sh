@@ -6,13 +6,14 @@
 #
 #   forklift-pki.sh init DIR [--school NAME] [--days N]   new CA, governance, empty CRL
 #   forklift-pki.sh add-cab DIR CAB                        identities cab.CAB and worker.CAB
-#   forklift-pki.sh issue DIR KIND ID                      one identity: KIND is cab, worker or server
+#   forklift-pki.sh issue DIR KIND ID                      one identity: KIND is cab, worker, server or host
 #   forklift-pki.sh revoke DIR NAME                        revoke identity NAME (e.g. cab.cab3)
 #   forklift-pki.sh list DIR                               identities and their state
 #
 # A cab may write only its own controls and read only its own state, frames and session status;
 # its worker reads those controls and writes that state and those frames, plus the session's
-# events, score and status; the server reads everything and writes session status. Permissions
+# events, score and status; the server reads everything and writes session status and requests to
+# worker hosts; a worker host (forklift-host) writes its own status and reports. Permissions
 # are per identity, so a cab holding another cab's identity is that other cab: keep keys on the
 # cab's disk only. DIR/private/ holds the CA key: on a real school network keep it offline.
 set -euo pipefail
@@ -148,10 +149,15 @@ rules_for() {  # KIND ID
       rule subscribe "$p" fk_Controls
       rule publish "$p" fk_TruckState fk_Frame fk_SessionStatus fk_Event
       rule publish "worker.$2" fk_Event fk_Score fk_SessionStatus ;;
+    host)
+      rule publish "host.$2" fk_HostStatus fk_WorkerReport
+      rule subscribe "host.$2" fk_WorkerRequest ;;
     server)
       rule subscribe "cab.*" fk_TruckState fk_Frame fk_CabAnnounce
       rule publish "cab.*" fk_SessionStatus
       rule subscribe "worker.*" fk_Event fk_Score fk_SessionStatus
+      rule subscribe "host.*" fk_HostStatus fk_WorkerReport
+      rule publish "host.*" fk_WorkerRequest
       rule publish "" fk_SessionStatus ;;
   esac
 }
@@ -160,7 +166,7 @@ cmd_issue() {
   [ $# -eq 3 ] || usage
   local dir="$1" kind="$2" id="$3"
   [ -f "$dir/ca.pem" ] || die "$dir has no CA: run init first"
-  case "$kind" in cab|worker|server) ;; *) die "KIND must be cab, worker or server" ;; esac
+  case "$kind" in cab|worker|server|host) ;; *) die "KIND must be cab, worker, server or host" ;; esac
   valid_id "$id"
   local name="$kind.$id"
   local out="$dir/identities/$name" school

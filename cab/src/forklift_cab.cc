@@ -202,7 +202,7 @@ class TerminalKeys {
 };
 
 struct Options {
-  std::string cab_id, script, joystick, dds_config, security_dir, identity, trace, save_window, controller_db;
+  std::string cab_id, script, joystick, dds_config, security_dir, identity, trace, save_window, controller_db, site;
   std::string calibration_file = default_calibration_file();
   bool keyboard = false, controller = false, no_window = false, no_sound = false, calibrate = false, list = false;
   bool latency_report = false;
@@ -416,6 +416,7 @@ void CabProgram::take_dds() {
     dds::set_string(a.cab_id, o_.cab_id);
     a.cab_time_s = t;
     dds::set_string(a.mode, mode_);
+    dds::set_string(a.site, o_.site);
     announce_->write(a);
   }
   states_->take_each([&](const fk_TruckState& s) {
@@ -726,6 +727,10 @@ int main(int argc, char** argv) {
   app.add_option("--dds-config", o.dds_config, "Cyclone DDS configuration file (default: loopback)")->check(CLI::ExistingFile);
   app.add_option("--security", o.security_dir, "the school's DDS Security folder (scripts/forklift-pki.sh; default FORKLIFT_SECURITY_DIR)");
   app.add_option("--identity", o.identity, "this cab's identity in it (default cab.<cab>)");
+  app.add_option("--site", o.site, "where this cab stands (a room, a test centre): the server runs its worker on a host at "
+                 "the same site when one has room")->check([](const std::string& v) {
+    return v.size() <= 63 && dds::valid_utf8(v) ? std::string() : std::string("a site is at most 63 bytes of UTF-8");
+  });
   app.add_flag("--no-window", o.no_window, "no window even when a display is present (the display goes to the terminal)");
   app.add_flag("--no-sound", o.no_sound, "no sound");
   app.add_option("--window-size", o.window_size, "the window's size, WxH (default 960x720)");

@@ -11,6 +11,7 @@ namespace forklift::dds {
 
 std::string cab_partition(const std::string& cab_id) { return "cab." + cab_id; }
 std::string worker_partition(const std::string& cab_id) { return "worker." + cab_id; }
+std::string host_partition(const std::string& host_id) { return "host." + host_id; }
 
 bool valid_utf8(std::string_view text) {
   const auto* p = reinterpret_cast<const unsigned char*>(text.data());
@@ -171,6 +172,20 @@ dds_qos_t* make_qos(QosKind kind, const std::string& partition) {
     case QosKind::kDurableReliable:
       dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
       dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
+      dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
+      break;
+    case QosKind::kHostStatus:
+      dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
+      dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+      dds_qset_liveliness(q, DDS_LIVELINESS_AUTOMATIC, DDS_MSECS(int64_t(kHostLeaseS * 1000)));
+      break;
+    case QosKind::kRequest:
+      dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+      dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 4);
+      break;
+    case QosKind::kLatestDurable:
+      dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+      dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
       dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
       break;
   }

@@ -19,6 +19,7 @@
 #include <cstring>
 #include <set>
 #include <fstream>
+#include <regex>
 #include <sstream>
 
 namespace forklift::server {
@@ -97,12 +98,14 @@ void Fleet::adopt(store::Store& db) {
       unsettled_.insert(s.public_id);
       bindings_[s.public_id] = {w.cab, w.participant, std::nullopt};
     } else {
-      // Gone (or a second worker on a cab that has one): settled by the supervisor from its log.
-      bindings_[s.public_id] = {w.cab, w.participant, now + std::chrono::seconds(2)};
+      // Not here: on a worker host, whose report adopts it within the hosts' lease (on_report);
+      // else gone (or a second worker on a cab that has one), settled from its log after that.
+      const auto grace = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(dds::kHostLeaseS + 1));
+      bindings_[s.public_id] = {w.cab, w.participant, now + grace + std::chrono::seconds(2)};
       finishing_.push_back({w, s.state == "starting" && !std::ifstream(log_path(s.public_id))
                                    ? "the session never started (the server stopped while starting it)"
                                    : "",
-                            now});
+                            now + grace});
     }
   }
   // Workers of this server with no open session, or a second one for a cab: no cab has two.
@@ -118,56 +121,109 @@ Fleet::~Fleet() {
   if (supervisor_.joinable()) supervisor_.join();
   if (ingest_.joinable()) ingest_.join();
   std::lock_guard<std::mutex> lock(mu_);
-  // Adopted workers too: a server that stops ends its sessions (as "signal"), whoever spawned them.
-  for (auto& [id, w] : workers_) signal_worker(w, SIGTERM);
+  // Adopted workers too: a server that stops ends the sessions it runs here (as "signal"), whoever
+  // spawned them. A worker host's sessions go on: the school's other servers supervise them too,
+  // and this one adopts them again when it starts.
+  for (auto& [id, w] : workers_)
+    if (w.host.empty()) signal_worker(w, SIGTERM);
 }
 
-void Fleet::signal_worker(const WorkerInfo& w, int sig) const {
+void Fleet::signal_worker(const WorkerInfo& w, int sig) {
+  if (!w.host.empty()) {  // under mu_
+    request(w.host, w.session, sig == SIGUSR1 ? "abort" : "kill");
+    return;
+  }
   // An adopted worker's pid is checked first: after it exits, the number may be another's.
   if (w.pid > 0 && (w.child || still_running({w.pid, w.session, w.cab, log_path(w.session), w.start_ticks}))) kill(w.pid, sig);
 }
 
+bool HostInfo::alive(std::chrono::steady_clock::time_point now) const {
+  return !gone && std::chrono::duration<double>(now - last_seen).count() < dds::kHostLeaseS;
+}
+
+std::vector<std::string> Fleet::placement(const std::string& cab) {
+  const auto now = Clock::now();
+  const auto cab_it = cabs_.find(cab);
+  const std::string site = cab_it == cabs_.end() ? "" : cab_it->second.site;
+  std::vector<const HostInfo*> room;
+  for (const auto& [id, h] : hosts_)
+    if (h.alive(now) && h.has_room()) room.push_back(&h);
+  // The cab's own site first; then the emptiest (by share of its capacity), then the least loaded.
+  std::sort(room.begin(), room.end(), [&](const HostInfo* a, const HostInfo* b) {
+    const bool a_near = !site.empty() && a->site == site, b_near = !site.empty() && b->site == site;
+    if (a_near != b_near) return a_near;
+    const double a_share = double(a->running + a->placed) / a->capacity, b_share = double(b->running + b->placed) / b->capacity;
+    if (a_share != b_share) return a_share < b_share;
+    const double a_load = a->load_1min / std::max(1, a->cores), b_load = b->load_1min / std::max(1, b->cores);
+    if (a_load != b_load) return a_load < b_load;
+    return a->id < b->id;
+  });
+  std::vector<std::string> ids;
+  for (const HostInfo* h : room) ids.push_back(h->id);
+  return ids;
+}
+
+void Fleet::request(const std::string& host, const std::string& session, const char* action) {
+  auto& writer = request_writers_[host];
+  if (!writer) writer = std::make_unique<dds::Writer<fk_WorkerRequest>>(*participant_, dds::host_partition(host));
+  auto r = std::make_unique<fk_WorkerRequest>();  // 64 KiB of scenario: not on the stack
+  dds::set_string(r->session_id, session);
+  dds::set_string(r->host_id, host);
+  dds::set_string(r->action, action);
+  writer->write(*r);
+}
+
 void Fleet::start_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
                          const std::optional<std::string>& aids) {
-  std::lock_guard<std::mutex> lock(mu_);
-  if (static_cast<int>(workers_.size()) >= config_.max_workers)
-    throw std::runtime_error("this machine already runs " + std::to_string(workers_.size()) + " workers (the limit)");
-  for (const auto& [id, w] : workers_)
-    if (w.cab == s.cab_id) throw std::runtime_error("cab " + s.cab_id + " is running session " + id);
+  std::vector<std::string> hosts;
+  bool any_host = false;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    for (const auto& [id, w] : workers_)
+      if (w.cab == s.cab_id) throw std::runtime_error("cab " + s.cab_id + " is running session " + id);
+    for (const auto& [id, h] : hosts_) any_host = any_host || h.alive(Clock::now());
+    hosts = placement(s.cab_id);
+  }
+  if (any_host || !config_.local_workers) {
+    if (hosts.empty())
+      throw std::runtime_error(any_host ? "every worker host is full or stopping" : "no worker host is about (and this server runs none itself)");
+    start_hosted_worker(s, scenario_file, duration_s, aids, hosts);
+    return;
+  }
   if (secure()) {
     // The worker's identity must exist before it is spawned: a clear refusal now, not a failed
     // session later. The cab's identity is the cab's business (it lives on the cab).
     dds::SecurityFiles{config_.security_dir, "worker." + s.cab_id}.check();
   }
-  const std::string base = config_.log_dir + "/" + s.public_id;
-  std::vector<std::string> args = {config_.worker_binary, "--cab", s.cab_id, "--session", s.public_id,
-                                   "--scenario", scenario_file, "--dds-domain", std::to_string(config_.dds_domain),
-                                   "--log", base + ".ctl", "--start-timeout", std::to_string(config_.start_timeout_s),
-                                   "--mode", s.mode};
-  if (duration_s) { args.push_back("--duration"); args.push_back(std::to_string(*duration_s)); }
-  if (aids) { args.push_back("--aids"); args.push_back(*aids); }
-  std::remove((base + ".ctl.participant").c_str());  // a stale one must not vouch for anybody
-  if (!config_.dds_config.empty()) { args.push_back("--dds-config"); args.push_back(config_.dds_config); }
-  if (secure()) { args.push_back("--security"); args.push_back(config_.security_dir); }
-  args.insert(args.end(), config_.worker_args.begin(), config_.worker_args.end());
-  const pid_t pid = fork();
-  if (pid < 0) throw std::runtime_error(std::string("fork: ") + std::strerror(errno));
-  if (pid == 0) {
-    const int out = open((base + ".out").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    const int err = open((base + ".err").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (out >= 0) dup2(out, 1);
-    if (err >= 0) dup2(err, 2);
-    setpgid(0, 0);  // a Ctrl-C to the server's terminal must not kill sessions mid-exam
-    std::vector<char*> argv;
-    for (std::string& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    execv(argv[0], argv.data());
-    _exit(127);
-  }
+  host::WorkerLaunch l;
+  l.binary = config_.worker_binary;
+  l.session = s.public_id;
+  l.cab = s.cab_id;
+  l.mode = s.mode;
+  l.scenario_file = scenario_file;
+  l.log_base = config_.log_dir + "/" + s.public_id;
+  l.dds_domain = config_.dds_domain;
+  l.dds_config = config_.dds_config;
+  l.security_dir = config_.security_dir;
+  l.start_timeout_s = config_.start_timeout_s;
+  l.duration_s = duration_s;
+  l.aids = aids;
+  l.frames = config_.frames;
+  start_local_worker(s, l);
+}
+
+void Fleet::start_local_worker(const store::Session& s, const host::WorkerLaunch& launch) {
+  std::lock_guard<std::mutex> lock(mu_);
+  int here = 0;
+  for (const auto& [id, w] : workers_) here += w.host.empty() ? 1 : 0;
+  if (here >= config_.max_workers)
+    throw std::runtime_error("this machine already runs " + std::to_string(here) + " workers (the limit)");
+  for (const auto& [id, w] : workers_)
+    if (w.cab == s.cab_id) throw std::runtime_error("cab " + s.cab_id + " is running session " + id);
   WorkerInfo w;
   w.session = s.public_id;
   w.cab = s.cab_id;
-  w.pid = pid;
+  w.pid = host::spawn_worker(launch, false);
   w.child = true;
   w.started = w.last_state = Clock::now();
   workers_[s.public_id] = w;
@@ -176,11 +232,78 @@ void Fleet::start_worker(const store::Session& s, const std::string& scenario_fi
   bindings_[s.public_id] = {w.cab, "", std::nullopt};
 }
 
+void Fleet::start_hosted_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
+                                const std::optional<std::string>& aids, std::vector<std::string> candidates) {
+  auto r = std::make_unique<fk_WorkerRequest>();  // 64 KiB of scenario: not on the stack
+  const std::string scenario = slurp(scenario_file);
+  if (scenario.empty()) throw std::runtime_error("the scenario " + scenario_file + " cannot be read");
+  if (scenario.size() >= sizeof(r->scenario_json)) throw std::runtime_error("the scenario is over 64 KiB, more than a host takes");
+  dds::set_string(r->session_id, s.public_id);
+  dds::set_string(r->action, "start");
+  dds::set_string(r->cab_id, s.cab_id);
+  dds::set_string(r->mode, s.mode);
+  r->duration_s = duration_s.value_or(0);
+  dds::set_string(r->aids, aids.value_or(""));
+  dds::set_string(r->scenario_json, scenario);
+  if (config_.frames) {
+    r->frame_fps = config_.frames->fps;
+    r->frame_width = static_cast<uint16_t>(config_.frames->width);
+    r->frame_height = static_cast<uint16_t>(config_.frames->height);
+    r->frame_jpeg = config_.frames->jpeg;
+  }
+  std::string refusals;
+  for (const std::string& host : candidates) {
+    dds::Writer<fk_WorkerRequest>* writer;
+    {
+      std::unique_lock<std::mutex> lock(mu_);
+      for (const auto& [id, w] : workers_)
+        if (w.cab == s.cab_id) throw std::runtime_error("cab " + s.cab_id + " is running session " + id);
+      // Known before the host answers: its report finds the session ours, not a stray.
+      WorkerInfo w;
+      w.session = s.public_id;
+      w.cab = s.cab_id;
+      w.host = host;
+      w.started = w.last_state = Clock::now();
+      workers_[s.public_id] = w;
+      unsettled_.insert(s.public_id);
+      bindings_[s.public_id] = {w.cab, "", std::nullopt};
+      start_answers_.erase(s.public_id);
+      ++hosts_[host].placed;
+      auto& wr = request_writers_[host];
+      if (!wr) wr = std::make_unique<dds::Writer<fk_WorkerRequest>>(*participant_, dds::host_partition(host));
+      writer = wr.get();
+    }
+    // A writer made just now may not have found the host's reader yet.
+    for (int i = 0; i < 100 && writer->matched() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    dds::set_string(r->host_id, host);
+    writer->write(*r);
+    std::unique_lock<std::mutex> lock(mu_);
+    const bool answered = answered_.wait_for(lock, std::chrono::duration<double>(config_.host_answer_timeout_s), [&] {
+      const auto a = start_answers_.find(s.public_id);
+      return a != start_answers_.end() && a->second.host == host;
+    });
+    --hosts_[host].placed;
+    const StartAnswer a = answered ? start_answers_[s.public_id] : StartAnswer{host, "", "no answer"};
+    start_answers_.erase(s.public_id);
+    if (answered && a.state != "refused") {
+      spdlog::info("session {} on cab {}: its worker runs on host {}", s.public_id, s.cab_id, host);
+      return;
+    }
+    // Refused, or silent: the next host. A late start is stopped (its session is no longer open).
+    if (!answered) request(host, s.public_id, "kill");
+    workers_.erase(s.public_id);
+    unsettled_.erase(s.public_id);
+    bindings_.erase(s.public_id);
+    refusals += (refusals.empty() ? "" : "; ") + host + ": " + a.reason;
+  }
+  throw std::runtime_error("no worker host took the session (" + refusals + ")");
+}
+
 bool Fleet::abort(const std::string& session) {
   std::lock_guard<std::mutex> lock(mu_);
   auto it = workers_.find(session);
   if (it == workers_.end()) return false;
-  signal_worker(it->second, SIGUSR1);  // an adopted worker too
+  signal_worker(it->second, SIGUSR1);  // an adopted worker too, and a hosted one (its host is asked)
   return true;
 }
 
@@ -193,6 +316,13 @@ std::vector<WorkerInfo> Fleet::workers() {
   std::lock_guard<std::mutex> lock(mu_);
   std::vector<WorkerInfo> out;
   for (const auto& [id, w] : workers_) out.push_back(w);
+  return out;
+}
+
+std::vector<HostInfo> Fleet::hosts() {
+  std::lock_guard<std::mutex> lock(mu_);
+  std::vector<HostInfo> out;
+  for (const auto& [id, h] : hosts_) out.push_back(h);
   return out;
 }
 
@@ -325,18 +455,29 @@ void Fleet::supervise() {
         WorkerInfo& w = it->second;
         std::string reason;
         bool done = false;
-        if (w.child) {
+        if (!w.host.empty()) {
+          // A hosted worker's end comes in its host's report (on_report); its host's death here.
+          const auto h = hosts_.find(w.host);
+          const bool unheard = h == hosts_.end() && std::chrono::duration<double>(now - w.started).count() > dds::kHostLeaseS;
+          if (unheard || (h != hosts_.end() && !h->second.alive(now))) {
+            done = true;
+            reason = "the worker host " + w.host + " stopped answering (its machine, its network or its agent is down)";
+          }
+        } else if (w.child) {
           int status = 0;
           if (waitpid(w.pid, &status, WNOHANG) == w.pid) {
             done = true;
-            if (WIFSIGNALED(status)) reason = "worker killed by signal " + std::to_string(WTERMSIG(status));
-            else if (WEXITSTATUS(status) != 0) reason = "worker exited with code " + std::to_string(WEXITSTATUS(status));
+            reason = host::exit_words(status);
           }
         } else if (w.pid == 0 || !still_running({w.pid, w.session, w.cab, log_path(w.session), w.start_ticks})) {
           done = true;  // an adopted worker: how it ended, its log says
         }
         const double silent = std::chrono::duration<double>(now - w.last_state).count();
-        if (!done && w.seen_state && silent > config_.hang_timeout_s) {
+        if (!done && !w.host.empty() && w.seen_state && silent > config_.hang_timeout_s && w.hang_reason.empty()) {
+          // Its host kills it and reports the end, with its files.
+          w.hang_reason = "worker hung: no truck state for " + std::to_string(int(silent)) + " s";
+          signal_worker(w, SIGKILL);
+        } else if (!done && w.host.empty() && w.seen_state && silent > config_.hang_timeout_s) {
           reason = "worker hung: no truck state for " + std::to_string(int(silent)) + " s";
           signal_worker(w, SIGKILL);
           if (w.child) waitpid(w.pid, nullptr, 0);
@@ -353,18 +494,23 @@ void Fleet::supervise() {
       for (auto it = bindings_.begin(); it != bindings_.end();)
         it = it->second.until && now > *it->second.until ? bindings_.erase(it) : std::next(it);
     }
-    for (auto it = finishing_.begin(); it != finishing_.end();) {
-      if (Clock::now() < it->at) { ++it; continue; }
+    std::vector<Finishing> due;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      for (auto it = finishing_.begin(); it != finishing_.end();) {
+        if (Clock::now() < it->at) { ++it; continue; }
+        due.push_back(std::move(*it));
+        it = finishing_.erase(it);
+      }
+    }
+    for (const Finishing& f : due) {
       try {
-        settle(*db, it->worker, it->reason, to_chain);
+        settle(*db, f.worker, f.reason, to_chain);
       } catch (const std::exception& e) {
-        spdlog::error("settling session {}: {}", it->worker.session, e.what());
+        spdlog::error("settling session {}: {}", f.worker.session, e.what());
       }
-      {
-        std::lock_guard<std::mutex> lock(mu_);
-        unsettled_.erase(it->worker.session);
-      }
-      it = finishing_.erase(it);
+      std::lock_guard<std::mutex> lock(mu_);
+      if (!workers_.count(f.worker.session)) unsettled_.erase(f.worker.session);
     }
     chain_ended_exams(*db, to_chain);
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
@@ -387,7 +533,8 @@ void Fleet::settle(store::Store& db, const WorkerInfo& w, const std::string& rea
       store::ScoreRecord score = *logged->score;
       score.exam_details = practical_exam_details(db, config_.data_dir, rules_, w.session, logged->end_reason.value_or(""),
                                                   logged->points, score.counts, score.passed);
-      scored = set_score(db, score, kWorkerLog);
+      // A hosted worker's mark of record is its log's, which its host brings when it exits.
+      scored = set_score(db, score, w.host.empty() ? kWorkerLog : kWorker) && w.host.empty();
     }
     if (events || scored) {
       std::lock_guard<std::mutex> lock(mu_);
@@ -412,7 +559,7 @@ void Fleet::settle(store::Store& db, const WorkerInfo& w, const std::string& rea
     fail(db, w.session, w.cab, "the cab never spoke");
   } else if (!reason.empty()) {
     fail(db, w.session, w.cab, reason);
-  } else if (!w.child) {
+  } else if (!w.child && w.host.empty()) {
     fail(db, w.session, w.cab, logged ? "the worker stopped before the session ended (the server was down)"
                                       : "the worker was gone after a server restart, with no session log");
   } else {
@@ -486,7 +633,12 @@ Fleet::Verdict Fleet::check_sender(const std::string& session, dds_entity_t read
     std::lock_guard<std::mutex> lock(mu_);
     const auto it = bindings_.find(session);
     if (it == bindings_.end()) return Verdict::kNotOurs;  // another server's, or long over
-    if (it->second.participant.empty()) it->second.participant = logged_participant(log_path(session));
+    if (it->second.participant.empty()) {
+      const auto w = workers_.find(session);
+      // A hosted worker's participant comes in its host's report, which may follow its first samples.
+      if (w != workers_.end() && !w->second.host.empty()) return Verdict::kNotYet;
+      it->second.participant = logged_participant(log_path(session));
+    }
     b = it->second;
   }
   auto sender = senders_.find(info.publication_handle);
@@ -503,6 +655,23 @@ Fleet::Verdict Fleet::check_sender(const std::string& session, dds_entity_t read
 
 namespace {
 
+// A sample whose sender cannot be told yet, kept until it can (ingest thread).
+template <typename T>
+struct Deferred {
+  T sample;
+  dds_sample_info_t info;
+  std::chrono::steady_clock::time_point at;
+};
+
+bool valid_session_id(const char* id) { return std::regex_match(id, std::regex("s-[0-9]{1,18}")); }
+
+void write_octets(const std::string& path, const dds_sequence_octet& bytes) {
+  if (bytes._length == 0) { std::remove(path.c_str()); return; }
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(reinterpret_cast<const char*>(bytes._buffer), bytes._length);
+  if (!out) throw std::runtime_error("cannot write " + path);
+}
+
 bool finite(std::initializer_list<double> xs) {
   for (double x : xs) if (!std::isfinite(x)) return false;
   return true;
@@ -517,17 +686,112 @@ std::optional<std::string> bad_text(std::initializer_list<std::pair<const char*,
 
 }  // namespace
 
+void Fleet::write_worker_files(const fk_WorkerReport& r) {
+  // The session id is checked (s-<digits>): it names the files.
+  const std::string log = log_path(r.session_id);
+  write_octets(log, r.control_log);
+  write_octets(log + ".sig", r.signature);
+  write_octets(config_.log_dir + "/" + r.session_id + ".err", r.worker_err);
+  std::ofstream(log + ".participant") << r.participant << '\n';
+}
+
+void Fleet::on_report(store::Store& db, const fk_WorkerReport& r) {
+  if (!valid_session_id(r.session_id)) throw std::runtime_error(std::string("a report on session '") + r.session_id + "'");
+  const std::string state = r.state, session = r.session_id;
+  if (state != "starting" && state != "running" && state != "exited" && state != "refused")
+    throw std::runtime_error("a report of a worker " + state);
+  if (r.participant[0] && !std::regex_match(r.participant, std::regex("[0-9a-f]{32}")))
+    throw std::runtime_error(std::string("a report naming participant '") + r.participant + "'");
+  const auto now = Clock::now();
+  constexpr auto kLastSamples = std::chrono::milliseconds(1000);
+  // What becomes of the worker once it is ours: its participant believed, its end settled.
+  auto follow = [&](WorkerInfo& w) {
+    if (r.participant[0]) {
+      w.participant = r.participant;
+      bindings_[session].participant = r.participant;
+    }
+    if (state != "exited") return;
+    write_worker_files(r);
+    const std::string reason = !w.hang_reason.empty() ? w.hang_reason : r.reason;
+    finishing_.push_back({w, reason, now + kLastSamples});
+    bindings_[session].until = now + kLastSamples + std::chrono::seconds(30);
+    workers_.erase(session);
+  };
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    start_answers_[session] = {r.host_id, state, r.reason};
+    answered_.notify_all();
+    if (state == "refused") return;
+    const auto w = workers_.find(session);
+    if (w != workers_.end()) {
+      if (w->second.host != r.host_id) {
+        spdlog::warn("host {} reports a worker for session {}, which runs {}", r.host_id, session,
+                     w->second.host.empty() ? "here" : "on host " + w->second.host);
+        return;
+      }
+      follow(w->second);
+      return;
+    }
+    if (unsettled_.count(session)) {
+      // Being settled, unless it is one a restart left waiting for its host's word.
+      const auto f = std::find_if(finishing_.begin(), finishing_.end(), [&](const Finishing& x) { return x.worker.session == session; });
+      if (f == finishing_.end() || !f->worker.host.empty() || f->worker.child || f->worker.pid != 0) return;
+      finishing_.erase(f);
+    }
+  }
+  // A session this server did not start: adopted if it is open for that cab (another server's,
+  // or this one's before a restart); its worker stopped if the session is over or unknown.
+  const auto s = db.get_session(session);
+  if (!s || store::is_terminal(s->state) || s->cab_id != r.cab_id) {
+    if (state == "exited") return;
+    spdlog::warn("host {} runs a worker for session {}, which is {}: stopping it", r.host_id, session,
+                 !s ? "unknown here" : store::is_terminal(s->state) ? "over" : "on another cab");
+    std::lock_guard<std::mutex> lock(mu_);
+    request(r.host_id, session, "kill");
+    return;
+  }
+  std::lock_guard<std::mutex> lock(mu_);
+  for (const auto& [id, other] : workers_)
+    if (other.cab == s->cab_id && id != session) {
+      spdlog::warn("host {} runs a worker for session {} on cab {}, which runs session {}: stopping it", r.host_id, session, s->cab_id, id);
+      request(r.host_id, session, "kill");
+      return;
+    }
+  WorkerInfo w;
+  w.session = session;
+  w.cab = s->cab_id;
+  w.host = r.host_id;
+  w.pid = static_cast<pid_t>(r.pid);
+  w.started = w.last_state = now;
+  spdlog::info("adopted session {} on cab {}, whose worker runs on host {}", session, w.cab, w.host);
+  workers_[session] = w;
+  unsettled_.insert(session);
+  bindings_[session] = {w.cab, "", std::nullopt};
+  follow(workers_[session]);
+}
+
 void Fleet::ingest() {
   auto db = store::Store::open(config_.db_path);
+  std::vector<Deferred<fk_Event>> deferred_events;
+  std::vector<Deferred<fk_SessionStatus>> deferred_statuses;
+  auto hosted = [&](const std::string& session) {
+    std::lock_guard<std::mutex> lock(mu_);
+    const auto w = workers_.find(session);
+    return w != workers_.end() && !w->second.host.empty();
+  };
   // Workers report in their own partitions; cabs announce in theirs.
   dds::Reader<fk_Event> events(*participant_, "worker.*");
   dds::Reader<fk_Score> scores(*participant_, "worker.*");
   dds::Reader<fk_SessionStatus> statuses(*participant_, "worker.*");
   dds::Reader<fk_TruckState> states(*participant_, "cab.*");
   dds::Reader<fk_CabAnnounce> announces(*participant_, "cab.*");
+  // Worker hosts speak in their own partitions.
+  dds::Reader<fk_HostStatus> host_statuses(*participant_, "host.*");
+  dds::Reader<fk_WorkerReport> reports(*participant_, "host.*");
+  const auto readers = {events.handle(), scores.handle(), statuses.handle(), states.handle(), announces.handle(),
+                        host_statuses.handle(), reports.handle()};
   dds::WaitSet ws(*participant_);
-  for (dds_entity_t r : {events.handle(), scores.handle(), statuses.handle(), states.handle(), announces.handle()})
-    ws.attach_reader(r);
+  for (dds_entity_t r : readers) ws.attach_reader(r);
   // One sample's trouble costs that sample only: the rest of its batch is taken as usual.
   auto each = [&](auto& reader, const char* topic, auto&& handle) {
     try {
@@ -543,12 +807,15 @@ void Fleet::ingest() {
     }
   };
   // Whether a report for `session` is to be stored; refusals counted with the reason.
+  bool not_yet = false;  // the last sample's sender could not be told yet (believed() said false)
   auto believed = [&](const char* topic, const char* session, dds_entity_t reader, const dds_sample_info_t& info,
                       bool state_topic = false) {
+    not_yet = false;
     if (!dds::valid_utf8(session)) { refuse(&RefusedSamples::malformed, std::string("a ") + topic + " whose session is not UTF-8"); return false; }
     switch (check_sender(session, reader, info, state_topic)) {
       case Verdict::kOurs: return true;
       case Verdict::kNotOurs: return false;
+      case Verdict::kNotYet: not_yet = true; return false;
       case Verdict::kWrongSender:
         refuse(&RefusedSamples::wrong_sender, std::string("a ") + topic + " for session " + session + " not from its worker");
         return false;
@@ -566,14 +833,82 @@ void Fleet::ingest() {
   };
   while (!stop_) {
     ws.wait(0.1);
-    for (dds_entity_t r : {events.handle(), scores.handle(), statuses.handle(), states.handle(), announces.handle()}) learn_senders(r);
-    each(events, "fk_Event", [&](const fk_Event& e, const dds_sample_info_t& info) {
-      if (!believed("fk_Event", e.session_id, events.handle(), info)) return;
+    for (dds_entity_t r : readers) learn_senders(r);
+    // A host's status and reports count only from its own partition (under DDS Security, only
+    // the identity host.<id> may write there).
+    auto from_host = [&](dds_entity_t reader, const dds_sample_info_t& info, const char* host) {
+      auto sender = senders_.find(info.publication_handle);
+      if (sender == senders_.end()) {
+        auto found = dds::sender_of(reader, info.publication_handle);
+        if (!found) return false;
+        sender = senders_.emplace(info.publication_handle, std::move(*found)).first;
+      }
+      return sender->second.in(dds::host_partition(host));
+    };
+    try {
+      host_statuses.take_all_with_info([&](const fk_HostStatus& h, const dds_sample_info_t& info) {
+        if (!dds::valid_utf8(h.host_id) || !h.host_id[0]) return;
+        std::lock_guard<std::mutex> lock(mu_);
+        if (!info.valid_data) {  // its writer is gone or lost its liveliness
+          if (info.instance_state != DDS_IST_ALIVE && hosts_.count(h.host_id)) {
+            if (!hosts_[h.host_id].gone) spdlog::warn("worker host {} is gone", h.host_id);
+            hosts_[h.host_id].gone = true;
+          }
+          return;
+        }
+        if (!from_host(host_statuses.handle(), info, h.host_id)) {
+          refuse(&RefusedSamples::wrong_sender, std::string("a status of worker host ") + h.host_id + " from outside its partition");
+          return;
+        }
+        if (!dds::valid_utf8(h.site) || !dds::valid_utf8(h.state) || h.capacity == 0 || !std::isfinite(h.load_1min) ||
+            !std::isfinite(h.memory_free_mib)) {
+          refuse(&RefusedSamples::malformed, std::string("a status of worker host ") + h.host_id + " out of range");
+          return;
+        }
+        HostInfo& info_of = hosts_[h.host_id];
+        if (!info_of.alive(Clock::now())) spdlog::info("worker host {} is here: {} of {} workers running", h.host_id, h.running, h.capacity);
+        info_of.id = h.host_id;
+        info_of.site = h.site;
+        info_of.state = h.state;
+        info_of.capacity = h.capacity;
+        info_of.running = h.running;
+        info_of.cores = h.cores;
+        info_of.load_1min = h.load_1min;
+        info_of.memory_free_mib = h.memory_free_mib;
+        info_of.last_seen = Clock::now();
+        info_of.gone = false;
+      });
+    } catch (const std::exception& e) {
+      spdlog::warn("ingest: {}", e.what());
+    }
+    each(reports, "fk_WorkerReport", [&](const fk_WorkerReport& r, const dds_sample_info_t& info) {
+      if (auto bad = bad_text({{"its host", r.host_id}, {"its session", r.session_id}, {"its cab", r.cab_id}, {"its state", r.state},
+                               {"its reason", r.reason}, {"its participant", r.participant}}))
+        throw std::runtime_error(*bad);
+      if (!from_host(reports.handle(), info, r.host_id)) {
+        refuse(&RefusedSamples::wrong_sender, std::string("a report of worker host ") + r.host_id + " from outside its partition");
+        return;
+      }
+      on_report(*db, r);
+    });
+    // A hosted worker's first events and statuses may come before its host's report names its
+    // participant: they wait here (a few seconds at most) until it does.
+    const auto now = Clock::now();
+    std::vector<Deferred<fk_Event>> events_again;
+    std::vector<Deferred<fk_SessionStatus>> statuses_again;
+    events_again.swap(deferred_events);
+    statuses_again.swap(deferred_statuses);
+    auto on_event = [&](const fk_Event& e, const dds_sample_info_t& info) {
+      if (!believed("fk_Event", e.session_id, events.handle(), info)) {
+        if (not_yet) deferred_events.push_back({e, info, now});
+        return;
+      }
       if (auto bad = bad_text({{"its kind", e.kind}, {"its details", e.details}})) throw std::runtime_error(*bad);
       if (!finite({e.sim_time_s, e.x_m, e.y_m}) || e.sim_time_s < 0 || e.seq == 0 || e.worry_level > 5 || !e.kind[0])
         throw std::runtime_error("event " + std::to_string(e.seq) + " of session " + std::string(e.session_id) + " is out of range");
       db->add_event({e.session_id, e.seq, e.sim_time_s, e.kind, e.worry_level, e.x_m, e.y_m, e.details});
-    });
+    };
+    each(events, "fk_Event", on_event);
     each(scores, "fk_Score", [&](const fk_Score& s, const dds_sample_info_t& info) {
       if (!believed("fk_Score", s.session_id, scores.handle(), info)) return;
       if (!finite({s.mark}) || s.mark < 0 || s.mark > 100) throw std::runtime_error("a mark of " + std::to_string(s.mark));
@@ -582,7 +917,9 @@ void Fleet::ingest() {
         if (!dds::valid_utf8(s.counts._buffer[i].kind)) throw std::runtime_error("a fault kind that is not UTF-8");
         r.counts[s.counts._buffer[i].kind] = int(s.counts._buffer[i].count);
       }
-      // The mark of record is the one the worker wrote in its session log before sending it.
+      // The mark of record is the one the worker wrote in its session log before sending it. A
+      // hosted worker's log comes with its host's report when it exits, and its mark with it.
+      if (hosted(s.session_id) && !std::ifstream(log_path(s.session_id))) return;
       std::optional<LoggedMark> logged;
       try {
         const auto log = read_control_log(log_path(s.session_id));
@@ -598,13 +935,35 @@ void Fleet::ingest() {
                                               logged->points, r.counts, r.passed);
       set_score(*db, r, kWorker);
     });
-    each(statuses, "fk_SessionStatus", [&](const fk_SessionStatus& s, const dds_sample_info_t& info) {
-      if (!believed("fk_SessionStatus", s.session_id, statuses.handle(), info)) return;
+    auto on_status = [&](const fk_SessionStatus& s, const dds_sample_info_t& info) {
+      if (!believed("fk_SessionStatus", s.session_id, statuses.handle(), info)) {
+        if (not_yet) deferred_statuses.push_back({s, info, now});
+        return;
+      }
       if (auto bad = bad_text({{"its state", s.state}, {"its reason", s.reason}})) throw std::runtime_error(*bad);
       const std::string state = s.state;
       if (state == "waiting" || state == "running" || state == "ended" || state == "failed")
         set_state(*db, s.session_id, state, s.reason, kWorker);
-    });
+    };
+    each(statuses, "fk_SessionStatus", on_status);
+    auto again = [&](auto& list, auto& deferred, auto& handle, const char* topic) {
+      for (auto& d : list) {
+        if (now - d.at > std::chrono::seconds(10)) {
+          refuse(&RefusedSamples::wrong_sender, std::string("a ") + topic + " for session " + d.sample.session_id +
+                                                    " whose worker host never named its worker");
+          continue;
+        }
+        const size_t before = deferred.size();
+        try {
+          handle(d.sample, d.info);
+        } catch (const std::exception& e) {
+          refuse(&RefusedSamples::malformed, std::string("a ") + topic + " sample: " + e.what());
+        }
+        if (deferred.size() > before) deferred.back().at = d.at;  // still waiting, since it first came
+      }
+    };
+    again(events_again, deferred_events, on_event, "fk_Event");
+    again(statuses_again, deferred_statuses, on_status, "fk_SessionStatus");
     std::vector<std::string> announced;
     std::map<std::string, std::vector<store::PathPoint>> path;  // by session, downsampled
     each(states, "fk_TruckState", [&](const fk_TruckState& t, const dds_sample_info_t& info) {
@@ -642,6 +1001,7 @@ void Fleet::ingest() {
       CabInfo& c = cabs_[a.cab_id];
       c.id = a.cab_id;
       c.mode = a.mode;
+      c.site = dds::valid_utf8(a.site) ? a.site : "";
       c.last_seen = Clock::now();
       announced.push_back(c.id);
     });

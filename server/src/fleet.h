@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <map>
 #include <set>
 #include <memory>
@@ -17,6 +18,7 @@
 
 #include "exam_evidence.h"
 #include "outcome.h"
+#include "forklift/host/worker_launch.h"
 #include "forklift/protocol/protocol.h"
 #include "forklift/store/store.h"
 
@@ -34,13 +36,18 @@ struct FleetConfig {
   int max_workers = 8;
   double hang_timeout_s = 5;  // a running worker with no TruckState for this long is killed
   double start_timeout_s = 120;
-  std::vector<std::string> worker_args;  // passed to every worker (frames: --fps, --frame-size, --jpeg)
+  std::optional<host::WorkerFrames> frames;  // every worker's frames (nullopt: the worker's defaults)
+  // Worker hosts (forklift-host) announce themselves over DDS; while one has room a session's
+  // worker runs there. With none about, the server runs workers itself, unless local_workers is off.
+  bool local_workers = true;
+  double host_answer_timeout_s = 5;  // a host that does not answer a start in this long is passed over
   double path_interval_s = 0.5;  // sim time between two stored points of a session's truck path
   std::string chain_anchor;      // the exam chain's anchor file; empty: <log_dir>/exam-chain.anchor
 };
 
 struct WorkerInfo {
   std::string session, cab;
+  std::string host;    // the worker host it runs on; empty: this machine
   pid_t pid = 0;       // the worker's process (0: not found after a server restart)
   bool child = false;  // ours to reap; otherwise adopted after a server restart, watched through /proc
   unsigned long long start_ticks = 0;  // an adopted process's start time (a reused pid is not it)
@@ -49,6 +56,19 @@ struct WorkerInfo {
   bool seen_state = false;
   fk_TruckState last{};  // the newest TruckState, when seen_state
   std::optional<double> last_path_point_s;  // sim time of the last path point stored
+  std::string hang_reason;  // a hosted worker asked to be killed, and why
+};
+
+// A worker host as its status says (fk_HostStatus).
+struct HostInfo {
+  std::string id, site, state;  // state: "ready", "stopping"
+  int capacity = 0, running = 0, cores = 0;
+  double load_1min = 0, memory_free_mib = 0;
+  std::chrono::steady_clock::time_point last_seen;
+  bool gone = false;  // its status writer lost its liveliness (the agent or its machine is down)
+  int placed = 0;     // starts this server asked of it that it has not answered yet
+  bool alive(std::chrono::steady_clock::time_point now) const;
+  bool has_room() const { return state == "ready" && running + placed < capacity; }
 };
 
 // Samples the ingest refused, by why (GET /api/fleet shows them; the server's log names each).
@@ -70,7 +90,7 @@ struct LiveView {
 };
 
 struct CabInfo {
-  std::string id, mode;
+  std::string id, mode, site;
   std::chrono::steady_clock::time_point last_seen;
 };
 
@@ -93,6 +113,7 @@ class Fleet {
   bool abort(const std::string& session);
 
   std::vector<WorkerInfo> workers();
+  std::vector<HostInfo> hosts();  // the worker hosts heard from, alive or not
   // Whether the session's worker runs here or has ended without its logs stored yet (they are
   // stored a moment after it exits, when its last samples have had time to arrive).
   bool settling(const std::string& session);
@@ -138,7 +159,17 @@ class Fleet {
               std::vector<std::pair<std::string, std::chrono::steady_clock::time_point>>& to_chain);
   // Start-up: the sessions left open, and the workers of this server still running.
   void adopt(store::Store& db);
-  void signal_worker(const WorkerInfo& w, int sig) const;
+  void signal_worker(const WorkerInfo& w, int sig);
+  // Starting a session's worker on this machine, or on a worker host (which answers with a report).
+  void start_local_worker(const store::Session& s, const host::WorkerLaunch& launch);
+  void start_hosted_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
+                           const std::optional<std::string>& aids, std::vector<std::string> candidates);
+  std::vector<std::string> placement(const std::string& cab);  // hosts with room, best first (under mu_)
+  void request(const std::string& host, const std::string& session, const char* action);  // abort, kill (under mu_)
+  // A worker host's report on a session's worker (ingest thread): a start answered, a participant
+  // learnt, a worker exited with its files; another server's session adopted, a stray stopped.
+  void on_report(store::Store& db, const fk_WorkerReport& r);
+  void write_worker_files(const fk_WorkerReport& r);
   std::string log_path(const std::string& session) const { return config_.log_dir + "/" + session + ".ctl"; }
 
   // Whose samples a session's are: the worker's participant and cab, kept a little while after
@@ -147,7 +178,7 @@ class Fleet {
     std::string cab, participant;
     std::optional<std::chrono::steady_clock::time_point> until;  // set when the worker is gone
   };
-  enum class Verdict { kOurs, kNotOurs, kWrongSender };
+  enum class Verdict { kOurs, kNotOurs, kWrongSender, kNotYet };  // kNotYet: a hosted worker whose participant is not known yet
   // Whether a sample for `session` came from its worker, in `partition_of(cab)` (ingest thread).
   Verdict check_sender(const std::string& session, dds_entity_t reader, const dds_sample_info_t& info, bool state_topic);
   void refuse(uint64_t RefusedSamples::*counter, const std::string& what);
@@ -167,11 +198,16 @@ class Fleet {
     std::string reason;
     std::chrono::steady_clock::time_point at;
   };
-  std::vector<Finishing> finishing_;  // supervisor thread
+  std::vector<Finishing> finishing_;  // under mu_; settled by the supervisor thread
   std::set<std::string> unsettled_;    // sessions with a worker here whose logs are not stored yet
   RefusedSamples refused_;
   std::map<dds_instance_handle_t, dds::Sender> senders_;  // ingest thread: who each publication is
   std::map<std::string, CabInfo> cabs_;
+  std::map<std::string, HostInfo> hosts_;  // by id
+  std::map<std::string, std::unique_ptr<dds::Writer<fk_WorkerRequest>>> request_writers_;  // by host
+  struct StartAnswer { std::string host, state, reason; };
+  std::map<std::string, StartAnswer> start_answers_;  // by session: a host's answer to a start
+  std::condition_variable answered_;
   std::map<std::string, Followed> followed_;            // by cab
   std::map<std::string, std::unique_ptr<dds::Writer<fk_SessionStatus>>> cab_status_writers_;  // by cab
   // Read before the threads start (config_ is initialised first).

@@ -17,6 +17,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include "forklift/server/listener.h"
 #include "forklift/server/logs.h"
@@ -137,8 +138,18 @@ int main(int argc, char** argv) {
   app.add_option("--max-workers", cfg.max_workers, "sim workers this machine may run at once")->check(CLI::Range(1, 256));
   app.add_option("--hang-timeout", cfg.hang_timeout_s, "kill a worker that sends no state for this long, s")->check(CLI::Range(0.5, 600.0));
   app.add_option("--frame-fps", frame_fps, "frames each worker renders per second while its cab asks for them (0: none)")->check(CLI::Range(0.0, 120.0));
-  app.add_option("--frame-size", frame_size, "size of those frames, WxH");
+  app.add_option("--frame-size", frame_size, "size of those frames, WxH")->check([](const std::string& v) {
+    int w = 0, h = 0;
+    char x = 0;
+    std::istringstream size(v);
+    return size >> w >> x >> h && x == 'x' && w >= 16 && h >= 16 && w <= 4096 && h <= 4096 && size.peek() == EOF
+               ? std::string()
+               : std::string("give a width and a height from 16 to 4096, as 640x480");
+  });
   app.add_flag("--frame-jpeg", frame_jpeg, "send frames as JPEG (cabs on a real network) instead of raw RGB");
+  bool no_local_workers = false;
+  app.add_flag("--no-local-workers", no_local_workers, "run no sim worker on this machine: only on worker hosts (forklift-host); "
+               "by default the server runs them itself while no worker host is about");
   app.add_option("--token-ttl", cfg.token_ttl_s, "how long a login lasts, s")->check(CLI::Range(1.0, 30.0 * 86400));
   app.add_option("--tls-cert", tls_cert, "serve HTTPS with this PEM certificate (chain); needs --tls-key");
   app.add_option("--tls-key", tls_key, "the PEM private key of --tls-cert");
@@ -190,8 +201,11 @@ int main(int argc, char** argv) {
     const std::filesystem::path self = std::filesystem::canonical("/proc/self/exe");
     cfg.data_dir = FORKLIFT_DATA_DIR;
     cfg.bin_dir = self.parent_path().string();
-    cfg.worker_args = {"--fps", std::to_string(frame_fps), "--frame-size", frame_size};
-    if (frame_jpeg) cfg.worker_args.push_back("--jpeg");
+    int frame_w = 640, frame_h = 480;
+    char x = 0;
+    std::istringstream(frame_size) >> frame_w >> x >> frame_h;  // checked with the flags
+    cfg.local_workers = !no_local_workers;
+    cfg.frames = forklift::host::WorkerFrames{frame_fps, frame_w, frame_h, frame_jpeg};
     if (web_dir.empty()) web_dir = (self.parent_path().parent_path() / "web").string();
 
     forklift::server::Api api(cfg);

@@ -290,7 +290,8 @@ void session_routes(Routes& svr, Context& ctx) {
     json workers = json::array(), cabs = json::array();
     const auto now = std::chrono::steady_clock::now();
     for (const auto& w : ctx.fleet->workers())
-      workers.push_back({{"session", w.session}, {"cab", w.cab}, {"pid", w.pid}, {"sim_time_s", w.last.sim_time_s}, {"speed_m_s", w.last.speed_m_s},
+      workers.push_back({{"session", w.session}, {"cab", w.cab}, {"pid", w.pid}, {"host", w.host.empty() ? json(nullptr) : json(w.host)},
+                         {"sim_time_s", w.last.sim_time_s}, {"speed_m_s", w.last.speed_m_s},
                          {"seconds_since_state", w.seen_state ? json(std::chrono::duration<double>(now - w.last_state).count()) : json(nullptr)},
                          {"healthy", !w.seen_state || std::chrono::duration<double>(now - w.last_state).count() < 1.0}});
     for (const auto& c : ctx.fleet->cabs_online()) cabs.push_back({{"id", c.id}, {"mode", c.mode}});
@@ -310,17 +311,24 @@ void session_routes(Routes& svr, Context& ctx) {
       c["session"] = {{"id", s->public_id}, {"pupil_id", pupil->id}, {"pupil_name", pupil->name}, {"scenario", s->scenario},
                       {"mode", s->mode}, {"state", s->state}, {"created_at", s->created_at}, {"sim_time_s", w["sim_time_s"]},
                       {"speed_m_s", w["speed_m_s"]}, {"seconds_since_state", w["seconds_since_state"]}, {"healthy", w["healthy"]},
-                      {"pid", w["pid"]}};
+                      {"pid", w["pid"]}, {"host", w["host"]}};
     }
     json every = json::array();
     for (auto& [id, c] : all) every.push_back(std::move(c));
+    // The worker hosts (forklift-host) heard from: what each can take and whether it is alive.
+    json hosts = json::array();
+    for (const HostInfo& h : ctx.fleet->hosts())
+      hosts.push_back({{"id", h.id}, {"site", h.site}, {"alive", h.alive(now)}, {"state", h.state}, {"capacity", h.capacity},
+                       {"running", h.running}, {"cores", h.cores}, {"load_1min", h.load_1min}, {"memory_free_mib", h.memory_free_mib},
+                       {"seconds_since_status", std::chrono::duration<double>(now - h.last_seen).count()}});
     const RefusedSamples r = ctx.fleet->refused();
     const json refused = {{"wrong_sender", r.wrong_sender}, {"malformed", r.malformed}, {"score_disagrees", r.score_disagrees}};
     const json recovered = {{"events", r.recovered_events}, {"scores", r.recovered_scores}};
     // Whether exams can be chained (and so certified), and how many were refused since start.
     const Fleet::ChainStatus chain = ctx.fleet->chain_status();
     // The DDS domain its workers and cabs meet in: forklift-menu start --drive runs its cab there.
-    send_json(res, 200, {{"workers", workers}, {"cabs_online", cabs}, {"cabs", every}, {"max_workers", ctx.fleet->config().max_workers},
+    send_json(res, 200, {{"workers", workers}, {"cabs_online", cabs}, {"cabs", every}, {"hosts", hosts},
+                         {"max_workers", ctx.fleet->config().max_workers}, {"local_workers", ctx.fleet->config().local_workers},
                          {"dds_domain", ctx.fleet->config().dds_domain},
                          {"refused_samples", refused}, {"recovered_from_logs", recovered},
                          {"exam_chain", {{"ok", chain.problem.empty()}, {"problem", chain.problem.empty() ? json(nullptr) : json(chain.problem)},

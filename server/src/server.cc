@@ -114,7 +114,8 @@ Api::Api(ServerConfig c) : ctx_(std::make_unique<Context>()), contract_(&api_con
   fc.identity = c.identity;
   fc.max_workers = c.max_workers;
   fc.hang_timeout_s = c.hang_timeout_s;
-  fc.worker_args = c.worker_args;
+  fc.frames = c.frames;
+  fc.local_workers = c.local_workers;
   ctx.fleet = std::make_unique<Fleet>(fc);
   ctx.stills = std::make_unique<Stills>(c.bin_dir + "/forklift-render", c.log_dir + "/stills", ctx.data_dir);
   ctx.replays = std::make_unique<Replays>(c.bin_dir + "/forklift-sim", c.log_dir + "/replays");

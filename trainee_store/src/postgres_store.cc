@@ -1538,7 +1538,8 @@ class PostgresStore final : public Store {
     const int64_t session_id = require_session(__func__, session_public_id).id;
     Query q(c_, __func__,
             "INSERT INTO session_logs(session_id, name, body) VALUES ($1, $2, $3) "
-            "ON CONFLICT (session_id, name) DO UPDATE SET body = excluded.body");
+            "ON CONFLICT (session_id, name) DO UPDATE SET body = excluded.body "
+            "WHERE session_logs.body IS DISTINCT FROM excluded.body");  // the same again (a second server settling it) is no write
     q.bind(session_id).bind(name).bind(text).run();
     tx.commit();
   }

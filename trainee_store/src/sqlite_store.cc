@@ -1371,7 +1371,8 @@ class SqliteStore final : public Store {
     const int64_t session_id = require_session(__func__, session_public_id).id;
     Query q = query(__func__,
                     "INSERT INTO session_logs(session_id, name, body) VALUES (?, ?, ?) "
-                    "ON CONFLICT (session_id, name) DO UPDATE SET body = excluded.body");
+                    "ON CONFLICT (session_id, name) DO UPDATE SET body = excluded.body "
+                    "WHERE session_logs.body IS NOT excluded.body");  // the same again (a second server settling it) is no write
     q.bind(session_id).bind(name).bind(text).run();
   }
 

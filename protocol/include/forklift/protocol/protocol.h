@@ -20,7 +20,13 @@ enum class QosKind {
   kLatestReliable,     // controls
   kLatestBestEffort,   // truck state, frames
   kDurableReliable,    // events, scores, session status
+  kHostStatus,         // a worker host's status: the latest, reliable, with a liveliness lease
+  kRequest,            // server -> host: reliable, to the hosts there are now (a host that starts later must not act on it)
+  kLatestDurable,      // host -> servers: the latest per instance, kept for a server that starts later
 };
+
+// A worker host whose status writer has not asserted its liveliness for this long is gone.
+constexpr double kHostLeaseS = 3.0;
 
 template <typename T> struct Topic;
 template <> struct Topic<fk_Controls> {
@@ -59,11 +65,30 @@ template <> struct Topic<fk_SessionStatus> {
   static const dds_topic_descriptor_t* descriptor() { return &fk_SessionStatus_desc; }
 };
 
+template <> struct Topic<fk_HostStatus> {
+  static constexpr const char* name = "fk_HostStatus";
+  static constexpr QosKind qos = QosKind::kHostStatus;
+  static const dds_topic_descriptor_t* descriptor() { return &fk_HostStatus_desc; }
+};
+template <> struct Topic<fk_WorkerRequest> {
+  static constexpr const char* name = "fk_WorkerRequest";
+  static constexpr QosKind qos = QosKind::kRequest;
+  static const dds_topic_descriptor_t* descriptor() { return &fk_WorkerRequest_desc; }
+};
+template <> struct Topic<fk_WorkerReport> {
+  static constexpr const char* name = "fk_WorkerReport";
+  static constexpr QosKind qos = QosKind::kLatestDurable;
+  static const dds_topic_descriptor_t* descriptor() { return &fk_WorkerReport_desc; }
+};
+
 // The partition that carries one cab's controls, state and frames.
 std::string cab_partition(const std::string& cab_id);
 // The partition in which the worker for a cab reports to the server: its events, score and
 // session status. Under DDS Security only the identity worker.<cab> may publish there.
 std::string worker_partition(const std::string& cab_id);
+// A worker host's partition: its status and reports, and the requests to it. Under DDS Security
+// only the identity host.<id> may publish its status and reports there, and only servers requests.
+std::string host_partition(const std::string& host_id);
 
 // A participant's GUID as 32 hex digits: the worker writes its own beside its session log, so
 // that the server takes a session's samples from that participant only.
@@ -192,6 +217,24 @@ class Reader {
   // stops the take, but the loan goes back.
   template <typename F>
   int take_each_with_info(F&& f) {
+    return take(f, true);
+  }
+  // Takes every sample, valid or not, and calls f(const T&, info): an invalid one (valid_data
+  // false) only says that its instance changed state (no writer left: info.instance_state), with
+  // its key fields set.
+  template <typename F>
+  int take_all_with_info(F&& f) {
+    return take(f, false);
+  }
+  int matched() const {
+    dds_subscription_matched_status_t s;
+    return dds_get_subscription_matched_status(reader_, &s) == DDS_RETCODE_OK ? int(s.current_count) : 0;
+  }
+  dds_entity_t handle() const { return reader_; }
+
+ private:
+  template <typename F>
+  int take(F& f, bool valid_only) {
     constexpr int kBatch = 16;
     int total = 0;
     while (true) {
@@ -204,18 +247,11 @@ class Reader {
         ~Loan() { dds_return_loan(r, s, n); }
       } loan{reader_, samples, n};
       for (int i = 0; i < n; ++i)
-        if (infos[i].valid_data) { f(*static_cast<const T*>(samples[i]), infos[i]); ++total; }
+        if (infos[i].valid_data || !valid_only) { f(*static_cast<const T*>(samples[i]), infos[i]); ++total; }
       if (n < kBatch) break;
     }
     return total;
   }
-  int matched() const {
-    dds_subscription_matched_status_t s;
-    return dds_get_subscription_matched_status(reader_, &s) == DDS_RETCODE_OK ? int(s.current_count) : 0;
-  }
-  dds_entity_t handle() const { return reader_; }
-
- private:
   dds_entity_t sub_, reader_;
 };
 

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "forklift/host/worker_launch.h"
+
 namespace httplib {
 class Server;
 }
@@ -47,7 +49,8 @@ struct ServerConfig {
   std::string identity = "server.main";
   int max_workers = 8;
   double hang_timeout_s = 5;
-  std::vector<std::string> worker_args;  // passed to every worker (its frames' rate, size, encoding)
+  std::optional<host::WorkerFrames> frames;  // every worker's frames' rate, size, encoding (nullopt: the worker's defaults)
+  bool local_workers = true;  // run workers here when no worker host (forklift-host) is about
 };
 
 struct Context;

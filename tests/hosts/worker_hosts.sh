@@ -1,0 +1,245 @@
+#!/usr/bin/env bash
+# Worker hosts and two servers (issue 20, items 2 and 4): five network namespaces joined by a
+# bridge stand for a school's machines. S runs PostgreSQL and server A, T server B on the same
+# database, H1 and H2 a forklift-host each, C the cabs; all speak DDS by protocol/config/lan.xml
+# (multicast discovery on their one interface) and nothing leaves the namespaces.
+#   1. Four sessions started through server A run on both hosts (two each); scripted cabs in C
+#      drive them; their events and marks reach the store exactly once (each event of the host's
+#      session log once, every mark once), though both servers ingest them.
+#   2. Killing H1's agent and workers fails its session with the reason; the next session goes
+#      to H2, the host left.
+#   3. Server A stops mid-session: the session goes on and server B settles it with its mark.
+#   4. With DDS Security (--secure): the same school with every identity; a cab with its own
+#      identity cannot drive another cab's worker, which never hears a control.
+# The namespaces' names and addresses come from the test's DDS domain (forklift-test-alloc), so
+# that parallel runs never meet; they are removed however the test ends.
+#
+#   BUILD/tests/forklift-test-alloc tests/hosts/worker_hosts.sh BUILD/bin data protocol/config scripts OUT [--secure]
+#
+# Exit 77 (ctest: skipped, never passed) where namespaces cannot be made (not root, no iproute2)
+# or PostgreSQL is not installed.
+set -uo pipefail
+bin=$(realpath "$1") data=$(realpath "$2") configs=$(realpath "$3") scripts=$(realpath "$4") out=$5 secure=${6:-}
+domain=${FORKLIFT_TEST_DOMAIN:?run it through forklift-test-alloc}
+port=${FORKLIFT_TEST_PORT:?run it through forklift-test-alloc}
+rm -rf "$out" && mkdir -p "$out" && out=$(realpath "$out")
+pgbin=${FORKLIFT_PG_BINDIR:-/usr/lib/postgresql/15/bin}
+
+S=fk${domain}s T=fk${domain}t A=fk${domain}a B=fk${domain}b C=fk${domain}c BR=fk${domain}br
+if [ "$(id -u)" -ne 0 ] || ! command -v ip >/dev/null || ! ip netns add "$S" 2>"$out/netns.err"; then
+  echo "worker_hosts: SKIPPED: this machine cannot make network namespaces ($(cat "$out/netns.err" 2>/dev/null))"
+  exit 77
+fi
+pids=()
+cleanup() {
+  for p in "${pids[@]}"; do kill "$p" 2>/dev/null; done
+  sleep 0.5
+  for ns in "$S" "$T" "$A" "$B" "$C"; do
+    ip netns pids "$ns" 2>/dev/null | xargs -r kill -9 2>/dev/null
+    ip netns del "$ns" 2>/dev/null
+  done
+  [ -n "${pgdir:-}" ] && rm -rf "$pgdir"
+}
+trap cleanup EXIT
+if [ ! -x "$pgbin/initdb" ] || ! id postgres >/dev/null 2>&1; then
+  echo "worker_hosts: SKIPPED: PostgreSQL is not installed (scripts/install-deps.sh installs it)"
+  exit 77
+fi
+
+# The network: a bridge in S, one veth pair from it to each other machine.
+net=10.78.$domain
+ip -n "$S" link add "$BR" type bridge
+ip -n "$S" link set "$BR" type bridge mcast_snooping 0
+ip -n "$S" addr add "$net.1/24" dev "$BR"
+ip -n "$S" link set lo up
+ip -n "$S" link set "$BR" up
+n=2
+for ns in "$T" "$A" "$B" "$C"; do
+  ip netns add "$ns"
+  ip link add "${ns}0" netns "$ns" type veth peer name "${ns}p" netns "$S"
+  ip -n "$S" link set "${ns}p" master "$BR" up
+  ip -n "$ns" addr add "$net.$n/24" dev "${ns}0"
+  ip -n "$ns" link set lo up
+  ip -n "$ns" link set "${ns}0" up
+  n=$((n + 1))
+done
+addr_S=$net.1 addr_T=$net.2
+
+failed=0
+fail() { echo "FAILED ($1): $2"; failed=1; }
+# Runs a program on machine NS, with that machine's DDS settings.
+on() {
+  local ns=$1; shift
+  local ifc="${ns}0"; [ "$ns" = "$S" ] && ifc=$BR
+  ip netns exec "$ns" env CYCLONEDDS_URI="file://$configs/lan.xml" FORKLIFT_DDS_INTERFACE="$ifc" FORKLIFT_DDS_DOMAIN="$domain" \
+    FORKLIFT_ADMIN_PASSWORD=hosts-admin-password ${FORKLIFT_SECURITY_DIR:+FORKLIFT_SECURITY_DIR=$FORKLIFT_SECURITY_DIR} "$@"
+}
+
+# PostgreSQL in S, on its address on the school's network (as its IT department runs it).
+pgdir=$(mktemp -d /tmp/forklift-hosts-pg.XXXXXX)
+chown postgres: "$pgdir"
+runuser -u postgres -- "$pgbin/initdb" -D "$pgdir/data" -U forklift -A trust -E UTF8 --locale=C.UTF-8 -N --no-instructions \
+  > "$out/initdb.log" 2>&1 || { fail postgresql "initdb: $(tail -3 "$out/initdb.log")"; exit 1; }
+echo "host all all $net.0/24 trust" >> "$pgdir/data/pg_hba.conf"
+ip netns exec "$S" runuser -u postgres -- "$pgbin/pg_ctl" -D "$pgdir/data" -l "$pgdir/server.log" -w -t 60 \
+  -o "-p 5432 -k $pgdir -c listen_addresses=$addr_S -c fsync=off" start > "$out/pg_ctl.log" 2>&1 ||
+  { fail postgresql "pg_ctl start: $(cat "$pgdir/server.log")"; exit 1; }
+psql_S() { ip netns exec "$S" psql -X -q -t -A -h "$addr_S" -p 5432 -U forklift "$@"; }
+psql_S -d postgres -c "CREATE DATABASE forklift" > /dev/null
+db="postgresql://forklift@$addr_S:5432/forklift"
+sql() { psql_S -d forklift -c "$1"; }
+
+# DDS Security: the school's folder with every identity (servers, hosts, cabs and their workers).
+if [ "$secure" = "--secure" ]; then
+  pki=$out/pki
+  "$scripts/forklift-pki.sh" init "$pki" --school "Hosts School" > /dev/null
+  for c in c1 c2 c3 c4; do "$scripts/forklift-pki.sh" add-cab "$pki" "$c" > /dev/null; done
+  for h in h1 h2; do "$scripts/forklift-pki.sh" issue "$pki" host "$h" > /dev/null; done
+  "$scripts/forklift-pki.sh" issue "$pki" server main > /dev/null
+  export FORKLIFT_SECURITY_DIR=$pki
+fi
+
+start_server() {  # NS ADDRESS NAME
+  on "$1" "$bin/forklift-server" --db "$db" --listen "$2:$port" --no-local-workers --log-dir "$out/$3" \
+    --frame-fps 0 2> "$out/$3.log" &
+  pids+=($!)
+  eval "server_$3=$!"
+  for _ in $(seq 300); do ip netns exec "$C" curl -sf "http://$2:$port/api/health" > /dev/null && return 0; sleep 0.1; done
+  fail "$3" "server $3 never answered: $(tail -5 "$out/$3.log")"
+  exit 1
+}
+start_host() {  # NS ID
+  on "$1" "$bin/forklift-host" --host-id "$2" --capacity 2 --start-timeout 30 --log-dir "$out/$2" 2> "$out/$2.log" &
+  pids+=($!)
+}
+menu() {  # on the cabs' machine, against server A
+  on "$C" "$bin/forklift-menu" --server "http://$addr_S:$port" --token-file "$out/token" "$@"
+}
+fleet() {  # SERVER_ADDRESS: the /api/fleet answer
+  ip netns exec "$C" curl -sf -H "Authorization: Bearer $(cat "$out/token")" "http://$1:$port/api/fleet"
+}
+host_of() {  # SESSION: the host /api/fleet says runs it
+  fleet "$addr_S" | python3 -c "import json,sys; print(next((w['host'] or 'here') for w in json.load(sys.stdin)['workers'] if w['session']=='$1'))" 2>/dev/null
+}
+wait_hosts() {  # N: until server A sees N live hosts
+  for _ in $(seq 150); do
+    [ "$(fleet "$addr_S" | python3 -c "import json,sys; print(sum(h['alive'] for h in json.load(sys.stdin)['hosts']))" 2>/dev/null)" = "$1" ] && return 0
+    sleep 0.2
+  done
+  fail hosts "server A never saw $1 live worker host(s): $(fleet "$addr_S")"
+  exit 1
+}
+session_state() { sql "SELECT state FROM sessions WHERE public_id = '$1'"; }
+wait_state() {  # SESSION STATES_REGEX SECONDS
+  for _ in $(seq $(($3 * 5))); do [[ "$(session_state "$1")" =~ ^($2)$ ]] && return 0; sleep 0.2; done
+  return 1
+}
+script=$data/evaluation/scripts/first_drive_yard_exam.csv
+start() {  # CAB TIME_LIMIT: starts a session, prints its id
+  menu start --pupil "$pupil" --cab "$1" --scenario first_drive_yard --time-limit "$2" | sed -n 's/^session \(s-[0-9]*\) started.*/\1/p'
+}
+cabs=()
+drive() {  # CAB [IDENTITY]: a scripted cab in C, in the background
+  on "$C" "$bin/forklift-cab" --cab "$1" --script "$script" --wait-worker 60 --no-window --no-sound ${2:+--identity $2} \
+    > "$out/cab-$1${2:+-as-$2}.log" 2>&1 &
+  cabs+=($!)
+}
+wait_cabs() { for p in "${cabs[@]}"; do wait "$p"; done; cabs=(); }
+
+start_host "$A" h1
+start_host "$B" h2
+start_server "$S" "$addr_S" A
+FORKLIFT_PASSWORD=hosts-admin-password menu login --user admin > /dev/null || { fail login "$(tail -3 "$out/A.log")"; exit 1; }
+pupil=$(menu pupil-add --name "Hosts Pupil" --email hosts@example.org | sed -E 's/^pupil ([0-9]+):.*/\1/')
+wait_hosts 2
+
+if [ "$secure" != "--secure" ]; then
+  # 1. Four sessions on two hosts of two places each; both servers ingest (B joins the domain).
+  start_server "$T" "$addr_T" B
+  sessions=()
+  for c in c1 c2 c3 c4; do
+    s=$(start "$c" 12)
+    [ -n "$s" ] || { fail placement "session on $c did not start: $(tail -3 "$out/A.log")"; continue; }
+    sessions+=("$s")
+    drive "$c"
+  done
+  declare -A on_host
+  for s in "${sessions[@]}"; do on_host[$s]=$(host_of "$s"); done
+  echo "placed: $(for s in "${sessions[@]}"; do printf '%s on %s; ' "$s" "${on_host[$s]}"; done)"
+  [ "$(printf '%s\n' "${on_host[@]}" | grep -c '^h1$')" -eq 2 ] && [ "$(printf '%s\n' "${on_host[@]}" | grep -c '^h2$')" -eq 2 ] ||
+    fail placement "four sessions were not two on each host: ${on_host[*]}"
+  wait_cabs
+  for s in "${sessions[@]}"; do
+    wait_state "$s" ended 30 || fail ingest "session $s is $(session_state "$s"), not ended"
+    for _ in $(seq 50); do [ "$(sql "SELECT count(*) FROM scores sc JOIN sessions s ON s.id = sc.session_id WHERE s.public_id = '$s'")" = 1 ] && break; sleep 0.2; done
+    h=${on_host[$s]}
+    logged=$(grep -c '^e ' "$out/$h/$s.ctl")
+    stored=$(sql "SELECT count(*) || ' ' || count(DISTINCT e.seq) || ' ' || coalesce(max(e.seq), 0) FROM events e JOIN sessions s ON s.id = e.session_id WHERE s.public_id = '$s'")
+    [ "$stored" = "$logged $logged $logged" ] || fail ingest "session $s: its log on $h has $logged events; the store has (count, distinct, last) $stored"
+    marks=$(sql "SELECT count(*) FROM scores sc JOIN sessions s ON s.id = sc.session_id WHERE s.public_id = '$s'")
+    [ "$marks" = 1 ] || fail ingest "session $s has $marks marks in the store"
+    logged_mark=$(sed -n 's/^score \([^ ]*\) .*/\1/p' "$out/$h/$s.ctl")
+    [ -n "$logged_mark" ] || fail ingest "session $s: its host's log has no score line"
+  done
+  [ "$failed" -eq 0 ] && echo "1: four sessions ran two on each host; every event and mark is in the store once"
+
+  # 2. A host dies mid-session: its session fails with the reason; the next goes to the other.
+  s1=$(start c1 40); drive c1
+  s2=$(start c2 40); drive c2
+  h1_session=$s1 h2_session=$s2
+  [ "$(host_of "$s1")" = h1 ] || { h1_session=$s2 h2_session=$s1; }
+  wait_state "$h1_session" running 30 || fail host_dies "session $h1_session never ran"
+  ip netns pids "$A" | xargs -r kill -9
+  wait_state "$h1_session" failed 15 || fail host_dies "session $h1_session on the dead host is $(session_state "$h1_session")"
+  reason=$(sql "SELECT reason FROM sessions WHERE public_id = '$h1_session'")
+  [[ "$reason" == *"worker host h1 stopped answering"* ]] || fail host_dies "session $h1_session failed for '$reason', not the dead host"
+  wait_hosts 1
+  s3=$(start c3 10); drive c3
+  [ "$(host_of "$s3")" = h2 ] || fail host_dies "the session after h1 died runs on '$(host_of "$s3")', not h2"
+  [ "$(session_state "$h2_session")" != failed ] || fail host_dies "session $h2_session on h2 failed too"
+  [ "$failed" -eq 0 ] && echo "2: h1 killed: its session failed ('worker host h1 stopped answering'), the next went to h2"
+  wait_cabs
+  start_host "$A" h1
+  wait_hosts 2
+
+  # 3. Server A stops mid-session; server B, on the same database and domain, settles it.
+  s4=$(start c4 15); drive c4
+  wait_state "$s4" running 30 || fail two_servers "session $s4 never ran"
+  kill -TERM "$server_A"; wait "$server_A"
+  wait_cabs
+  wait_state "$s4" ended 30 || fail two_servers "session $s4 is $(session_state "$s4") after server A stopped"
+  for _ in $(seq 50); do [ "$(sql "SELECT count(*) FROM scores sc JOIN sessions s ON s.id = sc.session_id WHERE s.public_id = '$s4'")" = 1 ] && break; sleep 0.2; done
+  [ "$(sql "SELECT count(*) FROM scores sc JOIN sessions s ON s.id = sc.session_id WHERE s.public_id = '$s4'")" = 1 ] ||
+    fail two_servers "session $s4 has no mark after server A stopped"
+  grep -q "adopted session $s4" "$out/B.log" || fail two_servers "server B never adopted $s4"
+  [ "$failed" -eq 0 ] && echo "3: server A stopped mid-session; server B adopted $s4 and stored its end and mark"
+else
+  # 4. DDS Security: cab c1's identity drives c1; with it, cab c2's worker hears nothing.
+  s1=$(start c1 12); drive c1
+  s2=$(start c2 12)
+  drive c2 cab.c1  # c1's identity claiming to be cab c2
+  wait_cabs
+  wait_state "$s1" ended 30 || fail security "session $s1 (its own cab) is $(session_state "$s1")"
+  h=$(ls "$out"/h1/"$s2".ctl "$out"/h2/"$s2".ctl 2>/dev/null | head -1)
+  accepted=$(sed -n 's/^controls accepted=\([0-9]*\).*/\1/p' "$h")
+  [ "${accepted:-0}" = 0 ] || fail security "cab c2's worker applied $accepted controls sent under cab c1's identity"
+  wait_state "$s2" "ended|failed" 60 || fail security "session $s2 is $(session_state "$s2")"
+  # An exam on a host: its signed log comes back with the host's report and is chained.
+  exam=$(menu start --pupil "$pupil" --cab c3 --scenario counterbalance_exam --mode exam --time-limit 10 |
+         sed -n 's/^session \(s-[0-9]*\) started.*/\1/p')
+  [ -n "$exam" ] || fail security "the exam did not start: $(tail -3 "$out/A.log")"
+  script=$data/evaluation/scripts/counterbalance_exam_clean.csv drive c3
+  wait_cabs
+  wait_state "$exam" "ended" 30 || fail security "exam $exam is $(session_state "$exam")"
+  for _ in $(seq 80); do
+    rc=0
+    menu verify "$exam" > "$out/verify.txt" 2>&1 || rc=$?
+    [ "$rc" -ne 2 ] && [ "$rc" -ne 4 ] && break
+    sleep 0.25
+  done
+  [ "$rc" -eq 0 ] || fail security "exam $exam on host $(grep -l "$exam" "$out"/h*.log | head -1) does not verify (exit $rc): $(cat "$out/verify.txt")"
+  [ "$failed" -eq 0 ] && echo "4: with DDS Security cab c1 drove its own worker; under its identity, cab c2's worker heard no control; an exam on a host verifies"
+fi
+
+[ "$failed" -eq 0 ] && echo "worker_hosts${secure:+ $secure}: passed"
+exit "$failed"
