@@ -312,6 +312,7 @@ ChainOutcome chain_exam(store::Store& db, const std::string& session, ChainAncho
     return {ChainResult::kRefused, "its record disagrees with the worker's signed log or the audit log: " +
                                        problems_text(problems)};
 
+  const auto held = anchor.hold_chain();
   const auto last = db.last_chain_entry();
   const int64_t seq = last ? last->seq + 1 : 1;
   const std::string prev = last ? json::parse(last->entry).at("entry_hash").get<std::string>() : std::string(64, '0');
@@ -367,6 +368,7 @@ std::string check_chain_at_start(store::Store& db, ChainAnchor& anchor, const Ch
 json exam_evidence(store::Store& db, const store::Session& s, const ChainAnchor& anchor) {
   if (s.mode != "exam")
     throw store::StoreError(store::StoreError::kNotFound, "session " + s.public_id + " is not a practical exam: it has no exam evidence");
+  const auto held = anchor.hold_chain();  // the chain and its anchor as of one moment
   json chain = json::array();
   for (const auto& e : db.list_chain()) chain.push_back(parsed(e.entry));
   std::optional<json> chained;
@@ -393,6 +395,7 @@ json exam_evidence(store::Store& db, const store::Session& s, const ChainAnchor&
 ExamStanding exam_standing(store::Store& db, const store::Session& s, const ChainAnchor& anchor, const ChainKeys& keys) {
   if (s.mode != "exam") return {false, "it is not a practical exam"};
   if (keys.ca_pem.empty()) return {false, "this server has no school CA (--security) to check exam evidence with"};
+  const auto held = anchor.hold_chain();
   const auto mine = db.get_chain_entry(s.public_id);
   if (!mine) {
     const auto refused = db.get_session_log(s.public_id, "chain_refused");

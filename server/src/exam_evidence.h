@@ -36,8 +36,12 @@ class ChainAnchor {
   // Appends `entry`'s anchor line, which must follow the head, and flushes it to disk before it
   // returns. Throws std::runtime_error on an I/O error or an entry out of order.
   void append(const nlohmann::json& entry);
+  // Held while an entry goes into the database and then the anchor, and while both are read for
+  // evidence: a reader between the two writes would see an anchor ahead of the database's chain.
+  std::unique_lock<std::mutex> hold_chain() const { return std::unique_lock<std::mutex>(chain_mu_); }
 
  private:
+  mutable std::mutex chain_mu_;
   const std::string path_;
   mutable std::mutex mu_;
   std::vector<nlohmann::json> lines_;  // lines_[i] is entry i + 1's
