@@ -25,6 +25,8 @@ packages=(
   libyaml-cpp-dev
   # secured exams: the school's certificate authority, exam-log signatures, the loopback capture test
   openssl libssl-dev tcpdump
+  # several machines on one (label hosts): network namespaces, veth pairs and a bridge
+  iproute2
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # forklift-bench-dynamics compares the model with MuJoCo on a comparable truck (optional at build time)
