@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# Issue 20's figures for several machines, measured on one: forklift-bench-dds run twice in the
+# same sitting, once with the worker beside the cab over loopback, once with the worker in another
+# network namespace (a simulation PC) reached over a veth pair with protocol/config/lan.xml, as a
+# cab station reaches its school's simulation PC. The worker is started through a wrapper that
+# runs it in the other namespace, so the bench measures the same thing both times: control to
+# applied state round trip (p50, p99), the frames delivered, and a framed fleet.
+#
+#   build/tests/forklift-test-alloc bench/hosts.sh [--samples N] [--framed N]    (as root; needs iproute2)
+#
+# Both "machines" share this box's cores: the figures compare the network paths, not capacity.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+samples=1000 framed=4
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --samples) samples=$2; shift 2 ;;
+    --framed) framed=$2; shift 2 ;;
+    -h|--help) sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "hosts.sh: unknown option '$1' (--samples N, --framed N)" >&2; exit 2 ;;
+  esac
+done
+domain=${FORKLIFT_TEST_DOMAIN:?run it through build/tests/forklift-test-alloc}
+bin=$PWD/build/bin configs=$PWD/protocol/config
+[ -x "$bin/forklift-bench-dds" ] || { echo "hosts.sh: build first (scripts/build.sh)" >&2; exit 2; }
+W=fk${domain}bw C=fk${domain}bc
+work=$(mktemp -d "${TMPDIR:-/tmp}/forklift-hosts-bench.XXXXXX")
+cleanup() {
+  for ns in "$W" "$C"; do ip netns pids "$ns" 2>/dev/null | xargs -r kill -9 2>/dev/null; ip netns del "$ns" 2>/dev/null; done
+  rm -rf "$work"
+}
+trap cleanup EXIT
+ip netns add "$W" 2>/dev/null && ip netns add "$C" || { echo "hosts.sh: cannot make network namespaces (root and iproute2 needed)" >&2; exit 2; }
+net=10.79.$domain
+ip link add "${W}0" netns "$W" type veth peer name "${C}0" netns "$C"
+ip -n "$W" addr add "$net.1/24" dev "${W}0"
+ip -n "$C" addr add "$net.2/24" dev "${C}0"
+for ns in "$W" "$C"; do ip -n "$ns" link set lo up; done
+ip -n "$W" link set "${W}0" up
+ip -n "$C" link set "${C}0" up
+
+# The worker "on the simulation PC": the bench's --bin-dir holds this wrapper.
+mkdir -p "$work/remote-bin"
+cat > "$work/remote-bin/forklift-worker" <<EOF
+#!/bin/sh
+exec ip netns exec $W env CYCLONEDDS_URI=file://$configs/lan.xml FORKLIFT_DDS_INTERFACE=${W}0 $bin/forklift-worker "\$@"
+EOF
+chmod +x "$work/remote-bin/forklift-worker"
+
+run() {  # NAME BENCH_ENV BIN_DIR: the bench in C
+  ip netns exec "$C" env $2 "$bin/forklift-bench-dds" --samples "$samples" --fleet 1 --frame-sizes 640x480 \
+    --framed-fleet "$framed" --seconds 5 --dds-domain "$domain" --dir "$work/$1" --bin-dir "$3" > "$work/$1.out" 2> "$work/$1.err"
+  grep -P '^FIGURE\t' "$work/$1.out" | cut -f2,4 > "$work/$1.figures"
+}
+echo "hosts.sh: loopback (worker beside the cab)" >&2
+run loopback "FORKLIFT_UNUSED=1" "$bin"
+echo "hosts.sh: across namespaces (worker on the simulation PC, lan.xml over a veth pair)" >&2
+run across "CYCLONEDDS_URI=file://$configs/lan.xml FORKLIFT_DDS_INTERFACE=${C}0" "$work/remote-bin"
+
+echo "Measured by \`bench/hosts.sh --samples $samples --framed $framed\` on $(nproc) cores, load average $(cut -d' ' -f1-3 /proc/loadavg), $(date -u +%Y-%m-%d)."
+echo
+echo "| figure | loopback | across namespaces (lan.xml) |"
+echo "|---|---|---|"
+join -t $'\t' -a 1 -e '-' -o 0,1.2,2.2 <(sort "$work/loopback.figures") <(sort "$work/across.figures") |
+  awk -F'\t' '{printf "| %s | %s | %s |\n", $1, $2, $3}'
+grep -q . "$work/across.figures" || { echo "hosts.sh: the run across namespaces printed no figures:" >&2; tail -5 "$work/across.err" >&2; exit 1; }
