@@ -638,6 +638,8 @@ Fleet::Verdict Fleet::check_sender(const std::string& session, dds_entity_t read
       // A hosted worker's participant comes in its host's report, which may follow its first samples.
       if (w != workers_.end() && !w->second.host.empty()) return Verdict::kNotYet;
       it->second.participant = logged_participant(log_path(session));
+      // No log here: a hosted worker that a restart has not heard its host on yet (adopt()).
+      if (it->second.participant.empty() && !std::ifstream(log_path(session))) return Verdict::kNotYet;
     }
     b = it->second;
   }
@@ -732,12 +734,12 @@ void Fleet::on_report(store::Store& db, const fk_WorkerReport& r) {
       follow(w->second);
       return;
     }
-    if (unsettled_.count(session)) {
-      // Being settled, unless it is one a restart left waiting for its host's word.
-      const auto f = std::find_if(finishing_.begin(), finishing_.end(), [&](const Finishing& x) { return x.worker.session == session; });
-      if (f == finishing_.end() || !f->worker.host.empty() || f->worker.child || f->worker.pid != 0) return;
-      finishing_.erase(f);
-    }
+    // One a restart left waiting for its host's word (adopt()) is adopted now; any other being
+    // settled stays so.
+    const auto f = std::find_if(finishing_.begin(), finishing_.end(), [&](const Finishing& x) { return x.worker.session == session; });
+    const bool waiting = f != finishing_.end() && f->worker.host.empty() && !f->worker.child && f->worker.pid == 0;
+    if (waiting) finishing_.erase(f);
+    else if (f != finishing_.end() || unsettled_.count(session)) return;
   }
   // A session this server did not start: adopted if it is open for that cab (another server's,
   // or this one's before a restart); its worker stopped if the session is over or unknown.

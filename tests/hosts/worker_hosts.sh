@@ -67,13 +67,15 @@ addr_S=$net.1 addr_T=$net.2
 
 failed=0
 fail() { echo "FAILED ($1): $2"; failed=1; }
-# Runs a program on machine NS, with that machine's DDS settings.
-on() {
+# Runs a program on machine NS, with that machine's DDS settings; `spawn NS ... &` makes the
+# background job the program itself, so that $! is its pid.
+spawn() {
   local ns=$1; shift
   local ifc="${ns}0"; [ "$ns" = "$S" ] && ifc=$BR
-  ip netns exec "$ns" env CYCLONEDDS_URI="file://$configs/lan.xml" FORKLIFT_DDS_INTERFACE="$ifc" FORKLIFT_DDS_DOMAIN="$domain" \
+  exec ip netns exec "$ns" env CYCLONEDDS_URI="file://$configs/lan.xml" FORKLIFT_DDS_INTERFACE="$ifc" FORKLIFT_DDS_DOMAIN="$domain" \
     FORKLIFT_ADMIN_PASSWORD=hosts-admin-password ${FORKLIFT_SECURITY_DIR:+FORKLIFT_SECURITY_DIR=$FORKLIFT_SECURITY_DIR} "$@"
 }
+on() { (spawn "$@"); }
 
 # PostgreSQL in S, on its address on the school's network (as its IT department runs it).
 pgdir=$(mktemp -d /tmp/forklift-hosts-pg.XXXXXX)
@@ -100,7 +102,7 @@ if [ "$secure" = "--secure" ]; then
 fi
 
 start_server() {  # NS ADDRESS NAME
-  on "$1" "$bin/forklift-server" --db "$db" --listen "$2:$port" --no-local-workers --log-dir "$out/$3" \
+  spawn "$1" "$bin/forklift-server" --db "$db" --listen "$2:$port" --no-local-workers --log-dir "$out/$3" \
     --frame-fps 0 2> "$out/$3.log" &
   pids+=($!)
   eval "server_$3=$!"
@@ -109,7 +111,7 @@ start_server() {  # NS ADDRESS NAME
   exit 1
 }
 start_host() {  # NS ID
-  on "$1" "$bin/forklift-host" --host-id "$2" --capacity 2 --start-timeout 30 --log-dir "$out/$2" 2> "$out/$2.log" &
+  spawn "$1" "$bin/forklift-host" --host-id "$2" --capacity 2 --start-timeout 30 --log-dir "$out/$2" 2> "$out/$2.log" &
   pids+=($!)
 }
 menu() {  # on the cabs' machine, against server A
@@ -140,7 +142,7 @@ start() {  # CAB TIME_LIMIT: starts a session, prints its id
 }
 cabs=()
 drive() {  # CAB [IDENTITY]: a scripted cab in C, in the background
-  on "$C" "$bin/forklift-cab" --cab "$1" --script "$script" --wait-worker 60 --no-window --no-sound ${2:+--identity $2} \
+  spawn "$C" "$bin/forklift-cab" --cab "$1" --script "$script" --wait-worker 60 --no-window --no-sound ${2:+--identity $2} \
     > "$out/cab-$1${2:+-as-$2}.log" 2>&1 &
   cabs+=($!)
 }
@@ -206,13 +208,17 @@ if [ "$secure" != "--secure" ]; then
   s4=$(start c4 15); drive c4
   wait_state "$s4" running 30 || fail two_servers "session $s4 never ran"
   kill -TERM "$server_A"; wait "$server_A"
+  # ... and starts again while the session runs: it adopts it from its host's report.
+  start_server "$S" "$addr_S" A2
   wait_cabs
   wait_state "$s4" ended 30 || fail two_servers "session $s4 is $(session_state "$s4") after server A stopped"
   for _ in $(seq 50); do [ "$(sql "SELECT count(*) FROM scores sc JOIN sessions s ON s.id = sc.session_id WHERE s.public_id = '$s4'")" = 1 ] && break; sleep 0.2; done
   [ "$(sql "SELECT count(*) FROM scores sc JOIN sessions s ON s.id = sc.session_id WHERE s.public_id = '$s4'")" = 1 ] ||
     fail two_servers "session $s4 has no mark after server A stopped"
   grep -q "adopted session $s4" "$out/B.log" || fail two_servers "server B never adopted $s4"
-  [ "$failed" -eq 0 ] && echo "3: server A stopped mid-session; server B adopted $s4 and stored its end and mark"
+  grep -q "adopted session $s4" "$out/A2.log" || fail two_servers "server A, started again, never adopted $s4: $(grep -v 'GET\|POST' "$out/A2.log" | tail -3)"
+  ! grep -q "refused" "$out/A2.log" "$out/B.log" || fail two_servers "samples were refused: $(grep -h refused "$out/A2.log" "$out/B.log" | head -3)"
+  [ "$failed" -eq 0 ] && echo "3: server A stopped mid-session; server B adopted $s4 and stored its end and mark; A, started again, adopted it too"
 else
   # 4. DDS Security: cab c1's identity drives c1; with it, cab c2's worker hears nothing.
   s1=$(start c1 12); drive c1
