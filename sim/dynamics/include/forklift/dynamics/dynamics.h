@@ -35,6 +35,7 @@ class Ground {
   explicit Ground(std::vector<Ramp> ramps);
   double height(double x, double y) const;
   Eigen::Vector2d gradient(double x, double y) const;  // (dh/dx, dh/dy)
+  bool flat() const { return ramps_.empty(); }         // z = 0 everywhere
 
  private:
   std::vector<Ramp> ramps_;
