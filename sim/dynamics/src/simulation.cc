@@ -344,16 +344,40 @@ struct Simulation::Impl {
     DenseJacobian& jac = dense(J);
     jac.setZero();
     StateVector x = y, d;
+    const auto step = [&](int j) { return 1.5e-8 * std::max(std::abs(y[j]), self->scale[j]); };
+    const auto accel = [](int j) { return j >= StateIndex::kDriven && j < StateIndex::kTorque && (j - StateIndex::kDriven) % 3 == 2; };
+    // The driven accelerations z'': q-dot's rows from the model (q'' is linear in z''), each
+    // filter's rows from one evaluation with every z'' stepped (a filter answers its own alone,
+    // nothing else reads z''): two evaluations where four differences took four.
+    {
+      Eigen::Matrix<double, kNumDynamic, kNumDriven> coupling;
+      if (!self->dynamics.driven_coupling(y, coupling)) return 1;
+      std::array<double, kNumDriven> hz;
+      for (int k = 0; k < kNumDriven; ++k) {
+        const int j = StateIndex::kDriven + 3 * k + 2;
+        x[j] = y[j] + step(j);
+        hz[k] = x[j] - y[j];
+      }
+      const bool ok = self->dynamics.derivative(x, u, d);
+      x = y;
+      ++self->jac_rhs_evals;
+      if (!ok) return 1;
+      for (int k = 0; k < kNumDriven; ++k) {
+        const int j = StateIndex::kDriven + 3 * k + 2, f = StateIndex::kDriven + 3 * k;
+        jac.block<kNumDynamic, 1>(StateIndex::kQdot, j) = coupling.col(k);
+        jac.block<3, 1>(f, j) = (d - fy).segment<3>(f) / hz[k];
+      }
+    }
     for (int j = 0; j < StateIndex::kSize; ++j) {
       auto col = jac.col(j);
       const bool rate = j >= StateIndex::kQdot && j < StateIndex::kQdot + kNumDynamic;
       if (rate) col[j - StateIndex::kQdot] = 1;
+      if (accel(j)) continue;
       if (!bristle && j >= StateIndex::kTyre && j < StateIndex::kTyre + 2 * kNumWheels) continue;
       if (j >= StateIndex::kQ + kAvr1 && j <= StateIndex::kQ + kAvr3) continue;  // a wheel is round: its angle is no force
       if (!stick && j >= StateIndex::kBrakeStick) continue;
       if (level && (j == StateIndex::kQ + kX || j == StateIndex::kQ + kY)) continue;
-      const double h = 1.5e-8 * std::max(std::abs(y[j]), self->scale[j]);
-      x[j] = y[j] + h;
+      x[j] = y[j] + step(j);
       const double hj = x[j] - y[j];  // the step as represented
       const bool ok = self->dynamics.derivative(x, u, d);
       x[j] = y[j];

@@ -156,6 +156,11 @@ class TruckDynamics {
   void mass_matrix_and_forces(const StateVector& x, Eigen::Matrix<double, kNumCoords, kNumCoords>& M,
                               CoordVector& Q, Outputs* out = nullptr) const;
 
+  // How the dynamic coordinates' accelerations answer the driven ones' in eq (13):
+  // d q''/d z'' = -M_ii^-1 M_id, exact because q'' is linear in z'' (no forces are evaluated).
+  // False if x is not finite or M_ii not positive definite.
+  bool driven_coupling(const StateVector& x, Eigen::Matrix<double, kNumDynamic, kNumDriven>& dqdd_dzdd) const;
+
   // Kinetic + gravitational + ground-spring energy (J): conserved when there is no friction,
   // damping or torque and the driven coordinates are still.
   // Without the ground springs: kinetic + gravitational only, whose rate is Outputs::applied_power_W.
