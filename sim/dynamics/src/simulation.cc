@@ -348,7 +348,8 @@ struct Simulation::Impl {
     const auto accel = [](int j) { return j >= StateIndex::kDriven && j < StateIndex::kTorque && (j - StateIndex::kDriven) % 3 == 2; };
     // The driven accelerations z'': q-dot's rows from the model (q'' is linear in z''), each
     // filter's rows from one evaluation with every z'' stepped (a filter answers its own alone,
-    // nothing else reads z''): two evaluations where four differences took four.
+    // nothing else reads z''): one evaluation and one of the mass matrix alone, where
+    // differences took four evaluations.
     {
       Eigen::Matrix<double, kNumDynamic, kNumDriven> coupling;
       if (!self->dynamics.driven_coupling(y, coupling)) return 1;
