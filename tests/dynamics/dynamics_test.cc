@@ -91,6 +91,36 @@ TEST(MassMatrix, SymmetricPositiveDefiniteAtRandomStates) {
   }
 }
 
+// The integrator's Jacobian takes q-dot's answer to the driven accelerations from
+// driven_coupling instead of differences: it must be what derivative() does with z''.
+TEST(MassMatrix, DrivenCouplingIsTheDerivativesAnswerToTheDrivenAccelerations) {
+  TruckDynamics d(shipped_truck());
+  d.attach_load(box_load(1200, 1, 1, 1, 0.5, -0.3));
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1, 1);
+  StateVector x = settled(d, 1.2);
+  for (int k = 0; k < kNumDynamic; ++k) x[StateIndex::kQdot + k] += 0.5 * u(rng);
+  for (int k = 0; k < kNumDriven; ++k) {
+    x[StateIndex::kDriven + 3 * k + 1] = 0.05 * u(rng);
+    x[StateIndex::kDriven + 3 * k + 2] = 0.2 * u(rng);
+  }
+  const DriverInputs in{};
+  StateVector dx;
+  ASSERT_TRUE(d.derivative(x, in, dx));
+  Eigen::Matrix<double, kNumDynamic, kNumDriven> coupling;
+  ASSERT_TRUE(d.driven_coupling(x, coupling));
+  for (int k = 0; k < kNumDriven; ++k) {
+    StateVector xs = x, dxs;
+    xs[StateIndex::kDriven + 3 * k + 2] += 1.0;  // q'' is linear in z'': a unit step is exact
+    ASSERT_TRUE(d.derivative(xs, in, dxs));
+    const Eigen::Matrix<double, kNumDynamic, 1> diff = (dxs - dx).segment<kNumDynamic>(StateIndex::kQdot);
+    EXPECT_LT((diff - coupling.col(k)).norm(), 1e-9 * (1 + coupling.col(k).norm())) << "driven " << k;
+    EXPECT_GT(coupling.col(k).norm(), 0) << "driven " << k;  // every driven coordinate moves the truck
+  }
+  x[kZ] = NAN;
+  EXPECT_FALSE(d.driven_coupling(x, coupling));
+}
+
 namespace {
 // Energy after `seconds` of free motion from a bouncing, rolling, yawing start.
 std::pair<double, double> energy_drift(double damping, double seconds) {

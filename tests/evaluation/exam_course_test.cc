@@ -140,7 +140,7 @@ TEST(ExamCourse, ACleanDrivePassesWithNoEvent) {
   const std::string script = write_script(s, "counterbalance_exam_clean.csv",
                                           "counterbalance_exam, exam: a clean drive that completes the course",
                                           "tests/evaluation/exam_course_test.cc");
-  const json out = evaluate({"--scenario", kCourse, "--script", script, "--mode", "exam"}, "clean");
+  const json out = evaluate({"--scenario", kCourse, "--script", script, "--mode", "exam"}, "course_clean");
   EXPECT_TRUE(out["events"].empty()) << out["events"].dump(2);
   EXPECT_EQ(out["score"]["passed"], true);
   EXPECT_EQ(out["score"]["task_completed"], true);
@@ -149,7 +149,7 @@ TEST(ExamCourse, ACleanDrivePassesWithNoEvent) {
 TEST(ExamCourse, TheShippedCleanScriptPasses) {
   const json out = evaluate({"--scenario", kCourse, "--script", data("evaluation/scripts/counterbalance_exam_clean.csv"),
                              "--mode", "exam"},
-                            "shipped");
+                            "course_shipped");
   EXPECT_TRUE(out["events"].empty()) << out["events"].dump(2)
                                      << "\nIf the truck model changed, regenerate the script (see this file's head).";
   EXPECT_EQ(out["score"]["passed"], true);

@@ -94,9 +94,15 @@ void forward_kinematics(const Tree& tree, const CoordVector& q, const CoordVecto
     const FrameState& P = jt.parent < 0 ? world : k.f[jt.parent];
     FrameState& C = k.f[j];
     const double qj = q[jt.coord], qdj = qd[jt.coord];
-    C.u = P.R * jt.axis;
     if (jt.type == JointType::kRevolute) {
-      C.R = P.R * Eigen::AngleAxisd(qj, jt.axis).toRotationMatrix();
+      // Every axis is the parent's X, Y or Z (build_tree): the child turns the other two columns of R by qj
+      // (a general angle-axis matrix and a 3x3 product cost ten times as much).
+      const int a = jt.axis.x() != 0 ? 0 : jt.axis.y() != 0 ? 1 : 2, a1 = (a + 1) % 3, a2 = (a + 2) % 3;
+      const double s = std::sin(qj), c = std::cos(qj);
+      C.u = P.R.col(a);
+      C.R.col(a) = P.R.col(a);
+      C.R.col(a1) = c * P.R.col(a1) + s * P.R.col(a2);
+      C.R.col(a2) = c * P.R.col(a2) - s * P.R.col(a1);
       C.p = P.p + P.R * jt.offset;
       const Vector3d r = C.p - P.p;
       C.w = P.w + C.u * qdj;
@@ -104,6 +110,7 @@ void forward_kinematics(const Tree& tree, const CoordVector& q, const CoordVecto
       C.alpha0 = P.alpha0 + P.w.cross(C.u * qdj);
       C.a0 = P.a0 + P.alpha0.cross(r) + P.w.cross(P.w.cross(r));
     } else {
+      C.u = P.R * jt.axis;
       C.R = P.R;
       C.p = P.p + P.R * (jt.offset + jt.axis * qj);
       const Vector3d r = C.p - P.p;
@@ -311,8 +318,9 @@ void TruckDynamics::release_load() { load_.reset(); }
 
 namespace {
 
+// With `mass_only`, e.M alone (and the kinematics): the rest of e is left unset.
 void evaluate(const TruckParams& t, const Environment& env, const std::optional<Load>& load,
-              const StateVector& x, Evaluation& e, Outputs* out) {
+              const StateVector& x, Evaluation& e, Outputs* out, bool mass_only = false) {
   const Tree tree = build_tree(t);  // 13 joints on the stack: cheaper than any cache
   const CoordVector q = coords(x), qd = rates(x);
   forward_kinematics(tree, q, qd, e.kin);
@@ -374,11 +382,12 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
       e.M(ji.coord, jt.coord) = e.M(jt.coord, ji.coord) = mij;
     }
   }
-  generalised_forces(tree, e.kin, o, inertial, e.Q);
   // Motor rotors and gears spin with the front wheels relative to the chassis (section 6's two
   // motors): their inertia, reflected through the gear ratio, sits on the wheels' own coordinates.
   e.M(kAvr1, kAvr1) += t.drive.drivetrain_inertia_kg_m2;
   e.M(kAvr2, kAvr2) += t.drive.drivetrain_inertia_kg_m2;
+  if (mass_only) return;
+  generalised_forces(tree, e.kin, o, inertial, e.Q);
 
   // Ground-to-wheel forces, section 7, each applied at its contact point to the wheel.
   const ContactParams& cp = t.contact;
@@ -531,6 +540,55 @@ double limited_rate(double rate, double rate_max, double z, double lo, double hi
   return rate;
 }
 
+// Eigen's allFinite() on a state, in one vectorised sum: x - x is 0 for a finite entry and NaN
+// otherwise (its unrolled compare-and-reduce cost 2% of an evaluation, twice per call).
+bool all_finite(const StateVector& x) { return (x - x).sum() == 0; }
+
+// M = L L^T for the 9 dynamic coordinates (M symmetric positive definite, its lower triangle
+// read), unrolled: Eigen's LLT took a fifth of an evaluation in its blocked and triangular-solve
+// kernels at this size.
+class Cholesky9 {
+ public:
+  static constexpr int n = kNumDynamic;
+  using Vector = Eigen::Matrix<double, n, 1>;
+
+  // False if M is not positive definite.
+  template <typename Lower>
+  bool factorise(const Lower& M) {
+    for (int j = 0; j < n; ++j) {
+      double d = M(j, j);
+      for (int k = 0; k < j; ++k) d -= L_[j][k] * L_[j][k];
+      if (!(d > 0)) return false;
+      const double inv = 1.0 / std::sqrt(d);
+      inv_diag_[j] = inv;
+      for (int i = j + 1; i < n; ++i) {
+        double v = M(i, j);
+        for (int k = 0; k < j; ++k) v -= L_[i][k] * L_[j][k];
+        L_[i][j] = v * inv;
+      }
+    }
+    return true;
+  }
+
+  // M x = b, in place.
+  void solve(Vector& b) const {
+    for (int i = 0; i < n; ++i) {  // L y = b
+      double v = b[i];
+      for (int k = 0; k < i; ++k) v -= L_[i][k] * b[k];
+      b[i] = v * inv_diag_[i];
+    }
+    for (int i = n - 1; i >= 0; --i) {  // L^T x = y
+      double v = b[i];
+      for (int k = i + 1; k < n; ++k) v -= L_[k][i] * b[k];
+      b[i] = v * inv_diag_[i];
+    }
+  }
+
+ private:
+  double L_[n][n];
+  double inv_diag_[n];
+};
+
 }  // namespace
 
 void TruckDynamics::mass_matrix_and_forces(const StateVector& x, MassMatrix& M, CoordVector& Q,
@@ -543,7 +601,7 @@ void TruckDynamics::mass_matrix_and_forces(const StateVector& x, MassMatrix& M, 
 
 bool TruckDynamics::derivative(const StateVector& x, const DriverInputs& u, StateVector& dx,
                                Outputs* out) const {
-  if (!x.allFinite()) return false;
+  if (!all_finite(x)) return false;
   Evaluation e;
   evaluate(truck_, env_, load_, x, e, out);
 
@@ -584,9 +642,10 @@ bool TruckDynamics::derivative(const StateVector& x, const DriverInputs& u, Stat
   // Eq (13): M_ii q_i'' = Q_i - M_id z''.
   const auto Mii = e.M.topLeftCorner<kNumDynamic, kNumDynamic>();
   const auto Mid = e.M.topRightCorner<kNumDynamic, kNumDriven>();
-  Eigen::LLT<Eigen::Matrix<double, kNumDynamic, kNumDynamic>> llt(Mii);
-  if (llt.info() != Eigen::Success) return false;
-  const Eigen::Matrix<double, kNumDynamic, 1> qdd = llt.solve(e.Q.head<kNumDynamic>() - Mid * zdd);
+  Eigen::Matrix<double, kNumDynamic, 1> qdd = e.Q.head<kNumDynamic>() - Mid * zdd;
+  Cholesky9 chol;
+  if (!chol.factorise(Mii)) return false;
+  chol.solve(qdd);
 
   dx.segment<kNumDynamic>(StateIndex::kQ) = x.segment<kNumDynamic>(StateIndex::kQdot);
   dx.segment<kNumDynamic>(StateIndex::kQdot) = qdd;
@@ -610,7 +669,22 @@ bool TruckDynamics::derivative(const StateVector& x, const DriverInputs& u, Stat
                         e.M.bottomRightCorner<kNumDriven, kNumDriven>() * zdd - e.Q.tail<kNumDriven>();
     out->applied_power_W += out->driven_force.dot(out->qdot.tail<kNumDriven>());
   }
-  return dx.allFinite();
+  return all_finite(dx);
+}
+
+bool TruckDynamics::driven_coupling(const StateVector& x,
+                                    Eigen::Matrix<double, kNumDynamic, kNumDriven>& dqdd_dzdd) const {
+  if (!all_finite(x)) return false;
+  Evaluation e;
+  evaluate(truck_, env_, load_, x, e, nullptr, /*mass_only=*/true);
+  Cholesky9 chol;
+  if (!chol.factorise(e.M.topLeftCorner<kNumDynamic, kNumDynamic>())) return false;
+  for (int d = 0; d < kNumDriven; ++d) {
+    Cholesky9::Vector c = -e.M.block<kNumDynamic, 1>(0, kNumDynamic + d);
+    chol.solve(c);
+    dqdd_dzdd.col(d) = c;
+  }
+  return dqdd_dzdd.allFinite();
 }
 
 double TruckDynamics::energy(const StateVector& x, bool with_ground_springs) const {

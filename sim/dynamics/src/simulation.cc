@@ -6,7 +6,10 @@
 #include <nvector/nvector_serial.h>
 
 #include <Eigen/LU>
+#include <array>
 #include <cmath>
+
+#include "fixed_size_vector.h"
 
 namespace forklift {
 
@@ -47,18 +50,20 @@ StateVector tolerance_scale() {
 
 // The Newton matrix A = I - gamma J of CVODE has the model's structure (issue 19, item 3):
 // - q' = q-dot exactly, so the q rows of A are [I, -gamma I, 0];
-// - each driven coordinate's filter depends on the filters alone, the drive and brake lags on
-//   themselves alone;
-// - q-dot, the tyre bristles and the brake bristles (17 states) depend on everything.
-// So the filters (12) and lags (2) are solved on their own, q is eliminated (dq = b_q + gamma
-// dv), and only a 17x17 system is factorised, where SUNDIALS' dense solver factorised all 40.
+// - each driven coordinate's filter depends on its own three states alone, the drive and brake
+//   lags on themselves alone;
+// - q-dot, the tyre bristles and the brake bristles (17 states) depend on everything; a truck
+//   without bristle tyres or a sticking brake leaves those states constant (rows and columns of
+//   J zero), and then only q-dot's 9 are coupled.
+// So the filters (four 3x3) and lags (two scalars) are solved on their own, q is eliminated
+// (dq = b_q + gamma dv), and only the coupled system (9 to 17) is factorised, where SUNDIALS'
+// dense solver factorised all 40.
 namespace structure {
 constexpr int kQ = StateIndex::kQ, kV = StateIndex::kQdot, kF = StateIndex::kDriven, kNF = 3 * kNumDriven;
 constexpr int kL = StateIndex::kTorque, kNL = 2;
-constexpr int kNC = kNumDynamic + 2 * kNumWheels + 2;  // q-dot, tyre bristles, brake bristles
-// State index of coupled unknown k.
-constexpr int coupled_state(int k) { return k < kNumDynamic ? kV + k : StateIndex::kTyre + (k - kNumDynamic); }
+constexpr int kMaxCoupled = kNumDynamic + 2 * kNumWheels + 2;  // q-dot, tyre bristles, brake bristles
 static_assert(StateIndex::kTyre + 2 * kNumWheels + 2 == StateIndex::kSize, "tyre and brake bristles end the state");
+static_assert(kL == kF + kNF && kL + kNL == StateIndex::kTyre, "filters, lags, then bristles");
 }  // namespace structure
 
 // CVODE's Jacobian and Newton matrix as one fixed-size Eigen matrix: copying it and forming
@@ -93,11 +98,76 @@ SUNMatrix make_matrix(SUNContext ctx) {
   return A;
 }
 
+// LU with partial pivoting of the coupled system, at most 17 unknowns, in place (row-major, so
+// each elimination step's update runs along contiguous rows).
+class CoupledLu {
+ public:
+  static constexpr int kMax = structure::kMaxCoupled;
+  double& at(int i, int j) { return a_[i * kMax + j]; }
+
+  // False if a pivot is zero or not finite (CVODE then retries with a smaller step).
+  bool factorise(int n) {
+    n_ = n;
+    for (int k = 0; k < n; ++k) {
+      int p = k;
+      for (int i = k + 1; i < n; ++i)
+        if (std::abs(at(i, k)) > std::abs(at(p, k))) p = i;
+      pivot_[k] = p;
+      if (p != k)
+        for (int j = 0; j < n; ++j) std::swap(at(k, j), at(p, j));
+      const double d = at(k, k);
+      if (!(d != 0 && std::isfinite(d))) return false;
+      const double inv = 1.0 / d;
+      const double* rk = &a_[k * kMax];
+      for (int i = k + 1; i < n; ++i) {
+        double* ri = &a_[i * kMax];
+        const double l = ri[k] *= inv;
+        for (int j = k + 1; j < n; ++j) ri[j] -= l * rk[j];
+      }
+    }
+    return true;
+  }
+
+  void solve(double* x) const {
+    const int n = n_;
+    for (int k = 0; k < n; ++k) std::swap(x[k], x[pivot_[k]]);
+    for (int i = 1; i < n; ++i) {
+      const double* ri = &a_[i * kMax];
+      double v = x[i];
+      for (int j = 0; j < i; ++j) v -= ri[j] * x[j];
+      x[i] = v;
+    }
+    for (int i = n - 1; i >= 0; --i) {
+      const double* ri = &a_[i * kMax];
+      double v = x[i];
+      for (int j = i + 1; j < n; ++j) v -= ri[j] * x[j];
+      x[i] = v / ri[i];
+    }
+  }
+
+ private:
+  std::array<double, kMax * kMax> a_{};
+  std::array<int, kMax> pivot_{};
+  int n_ = 0;
+};
+
+bool bristle_tyres(const TruckParams& truck) { return truck.contact.tyre == TyreModel::kBristle; }
+bool brake_sticks(const TruckParams& truck) { return truck.drive.brake_stick_angle_rad > 0; }
+
 struct StructuredSolver {
-  Eigen::PartialPivLU<Eigen::Matrix<double, structure::kNF, structure::kNF>> filters;
-  Eigen::PartialPivLU<Eigen::Matrix<double, structure::kNL, structure::kNL>> lags;
-  Eigen::PartialPivLU<Eigen::Matrix<double, structure::kNC, structure::kNC>> coupled;
+  std::array<Eigen::PartialPivLU<Eigen::Matrix3d>, kNumDriven> filters;
+  CoupledLu coupled;
+  int n_coupled = 0;
+  std::array<int, structure::kMaxCoupled> coupled_state{};  // state index of coupled unknown k
   double gamma = 0;
+
+  StructuredSolver(bool bristle_tyres, bool brake_stick) {
+    for (int k = 0; k < kNumDynamic; ++k) coupled_state[n_coupled++] = structure::kV + k;
+    if (bristle_tyres)
+      for (int k = 0; k < 2 * kNumWheels; ++k) coupled_state[n_coupled++] = StateIndex::kTyre + k;
+    if (brake_stick)
+      for (int k = 0; k < 2; ++k) coupled_state[n_coupled++] = StateIndex::kBrakeStick + k;
+  }
 
   static StructuredSolver& of(SUNLinearSolver S) { return *static_cast<StructuredSolver*>(S->content); }
 
@@ -106,19 +176,22 @@ struct StructuredSolver {
     StructuredSolver& me = of(S);
     const DenseJacobian& a = dense(A);
     me.gamma = -a(kQ, kV);
-    const Eigen::Matrix<double, kNF, kNF> F = a.block<kNF, kNF>(kF, kF);
-    const Eigen::Matrix<double, kNL, kNL> L = a.block<kNL, kNL>(kL, kL);
-    Eigen::Matrix<double, kNC, kNC> C;
-    for (int k = 0; k < kNC; ++k)
-      for (int l = 0; l < kNC; ++l) {
-        const int i = coupled_state(k), j = coupled_state(l);
-        C(k, l) = a(i, j) + (l < kNumDynamic ? me.gamma * a(i, kQ + l) : 0.0);
+    bool finite = std::isfinite(me.gamma);
+    for (int d = 0; d < kNumDriven; ++d) {
+      const Eigen::Matrix3d F = a.block<3, 3>(kF + 3 * d, kF + 3 * d);
+      finite &= F.allFinite();
+      me.filters[d].compute(F);
+    }
+    finite &= a(kL, kL) != 0 && a(kL + 1, kL + 1) != 0;
+    const int n = me.n_coupled;
+    for (int k = 0; k < n; ++k) {
+      const int i = me.coupled_state[k];
+      for (int l = 0; l < n; ++l) {
+        const int j = me.coupled_state[l];
+        me.coupled.at(k, l) = a(i, j) + (l < kNumDynamic ? me.gamma * a(i, kQ + l) : 0.0);
       }
-    me.filters.compute(F);
-    me.lags.compute(L);
-    me.coupled.compute(C);
-    const bool finite = F.allFinite() && L.allFinite() && C.allFinite();
-    return finite ? 0 : 1;
+    }
+    return finite && me.coupled.factorise(n) ? 0 : 1;
   }
 
   static int solve(SUNLinearSolver S, SUNMatrix A, N_Vector xv, N_Vector bv, sunrealtype) {
@@ -127,28 +200,31 @@ struct StructuredSolver {
     const DenseJacobian& a = dense(A);
     const Eigen::Map<const StateVector> b(N_VGetArrayPointer(bv));
     Eigen::Map<StateVector> x(N_VGetArrayPointer(xv));
-    StateVector sol;
-    sol.segment<kNF>(kF) = me.filters.solve(b.segment<kNF>(kF));
-    sol.segment<kNL>(kL) = me.lags.solve(b.segment<kNL>(kL));
-    Eigen::Matrix<double, kNC, 1> r;
-    for (int k = 0; k < kNC; ++k) {
-      const int i = coupled_state(k);
+    StateVector sol = b;  // the states outside the coupled system that nothing moves: A's rows are I
+    for (int d = 0; d < kNumDriven; ++d)
+      sol.segment<3>(kF + 3 * d) = me.filters[d].solve(b.segment<3>(kF + 3 * d));
+    sol[kL] = b[kL] / a(kL, kL);
+    sol[kL + 1] = b[kL + 1] / a(kL + 1, kL + 1);
+    const int n = me.n_coupled;
+    std::array<double, kMaxCoupled> c;
+    for (int k = 0; k < n; ++k) {
+      const int i = me.coupled_state[k];
       double v = b[i];
       for (int j = 0; j < kNumDynamic; ++j) v -= a(i, kQ + j) * b[kQ + j];
-      for (int j = kF; j < kF + kNF + kNL; ++j) v -= a(i, j) * sol[j];
-      r[k] = v;
+      for (int j = kF; j < kL + kNL; ++j) v -= a(i, j) * sol[j];
+      c[k] = v;
     }
-    const Eigen::Matrix<double, kNC, 1> c = me.coupled.solve(r);
-    for (int k = 0; k < kNC; ++k) sol[coupled_state(k)] = c[k];
-    sol.segment<kNumDynamic>(kQ) = b.segment<kNumDynamic>(kQ) + me.gamma * c.head<kNumDynamic>();
+    me.coupled.solve(c.data());
+    for (int k = 0; k < n; ++k) sol[me.coupled_state[k]] = c[k];
+    for (int j = 0; j < kNumDynamic; ++j) sol[kQ + j] = b[kQ + j] + me.gamma * c[j];
     x = sol;
     return sol.allFinite() ? 0 : 1;
   }
 
-  static SUNLinearSolver create(SUNContext ctx) {
+  static SUNLinearSolver create(SUNContext ctx, bool bristle_tyres, bool brake_stick) {
     SUNLinearSolver S = SUNLinSolNewEmpty(ctx);
     if (!S) return nullptr;
-    S->content = new StructuredSolver;
+    S->content = new StructuredSolver(bristle_tyres, brake_stick);
     S->ops->gettype = [](SUNLinearSolver) { return SUNLINEARSOLVER_DIRECT; };
     S->ops->getid = [](SUNLinearSolver) { return SUNLINEARSOLVER_CUSTOM; };
     S->ops->setup = &StructuredSolver::setup;
@@ -196,12 +272,15 @@ struct Simulation::Impl {
     if (SUNContext_Create(nullptr, &ctx) != 0) throw std::runtime_error("SUNContext_Create failed");
     y = N_VNew_Serial(StateIndex::kSize, ctx);
     atol = N_VNew_Serial(StateIndex::kSize, ctx);
+    if (!y || !atol) throw std::runtime_error("N_VNew_Serial failed");
+    use_fixed_size_operations(y);
+    use_fixed_size_operations(atol);
     Eigen::Map<StateVector>(N_VGetArrayPointer(y)) = x;
     Eigen::Map<StateVector>(N_VGetArrayPointer(atol)) = options.rtol * tolerance_scale();
     if (options.kind == IntegratorKind::kCvodeBdf) {
       mem = CVodeCreate(CV_BDF, ctx);
       A = make_matrix(ctx);
-      LS = StructuredSolver::create(ctx);
+      LS = StructuredSolver::create(ctx, bristle_tyres(d.truck()), brake_sticks(d.truck()));
       if (!mem || !A || !LS || CVodeInit(mem, &Impl::rhs, t, y) != CV_SUCCESS ||
           CVodeSVtolerances(mem, options.rtol, atol) != CV_SUCCESS ||
           CVodeSetLinearSolver(mem, LS, A) != CV_SUCCESS || CVodeSetUserData(mem, this) != CV_SUCCESS ||
@@ -249,27 +328,57 @@ struct Simulation::Impl {
   // The Jacobian by differences, column by column, but only where the model is not known: the
   // q rows are exactly [0, I, 0] (the structured solver relies on it), and the wheels' spin angles
   // (round wheels, inertia symmetric about the axle) and the states a truck does not use
-  // (bristles of a paper tyre, brake bristles of a brake without stick) have zero columns.
+  // (bristles of a paper tyre, brake bristles of a brake without stick) have zero columns. So
+  // do x and y on flat ground with nothing fixed in the world acting on the truck (no scene
+  // forces at world points, no chocks): every force is taken about the chassis CoG, so moving
+  // the truck over a level floor changes nothing but rounding (differences of 1e-8 beside 1e3).
   static int jacobian(sunrealtype time, N_Vector yv, N_Vector fyv, SUNMatrix J, void* user, N_Vector, N_Vector,
                       N_Vector) {
     Impl* self = static_cast<Impl*>(user);
     const Eigen::Map<const StateVector> y(N_VGetArrayPointer(yv)), fy(N_VGetArrayPointer(fyv));
     const DriverInputs u = self->inputs_at(time);
     const TruckParams& truck = self->dynamics.truck();
-    const bool bristle = truck.contact.tyre == TyreModel::kBristle;
-    const bool stick = truck.drive.brake_stick_angle_rad > 0;
+    const bool bristle = bristle_tyres(truck), stick = brake_sticks(truck);
+    const Environment& env = self->dynamics.environment();
+    const bool level = env.ground.flat() && env.external_forces.empty() && !env.chock_anchors_m;
     DenseJacobian& jac = dense(J);
     jac.setZero();
     StateVector x = y, d;
+    const auto step = [&](int j) { return 1.5e-8 * std::max(std::abs(y[j]), self->scale[j]); };
+    const auto accel = [](int j) { return j >= StateIndex::kDriven && j < StateIndex::kTorque && (j - StateIndex::kDriven) % 3 == 2; };
+    // The driven accelerations z'': q-dot's rows from the model (q'' is linear in z''), each
+    // filter's rows from one evaluation with every z'' stepped (a filter answers its own alone,
+    // nothing else reads z''): one evaluation and one of the mass matrix alone, where
+    // differences took four evaluations.
+    {
+      Eigen::Matrix<double, kNumDynamic, kNumDriven> coupling;
+      if (!self->dynamics.driven_coupling(y, coupling)) return 1;
+      std::array<double, kNumDriven> hz;
+      for (int k = 0; k < kNumDriven; ++k) {
+        const int j = StateIndex::kDriven + 3 * k + 2;
+        x[j] = y[j] + step(j);
+        hz[k] = x[j] - y[j];
+      }
+      const bool ok = self->dynamics.derivative(x, u, d);
+      x = y;
+      ++self->jac_rhs_evals;
+      if (!ok) return 1;
+      for (int k = 0; k < kNumDriven; ++k) {
+        const int j = StateIndex::kDriven + 3 * k + 2, f = StateIndex::kDriven + 3 * k;
+        jac.block<kNumDynamic, 1>(StateIndex::kQdot, j) = coupling.col(k);
+        jac.block<3, 1>(f, j) = (d - fy).segment<3>(f) / hz[k];
+      }
+    }
     for (int j = 0; j < StateIndex::kSize; ++j) {
       auto col = jac.col(j);
       const bool rate = j >= StateIndex::kQdot && j < StateIndex::kQdot + kNumDynamic;
       if (rate) col[j - StateIndex::kQdot] = 1;
+      if (accel(j)) continue;
       if (!bristle && j >= StateIndex::kTyre && j < StateIndex::kTyre + 2 * kNumWheels) continue;
       if (j >= StateIndex::kQ + kAvr1 && j <= StateIndex::kQ + kAvr3) continue;  // a wheel is round: its angle is no force
       if (!stick && j >= StateIndex::kBrakeStick) continue;
-      const double h = 1.5e-8 * std::max(std::abs(y[j]), self->scale[j]);
-      x[j] = y[j] + h;
+      if (level && (j == StateIndex::kQ + kX || j == StateIndex::kQ + kY)) continue;
+      x[j] = y[j] + step(j);
       const double hj = x[j] - y[j];  // the step as represented
       const bool ok = self->dynamics.derivative(x, u, d);
       x[j] = y[j];

@@ -35,6 +35,7 @@ class Ground {
   explicit Ground(std::vector<Ramp> ramps);
   double height(double x, double y) const;
   Eigen::Vector2d gradient(double x, double y) const;  // (dh/dx, dh/dy)
+  bool flat() const { return ramps_.empty(); }         // z = 0 everywhere
 
  private:
   std::vector<Ramp> ramps_;
@@ -154,6 +155,11 @@ class TruckDynamics {
   // including gravity, ground forces, drive and brake torques and the velocity-product terms.
   void mass_matrix_and_forces(const StateVector& x, Eigen::Matrix<double, kNumCoords, kNumCoords>& M,
                               CoordVector& Q, Outputs* out = nullptr) const;
+
+  // How the dynamic coordinates' accelerations answer the driven ones' in eq (13):
+  // d q''/d z'' = -M_ii^-1 M_id, exact because q'' is linear in z'' (no forces are evaluated).
+  // False if x is not finite or M_ii not positive definite.
+  bool driven_coupling(const StateVector& x, Eigen::Matrix<double, kNumDynamic, kNumDriven>& dqdd_dzdd) const;
 
   // Kinetic + gravitational + ground-spring energy (J): conserved when there is no friction,
   // damping or torque and the driven coordinates are still.

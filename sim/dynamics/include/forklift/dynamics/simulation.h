@@ -32,7 +32,9 @@ struct IntegratorOptions {
 
 struct IntegratorStats {
   long steps = 0;
-  long rhs_evals = 0;  // every evaluation of the derivative, including finite-difference Jacobians
+  // Every evaluation of the derivative, including finite-difference Jacobians (not counted: the
+  // Jacobian's mass-matrix-only evaluation for TruckDynamics::driven_coupling, one per Jacobian).
+  long rhs_evals = 0;
 };
 
 // Numerical trouble the integrator could not get past (non-finite state, repeated failures).
