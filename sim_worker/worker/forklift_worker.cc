@@ -334,17 +334,7 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGUSR1, on_abort);
 
-  // FCL, and assimp for a scenario's mesh files, take 10-20 ms to map and relocate (modules of
-  // their own): they load on this thread while the session's files are read below. DDS starts
-  // after that: dlopen holds the loader's lock, which DDS needs to start its threads.
-  std::jthread preload([meshes = !scenario_file.empty()] {
-    try {
-      if (meshes) preload_mesh_files();
-      preload_collision();
-    } catch (const std::exception&) {
-      // Loading the session meets the same failure, and reports it.
-    }
-  });
+  std::jthread preload;  // loads FCL (and assimp) once DDS is up; joined on the way out
   // Set-up failures are reported as a failed session when DDS is up, and always on stderr.
   std::unique_ptr<dds::Participant> participant;
   // The session's status goes to the server (default partition) and to the cab (its own).
@@ -372,27 +362,25 @@ int main(int argc, char** argv) {
     return 2;
   }
 
-  // The session's model (loaded once), read while FCL loads; a failure is reported once DDS is up.
-  SessionSpec spec;
-  spec.scenario_file = scenario_file;
-  spec.mode = mode;
-  std::optional<SessionModel> loaded;
-  std::string load_failure;
-  try {
-    loaded.emplace(load_session_model(spec, FORKLIFT_DATA_DIR));
-    if (loaded->mode == Mode::kExam && !loaded->scene.exam_course)
-      throw std::runtime_error(not_an_exam_course(scenario_file.empty() ? "a bare floor" : scenario_file));
-  } catch (const std::exception& e) {
-    loaded.reset();
-    load_failure = std::string("cannot load the session: ") + e.what();
-  }
-
   try {
     if (log_file.empty()) {
       std::filesystem::create_directories(log_dir);
       log_file = log_dir + "/" + session + ".ctl";
     }
     participant = std::make_unique<dds::Participant>(dds_settings);
+    // FCL, and assimp for a scenario's mesh files, take 10-20 ms to map and relocate (modules of
+    // their own): they load on a thread while the session's files are read below and DDS
+    // discovery runs. Not before the participant: dlopen holds the loader's lock for its whole
+    // run, and DDS cannot start its threads meanwhile; and the sooner the participant is up, the
+    // sooner the server and the cab have found it when the first status goes out.
+    preload = std::jthread([meshes = !scenario_file.empty()] {
+      try {
+        if (meshes) preload_mesh_files();
+        preload_collision();
+      } catch (const std::exception&) {
+        // Loading the session meets the same failure, and reports it.
+      }
+    });
     // Who this worker is on the wire, beside its log: the server takes this session's reports
     // from this participant only (a forged score from anyone else is refused).
     write_participant_file(log_file + ".participant", dds::participant_guid(participant->handle()));
@@ -404,11 +392,21 @@ int main(int argc, char** argv) {
     dds::Writer<fk_Event> event_writer(*participant, dds::worker_partition(cab)), cab_event_writer(*participant, dds::cab_partition(cab));
     dds::Writer<fk_Score> score_writer(*participant, dds::worker_partition(cab));
 
-    // A broken scenario or truck file is bad input, not a fault of the run: exit 2 and say why, to
-    // the terminal and to the server.
-    if (!loaded) {
-      log_line(cab, load_failure);
-      publish_status("failed", 0, load_failure);
+    // The session: its model (loaded once), its state, the machinery that steps it.
+    SessionSpec spec;
+    spec.scenario_file = scenario_file;
+    spec.mode = mode;
+    std::optional<SessionModel> loaded;
+    try {
+      loaded.emplace(load_session_model(spec, FORKLIFT_DATA_DIR));
+      if (loaded->mode == Mode::kExam && !loaded->scene.exam_course)
+        throw std::runtime_error(not_an_exam_course(scenario_file.empty() ? "a bare floor" : scenario_file));
+    } catch (const std::exception& e) {
+      // A broken scenario or truck file is bad input, not a fault of the run: exit 2 and say
+      // why, to the terminal and to the server.
+      const std::string why = std::string("cannot load the session: ") + e.what();
+      log_line(cab, why);
+      publish_status("failed", 0, why);
       dds_sleepfor(DDS_MSECS(200));  // let the reliable status reach its readers
       return 2;
     }
