@@ -334,6 +334,7 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGUSR1, on_abort);
 
+  std::jthread preload;  // loads FCL (and assimp) once DDS is up; joined on the way out
   // Set-up failures are reported as a failed session when DDS is up, and always on stderr.
   std::unique_ptr<dds::Participant> participant;
   // The session's status goes to the server (default partition) and to the cab (its own).
@@ -367,6 +368,19 @@ int main(int argc, char** argv) {
       log_file = log_dir + "/" + session + ".ctl";
     }
     participant = std::make_unique<dds::Participant>(dds_settings);
+    // FCL, and assimp for a scenario's mesh files, take 10-20 ms to map and relocate (modules of
+    // their own): they load on a thread while the session's files are read below and DDS
+    // discovery runs. Not before the participant: dlopen holds the loader's lock for its whole
+    // run, and DDS cannot start its threads meanwhile; and the sooner the participant is up, the
+    // sooner the server and the cab have found it when the first status goes out.
+    preload = std::jthread([meshes = !scenario_file.empty()] {
+      try {
+        if (meshes) preload_mesh_files();
+        preload_collision();
+      } catch (const std::exception&) {
+        // Loading the session meets the same failure, and reports it.
+      }
+    });
     // Who this worker is on the wire, beside its log: the server takes this session's reports
     // from this participant only (a forged score from anyone else is refused).
     write_participant_file(log_file + ".participant", dds::participant_guid(participant->handle()));

@@ -76,6 +76,34 @@ TEST(SimCli, ManoeuvresRunOnThePaperTruckAndReportBothStopThresholds) {
   EXPECT_GT(stop["below_0.05_m_s"].get<double>(), stop["below_0.1_m_s"].get<double>());
 }
 
+// FCL and assimp are modules loaded on first use (forklift/module/module.h), so that the model's
+// commands do not pay their loading: ld.so's trace of the files a run loads shows which it did.
+TEST(SimCli, TheModelsCommandsLoadNeitherFclNorAssimp) {
+  auto libraries_loaded = [](const std::vector<std::string>& args, const std::string& name) {
+    std::string command = "LD_DEBUG=files exec '" + kSim + "'";
+    for (const std::string& a : args) command += " '" + a + "'";
+    Process p({"/bin/sh", "-c", command}, testing::TempDir() + "/sim_cli_" + name);
+    EXPECT_EQ(p.wait(60), 0) << p.err();
+    return p.err();  // "file=libfcl.so.0.7 [0];  needed by ..." for each library
+  };
+  const std::string manoeuvre = libraries_loaded({"manoeuvre", "4"}, "libs_manoeuvre");
+  EXPECT_NE(manoeuvre.find("file=libsundials_cvode"), std::string::npos) << manoeuvre;  // the trace is there
+  EXPECT_EQ(manoeuvre.find("libfcl"), std::string::npos) << manoeuvre;
+  EXPECT_EQ(manoeuvre.find("libassimp"), std::string::npos) << manoeuvre;
+  // Writing meshes loads assimp, through its module.
+  const std::string out = testing::TempDir() + "/sim_cli_libs_meshes_out";
+  const std::string meshes = libraries_loaded({"meshes", "--out", out}, "libs_meshes");
+  EXPECT_NE(meshes.find("file=libassimp"), std::string::npos) << meshes;
+  EXPECT_NE(meshes.find("libforklift_mesh_module.so"), std::string::npos) << meshes;
+  EXPECT_TRUE(std::filesystem::exists(out + "/rack.obj"));
+  // Without its module, a command that needs assimp says so, and fails as on bad data.
+  Process missing({"/bin/sh", "-c", "FORKLIFT_MESH_MODULE=/nonexistent/mesh.so exec '" + kSim + "' meshes --out '" + out + "'"},
+                  testing::TempDir() + "/sim_cli_libs_missing");
+  EXPECT_EQ(missing.wait(60), 2);
+  EXPECT_NE(missing.err().find("cannot read or write mesh files: cannot load /nonexistent/mesh.so"), std::string::npos)
+      << missing.err();
+}
+
 TEST(SimCli, BadUsageIsRefusedWithStatusTwo) {
   EXPECT_EQ(sim({"static", "--grade", "80"}, "grade_range").status, 2);
   EXPECT_EQ(sim({"--truck", "/nonexistent.json", "validate"}, "no_truck").status, 2);

@@ -1,14 +1,8 @@
-// Private: the FCL side of the Collision module. Boxes for the scene's static objects (one
-// broad phase, built once), for the pallets (a second, small broad phase, changed only when a
-// pallet is set down or dropped) and for the truck's parts (moved every query).
-//
-// A query first finds the scene boxes whose AABB meets the whole truck's AABB (one broad-phase
-// call each), then tests every truck box against those candidates: a tight AABB test, then the
-// FCL narrow phase. FCL's own AABB of a rotated box is the cube round its bounding sphere,
-// far too loose for a 1 m fork, so the truck's world AABBs are computed here.
+// Private: the Collision module's boxes, and its FCL side behind CollisionWorld. FCL is built
+// into a module of its own (fcl_world.cc, lib/libforklift_collision_module.so), loaded the first
+// time a world is made, so that a program that never checks collisions (forklift-sim manoeuvre)
+// does not pay FCL's 10-15 ms of loading at start-up.
 #pragma once
-
-#include <fcl/fcl.h>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -34,6 +28,11 @@ struct LocalBox {
   Eigen::Vector3d half = Eigen::Vector3d::Zero();
 };
 
+// The box between two corners, and the box of an AABB; a plane gets a little thickness, as FCL
+// needs.
+LocalBox box_between(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
+LocalBox box_of(const Eigen::AlignedBox3d& b);
+
 // World AABB of a box at `pose` (the owner's world pose composed with the box's centre).
 Eigen::AlignedBox3d world_aabb(const Eigen::Isometry3d& pose, const Eigen::Vector3d& half);
 
@@ -55,62 +54,33 @@ struct RawContact {
   double depth = 0;
 };
 
+// The scene's boxes in FCL: the scene's static objects in one broad phase (built once), the
+// pallets in a second, small one (changed only when a pallet is set down or dropped), and the
+// truck's parts (moved every query). Made by make_collision_world (fcl_world.cc has the how).
 class CollisionWorld {
  public:
-  // `pallet_objects`: the scene object index of each handled pallet (they move, so they get a
-  // broad phase of their own); every other collidable object is static.
-  CollisionWorld(const Scene& scene, const TruckShape& shape, const std::vector<int>& pallet_objects);
-  ~CollisionWorld();
-  CollisionWorld(const CollisionWorld&) = delete;
-  CollisionWorld& operator=(const CollisionWorld&) = delete;
+  virtual ~CollisionWorld() = default;
 
   // A pallet standing somewhere new (set down, dropped); not for the carried one.
-  void set_pallet_pose(int pallet, const Eigen::Isometry3d& pose);
+  virtual void set_pallet_pose(int pallet, const Eigen::Isometry3d& pose) = 0;
   // A carried pallet leaves the pallets' broad phase and rides on the forks as part "load".
-  void set_carried(int pallet);  // -1: none
+  virtual void set_carried(int pallet) = 0;  // -1: none
 
   // Moves the truck's boxes (and the carried pallet's, at `load_pose`) and finds the scene
   // boxes near the truck. Then nearby_pallets() lists the free pallets near it.
-  void place_truck(const BodyPoses& poses, const Eigen::Isometry3d& load_pose);
-  const std::vector<int>& nearby_pallets() const { return nearby_pallets_; }
+  virtual void place_truck(const BodyPoses& poses, const Eigen::Isometry3d& load_pose) = 0;
+  virtual const std::vector<int>& nearby_pallets() const = 0;
 
   // The contacts of the placed truck, one per (part, object), deepest. `fork_excluded[p]` set:
   // pallet p's boxes are not tested against the forks (the forks are in its pockets).
-  void contacts(const std::vector<bool>& fork_excluded, std::vector<RawContact>& out);
-
- private:
-  struct TruckBox {
-    int part;
-    Body body;
-    LocalBox box;
-    std::unique_ptr<fcl::CollisionObjectd> obj;
-    Eigen::AlignedBox3d aabb;  // world, at the last placement
-  };
-  struct SceneBox {
-    int object;
-    int pallet;  // -1 for a static box
-    LocalBox box;
-    std::unique_ptr<fcl::CollisionObjectd> obj;
-    Eigen::AlignedBox3d aabb;  // world
-  };
-
-  void test_pair(fcl::CollisionObjectd* truck_obj, int part, Body body, const SceneBox& s, std::vector<RawContact>& out);
-  void add_contact(std::vector<RawContact>& out, const RawContact& c);
-
-  std::vector<TruckBox> truck_;
-  std::vector<std::unique_ptr<SceneBox>> static_;
-  std::vector<std::vector<std::unique_ptr<SceneBox>>> pallet_;  // per pallet
-  std::unique_ptr<fcl::DynamicAABBTreeCollisionManagerd> static_manager_, pallet_manager_;
-  int carried_ = -1;
-
-  // The query: an axis-aligned box round the whole truck.
-  std::shared_ptr<fcl::Boxd> query_box_;
-  std::unique_ptr<fcl::CollisionObjectd> query_;
-  Eigen::AlignedBox3d truck_aabb_;
-  std::vector<SceneBox*> near_;          // scene boxes near the truck, this placement
-  std::vector<int> nearby_pallets_;
-  fcl::CollisionRequestd request_;
-  fcl::CollisionResultd result_;
+  virtual void contacts(const std::vector<bool>& fork_excluded, std::vector<RawContact>& out) = 0;
 };
+
+// `pallet_objects`: the scene object index of each handled pallet (they move, so they get a
+// broad phase of their own); every other collidable object is static. Loads the FCL module on
+// first use (FORKLIFT_COLLISION_MODULE, or lib/ beside bin/); throws std::runtime_error if it
+// cannot.
+std::unique_ptr<CollisionWorld> make_collision_world(const Scene& scene, const TruckShape& shape,
+                                                     const std::vector<int>& pallet_objects);
 
 }  // namespace forklift::collision

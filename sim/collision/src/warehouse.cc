@@ -145,7 +145,7 @@ struct Warehouse::Impl : HandlingState::Data {
     pick_armed.assign(states.size(), false);
     engaged.assign(states.size(), false);
     engagement.assign(states.size(), {});
-    world = std::make_unique<collision::CollisionWorld>(scene, shape, pallet_objects);
+    world = collision::make_collision_world(scene, shape, pallet_objects);
   }
 
   const PalletSpec& spec(int p) const { return *scene.objects[pallet_objects[p]].pallet; }

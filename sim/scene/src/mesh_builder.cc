@@ -1,13 +1,12 @@
-// The warehouse's and the truck's meshes built from boxes, written as OBJ + MTL with assimp's exporter.
+// The warehouse's and the truck's meshes built from boxes (written as OBJ + MTL by the mesh
+// module, assimp_files.cc).
 #include "mesh_builder.h"
 
-#include <assimp/Exporter.hpp>
-#include <assimp/material.h>
-#include <assimp/scene.h>
 #include <cmath>
-#include <map>
 #include <memory>
 #include <stdexcept>
+
+#include "mesh_files.h"
 
 namespace forklift::meshgen {
 namespace {
@@ -386,64 +385,8 @@ std::vector<MeshSpec> truck_meshes(const TruckDrawing& truck) {
 }
 
 void write_obj(const MeshSpec& spec, const std::string& dir) {
-  const std::string path = dir + "/" + spec.file;
-  auto scene = std::make_unique<aiScene>();
-  // Materials, one per colour name, in order of first use.
-  std::map<std::string, unsigned> material_index;
-  std::vector<const Colour*> materials;
-  for (const Part& p : spec.parts)
-    if (material_index.emplace(p.colour.name, static_cast<unsigned>(materials.size())).second)
-      materials.push_back(&p.colour);
-  scene->mNumMaterials = static_cast<unsigned>(materials.size());
-  scene->mMaterials = new aiMaterial*[materials.size()];
-  for (size_t i = 0; i < materials.size(); ++i) {
-    auto* mat = new aiMaterial();
-    const aiString name(materials[i]->name);
-    mat->AddProperty(&name, AI_MATKEY_NAME);
-    const aiColor3D diffuse(materials[i]->rgb.x(), materials[i]->rgb.y(), materials[i]->rgb.z());
-    mat->AddProperty(&diffuse, 1, AI_MATKEY_COLOR_DIFFUSE);
-    scene->mMaterials[i] = mat;
-  }
-  // One mesh and one node per part, so the OBJ has a group per part.
-  const unsigned n = static_cast<unsigned>(spec.parts.size());
-  scene->mNumMeshes = n;
-  scene->mMeshes = new aiMesh*[n];
-  scene->mRootNode = new aiNode(spec.file);
-  scene->mRootNode->mNumChildren = n;
-  scene->mRootNode->mChildren = new aiNode*[n];
-  for (unsigned i = 0; i < n; ++i) {
-    const Part& p = spec.parts[i];
-    auto* mesh = new aiMesh();
-    mesh->mName = aiString(p.name);
-    mesh->mMaterialIndex = material_index.at(p.colour.name);
-    mesh->mNumVertices = static_cast<unsigned>(p.positions.size());
-    mesh->mVertices = new aiVector3D[p.positions.size()];
-    mesh->mNormals = new aiVector3D[p.positions.size()];
-    for (size_t v = 0; v < p.positions.size(); ++v) {
-      mesh->mVertices[v] = aiVector3D(p.positions[v].x(), p.positions[v].y(), p.positions[v].z());
-      mesh->mNormals[v] = aiVector3D(p.normals[v].x(), p.normals[v].y(), p.normals[v].z());
-    }
-    mesh->mNumFaces = static_cast<unsigned>(p.faces.size());
-    mesh->mFaces = new aiFace[p.faces.size()];
-    unsigned types = 0;
-    for (size_t f = 0; f < p.faces.size(); ++f) {
-      aiFace& face = mesh->mFaces[f];
-      face.mNumIndices = static_cast<unsigned>(p.faces[f].size());
-      face.mIndices = new unsigned[face.mNumIndices];
-      for (unsigned k = 0; k < face.mNumIndices; ++k) face.mIndices[k] = p.faces[f][k];
-      types |= face.mNumIndices == 3 ? aiPrimitiveType_TRIANGLE : aiPrimitiveType_POLYGON;
-    }
-    mesh->mPrimitiveTypes = types;
-    scene->mMeshes[i] = mesh;
-    auto* node = new aiNode(p.name);
-    node->mParent = scene->mRootNode;
-    node->mNumMeshes = 1;
-    node->mMeshes = new unsigned[1]{i};
-    scene->mRootNode->mChildren[i] = node;
-  }
-  Assimp::Exporter exporter;
-  if (exporter.Export(scene.get(), "obj", path) != aiReturn_SUCCESS)
-    throw std::runtime_error(path + ": cannot write: " + exporter.GetErrorString());
+  std::string error;
+  if (!mesh_files().write_obj(spec, dir, error)) throw std::runtime_error(error);
 }
 
 }  // namespace forklift::meshgen

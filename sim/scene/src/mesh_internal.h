@@ -12,6 +12,9 @@
 
 namespace forklift {
 
+// A mesh part is solid (collides, casts shadows) unless its name marks it as paint: "mark_...".
+inline bool solid_part(const std::string& name) { return name.rfind("mark_", 0) != 0; }
+
 // load_mesh with every vertex multiplied component-wise by `scale` (local frame) before the
 // bounds are taken; normals follow. Throws SceneError naming the file.
 std::shared_ptr<const Mesh> load_mesh_scaled(const std::string& path, const Eigen::Vector3d& scale);

@@ -80,6 +80,11 @@ struct PalletApproach {
 std::optional<PalletApproach> pallet_approach(const Scene& scene, const std::vector<PalletState>& pallets,
                                               const BodyPoses& poses, const TruckShape& shape, double range_m = 3.0);
 
+// FCL is loaded the first time a Warehouse is built (a module of its own, 10-15 ms to map and
+// relocate). A program that will build one soon can load it now, on a thread of its own, while it
+// does something else; throws std::runtime_error if it cannot be loaded.
+void preload_collision();
+
 class Warehouse {
  public:
   // Builds the collision shapes (one FCL box per solid mesh part) and the broad phase.

@@ -208,6 +208,11 @@ TruckShape load_truck_shape(const std::string& truck_file, const std::string& da
 // Throws SceneError.
 std::vector<std::string> write_meshes(const std::string& dir);
 
+// Mesh files are read and written by assimp, loaded the first time one is (a module of its own,
+// about 10 ms to map and relocate). A program that will read some soon can load it now, on a
+// thread of its own, while it does something else. Throws SceneError if it cannot be loaded.
+void preload_mesh_files();
+
 // Writes the truck's meshes as load_truck_shape builds them (truck_chassis.obj, truck_mast.obj,
 // truck_carriage.obj, truck_wheel_front.obj, truck_wheel_rear.obj, each with its .mtl) into
 // `dir`, for viewing elsewhere; nothing reads them back. Throws SceneError.
