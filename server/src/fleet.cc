@@ -727,8 +727,9 @@ void Fleet::on_report(store::Store& db, const fk_WorkerReport& r) {
     const auto w = workers_.find(session);
     if (w != workers_.end()) {
       if (w->second.host != r.host_id) {
-        spdlog::warn("host {} reports a worker for session {}, which runs {}", r.host_id, session,
+        spdlog::warn("host {} reports a worker for session {}, which runs {}: stopping it", r.host_id, session,
                      w->second.host.empty() ? "here" : "on host " + w->second.host);
+        if (state != "exited") request(r.host_id, session, "kill");  // a start that answered too late
         return;
       }
       follow(w->second);
