@@ -851,23 +851,26 @@ void Fleet::ingest() {
     try {
       host_statuses.take_all_with_info([&](const fk_HostStatus& h, const dds_sample_info_t& info) {
         if (!dds::valid_utf8(h.host_id) || !h.host_id[0]) return;
-        std::lock_guard<std::mutex> lock(mu_);
         if (!info.valid_data) {  // its writer is gone or lost its liveliness
+          std::lock_guard<std::mutex> lock(mu_);
           if (info.instance_state != DDS_IST_ALIVE && hosts_.count(h.host_id)) {
             if (!hosts_[h.host_id].gone) spdlog::warn("worker host {} is gone", h.host_id);
             hosts_[h.host_id].gone = true;
           }
           return;
         }
+        // Checked before mu_ is taken: refuse() takes it.
         if (!from_host(host_statuses.handle(), info, h.host_id)) {
           refuse(&RefusedSamples::wrong_sender, std::string("a status of worker host ") + h.host_id + " from outside its partition");
           return;
         }
-        if (!dds::valid_utf8(h.site) || !dds::valid_utf8(h.state) || h.capacity == 0 || !std::isfinite(h.load_1min) ||
-            !std::isfinite(h.memory_free_mib)) {
+        const std::string state = dds::valid_utf8(h.state) ? h.state : "";
+        if (!dds::valid_utf8(h.site) || (state != "ready" && state != "stopping") || h.capacity == 0 ||
+            !std::isfinite(h.load_1min) || !std::isfinite(h.memory_free_mib)) {
           refuse(&RefusedSamples::malformed, std::string("a status of worker host ") + h.host_id + " out of range");
           return;
         }
+        std::lock_guard<std::mutex> lock(mu_);
         HostInfo& info_of = hosts_[h.host_id];
         if (!info_of.alive(Clock::now())) spdlog::info("worker host {} is here: {} of {} workers running", h.host_id, h.running, h.capacity);
         info_of.id = h.host_id;
