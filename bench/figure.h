@@ -12,6 +12,12 @@ inline void figure(const std::string& what, const std::string& goal, const std::
   std::fflush(stdout);
 }
 
+// A row measured for comparison beside a goal's own (another setting of the same figure): no goal.
+inline void comparison(const std::string& what, const std::string& measured) {
+  std::printf("FIGURE\t%s\t(comparison)\t%s\t-\n", what.c_str(), measured.c_str());
+  std::fflush(stdout);
+}
+
 template <class... A>
 std::string fmt(const char* f, A... a) {
   char buf[256];

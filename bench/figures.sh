@@ -55,8 +55,12 @@ met=$([ "$median_us" -lt 40000 ] && echo yes || echo NO)
 printf '| `forklift-sim manoeuvre 4`, the whole process | < 40 ms | %s ms | %s | `bench/figures.sh` (median of 11) |\n' \
   "$(awk "BEGIN{printf \"%.1f\", $median_us/1000}")" "$met" >> "$rows"
 
-measure "forklift-bench-dds --samples 500 --seconds 3 --fleet 1 --frame-sizes 640x480" \
-  "$alloc" sh -c "exec $bin/forklift-bench-dds --samples 500 --seconds 3 --fleet 1 --frame-sizes 640x480 --dds-domain \$FORKLIFT_TEST_DOMAIN --dir $work/dds"
+# The workers as a simulation PC runs them (forklift-host --realtime-workers), and the framed
+# fleet at normal priority beside it.
+measure "forklift-bench-dds --samples 500 --seconds 3 --fleet 1 --frame-sizes 640x480 --realtime" \
+  "$alloc" sh -c "exec $bin/forklift-bench-dds --samples 500 --seconds 3 --fleet 1 --frame-sizes 640x480 --realtime --dds-domain \$FORKLIFT_TEST_DOMAIN --dir $work/dds"
+measure "forklift-bench-dds --framed-fleet 8 --framed-only --seconds $seconds --realtime" \
+  "$alloc" sh -c "exec $bin/forklift-bench-dds --framed-fleet 8 --framed-only --seconds $seconds --realtime --dds-domain \$FORKLIFT_TEST_DOMAIN --dir $work/dds"
 measure "forklift-bench-dds --framed-fleet 8 --framed-only --seconds $seconds" \
   "$alloc" sh -c "exec $bin/forklift-bench-dds --framed-fleet 8 --framed-only --seconds $seconds --dds-domain \$FORKLIFT_TEST_DOMAIN --dir $work/dds"
 measure "LP_NUM_THREADS=0 forklift-bench-render --benchmark_filter=jpeg_frame" \

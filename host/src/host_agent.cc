@@ -158,6 +158,7 @@ void HostAgent::start(const fk_WorkerRequest& r) {
   l.dds_config = config_.dds_config;
   l.security_dir = config_.security_dir;
   l.start_timeout_s = config_.start_timeout_s;
+  l.realtime = config_.realtime_workers;
   if (r.duration_s > 0) l.duration_s = r.duration_s;
   if (r.aids[0]) l.aids = std::string(r.aids);
   l.frames = WorkerFrames{r.frame_fps, r.frame_width, r.frame_height, bool(r.frame_jpeg)};

@@ -30,6 +30,7 @@ struct HostConfig {
   std::string security_dir;  // empty: no DDS Security (then no exam can run here)
   std::string identity;      // in security_dir; default host.<host_id>
   double start_timeout_s = 120;
+  bool realtime_workers = false;  // workers tick at real-time priority (forklift-worker --realtime)
   double report_kept_s = 600;  // an exited worker's report stays this long for servers that start later
 };
 

@@ -51,6 +51,8 @@ int main(int argc, char** argv) {
   app.add_option("--security", c.security_dir, "the school's DDS Security folder (scripts/forklift-pki.sh; default FORKLIFT_SECURITY_DIR), "
                  "with this host's identity and the workers' identities of the cabs it serves");
   app.add_option("--identity", c.identity, "this host's identity in it (default host.<id>)");
+  app.add_flag("--realtime-workers", c.realtime_workers, "workers run their tick at real-time priority (forklift-worker --realtime; "
+               "needs CAP_SYS_NICE or an rtprio limit, e.g. systemd's LimitRTPRIO=10): each cab keeps real time on a full machine");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -26,6 +26,7 @@ std::vector<std::string> worker_command(const WorkerLaunch& w) {
                              std::to_string(w.frames->width) + "x" + std::to_string(w.frames->height)});
     if (w.frames->jpeg) args.push_back("--jpeg");
   }
+  if (w.realtime) args.push_back("--realtime");
   return args;
 }
 

@@ -209,6 +209,7 @@ void Fleet::start_worker(const store::Session& s, const std::string& scenario_fi
   l.duration_s = duration_s;
   l.aids = aids;
   l.frames = config_.frames;
+  l.realtime = config_.realtime_workers;
   start_local_worker(s, l);
 }
 

@@ -40,6 +40,7 @@ struct FleetConfig {
   // Worker hosts (forklift-host) announce themselves over DDS; while one has room a session's
   // worker runs there. With none about, the server runs workers itself, unless local_workers is off.
   bool local_workers = true;
+  bool realtime_workers = false;  // workers it runs itself tick at real-time priority (--realtime)
   double host_answer_timeout_s = 5;  // a host that does not answer a start in this long is passed over
   double path_interval_s = 0.5;  // sim time between two stored points of a session's truck path
   std::string chain_anchor;      // the exam chain's anchor file; empty: <log_dir>/exam-chain.anchor

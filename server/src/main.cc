@@ -150,6 +150,8 @@ int main(int argc, char** argv) {
   bool no_local_workers = false;
   app.add_flag("--no-local-workers", no_local_workers, "run no sim worker on this machine: only on worker hosts (forklift-host); "
                "by default the server runs them itself while no worker host is about");
+  app.add_flag("--realtime-workers", cfg.realtime_workers, "the workers this server runs tick at real-time priority (forklift-worker "
+               "--realtime; needs CAP_SYS_NICE or an rtprio limit, e.g. systemd's LimitRTPRIO=10)");
   app.add_option("--token-ttl", cfg.token_ttl_s, "how long a login lasts, s")->check(CLI::Range(1.0, 30.0 * 86400));
   app.add_option("--tls-cert", tls_cert, "serve HTTPS with this PEM certificate (chain); needs --tls-key");
   app.add_option("--tls-key", tls_key, "the PEM private key of --tls-cert");

@@ -116,6 +116,7 @@ Api::Api(ServerConfig c) : ctx_(std::make_unique<Context>()), contract_(&api_con
   fc.hang_timeout_s = c.hang_timeout_s;
   fc.frames = c.frames;
   fc.local_workers = c.local_workers;
+  fc.realtime_workers = c.realtime_workers;
   ctx.fleet = std::make_unique<Fleet>(fc);
   ctx.stills = std::make_unique<Stills>(c.bin_dir + "/forklift-render", c.log_dir + "/stills", ctx.data_dir);
   ctx.replays = std::make_unique<Replays>(c.bin_dir + "/forklift-sim", c.log_dir + "/replays");

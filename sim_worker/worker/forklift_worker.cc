@@ -34,6 +34,7 @@
 #include "forklift/security/evidence.h"
 #include "forklift/session/controls.h"
 #include "forklift/session/session.h"
+#include "realtime.h"
 
 using namespace forklift;
 using Clock = std::chrono::steady_clock;
@@ -297,6 +298,10 @@ int main(int argc, char** argv) {
   app.add_option("--frame-shadows", frames.quality.shadow_map_px,
                  "shadow map size of the frames, texels a side (0: no shadows; fewer texels, coarser shadows, cheaper frames)")
       ->check(CLI::Range(0, 4096));
+  bool realtime = false;
+  app.add_flag("--realtime", realtime,
+               "run the tick at real-time priority (SCHED_FIFO 10) if permitted (CAP_SYS_NICE or an rtprio limit): on a "
+               "simulation PC shared by many cabs, it keeps each tick on time; frames still take only what is left");
   app.add_option("--replay", replay_file, "re-simulate a control log with no cab and print its final state")->check(CLI::ExistingFile);
   try {
     app.parse(argc, argv);
@@ -551,7 +556,10 @@ int main(int argc, char** argv) {
     FramePublisher frame_publisher(model, *participant, cab, frames);
     frame_publisher.offer(state);
     frame_publisher.ask(view_request);
-    frame_publisher.start();
+    frame_publisher.start();  // before real time: the render thread is not to inherit it
+    // The tick at real-time priority, when asked and permitted; refused, the session runs on.
+    const std::string realtime_refused = realtime ? worker::enter_realtime() : "not asked";
+    if (realtime && !realtime_refused.empty()) log_line(cab, realtime_refused + "; the tick runs at normal priority");
 
     DriverInputs applied{};
     uint32_t applied_seq = 0;
@@ -733,6 +741,7 @@ int main(int argc, char** argv) {
       if (until > 0) waitset.wait(until);
     }
 
+    if (realtime && realtime_refused.empty()) worker::leave_realtime();
     frame_publisher.stop();
     if (g_abort && end_reason == "signal") end_reason = "aborted";  // the instructor's abort (SIGUSR1)
     // The mark: end-of-session checks (parking, the task), then the Score, reliable and durable.
@@ -773,6 +782,7 @@ int main(int argc, char** argv) {
         {"states", states_published},
         {"deadman_stops", deadman_count}, {"integrator_steps", workspace.integrator_stats().steps},
         {"max_lag_ms", max_lag_s * 1e3}, {"max_lag_at_s", max_lag_at_s}, {"late_states", late_states},
+        {"realtime", realtime_refused.empty()},
         {"events", event_seq}, {"frames", frame_publisher.frames()},
         {"score", {{"mark", score.mark}, {"passed", score.passed}, {"points", score.points}, {"counts", score.counts},
                    {"automatic_failures", score.automatic_failures}, {"task_completed", score.task_completed},

@@ -2,7 +2,12 @@
 // domain id from the allocator (support/ports.h) so that tests running in parallel never meet.
 #include <gtest/gtest.h>
 
+#include <sched.h>
+
 #include <atomic>
+#include <algorithm>
+#include <filesystem>
+#include <sstream>
 #include <cmath>
 #include <fstream>
 #include <functional>
@@ -299,6 +304,127 @@ TEST(WorkerLoop, FramesOfTheWarehouseReachTheCabRawAndAsJpeg) {
     std::vector<std::string> derived = again.event_lines;
     derived.push_back(again.score_line);
     EXPECT_EQ(derived, logged);  // the same events and the same mark
+  }
+}
+
+namespace {
+
+// A thread's name and scheduling as the kernel has them (/proc/PID/task/TID: comm; stat fields
+// 40 rt_priority and 41 policy, counted after the command's closing parenthesis).
+struct ThreadSched {
+  std::string name;
+  int policy = -1, priority = -1;
+};
+std::map<int, ThreadSched> threads_of(int pid) {
+  std::map<int, ThreadSched> out;
+  std::error_code ec;
+  for (const auto& task : std::filesystem::directory_iterator("/proc/" + std::to_string(pid) + "/task", ec)) {
+    ThreadSched t;
+    std::ifstream(task.path() / "comm") >> t.name;
+    std::string stat;
+    std::getline(std::ifstream(task.path() / "stat"), stat);
+    const size_t close = stat.rfind(')');
+    if (close == std::string::npos) continue;
+    std::istringstream rest(stat.substr(close + 2));
+    std::string field;
+    for (int i = 3; i <= 41 && rest >> field; ++i) {
+      if (i == 40) t.priority = std::stoi(field);
+      if (i == 41) t.policy = std::stoi(field);
+    }
+    out[std::stoi(task.path().filename().string())] = t;
+  }
+  return out;
+}
+
+// Whether this test may give a thread real-time priority (root, CAP_SYS_NICE or an rtprio limit).
+bool realtime_permitted() {
+  bool ok = false;
+  std::thread([&] {
+    sched_param p{};
+    p.sched_priority = 10;
+    ok = sched_setscheduler(0, SCHED_FIFO, &p) == 0;
+  }).join();
+  return ok;
+}
+
+// A cab script that drives 3 s and wants frames (the cab saves the newest as PNG).
+std::string frames_script(const std::string& name) {
+  const std::string script = tmp(name + ".csv");
+  std::ofstream f(script);
+  f << "t,steer,accelerator,brake,lift,tilt,shift\n";
+  for (double t = 0; t <= 2.5; t += 0.02) f << t << ",0,0.2,0,0,0,0\n";
+  return script;
+}
+
+}  // namespace
+
+// --realtime: the tick and DDS's receive threads run SCHED_FIFO 10 while the session runs, the
+// render thread stays SCHED_IDLE (frames take only what is left), and the worker says so. Where
+// real-time priority is not permitted, the worker says why on stderr and the session runs on.
+TEST(WorkerLoop, RealtimeTickRunsFifoFramesStayIdleAndARefusalRunsOn) {
+  const std::vector<std::string> args = {"--scenario", kData + "/scenarios/rack_pick.json", "--duration", "3", "--fps", "20",
+                                         "--jpeg", "--realtime"};
+  if (!realtime_permitted()) {
+    GTEST_SKIP() << "this machine does not let the test run real-time threads (no CAP_SYS_NICE, rtprio limit 0)";
+  }
+  {
+    const int domain = forklift::test::free_domain();
+    Process w = worker(domain, "rt1", "realtime_on", args);
+    Process cab({kBin + "/forklift-cab", "--cab", "rt1", "--script", frames_script("realtime_on"), "--dds-domain",
+                 std::to_string(domain), "--no-window", "--save-frame", tmp("realtime_on.png"), "--wait-worker", "20"},
+                tmp("realtime_on.cab"));
+    // While it runs (the cab drives and asks for frames), read the worker's threads.
+    std::map<int, ThreadSched> seen;
+    for (int i = 0; i < 2000 && w.running(); ++i) {
+      seen = threads_of(w.pid());
+      const bool main_fifo = seen.count(w.pid()) && seen[w.pid()].policy == SCHED_FIFO;
+      const bool idle_render = std::any_of(seen.begin(), seen.end(), [](const auto& t) { return t.second.policy == SCHED_IDLE; });
+      if (main_fifo && idle_render) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    ASSERT_EQ(w.wait(30), 0) << w.err();
+    ASSERT_EQ(cab.wait(10), 0) << cab.err();
+    ASSERT_TRUE(seen.count(w.pid())) << "the worker's threads were never read";
+    EXPECT_EQ(seen[w.pid()].policy, SCHED_FIFO);
+    EXPECT_EQ(seen[w.pid()].priority, 10);
+    int receivers = 0, idle = 0;
+    for (const auto& [tid, t] : seen) {
+      if (t.name.rfind("recv", 0) == 0) {
+        ++receivers;
+        EXPECT_EQ(t.policy, SCHED_FIFO) << t.name;
+      } else if (tid != w.pid()) {
+        EXPECT_NE(t.policy, SCHED_FIFO) << t.name << ": only the tick and DDS's receivers run real time";
+      }
+      idle += t.policy == SCHED_IDLE;
+    }
+    EXPECT_GE(receivers, 1);
+    EXPECT_EQ(idle, 1) << "the render thread, and it alone, is SCHED_IDLE";
+    const json r = output_json(w);
+    EXPECT_EQ(r.value("realtime", false), true);
+    EXPECT_GE(r["frames"].get<long>(), 20);
+    EXPECT_EQ(w.err().find("normal priority"), std::string::npos) << w.err();
+  }
+  {
+    // The same worker where real-time priority is not permitted: no CAP_SYS_NICE, rtprio limit 0.
+    const int domain = forklift::test::free_domain();
+    std::vector<std::string> cmd = {"/usr/bin/prlimit", "--rtprio=0", "/usr/bin/setpriv", "--bounding-set=-sys_nice",
+                                    "--inh-caps=-sys_nice", kBin + "/forklift-worker", "--cab", "rt2", "--session", "realtime_off",
+                                    "--dds-domain", std::to_string(domain), "--log", tmp("realtime_off.ctl")};
+    cmd.insert(cmd.end(), args.begin(), args.end());
+    Process w(cmd, tmp("realtime_off.worker"));
+    Process cab({kBin + "/forklift-cab", "--cab", "rt2", "--script", frames_script("realtime_off"), "--dds-domain",
+                 std::to_string(domain), "--no-window", "--wait-worker", "20"},
+                tmp("realtime_off.cab"));
+    ASSERT_EQ(w.wait(30), 0) << w.err();
+    ASSERT_EQ(cab.wait(10), 0) << cab.err();
+    const json r = output_json(w);
+    EXPECT_EQ(r.value("realtime", true), false);
+    EXPECT_NE(w.err().find("real-time priority not permitted"), std::string::npos) << w.err();
+    EXPECT_NE(w.err().find("the tick runs at normal priority"), std::string::npos) << w.err();
+    EXPECT_GE(r["ticks"].get<long>(), 2900);  // the whole 3 s session ran
+    const ControlLog log = read_control_log(tmp("realtime_off.ctl"));
+    ASSERT_TRUE(log.final_state);
+    EXPECT_EQ(replay_session(log, kData).final_state, *log.final_state);
   }
 }
 

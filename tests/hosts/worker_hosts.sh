@@ -110,8 +110,8 @@ start_server() {  # NS ADDRESS NAME
   fail "$3" "server $3 never answered: $(tail -5 "$out/$3.log")"
   exit 1
 }
-start_host() {  # NS ID
-  spawn "$1" "$bin/forklift-host" --host-id "$2" --capacity 2 --start-timeout 30 --log-dir "$out/$2" 2> "$out/$2.log" &
+start_host() {  # NS ID [MORE ARGUMENTS]
+  spawn "$1" "$bin/forklift-host" --host-id "$2" --capacity 2 --start-timeout 30 --log-dir "$out/$2" "${@:3}" 2> "$out/$2.log" &
   pids+=($!)
 }
 menu() {  # on the cabs' machine, against server A
@@ -149,7 +149,7 @@ drive() {  # CAB [IDENTITY]: a scripted cab in C, in the background
 wait_cabs() { for p in "${cabs[@]}"; do wait "$p"; done; cabs=(); }
 
 start_host "$A" h1
-start_host "$B" h2
+start_host "$B" h2 --realtime-workers  # its workers tick at real-time priority (root may)
 start_server "$S" "$addr_S" A
 FORKLIFT_PASSWORD=hosts-admin-password menu login --user admin > /dev/null || { fail login "$(tail -3 "$out/A.log")"; exit 1; }
 pupil=$(menu pupil-add --name "Hosts Pupil" --email hosts@example.org | sed -E 's/^pupil ([0-9]+):.*/\1/')
@@ -182,8 +182,12 @@ if [ "$secure" != "--secure" ]; then
     [ "$marks" = 1 ] || fail ingest "session $s has $marks marks in the store"
     logged_mark=$(sed -n 's/^score \([^ ]*\) .*/\1/p' "$out/$h/$s.ctl")
     [ -n "$logged_mark" ] || fail ingest "session $s: its host's log has no score line"
+    # h2 (--realtime-workers) ran its workers' ticks at real-time priority, h1 not.
+    realtime=$(python3 -c "import json,sys; print(json.load(open(sys.argv[1])).get('realtime'))" "$out/$h/$s.out" 2>&1)
+    [ "$realtime" = "$([ "$h" = h2 ] && echo True || echo False)" ] ||
+      fail realtime "session $s on $h: the worker's summary says realtime $realtime"
   done
-  [ "$failed" -eq 0 ] && echo "1: four sessions ran two on each host; every event and mark is in the store once"
+  [ "$failed" -eq 0 ] && echo "1: four sessions ran two on each host; every event and mark is in the store once; h2's ticks ran real time"
 
   # 2. A host dies mid-session: its session fails with the reason; the next goes to the other.
   s1=$(start c1 40); drive c1

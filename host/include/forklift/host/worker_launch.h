@@ -29,6 +29,7 @@ struct WorkerLaunch {
   std::optional<double> duration_s;
   std::optional<std::string> aids;
   std::optional<WorkerFrames> frames;  // nullopt: the worker's defaults
+  bool realtime = false;               // its tick at real-time priority where permitted (--realtime)
 };
 
 std::vector<std::string> worker_command(const WorkerLaunch& w);

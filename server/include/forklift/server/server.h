@@ -51,6 +51,7 @@ struct ServerConfig {
   double hang_timeout_s = 5;
   std::optional<host::WorkerFrames> frames;  // every worker's frames' rate, size, encoding (nullopt: the worker's defaults)
   bool local_workers = true;  // run workers here when no worker host (forklift-host) is about
+  bool realtime_workers = false;  // those workers tick at real-time priority (forklift-worker --realtime)
 };
 
 struct Context;
