@@ -142,6 +142,10 @@ void Api::mount(httplib::Server& svr) {
   // Headers and body go out as separate writes; without this, Nagle and delayed ACKs hold each
   // keep-alive answer for 40 ms.
   svr.set_tcp_nodelay(true);
+  // A browser or a client keeps its connection for many requests (httplib's default closes it
+  // after 5, and a new connection costs an accept and a thread hand-over; nginx allows 1,000).
+  // An idle connection still ends after the keep-alive timeout.
+  svr.set_keep_alive_max_count(kKeepAliveRequests);
   svr.set_exception_handler([](const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
     std::string what = "unknown exception";
     try { std::rethrow_exception(ep); } catch (const std::exception& e) { what = e.what(); } catch (...) {}

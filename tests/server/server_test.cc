@@ -1,7 +1,11 @@
 // forklift-server over real HTTP on loopback, with a real SQLite file and real workers and cabs.
 // Each test runs its own server on its own port and DDS domain (support/ports.h).
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <httplib.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -80,6 +84,45 @@ TEST(Server, BadRequestsGetTheDocumentedErrorAndTheServerStaysUp) {
   EXPECT_EQ(error_code(s.call("POST", "/api/sessions", admin, R"({"pupil_id": "one"})").second), "bad_request");
   EXPECT_EQ(s.call("GET", "/api/health").first, 200);
   EXPECT_TRUE(s.proc->running());
+}
+
+// A client keeps its connection: a hundred requests on one socket, each answered on it and none
+// told "Connection: close" (a new connection for every few requests costs an accept and a thread).
+TEST(Server, OneConnectionCarriesManyRequests) {
+  Server s("keepalive");
+  const int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(static_cast<uint16_t>(s.port));
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  const timeval timeout{20, 0};
+  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  const std::string request = "GET /api/health HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n";
+  int answered = 0, told_to_close = 0;
+  std::string got;
+  for (int i = 0; i < 100; ++i) {
+    if (send(fd, request.data(), request.size(), MSG_NOSIGNAL) != ssize_t(request.size())) break;
+    size_t end = std::string::npos;
+    char buf[4096];
+    // One whole answer: its head, then Content-Length bytes of body.
+    for (ssize_t n; (end = got.find("\r\n\r\n")) == std::string::npos && (n = recv(fd, buf, sizeof buf, 0)) > 0;)
+      got.append(buf, size_t(n));
+    if (end == std::string::npos) break;
+    const std::string head = got.substr(0, end);
+    const size_t at = head.find("Content-Length: ");
+    ASSERT_NE(at, std::string::npos) << head;
+    const size_t whole = end + 4 + std::stoul(head.substr(at + 16));
+    for (ssize_t n; got.size() < whole && (n = recv(fd, buf, sizeof buf, 0)) > 0;) got.append(buf, size_t(n));
+    ASSERT_GE(got.size(), whole);
+    EXPECT_EQ(head.rfind("HTTP/1.1 200", 0), 0u) << head;
+    told_to_close += head.find("Connection: close") != std::string::npos;
+    got.erase(0, whole);
+    ++answered;
+  }
+  close(fd);
+  EXPECT_EQ(answered, 100);
+  EXPECT_EQ(told_to_close, 0);
 }
 
 TEST(Server, ScriptedSessionEndsAndItsEventsAreStoredOnce) {
