@@ -109,6 +109,7 @@ void BM_Frame(benchmark::State& state, View view, ViewOptions options, int width
   state.counters["fps"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate);
   state.counters["calls"] = r.last_frame().draw_calls;
   state.counters["parts"] = r.last_frame().static_parts_drawn;
+  state.counters["triangles"] = double(r.last_frame().triangles);
 }
 
 // What the worker does for a JPEG frame: the picture as read back (RGBX), straight into JPEG.

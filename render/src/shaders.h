@@ -29,7 +29,7 @@ layout(location = 3) in mat4 a_model;  // locations 3..6, one per instance
 uniform mat4 u_view_projection;
 uniform vec3 u_eye;
 uniform vec3 u_key_light;  // towards the key light, unit
-out vec4 v_colour;  // base colour, pattern
+flat out vec4 v_colour;  // base colour, pattern: one per surface, so not interpolated
 out vec2 v_floor;   // world x, y: the floor's patterns
 out float v_ambient;  // ambient and fill: what a shadow leaves
 out float v_key;      // the key light: what a shadow takes away
@@ -61,7 +61,7 @@ void main() {
 )glsl";
 
 inline constexpr const char* kFragmentShader = R"glsl(
-in vec4 v_colour;
+flat in vec4 v_colour;
 in vec2 v_floor;
 in float v_ambient;
 in float v_key;
@@ -77,7 +77,7 @@ uniform sampler2DShadow u_shadow_map;
 #if HAZE
 uniform vec3 u_sky;
 uniform float u_haze;  // the most the haze takes of a far surface's colour (0: none, the plan view)
-const float kHazeStartM = 15.0, kHazeFullM = 100.0;
+const float kHazeStartM = HAZE_START_M, kHazeFullM = HAZE_FULL_M;  // render.h's, defined in the head
 #endif
 out vec4 o_colour;
 const vec3 kStripe = vec3(0.95, 0.80, 0.10);

@@ -416,6 +416,51 @@ TEST(Shadows, AnUnloadedPalletsLoadThrowsAShadowWhereverThePalletGoes) {
   EXPECT_LT(brightness(at_scene_pose, spot), 0.8 * brightness(moved, spot));
 }
 
+// ---- haze --------------------------------------------------------------------------------------
+
+// Far things fade towards the sky; the truck, whose every part is nearer the camera than the
+// haze starts (15 m), looks the same with haze and without, in the driver's and the chase view.
+TEST(Haze, FarRacksFadeTowardsTheSkyTheTruckNever) {
+  const TruckShape shape = test_truck_shape();
+  const RenderState state = truck_at(0, 0, 0);
+  // The truck's own pixels: where it covers the sky of an empty world (no floor, no objects).
+  Renderer sky_only(Scene{}, TruckShape{}, truck());
+  Renderer truck_only(Scene{}, shape, truck());
+  Scene scene = floor_scene();
+  scene.objects.push_back(rack_at(60, 0));  // far ahead: well into the haze
+  Renderer hazed(scene, shape, truck(), 640, 480, RenderQuality{0, true, false});
+  Renderer clear(scene, shape, truck(), 640, 480, RenderQuality{0, false, false});
+  for (View v : {View::kDriver, View::kChase}) {
+    SCOPED_TRACE(view_name(v));
+    const Image sky = sky_only.render(state, v), alone = truck_only.render(state, v);
+    const Image a = hazed.render(state, v), b = clear.render(state, v);
+    dump(std::string("haze_") + view_name(v), a);
+    long truck_pixels = 0, truck_changed = 0, far_changed = 0, away_from_sky = 0;
+    double hazed_from_sky = 0, clear_from_sky = 0;  // summed over the pixels the haze changed
+    auto from_sky = [&](const Image& im, int x, int y) {
+      const uint8_t *p = im.pixel(x, y), *s = sky.pixel(x, y);
+      return std::abs(p[0] - s[0]) + std::abs(p[1] - s[1]) + std::abs(p[2] - s[2]);
+    };
+    for (int y = 0; y < a.height; ++y)
+      for (int x = 0; x < a.width; ++x) {
+        const bool is_truck = !std::equal(alone.pixel(x, y), alone.pixel(x, y) + 3, sky.pixel(x, y));
+        const bool changed = !std::equal(a.pixel(x, y), a.pixel(x, y) + 3, b.pixel(x, y));
+        truck_pixels += is_truck;
+        truck_changed += is_truck && changed;
+        if (is_truck || !changed) continue;
+        ++far_changed;
+        hazed_from_sky += from_sky(a, x, y);
+        clear_from_sky += from_sky(b, x, y);
+        away_from_sky += from_sky(a, x, y) > from_sky(b, x, y);
+      }
+    EXPECT_GT(truck_pixels, 0.05 * a.width * a.height);
+    EXPECT_EQ(truck_changed, 0);
+    EXPECT_GT(far_changed, 1000);  // the far floor and the rack
+    EXPECT_LT(hazed_from_sky, clear_from_sky);  // towards the sky's colour
+    EXPECT_EQ(away_from_sky, 0);
+  }
+}
+
 // ---- frustum culling --------------------------------------------------------------------------
 
 SceneObject low_box_at(const std::string& id, double x, double y) {

@@ -183,5 +183,39 @@ TEST(TruckShapeFromFile, ALargerFrontTyreChangesTheChaseViewAtTheWheelOnly) {
   fs::remove_all(fs::path(same).parent_path());
 }
 
+// The renderer draws the truck without haze (kHazeStartM): exact only while every part of every
+// shipped truck, forks at full lift and the driver's head turned either way, is nearer the
+// driver's and the chase camera than the haze's start.
+TEST(TruckShapeFromFile, EveryShippedTruckIsNearerItsCamerasThanTheHazeStarts) {
+  for (const auto& file : fs::directory_iterator(std::string(FORKLIFT_DATA_DIR) + "/trucks")) {
+    if (file.path().extension() != ".json") continue;
+    SCOPED_TRACE(file.path().filename().string());
+    const TruckParams truck = load_truck(file.path().string());
+    const TruckShape shape = load_truck_shape(file.path().string(), FORKLIFT_DATA_DIR);
+    for (double lift : {0.0, truck.limits.lift_max_m}) {
+      CoordVector q = CoordVector::Zero();
+      q[kS] = lift;
+      const BodyPoses poses = body_poses(truck, q);
+      const std::pair<const Mesh*, Eigen::Isometry3d> parts[] = {
+          {shape.chassis.get(), poses.chassis}, {shape.mast.get(), poses.mast}, {shape.carriage.get(), poses.carriage},
+          {shape.front_wheel.get(), poses.wheels[kFrontLeft]}, {shape.front_wheel.get(), poses.wheels[kFrontRight]},
+          {shape.rear_wheel.get(), poses.wheels[kRear]}};
+      std::vector<Camera> cameras = {view_camera(View::kChase, poses, shape, Scene{})};
+      for (double yaw : {-kLookYawMaxRad, 0.0, kLookYawMaxRad}) cameras.push_back(driver_camera(poses, shape, yaw, 0));
+      int meshes = 0;
+      for (const auto& [mesh, pose] : parts) {
+        if (!mesh) continue;
+        ++meshes;
+        for (const Camera& c : cameras)
+          for (int i = 0; i < 8; ++i)
+            EXPECT_LT((pose * mesh->bounds.corner(Eigen::AlignedBox3d::CornerType(i)) - c.eye).norm(), kHazeStartM)
+                << "lift " << lift;
+      }
+      EXPECT_GE(meshes, 4);
+    }
+  }
+}
+
+
 }  // namespace
 }  // namespace forklift

@@ -58,13 +58,18 @@ struct RenderQuality {
                       // about an eighth of a frame on llvmpipe: forklift-bench-render's quality rows)
 };
 inline constexpr double kShadowAreaM = 12.0;  // the square round the truck whose floor shows shadows
+// The haze (RenderQuality::haze) begins this far from the camera and is whole at kHazeFullM. The
+// truck is drawn without it: every part of it is nearer a driver's or a chase camera than this.
+inline constexpr double kHazeStartM = 15.0, kHazeFullM = 100.0;
 
 // What the last frame drew: the static scene's parts (each object other than a pallet, and the
 // floor with its paint) and how many of them the frame's camera could see, so drew (frustum
-// culling; the mirror's pass not counted), and the draw calls made in all its passes.
+// culling; the mirror's pass not counted), and the draw calls and triangles sent in all its
+// passes (the shadow map's included).
 struct FrameStats {
   int static_parts = 0, static_parts_drawn = 0;
   int draw_calls = 0;
+  long triangles = 0;
 };
 
 class Renderer {
