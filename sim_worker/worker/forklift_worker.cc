@@ -686,7 +686,12 @@ int main(int argc, char** argv) {
         max_lag_s = wall - std::max(wake_at_s, state.t_s);
         max_lag_at_s = state.t_s;
       }
-      const int64_t due = static_cast<int64_t>(std::floor(wall / model.tick_s)) + 1;
+      int64_t due = static_cast<int64_t>(std::floor(wall / model.tick_s)) + 1;
+      // A sample that arrives once the wall clock's tick is stepped applies from the next tick,
+      // stepped at once rather than when the wall clock gets there: the cab sees it within the
+      // step and the delivery, not up to a tick later. The truck is then at most two ticks
+      // ahead of the wall clock, never more (a second sample in the same tick waits its turn).
+      if (pending && state.tick == due) ++due;
       bool changed = false, stepped = false;
       while (state.tick < due) {
         // The newest sample (or the dead man) applies from the tick the wall clock is in.
