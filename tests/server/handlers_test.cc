@@ -560,3 +560,47 @@ TEST(Handlers, OnlyTheSessionsWorkerIsBelievedAndABadSampleCostsOnlyItself) {
   EXPECT_EQ(cst, 200) << cabs;
   EXPECT_EQ(cabs.dump().find("cab9"), std::string::npos) << cabs;
 }
+
+// A worker host's status counts only from the host's own partition and only in range: a status
+// naming another host, one in a state no host has, and one with a load that is not a number are
+// each refused and counted; the good one is listed; the server goes on answering.
+TEST(Handlers, AWorkerHostsStatusFromOutsideItsPartitionOrOutOfRangeIsRefused) {
+  const int domain = forklift::test::free_domain();
+  InProcessServer s("hoststatus", domain);
+  namespace dds = forklift::dds;
+  dds::Participant p(dds::DomainSettings::resolve(domain, ""));
+  const std::string admin = s.login("admin", kAdminPassword);
+  // Each in its own instance (host id), so that none supersedes another before it is read.
+  dds::Writer<fk_HostStatus> h1(p, dds::host_partition("h1")), h3(p, dds::host_partition("h3")), h4(p, dds::host_partition("h4"));
+  for (int i = 0; i < 200 && (h1.matched() == 0 || h3.matched() == 0 || h4.matched() == 0); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  ASSERT_GT(h1.matched() * h3.matched() * h4.matched(), 0u);
+  auto status = [](const char* id, const char* state, double load) {
+    fk_HostStatus h{};
+    dds::set_string(h.host_id, id);
+    dds::set_string(h.state, state);
+    h.capacity = 4;
+    h.cores = 2;
+    h.load_1min = load;
+    h.memory_free_mib = 1000;
+    return h;
+  };
+  ASSERT_TRUE(h1.write(status("h2", "ready", 0.5)));               // h2's status from h1's partition
+  ASSERT_TRUE(h3.write(status("h3", "dancing", 0.5)));             // no such state
+  ASSERT_TRUE(h4.write(status("h4", "ready", std::nan(""))));      // a load that is not a number
+  ASSERT_TRUE(h1.write(status("h1", "ready", 0.5)));               // good
+  json fleet;
+  for (int i = 0; i < 100; ++i) {
+    fleet = s.call("GET", "/api/fleet", admin).second;
+    const json& r = fleet["refused_samples"];
+    if (r["malformed"] >= 2 && r["wrong_sender"] >= 1 && fleet["hosts"].size() >= 1) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_EQ(fleet["refused_samples"]["malformed"], 2) << fleet;
+  EXPECT_EQ(fleet["refused_samples"]["wrong_sender"], 1) << fleet;
+  ASSERT_EQ(fleet["hosts"].size(), 1u) << fleet;
+  EXPECT_EQ(fleet["hosts"][0]["id"], "h1") << fleet;
+  EXPECT_EQ(fleet["hosts"][0]["state"], "ready") << fleet;
+  EXPECT_EQ(fleet["hosts"][0]["alive"], true) << fleet;
+  EXPECT_EQ(s.call("GET", "/api/health").first, 200);
+}
