@@ -143,8 +143,8 @@ void Api::mount(httplib::Server& svr) {
   // keep-alive answer for 40 ms.
   svr.set_tcp_nodelay(true);
   // A browser or a client keeps its connection for many requests (httplib's default closes it
-  // after 5, and a new connection costs an accept and a thread hand-over; nginx allows 1,000).
-  // An idle connection still ends after the keep-alive timeout.
+  // after 5, and a new connection costs an accept and a thread hand-over; nginx allows 1,000),
+  // for at most 5 s (the listener's kKeepAliveFor); an idle one ends after the keep-alive timeout.
   svr.set_keep_alive_max_count(kKeepAliveRequests);
   svr.set_exception_handler([](const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
     std::string what = "unknown exception";

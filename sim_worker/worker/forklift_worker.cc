@@ -746,7 +746,7 @@ int main(int argc, char** argv) {
       if (until > 0) waitset.wait(until);
     }
 
-    if (realtime && realtime_refused.empty()) worker::leave_realtime();
+    if (realtime) worker::leave_realtime();  // also after a partial grant (the tick, not every receiver)
     frame_publisher.stop();
     if (g_abort && end_reason == "signal") end_reason = "aborted";  // the instructor's abort (SIGUSR1)
     // The mark: end-of-session checks (parking, the task), then the Score, reliable and durable.

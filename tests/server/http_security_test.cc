@@ -25,6 +25,7 @@
 #include <thread>
 #include <vector>
 
+#include "support/loopback.h"
 #include "support/ports.h"
 #include "support/process.h"
 #include "support/server.h"
@@ -235,18 +236,10 @@ struct RawAnswer {
 };
 
 RawAnswer raw_request(int port, const std::string& head, size_t bytes = 0, char fill = 'a', const std::string& tail = "") {
-  const int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_port = htons(static_cast<uint16_t>(port));
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  const timeval timeout{60, 0};
-  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-  setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &timeout, sizeof timeout);
+  const int fd = forklift_test::connect_loopback(port, 60);
   RawAnswer answer;
-  if (connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+  if (fd < 0) {
     ADD_FAILURE() << "cannot connect to port " << port;
-    close(fd);
     return answer;
   }
   auto send_all = [&](const char* p, size_t n) {

@@ -1,11 +1,7 @@
 // forklift-server over real HTTP on loopback, with a real SQLite file and real workers and cabs.
 // Each test runs its own server on its own port and DDS domain (support/ports.h).
-#include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <httplib.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -18,6 +14,7 @@
 
 #include "forklift/protocol/protocol.h"
 #include "support/cab_script.h"
+#include "support/loopback.h"
 #include "support/process.h"
 #include "support/server.h"
 
@@ -86,43 +83,81 @@ TEST(Server, BadRequestsGetTheDocumentedErrorAndTheServerStaysUp) {
   EXPECT_TRUE(s.proc->running());
 }
 
+namespace {
+
+// One kept-alive connection to a test server, asking GET /api/health on it again and again.
+class KeptConnection {
+ public:
+  explicit KeptConnection(int port) : fd_(forklift_test::connect_loopback(port, 20)) {}
+  ~KeptConnection() {
+    if (fd_ >= 0) close(fd_);
+  }
+  // One request and its whole answer's head ("" once the connection is gone).
+  std::string ask() {
+    const std::string request = "GET /api/health HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n";
+    if (fd_ < 0 || send(fd_, request.data(), request.size(), MSG_NOSIGNAL) != ssize_t(request.size())) return "";
+    size_t end = std::string::npos;
+    char buf[4096];
+    for (ssize_t n; (end = got_.find("\r\n\r\n")) == std::string::npos && (n = recv(fd_, buf, sizeof buf, 0)) > 0;)
+      got_.append(buf, size_t(n));
+    if (end == std::string::npos) return "";
+    const std::string head = got_.substr(0, end);
+    const size_t at = head.find("Content-Length: ");
+    if (at == std::string::npos) return "";
+    const size_t whole = end + 4 + std::stoul(head.substr(at + 16));
+    for (ssize_t n; got_.size() < whole && (n = recv(fd_, buf, sizeof buf, 0)) > 0;) got_.append(buf, size_t(n));
+    if (got_.size() < whole) return "";
+    got_.erase(0, whole);
+    return head;
+  }
+
+ private:
+  int fd_;
+  std::string got_;
+};
+
+bool says_close(const std::string& head) { return head.find("Connection: close") != std::string::npos; }
+
+}  // namespace
+
 // A client keeps its connection: a hundred requests on one socket, each answered on it and none
 // told "Connection: close" (a new connection for every few requests costs an accept and a thread).
 TEST(Server, OneConnectionCarriesManyRequests) {
   Server s("keepalive");
-  const int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_port = htons(static_cast<uint16_t>(s.port));
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  const timeval timeout{20, 0};
-  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-  ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
-  const std::string request = "GET /api/health HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n";
+  KeptConnection c(s.port);
   int answered = 0, told_to_close = 0;
-  std::string got;
   for (int i = 0; i < 100; ++i) {
-    if (send(fd, request.data(), request.size(), MSG_NOSIGNAL) != ssize_t(request.size())) break;
-    size_t end = std::string::npos;
-    char buf[4096];
-    // One whole answer: its head, then Content-Length bytes of body.
-    for (ssize_t n; (end = got.find("\r\n\r\n")) == std::string::npos && (n = recv(fd, buf, sizeof buf, 0)) > 0;)
-      got.append(buf, size_t(n));
-    if (end == std::string::npos) break;
-    const std::string head = got.substr(0, end);
-    const size_t at = head.find("Content-Length: ");
-    ASSERT_NE(at, std::string::npos) << head;
-    const size_t whole = end + 4 + std::stoul(head.substr(at + 16));
-    for (ssize_t n; got.size() < whole && (n = recv(fd, buf, sizeof buf, 0)) > 0;) got.append(buf, size_t(n));
-    ASSERT_GE(got.size(), whole);
+    const std::string head = c.ask();
+    if (head.empty()) break;
     EXPECT_EQ(head.rfind("HTTP/1.1 200", 0), 0u) << head;
-    told_to_close += head.find("Connection: close") != std::string::npos;
-    got.erase(0, whole);
+    told_to_close += says_close(head);
     ++answered;
   }
-  close(fd);
   EXPECT_EQ(answered, 100);
   EXPECT_EQ(told_to_close, 0);
+}
+
+// But a connection hands its thread back after 5 s, however busy: a page polling four times a
+// second is told "Connection: close" once, after 5 s and not before, and the connection ends.
+TEST(Server, AConnectionKeptBusyIsRetiredAfterFiveSeconds) {
+  Server s("retire");
+  const auto opened = std::chrono::steady_clock::now();
+  KeptConnection c(s.port);
+  double closed_after_s = -1;
+  int answered = 0;
+  while (std::chrono::steady_clock::now() - opened < std::chrono::seconds(30)) {
+    const std::string head = c.ask();
+    ASSERT_FALSE(head.empty()) << "the connection ended without saying so, after " << answered << " answers";
+    ++answered;
+    if (says_close(head)) {
+      closed_after_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - opened).count();
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(250));
+  }
+  EXPECT_GE(closed_after_s, 5.0) << answered << " answers";
+  EXPECT_GE(answered, 10);
+  EXPECT_TRUE(c.ask().empty());  // and it is gone
 }
 
 TEST(Server, ScriptedSessionEndsAndItsEventsAreStoredOnce) {

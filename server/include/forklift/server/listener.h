@@ -30,7 +30,7 @@ namespace forklift::server {
 
 constexpr size_t kMaxHeadBytes = 64 << 10;  // a request's line and headers together
 constexpr size_t kMaxBodyBytes = 1 << 20;   // a request's body, out of its chunks
-constexpr size_t kKeepAliveRequests = 1000;  // requests on one connection before it is closed
+constexpr size_t kKeepAliveRequests = 1000;  // requests on one connection before it is closed (or 5 s)
 
 // Why the listener refused the request now being answered on this thread: the HTTP status, a
 // code and words for the JSON error; nullptr when it refused nothing (or is not a listener's).
