@@ -19,8 +19,9 @@
 //    state's sim time, less the least of that over the run), p50, p99, max. A cab holds real
 //    time when its tick lag p99 is under 2 ms and at least 29 frames a second arrive. The lag at
 //    arrival (taken here, less its least) is printed beside it: it adds loopback delivery and this
-//    one program's own turn, playing eight cabs that would be eight machines. --lp-threads sets llvmpipe's rasteriser threads per worker (LP_NUM_THREADS; a worker
-//    renders in its render thread alone unless told), --frame-shadows and --jpeg-quality the
+//    one program's own turn, playing eight cabs that would be eight machines. --lp-threads sets
+//    llvmpipe's rasteriser threads per worker (LP_NUM_THREADS; a worker renders in its render
+//    thread alone unless told), --frame-shadows and --jpeg-quality the
 //    workers' own options of those names (the picture's cost).
 // With --realtime every worker runs with --realtime (its tick at SCHED_FIFO, as a simulation PC
 // runs them: forklift-host --realtime-workers); the framed fleet's figure is then the goal's row,
@@ -63,8 +64,7 @@ namespace {
 std::string g_bin;
 std::string g_dir;  // logs and captures
 std::vector<std::string> g_frame_args;  // more of a framed fleet's workers' arguments (--frame-shadows, --jpeg-quality)
-std::vector<std::string> g_worker_args;  // more of every worker's arguments (--realtime)
-bool realtime() { return std::find(g_worker_args.begin(), g_worker_args.end(), "--realtime") != g_worker_args.end(); }
+bool g_realtime = false;  // every worker with --realtime
 std::string g_security;  // the school folder while a secured run is measured; empty in clear
 
 // The worker's and this cab's DDS Security arguments for cab `cab` (none in clear).
@@ -83,7 +83,7 @@ std::unique_ptr<Process> spawn_worker(int domain, const std::string& cab, double
   std::vector<std::string> args = {g_bin + "/forklift-worker", "--cab", cab, "--session", "bench-" + cab, "--dds-domain",
                                    std::to_string(domain), "--log", tag + ".ctl", "--duration", std::to_string(seconds)};
   args.insert(args.end(), extra.begin(), extra.end());
-  args.insert(args.end(), g_worker_args.begin(), g_worker_args.end());
+  if (g_realtime) args.push_back("--realtime");
   for (const std::string& a : worker_security()) args.push_back(a);
   return std::make_unique<Process>(args, tag);
 }
@@ -154,7 +154,7 @@ void round_trip(int domain, int samples) {
   std::printf("target p99 < 5000 us: %s\n\n", pct(0.99) < 5000 ? "met" : "NOT MET");
   // Issue 19, goal 3: the round trip's p99 within the 1 ms tick plus 0.2 ms.
   bench::figure(std::string("control to applied state, round trip over loopback DDS (") + mode_name() +
-                    (realtime() ? ", worker --realtime" : "") + "): p50; p99",
+                    (g_realtime ? ", worker --realtime" : "") + "): p50; p99",
                 "p99 < 1.2 ms (the tick + 0.2 ms)", bench::fmt("%.2f ms; %.2f ms", pct(0.5) / 1e3, pct(0.99) / 1e3),
                 pct(0.99) < 1200);
 }
@@ -410,11 +410,11 @@ bool framed_fleet(int domain, int n, double fps, double seconds) {
   }
   const std::string what = bench::fmt("%d cabs with %g fps 640x480 JPEG frames (full warehouse), workers %s: cabs holding real "
                                        "time; CPU per worker; least fps; worst tick lag p99 (at the cab, with delivery)",
-                                       n, fps, realtime() ? "--realtime" : "at normal priority");
+                                       n, fps, g_realtime ? "--realtime" : "at normal priority");
   const std::string measured = bench::fmt("%d of %d; %.0f %% of a core; %.1f fps; %.1f ms (%.1f ms)", holding, n, cpu_sum / n, least_fps,
                                           worst_p99, worst_arrival_p99);
   // The goal is the product's setting on a simulation PC (forklift-host --realtime-workers).
-  if (realtime())
+  if (g_realtime)
     bench::figure(what, "8 of 8 (>= 29 fps, lag p99 < 2 ms)", measured, holding == n && n >= 8);
   else
     bench::comparison(what, measured);
@@ -461,8 +461,7 @@ int main(int argc, char** argv) {
   app.add_option("--jpeg-quality", jpeg_quality, "a framed fleet's workers' JPEG quality (their --jpeg-quality)")->check(CLI::Range(1, 100));
   bool framed_only = false;
   app.add_flag("--framed-only", framed_only, "run only the framed fleet");
-  bool realtime = false;
-  app.add_flag("--realtime", realtime, "start every worker with --realtime (its tick at real-time priority, if permitted)");
+  app.add_flag("--realtime", g_realtime, "start every worker with --realtime (its tick at real-time priority, if permitted)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -481,7 +480,6 @@ int main(int argc, char** argv) {
   }
   if (frame_shadows >= 0) g_frame_args.insert(g_frame_args.end(), {"--frame-shadows", std::to_string(frame_shadows)});
   if (jpeg_quality >= 0) g_frame_args.insert(g_frame_args.end(), {"--jpeg-quality", std::to_string(jpeg_quality)});
-  if (realtime) g_worker_args.push_back("--realtime");
   if (lp_threads >= 0) setenv("LP_NUM_THREADS", std::to_string(lp_threads).c_str(), 1);  // the workers inherit it
   std::printf("domain %d, logs in %s, LP_NUM_THREADS=%s\n", domain, g_dir.c_str(),
               std::getenv("LP_NUM_THREADS") ? std::getenv("LP_NUM_THREADS") : "(the worker's: 0)");

@@ -54,6 +54,15 @@ fk_Controls controls(const std::string& cab, uint32_t seq, double accel = 0, dou
   return c;
 }
 
+// A cab script that drives ahead slowly for 2.5 s (a cab with a window asks for frames meanwhile).
+std::string frames_script(const std::string& name) {
+  const std::string script = tmp(name + ".csv");
+  std::ofstream f(script);
+  f << "t,steer,accelerator,brake,lift,tilt,shift\n";
+  for (double t = 0; t <= 2.5; t += 0.02) f << t << ",0,0.2,0,0,0,0\n";
+  return script;
+}
+
 bool wait_matched(dds::Writer<fk_Controls>& w, double s) {
   for (int i = 0; i < s * 100 && w.matched() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   return w.matched() > 0;
@@ -261,12 +270,7 @@ TEST(WorkerLoop, SigtermFlushesTheLogAndPublishesTheEnd) {
 // Rendered frames go from a real worker to a real cab over DDS, raw and as JPEG, and the cab
 // saves the newest as PNG; the warehouse session replays bit for bit, pallets and all.
 TEST(WorkerLoop, FramesOfTheWarehouseReachTheCabRawAndAsJpeg) {
-  const std::string script = tmp("frames.csv");
-  {
-    std::ofstream f(script);
-    f << "t,steer,accelerator,brake,lift,tilt,shift\n";
-    for (double t = 0; t <= 2.5; t += 0.02) f << t << ",0,0.2,0,0,0,0\n";
-  }
+  const std::string script = frames_script("frames");
   struct Case { std::string name; std::vector<std::string> args; int w, h; };
   for (const Case& c : {Case{"raw", {"--fps", "20"}, 640, 480}, Case{"jpeg", {"--fps", "20", "--jpeg", "--frame-size", "320x240"}, 320, 240}}) {
     SCOPED_TRACE(c.name);
@@ -345,15 +349,6 @@ bool realtime_permitted() {
     ok = sched_setscheduler(0, SCHED_FIFO, &p) == 0;
   }).join();
   return ok;
-}
-
-// A cab script that drives 3 s and wants frames (the cab saves the newest as PNG).
-std::string frames_script(const std::string& name) {
-  const std::string script = tmp(name + ".csv");
-  std::ofstream f(script);
-  f << "t,steer,accelerator,brake,lift,tilt,shift\n";
-  for (double t = 0; t <= 2.5; t += 0.02) f << t << ",0,0.2,0,0,0,0\n";
-  return script;
 }
 
 }  // namespace
