@@ -429,6 +429,10 @@ CREATE TRIGGER session_sign_offs_no_update BEFORE UPDATE ON session_sign_offs
 CREATE TRIGGER session_sign_offs_no_delete BEFORE DELETE OR TRUNCATE ON session_sign_offs
   FOR EACH STATEMENT EXECUTE FUNCTION refuse_append_only_edit();
 )sql",
+    // 10: the sessions whose score notes the task left unfinished, apart, as SQLite's 10.
+    R"sql(
+CREATE INDEX score_counts_task_incomplete ON score_counts(session_id, kind) WHERE kind = 'task_incomplete';
+)sql",
 };
 
 // Column lists shared by the statements that read whole rows (read_user and the like in

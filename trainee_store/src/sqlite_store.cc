@@ -450,6 +450,11 @@ BEGIN
   SELECT RAISE(ABORT, 'session_sign_offs is append-only');
 END;
 )sql",
+    // 10: the sessions whose score notes the task left unfinished, apart: reading a pupil's
+    // sessions asks this of each one (SESSION_COLUMNS), and this index holds those alone.
+    R"sql(
+CREATE INDEX score_counts_task_incomplete ON score_counts(session_id, kind) WHERE kind = 'task_incomplete';
+)sql",
 };
 
 // Column lists shared by the statements that read whole rows (see read_user and the like).
@@ -459,15 +464,19 @@ END;
 #define STAFF_AUDIT_COLUMNS "id, at, actor_user_id, actor, user_id, action, details"
 #define THEORY_ATTEMPT_COLUMNS \
   "id, pupil_id, seed, questions, started_at, started_by, exam_id, kind, deadline, finished_at, outcome, result"
-// The last column reads score_counts by its key: whether the score notes the task left unfinished
-// (the evaluator's rule "task_incomplete"), which session_outcome() needs. The statements that
-// use it read FROM sessions, unaliased.
+// Read FROM SESSIONS. The second column is NULL: read_session derives the public id from the id,
+// as the schema does, without the schema's printf on every row. The one before last says whether
+// the score notes the task left unfinished (the evaluator's rule "task_incomplete"), which
+// session_outcome() needs: joined from the partial index of those sessions alone (migration 10;
+// the planner would take the whole key's index). A correlated EXISTS per row made reading a
+// pupil's 50 sessions 58 us; this join, 44 us, of which 2 us is the flag.
 #define SESSION_COLUMNS                                                                                            \
-  "sessions.id, sessions.public_id, sessions.pupil_id, sessions.cab_id, sessions.scenario, sessions.mode, "          \
+  "sessions.id, NULL, sessions.pupil_id, sessions.cab_id, sessions.scenario, sessions.mode, "                       \
   "sessions.state, sessions.reason, sessions.examiner_id, sessions.created_at, sessions.ended_at, sessions.mark, "   \
-  "sessions.passed, "                                                                                               \
-  "EXISTS (SELECT 1 FROM score_counts c WHERE c.session_id = sessions.id AND c.kind = 'task_incomplete'), "         \
-  "sessions.started_by"
+  "sessions.passed, incomplete.session_id IS NOT NULL, sessions.started_by"
+#define SESSIONS                                                                                  \
+  "sessions LEFT JOIN score_counts incomplete INDEXED BY score_counts_task_incomplete "             \
+  "ON incomplete.session_id = sessions.id AND incomplete.kind = 'task_incomplete'"
 #define CERTIFICATE_COLUMNS "id, number, pupil_id, licence_id, issued_at, issued_by, record, signature"
 #define EXAM_ROWS                                                                                           \
   "e.id, e.pupil_id, e.kind, s.public_id, e.score, e.passed, e.examiner_id, e.taken_at, e.details FROM exams e " \
@@ -862,7 +871,7 @@ class SqliteStore final : public Store {
     // The page reads sessions first (CROSS JOIN fixes SQLite's join order): through the index of
     // their order or filter, it stops after a page; pupils first, it sorted every session of the
     // day (35 ms for a day of 10,000 sessions, 0.3 ms so). The count keeps the planner's order.
-    Query q = query(__func__, ("SELECT " SESSION_COLUMNS ", p.name FROM sessions CROSS JOIN pupils p ON p.id = sessions.pupil_id" +
+    Query q = query(__func__, ("SELECT " SESSION_COLUMNS ", p.name FROM " SESSIONS " CROSS JOIN pupils p ON p.id = sessions.pupil_id" +
                                where.sql() + " ORDER BY " + order + " LIMIT ? OFFSET ?")
                                   .c_str());
     where.bind(q);
@@ -1066,7 +1075,7 @@ class SqliteStore final : public Store {
   }
 
   std::optional<Session> get_session(const std::string& public_id) override {
-    Query q = query(__func__, "SELECT " SESSION_COLUMNS " FROM sessions WHERE public_id = ?");
+    Query q = query(__func__, "SELECT " SESSION_COLUMNS " FROM " SESSIONS " WHERE public_id = ?");
     q.bind(public_id);
     return q.step() ? std::optional(read_session(q)) : std::nullopt;
   }
@@ -1078,7 +1087,7 @@ class SqliteStore final : public Store {
   }
 
   std::vector<Session> open_sessions() override {
-    Query q = query(__func__, "SELECT " SESSION_COLUMNS " FROM sessions "
+    Query q = query(__func__, "SELECT " SESSION_COLUMNS " FROM " SESSIONS " "
                               "WHERE state NOT IN ('ended', 'failed', 'aborted') ORDER BY id");
     std::vector<Session> sessions;
     while (q.step()) sessions.push_back(read_session(q));
@@ -1674,14 +1683,14 @@ class SqliteStore final : public Store {
 
   // The session, or kNotFound.
   Session require_session(const char* op, const std::string& public_id) {
-    Query q = query(op, "SELECT " SESSION_COLUMNS " FROM sessions WHERE public_id = ?");
+    Query q = query(op, "SELECT " SESSION_COLUMNS " FROM " SESSIONS " WHERE public_id = ?");
     q.bind(public_id);
     require(q.step(), StoreError::kNotFound, op, "no session '" + public_id + "'");
     return read_session(q);
   }
 
   std::vector<Session> sessions_of(const char* op, int64_t pupil_id) {
-    Query q = query(op, "SELECT " SESSION_COLUMNS " FROM sessions WHERE pupil_id = ? ORDER BY created_at, id");
+    Query q = query(op, "SELECT " SESSION_COLUMNS " FROM " SESSIONS " WHERE pupil_id = ? ORDER BY created_at, id");
     q.bind(pupil_id);
     std::vector<Session> sessions;
     while (q.step()) sessions.push_back(read_session(q));
