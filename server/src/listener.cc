@@ -251,20 +251,28 @@ class BoundedStream final : public httplib::Stream {
 
   ssize_t write(const char* p, size_t n) override { return t_.send(p, n); }
 
-  void get_remote_ip_and_port(std::string& ip, int& port) const override { address(getpeername, ip, port); }
-  void get_local_ip_and_port(std::string& ip, int& port) const override { address(getsockname, ip, port); }
+  // Asked for every request; a connection's two ends do not change, so asked of the socket once.
+  void get_remote_ip_and_port(std::string& ip, int& port) const override { address(getpeername, remote_, ip, port); }
+  void get_local_ip_and_port(std::string& ip, int& port) const override { address(getsockname, local_, ip, port); }
   socket_t socket() const override { return t_.sock(); }
 
  private:
-  void address(int (*name)(int, sockaddr*, socklen_t*), std::string& ip, int& port) const {
-    sockaddr_storage a{};
-    socklen_t len = sizeof a;
-    char host[NI_MAXHOST], serv[NI_MAXSERV];
-    if (name(t_.sock(), reinterpret_cast<sockaddr*>(&a), &len) != 0 ||
-        getnameinfo(reinterpret_cast<sockaddr*>(&a), len, host, sizeof host, serv, sizeof serv, NI_NUMERICHOST | NI_NUMERICSERV) != 0)
-      return;
-    ip = host;
-    port = std::atoi(serv);
+  struct Address {
+    std::string ip;
+    int port = 0;
+  };
+  void address(int (*name)(int, sockaddr*, socklen_t*), std::optional<Address>& known, std::string& ip, int& port) const {
+    if (!known) {
+      sockaddr_storage a{};
+      socklen_t len = sizeof a;
+      char host[NI_MAXHOST], serv[NI_MAXSERV];
+      if (name(t_.sock(), reinterpret_cast<sockaddr*>(&a), &len) != 0 ||
+          getnameinfo(reinterpret_cast<sockaddr*>(&a), len, host, sizeof host, serv, sizeof serv, NI_NUMERICHOST | NI_NUMERICSERV) != 0)
+        return;
+      known = Address{host, std::atoi(serv)};
+    }
+    ip = known->ip;
+    port = known->port;
   }
 
   Transport& t_;
@@ -272,6 +280,7 @@ class BoundedStream final : public httplib::Stream {
   std::optional<Refusal>& refusal_;
   std::array<char, 16 << 10> buffer_;
   size_t begin_ = 0, end_ = 0;
+  mutable std::optional<Address> remote_, local_;
   size_t allowance_ = 0;
   const Refusal* past_ = nullptr;
   bool skip_unread_ = false;
