@@ -206,7 +206,8 @@ class BoundedStream final : public httplib::Stream {
   bool failed() const { return failed_; }
 
   // Waits, while the server runs, up to its keep-alive timeout for the next request.
-  bool wait_for_request() const {
+  bool wait_for_request() {
+    if (!flush()) return false;
     if (begin_ < end_ || t_.has_pending()) return true;
     const auto until = Clock::now() + std::chrono::seconds(s_.keep_alive_timeout_s);
     while (s_.server_sock != INVALID_SOCKET && Clock::now() < until)
@@ -227,6 +228,7 @@ class BoundedStream final : public httplib::Stream {
   bool is_writable() const override { return wait_for(t_.sock(), POLLOUT, s_.write_timeout_ms); }
 
   ssize_t read(char* p, size_t n) override {
+    if (!flush()) return -1;  // "100 Continue" before the body is read
     if (allowance_ == 0) {
       if (!past_) return 0;
       if (!refusal_) refusal_ = *past_;
@@ -249,7 +251,33 @@ class BoundedStream final : public httplib::Stream {
     return static_cast<ssize_t>(k);
   }
 
-  ssize_t write(const char* p, size_t n) override { return t_.send(p, n); }
+  // httplib writes an answer's head apart from its body. The head waits here and leaves with the
+  // body: one segment (one TLS record) and one system call an answer instead of two. Whatever is
+  // held leaves before the stream reads or waits, and when httplib is done with a request (flush).
+  ssize_t write(const char* p, size_t n) override {
+    if (held_.size() + n <= kHoldBytes) {
+      held_.append(p, n);
+      return static_cast<ssize_t>(n);
+    }
+    if (held_.empty() || n > kJoinBytes) return flush() ? t_.send(p, n) : -1;
+    held_.append(p, n);
+    return flush() ? static_cast<ssize_t>(n) : -1;
+  }
+
+  // Sends all that is held; false (and the stream failed) if the connection fails.
+  bool flush() {
+    for (size_t sent = 0; sent < held_.size();) {
+      const ssize_t r = t_.send(held_.data() + sent, held_.size() - sent);
+      if (r <= 0) {
+        failed_ = true;
+        held_.clear();
+        return false;
+      }
+      sent += static_cast<size_t>(r);
+    }
+    held_.clear();
+    return true;
+  }
 
   // Asked for every request; a connection's two ends do not change, so asked of the socket once.
   void get_remote_ip_and_port(std::string& ip, int& port) const override { address(getpeername, remote_, ip, port); }
@@ -280,6 +308,9 @@ class BoundedStream final : public httplib::Stream {
   std::optional<Refusal>& refusal_;
   std::array<char, 16 << 10> buffer_;
   size_t begin_ = 0, end_ = 0;
+  static constexpr size_t kHoldBytes = 4 << 10;   // a head; more goes at once
+  static constexpr size_t kJoinBytes = 64 << 10;  // a body copied behind the head; a larger one sent apart
+  std::string held_;
   mutable std::optional<Address> remote_, local_;
   size_t allowance_ = 0;
   const Refusal* past_ = nullptr;
@@ -386,6 +417,7 @@ bool serve(Transport& t, const Settings& s, const ProcessRequest& process,
       if (f.past && !reads_chunks(req.method)) c.close_after = true;
       if (setup) setup(req);
     });
+    if (!c.stream.flush()) ok = false;
     if (last || !ok || closed || c.refusal || c.close_after || c.stream.failed() || !c.stream.skip_unread_body()) break;
   }
   if (c.refusal || c.close_after) linger(t, s);
