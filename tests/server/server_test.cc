@@ -92,9 +92,10 @@ class KeptConnection {
   ~KeptConnection() {
     if (fd_ >= 0) close(fd_);
   }
-  // One request and its whole answer's head ("" once the connection is gone).
-  std::string ask() {
-    const std::string request = "GET /api/health HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n";
+  // One request and its whole answer's head ("" once the connection is gone). A HEAD request's
+  // answer is its head alone.
+  std::string ask(const std::string& method = "GET") {
+    const std::string request = method + " /api/health HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n";
     if (fd_ < 0 || send(fd_, request.data(), request.size(), MSG_NOSIGNAL) != ssize_t(request.size())) return "";
     size_t end = std::string::npos;
     char buf[4096];
@@ -104,12 +105,14 @@ class KeptConnection {
     const std::string head = got_.substr(0, end);
     const size_t at = head.find("Content-Length: ");
     if (at == std::string::npos) return "";
-    const size_t whole = end + 4 + std::stoul(head.substr(at + 16));
+    const size_t whole = end + 4 + (method == "HEAD" ? 0 : std::stoul(head.substr(at + 16)));
     for (ssize_t n; got_.size() < whole && (n = recv(fd_, buf, sizeof buf, 0)) > 0;) got_.append(buf, size_t(n));
     if (got_.size() < whole) return "";
     got_.erase(0, whole);
     return head;
   }
+  // How many segments with data this end has received so far (the kernel's count).
+  unsigned data_segments_in() const { return forklift_test::data_segments_in(fd_); }
 
  private:
   int fd_;
@@ -135,6 +138,19 @@ TEST(Server, OneConnectionCarriesManyRequests) {
   }
   EXPECT_EQ(answered, 100);
   EXPECT_EQ(told_to_close, 0);
+}
+
+// An answer's head leaves with its body, one segment an answer rather than two (the kernel's count
+// at the client's end); a head with no body to follow (HEAD) leaves when the answer is done.
+TEST(Server, AnAnswerLeavesInOneSegment) {
+  Server s("one-segment");
+  KeptConnection c(s.port);
+  for (const char* method : {"GET", "HEAD", "GET", "GET", "HEAD", "GET"}) {
+    const unsigned before = c.data_segments_in();
+    const std::string head = c.ask(method);
+    ASSERT_EQ(head.rfind("HTTP/1.1 200", 0), 0u) << method << ": " << head;
+    EXPECT_EQ(c.data_segments_in() - before, 1u) << method;
+  }
 }
 
 // But a connection hands its thread back after 5 s, however busy: a page polling four times a

@@ -24,4 +24,8 @@ inline int connect_loopback(int port, int timeout_s) {
   return -1;
 }
 
+// How many segments with data `fd` has received so far, as the kernel counts them (0 if it cannot
+// say). In tcp_segments.cc, which a test using it compiles too.
+unsigned data_segments_in(int fd);
+
 }  // namespace forklift_test
