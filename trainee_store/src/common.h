@@ -261,9 +261,9 @@ Pupil read_pupil(const Row& q) {
 
 // A session's public id as both schemas derive it from its id: "s-" and six digits, more when
 // the id needs them (SQLite's printf('s-%06d', id), PostgreSQL's lpad). SQLite's column is
-// virtual, computed by printf on every read, which was a third of reading a pupil's sessions;
+// virtual, computed by printf on every read (6 of the 48 us of reading a pupil's 50 sessions);
 // its reads take it from here instead (StoreTest.PublicIdsAreDerivedAsTheSchemaDerivesThem).
-// Written by hand: snprintf took 0.3 us, 50 times a history.
+// Written out rather than snprintf'd: 15 ns against 46.
 inline std::string session_public_id(int64_t id) {
   char digits[24];
   const char* end = std::to_chars(digits, digits + sizeof digits, id).ptr;
