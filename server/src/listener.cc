@@ -206,8 +206,7 @@ class BoundedStream final : public httplib::Stream {
   bool failed() const { return failed_; }
 
   // Waits, while the server runs, up to its keep-alive timeout for the next request.
-  bool wait_for_request() {
-    if (!flush()) return false;
+  bool wait_for_request() const {
     if (begin_ < end_ || t_.has_pending()) return true;
     const auto until = Clock::now() + std::chrono::seconds(s_.keep_alive_timeout_s);
     while (s_.server_sock != INVALID_SOCKET && Clock::now() < until)
@@ -253,7 +252,7 @@ class BoundedStream final : public httplib::Stream {
 
   // httplib writes an answer's head apart from its body. The head waits here and leaves with the
   // body: one segment (one TLS record) and one system call an answer instead of two. Whatever is
-  // held leaves before the stream reads or waits, and when httplib is done with a request (flush).
+  // held leaves before the stream reads, and when httplib is done with a request (serve: flush).
   ssize_t write(const char* p, size_t n) override {
     if (held_.size() + n <= kHoldBytes) {
       held_.append(p, n);
