@@ -37,9 +37,9 @@
 #include <fstream>
 #include <httplib.h>
 #include <malloc.h>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <random>
-#include <string_view>
 #include <thread>
 #include <vector>
 
@@ -109,67 +109,26 @@ struct Load {
   }
 };
 
-// One kept-alive HTTP/1.1 connection asking GETs, with no more work than reading the answers
-// whole: the load runs on the same two cores as the server, and httplib's client took a sixth
-// of them from it. Answers with a Content-Length only (all the server sends); a connection told
-// "Connection: close", or failing, is opened again for the next request.
+// GETs on a kept-alive HTTP/1.1 connection (tests/support/loopback.h), with no more work than
+// reading the answers whole: the load runs on the same two cores as the server, and httplib's
+// client took a sixth of them from it. A connection told "Connection: close", or failing, is
+// opened again for the next request.
 class LoadClient {
  public:
-  LoadClient(int port, std::string auth) : port_(port), auth_(std::move(auth)) {}
-  ~LoadClient() { drop(); }
-  LoadClient(const LoadClient&) = delete;
-  LoadClient& operator=(const LoadClient&) = delete;
+  LoadClient(int port, const std::string& token) : port_(port), auth_("Authorization: Bearer " + token + "\r\n") {}
 
   // The answer's status, its whole body read; 0 if there was none.
   int get(const std::string& path) {
-    if (fd_ < 0 && !open()) return 0;
-    const std::string request = "GET " + path + " HTTP/1.1\r\nHost: 127.0.0.1\r\n" + auth_ + "\r\n";
-    if (::send(fd_, request.data(), request.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(request.size())) return fail();
-    size_t end;
-    while ((end = got_.find("\r\n\r\n")) == std::string::npos)
-      if (!receive()) return fail();
-    const std::string_view head(got_.data(), end);
-    const size_t length_at = head.find("Content-Length: ");
-    if (head.size() < 12 || head.substr(0, 9) != "HTTP/1.1 " || length_at == std::string_view::npos) return fail();
-    const int status = std::atoi(head.data() + 9);
-    const size_t whole = end + 4 + std::strtoul(head.data() + length_at + 16, nullptr, 10);
-    const bool close_after = head.find("Connection: close") != std::string_view::npos;
-    while (got_.size() < whole)
-      if (!receive()) return fail();
-    got_.erase(0, whole);
-    if (close_after) drop();
-    return status;
+    if (!c_) c_ = std::make_unique<forklift_test::KeptConnection>(port_, 10);
+    const std::string head = c_->ask("GET " + path + " HTTP/1.1\r\nHost: 127.0.0.1\r\n" + auth_ + "\r\n");
+    if (head.rfind("HTTP/1.1 ", 0) != 0 || forklift_test::says_close(head)) c_.reset();
+    return head.rfind("HTTP/1.1 ", 0) == 0 ? std::atoi(head.c_str() + 9) : 0;
   }
 
  private:
-  bool open() {
-    fd_ = forklift_test::connect_loopback(port_, 10);
-    if (fd_ < 0) return false;
-    const int yes = 1;
-    setsockopt(fd_, IPPROTO_TCP, TCP_NODELAY, &yes, sizeof yes);
-    return true;
-  }
-  bool receive() {
-    char buf[64 << 10];
-    const ssize_t n = ::recv(fd_, buf, sizeof buf, 0);
-    if (n <= 0) return false;
-    got_.append(buf, static_cast<size_t>(n));
-    return true;
-  }
-  int fail() {
-    drop();
-    return 0;
-  }
-  void drop() {
-    if (fd_ >= 0) ::close(fd_);
-    fd_ = -1;
-    got_.clear();
-  }
-
   int port_;
   std::string auth_;  // the header line
-  int fd_ = -1;
-  std::string got_;
+  std::unique_ptr<forklift_test::KeptConnection> c_;
 };
 
 // `clients` keep-alive connections, each asking path(i) back to back for `seconds`.
@@ -181,7 +140,7 @@ Load hammer(int port, const std::string& token, int clients, double seconds,
   const auto t0 = Clock::now();
   for (int c = 0; c < clients; ++c) {
     threads.emplace_back([&, c] {
-      LoadClient cli(port, "Authorization: Bearer " + token + "\r\n");
+      LoadClient cli(port, token);
       std::mt19937 rng(c + 1);
       while (ms_since(t0) < seconds * 1e3) {
         const std::string p = path(rng);

@@ -85,41 +85,21 @@ TEST(Server, BadRequestsGetTheDocumentedErrorAndTheServerStaysUp) {
 
 namespace {
 
-// One kept-alive connection to a test server, asking GET /api/health on it again and again.
+using forklift_test::says_close;
+
+// One kept-alive connection to a test server, asking GET (or HEAD) /api/health on it again and again.
 class KeptConnection {
  public:
-  explicit KeptConnection(int port) : fd_(forklift_test::connect_loopback(port, 20)) {}
-  ~KeptConnection() {
-    if (fd_ >= 0) close(fd_);
-  }
-  // One request and its whole answer's head ("" once the connection is gone). A HEAD request's
-  // answer is its head alone.
+  explicit KeptConnection(int port) : c_(port, 20) {}
+  // The whole answer's head ("" once the connection is gone).
   std::string ask(const std::string& method = "GET") {
-    const std::string request = method + " /api/health HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n";
-    if (fd_ < 0 || send(fd_, request.data(), request.size(), MSG_NOSIGNAL) != ssize_t(request.size())) return "";
-    size_t end = std::string::npos;
-    char buf[4096];
-    for (ssize_t n; (end = got_.find("\r\n\r\n")) == std::string::npos && (n = recv(fd_, buf, sizeof buf, 0)) > 0;)
-      got_.append(buf, size_t(n));
-    if (end == std::string::npos) return "";
-    const std::string head = got_.substr(0, end);
-    const size_t at = head.find("Content-Length: ");
-    if (at == std::string::npos) return "";
-    const size_t whole = end + 4 + (method == "HEAD" ? 0 : std::stoul(head.substr(at + 16)));
-    for (ssize_t n; got_.size() < whole && (n = recv(fd_, buf, sizeof buf, 0)) > 0;) got_.append(buf, size_t(n));
-    if (got_.size() < whole) return "";
-    got_.erase(0, whole);
-    return head;
+    return c_.ask(method + " /api/health HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n", method == "HEAD");
   }
-  // How many segments with data this end has received so far (the kernel's count).
-  unsigned data_segments_in() const { return forklift_test::data_segments_in(fd_); }
+  unsigned data_segments_in() const { return c_.data_segments_in(); }
 
  private:
-  int fd_;
-  std::string got_;
+  forklift_test::KeptConnection c_;
 };
-
-bool says_close(const std::string& head) { return head.find("Connection: close") != std::string::npos; }
 
 }  // namespace
 
