@@ -48,6 +48,7 @@ class PostgresServer {
                                  ": install Debian's postgresql package (scripts/install-deps.sh does), or set "
                                  "FORKLIFT_PG_BINDIR to the folder of its binaries");
     std::filesystem::create_directories(dir_);
+    let_server_user_reach(dir_);
     give_to_server_user(dir_);
     start_watchdog();
     if (keep_ && !std::filesystem::exists(data() + "/PG_VERSION")) {
@@ -125,6 +126,17 @@ class PostgresServer {
       throw std::runtime_error("running as root, but there is no \"postgres\" user to run PostgreSQL as (initdb refuses "
                                "root): install Debian's postgresql package (scripts/install-deps.sh does)");
     return pw;
+  }
+  // As root, "postgres" must pass through every folder above the server's: one that others may not
+  // enter (a build in `mktemp -d`'s 0700 folder) is given search permission, not read.
+  static void let_server_user_reach(const std::string& path) {
+    if (!server_user()) return;
+    for (std::filesystem::path p = std::filesystem::path(path).parent_path(); !p.empty() && p != p.root_path();
+         p = p.parent_path()) {
+      struct stat st{};
+      if (stat(p.c_str(), &st) == 0 && !(st.st_mode & S_IXOTH) && chmod(p.c_str(), (st.st_mode & 07777) | S_IXOTH) != 0)
+        throw std::runtime_error("cannot let the postgres user pass through " + p.string());
+    }
   }
   static void give_to_server_user(const std::string& path) {
     if (const passwd* pw = server_user())
