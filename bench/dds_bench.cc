@@ -1,7 +1,10 @@
 // forklift-bench-dds: the real-time loop over loopback DDS, shaped like Cyclone's roundtrip example.
 //
 // 1. Round trip: this program plays a cab, sends a control sample, and times until a TruckState
-//    from a real forklift-worker reports that sample as applied (p50, p99, max).
+//    from a real forklift-worker reports that sample as applied (p50, p99, max). The baseline, in
+//    the same window, is the machine's own stalls (bench::StallWatch: a SCHED_FIFO 99 thread per
+//    CPU waking every 1 ms); the goal's p99 is of the samples no stall overlapped, and is judged
+//    only when at least 90 % of them are clear. Every sample's figures are printed beside it.
 // 2. Fleet: N workers at once (N = 1, 2, 4, 8, 12, 16 by default), each driven at 50 Hz for
 //    --seconds. The baseline, measured in the same window, is the longest a bare 1 ms sleep took
 //    in this process: the host's own scheduling stalls, which no worker can beat (20-35 ms seen on
@@ -53,6 +56,7 @@
 #include <vector>
 
 #include "figure.h"
+#include "stall_watch.h"
 #include "forklift/protocol/protocol.h"
 #include "support/process.h"
 
@@ -130,7 +134,11 @@ void round_trip(int domain, int samples) {
   dds::WaitSet ws(p);
   ws.attach_reader(in.handle());
   for (int i = 0; i < 1000 && out.matched() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  std::vector<double> rtt;
+  struct Sample {
+    Clock::time_point sent, answered;
+  };
+  std::vector<Sample> answered;
+  bench::StallWatch machine;  // the baseline: the machine's own stalls in the same window
   for (int i = 1; i <= samples + 20; ++i) {  // the first 20 warm up
     const auto t0 = Clock::now();
     out.write(sample("rt", i, i * 0.01));
@@ -139,24 +147,42 @@ void round_trip(int domain, int samples) {
       ws.wait(0.05);
       in.take_each([&](const fk_TruckState& s) { got |= s.applied_control_sequence == uint32_t(i); });
     }
-    const double us = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
-    if (got && i > 20) rtt.push_back(us);
+    if (got && i > 20) answered.push_back({t0, Clock::now()});
     // The next sample at a cab's pace (forklift-cab sends every 20 ms): the worker sends one state
     // a state period, early after a change, so a cab faster than its state rate waits for some.
     std::this_thread::sleep_until(t0 + std::chrono::milliseconds(20));
   }
+  machine.stop();
   w->signal(SIGTERM);
   w->wait(5);
+  // Every answered sample, and those whose window held no stall of the machine's own.
+  std::vector<double> rtt, clear_of_stalls;
+  for (const Sample& a : answered) {
+    const double us = std::chrono::duration<double, std::micro>(a.answered - a.sent).count();
+    rtt.push_back(us);
+    if (!machine.stalled(a.sent, a.answered)) clear_of_stalls.push_back(us);
+  }
   std::sort(rtt.begin(), rtt.end());
   auto pct = [&](double q) { return percentile(rtt, q); };
   std::printf("round trip control -> applied state, %s, %zu of %d samples answered (us): min %.0f  p50 %.0f  p99 %.0f  max %.0f\n",
               mode_name(), rtt.size(), samples, rtt.empty() ? NAN : rtt.front(), pct(0.5), pct(0.99), rtt.empty() ? NAN : rtt.back());
-  std::printf("target p99 < 5000 us: %s\n\n", pct(0.99) < 5000 ? "met" : "NOT MET");
-  // Issue 19, goal 3: the round trip's p99 within the 1 ms tick plus 0.2 ms.
+  const size_t in_stalls = rtt.size() - clear_of_stalls.size();
+  const double clear_p50 = percentile(clear_of_stalls, 0.5), clear_p99 = percentile(clear_of_stalls, 0.99);
+  std::printf("the machine's own stalls in the same window (%zu CPUs watched%s, a wake-up every 1 ms late by more than "
+              "%.1f ms): %zu in %ld wake-ups, the longest %.1f ms\n",
+              machine.cpus(), machine.fifo() ? " at SCHED_FIFO 99" : " at normal priority (no real-time grant)",
+              machine.late_ms(), machine.count(), machine.wakeups(), machine.longest_ms());
+  std::printf("samples clear of them: %zu (us): p50 %.0f  p99 %.0f  max %.0f; %zu samples overlapped a stall\n\n",
+              clear_of_stalls.size(), clear_p50, clear_p99, percentile(clear_of_stalls, 1.0), in_stalls);
+  // Issue 19, goal 3: the round trip's p99 within the 1 ms tick plus 0.2 ms, over the samples the
+  // machine did not stall; judged only when at least 90 % of them are clear of stalls.
+  const bool judged = clear_of_stalls.size() >= 0.9 * double(rtt.size()) && !rtt.empty();
   bench::figure(std::string("control to applied state, round trip over loopback DDS (") + mode_name() +
-                    (g_realtime ? ", worker --realtime" : "") + "): p50; p99",
-                "p99 < 1.2 ms (the tick + 0.2 ms)", bench::fmt("%.2f ms; %.2f ms", pct(0.5) / 1e3, pct(0.99) / 1e3),
-                pct(0.99) < 1200);
+                    (g_realtime ? ", worker --realtime" : "") + "): p50; p99, of samples clear of the machine's stalls (all samples)",
+                "p99 < 1.2 ms (the tick + 0.2 ms)",
+                bench::fmt("%.2f ms; %.2f ms (all %zu: %.2f ms; %zu in stalls)", clear_p50 / 1e3, clear_p99 / 1e3, rtt.size(),
+                           pct(0.99) / 1e3, in_stalls),
+                judged && clear_p99 < 1200);
 }
 
 // From starting a worker (no frames) to its first status ("waiting") arriving here: the process's
