@@ -570,6 +570,11 @@ int main(int argc, char** argv) {
     long deadman_count = 0;
     StatePacer pacer(rate);
     long states_published = 0;
+    // Sim time 0 on the clock DDS stamps samples with (CLOCK_REALTIME), read just before the
+    // loop's own clock starts: a reader can tell how far behind the wall clock each state was
+    // written (forklift-bench-dds's tick lag), never less than it was.
+    const int64_t start_wall_ns =
+        std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
     const Clock::time_point start = Clock::now();
     auto publish_state = [&] {
       const Outputs& o = workspace.outputs();
@@ -787,6 +792,7 @@ int main(int argc, char** argv) {
         {"states", states_published},
         {"deadman_stops", deadman_count}, {"integrator_steps", workspace.integrator_stats().steps},
         {"max_lag_ms", max_lag_s * 1e3}, {"max_lag_at_s", max_lag_at_s}, {"late_states", late_states},
+        {"start_wall_ns", start_wall_ns},
         {"realtime", realtime_refused.empty()},
         {"events", event_seq}, {"frames", frame_publisher.frames()},
         {"score", {{"mark", score.mark}, {"passed", score.passed}, {"points", score.points}, {"counts", score.counts},

@@ -721,3 +721,54 @@ TEST(WorkerLoop, AControlFloodLeavesTheStateRateAndTheLogBounded) {
   ASSERT_EQ(rp.wait(60), 0) << rp.err();
   EXPECT_EQ(output_json(rp)["matches_log"], true);
 }
+
+// The worker reports its sim time 0 on the clock DDS stamps samples with (start_wall_ns), so a cab
+// can tell how far behind the wall clock each state was written; and it never runs ahead of the
+// wall clock by more than the two ticks a control stepped at once may take it.
+TEST(WorkerLoop, StatesCarryTheirLagBehindTheWallClockAndNeverRunMoreThanTwoTicksAhead) {
+  const int domain = forklift::test::free_domain();
+  auto wall_ns = [] {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+  };
+  const int64_t before_ns = wall_ns();
+  Process w = worker(domain, "wa", "ahead", {"--duration", "2", "--rate", "60"});
+  dds::Participant p(dds::DomainSettings::resolve(domain, ""));
+  dds::Writer<fk_Controls> cab(p, dds::cab_partition("wa"));
+  dds::Reader<fk_TruckState> states(p, dds::cab_partition("wa"));
+  ASSERT_TRUE(wait_matched(cab, 10)) << w.err();
+  std::vector<std::pair<int64_t, double>> written;  // each state's source timestamp and sim time
+  dds::WaitSet ws(p);
+  ws.attach_reader(states.handle());
+  uint32_t seq = 0;
+  auto next = std::chrono::steady_clock::now();
+  while (w.running()) {  // a cab's 50 Hz, each sample a change, so states go out early too
+    if (std::chrono::steady_clock::now() >= next) {
+      ++seq;
+      cab.write(controls("wa", seq, 0.2, seq % 2 ? 0.05 : -0.05));
+      next += std::chrono::milliseconds(20);
+    }
+    ws.wait(0.005);
+    states.take_each_with_info([&](const fk_TruckState& s, const dds_sample_info_t& info) {
+      written.emplace_back(info.source_timestamp, s.sim_time_s);
+    });
+  }
+  ASSERT_EQ(w.wait(10), 0) << w.err();
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  states.take_each_with_info([&](const fk_TruckState& s, const dds_sample_info_t& info) {
+    written.emplace_back(info.source_timestamp, s.sim_time_s);
+  });
+  const json r = output_json(w);
+  ASSERT_TRUE(r.contains("start_wall_ns")) << r.dump();
+  const int64_t start_ns = r["start_wall_ns"].get<int64_t>();
+  EXPECT_GE(start_ns, before_ns);
+  ASSERT_GT(written.size(), 100u);
+  const double tick_s = 0.001;
+  int early = 0;
+  for (const auto& [source_ns, sim_s] : written) {
+    const double lag_s = 1e-9 * double(source_ns - start_ns) - sim_s;
+    EXPECT_GE(lag_s, -2 * tick_s - 1e-6) << "a state for sim time " << sim_s << " s written " << -lag_s * 1e3
+                                         << " ms ahead of the wall clock";
+    early += lag_s < 0;
+  }
+  EXPECT_GT(early, 0) << "states stepped at once for a control go out ahead of the wall clock";
+}
