@@ -21,9 +21,9 @@
 //    how far behind the wall clock the worker wrote each state (its source timestamp less the
 //    state's sim time, less the worker's sim time 0 on that clock, which it reports at the end:
 //    start_wall_ns), p50, p99, max; negative when a state went out ahead of the wall clock, as
-//    one stepped at once for a control does. (Until stop 32 the least lag over the run stood in
-//    for the worker's start; states stepped at once run up to two ticks ahead, so that added
-//    1.2-1.6 ms to every lag. It is printed beside, rel_lag_p99.) A cab holds real
+//    one stepped at once for a control does. (Earlier tables took the least lag over the run for
+//    the worker's start; states stepped at once run up to two ticks ahead, so that added 1.2-1.6
+//    ms to every lag. It is printed beside, rel_lag_p99.) A cab holds real
 //    time when its tick lag p99 is under 2 ms and at least 29 frames a second arrive. The lag at
 //    arrival (taken here, less its least) is printed beside it: it adds loopback delivery and this
 //    one program's own turn, playing eight cabs that would be eight machines. --lp-threads sets
@@ -326,7 +326,7 @@ void frames(int domain, double fps, const std::string& size, bool jpeg, double s
 // One framed fleet of n: what each cab got and what its worker cost.
 struct CabFigures {
   double cpu_pct = NAN, fps = 0, lag_p50_ms = NAN, lag_p99_ms = NAN, lag_max_ms = NAN, worker_max_lag_ms = NAN;
-  double relative_lag_p99_ms = NAN;  // the lag less its least over the run (this bench's measure before stop 32)
+  double relative_lag_p99_ms = NAN;  // the lag less its least over the run (earlier tables' measure)
   double arrival_p50_ms = NAN, arrival_p99_ms = NAN;  // at this program, playing the cab
   long frames = 0, states = 0;
   bool holds() const { return lag_p99_ms < 2.0 && fps >= 29.0; }
