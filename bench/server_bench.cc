@@ -121,8 +121,9 @@ class LoadClient {
   int get(const std::string& path) {
     if (!c_) c_ = std::make_unique<forklift_test::KeptConnection>(port_, 10);
     const std::string head = c_->ask("GET " + path + " HTTP/1.1\r\nHost: 127.0.0.1\r\n" + auth_ + "\r\n");
-    if (head.rfind("HTTP/1.1 ", 0) != 0 || forklift_test::says_close(head)) c_.reset();
-    return head.rfind("HTTP/1.1 ", 0) == 0 ? std::atoi(head.c_str() + 9) : 0;
+    const bool answered = head.rfind("HTTP/1.1 ", 0) == 0;
+    if (!answered || forklift_test::says_close(head)) c_.reset();
+    return answered ? std::atoi(head.c_str() + 9) : 0;
   }
 
  private:
