@@ -185,6 +185,14 @@ class Verifier {
     check_log(log, record);
   }
 
+  // A log against its signature, for a known session and cab (verify_log_signature).
+  void run_signature(const std::string& session, const std::string& cab, const std::string& log, const json& sig) {
+    rec_session_ = &session;
+    rec_cab_ = &cab;
+    if (!sig.is_object()) return problem("the log signature is not a JSON object");
+    check_signature(sig, &log);
+  }
+
   // The chain and its anchor, with no session in view (verify_chain).
   void run_chain(const json& chain, const json& anchor) {
     if (!chain.is_array()) return chain_problem("the chain is not a JSON array");
@@ -865,6 +873,11 @@ VerifyReport verify_exam_evidence(const json& evidence, const std::string& ca_pe
 VerifyReport verify_record_against_log(const json& record, const std::string& log, const json& signature,
                                        const std::string& ca_pem, const std::string& crl_pem) {
   return verified(ca_pem, crl_pem, {}, [&](Verifier& v) { v.run_log(record, log, signature); });
+}
+
+VerifyReport verify_log_signature(const std::string& session, const std::string& cab, const std::string& log,
+                                  const json& signature, const std::string& ca_pem, const std::string& crl_pem) {
+  return verified(ca_pem, crl_pem, {}, [&](Verifier& v) { v.run_signature(session, cab, log, signature); });
 }
 
 VerifyReport verify_chain(const json& chain, const json& anchor, const std::string& ca_pem, const std::string& crl_pem,

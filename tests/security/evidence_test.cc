@@ -826,3 +826,26 @@ TEST_F(EvidenceTest, UnreadableOrMismatchedKeyFilesThrow) {
 }
 
 }  // namespace
+
+// A log a worker host ships settles a mark only with its session's own worker's signature: the
+// right worker's verifies; another cab's worker, the server's key, a foreign CA, a revoked
+// certificate, another session's signature and one changed byte are each refused with the reason.
+TEST_F(EvidenceTest, AShippedLogCountsOnlyWithItsSessionsOwnWorkersSignature) {
+  const std::string log = ControlLog("s-000005", "cab1", 88.0, true);
+  auto signed_by = [&](const std::string& who, const std::string& session = "s-000005") {
+    return sec::sign_exam_log(session, "cab1", log, Path(who + ".key"), Path(who + ".pem"));
+  };
+  auto check = [&](const json& sig, const std::string& text, const std::string& crl = "") {
+    return sec::verify_log_signature("s-000005", "cab1", text, sig, ca_pem_, crl);
+  };
+  EXPECT_TRUE(Verified(check(signed_by("worker"), log, crl_pem_)));
+  EXPECT_TRUE(HasProblem(check(signed_by("worker2"), log), "common name is \"worker.cab2\", expected \"worker.cab1\""));
+  EXPECT_TRUE(HasProblem(check(signed_by("server"), log), "common name is \"server\", expected \"worker.cab1\""));
+  EXPECT_TRUE(HasProblem(check(signed_by("rogue_worker"), log), "not accepted by the school CA"));
+  EXPECT_TRUE(HasProblem(check(signed_by("revoked"), log, crl_pem_), "certificate revoked"));
+  EXPECT_TRUE(HasProblem(check(signed_by("worker", "s-000004"), log), "signature is for session \"s-000004\""));
+  std::string changed = log;
+  changed[changed.size() / 2] ^= 1;
+  EXPECT_TRUE(HasProblem(check(signed_by("worker"), changed), "the log is not the one signed"));
+  EXPECT_TRUE(HasProblem(check(json::array(), log), "the log signature is not a JSON object"));
+}

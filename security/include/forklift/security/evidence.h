@@ -98,6 +98,15 @@ VerifyReport verify_record_against_log(const nlohmann::json& record, const std::
                                        const nlohmann::json& signature, const std::string& ca_pem,
                                        const std::string& crl_pem = "");
 
+// The checks of one session's log against its signature alone: the signature names `session` and
+// `cab`, is over this log's SHA-256 and verifies with a certificate of the school CA (not revoked
+// by the CRL when one is given) whose common name is the cab's worker ("worker.<cab>"). The server
+// runs them on every log a worker host brings back, training as well as exam: a host relays the
+// worker's files, it cannot author them under another identity.
+VerifyReport verify_log_signature(const std::string& session, const std::string& cab, const std::string& log,
+                                  const nlohmann::json& signature, const std::string& ca_pem,
+                                  const std::string& crl_pem = "");
+
 // The checks of a whole chain (from seq 1) and its anchor {"head": line | null}, with no session in
 // view: the server's check of its database's chain at start.
 VerifyReport verify_chain(const nlohmann::json& chain, const nlohmann::json& anchor, const std::string& ca_pem,
