@@ -547,6 +547,8 @@ int main(int argc, char** argv) {
         log.worker_event(0, kNoControlsEvent);
         log.control_counts(control_tally());
         log.finish(0, state.x);
+        // Signed as every log is: a worker host ships it, and the server believes only signed logs.
+        if (dds_settings.secure()) sign_log(log_file, session, cab, *dds_settings.security);
         dds_sleepfor(DDS_MSECS(200));  // let the reliable status reach late readers
         return 5;
       }
@@ -761,7 +763,8 @@ int main(int argc, char** argv) {
     log.control_counts(control_tally());
     log.finish(state.tick, state.x);
     // With an identity, the worker signs the finished log (controls, events, score) before the
-    // score goes out: the server chains it into the exam records (forklift-menu verify).
+    // score goes out, training as well as exam: a server settles a log a worker host ships only
+    // with its worker's signature, and chains an exam's into the records (forklift-menu verify).
     if (dds_settings.secure()) sign_log(log_file, session, cab, *dds_settings.security);
     publish_state();
     fk_Score sc{};
