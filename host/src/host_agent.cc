@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <regex>
@@ -82,11 +83,67 @@ HostAgent::HostAgent(HostConfig config) : config_(std::move(config)) {
   status_ = std::make_unique<dds::Writer<fk_HostStatus>>(*participant_, own);
   reports_ = std::make_unique<dds::Writer<fk_WorkerReport>>(*participant_, own);
   requests_ = std::make_unique<dds::Reader<fk_WorkerRequest>>(*participant_, own);
+  adopt();
 }
 
 HostAgent::~HostAgent() {
+  if (leave_workers_) return;
   for (auto& [id, w] : workers_)
     if (!w.exited) kill(w.pid, SIGTERM);
+}
+
+namespace {
+
+// The cab a session log names in its header ("cab <id>"), or "".
+std::string logged_cab(const std::string& log) {
+  std::ifstream in(log);
+  std::string line;
+  for (int i = 0; i < 8 && std::getline(in, line);)
+    if (line.rfind("cab ", 0) == 0) return line.substr(4);
+    else ++i;
+  return "";
+}
+
+}  // namespace
+
+void HostAgent::adopt() {
+  for (const WorkerProcess& p : find_workers(config_.log_dir)) {
+    if (workers_.count(p.session)) {  // never two workers for one session
+      kill(p.pid, SIGTERM);
+      continue;
+    }
+    Worker w;
+    w.session = p.session;
+    w.cab = p.cab;
+    w.pid = p.pid;
+    w.start_ticks = p.start_ticks;
+    w.adopted = true;  // reap() reads its participant and reports it running
+    spdlog::info("adopted the worker (pid {}) of session {} on cab {}, left running by the agent before this one", w.pid,
+                 w.session, w.cab);
+    workers_[w.session] = w;
+  }
+  // Workers that ended while no agent ran: their ends, with their files, are reported now (a
+  // server settles a session still open from them, and ignores one already over).
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const auto now = fs::file_time_type::clock::now();
+  for (const fs::directory_entry& e : fs::directory_iterator(config_.log_dir, ec)) {
+    const fs::path path = e.path();
+    const std::string session = path.stem().string();
+    if (path.extension() != ".ctl" || !std::regex_match(session, std::regex("s-[0-9]{1,18}")) || workers_.count(session) ||
+        fs::exists(base(session) + ".reported"))
+      continue;
+    const auto age = std::chrono::duration<double>(now - fs::last_write_time(path, ec)).count();
+    if (ec || age > config_.report_kept_s) continue;
+    Worker w;
+    w.session = session;
+    w.cab = logged_cab(path.string());
+    w.exited = true;
+    w.exited_at = Clock::now();
+    spdlog::info("the worker of session {} ended while no agent ran here: reporting its end", session);
+    workers_[session] = w;
+    report(w, "exited", "", true);
+  }
 }
 
 int HostAgent::running() const {
@@ -127,6 +184,8 @@ void HostAgent::report(const Worker& w, const char* state, const std::string& re
     set_octets(r.worker_err, err);
   }
   reports_->write(r);
+  // An end reported is not reported again by a later agent (adopt()).
+  if (with_files && std::string(state) == "exited") std::ofstream(base(w.session) + ".reported");
 }
 
 void HostAgent::refuse(const fk_WorkerRequest& r, const std::string& why) {
@@ -169,7 +228,9 @@ void HostAgent::start(const fk_WorkerRequest& r) {
   w.session = l.session;
   w.cab = l.cab;
   try {
-    w.pid = spawn_worker(l, true);
+    // Not tied to this agent's life: a restarted agent adopts its workers (adopt()); a stopped
+    // one ends them (run()).
+    w.pid = spawn_worker(l, false);
   } catch (const std::exception& e) {
     return refuse(r, e.what());
   }
@@ -194,7 +255,9 @@ void HostAgent::take_requests(bool stopping) {
     const auto it = workers_.find(r.session_id);
     if (it == workers_.end() || it->second.exited) return;
     spdlog::info("{} the worker of session {} as a server asks", action == "abort" ? "aborting" : "killing", r.session_id);
-    kill(it->second.pid, action == "abort" ? SIGUSR1 : SIGKILL);
+    const Worker& w = it->second;
+    if (!w.adopted || still_running({w.pid, w.session, w.cab, base(w.session) + ".ctl", w.start_ticks}))
+      kill(w.pid, action == "abort" ? SIGUSR1 : SIGKILL);
   });
 }
 
@@ -212,10 +275,15 @@ void HostAgent::reap() {
         }
       }
       int status = 0;
-      if (waitpid(w.pid, &status, WNOHANG) == w.pid) {
+      // An adopted worker is still our child after a restart in place (exec keeps the pid), else
+      // it is watched through /proc, and how it ended its log says.
+      const pid_t reaped = waitpid(w.pid, &status, WNOHANG);
+      const bool ours = reaped == w.pid;
+      const bool ended = ours || (w.adopted && reaped < 0 && !still_running({w.pid, w.session, w.cab, base(w.session) + ".ctl", w.start_ticks}));
+      if (ended) {
         w.exited = true;
         w.exited_at = now;
-        const std::string how = exit_words(status);
+        const std::string how = ours ? exit_words(status) : "";
         spdlog::info("the worker of session {} ended{}", w.session, how.empty() ? "" : ": " + how);
         report(w, "exited", how, true);
       }
@@ -230,7 +298,7 @@ void HostAgent::reap() {
   }
 }
 
-void HostAgent::run(const std::atomic<bool>& stop) {
+void HostAgent::run(const std::atomic<bool>& stop, const std::atomic<bool>& leave_workers) {
   dds::WaitSet ws(*participant_);
   ws.attach_reader(requests_->handle());
   auto last_status = Clock::now() - std::chrono::seconds(1);
@@ -243,6 +311,11 @@ void HostAgent::run(const std::atomic<bool>& stop) {
       last_status = Clock::now();
     }
   }
+  if (leave_workers) {  // a restart: the workers go on, and the next agent adopts them
+    leave_workers_ = true;
+    spdlog::info("restarting: {} worker(s) left running for the next agent", running());
+    return;
+  }
   // Stopping: no new worker; the running ones end their sessions, and their ends are reported.
   publish_status(true);
   for (auto& [id, w] : workers_)
@@ -254,7 +327,10 @@ void HostAgent::run(const std::atomic<bool>& stop) {
     reap();
   }
   for (auto& [id, w] : workers_)
-    if (!w.exited) { kill(w.pid, SIGKILL); waitpid(w.pid, nullptr, 0); }
+    if (!w.exited) {
+      kill(w.pid, SIGKILL);
+      if (!w.adopted) waitpid(w.pid, nullptr, 0);
+    }
   // A moment for the last reports to reach the servers before the participant goes.
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
 }

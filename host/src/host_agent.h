@@ -32,6 +32,9 @@ struct HostConfig {
   double start_timeout_s = 120;
   bool realtime_workers = false;  // workers tick at real-time priority (forklift-worker --realtime)
   double report_kept_s = 600;  // an exited worker's report stays this long for servers that start later
+  // Without DDS Security any machine on the network could ask this host to start or kill workers:
+  // it runs in clear only when the operator says the network is a closed lab.
+  bool trust_clear = false;
 };
 
 // A request is checked before anything is done with it: what is wrong with it, or nullopt.
@@ -42,17 +45,24 @@ class HostAgent {
   explicit HostAgent(HostConfig config);
   ~HostAgent();
   // Serves until `stop`; then takes no new worker, stops its workers (SIGTERM: they end their
-  // sessions as stopped by the school's system) and reports their ends before returning.
-  void run(const std::atomic<bool>& stop);
+  // sessions as stopped by the school's system) and reports their ends before returning. With
+  // `leave_workers` (a restart of the agent, not of the machine) they go on running instead, for
+  // the next agent to adopt.
+  void run(const std::atomic<bool>& stop, const std::atomic<bool>& leave_workers);
 
  private:
   struct Worker {
     std::string session, cab;
     pid_t pid = 0;
+    unsigned long long start_ticks = 0;  // of an adopted worker (not our child): a reused pid is not it
+    bool adopted = false;                // started by an earlier agent: watched through /proc
     bool exited = false;
     std::string participant;
     std::chrono::steady_clock::time_point exited_at;
   };
+  // Start-up: the workers an earlier agent left running are adopted, and the ends it never
+  // reported (it stopped first) are reported now, so that no session is left open.
+  void adopt();
   void take_requests(bool stopping);
   void start(const fk_WorkerRequest& r);
   void reap();
@@ -68,6 +78,7 @@ class HostAgent {
   std::unique_ptr<dds::Writer<fk_WorkerReport>> reports_;
   std::unique_ptr<dds::Reader<fk_WorkerRequest>> requests_;
   std::map<std::string, Worker> workers_;  // by session, the exited ones until report_kept_s
+  bool leave_workers_ = false;
 };
 
 }  // namespace forklift::host

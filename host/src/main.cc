@@ -6,7 +6,12 @@
 
 #include <CLI/CLI.hpp>
 #include <atomic>
+#include <cerrno>
+#include <cstring>
+#include <iostream>
+#include <vector>
 #include <filesystem>
+#include <memory>
 #include <regex>
 #include <thread>
 
@@ -14,8 +19,12 @@
 
 namespace {
 
-std::atomic<bool> g_stop{false};
+std::atomic<bool> g_stop{false}, g_restart{false};
 void on_signal(int) { g_stop = true; }
+void on_restart(int) {
+  g_restart = true;
+  g_stop = true;
+}
 
 std::string default_log_dir(const std::string& host_id) {
   if (const char* env = std::getenv("FORKLIFT_LOG_DIR")) return env;
@@ -51,6 +60,8 @@ int main(int argc, char** argv) {
   app.add_option("--security", c.security_dir, "the school's DDS Security folder (scripts/forklift-pki.sh; default FORKLIFT_SECURITY_DIR), "
                  "with this host's identity and the workers' identities of the cabs it serves");
   app.add_option("--identity", c.identity, "this host's identity in it (default host.<id>)");
+  app.add_flag("--trust-clear-hosts", c.trust_clear, "run without DDS Security: then any machine on the network can start and "
+               "stop this host's workers and speak for it, so only on a closed network the school alone can reach");
   app.add_flag("--realtime-workers", c.realtime_workers, "workers run their tick at real-time priority (forklift-worker --realtime; "
                "needs CAP_SYS_NICE or an rtprio limit, e.g. systemd's LimitRTPRIO=10): each cab keeps real time on a full machine");
   try {
@@ -60,6 +71,12 @@ int main(int argc, char** argv) {
   }
   if (c.security_dir.empty())
     if (const char* env = std::getenv("FORKLIFT_SECURITY_DIR")) c.security_dir = env;
+  if (c.security_dir.empty() && !c.trust_clear) {
+    std::cerr << "forklift-host: a worker host runs with the school's DDS Security (--security DIR, or FORKLIFT_SECURITY_DIR), "
+                 "so that only the school's servers can start and stop its workers and only its reports are believed. On a "
+                 "closed network the school alone can reach, --trust-clear-hosts runs it without.\n";
+    return 2;
+  }
   if (c.log_dir.empty()) c.log_dir = default_log_dir(c.host_id);
   const std::filesystem::path self = std::filesystem::canonical("/proc/self/exe");
   if (c.worker_binary.empty()) c.worker_binary = (self.parent_path() / "forklift-worker").string();
@@ -68,12 +85,26 @@ int main(int argc, char** argv) {
     if (!std::filesystem::exists(c.worker_binary)) throw std::runtime_error("there is no worker program at " + c.worker_binary + " (give --worker)");
     std::filesystem::create_directories(c.log_dir);
     c.dds_domain = static_cast<int>(forklift::dds::DomainSettings::resolve(domain, c.dds_config).domain_id);
-    forklift::host::HostAgent agent(c);
+    auto agent = std::make_unique<forklift::host::HostAgent>(c);
     std::signal(SIGTERM, on_signal);
     std::signal(SIGINT, on_signal);
-    spdlog::info("host {} ready: up to {} workers, logs in {}, DDS domain {}{}", c.host_id, c.capacity, c.log_dir, c.dds_domain,
-                 c.security_dir.empty() ? " (no DDS Security: training only)" : "");
-    agent.run(g_stop);
+    std::signal(SIGHUP, on_restart);
+    if (c.security_dir.empty())
+      spdlog::warn("host {} runs without DDS Security (--trust-clear-hosts): any machine on this network can start and stop "
+                   "its workers; training only", c.host_id);
+    spdlog::info("host {} ready: up to {} workers, logs in {}, DDS domain {}", c.host_id, c.capacity, c.log_dir, c.dds_domain);
+    agent->run(g_stop, g_restart);
+    if (g_restart) {
+      // SIGHUP: the agent starts again in place (a new program file, say) and adopts the workers,
+      // which keep running meanwhile; the pid stays, so they stay its children.
+      spdlog::info("host {} restarting in place", c.host_id);
+      std::vector<char*> args(argv, argv + argc);
+      args.push_back(nullptr);
+      agent.reset();  // the DDS participant goes before the new one comes
+      execv(self.c_str(), args.data());
+      spdlog::error("could not restart: {}", std::strerror(errno));
+      return 1;
+    }
     spdlog::info("host {} stopped", c.host_id);
     return 0;
   } catch (const std::exception& e) {

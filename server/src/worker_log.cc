@@ -3,8 +3,6 @@
 #include "forklift/collision/collision.h"
 #include "forklift/session/session_log.h"
 
-#include <dirent.h>
-#include <signal.h>
 
 #include <cerrno>
 #include <cstdlib>
@@ -118,72 +116,6 @@ std::string logged_participant(const std::string& log_path) {
   std::string s = read_text(log_path + ".participant");
   while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
   return s;
-}
-
-namespace {
-
-std::optional<unsigned long long> start_ticks_of(pid_t pid) {
-  const std::string stat = read_text("/proc/" + std::to_string(pid) + "/stat");
-  const size_t paren = stat.rfind(')');  // the command name may hold spaces
-  if (paren == std::string::npos) return std::nullopt;
-  std::istringstream in(stat.substr(paren + 2));
-  std::string field;
-  // Fields 3.. follow the name; the start time is field 22.
-  for (int i = 3; i < 22 && in >> field;) ++i;
-  unsigned long long t = 0;
-  if (!(in >> t)) return std::nullopt;
-  return t;
-}
-
-std::optional<WorkerProcess> worker_of(pid_t pid, const std::string& log_dir) {
-  const std::string raw = read_text("/proc/" + std::to_string(pid) + "/cmdline");
-  std::vector<std::string> argv;
-  for (size_t at = 0; at < raw.size();) {
-    const size_t nul = raw.find('\0', at);
-    argv.push_back(raw.substr(at, nul == std::string::npos ? std::string::npos : nul - at));
-    at = nul == std::string::npos ? raw.size() : nul + 1;
-  }
-  if (argv.empty()) return std::nullopt;
-  const std::string& exe = argv[0];
-  if (exe.size() < 15 || exe.compare(exe.size() - 15, 15, "forklift-worker") != 0) return std::nullopt;
-  WorkerProcess p;
-  p.pid = pid;
-  for (size_t i = 1; i + 1 < argv.size(); ++i) {
-    if (argv[i] == "--session") p.session = argv[i + 1];
-    else if (argv[i] == "--cab") p.cab = argv[i + 1];
-    else if (argv[i] == "--log") p.log_path = argv[i + 1];
-  }
-  if (p.session.empty() || p.log_path != log_dir + "/" + p.session + ".ctl") return std::nullopt;
-  const auto t = start_ticks_of(pid);
-  if (!t) return std::nullopt;
-  p.start_ticks = *t;
-  return p;
-}
-
-}  // namespace
-
-std::vector<WorkerProcess> find_workers(const std::string& log_dir) {
-  std::vector<WorkerProcess> out;
-  DIR* d = opendir("/proc");
-  if (!d) return out;
-  while (dirent* e = readdir(d)) {
-    char* end = nullptr;
-    const long pid = std::strtol(e->d_name, &end, 10);
-    if (*end != '\0' || pid <= 0) continue;
-    if (auto p = worker_of(static_cast<pid_t>(pid), log_dir)) out.push_back(*p);
-  }
-  closedir(d);
-  return out;
-}
-
-bool still_running(const WorkerProcess& p) {
-  if (p.pid <= 0 || kill(p.pid, 0) != 0) return false;
-  const auto t = start_ticks_of(p.pid);
-  if (!t || *t != p.start_ticks) return false;
-  // A zombie (exited, not yet reaped by its parent) has ended.
-  const std::string stat = read_text("/proc/" + std::to_string(p.pid) + "/stat");
-  const size_t paren = stat.rfind(')');
-  return paren == std::string::npos || paren + 2 >= stat.size() || stat[paren + 2] != 'Z';
 }
 
 }  // namespace forklift::server

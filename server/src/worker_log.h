@@ -3,6 +3,8 @@
 // samples to believe) and its process (found again after a server restart).
 #pragma once
 
+#include "forklift/host/worker_launch.h"
+
 #include <sys/types.h>
 
 #include <optional>
@@ -39,15 +41,9 @@ struct LoggedMark {
 };
 std::optional<LoggedMark> parse_score_line(const std::string& line);
 
-// A forklift-worker process on this machine, from /proc.
-struct WorkerProcess {
-  pid_t pid = 0;
-  std::string session, cab, log_path;
-  unsigned long long start_ticks = 0;  // /proc/<pid>/stat's start time: tells a reused pid apart
-};
-// Every forklift-worker whose --log lies in `log_dir` (this server's workers, not another's).
-std::vector<WorkerProcess> find_workers(const std::string& log_dir);
-// Whether the process is still that worker (alive, same start time).
-bool still_running(const WorkerProcess& p);
+// The workers on this machine, found through /proc (shared with forklift-host).
+using host::WorkerProcess;
+using host::find_workers;
+using host::still_running;
 
 }  // namespace forklift::server

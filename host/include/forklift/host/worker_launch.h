@@ -40,6 +40,17 @@ std::vector<std::string> worker_command(const WorkerLaunch& w);
 // never outlive it unsupervised. Throws std::runtime_error when it cannot fork.
 pid_t spawn_worker(const WorkerLaunch& w, bool die_with_parent);
 
+// A forklift-worker process on this machine, from /proc.
+struct WorkerProcess {
+  pid_t pid = 0;
+  std::string session, cab, log_path;
+  unsigned long long start_ticks = 0;  // /proc/<pid>/stat's start time: tells a reused pid apart
+};
+// Every forklift-worker whose --log lies in `log_dir` (this server's or host's workers, not another's).
+std::vector<WorkerProcess> find_workers(const std::string& log_dir);
+// Whether the process is still that worker (alive, same start time, not a zombie).
+bool still_running(const WorkerProcess& p);
+
 // How a reaped child ended, in words ("" for a clean exit).
 std::string exit_words(int wait_status);
 
