@@ -4,6 +4,7 @@
 #include "worker_log.h"
 
 #include "forklift/image/image.h"
+#include "forklift/security/evidence.h"
 #include "forklift/server/logs.h"
 #include "forklift/session/session_log.h"
 
@@ -19,6 +20,7 @@
 #include <cstring>
 #include <set>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <regex>
 #include <sstream>
 
@@ -60,6 +62,12 @@ Fleet::Fleet(FleetConfig config) : config_(std::move(config)) {
   participant_ = std::make_unique<dds::Participant>(
       dds::DomainSettings::resolve(config_.dds_domain, config_.dds_config, config_.security_dir, config_.identity));
   status_writer_ = std::make_unique<dds::Writer<fk_SessionStatus>>(*participant_);
+  if (!secure() && config_.trust_clear_hosts)
+    spdlog::warn("worker hosts are believed in clear DDS (--trust-clear-hosts): any machine on this network can claim to be "
+                 "one, take sessions, stop workers and set marks; keep this to a closed network the school alone can reach");
+  else if (!secure())
+    spdlog::info("worker hosts are not believed in clear DDS (no identity vouches for them): give --security, or "
+                 "--trust-clear-hosts on a closed network");
   auto db = store::Store::open(config_.db_path);
   adopt(*db);
   supervisor_ = std::thread([this] { supervise(); });
@@ -147,7 +155,7 @@ std::vector<std::string> Fleet::placement(const std::string& cab) {
   const std::string site = cab_it == cabs_.end() ? "" : cab_it->second.site;
   std::vector<const HostInfo*> room;
   for (const auto& [id, h] : hosts_)
-    if (h.alive(now) && h.has_room()) room.push_back(&h);
+    if (h.alive(now) && h.has_room() && now >= h.passed_over_until) room.push_back(&h);
   // The cab's own site first; then the emptiest (by share of its capacity), then the least loaded.
   std::sort(room.begin(), room.end(), [&](const HostInfo* a, const HostInfo* b) {
     const bool a_near = !site.empty() && a->site == site, b_near = !site.empty() && b->site == site;
@@ -184,12 +192,17 @@ void Fleet::start_worker(const store::Session& s, const std::string& scenario_fi
     for (const auto& [id, h] : hosts_) any_host = any_host || h.alive(Clock::now());
     hosts = placement(s.cab_id);
   }
-  if (any_host || !config_.local_workers) {
-    if (hosts.empty())
-      throw std::runtime_error(any_host ? "every worker host is full or stopping" : "no worker host is about (and this server runs none itself)");
-    start_hosted_worker(s, scenario_file, duration_s, aids, hosts);
-    return;
+  std::string refusals;
+  if (!hosts.empty() && start_hosted_worker(s, scenario_file, duration_s, aids, hosts, refusals)) return;
+  if (!config_.local_workers) {
+    if (!refusals.empty()) throw std::runtime_error("no worker host took the session (" + refusals + ")");
+    throw std::runtime_error(any_host ? "every worker host is full, stopping or passed over"
+                                      : hosts_believed() ? "no worker host is about (and this server runs none itself)"
+                                                         : "this server runs no worker itself, and believes no worker host without "
+                                                           "DDS Security (--security, or --trust-clear-hosts on a closed network)");
   }
+  // No host took it, or none is about: this machine runs the worker, as one without hosts does.
+  if (!refusals.empty()) spdlog::warn("session {}: no worker host took it ({}); its worker runs here", s.public_id, refusals);
   if (secure()) {
     // The worker's identity must exist before it is spawned: a clear refusal now, not a failed
     // session later. The cab's identity is the cab's business (it lives on the cab).
@@ -233,8 +246,10 @@ void Fleet::start_local_worker(const store::Session& s, const host::WorkerLaunch
   bindings_[s.public_id] = {w.cab, "", std::nullopt};
 }
 
-void Fleet::start_hosted_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
-                                const std::optional<std::string>& aids, std::vector<std::string> candidates) {
+bool Fleet::start_hosted_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
+                                const std::optional<std::string>& aids, std::vector<std::string> candidates,
+                                std::string& refusals) {
+  const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.start_budget_s));
   auto r = std::make_unique<fk_WorkerRequest>();  // 64 KiB of scenario: not on the stack
   const std::string scenario = slurp(scenario_file);
   if (scenario.empty()) throw std::runtime_error("the scenario " + scenario_file + " cannot be read");
@@ -252,8 +267,12 @@ void Fleet::start_hosted_worker(const store::Session& s, const std::string& scen
     r->frame_height = static_cast<uint16_t>(config_.frames->height);
     r->frame_jpeg = config_.frames->jpeg;
   }
-  std::string refusals;
   for (const std::string& host : candidates) {
+    if (Clock::now() >= deadline) {
+      refusals += (refusals.empty() ? "" : "; ") + std::string("the start's ") + std::to_string(int(config_.start_budget_s)) +
+                  " s ran out before host " + host + " was asked";
+      break;
+    }
     dds::Writer<fk_WorkerRequest>* writer;
     {
       std::unique_lock<std::mutex> lock(mu_);
@@ -274,30 +293,42 @@ void Fleet::start_hosted_worker(const store::Session& s, const std::string& scen
       if (!wr) wr = std::make_unique<dds::Writer<fk_WorkerRequest>>(*participant_, dds::host_partition(host));
       writer = wr.get();
     }
+    // Each host has its share of what is left of the budget, so that a silent one leaves time
+    // for the next and for this machine.
+    const auto until = std::min(deadline, Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                                             std::chrono::duration<double>(config_.host_answer_timeout_s)));
     // A writer made just now may not have found the host's reader yet.
-    for (int i = 0; i < 100 && writer->matched() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    while (writer->matched() == 0 && Clock::now() < until) std::this_thread::sleep_for(std::chrono::milliseconds(20));
     dds::set_string(r->host_id, host);
-    writer->write(*r);
+    writer->write(*r);  // in the host's own partition: under DDS Security only that host may read it
     std::unique_lock<std::mutex> lock(mu_);
-    const bool answered = answered_.wait_for(lock, std::chrono::duration<double>(config_.host_answer_timeout_s), [&] {
+    // Taken once the host names its running worker (or it has already exited, which settles the
+    // session): a host that says "starting" and then nothing more is passed over like a silent one.
+    const bool answered = answered_.wait_until(lock, until, [&] {
       const auto a = start_answers_.find(s.public_id);
-      return a != start_answers_.end() && a->second.host == host;
+      return a != start_answers_.end() && a->second.host == host && a->second.state != "starting";
     });
     --hosts_[host].placed;
-    const StartAnswer a = answered ? start_answers_[s.public_id] : StartAnswer{host, "", "no answer"};
+    const StartAnswer a = answered ? start_answers_[s.public_id] : StartAnswer{host, "", "no running worker named in time"};
     start_answers_.erase(s.public_id);
     if (answered && a.state != "refused") {
       spdlog::info("session {} on cab {}: its worker runs on host {}", s.public_id, s.cab_id, host);
-      return;
+      return true;
     }
-    // Refused, or silent: the next host. A late start is stopped (its session is no longer open).
-    if (!answered) request(host, s.public_id, "kill");
+    // Refused, or silent: the next host. A late start is stopped (its session runs elsewhere).
+    if (!answered) {
+      request(host, s.public_id, "kill");
+      hosts_[host].passed_over_until = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                                          std::chrono::duration<double>(config_.host_pass_over_s));
+      spdlog::warn("worker host {} took session {} and named no running worker in time: passed over for {} s", host,
+                   s.public_id, int(config_.host_pass_over_s));
+    }
     workers_.erase(s.public_id);
     unsettled_.erase(s.public_id);
     bindings_.erase(s.public_id);
     refusals += (refusals.empty() ? "" : "; ") + host + ": " + a.reason;
   }
-  throw std::runtime_error("no worker host took the session (" + refusals + ")");
+  return false;
 }
 
 bool Fleet::abort(const std::string& session) {
@@ -457,10 +488,12 @@ void Fleet::supervise() {
         std::string reason;
         bool done = false;
         if (!w.host.empty()) {
-          // A hosted worker's end comes in its host's report (on_report); its host's death here.
+          // A hosted worker's end comes in its host's report (on_report); its host's death here,
+          // after a whole lease: an agent that restarts in place is back within it (its workers
+          // run on), one whose machine is down is not.
           const auto h = hosts_.find(w.host);
           const bool unheard = h == hosts_.end() && std::chrono::duration<double>(now - w.started).count() > dds::kHostLeaseS;
-          if (unheard || (h != hosts_.end() && !h->second.alive(now))) {
+          if (unheard || (h != hosts_.end() && std::chrono::duration<double>(now - h->second.last_seen).count() >= dds::kHostLeaseS)) {
             done = true;
             reason = "the worker host " + w.host + " stopped answering (its machine, its network or its agent is down)";
           }
@@ -477,7 +510,13 @@ void Fleet::supervise() {
         if (!done && !w.host.empty() && w.seen_state && silent > config_.hang_timeout_s && w.hang_reason.empty()) {
           // Its host kills it and reports the end, with its files.
           w.hang_reason = "worker hung: no truck state for " + std::to_string(int(silent)) + " s";
+          w.hang_asked = now;
           signal_worker(w, SIGKILL);
+        } else if (!done && !w.hang_reason.empty() && silent > config_.hang_timeout_s &&
+                   std::chrono::duration<double>(now - w.hang_asked).count() > config_.hang_timeout_s + 2 * dds::kHostLeaseS) {
+          // Asked to kill it, its host never brought back an end with a log its worker signed.
+          done = true;
+          reason = w.hang_reason + "; its worker host " + w.host + " never brought back a session log signed by its worker";
         } else if (!done && w.host.empty() && w.seen_state && silent > config_.hang_timeout_s) {
           reason = "worker hung: no truck state for " + std::to_string(int(silent)) + " s";
           signal_worker(w, SIGKILL);
@@ -619,12 +658,15 @@ RefusedSamples Fleet::refused() {
 
 void Fleet::refuse(uint64_t RefusedSamples::*counter, const std::string& what) {
   uint64_t n;
+  bool first;
   {
     std::lock_guard<std::mutex> lock(mu_);
     n = ++(refused_.*counter);
+    // Each different refusal is named once (a forged report among a clear host's many statuses is
+    // seen), within a bounded memory; repeats only as the count doubles.
+    first = refusals_named_.size() < kRefusalsNamed && refusals_named_.insert(what).second;
   }
-  // Named in the log, but a flood of them does not flood it.
-  if (n <= 20 || (n & (n - 1)) == 0) spdlog::warn("refused {} ({} so far)", what, n);
+  if (first || n <= 20 || (n & (n - 1)) == 0) spdlog::warn("refused {} ({} so far)", what, n);
 }
 
 Fleet::Verdict Fleet::check_sender(const std::string& session, dds_entity_t reader, const dds_sample_info_t& info,
@@ -698,6 +740,26 @@ void Fleet::write_worker_files(const fk_WorkerReport& r) {
   std::ofstream(log + ".participant") << r.participant << '\n';
 }
 
+std::optional<std::string> Fleet::unsigned_log_problem(const fk_WorkerReport& r, const std::string& cab) {
+  if (!secure()) return std::nullopt;  // trusted clear hosts (a closed lab): no identities to check
+  if (r.control_log._length == 0) return std::nullopt;  // no log: the session ends without a mark
+  const std::string log(reinterpret_cast<const char*>(r.control_log._buffer), r.control_log._length);
+  if (r.signature._length == 0) return "its session log is not signed (every worker signs its log under DDS Security)";
+  const auto signature = nlohmann::json::parse(r.signature._buffer, r.signature._buffer + r.signature._length, nullptr, false);
+  if (signature.is_discarded()) return "its log signature is not JSON";
+  ChainKeys keys;
+  try {
+    keys = forklift::server::chain_keys(config_.security_dir, config_.identity);
+  } catch (const std::exception& e) {
+    return std::string("the school's CA cannot be read to check it: ") + e.what();
+  }
+  const security::VerifyReport v = security::verify_log_signature(r.session_id, cab, log, signature, keys.ca_pem, keys.crl_pem);
+  if (v.ok) return std::nullopt;
+  std::string why = "its session log is not signed by cab " + cab + "'s worker: ";
+  for (size_t i = 0; i < v.problems.size(); ++i) why += (i ? "; " : "") + v.problems[i];
+  return why;
+}
+
 void Fleet::on_report(store::Store& db, const fk_WorkerReport& r) {
   if (!valid_session_id(r.session_id)) throw std::runtime_error(std::string("a report on session '") + r.session_id + "'");
   const std::string state = r.state, session = r.session_id;
@@ -707,8 +769,28 @@ void Fleet::on_report(store::Store& db, const fk_WorkerReport& r) {
     throw std::runtime_error(std::string("a report naming participant '") + r.participant + "'");
   const auto now = Clock::now();
   constexpr auto kLastSamples = std::chrono::milliseconds(1000);
+  // An exited worker's files settle the mark: they count only as the session's worker signed them
+  // (checked once, for the cab the session was started on); refused, the report is not an answer.
+  std::optional<std::optional<std::string>> log_problem;
+  auto refused_log = [&](const std::string& cab) {
+    if (state != "exited") return false;
+    if (!log_problem) log_problem = unsigned_log_problem(r, cab);
+    if (!*log_problem) return false;
+    const uint64_t n = ++refused_.unsigned_log;
+    spdlog::warn("refused host {}'s report that session {}'s worker exited: {} ({} such so far)", r.host_id, session, **log_problem, n);
+    return true;
+  };
   // What becomes of the worker once it is ours: its participant believed, its end settled.
   auto follow = [&](WorkerInfo& w) {
+    if (refused_log(w.cab)) {
+      // Its files are not believed, and its states tell whether it really ended: if none come, the
+      // supervisor fails the session with this reason (a worker that crashed before signing).
+      if (w.hang_reason.empty()) {
+        w.hang_reason = "its worker host reported that it ended, with a session log its worker did not sign";
+        w.hang_asked = now;
+      }
+      return;
+    }
     if (r.participant[0]) {
       w.participant = r.participant;
       bindings_[session].participant = r.participant;
@@ -722,10 +804,19 @@ void Fleet::on_report(store::Store& db, const fk_WorkerReport& r) {
   };
   {
     std::lock_guard<std::mutex> lock(mu_);
+    const auto w = workers_.find(session);
+    const auto ending = std::find_if(finishing_.begin(), finishing_.end(), [&](const Finishing& x) { return x.worker.session == session; });
+    // Never a report on a session whose worker this server runs itself: its own files are the truth.
+    if ((w != workers_.end() && w->second.host.empty()) || (ending != finishing_.end() && ending->worker.child)) {
+      const uint64_t n = ++refused_.wrong_sender;
+      spdlog::warn("refused host {}'s report on session {}, whose worker runs on this server ({} refused samples so far)",
+                   r.host_id, session, n);
+      return;
+    }
+    if (w != workers_.end() && w->second.host == r.host_id && refused_log(w->second.cab)) return;
     start_answers_[session] = {r.host_id, state, r.reason};
     answered_.notify_all();
     if (state == "refused") return;
-    const auto w = workers_.find(session);
     if (w != workers_.end()) {
       if (w->second.host != r.host_id) {
         spdlog::warn("host {} reports a worker for session {}, which runs {}: stopping it", r.host_id, session,
@@ -861,6 +952,11 @@ void Fleet::ingest() {
           return;
         }
         // Checked before mu_ is taken: refuse() takes it.
+        if (!hosts_believed()) {
+          refuse(&RefusedSamples::no_identity, std::string("a status of worker host ") + h.host_id +
+                                                   " in clear DDS (no identity vouches for it; --trust-clear-hosts on a closed network)");
+          return;
+        }
         if (!from_host(host_statuses.handle(), info, h.host_id)) {
           refuse(&RefusedSamples::wrong_sender, std::string("a status of worker host ") + h.host_id + " from outside its partition");
           return;
@@ -892,6 +988,15 @@ void Fleet::ingest() {
       if (auto bad = bad_text({{"its host", r.host_id}, {"its session", r.session_id}, {"its cab", r.cab_id}, {"its state", r.state},
                                {"its reason", r.reason}, {"its participant", r.participant}}))
         throw std::runtime_error(*bad);
+      if (!hosts_believed()) {
+        refuse(&RefusedSamples::no_identity, std::string("a report ") + (r.host_id[0] ? "of worker host " + std::string(r.host_id) : "naming no worker host") +
+                                                 " on session " + r.session_id + " in clear DDS (no identity vouches for it)");
+        return;
+      }
+      if (!r.host_id[0]) {
+        refuse(&RefusedSamples::wrong_sender, std::string("a report on session ") + r.session_id + " that names no worker host");
+        return;
+      }
       if (!from_host(reports.handle(), info, r.host_id)) {
         refuse(&RefusedSamples::wrong_sender, std::string("a report of worker host ") + r.host_id + " from outside its partition");
         return;

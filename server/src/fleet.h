@@ -41,7 +41,13 @@ struct FleetConfig {
   // worker runs there. With none about, the server runs workers itself, unless local_workers is off.
   bool local_workers = true;
   bool realtime_workers = false;  // workers it runs itself tick at real-time priority (--realtime)
-  double host_answer_timeout_s = 5;  // a host that does not answer a start in this long is passed over
+  // Worker hosts speak for themselves only under DDS Security (their identity host.<id>); in clear
+  // DDS any machine on the network could claim to be one, so they are believed only when the
+  // operator says the network is a closed lab (--trust-clear-hosts).
+  bool trust_clear_hosts = false;
+  double host_answer_timeout_s = 2;  // a host that has not named its running worker in this long is passed over
+  double start_budget_s = 5;         // the whole placement of one start, hosts and then this machine
+  double host_pass_over_s = 30;      // a host passed over for silence is not asked again for this long
   double path_interval_s = 0.5;  // sim time between two stored points of a session's truck path
   std::string chain_anchor;      // the exam chain's anchor file; empty: <log_dir>/exam-chain.anchor
 };
@@ -58,6 +64,7 @@ struct WorkerInfo {
   fk_TruckState last{};  // the newest TruckState, when seen_state
   std::optional<double> last_path_point_s;  // sim time of the last path point stored
   std::string hang_reason;  // a hosted worker asked to be killed, and why
+  std::chrono::steady_clock::time_point hang_asked;  // when it was asked
 };
 
 // A worker host as its status says (fk_HostStatus).
@@ -68,6 +75,7 @@ struct HostInfo {
   std::chrono::steady_clock::time_point last_seen;
   bool gone = false;  // its status writer lost its liveliness (the agent or its machine is down)
   int placed = 0;     // starts this server asked of it that it has not answered yet
+  std::chrono::steady_clock::time_point passed_over_until{};  // it took a start and went silent
   bool alive(std::chrono::steady_clock::time_point now) const;
   bool has_room() const { return state == "ready" && running + placed < capacity; }
 };
@@ -77,6 +85,8 @@ struct RefusedSamples {
   uint64_t wrong_sender = 0;    // not from the worker that runs the session (or its cab's partition)
   uint64_t malformed = 0;       // not UTF-8, not finite, out of range, or unreadable
   uint64_t score_disagrees = 0; // a score that is not the one in the worker's session log
+  uint64_t no_identity = 0;     // a worker host's sample in clear DDS, which no identity vouches for
+  uint64_t unsigned_log = 0;    // a host's report whose session log its worker did not sign
   uint64_t recovered_events = 0;  // events taken from a worker's log because their samples never came
   uint64_t recovered_scores = 0;
 };
@@ -122,6 +132,8 @@ class Fleet {
   bool cab_busy(const std::string& cab);
   const FleetConfig& config() const { return config_; }
   bool secure() const { return !config_.security_dir.empty(); }
+  // Whether worker hosts' samples are believed: under DDS Security, or when trusted by the operator.
+  bool hosts_believed() const { return secure() || config_.trust_clear_hosts; }
   const MarkingRules& marking_rules() const { return rules_; }
   RefusedSamples refused();
 
@@ -163,14 +175,20 @@ class Fleet {
   void signal_worker(const WorkerInfo& w, int sig);
   // Starting a session's worker on this machine, or on a worker host (which answers with a report).
   void start_local_worker(const store::Session& s, const host::WorkerLaunch& launch);
-  void start_hosted_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
-                           const std::optional<std::string>& aids, std::vector<std::string> candidates);
+  // Tries the candidates in turn within the start's budget; false (with each host's refusal in
+  // `refusals`) when none took it, so that the caller may run the worker here instead.
+  bool start_hosted_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
+                           const std::optional<std::string>& aids, std::vector<std::string> candidates,
+                           std::string& refusals);
   std::vector<std::string> placement(const std::string& cab);  // hosts with room, best first (under mu_)
   void request(const std::string& host, const std::string& session, const char* action);  // abort, kill (under mu_)
   // A worker host's report on a session's worker (ingest thread): a start answered, a participant
   // learnt, a worker exited with its files; another server's session adopted, a stray stopped.
   void on_report(store::Store& db, const fk_WorkerReport& r);
   void write_worker_files(const fk_WorkerReport& r);
+  // Why a hosted worker's shipped log is not to be believed (its signature is not its cab's
+  // worker's), or nullopt; in clear DDS with trusted hosts nothing is signed and nothing checked.
+  std::optional<std::string> unsigned_log_problem(const fk_WorkerReport& r, const std::string& cab);
   std::string log_path(const std::string& session) const { return config_.log_dir + "/" + session + ".ctl"; }
 
   // Whose samples a session's are: the worker's participant and cab, kept a little while after
@@ -202,6 +220,8 @@ class Fleet {
   std::vector<Finishing> finishing_;  // under mu_; settled by the supervisor thread
   std::set<std::string> unsettled_;    // sessions with a worker here whose logs are not stored yet
   RefusedSamples refused_;
+  static constexpr size_t kRefusalsNamed = 4096;
+  std::set<std::string> refusals_named_;  // under mu_: the refusals named in the log once each
   std::map<dds_instance_handle_t, dds::Sender> senders_;  // ingest thread: who each publication is
   std::map<std::string, CabInfo> cabs_;
   std::map<std::string, HostInfo> hosts_;  // by id

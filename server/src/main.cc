@@ -150,6 +150,9 @@ int main(int argc, char** argv) {
   bool no_local_workers = false;
   app.add_flag("--no-local-workers", no_local_workers, "run no sim worker on this machine: only on worker hosts (forklift-host); "
                "by default the server runs them itself while no worker host is about");
+  app.add_flag("--trust-clear-hosts", cfg.trust_clear_hosts, "believe worker hosts (forklift-host) without DDS Security: in clear "
+               "DDS any machine on the network can claim to be one, place itself, kill workers and set marks, so only on a "
+               "closed network the school alone can reach; with --security hosts are believed by their identity");
   app.add_flag("--realtime-workers", cfg.realtime_workers, "the workers this server runs tick at real-time priority (forklift-worker "
                "--realtime; needs CAP_SYS_NICE or an rtprio limit, e.g. systemd's LimitRTPRIO=10)");
   app.add_option("--token-ttl", cfg.token_ttl_s, "how long a login lasts, s")->check(CLI::Range(1.0, 30.0 * 86400));

@@ -320,15 +320,18 @@ void session_routes(Routes& svr, Context& ctx) {
     for (const HostInfo& h : ctx.fleet->hosts())
       hosts.push_back({{"id", h.id}, {"site", h.site}, {"alive", h.alive(now)}, {"state", h.state}, {"capacity", h.capacity},
                        {"running", h.running}, {"cores", h.cores}, {"load_1min", h.load_1min}, {"memory_free_mib", h.memory_free_mib},
-                       {"seconds_since_status", std::chrono::duration<double>(now - h.last_seen).count()}});
+                       {"seconds_since_status", std::chrono::duration<double>(now - h.last_seen).count()},
+                       {"passed_over_s", std::max(0.0, std::chrono::duration<double>(h.passed_over_until - now).count())}});
     const RefusedSamples r = ctx.fleet->refused();
-    const json refused = {{"wrong_sender", r.wrong_sender}, {"malformed", r.malformed}, {"score_disagrees", r.score_disagrees}};
+    const json refused = {{"wrong_sender", r.wrong_sender}, {"malformed", r.malformed}, {"score_disagrees", r.score_disagrees},
+                          {"no_identity", r.no_identity}, {"unsigned_log", r.unsigned_log}};
     const json recovered = {{"events", r.recovered_events}, {"scores", r.recovered_scores}};
     // Whether exams can be chained (and so certified), and how many were refused since start.
     const Fleet::ChainStatus chain = ctx.fleet->chain_status();
     // The DDS domain its workers and cabs meet in: forklift-menu start --drive runs its cab there.
     send_json(res, 200, {{"workers", workers}, {"cabs_online", cabs}, {"cabs", every}, {"hosts", hosts},
                          {"max_workers", ctx.fleet->config().max_workers}, {"local_workers", ctx.fleet->config().local_workers},
+                         {"hosts_believed", ctx.fleet->hosts_believed()},
                          {"dds_domain", ctx.fleet->config().dds_domain},
                          {"refused_samples", refused}, {"recovered_from_logs", recovered},
                          {"exam_chain", {{"ok", chain.problem.empty()}, {"problem", chain.problem.empty() ? json(nullptr) : json(chain.problem)},

@@ -117,6 +117,7 @@ Api::Api(ServerConfig c) : ctx_(std::make_unique<Context>()), contract_(&api_con
   fc.frames = c.frames;
   fc.local_workers = c.local_workers;
   fc.realtime_workers = c.realtime_workers;
+  fc.trust_clear_hosts = c.trust_clear_hosts;
   ctx.fleet = std::make_unique<Fleet>(fc);
   ctx.stills = std::make_unique<Stills>(c.bin_dir + "/forklift-render", c.log_dir + "/stills", ctx.data_dir);
   ctx.replays = std::make_unique<Replays>(c.bin_dir + "/forklift-sim", c.log_dir + "/replays");

@@ -14,6 +14,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <functional>
 #include <thread>
 #include <tuple>
 
@@ -39,9 +40,12 @@ struct InProcessServer : forklift_test::ApiClient {
   int port = forklift::test::free_port();
   std::thread thread;
 
-  explicit InProcessServer(const std::string& name, int domain = forklift::test::free_domain())
+  explicit InProcessServer(const std::string& name, int domain = forklift::test::free_domain(),
+                           const std::function<void(forklift::server::ServerConfig&)>& configure = {})
       : dir(testing::TempDir() + "/handlers-" + name) {
-    api = std::make_unique<forklift::server::Api>(forklift_test::in_process_config(dir, domain));
+    forklift::server::ServerConfig config = forklift_test::in_process_config(dir, domain);
+    if (configure) configure(config);
+    api = std::make_unique<forklift::server::Api>(config);
     api->mount(http);
     if (!http.bind_to_port("127.0.0.1", port)) ADD_FAILURE() << "cannot listen on 127.0.0.1:" << port;
     thread = std::thread([this] { http.listen_after_bind(); });
@@ -566,7 +570,8 @@ TEST(Handlers, OnlyTheSessionsWorkerIsBelievedAndABadSampleCostsOnlyItself) {
 // each refused and counted; the good one is listed; the server goes on answering.
 TEST(Handlers, AWorkerHostsStatusFromOutsideItsPartitionOrOutOfRangeIsRefused) {
   const int domain = forklift::test::free_domain();
-  InProcessServer s("hoststatus", domain);
+  // Hosts believed in clear DDS, as on a closed network (--trust-clear-hosts).
+  InProcessServer s("hoststatus", domain, [](forklift::server::ServerConfig& c) { c.trust_clear_hosts = true; });
   namespace dds = forklift::dds;
   dds::Participant p(dds::DomainSettings::resolve(domain, ""));
   const std::string admin = s.login("admin", kAdminPassword);
@@ -602,5 +607,40 @@ TEST(Handlers, AWorkerHostsStatusFromOutsideItsPartitionOrOutOfRangeIsRefused) {
   EXPECT_EQ(fleet["hosts"][0]["id"], "h1") << fleet;
   EXPECT_EQ(fleet["hosts"][0]["state"], "ready") << fleet;
   EXPECT_EQ(fleet["hosts"][0]["alive"], true) << fleet;
+  EXPECT_EQ(s.call("GET", "/api/health").first, 200);
+}
+
+// Clear DDS is for one machine: without --trust-clear-hosts (or DDS Security) no worker host is
+// believed. A status with room for 100 and a report that a session's worker exited with a perfect
+// log are each refused and counted; nothing is listed, placed or stored, and a start runs here.
+TEST(Handlers, InClearDdsNoWorkerHostIsBelievedWithoutTheOperatorsWord) {
+  const int domain = forklift::test::free_domain();
+  InProcessServer s("untrusted", domain);
+  namespace dds = forklift::dds;
+  dds::Participant p(dds::DomainSettings::resolve(domain, ""));
+  const std::string admin = s.login("admin", kAdminPassword);
+  dds::Writer<fk_HostStatus> status(p, dds::host_partition("evil"));
+  dds::Writer<fk_WorkerReport> report(p, dds::host_partition(""));
+  for (int i = 0; i < 200 && (status.matched() == 0 || report.matched() == 0); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  ASSERT_GT(status.matched() * report.matched(), 0u);
+  fk_HostStatus h{};
+  dds::set_string(h.host_id, "evil");
+  dds::set_string(h.state, "ready");
+  h.capacity = 100;
+  ASSERT_TRUE(status.write(h));
+  auto r = std::make_unique<fk_WorkerReport>();
+  dds::set_string(r->session_id, "s-1");
+  dds::set_string(r->state, "exited");
+  ASSERT_TRUE(report.write(*r));
+  json fleet;
+  for (int i = 0; i < 100; ++i) {
+    fleet = s.call("GET", "/api/fleet", admin).second;
+    if (fleet["refused_samples"]["no_identity"] >= 2) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_EQ(fleet["refused_samples"]["no_identity"], 2) << fleet;
+  EXPECT_EQ(fleet["hosts_believed"], false) << fleet;
+  EXPECT_TRUE(fleet["hosts"].empty()) << fleet;
   EXPECT_EQ(s.call("GET", "/api/health").first, 200);
 }

@@ -52,6 +52,8 @@ struct ServerConfig {
   std::optional<host::WorkerFrames> frames;  // every worker's frames' rate, size, encoding (nullopt: the worker's defaults)
   bool local_workers = true;  // run workers here when no worker host (forklift-host) is about
   bool realtime_workers = false;  // those workers tick at real-time priority (forklift-worker --realtime)
+  // Believe worker hosts in clear DDS (no identities): for a closed lab only, said at start in the log.
+  bool trust_clear_hosts = false;
 };
 
 struct Context;
