@@ -11,15 +11,24 @@
 #   3. Server A stops mid-session: the session goes on and server B settles it with its mark.
 #   4. With DDS Security (--secure): the same school with every identity; a cab with its own
 #      identity cannot drive another cab's worker, which never hears a control.
+#   5. Nothing is believed without an identity. In clear DDS hosts and servers run only with
+#      --trust-clear-hosts; a server without it believes no host: a forged status places nothing,
+#      a forged report on its own session changes neither the log nor the mark, each refusal
+#      counted. With DDS Security a peer without an identity places, stops and starts nothing, and
+#      a host's identity cannot ship a log its session's worker did not sign.
+#   6. A host agent restarted in place (SIGHUP) or after a crash (SIGKILL of the agent alone)
+#      adopts its running workers; their sessions end with their marks.
+#   7. A host that takes a start and stays silent is passed over within the start's budget.
 # The namespaces' names and addresses come from the test's DDS domain (forklift-test-alloc), so
 # that parallel runs never meet; they are removed however the test ends.
 #
-#   BUILD/tests/forklift-test-alloc tests/hosts/worker_hosts.sh BUILD/bin data protocol/config scripts OUT [--secure]
+#   BUILD/tests/forklift-test-alloc tests/hosts/worker_hosts.sh BUILD/bin data protocol/config scripts OUT FORGE [--secure]
+# (FORGE: BUILD/tests/forklift-test-forge, a peer that claims to be a host or a server)
 #
 # Exit 77 (ctest: skipped, never passed) where namespaces cannot be made (not root, no iproute2)
 # or PostgreSQL is not installed.
 set -uo pipefail
-bin=$(realpath "$1") data=$(realpath "$2") configs=$(realpath "$3") scripts=$(realpath "$4") out=$5 secure=${6:-}
+bin=$(realpath "$1") data=$(realpath "$2") configs=$(realpath "$3") scripts=$(realpath "$4") out=$5 forge=$(realpath "$6") secure=${7:-}
 domain=${FORKLIFT_TEST_DOMAIN:?run it through forklift-test-alloc}
 port=${FORKLIFT_TEST_PORT:?run it through forklift-test-alloc}
 rm -rf "$out" && mkdir -p "$out" && out=$(realpath "$out")
@@ -63,7 +72,7 @@ for ns in "$T" "$A" "$B" "$C"; do
   ip -n "$ns" link set "${ns}0" up
   n=$((n + 1))
 done
-addr_S=$net.1 addr_T=$net.2
+addr_S=$net.1 addr_T=$net.2 addr_C=$net.5
 
 failed=0
 fail() { echo "FAILED ($1): $2"; failed=1; }
@@ -101,9 +110,11 @@ if [ "$secure" = "--secure" ]; then
   export FORKLIFT_SECURITY_DIR=$pki
 fi
 
+# In clear DDS hosts are believed only on the operator's word (a closed network: these namespaces).
+trust=(); [ "$secure" = "--secure" ] || trust=(--trust-clear-hosts)
 start_server() {  # NS ADDRESS NAME
   spawn "$1" "$bin/forklift-server" --db "$db" --listen "$2:$port" --no-local-workers --log-dir "$out/$3" \
-    --frame-fps 0 2> "$out/$3.log" &
+    --frame-fps 0 "${trust[@]}" 2> "$out/$3.log" &
   pids+=($!)
   eval "server_$3=$!"
   for _ in $(seq 300); do ip netns exec "$C" curl -sf "http://$2:$port/api/health" > /dev/null && return 0; sleep 0.1; done
@@ -111,14 +122,24 @@ start_server() {  # NS ADDRESS NAME
   exit 1
 }
 start_host() {  # NS ID [MORE ARGUMENTS]
-  spawn "$1" "$bin/forklift-host" --host-id "$2" --capacity 2 --start-timeout 30 --log-dir "$out/$2" "${@:3}" 2> "$out/$2.log" &
+  spawn "$1" "$bin/forklift-host" --host-id "$2" --capacity 2 --start-timeout 30 --log-dir "$out/$2" "${trust[@]}" "${@:3}" >> "$out/$2.log" 2>&1 &
   pids+=($!)
+  eval "agent_$2=$!"
 }
 menu() {  # on the cabs' machine, against server A
   on "$C" "$bin/forklift-menu" --server "http://$addr_S:$port" --token-file "$out/token" "$@"
 }
-fleet() {  # SERVER_ADDRESS: the /api/fleet answer
-  ip netns exec "$C" curl -sf -H "Authorization: Bearer $(cat "$out/token")" "http://$1:$port/api/fleet"
+fleet() {  # SERVER_ADDRESS [TOKEN_FILE]: the /api/fleet answer
+  ip netns exec "$C" curl -sf -H "Authorization: Bearer $(cat "${2:-$out/token}")" "http://$1:$port/api/fleet"
+}
+# A field of a server's /api/fleet answer, as Python reads it: fleet_says ADDRESS EXPRESSION [TOKEN_FILE]
+fleet_says() { fleet "$1" "${3:-}" | python3 -c "import json,sys; f=json.load(sys.stdin); print($2)" 2>/dev/null; }
+forge() {  # NS FORGE_ARGUMENTS: a peer on machine NS that claims to be a host or a server
+  (spawn "$1" "$forge" "${@:2}" >> "$out/forge.log" 2>&1)
+}
+# A session log that claims a perfect mark, as a forger would ship it.
+forged_log() {  # SESSION CAB FILE
+  printf 'forklift-control-log 1\nsession %s\ncab %s\nmode training\nscore 0x1.9p+6 1 0 completed forged\n' "$1" "$2" > "$3"
 }
 host_of() {  # SESSION: the host /api/fleet says runs it
   fleet "$addr_S" | python3 -c "import json,sys; print(next((w['host'] or 'here') for w in json.load(sys.stdin)['workers'] if w['session']=='$1'))" 2>/dev/null
@@ -223,6 +244,81 @@ if [ "$secure" != "--secure" ]; then
   grep -q "adopted session $s4" "$out/A2.log" || fail two_servers "server A, started again, never adopted $s4: $(grep -v 'GET\|POST' "$out/A2.log" | tail -3)"
   ! grep -q "refused" "$out/A2.log" "$out/B.log" || fail two_servers "samples were refused: $(grep -h refused "$out/A2.log" "$out/B.log" | head -3)"
   [ "$failed" -eq 0 ] && echo "3: server A stopped mid-session; server B adopted $s4 and stored its end and mark; A, started again, adopted it too"
+
+  # 5. Clear DDS: no host runs without the operator's word; a server without it believes none.
+  rc=0; on "$A" "$bin/forklift-host" --host-id h9 --log-dir "$out/h9" > "$out/h9.log" 2>&1 || rc=$?
+  [ "$rc" -eq 2 ] && grep -q -- "--security" "$out/h9.log" || fail clear "forklift-host without --security started (exit $rc): $(cat "$out/h9.log")"
+  spawn "$C" "$bin/forklift-server" --db "$out/U.db" --listen "$addr_C:$port" --log-dir "$out/U" --frame-fps 0 2> "$out/U.log" &
+  pids+=($!)
+  for _ in $(seq 300); do ip netns exec "$C" curl -sf "http://$addr_C:$port/api/health" > /dev/null && break; sleep 0.1; done
+  menu_U() { on "$C" "$bin/forklift-menu" --server "http://$addr_C:$port" --token-file "$out/token-U" "$@"; }
+  FORKLIFT_PASSWORD=hosts-admin-password menu_U login --user admin > /dev/null || fail clear "no login on server U: $(tail -3 "$out/U.log")"
+  pupil_U=$(menu_U pupil-add --name "Clear Pupil" | sed -E 's/^pupil ([0-9]+):.*/\1/')
+  forge "$B" status --host-id evil --capacity 100 --seconds 2
+  [ "$(fleet_says "$addr_C" "len(f['hosts']), f['hosts_believed'], f['refused_samples']['no_identity'] > 0" "$out/token-U")" = "0 False True" ] ||
+    fail clear "server U (no --trust-clear-hosts) lists hosts or counts no refusal: $(fleet "$addr_C" "$out/token-U")"
+  s5=$(menu_U start --pupil "$pupil_U" --cab c5 --scenario first_drive_yard --time-limit 12 | sed -n 's/^session \(s-[0-9]*\) started.*/\1/p')
+  [ -n "$s5" ] || fail clear "server U started no session with a forged host about: $(tail -3 "$out/U.log")"
+  drive c5
+  [ "$(fleet_says "$addr_C" "[w['host'] for w in f['workers']]" "$out/token-U")" = "[None]" ] ||
+    fail clear "session $s5 on server U is not run by U itself: $(fleet "$addr_C" "$out/token-U")"
+  forged_log "$s5" c5 "$out/forged.ctl"
+  refused_before=$(fleet_says "$addr_C" "f['refused_samples']['no_identity']" "$out/token-U")
+  forge "$B" report --host-id "" --session "$s5" --cab c5 --log "$out/forged.ctl" --seconds 2
+  forge "$B" report --host-id h1 --session "$s5" --cab c5 --log "$out/forged.ctl" --seconds 2
+  wait_cabs
+  for _ in $(seq 100); do [ -s "$out/U/$s5.ctl" ] && grep -q '^score ' "$out/U/$s5.ctl" && break; sleep 0.2; done
+  ! grep -q forged "$out/U/$s5.ctl" || fail clear "server U took a forged report's log for its own session $s5"
+  logged_mark=$(sed -n 's/^score \([^ ]*\) .*/\1/p' "$out/U/$s5.ctl")
+  marks_U() { python3 -c "import sqlite3,sys; print(' '.join(float.hex(m) for (m,) in sqlite3.connect(sys.argv[1]).execute('SELECT mark FROM scores')))" "$out/U.db" 2>&1; }
+  for _ in $(seq 50); do [ -n "$(marks_U)" ] && break; sleep 0.2; done
+  stored_mark=$(marks_U)
+  [ -n "$logged_mark" ] && [ "$(python3 -c "print(float.hex(float.fromhex('$logged_mark')))")" = "$stored_mark" ] ||
+    fail clear "session $s5: server U stored mark $stored_mark, its worker logged $logged_mark"
+  refused_after=$(fleet_says "$addr_C" "f['refused_samples']['no_identity']" "$out/token-U")
+  [ "${refused_after:-0}" -gt "${refused_before:-0}" ] || fail clear "the forged reports were not counted ($refused_before, then $refused_after)"
+  for forged in "a status of worker host evil in clear DDS" "a report naming no worker host on session $s5 in clear DDS" \
+                "a report of worker host h1 on session $s5 in clear DDS"; do
+    grep -q "refused $forged" "$out/U.log" || fail clear "server U's log does not name the refusal of $forged"
+  done
+  [ "$failed" -eq 0 ] && echo "5: clear DDS: a host without --trust-clear-hosts would not start; server U believed no host, ran $s5 itself, kept its worker's log and mark against two forged reports, each refusal counted"
+
+  # 6. A host agent restarted in place (SIGHUP), then after a crash of the agent alone: it adopts
+  # its running worker, and the session ends with its mark.
+  FORKLIFT_PASSWORD=hosts-admin-password menu login --user admin > /dev/null  # server A was restarted in 3
+  for how in HUP KILL; do
+    s6=$(start c1 10); drive c1
+    h=$(host_of "$s6")
+    wait_state "$s6" running 30 || fail restart "session $s6 never ran"
+    agent=$(eval echo "\$agent_$h")
+    kill -"$how" "$agent"
+    if [ "$how" = KILL ]; then
+      ns=$A; [ "$h" = h2 ] && ns=$B
+      start_host "$ns" "$h"
+    fi
+    wait_cabs
+    wait_state "$s6" ended 30 || fail restart "session $s6 on $h is $(session_state "$s6") after its agent's SIG$how: $(sql "SELECT reason FROM sessions WHERE public_id = '$s6'")"
+    for _ in $(seq 50); do [ "$(sql "SELECT count(*) FROM scores sc JOIN sessions s ON s.id = sc.session_id WHERE s.public_id = '$s6'")" = 1 ] && break; sleep 0.2; done
+    [ "$(sql "SELECT count(*) FROM scores sc JOIN sessions s ON s.id = sc.session_id WHERE s.public_id = '$s6'")" = 1 ] ||
+      fail restart "session $s6 has no mark after its agent's SIG$how"
+    grep -q "adopted the worker (pid [0-9]*) of session $s6" "$out/$h.log" || fail restart "host $h never adopted $s6 after SIG$how"
+  done
+  [ "$failed" -eq 0 ] && echo "6: a host agent restarted in place (SIGHUP) and after SIGKILL adopted its running worker; both sessions ended with their marks"
+
+  # 7. A host that takes starts and never answers (here a believed one, as --trust-clear-hosts
+  # believes any): passed over within the start's budget, the session placed on a real host.
+  forge "$B" status --host-id silent --capacity 100 --seconds 8 &
+  silent_forger=$!
+  for _ in $(seq 50); do [ "$(fleet_says "$addr_S" "any(h['id'] == 'silent' and h['alive'] for h in f['hosts'])")" = True ] && break; sleep 0.1; done
+  s8=$(start c2 8)
+  h8=$(host_of "$s8")
+  [ -n "$s8" ] && [[ "$h8" =~ ^h[12]$ ]] || fail silent_host "session '$s8' was not placed on a real host past the silent one: $(tail -3 "$out/A2.log")"
+  [ "$(fleet_says "$addr_S" "next(h['passed_over_s'] > 0 for h in f['hosts'] if h['id'] == 'silent')")" = True ] ||
+    fail silent_host "the silent host is not passed over: $(fleet "$addr_S")"
+  drive c2
+  wait_cabs
+  wait "$silent_forger"
+  [ "$failed" -eq 0 ] && echo "7: a host that took the start and stayed silent was passed over; $s8 ran on $h8"
 else
   # 4. DDS Security: cab c1's identity drives c1; with it, cab c2's worker hears nothing.
   s1=$(start c1 12); drive c1
@@ -249,6 +345,35 @@ else
   done
   [ "$rc" -eq 0 ] || fail security "exam $exam on host $(grep -l "$exam" "$out"/h*.log | head -1) does not verify (exit $rc): $(cat "$out/verify.txt")"
   [ "$failed" -eq 0 ] && echo "4: with DDS Security cab c1 drove its own worker; under its identity, cab c2's worker heard no control; an exam on a host verifies"
+
+  # 5. A peer without an identity: a status, a kill and a start reach nobody. A host's identity
+  # ships a log that is not signed by the session's worker: refused with the reason.
+  s7=$(start c1 12); drive c1
+  wait_state "$s7" running 30 || fail security "session $s7 never ran"
+  h=$(host_of "$s7")
+  started_before=$(grep -c "started the worker" "$out"/h1.log "$out"/h2.log | awk -F: '{s += $2} END {print s}')
+  forgers=()
+  (FORKLIFT_SECURITY_DIR= forge "$C" status --host-id evil --capacity 100 --seconds 2) & forgers+=($!)
+  (FORKLIFT_SECURITY_DIR= forge "$C" request --host-id "$h" --session "$s7" --cab c1 --action kill --seconds 2) & forgers+=($!)
+  (FORKLIFT_SECURITY_DIR= forge "$C" request --host-id h2 --session s-999999 --cab c4 --action start --seconds 2) & forgers+=($!)
+  forged_log "$s7" c1 "$out/forged.ctl"
+  forge "$C" --security "$pki" --identity "host.$h" report --host-id "$h" --session "$s7" --cab c1 --log "$out/forged.ctl" \
+    --sign-as "host.$h" --seconds 2
+  wait "${forgers[@]}"
+  wait_cabs
+  wait_state "$s7" ended 30 || fail security "session $s7 is $(session_state "$s7") after the forgeries: $(sql "SELECT reason FROM sessions WHERE public_id = '$s7'")"
+  [ "$(fleet_says "$addr_S" "[h['id'] for h in f['hosts'] if h['id'] == 'evil']")" = "[]" ] || fail security "a host without an identity is listed"
+  started_after=$(grep -c "started the worker" "$out"/h1.log "$out"/h2.log | awk -F: '{s += $2} END {print s}')
+  [ "$started_after" -eq "$((started_before))" ] || fail security "a start from a peer without an identity launched a worker"
+  grep -q "refused host $h's report that session $s7's worker exited: its session log is not signed by cab c1's worker" "$out/A.log" ||
+    fail security "server A did not refuse host $h's log signed as host.$h: $(grep -h "$s7" "$out/A.log" | tail -3)"
+  [ "$(fleet_says "$addr_S" "f['refused_samples']['unsigned_log'] >= 1")" = True ] || fail security "the unsigned log was not counted"
+  for _ in $(seq 50); do [ "$(sql "SELECT count(*) FROM scores sc JOIN sessions s ON s.id = sc.session_id WHERE s.public_id = '$s7'")" = 1 ] && break; sleep 0.2; done
+  stored=$(sql "SELECT sc.mark FROM scores sc JOIN sessions s ON s.id = sc.session_id WHERE s.public_id = '$s7'")
+  logged=$(sed -n 's/^score \([^ ]*\) .*/\1/p' "$out/$h/$s7.ctl")
+  [ -n "$logged" ] && [ "$(python3 -c "print(float.fromhex('$logged') == float('${stored:-nan}'))")" = True ] ||
+    fail security "session $s7 stored mark '$stored'; its worker logged $logged"
+  [ "$failed" -eq 0 ] && echo "5: with DDS Security a peer without an identity placed, stopped and started nothing; host $h's log signed as host.$h was refused; $s7 kept its worker's mark"
 fi
 
 [ "$failed" -eq 0 ] && echo "worker_hosts${secure:+ $secure}: passed"
