@@ -173,7 +173,15 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
     return r;
   }
   // Later migrations go first: a test that goes back to an older schema must come forward through them.
-  std::string DropMigration10() { return "DROP INDEX score_counts_task_incomplete; DELETE FROM schema_migrations WHERE version >= 10; "; }
+  std::string DropMigration12() {
+    return "DROP TABLE login_lockouts; DROP TABLE login_attempts; DROP TABLE login_tokens; DELETE FROM schema_migrations WHERE version >= 12; ";
+  }
+  std::string DropMigration11() {
+    return DropMigration12() + "DROP INDEX sessions_one_open_per_cab; DELETE FROM schema_migrations WHERE version >= 11; ";
+  }
+  std::string DropMigration10() {
+    return DropMigration11() + "DROP INDEX score_counts_task_incomplete; DELETE FROM schema_migrations WHERE version >= 10; ";
+  }
   std::string DropMigration9() {
     return DropMigration10() + "DROP TABLE session_notes; DROP TABLE session_sign_offs; DELETE FROM schema_migrations WHERE version >= 9; ";
   }
@@ -207,10 +215,11 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
     if (!sqlite()) sql += "DROP FUNCTION refuse_kept_edit, refuse_kept_truncate, is_kept_exam_session; ";
     return sql + "ALTER TABLE users DROP COLUMN full_name; DELETE FROM schema_migrations WHERE version >= 6; ";
   }
+  // A new open session, on a cab of its own ("cab1", "cab2", ...: a cab has one open session).
   fs::Session NewSession(int64_t pupil, const std::string& mode = "training",
                          const std::string& now = "2026-01-01T10:00:00Z",
                          std::optional<int64_t> examiner = std::nullopt) {
-    return store_->create_session(pupil, "cab1", "manoeuvre_4", mode, examiner, now);
+    return store_->create_session(pupil, "cab" + std::to_string(++cabs_used_), "manoeuvre_4", mode, examiner, now);
   }
   // A session of `pupil` on `cab` at `now`, started by `by`, ended with `reason` and, when given, a mark.
   std::string EndedSession(int64_t pupil, const std::string& cab, const std::string& scenario, const std::string& now,
@@ -228,6 +237,7 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
   std::string location_;  // the SQLite file, or the PostgreSQL database's URI
   std::unique_ptr<fs::Store> store_;
   int64_t school_ = 0;
+  int cabs_used_ = 0;
 
  private:
   std::string Database() const { return location_.substr(location_.rfind('/') + 1); }
@@ -584,7 +594,7 @@ TEST_P(StoreTest, CreateSessionValidatesAndAssignsPublicId) {
   const auto stored = store_->get_session("s-000001");
   ASSERT_TRUE(stored.has_value());
   EXPECT_EQ(stored->pupil_id, pupil);
-  EXPECT_EQ(stored->cab_id, "cab1");
+  EXPECT_EQ(stored->cab_id, s.cab_id);
   EXPECT_EQ(stored->mode, "training");
   EXPECT_EQ(stored->state, "starting");
   EXPECT_TRUE(stored->ended_at.empty());
@@ -1879,4 +1889,174 @@ TEST_P(StoreTest, SessionNotesAndSignOffAreAppendOnlyAndNoNoteFollowsTheSignOff)
     EXPECT_NE(RawExec(std::string("DELETE FROM ") + table).find("append-only"), std::string::npos) << table;
   }
   EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM session_notes"), std::vector<std::string>{"4"});
+}
+
+// ---------------------------------------------------------------- logins shared by servers, one open session per cab
+
+// A hash as the server makes one (SHA-256 in hex): 64 hex digits, here of one repeated digit.
+std::string FakeHash(char digit) { return std::string(64, digit); }
+
+TEST_P(StoreTest, LoginTokensAreKeptByTheirHashAloneAndHonouredByEveryStore) {
+  const int64_t ann = store_->create_user("ann", "h", fs::Role::kInstructor, school_);
+  fs::LoginToken t;
+  t.hash = FakeHash('a');
+  t.user_id = ann;
+  t.expires_at_ms = 5000;
+  store_->add_login_token(t);
+  // What the database holds is the hash: no column has anything else of the token.
+  EXPECT_EQ(RawQuery("SELECT hash || ' ' || user_id || ' ' || generation || ' ' || expires_at_ms FROM login_tokens"),
+            std::vector<std::string>{t.hash + " " + std::to_string(ann) + " 0 5000"});
+
+  // Another server's Store finds it, with the account as it is now.
+  auto other = Open();
+  store_->set_user_password(ann, "h2");
+  const auto found = other->find_login_token(t.hash);
+  ASSERT_TRUE(found.has_value());
+  EXPECT_EQ(found->user_id, ann);
+  EXPECT_EQ(found->login_generation, 0);
+  EXPECT_EQ(found->expires_at_ms, 5000);
+  EXPECT_EQ(found->user.username, "ann");
+  EXPECT_EQ(found->user.login_generation, 1);  // the reset: the server refuses this token
+  EXPECT_FALSE(other->find_login_token(FakeHash('b')).has_value());
+
+  EXPECT_EQ(ErrorKind([&] { store_->add_login_token(t); }), fs::StoreError::kConflict);
+  fs::LoginToken bad = t;
+  for (const std::string& hash : {std::string("abc"), FakeHash('A'), FakeHash('g')}) {
+    bad.hash = hash;
+    EXPECT_EQ(ErrorKind([&] { store_->add_login_token(bad); }), fs::StoreError::kInvalid) << hash;
+  }
+  bad.hash = FakeHash('c');
+  bad.user_id = ann + 999;
+  EXPECT_EQ(ErrorKind([&] { store_->add_login_token(bad); }), fs::StoreError::kNotFound);
+
+  // A logout on one server ends it on the other.
+  EXPECT_TRUE(other->delete_login_token(t.hash));
+  EXPECT_FALSE(store_->find_login_token(t.hash).has_value());
+  EXPECT_FALSE(store_->delete_login_token(t.hash));
+
+  // Tokens expired long ago are forgotten; the rest stay.
+  for (const auto& [digit, expires] : std::vector<std::pair<char, int64_t>>{{'1', 100}, {'2', 200}, {'3', 300}}) {
+    t.hash = FakeHash(digit);
+    t.expires_at_ms = expires;
+    store_->add_login_token(t);
+  }
+  EXPECT_EQ(store_->forget_login_tokens(250), 2);
+  EXPECT_FALSE(store_->find_login_token(FakeHash('1')).has_value());
+  EXPECT_TRUE(store_->find_login_token(FakeHash('3')).has_value());
+}
+
+TEST_P(StoreTest, AttemptsAreCountedPerKeyAndLockoutsHoldForEveryStore) {
+  const std::string ann = "login:user:ann", addr = "login:address:10.0.0.1";
+  auto other = Open();
+  const int64_t first = store_->add_attempt(ann, 1000);
+  auto c = other->count_attempts(ann, 0);
+  EXPECT_EQ(c.counted, 1);
+  EXPECT_EQ(c.pending, 1);
+  EXPECT_EQ(c.oldest_at_ms, 1000);
+  EXPECT_EQ(c.locked_until_ms, 0);
+  EXPECT_EQ(other->count_attempts(addr, 0).counted, 0);  // keys apart
+
+  // A failure stays counted from when it ended; the window leaves it out once it is older.
+  other->end_attempt(first, true, 1500);
+  c = store_->count_attempts(ann, 0);
+  EXPECT_EQ(c.counted, 1);
+  EXPECT_EQ(c.pending, 0);
+  EXPECT_EQ(c.oldest_at_ms, 1500);
+  EXPECT_EQ(store_->count_attempts(ann, 1501).counted, 0);
+
+  // A lockout forgets the ended attempts, not those still being checked; a success is forgotten.
+  const int64_t second = store_->add_attempt(ann, 2000);
+  other->reset_attempts(ann, 9000);
+  c = store_->count_attempts(ann, 0);
+  EXPECT_EQ(c.counted, 1);
+  EXPECT_EQ(c.pending, 1);
+  EXPECT_EQ(c.locked_until_ms, 9000);
+  store_->end_attempt(second, false, 2100);
+  EXPECT_EQ(other->count_attempts(ann, 0).counted, 0);
+  store_->end_attempt(second + 999, true, 2100);  // an attempt forgotten meanwhile: nothing
+  store_->reset_attempts(ann, 0);
+  EXPECT_EQ(other->count_attempts(ann, 0).locked_until_ms, 0);
+
+  // Old attempts, ended or left pending by a server that stopped, and ended lockouts go.
+  store_->add_attempt(addr, 100);
+  store_->end_attempt(store_->add_attempt(addr, 200), true, 5000);
+  store_->reset_attempts(ann, 2500);
+  store_->forget_attempts(3000);
+  c = other->count_attempts(addr, 0);
+  EXPECT_EQ(c.counted, 1);
+  EXPECT_EQ(c.oldest_at_ms, 5000);
+  EXPECT_EQ(other->count_attempts(ann, 0).locked_until_ms, 0);
+  EXPECT_EQ(ErrorKind([&] { store_->add_attempt("", 1); }), fs::StoreError::kInvalid);
+}
+
+TEST_P(StoreTest, ACabHasOneOpenSessionAndOfStoresRacingForItOneWins) {
+  const int64_t pupil = NewPupil("Ann");
+  const std::string first = store_->create_session(pupil, "cabX", "m4", "training", std::nullopt, "t").public_id;
+  EXPECT_EQ(ErrorKind([&] { Open()->create_session(pupil, "cabX", "m4", "training", std::nullopt, "t"); }), fs::StoreError::kConflict);
+  // Refused inside a batch, it undoes only itself.
+  store_->batch([&] {
+    EXPECT_EQ(ErrorKind([&] { store_->create_session(pupil, "cabX", "m4", "training", std::nullopt, "t"); }), fs::StoreError::kConflict);
+    store_->create_session(pupil, "cabY", "m4", "training", std::nullopt, "t");
+  });
+  EXPECT_EQ(store_->open_sessions().size(), 2u);
+  ASSERT_TRUE(store_->set_session_state(first, "ended", "task_complete", "t"));
+  const std::string next = store_->create_session(pupil, "cabX", "m4", "training", std::nullopt, "t").public_id;
+  ASSERT_TRUE(store_->set_session_state(next, "aborted", "aborted", "t"));
+
+  // Eight stores (servers) start a session on one free cab at once: one wins, the rest are refused.
+  constexpr int kRacers = 8;
+  std::vector<std::unique_ptr<fs::Store>> stores;
+  for (int i = 0; i < kRacers; ++i) stores.push_back(Open());
+  std::latch go(kRacers);
+  std::atomic<int> won{0}, refused{0}, other_errors{0};
+  std::vector<std::thread> racers;
+  for (int i = 0; i < kRacers; ++i)
+    racers.emplace_back([&, i] {
+      go.arrive_and_wait();
+      try {
+        stores[i]->batch([&] { stores[i]->create_session(pupil, "cabX", "m4", "training", std::nullopt, "t"); });
+        ++won;
+      } catch (const fs::StoreError& e) {
+        ++(e.kind() == fs::StoreError::kConflict ? refused : other_errors);
+      }
+    });
+  for (auto& t : racers) t.join();
+  EXPECT_EQ(won.load(), 1);
+  EXPECT_EQ(refused.load(), kRacers - 1);
+  EXPECT_EQ(other_errors.load(), 0);
+  EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM sessions WHERE cab_id = 'cabX' AND state NOT IN ('ended', 'failed', 'aborted')"),
+            std::vector<std::string>{"1"});
+}
+
+TEST_P(StoreTest, TheUpgradeToOneOpenSessionPerCabFailsTheOlderOnesAndAuditsThem) {
+  const int64_t pupil = NewPupil("Ann");
+  ASSERT_EQ(RawExec(DropMigration11()), "");  // schema 10, as an older program left it, with two open sessions on cabA
+  const std::string older = store_->create_session(pupil, "cabA", "m4", "training", std::nullopt, "2026-01-01T09:00:00Z").public_id;
+  const std::string middle = store_->create_session(pupil, "cabA", "m4", "training", std::nullopt, "2026-01-01T09:30:00Z").public_id;
+  const std::string newest = store_->create_session(pupil, "cabA", "m4", "training", std::nullopt, "2026-01-01T10:00:00Z").public_id;
+  const std::string alone = store_->create_session(pupil, "cabB", "m4", "training", std::nullopt, "2026-01-01T10:00:00Z").public_id;
+  store_.reset();
+
+  store_ = Open();
+  EXPECT_EQ(store_->schema_version(), 12);
+  for (const std::string& id : {older, middle}) {
+    const auto s = store_->get_session(id);
+    EXPECT_EQ(s->state, "failed") << id;
+    EXPECT_NE(s->reason.find("one open session per cab"), std::string::npos) << s->reason;
+    EXPECT_FALSE(s->ended_at.empty());
+  }
+  EXPECT_EQ(store_->get_session(newest)->state, "starting");
+  EXPECT_EQ(store_->get_session(alone)->state, "starting");
+  const auto rows = store_->list_audit(fs::AuditScope{pupil, std::nullopt}, 10, 0);
+  ASSERT_EQ(rows.size(), 2u);
+  for (const auto& r : rows) {
+    EXPECT_EQ(r.action, "session_failed");
+    EXPECT_EQ(r.actor.name, "server");
+    EXPECT_FALSE(r.actor.user_id.has_value());
+    const auto d = nlohmann::json::parse(r.details);
+    EXPECT_EQ(d["from"], "starting");
+    EXPECT_EQ(d["to"], "failed");
+    EXPECT_TRUE(d["session"] == older || d["session"] == middle) << d;
+  }
+  EXPECT_EQ(ErrorKind([&] { store_->create_session(pupil, "cabA", "m4", "training", std::nullopt, "t"); }), fs::StoreError::kConflict);
 }

@@ -18,6 +18,23 @@
 
 namespace forklift::store::detail {
 
+// StorageUnavailable's reasons, the same words from either backend.
+constexpr const char* kDiskFull = "the disk that holds the school's records is full: make room on it";
+constexpr const char* kReadOnly = "the school's records are read-only just now: the database or its disk cannot be written";
+constexpr const char* kDiskFailed = "the disk that holds the school's records could not be read or written";
+constexpr const char* kCannotOpen = "the database file of the school's records cannot be opened";
+constexpr const char* kCannotReach = "the database server of the school's records cannot be reached";
+constexpr const char* kConnectionLost = "the connection to the database server of the school's records was lost";
+constexpr const char* kServerBusy = "the database server of the school's records is out of resources or restarting";
+
+// Migration 11's words, the same in both dialects: the reason it gives the sessions it closes
+// (SQL text: no quote in it), and which those are, of `sessions` read as `alias`: left open beside
+// a later session on their cab.
+#define ONE_OPEN_REASON "closed by the upgrade that keeps one open session per cab: a later session was open on the same cab"
+#define OPEN_BESIDE_A_LATER(alias)                                                                              \
+  alias ".state NOT IN ('ended', 'failed', 'aborted') AND EXISTS (SELECT 1 FROM sessions later WHERE later.cab_id = " \
+  alias ".cab_id AND later.id > " alias ".id AND later.state NOT IN ('ended', 'failed', 'aborted'))"
+
 inline bool is_state(const std::string& state) {
   return state == "starting" || state == "waiting" || state == "running" || is_terminal(state);
 }
@@ -76,6 +93,15 @@ inline void check_chain_append(const char* op, const ChainEntry& e, const std::o
   require(e.seq == (last ? last->seq + 1 : 1), StoreError::kConflict, op,
           "chain entry " + std::to_string(e.seq) + " does not follow the last one");
   require(!chained, StoreError::kConflict, op, "session " + e.session_public_id + " is already chained");
+}
+
+inline void check_token_hash(const char* op, const std::string& hash) {
+  require(hash.size() == 64 && hash.find_first_not_of("0123456789abcdef") == std::string::npos, StoreError::kInvalid, op,
+          "a token's hash is 64 lower-case hex digits");
+}
+
+inline void check_attempt_key(const char* op, const std::string& key) {
+  require(!key.empty(), StoreError::kInvalid, op, "an attempt needs its key");
 }
 
 inline void check_new_correction(const char* op, const ExamCorrection& c) {
@@ -252,6 +278,18 @@ User read_user(const Row& q) {
   u.active = q.int64(7) != 0;
   u.login_generation = q.int64(8);
   return u;
+}
+
+// A row of the backends' USER_COLUMNS followed by a token's generation and expiry.
+template <class Row>
+LoginToken read_login_token(const Row& q, const std::string& hash) {
+  LoginToken t;
+  t.user = read_user(q);
+  t.hash = hash;
+  t.user_id = t.user.id;
+  t.login_generation = q.int64(9);
+  t.expires_at_ms = q.int64(10);
+  return t;
 }
 
 template <class Row>

@@ -4,11 +4,13 @@
 #include "common.h"
 
 #include <sqlite3.h>
+#include <sys/statvfs.h>
 
 #include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <ctime>
+#include <filesystem>
 #include <iterator>
 #include <string_view>
 #include <unordered_map>
@@ -455,6 +457,45 @@ END;
     R"sql(
 CREATE INDEX score_counts_task_incomplete ON score_counts(session_id, kind) WHERE kind = 'task_incomplete';
 )sql",
+    // 11: one open session per cab, kept by the store itself, so that two servers starting a
+    // session on one cab at once cannot both succeed. A session left open beside a later one on
+    // its cab (a database from before) is closed first, failed with the reason in words, and
+    // audited as the server audits a failed session.
+    R"sql(
+INSERT INTO audit_log(at, actor_user_id, actor, pupil_id, action, details)
+  SELECT strftime('%Y-%m-%dT%H:%M:%SZ', 'now'), NULL, 'server', s.pupil_id, 'session_failed',
+         json_object('session', s.public_id, 'from', s.state, 'to', 'failed', 'reason', ')sql" ONE_OPEN_REASON R"sql(')
+  FROM sessions s WHERE )sql" OPEN_BESIDE_A_LATER("s") R"sql(
+  ORDER BY s.id;
+UPDATE sessions SET state = 'failed', reason = ')sql" ONE_OPEN_REASON R"sql(',
+    ended_at = strftime('%Y-%m-%dT%H:%M:%SZ', 'now')
+  WHERE )sql" OPEN_BESIDE_A_LATER("sessions") R"sql(;
+CREATE UNIQUE INDEX sessions_one_open_per_cab ON sessions(cab_id) WHERE state NOT IN ('ended', 'failed', 'aborted');
+)sql",
+    // 12: logins that hold on every server sharing the store, and across a restart: the bearer
+    // tokens (their SHA-256 only: a copy of the database logs no one in), and the attempts and
+    // lockouts that limit failed logins per username and per address.
+    R"sql(
+CREATE TABLE login_tokens (
+  hash TEXT PRIMARY KEY CHECK (length(hash) = 64),
+  user_id INTEGER NOT NULL REFERENCES users(id),
+  generation INTEGER NOT NULL,
+  expires_at_ms INTEGER NOT NULL
+) WITHOUT ROWID;
+CREATE INDEX login_tokens_by_expiry ON login_tokens(expires_at_ms);
+CREATE TABLE login_attempts (
+  id INTEGER PRIMARY KEY,
+  key TEXT NOT NULL CHECK (key <> ''),
+  at_ms INTEGER NOT NULL,
+  pending INTEGER NOT NULL CHECK (pending IN (0, 1))
+);
+CREATE INDEX login_attempts_by_key ON login_attempts(key, at_ms);
+CREATE INDEX login_attempts_by_time ON login_attempts(at_ms);
+CREATE TABLE login_lockouts (
+  key TEXT PRIMARY KEY CHECK (key <> ''),
+  until_ms INTEGER NOT NULL
+) WITHOUT ROWID;
+)sql",
 };
 
 // Column lists shared by the statements that read whole rows (see read_user and the like).
@@ -490,9 +531,24 @@ CREATE INDEX score_counts_task_incomplete ON score_counts(session_id, kind) WHER
   "COALESCE(s.public_id, ''), b.created_at, p.name FROM bookings b JOIN pupils p ON p.id = b.pupil_id "          \
   "LEFT JOIN sessions s ON s.id = b.session_id"
 
+// Why SQLite's primary result code `rc` says that the database cannot be written or read just
+// now (StorageUnavailable), or null for any other failure.
+const char* storage_reason(int rc) {
+  switch (rc & 0xff) {
+    case SQLITE_FULL: return kDiskFull;
+    case SQLITE_READONLY:
+    case SQLITE_PERM: return kReadOnly;
+    case SQLITE_IOERR:
+    case SQLITE_NOLFS: return kDiskFailed;
+    case SQLITE_CANTOPEN: return kCannotOpen;
+    default: return nullptr;
+  }
+}
+
 // The last error on `db` as a StoreError of the contract's kind.
 [[noreturn]] void throw_db_error(sqlite3* db, const char* op) {
   const std::string what = std::string(op) + ": " + sqlite3_errmsg(db);
+  if (const char* reason = storage_reason(sqlite3_extended_errcode(db))) throw StorageUnavailable(what, reason);
   switch (sqlite3_extended_errcode(db)) {
     case SQLITE_CONSTRAINT_UNIQUE:
     case SQLITE_CONSTRAINT_PRIMARYKEY:
@@ -633,6 +689,9 @@ void configure_sqlite_once() {
   (void)configured;
 }
 
+// Below this much free space on the database's file system, storage_problem() calls it full.
+constexpr uint64_t kLeastRoomBytes = 64 * 1024;
+
 class SqliteStore final : public Store {
  public:
   explicit SqliteStore(const std::string& path) {
@@ -642,7 +701,9 @@ class SqliteStore final : public Store {
         sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX, nullptr);
     db_.reset(db);  // a failed open still allocates a handle to close
     if (rc != SQLITE_OK) {
-      throw StoreError(StoreError::kIo, "open " + path + ": " + (db ? sqlite3_errmsg(db) : sqlite3_errstr(rc)));
+      const std::string what = "open " + path + ": " + (db ? sqlite3_errmsg(db) : sqlite3_errstr(rc));
+      if (const char* reason = storage_reason(rc)) throw StorageUnavailable(what, reason);
+      throw StoreError(StoreError::kIo, what);
     }
     sqlite3_extended_result_codes(db, 1);
     // Set first: WAL needs a moment of exclusive access if another connection is opening too.
@@ -662,6 +723,18 @@ class SqliteStore final : public Store {
     Query q = query(__func__, "SELECT COALESCE(MAX(version), 0) FROM schema_migrations");
     q.step();
     return static_cast<int>(q.int64(0));
+  }
+
+  std::optional<std::string> storage_problem() override {
+    const char* file = sqlite3_db_filename(db(), "main");
+    struct statvfs fs {};
+    if (file && *file && statvfs(std::filesystem::path(file).parent_path().c_str(), &fs) == 0) {
+      if (fs.f_flag & ST_RDONLY) return kReadOnly;
+      // Less room than a few pages' writes need: a commit would fail part-way (and be undone).
+      if (static_cast<uint64_t>(fs.f_bavail) * fs.f_frsize < kLeastRoomBytes) return kDiskFull;
+    }
+    if (sqlite3_db_readonly(db(), "main") == 1) return kReadOnly;
+    return std::nullopt;
   }
 
   void batch(const std::function<void()>& writes) override {
@@ -1573,6 +1646,69 @@ class SqliteStore final : public Store {
     add_audit(r);
     tx.commit();
     return true;
+  }
+
+  void add_login_token(const LoginToken& t) override {
+    check_token_hash(__func__, t.hash);
+    query(__func__, "INSERT INTO login_tokens(hash, user_id, generation, expires_at_ms) VALUES (?, ?, ?, ?)")
+        .bind(t.hash).bind(t.user_id).bind(t.login_generation).bind(t.expires_at_ms).run();
+  }
+
+  std::optional<LoginToken> find_login_token(const std::string& hash) override {
+    Query q = query(__func__, "SELECT " USER_COLUMNS ", t.generation, t.expires_at_ms FROM login_tokens t "
+                              "JOIN users ON users.id = t.user_id WHERE t.hash = ?");
+    q.bind(hash);
+    return q.step() ? std::optional(read_login_token(q, hash)) : std::nullopt;
+  }
+
+  bool delete_login_token(const std::string& hash) override {
+    query(__func__, "DELETE FROM login_tokens WHERE hash = ?").bind(hash).run();
+    return sqlite3_changes(db()) > 0;
+  }
+
+  int64_t forget_login_tokens(int64_t before_ms) override {
+    query(__func__, "DELETE FROM login_tokens WHERE expires_at_ms < ?").bind(before_ms).run();
+    return sqlite3_changes(db());
+  }
+
+  AttemptCount count_attempts(const std::string& key, int64_t since_ms) override {
+    Query q = query(__func__,
+                    "SELECT COUNT(*), COALESCE(SUM(pending), 0), COALESCE(MIN(at_ms), 0), "
+                    "COALESCE((SELECT until_ms FROM login_lockouts WHERE key = ?1), 0) "
+                    "FROM login_attempts WHERE key = ?1 AND at_ms >= ?2");
+    q.bind(key).bind(since_ms).step();
+    return AttemptCount{q.int64(0), q.int64(1), q.int64(2), q.int64(3)};
+  }
+
+  int64_t add_attempt(const std::string& key, int64_t at_ms) override {
+    check_attempt_key(__func__, key);
+    query(__func__, "INSERT INTO login_attempts(key, at_ms, pending) VALUES (?, ?, 1)").bind(key).bind(at_ms).run();
+    return sqlite3_last_insert_rowid(db());
+  }
+
+  void end_attempt(int64_t id, bool failed, int64_t at_ms) override {
+    if (failed) query(__func__, "UPDATE login_attempts SET pending = 0, at_ms = ? WHERE id = ?").bind(at_ms).bind(id).run();
+    else query(__func__, "DELETE FROM login_attempts WHERE id = ?").bind(id).run();
+  }
+
+  void reset_attempts(const std::string& key, int64_t locked_until_ms) override {
+    Transaction tx(db(), __func__, Transaction::kWrite);
+    query(__func__, "DELETE FROM login_attempts WHERE key = ? AND pending = 0").bind(key).run();
+    if (locked_until_ms > 0) {
+      query(__func__, "INSERT INTO login_lockouts(key, until_ms) VALUES (?, ?) "
+                      "ON CONFLICT (key) DO UPDATE SET until_ms = excluded.until_ms")
+          .bind(key).bind(locked_until_ms).run();
+    } else {
+      query(__func__, "DELETE FROM login_lockouts WHERE key = ?").bind(key).run();
+    }
+    tx.commit();
+  }
+
+  void forget_attempts(int64_t before_ms) override {
+    Transaction tx(db(), __func__, Transaction::kWrite);
+    query(__func__, "DELETE FROM login_attempts WHERE at_ms < ?").bind(before_ms).run();
+    query(__func__, "DELETE FROM login_lockouts WHERE until_ms < ?").bind(before_ms).run();
+    tx.commit();
   }
 
   std::optional<PupilHistory> history(int64_t pupil_id, const std::string& now) override {

@@ -8,7 +8,8 @@
 // Contract: every call is atomic. Bad arguments (unknown ids, empty names, a mode that is not
 // "training" or "exam") throw StoreError with kind kInvalid or kNotFound; a duplicate unique value
 // (username, cab id), or a change to a record the schema keeps as written, throws kConflict; I/O
-// or database failure throws kIo. Times are ISO-8601 UTC strings ("2026-11-23T10:30:00Z"). A Store
+// or database failure throws kIo; a database that cannot be written or reached just now (a full
+// disk, a read-only file system or server, a lost connection) throws StorageUnavailable, of kind kIo. Times are ISO-8601 UTC strings ("2026-11-23T10:30:00Z"). A Store
 // object is used from one thread at a time; open one per thread (SQLite's busy timeout lets them
 // share the file; each PostgreSQL Store is one connection).
 // Exactly-once holds across Store objects and processes, on either backend: two servers sharing
@@ -24,6 +25,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace forklift::store {
@@ -36,6 +38,21 @@ class StoreError : public std::runtime_error {
 
  private:
   Kind kind_;
+};
+
+// The database cannot be written or reached just now: its disk is full, it or its file system is
+// read-only, its file cannot be opened or read, or the connection to the PostgreSQL server was
+// lost. The call wrote nothing (every call is atomic); the same call succeeds again once there is
+// room or the database is back. Of kind kIo, so code that tells kinds apart sees a database failure.
+class StorageUnavailable : public StoreError {
+ public:
+  StorageUnavailable(const std::string& what, std::string reason) : StoreError(kIo, what), reason_(std::move(reason)) {}
+  // Why, in words a school's administrator can act on ("the disk that holds the school's records is
+  // full"), without the database's own text (what() has that, for the server's log).
+  const std::string& reason() const { return reason_; }
+
+ private:
+  std::string reason_;
 };
 
 enum class Role { kAdmin, kInstructor, kExaminer, kPupil };
@@ -399,6 +416,26 @@ struct AuditScope {
   std::optional<int64_t> school_id;
 };
 
+// A login's bearer token as the store keeps it: its SHA-256 (the server's to compute), never the
+// token itself, so that a copy of the database logs no one in. Every server on the store honours
+// it until it expires or is deleted (a logout), a restart included.
+struct LoginToken {
+  std::string hash;              // SHA-256 of the token, 64 lower-case hex digits
+  int64_t user_id = 0;
+  int64_t login_generation = 0;  // the account's User::login_generation at login
+  int64_t expires_at_ms = 0;     // Unix time, milliseconds
+  User user;                     // as read (find_login_token): the account as it is now
+};
+
+// One key's attempts (failed logins and the like, keyed by the server: a username, an address),
+// as count_attempts() reads them.
+struct AttemptCount {
+  int64_t counted = 0;          // attempts made at or after the time asked, ended or not
+  int64_t pending = 0;          // of those, not yet ended
+  int64_t oldest_at_ms = 0;     // the oldest of those's time; 0: none
+  int64_t locked_until_ms = 0;  // when the key's lockout ends; 0: none
+};
+
 // Everything about one pupil, aggregated by the store.
 struct PupilHistory {
   Pupil pupil;
@@ -428,6 +465,12 @@ class Store {
   virtual ~Store() = default;
 
   virtual int schema_version() = 0;
+
+  // Why the store could not write just now, as StorageUnavailable::reason() words it, or nullopt
+  // when it sees nothing wrong; writes nothing. SQLite looks at the database's file system (read
+  // only, or out of room); PostgreSQL asks its server (reachable, and not read-only). A full disk
+  // on the PostgreSQL server shows only when a write fails.
+  virtual std::optional<std::string> storage_problem() = 0;
 
   // Runs `writes` (calls on this Store) as one transaction: all of them or, if it throws, none
   // (the exception propagates). For imports and bulk loads: one commit instead of one per row.
@@ -494,6 +537,9 @@ class Store {
   virtual std::vector<Cab> list_cabs(int64_t school_id) = 0;
 
   // New session in state "starting"; public_id assigned by the store ("s-" + zero-padded id).
+  // A cab has at most one open session (not ended, failed or aborted): kConflict if it has one,
+  // decided by a unique index, so that of two servers starting a session on one cab at once one
+  // fails. (Schema 11 failed the older of any open sessions that shared a cab before it.)
   virtual Session create_session(int64_t pupil_id, const std::string& cab_id, const std::string& scenario,
                                  const std::string& mode, std::optional<int64_t> examiner_id, const std::string& now,
                                  std::optional<int64_t> started_by = std::nullopt) = 0;
@@ -619,6 +665,33 @@ class Store {
   virtual bool set_score_audited(const ScoreRecord& s, const std::string& now, const Actor& actor) = 0;
   virtual bool set_session_state_audited(const std::string& public_id, const std::string& state,
                                          const std::string& reason, const std::string& now, const Actor& actor) = 0;
+
+  // Logins' tokens, shared by every server on the store. add_login_token: kInvalid for a hash that
+  // is not 64 lower-case hex digits, kNotFound for an unknown user, kConflict for a hash stored
+  // already. find_login_token: the token of that hash with its account as it is now, or nullopt
+  // (never stored, deleted, or forgotten). delete_login_token (a logout): whether there was one.
+  // forget_login_tokens: deletes those that expired before `before_ms`; how many.
+  virtual void add_login_token(const LoginToken& t) = 0;
+  virtual std::optional<LoginToken> find_login_token(const std::string& hash) = 0;
+  virtual bool delete_login_token(const std::string& hash) = 0;
+  virtual int64_t forget_login_tokens(int64_t before_ms) = 0;
+
+  // Attempts under a key (the server's throttle of failed logins), shared by every server on the
+  // store; times are Unix milliseconds. The server's policy runs them in one batch(), so that two
+  // servers counting at once count one after the other.
+  // count_attempts: the key's attempts made at or after `since_ms`, and its lockout.
+  virtual AttemptCount count_attempts(const std::string& key, int64_t since_ms) = 0;
+  // A new attempt on `key` (kInvalid if empty) made at `at_ms`, pending until it ends; its id.
+  virtual int64_t add_attempt(const std::string& key, int64_t at_ms) = 0;
+  // Ends an attempt: a failure stays counted, made at `at_ms`; a success is deleted. Nothing for
+  // an id that is not stored (forgotten meanwhile).
+  virtual void end_attempt(int64_t id, bool failed, int64_t at_ms) = 0;
+  // Forgets `key`'s ended attempts (pending ones stay) and locks it out until `locked_until_ms`
+  // (0: not at all).
+  virtual void reset_attempts(const std::string& key, int64_t locked_until_ms) = 0;
+  // Deletes the attempts made before `before_ms`, ended or not (a server that stopped mid-check
+  // leaves its attempt pending), and the lockouts that ended before it.
+  virtual void forget_attempts(int64_t before_ms) = 0;
 
   // PupilHistory for `pupil_id`, with overdue computed against `now`; nullopt if no such pupil.
   virtual std::optional<PupilHistory> history(int64_t pupil_id, const std::string& now) = 0;
