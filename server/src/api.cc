@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <mutex>
 
 #include "contract.h"
 #include "forklift/server/listener.h"
@@ -35,6 +36,32 @@ void internal_error(httplib::Response& res, const httplib::Request& req, const s
 
 namespace {
 
+// Whether the last write that failed for want of storage has been followed by one that succeeded.
+class StorageWatch {
+ public:
+  void failed(const std::string& reason) {
+    std::lock_guard<std::mutex> lock(mu_);
+    reason_ = reason;
+  }
+  void wrote() {
+    std::lock_guard<std::mutex> lock(mu_);
+    reason_.reset();
+  }
+  std::optional<std::string> failure() {
+    std::lock_guard<std::mutex> lock(mu_);
+    return reason_;
+  }
+
+ private:
+  std::mutex mu_;
+  std::optional<std::string> reason_;
+};
+
+StorageWatch& storage_watch() {
+  static StorageWatch watch;
+  return watch;
+}
+
 // A store's refusal in words a school reads: what() has the store's function and, for some, the
 // database's own text (SQLite's or PostgreSQL's), which go to the server's log only.
 void store_refusal(httplib::Response& res, const httplib::Request& req, const store::StoreError& e) {
@@ -51,10 +78,32 @@ void store_refusal(httplib::Response& res, const httplib::Request& req, const st
     case store::StoreError::kIo: break;
   }
   spdlog::error("{} {}: {}", req.method, req.path, e.what());
+  if (const auto* u = dynamic_cast<const store::StorageUnavailable*>(&e)) {
+    storage_watch().failed(u->reason());
+    return send_json(res, 503, {{"error", {{"code", "storage_unavailable"}, {"reason", u->reason()},
+                                           {"message", u->reason() + ". Nothing of this request was written: try again "
+                                                       "once the school's administrator has put it right"}}}});
+  }
   send_error(res, 500, "store_error", "the school's records could not be read or written just now: try again, or ask the school's administrator");
 }
 
 }  // namespace
+
+std::optional<std::string> storage_failure() { return storage_watch().failure(); }
+
+void answer_exception(const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
+  try {
+    std::rethrow_exception(ep);
+  } catch (const ApiError& e) {
+    send_error(res, e.status, e.code, e.what());
+  } catch (const store::StoreError& e) {
+    store_refusal(res, req, e);
+  } catch (const std::exception& e) {
+    internal_error(res, req, e.what());
+  } catch (...) {
+    internal_error(res, req, "unknown exception");
+  }
+}
 
 Handler guarded(Handler h) {
   return [h](const httplib::Request& req, httplib::Response& res) {
@@ -62,10 +111,9 @@ Handler guarded(Handler h) {
       // The listener bounds a chunked body by its bytes with their framing; this, by its own.
       if (req.body.size() > kMaxBodyBytes) throw ApiError(413, kBodyTooLarge.code, kBodyTooLarge.message);
       h(req, res);
-    } catch (const ApiError& e) {
-      send_error(res, e.status, e.code, e.what());
-    } catch (const store::StoreError& e) {
-      store_refusal(res, req, e);
+      if (req.method != "GET" && res.status < 300) storage_watch().wrote();
+    } catch (...) {
+      answer_exception(req, res, std::current_exception());
     }
   };
 }
@@ -118,18 +166,18 @@ int query_int(const httplib::Request& req, const char* key, int dflt, int hi) {
 Principal authenticate(Context& ctx, const httplib::Request& req) {
   const std::string h = req.get_header_value("Authorization");
   if (h.rfind("Bearer ", 0) != 0) throw ApiError(401, "unauthenticated", "log in first: Authorization: Bearer <token>");
-  const auto c = ctx.tokens->check(h.substr(7));
+  const auto c = ctx.tokens->check(ctx.db(), h.substr(7));
   if (c.expired) throw ApiError(401, "token_expired", "this login has expired: log in again");
   if (!c.principal) throw ApiError(401, "unauthenticated", "the token is unknown or was logged out: log in again");
-  // The account as it is now, read from the store so that a deactivation or a password reset made
-  // through any server sharing it ends this login at once.
-  const auto u = ctx.db().get_user(c.principal->user_id);
+  // The account as it is now, read from the store with the token, so that a deactivation or a
+  // password reset made through any server sharing it ends this login at once.
+  const auto& u = c.user;
   if (!u || !u->active) {
-    ctx.tokens->revoke(h.substr(7));
+    ctx.tokens->revoke(ctx.db(), h.substr(7));
     throw ApiError(401, "account_deactivated", "this account has been deactivated: ask the school's administrator");
   }
   if (u->login_generation != c.principal->login_generation) {
-    ctx.tokens->revoke(h.substr(7));
+    ctx.tokens->revoke(ctx.db(), h.substr(7));
     throw ApiError(401, "unauthenticated", "this login was ended by the school's administrator (a new password, or the account deactivated): log in again");
   }
   request_notes().user = c.principal->username;  // for the access log

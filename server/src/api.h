@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <exception>
 #include <functional>
 #include <initializer_list>
 #include <limits>
@@ -37,9 +38,15 @@ void send_json_text(httplib::Response& res, int status, std::string body);
 void send_error(httplib::Response& res, int status, const std::string& code, const std::string& message);
 
 using Handler = std::function<void(const httplib::Request&, httplib::Response&)>;
-// `h` with ApiError and StoreError answered as JSON errors (404, 409, 400 or 500 for the store's,
-// in words: the store's own text goes to the server's log only).
+// `h` with whatever it throws answered by answer_exception().
 Handler guarded(Handler h);
+// The answer to an exception a request raised, the one place that maps them: ApiError as it says;
+// StoreError in words (404, 409, 400, or 500; store::StorageUnavailable 503 storage_unavailable
+// with its reason), the store's own text going to the server's log only; anything else 500.
+void answer_exception(const httplib::Request& req, httplib::Response& res, std::exception_ptr e);
+// Why the store could not write, if a request failed so (store::StorageUnavailable) and no request
+// that writes has succeeded since: the health endpoint reports it. For the whole process.
+std::optional<std::string> storage_failure();
 // 500 internal, saying nothing of `detail` (an exception's text), which goes to the server's log.
 void internal_error(httplib::Response& res, const httplib::Request& req, const std::string& detail);
 

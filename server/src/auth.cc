@@ -2,7 +2,10 @@
 
 #include <sodium.h>
 
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 #include "api.h"
@@ -11,14 +14,23 @@ namespace forklift::server {
 
 namespace {
 
-// Below this many entries a throttle table is never pruned: a sweep would cost more than it frees.
-constexpr size_t kMinPruneAt = 1024;
+int64_t ms_of(double s) { return static_cast<int64_t>(std::llround(s * 1000)); }
 
-Clock::duration seconds(double s) {
-  return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
+// The store's name of a token: its SHA-256 in hex, so that the database never holds a login.
+std::string token_hash(const std::string& token) {
+  unsigned char digest[crypto_hash_sha256_BYTES];
+  crypto_hash_sha256(digest, reinterpret_cast<const unsigned char*>(token.data()), token.size());
+  char hex[2 * sizeof digest + 1];
+  sodium_bin2hex(hex, sizeof hex, digest, sizeof digest);
+  return hex;
 }
 
 }  // namespace
+
+int64_t unix_ms() {
+  using namespace std::chrono;
+  return duration_cast<std::chrono::milliseconds>(system_clock::now().time_since_epoch()).count();
+}
 
 // ---------------------------------------------------------------- passwords
 
@@ -56,130 +68,94 @@ std::string new_password_hash(const nlohmann::json& body) {
 
 // ---------------------------------------------------------------- Tokens
 
-Tokens::Tokens(double ttl_s, size_t remember_expired) : ttl_(ttl_s), remember_expired_(remember_expired) {}
+Tokens::Tokens(double ttl_s, double remember_expired_s) : ttl_(ttl_s), remember_expired_ms_(ms_of(remember_expired_s)) {}
 
-std::string Tokens::issue(const Principal& p) {
+std::string Tokens::issue(store::Store& db, const Principal& p) {
   unsigned char raw[32];
   randombytes_buf(raw, sizeof raw);
   char hex[65];
   sodium_bin2hex(hex, sizeof hex, raw, sizeof raw);
-  const auto now = Clock::now();
-  Principal q = p;
-  q.expires = now + seconds(ttl_);
-  std::lock_guard<std::mutex> lock(mu_);
-  retire_expired(now);
-  live_[hex] = q;
-  by_expiry_.emplace_back(q.expires, hex);
+  const int64_t now = unix_ms();
+  store::LoginToken t;
+  t.hash = token_hash(hex);
+  t.user_id = p.user_id;
+  t.login_generation = p.login_generation;
+  t.expires_at_ms = now + ms_of(ttl_);
+  db.add_login_token(t);
+  // Each login sweeps the tokens long expired (an index range: a few rows at a time).
+  db.forget_login_tokens(now - remember_expired_ms_);
   return hex;
 }
 
-Tokens::Check Tokens::check(const std::string& token) {
-  std::lock_guard<std::mutex> lock(mu_);
-  retire_expired(Clock::now());
-  const auto it = live_.find(token);
-  if (it != live_.end()) return {it->second, false};
-  return {std::nullopt, expired_.count(token) > 0};
+Tokens::Check Tokens::check(store::Store& db, const std::string& token) {
+  // Not hex of the right length: never issued, and not worth a look-up.
+  if (token.size() != 64 || token.find_first_not_of("0123456789abcdef") != std::string::npos) return {};
+  const auto t = db.find_login_token(token_hash(token));
+  if (!t) return {};
+  if (t->expires_at_ms <= unix_ms()) return {std::nullopt, true, t->user};
+  const store::User& u = t->user;
+  return {Principal{u.id, u.username, u.role, u.school_id, u.pupil_id, t->expires_at_ms, t->login_generation}, false, u};
 }
 
-void Tokens::revoke(const std::string& token) {
-  std::lock_guard<std::mutex> lock(mu_);
-  live_.erase(token);
-}
-
-void Tokens::retire_expired(Clock::time_point now) {
-  while (!by_expiry_.empty() && by_expiry_.front().first < now) {
-    const std::string token = std::move(by_expiry_.front().second);
-    by_expiry_.pop_front();
-    if (live_.erase(token) == 0 || remember_expired_ == 0) continue;  // logged out meanwhile
-    expired_.insert(token);
-    expired_order_.push_back(token);
-    if (expired_order_.size() > remember_expired_) {
-      expired_.erase(expired_order_.front());
-      expired_order_.pop_front();
-    }
-  }
-}
+void Tokens::revoke(store::Store& db, const std::string& token) { db.delete_login_token(token_hash(token)); }
 
 // ---------------------------------------------------------------- LoginThrottle
 
-LoginThrottle::LoginThrottle(Limits limits)
-    : limits_(limits), window_(seconds(limits.window_s)), prune_at_users_(kMinPruneAt), prune_at_addresses_(kMinPruneAt) {}
+LoginThrottle::LoginThrottle(std::string name, Limits limits)
+    : name_(std::move(name)), limits_(limits), window_ms_(ms_of(limits.window_s)) {}
 
-LoginThrottle::Attempt::Attempt(LoginThrottle* throttle, std::string user, std::string address, int retry_after_s)
-    : throttle_(throttle), user_(std::move(user)), address_(std::move(address)), retry_after_s_(retry_after_s) {}
+LoginThrottle::Attempt::Attempt(const LoginThrottle* throttle, store::Store* db, Keys keys, std::vector<int64_t> ids,
+                                int retry_after_s)
+    : throttle_(throttle), db_(db), keys_(std::move(keys)), ids_(std::move(ids)), retry_after_s_(retry_after_s) {}
 
 LoginThrottle::Attempt::Attempt(Attempt&& other) noexcept
-    : throttle_(std::exchange(other.throttle_, nullptr)), user_(std::move(other.user_)), address_(std::move(other.address_)),
+    : throttle_(std::exchange(other.throttle_, nullptr)), db_(other.db_), keys_(std::move(other.keys_)), ids_(std::move(other.ids_)),
       retry_after_s_(other.retry_after_s_) {}
 
 LoginThrottle::Attempt::~Attempt() {
-  if (throttle_) throttle_->end(user_, address_, false);
+  if (throttle_) throttle_->end(*db_, keys_, ids_, false);
 }
 
 void LoginThrottle::Attempt::succeeded() {
-  if (throttle_) std::exchange(throttle_, nullptr)->end(user_, address_, true);
+  if (throttle_) std::exchange(throttle_, nullptr)->end(*db_, keys_, ids_, true);
 }
 
-LoginThrottle::Attempt LoginThrottle::attempt(const std::string& user, const std::string& address) {
-  const auto now = Clock::now();
-  std::lock_guard<std::mutex> lock(mu_);
-  const auto w = std::max(wait(users_, user, limits_.per_user, now), wait(addresses_, address, limits_.per_address, now));
-  if (w > Clock::duration::zero())
-    return Attempt(nullptr, user, address, std::max(1, static_cast<int>(std::ceil(std::chrono::duration<double>(w).count()))));
-  ++users_[user].checking;
-  ++addresses_[address].checking;
-  return Attempt(this, user, address, 0);
+LoginThrottle::Attempt LoginThrottle::attempt(store::Store& db, const std::string& user, const std::string& address) const {
+  Keys keys = {{name_ + ":user:" + user, limits_.per_user}, {name_ + ":address:" + address, limits_.per_address}};
+  const int64_t now = unix_ms();
+  int64_t wait_ms = 0;
+  std::vector<int64_t> ids;
+  // Counted and let in in one transaction: the store's write lock orders attempts from every server.
+  db.batch([&] {
+    for (const auto& [key, limit] : keys) {
+      const store::AttemptCount c = db.count_attempts(key, now - window_ms_);
+      if (c.locked_until_ms > now) wait_ms = std::max(wait_ms, c.locked_until_ms - now);
+      // Full with attempts still being checked: those end within a second or so.
+      else if (c.counted >= limit) wait_ms = std::max<int64_t>(wait_ms, 1000);
+    }
+    if (wait_ms > 0) return;
+    for (const auto& k : keys) ids.push_back(db.add_attempt(k.first, now));
+  });
+  if (wait_ms > 0) return Attempt(nullptr, &db, {}, {}, static_cast<int>((wait_ms + 999) / 1000));
+  return Attempt(this, &db, std::move(keys), std::move(ids), 0);
 }
 
-void LoginThrottle::end(const std::string& user, const std::string& address, bool ok) {
-  const auto now = Clock::now();
-  std::lock_guard<std::mutex> lock(mu_);
-  --users_[user].checking;
-  --addresses_[address].checking;
-  if (ok) {
-    Entry& e = users_[user];
-    e.failures.clear();
-    e.locked_until = {};
-    return;
-  }
-  fail(users_, user, limits_.per_user, now);
-  fail(addresses_, address, limits_.per_address, now);
-  // Amortised: a sweep only once a table has doubled since the last one.
-  if (users_.size() > prune_at_users_) {
-    prune(users_, now);
-    prune_at_users_ = std::max(kMinPruneAt, 2 * users_.size());
-  }
-  if (addresses_.size() > prune_at_addresses_) {
-    prune(addresses_, now);
-    prune_at_addresses_ = std::max(kMinPruneAt, 2 * addresses_.size());
-  }
-}
-
-Clock::duration LoginThrottle::wait(Table& table, const std::string& key, int limit, Clock::time_point now) {
-  const auto it = table.find(key);
-  if (it == table.end()) return Clock::duration::zero();
-  Entry& e = it->second;
-  if (e.locked_until > now) return e.locked_until - now;
-  while (!e.failures.empty() && e.failures.front() <= now - window_) e.failures.pop_front();
-  // Full with attempts still being checked: those end within a second or so.
-  if (static_cast<int>(e.failures.size()) + e.checking >= limit) return std::chrono::seconds(1);
-  return Clock::duration::zero();
-}
-
-void LoginThrottle::fail(Table& table, const std::string& key, int limit, Clock::time_point now) {
-  Entry& e = table[key];
-  while (!e.failures.empty() && e.failures.front() <= now - window_) e.failures.pop_front();
-  e.failures.push_back(now);
-  if (static_cast<int>(e.failures.size()) < limit) return;
-  e.locked_until = now + window_;
-  e.failures.clear();  // the lockout is the penalty; afterwards the count starts again
-}
-
-void LoginThrottle::prune(Table& table, Clock::time_point now) {
-  for (auto it = table.begin(); it != table.end();) {
-    const Entry& e = it->second;
-    const bool idle = e.checking == 0 && e.locked_until <= now && (e.failures.empty() || e.failures.back() <= now - window_);
-    it = idle ? table.erase(it) : std::next(it);
+void LoginThrottle::end(store::Store& db, const Keys& keys, const std::vector<int64_t>& ids, bool ok) const {
+  const int64_t now = unix_ms();
+  try {
+    db.batch([&] {
+      for (const int64_t id : ids) db.end_attempt(id, !ok, now);
+      if (ok) return db.reset_attempts(keys[0].first, 0);  // the name's failures, not the address's
+      for (const auto& [key, limit] : keys) {
+        const store::AttemptCount c = db.count_attempts(key, now - window_ms_);
+        // The lockout is the penalty; afterwards the count starts again.
+        if (c.counted - c.pending >= limit) db.reset_attempts(key, now + window_ms_);
+      }
+      db.forget_attempts(now - window_ms_);
+    });
+  } catch (const std::exception& e) {
+    // Runs in a destructor: never throws. The attempt stays counted until its window passes.
+    spdlog::warn("{} attempt not ended in the store: {}", name_, e.what());
   }
 }
 

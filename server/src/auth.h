@@ -1,24 +1,18 @@
 // Logins: the passwords' hashes, the bearer tokens the server hands out, and the limit on failed
-// password attempts. Tokens and failures live in memory only: a restarted server forgets them.
+// password attempts. Tokens and failures live in the store: every server sharing it sees them, and
+// a restarted server forgets none.
 #pragma once
 
-#include <chrono>
 #include <cstdint>
-#include <deque>
-#include <map>
 #include <nlohmann/json.hpp>
-#include <mutex>
 #include <optional>
-#include <set>
 #include <string>
-#include <unordered_map>
 #include <utility>
+#include <vector>
 
 #include "forklift/store/store.h"
 
 namespace forklift::server {
-
-using Clock = std::chrono::steady_clock;
 
 constexpr size_t kMinPasswordLength = 8;
 
@@ -42,47 +36,47 @@ struct Principal {
   store::Role role = store::Role::kPupil;
   int64_t school_id = 0;
   std::optional<int64_t> pupil_id;
-  Clock::time_point expires;
+  int64_t expires_at_ms = 0;  // Unix time
   // The account's store::User::login_generation at login: a token of an earlier one is refused.
   int64_t login_generation = 0;
 };
 
-// Random tokens, each valid for one TTL after login or until logout.
+// Unix time in milliseconds: the clock tokens and failed logins are kept by, shared with the other
+// servers on the store (so their clocks must agree to well within a token's TTL and a window).
+int64_t unix_ms();
+
+// Random tokens, each valid for one TTL after login or until logout. The store keeps them (their
+// SHA-256 only), so every server sharing it honours, expires and revokes them alike, and a
+// restart forgets none; nothing is cached here, so a logout holds on every server at once.
 class Tokens {
  public:
-  // What check() found: the login, or none, and then whether the token was real but ran out.
+  // What check() found: the login, or none, and then whether the token was real but ran out;
+  // with the account as it is now.
   struct Check {
     std::optional<Principal> principal;
     bool expired = false;
+    std::optional<store::User> user;
   };
 
-  // `remember_expired`: how many expired tokens are kept (newest first) to tell "expired" from
-  // "unknown" in a refusal; older ones read as unknown.
-  explicit Tokens(double ttl_s, size_t remember_expired = 10000);
-  std::string issue(const Principal& p);
-  Check check(const std::string& token);
-  void revoke(const std::string& token);  // a revoked token reads as unknown, not expired
+  // `remember_expired_s`: how long an expired token is kept to tell "expired" from "unknown" in
+  // a refusal; after that it reads as unknown.
+  explicit Tokens(double ttl_s, double remember_expired_s = 24 * 3600);
+  std::string issue(store::Store& db, const Principal& p);
+  Check check(store::Store& db, const std::string& token);
+  void revoke(store::Store& db, const std::string& token);  // a revoked token reads as unknown, not expired
   double ttl() const { return ttl_; }
 
  private:
-  void retire_expired(Clock::time_point now);  // with mu_ held
-
   double ttl_;
-  size_t remember_expired_;
-  std::mutex mu_;
-  std::map<std::string, Principal> live_;
-  // Every TTL is the same, so issue order is expiry order: retiring pops from the front.
-  std::deque<std::pair<Clock::time_point, std::string>> by_expiry_;
-  std::set<std::string> expired_;
-  std::deque<std::string> expired_order_;  // oldest first, to forget beyond remember_expired_
+  int64_t remember_expired_ms_;
 };
 
-// Failed logins counted per username and per client address over a sliding window. A name or an
-// address with `limit` failures in the window is locked out for one window, right password or
-// not. An attempt counts from the moment it is let in, before its slow password check: while
-// attempts are being checked, no more are let in than the failures the limit still allows, so
-// that parallel attempts cannot check more passwords than the limit. Memory: entries idle for a
-// window are pruned whenever the table has doubled.
+// Failed attempts counted per username and per client address over a sliding window, in the
+// store, so that a lockout on one server holds on every server sharing it. A name or an address
+// with `limit` failures in the window is locked out for one window, right password or not. An
+// attempt counts from the moment it is let in, before its slow password check: while attempts
+// are being checked, no more are let in than the failures the limit still allows, so that
+// parallel attempts (through any server) cannot check more passwords than the limit.
 class LoginThrottle {
  public:
   struct Limits {
@@ -90,6 +84,9 @@ class LoginThrottle {
     int per_address = 20;  // higher: a school's stations often reach the server from one address
     double window_s = 60;
   };
+
+  // The store's keys of an attempt, the username's first, each with its limit.
+  using Keys = std::vector<std::pair<std::string, int>>;
 
   // One login attempt, let in or not. Let in, it ends as a failure unless succeeded() is called.
   class Attempt {
@@ -103,34 +100,26 @@ class LoginThrottle {
 
    private:
     friend class LoginThrottle;
-    Attempt(LoginThrottle* throttle, std::string user, std::string address, int retry_after_s);
-    LoginThrottle* throttle_;  // null once ended, or if not let in
-    std::string user_, address_;
+    Attempt(const LoginThrottle* throttle, store::Store* db, Keys keys, std::vector<int64_t> ids, int retry_after_s);
+    const LoginThrottle* throttle_;  // null once ended, or if not let in
+    store::Store* db_;
+    Keys keys_;
+    std::vector<int64_t> ids_;  // the attempt's row under each key
     int retry_after_s_;
   };
 
-  explicit LoginThrottle(Limits limits);
-  Attempt attempt(const std::string& user, const std::string& address);
+  // `name` sets these attempts apart from another throttle's in the store ("login", "certificate").
+  LoginThrottle(std::string name, Limits limits);
+  // An attempt by `user` from `address`, counted in `db` (the calling thread's store, which the
+  // attempt uses again when it ends).
+  Attempt attempt(store::Store& db, const std::string& user, const std::string& address) const;
 
  private:
-  struct Entry {
-    std::deque<Clock::time_point> failures;  // within the window, oldest first
-    int checking = 0;                        // attempts let in and not yet ended
-    Clock::time_point locked_until{};
-  };
-  using Table = std::unordered_map<std::string, Entry>;
+  void end(store::Store& db, const Keys& keys, const std::vector<int64_t>& ids, bool ok) const;
 
-  void end(const std::string& user, const std::string& address, bool ok);
-  // The wait before `key` may try, with `now`'s failures expired; zero: it may.
-  Clock::duration wait(Table& table, const std::string& key, int limit, Clock::time_point now);
-  void fail(Table& table, const std::string& key, int limit, Clock::time_point now);
-  void prune(Table& table, Clock::time_point now);
-
+  std::string name_;
   Limits limits_;
-  Clock::duration window_;
-  std::mutex mu_;
-  Table users_, addresses_;
-  size_t prune_at_users_, prune_at_addresses_;
+  int64_t window_ms_;
 };
 
 }  // namespace forklift::server

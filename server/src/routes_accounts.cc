@@ -73,7 +73,12 @@ void set_active(Context& ctx, const Principal& p, const httplib::Request& req, h
 }  // namespace
 
 void account_routes(Routes& svr, Context& ctx) {
+  // 503 while the store cannot write: a write failed so and none has succeeded since, or the
+  // store sees why now (a full or read-only disk, an unreachable database server).
   svr.Get("/api/health", guarded([&](const httplib::Request&, httplib::Response& res) {
+    std::optional<std::string> problem = storage_failure();
+    if (!problem) problem = ctx.db().storage_problem();
+    if (problem) return send_json(res, 503, {{"status", "storage_unavailable"}, {"reason", *problem}});
     send_json(res, 200, {{"status", "ok"}, {"schema_version", ctx.db().schema_version()}});
   }));
 
@@ -82,7 +87,7 @@ void account_routes(Routes& svr, Context& ctx) {
     const std::string username = field<std::string>(b, "username"), password = field<std::string>(b, "password");
     // Let in (and counted) before the password is checked, so that a locked-out guesser learns
     // nothing from it and parallel guesses cannot pass the limit; a failure unless it succeeds.
-    auto attempt = ctx.logins->attempt(throttle_key(username), req.remote_addr);
+    auto attempt = ctx.logins->attempt(ctx.db(), throttle_key(username), req.remote_addr);
     if (const int wait_s = attempt.retry_after_s()) {
       res.set_header("Retry-After", std::to_string(wait_s));
       throw ApiError(429, "too_many_attempts",
@@ -94,15 +99,15 @@ void account_routes(Routes& svr, Context& ctx) {
     if (!user->active)
       throw ApiError(403, "account_deactivated", "this account has been deactivated: ask the school's administrator");
     attempt.succeeded();
-    Principal p{user->id, user->username, user->role, user->school_id, user->pupil_id, {}, user->login_generation};
-    send_json(res, 200, {{"token", ctx.tokens->issue(p)}, {"role", store::role_name(user->role)}, {"user_id", user->id},
+    Principal p{user->id, user->username, user->role, user->school_id, user->pupil_id, 0, user->login_generation};
+    send_json(res, 200, {{"token", ctx.tokens->issue(ctx.db(), p)}, {"role", store::role_name(user->role)}, {"user_id", user->id},
                          {"expires_in_s", ctx.tokens->ttl()}, {"pupil_id", user->pupil_id ? json(*user->pupil_id) : json(nullptr)}});
   }));
 
-  // Ends a login before its time: the token is forgotten at once.
+  // Ends a login before its time: the token is forgotten at once, on every server sharing the store.
   svr.Post("/api/logout", guarded([&](const httplib::Request& req, httplib::Response& res) {
     authenticate(ctx, req);
-    ctx.tokens->revoke(req.get_header_value("Authorization").substr(7));
+    ctx.tokens->revoke(ctx.db(), req.get_header_value("Authorization").substr(7));
     send_json(res, 200, {{"status", "logged out"}});
   }));
 

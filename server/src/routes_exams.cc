@@ -159,7 +159,7 @@ void exam_routes(Routes& svr, Context& ctx) {
   svr.Get(R"(/api/certificates/([A-Za-z0-9 _-]{1,64}))", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const std::string typed = req.matches[1];
     // Counted by address alone (under both of the throttle's keys): one guesser cannot lock out the rest.
-    auto attempt = ctx.certificate_lookups->attempt(req.remote_addr, req.remote_addr);
+    auto attempt = ctx.certificate_lookups->attempt(ctx.db(), req.remote_addr, req.remote_addr);
     if (const int wait_s = attempt.retry_after_s()) {
       res.set_header("Retry-After", std::to_string(wait_s));
       throw ApiError(429, "too_many_attempts", "too many look-ups of unknown certificate numbers from this address: try again in " +

@@ -141,8 +141,14 @@ store::Session start_session(Context& ctx, const Principal& p, const json& b,
   }
   store::Session s;
   ctx.db().batch([&] {
-    s = ctx.db().create_session(pupil.id, cab, scenario, mode, mode == "exam" ? std::optional<int64_t>(p.user_id) : std::nullopt,
-                                store::now_iso8601(), p.user_id);
+    try {
+      s = ctx.db().create_session(pupil.id, cab, scenario, mode, mode == "exam" ? std::optional<int64_t>(p.user_id) : std::nullopt,
+                                  store::now_iso8601(), p.user_id);
+    } catch (const store::StoreError& e) {
+      // The store keeps one open session per cab: another server (or request) started one first.
+      if (e.kind() != store::StoreError::kConflict) throw;
+      throw ApiError(409, "cab_busy", "cab " + cab + " already has a session open (started just now, perhaps through another server): wait for it to end, or abort it");
+    }
     if (in_batch) in_batch(s);
     ctx.db().put_session_log(s.public_id, "scenario", run.dump(2));
     const auto [truck, load] = scenario_setup(run);

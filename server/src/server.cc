@@ -94,10 +94,10 @@ Api::Api(ServerConfig c) : ctx_(std::make_unique<Context>()), contract_(&api_con
   ctx.tokens = std::make_unique<Tokens>(c.token_ttl_s);
   decoy_hash();  // now, not in the time of the first login of an unknown username
   const int address_attempts = c.login_address_attempts.value_or(kAddressAttemptsPerUserAttempt * c.login_attempts);
-  ctx.logins = std::make_unique<LoginThrottle>(LoginThrottle::Limits{c.login_attempts, address_attempts, c.login_window_s});
+  ctx.logins = std::make_unique<LoginThrottle>("login", LoginThrottle::Limits{c.login_attempts, address_attempts, c.login_window_s});
   // Keyed by address: an address gets as many unknown numbers as it would failed logins.
   ctx.certificate_lookups =
-      std::make_unique<LoginThrottle>(LoginThrottle::Limits{address_attempts, address_attempts, c.login_window_s});
+      std::make_unique<LoginThrottle>("certificate", LoginThrottle::Limits{address_attempts, address_attempts, c.login_window_s});
   ctx.bank = std::make_unique<QuestionBank>(load_question_bank(ctx.data_dir + "/theory/questions.json"));
   ctx.theory_policy = std::make_unique<TheoryPolicy>(
       load_theory_policy(c.theory_policy.empty() ? ctx.data_dir + "/theory/policy.json" : c.theory_policy, *ctx.bank));
@@ -147,11 +147,7 @@ void Api::mount(httplib::Server& svr) {
   // after 5, and a new connection costs an accept and a thread hand-over; nginx allows 1,000),
   // for at most 5 s (the listener's kKeepAliveFor); an idle one ends after the keep-alive timeout.
   svr.set_keep_alive_max_count(kKeepAliveRequests);
-  svr.set_exception_handler([](const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
-    std::string what = "unknown exception";
-    try { std::rethrow_exception(ep); } catch (const std::exception& e) { what = e.what(); } catch (...) {}
-    internal_error(res, req, what);
-  });
+  svr.set_exception_handler(answer_exception);
   auto routes = std::make_shared<Routes>(svr);
   svr.set_error_handler([routes](const httplib::Request& req, httplib::Response& res) {
     if (const Refusal* r = request_refusal()) {
@@ -178,7 +174,7 @@ void Api::mount(httplib::Server& svr) {
     if (!op) return httplib::Server::HandlerResponse::Unhandled;
     if (op->secured) {
       const std::string h = req.get_header_value("Authorization");
-      if (h.rfind("Bearer ", 0) != 0 || !ctx_->tokens->check(h.substr(7)).principal) return httplib::Server::HandlerResponse::Unhandled;
+      if (h.rfind("Bearer ", 0) != 0 || !ctx_->tokens->check(ctx_->db(), h.substr(7)).principal) return httplib::Server::HandlerResponse::Unhandled;
     }
     try {
       contract_->check_query(*op, req);
