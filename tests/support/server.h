@@ -47,12 +47,13 @@ struct Server : ApiClient {
   struct Database {
     std::string location;
   };
-  Server(const std::string& name, const Database& database)
+  Server(const std::string& name, const Database& database, std::vector<std::string> extra = {})
       : port(forklift::test::free_port()), domain(forklift::test::free_domain()), dir(testing::TempDir() + "/server-" + name),
         db(database.location) {
     std::filesystem::remove_all(dir);
     std::filesystem::create_directories(dir);
-    start({"--log-dir", dir + "/logs"});
+    extra.insert(extra.begin(), {"--log-dir", dir + "/logs"});
+    start(extra);
   }
   void start(std::vector<std::string> extra = {}) {
     std::vector<std::string> args = {std::string(kBin) + "/forklift-server", "--db", db, "--listen", "127.0.0.1:" + std::to_string(port),
