@@ -1071,11 +1071,38 @@ TEST_P(StoreTest, APostgresqlConnectionDroppedByTheServerIsMadeAgain) {
   ASSERT_EQ(RawExec("SELECT pg_terminate_backend(pid, 10000) FROM pg_stat_activity "
                     "WHERE application_name = 'forklift' AND datname = current_database()"),
             "");
-  EXPECT_EQ(ErrorKind([&] { store_->get_pupil(pupil); }), fs::StoreError::kIo);
+  try {
+    store_->get_pupil(pupil);
+    ADD_FAILURE() << "a dropped connection was not noticed";
+  } catch (const fs::StorageUnavailable& e) {  // of kind kIo, with the reason in words
+    EXPECT_EQ(e.kind(), fs::StoreError::kIo);
+    EXPECT_NE(e.reason().find("connection"), std::string::npos) << e.reason();
+  }
   ASSERT_TRUE(store_->get_pupil(pupil).has_value());
   EXPECT_EQ(store_->get_pupil(pupil)->name, "Ann");
   store_->batch([&] { store_->update_pupil(pupil, "Ann Driver", ""); });  // statements prepared again
   EXPECT_EQ(store_->get_pupil(pupil)->name, "Ann Driver");
+}
+
+// A read-only PostgreSQL database (a standby, or one set so) is StorageUnavailable with the
+// reason, at open (the migrations' look) as at a write; SQLite's full and read-only disks are real
+// mounts under a running server in tests/server/storage_test.cc.
+TEST_P(StoreTest, AReadOnlyPostgresqlDatabaseIsStorageUnavailableWithTheReason) {
+  if (sqlite()) GTEST_SKIP() << "SQLite's read-only and full disks are tested with real mounts in storage_test";
+  EXPECT_EQ(store_->storage_problem(), std::nullopt);
+  const std::string db = location_.substr(location_.rfind('/') + 1);
+  // Through the server's maintenance database: once set, the test's own refuses the ALTER too.
+  ASSERT_EQ(Postgres().exec("postgres", "ALTER DATABASE \"" + db + "\" SET default_transaction_read_only = on"), "");
+  try {
+    Open()->create_school("Read-only school");
+    ADD_FAILURE() << "a read-only database took a write";
+  } catch (const fs::StorageUnavailable& e) {
+    EXPECT_NE(e.reason().find("read-only"), std::string::npos) << e.reason();
+  }
+  ASSERT_EQ(Postgres().exec("postgres", "ALTER DATABASE \"" + db + "\" RESET default_transaction_read_only"), "");
+  auto again = Open();
+  EXPECT_EQ(again->storage_problem(), std::nullopt);
+  EXPECT_GT(again->create_school("Writable again"), 0);
 }
 
 TEST(StoreLocationTest, PostgresqlUrisOpenPostgresqlAndNeverPrintTheirPassword) {
