@@ -89,7 +89,18 @@ void store_refusal(httplib::Response& res, const httplib::Request& req, const st
 
 }  // namespace
 
-std::optional<std::string> storage_failure() { return storage_watch().failure(); }
+std::optional<std::string> storage_unavailable(store::Store& db) {
+  if (auto problem = db.storage_problem()) return problem;
+  if (!storage_watch().failure()) return std::nullopt;
+  try {
+    // One committed write that leaves nothing: an attempt under a key no login uses, ended as a success.
+    db.batch([&] { db.end_attempt(db.add_attempt("health:write", unix_ms()), false, 0); });
+  } catch (const store::StorageUnavailable& e) {
+    return e.reason();
+  }
+  storage_watch().wrote();
+  return std::nullopt;
+}
 
 void answer_exception(const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
   try {

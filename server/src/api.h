@@ -44,9 +44,12 @@ Handler guarded(Handler h);
 // StoreError in words (404, 409, 400, or 500; store::StorageUnavailable 503 storage_unavailable
 // with its reason), the store's own text going to the server's log only; anything else 500.
 void answer_exception(const httplib::Request& req, httplib::Response& res, std::exception_ptr e);
-// Why the store could not write, if a request failed so (store::StorageUnavailable) and no request
-// that writes has succeeded since: the health endpoint reports it. For the whole process.
-std::optional<std::string> storage_failure();
+// Why the store cannot write just now, or nullopt, for the health endpoint: what `db` sees itself
+// (store::Store::storage_problem), else, if a request failed for want of storage
+// (store::StorageUnavailable) and none that writes has succeeded since, what a small write of its
+// own says (a row added and removed), which clears that once it succeeds, so that a server taken
+// out of rotation for it comes back without anyone writing through it. For the whole process.
+std::optional<std::string> storage_unavailable(store::Store& db);
 // 500 internal, saying nothing of `detail` (an exception's text), which goes to the server's log.
 void internal_error(httplib::Response& res, const httplib::Request& req, const std::string& detail);
 

@@ -73,12 +73,10 @@ void set_active(Context& ctx, const Principal& p, const httplib::Request& req, h
 }  // namespace
 
 void account_routes(Routes& svr, Context& ctx) {
-  // 503 while the store cannot write: a write failed so and none has succeeded since, or the
-  // store sees why now (a full or read-only disk, an unreachable database server).
+  // 503 while the store cannot write (a full or read-only disk, an unreachable database server).
   svr.Get("/api/health", guarded([&](const httplib::Request&, httplib::Response& res) {
-    std::optional<std::string> problem = storage_failure();
-    if (!problem) problem = ctx.db().storage_problem();
-    if (problem) return send_json(res, 503, {{"status", "storage_unavailable"}, {"reason", *problem}});
+    if (const auto problem = storage_unavailable(ctx.db()))
+      return send_json(res, 503, {{"status", "storage_unavailable"}, {"reason", *problem}});
     send_json(res, 200, {{"status", "ok"}, {"schema_version", ctx.db().schema_version()}});
   }));
 
