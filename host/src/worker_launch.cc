@@ -54,6 +54,9 @@ pid_t spawn_worker(const WorkerLaunch& w, bool die_with_parent) {
     const int err = open(err_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     if (out >= 0) dup2(out, 1);
     if (err >= 0) dup2(err, 2);
+    // Nothing else of the parent's: a worker holding a server's listening socket or database
+    // would keep them after the server is gone.
+    close_range(3, ~0U, 0);
     setpgid(0, 0);
     execv(argv[0], argv.data());
     _exit(127);
