@@ -286,10 +286,12 @@ TEST(WorkerLoop, FramesOfTheWarehouseReachTheCabRawAndAsJpeg) {
     ASSERT_EQ(w.wait(30), 0) << w.err();
     ASSERT_EQ(cab.wait(10), 0) << cab.err();
     const json r = output_json(w);
-    EXPECT_GE(r["frames"].get<long>(), 30);  // 20 per second for about 3 s, less start-up
+    // Frames flow, and reach the cab: how many in 3 s depends on the machine (frames render at idle
+    // priority and are the first to go on a busy one), which forklift-bench-dds measures, not this.
+    EXPECT_GE(r["frames"].get<long>(), 5);
     const size_t at = cab.out().find("frames received: ");
     ASSERT_NE(at, std::string::npos) << cab.out();
-    EXPECT_GE(std::stol(cab.out().substr(at + 17)), 20);
+    EXPECT_GE(std::stol(cab.out().substr(at + 17)), 3);
     const Image img = read_png(png);
     ASSERT_EQ(img.width, c.w);
     ASSERT_EQ(img.height, c.h);
