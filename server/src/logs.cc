@@ -58,6 +58,26 @@ std::string printable(const std::string& s) {
   return out.empty() ? "-" : out;
 }
 
+// A session log value as a person reads it ("no controls", a pupil's "Peña"): kept as it is, in
+// double quotes when it has a space, a quote or an equals sign, and only the control bytes (such as
+// a line feed) as \xNN, so that one thing that happened is one line.
+std::string readable(const std::string& s) {
+  std::string out;
+  bool quote = s.empty();
+  for (const unsigned char c : s) {
+    if (c < 0x20 || c == 0x7f) {
+      char hex[5];
+      std::snprintf(hex, sizeof hex, "\\x%02x", c);
+      out += hex;
+    } else {
+      if (c == ' ' || c == '"' || c == '=') quote = true;
+      if (c == '"' || c == '\\') out += '\\';
+      out += static_cast<char>(c);
+    }
+  }
+  return quote ? '"' + out + '"' : out;
+}
+
 // The server's own log lines as JSON objects.
 class JsonFormatter : public spdlog::formatter {
  public:
@@ -158,8 +178,8 @@ void session_log(const std::string& session, const std::string& event, const nlo
     for (const auto& [k, v] : fields.items()) line[k] = v;
     log->info(json_line(line));
   } else {
-    std::string text = time + " " + printable(session) + " " + printable(event);
-    for (const auto& [k, v] : fields.items()) text += " " + k + "=" + printable(v.is_string() ? v.get<std::string>() : json_line(v));
+    std::string text = time + " " + readable(session) + " " + readable(event);
+    for (const auto& [k, v] : fields.items()) text += " " + k + "=" + readable(v.is_string() ? v.get<std::string>() : json_line(v));
     log->info(text);
   }
 }
