@@ -1,12 +1,14 @@
 // forklift-menu: the command-line side of the Menu Structure, a client of forklift-server's API
 // for the cab station and for scripting. The login token is kept in ~/.forklift-token (or
 // --token-file) so that later commands need no password. An https:// server must prove itself with
-// a certificate signed by --ca (or FORKLIFT_CA, else one of the system's CAs).
+// a certificate signed by --ca (or FORKLIFT_CA, else one of the system's CAs). Every command prints
+// words for a person (words.h); --json prints the API's answer instead, for scripts.
 #include <httplib.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -15,12 +17,23 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <thread>
+#include <vector>
 
 #include "forklift/security/evidence.h"
+#include "words.h"
 
 using nlohmann::json;
+using namespace forklift::menu;
 
 namespace {
+
+// --json: each command prints the API's answer (one JSON document; `follow` one a line).
+bool g_json = false;
+
+void print_json(const json& j) {
+  std::printf("%s\n", j.dump(2).c_str());
+  std::fflush(stdout);
+}
 
 struct Client {
   std::string server, token_file, ca;
@@ -75,58 +88,136 @@ struct Client {
   }
 };
 
-std::string fmt(const json& v, int decimals = 1) {
+// A value for a person: numbers without stray decimals, yes or no, "-" for nothing.
+std::string fmt(const json& v) {
   if (v.is_null()) return "-";
-  if (v.is_number_float()) { char b[32]; std::snprintf(b, sizeof b, "%.*f", decimals, v.get<double>()); return b; }
+  if (v.is_number()) return number(v);
   if (v.is_boolean()) return v.get<bool>() ? "yes" : "no";
   return v.is_string() ? v.get<std::string>() : v.dump();
 }
 
+std::string passed_words(const json& passed) {
+  return passed.is_boolean() ? (passed.get<bool>() ? "passed" : "not passed") : "-";
+}
+
+// An exam as the pupil's page lists it: a practical exam's mark of 100, a theory paper's score
+// as a percentage with the questions right.
+std::string exam_words(const json& e) {
+  const std::string kind = fmt(e["kind"]);
+  std::string s = kind + " exam " + when(e["taken_at"]) + ": ";
+  if (e["score"].is_number())
+    s += kind == "theory" ? number(e["score"].get<double>() * 100, 0) + " %" : "mark " + number(e["score"]) + " of 100";
+  else
+    s += "no mark (" + outcome_words(fmt(e["outcome"])) + ")";
+  if (e.value("correct", json()).is_number() && e.value("total", json()).is_number())
+    s += " (" + fmt(e["correct"]) + " of " + fmt(e["total"]) + " right)";
+  s += ", " + passed_words(e["passed"]);
+  if (e.value("not_counted", json()).is_string()) s += "; does not count: " + e["not_counted"].get<std::string>();
+  else if (const std::string why = reasons_words(e.value("reasons", json())); !why.empty() && e["passed"] != true) s += "; " + why;
+  return s;
+}
+
 void print_history(const json& h) {
   std::printf("%s (pupil %s)\n", fmt(h["pupil"]["name"]).c_str(), fmt(h["pupil"]["id"]).c_str());
-  std::printf("%-10s %-20s %-14s %-9s %-8s %6s %6s\n", "session", "created", "scenario", "mode", "state", "mark", "passed");
+  std::printf("%-10s %-16s %-20s %-9s %-10s %-11s %s\n", "session", "started", "scenario", "mode", "outcome", "mark", "result");
   for (const auto& s : h["sessions"])
-    std::printf("%-10s %-20s %-14s %-9s %-8s %6s %6s\n", fmt(s["id"]).c_str(), fmt(s["created_at"]).c_str(), fmt(s["scenario"]).c_str(),
-                fmt(s["mode"]).c_str(), fmt(s["state"]).c_str(), fmt(s["mark"]).c_str(), fmt(s["passed"]).c_str());
+    std::printf("%-10s %-16s %-20s %-9s %-10s %-11s %s\n", fmt(s["id"]).c_str(), when(s["created_at"]).c_str(), fmt(s["scenario"]).c_str(),
+                fmt(s["mode"]).c_str(), outcome_words(fmt(s["outcome"])).c_str(),
+                s["mark"].is_number() ? (number(s["mark"]) + " of 100").c_str() : "no mark", passed_words(s["passed"]).c_str());
   if (!h["exams"].empty()) {
     std::printf("exams:\n");
-    for (const auto& e : h["exams"])
-      std::printf("  %-9s %-20s score %-6s passed %s\n", fmt(e["kind"]).c_str(), fmt(e["taken_at"]).c_str(), fmt(e["score"], 2).c_str(), fmt(e["passed"]).c_str());
+    for (const auto& e : h["exams"]) std::printf("  %s\n", exam_words(e).c_str());
   }
-  std::printf("faults by kind: %s\n", h["faults_by_kind"].empty() ? "none" : h["faults_by_kind"].dump().c_str());
-  std::printf("trend: %s per session   licence: %s   re-evaluation overdue: %s\n", fmt(h["trend"], 2).c_str(),
-              h["licence"].is_null() ? "none" : ("due " + fmt(h["licence"]["reevaluation_due"])).c_str(), fmt(h["reevaluation_overdue"]).c_str());
+  // The kinds in the marking sheet's words, most often first.
+  std::vector<std::pair<int, std::string>> faults;
+  for (const auto& [kind, n] : h["faults_by_kind"].items()) {
+    const json title = h.value("fault_titles", json::object()).value(kind, json());
+    faults.emplace_back(n.get<int>(), title.is_string() ? title.get<std::string>() : reason_words(kind));
+  }
+  std::stable_sort(faults.begin(), faults.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::string listed;
+  for (const auto& [n, title] : faults) listed += (listed.empty() ? "" : "; ") + title + " " + std::to_string(n) + (n == 1 ? " time" : " times");
+  std::printf("faults over all sessions: %s\n", listed.empty() ? "none" : listed.c_str());
+  const json& trend = h["trend"];
+  std::printf("trend: %s\n", trend.is_number() ? ((trend.get<double>() >= 0 ? "+" : "") + number(trend, 2) + " marks a session (training)").c_str()
+                                                : "none yet (it needs two marked training sessions)");
+  std::printf("licence: %s%s\n",
+              h["licence"].is_null() ? "none" : ("issued " + when(h["licence"]["issued_at"]) + ", re-evaluation due " + when(h["licence"]["reevaluation_due"])).c_str(),
+              h["reevaluation_overdue"] == true ? " (re-evaluation overdue)" : "");
+}
+
+// A session as the session page shows it, events worded as the debrief words them.
+void print_session(const json& s) {
+  std::printf("session %s: pupil %s, cab %s, scenario %s, %s\n", fmt(s["id"]).c_str(), fmt(s["pupil_id"]).c_str(), fmt(s["cab_id"]).c_str(),
+              fmt(s["scenario"]).c_str(), fmt(s["mode"]).c_str());
+  if (s.value("truck", json()).is_object()) std::printf("truck: %s\n", fmt(s["truck"].value("title", json())).c_str());
+  std::printf("load: %s\n", load_words(s.value("load", json())).c_str());
+  std::string state = state_words(fmt(s["state"]));
+  if (s["reason"].is_string() && !s["reason"].get<std::string>().empty()) state += " (" + reason_words(s["reason"].get<std::string>()) + ")";
+  std::printf("state: %s; started %s%s\n", state.c_str(), when(s["created_at"]).c_str(),
+              s["ended_at"].is_string() ? (", ended " + when(s["ended_at"])).c_str() : "");
+  std::printf("%s\n", mark_words(s).c_str());
+  if (const std::string why = reasons_words(s.value("reasons", json())); !why.empty() && s["passed"] != true)
+    std::printf("why: %s\n", why.c_str());
+  if (s["events"].empty()) std::printf("no events\n");
+  else std::printf("events:\n");
+  for (const auto& e : s["events"]) std::printf("  at %6.1f s  %s\n", e["sim_time_s"].get<double>(), event_words(e).c_str());
+}
+
+// A scenario as the start page offers it: what it is, its load, its time (its truck is a file's
+// name here; `session` shows the truck's title).
+void print_scenario(const json& s) {
+  std::string about = s.value("exam_course", false) ? "exam course" + (s.value("exam_title", json()).is_string() ? " (" + s["exam_title"].get<std::string>() + ")" : "")
+                                                    : fmt(s.value("kind", json("scenario")));
+  about += "; load: " + load_words(s.value("load", json()));
+  if (s.value("time_limit_s", json()).is_number()) about += "; time limit " + number(s["time_limit_s"]) + " s";
+  else if (s.value("duration_s", json()).is_number()) about += "; runs " + number(s["duration_s"]) + " s";
+  if (s.value("error", json()).is_string()) about += "; its file cannot be read";
+  std::printf("%-22s %s\n", fmt(s["name"]).c_str(), about.c_str());
+  if (s.value("description", json()).is_string()) std::printf("%-22s %s\n", "", s["description"].get<std::string>().c_str());
 }
 
 // Prints the session's live state once a second (and keeps its newest frame) until it is over.
+// Asked for a frame and given none, it says why and exits 5: a script must not find no file.
 int follow_session(const Client& cl, const std::string& id, const std::string& frame_file, double seconds) {
   const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds > 0 ? seconds : 1e9);
   uint32_t saved = 0;
+  bool framed = false;
+  const auto no_frame = [&](const std::string& during) {
+    if (frame_file.empty() || framed) return 0;
+    std::fprintf(stderr, "forklift-menu: no frame came from session %s %s, so %s was not written: a worker renders frames only "
+                 "while its cab shows them (a cab with a window; a scripted or windowless cab asks for none) and the server's "
+                 "--frame-fps is not 0\n", id.c_str(), during.c_str(), frame_file.c_str());
+    return 5;
+  };
   while (std::chrono::steady_clock::now() < until) {
     const json s = cl.call("GET", "/api/sessions/" + id);
     const std::string state = s["state"];
     if (state != "waiting" && state != "running" && state != "starting") {
-      std::printf("session %s %s %s  mark %s\n", id.c_str(), state.c_str(), fmt(s["reason"]).c_str(), fmt(s["mark"]).c_str());
-      return 0;
+      if (g_json) std::printf("%s\n", s.dump().c_str());
+      else std::printf("%s\n", session_line(s).c_str());
+      return no_frame("before it was over");
     }
     if (state != "starting") {
       const json v = cl.call("GET", "/api/sessions/" + id + "/live");
       const json& t = v["state"];
-      if (t.is_null()) std::printf("session %s %s: waiting for the cab\n", id.c_str(), state.c_str());
+      if (g_json) std::printf("%s\n", v.dump().c_str());  // one JSON document a line
+      else if (t.is_null()) std::printf("session %s %s: waiting for the cab\n", id.c_str(), state_words(state).c_str());
       else
-        std::printf("session %s t=%7.2f s  speed %5.2f m/s  forks %4.2f m  load %s  stability %3.0f%%%s\n", id.c_str(),
-                    t["sim_time_s"].get<double>(), t["speed_m_s"].get<double>(), t["lift_m"].get<double>(),
-                    t["load_attached"].get<bool>() ? (fmt(t["load_mass_kg"], 0) + " kg").c_str() : "none",
-                    100 * t["stability_margin"].get<double>(), t["deadman"].get<bool>() ? "  DEAD MAN" : "");
+        std::printf("session %s at %s s: speed %s km/h, forks %s m up, load %s, stability margin %s %%%s\n", id.c_str(),
+                    number(t["sim_time_s"]).c_str(), number(3.6 * t["speed_m_s"].get<double>()).c_str(), number(t["lift_m"], 2).c_str(),
+                    t["load_attached"].get<bool>() ? (number(t["load_mass_kg"], 0) + " kg").c_str() : "none",
+                    number(100 * t["stability_margin"].get<double>(), 0).c_str(), t["deadman"].get<bool>() ? ", dead man's switch released" : "");
       if (!frame_file.empty() && v["frame_available"].get<bool>() && v["frame_seq"].get<uint32_t>() != saved) {
         std::ofstream(frame_file, std::ios::binary) << cl.get_text("/api/sessions/" + id + "/live/frame.jpg");
         saved = v["frame_seq"].get<uint32_t>();
+        framed = true;
       }
       std::fflush(stdout);
     }
     std::this_thread::sleep_for(std::chrono::seconds(1));
   }
-  return 0;
+  return no_frame("in " + number(seconds) + " s");
 }
 
 // Fetches the exam's evidence and checks it here, against the school's CA: the server is not
@@ -140,17 +231,23 @@ int verify_exam(const Client& cl, const std::string& id, const std::string& ca_f
   const auto report = forklift::security::verify_exam_evidence(evidence, read_text_file(ca_file, "school CA"),
                                                                crl_file.empty() ? "" : read_text_file(crl_file, "school CRL"),
                                                                {.require_server_signatures = true, .require_anchor = true});
+  const json& r = evidence.is_object() ? evidence.value("record", json()) : json();
+  const json why = evidence.is_object() ? evidence.value("not_chained_because", json()) : json();
+  if (g_json) {
+    const char* verdict = report.verdict == Verdict::kVerified ? "verified" : report.verdict == Verdict::kNotChained ? "not_chained" : "tampered";
+    print_json({{"session", id}, {"verdict", verdict}, {"passed", report.passed}, {"problems", report.problems}, {"record", r},
+                {"not_chained_because", why}});
+    return report.verdict == Verdict::kVerified ? 0 : report.verdict == Verdict::kNotChained ? 4 : 3;
+  }
   for (const std::string& line : report.passed) std::printf("ok    %s\n", line.c_str());
   for (const std::string& line : report.problems) std::printf("FAIL  %s\n", line.c_str());
-  const json& r = evidence.is_object() ? evidence.value("record", json()) : json();
   switch (report.verdict) {
     case Verdict::kVerified:
-      std::printf("verified: exam %s of pupil %s (%s), mark %s, %s, examiner %s: record, log, chain and signatures intact\n", id.c_str(),
+      std::printf("verified: exam %s of pupil %s (%s), mark %s of 100, %s, examiner %s: record, log, chain and signatures intact\n", id.c_str(),
                   fmt(r.value("pupil_id", json())).c_str(), fmt(r.value("pupil", json())).c_str(), fmt(r.value("mark", json())).c_str(),
                   r.value("passed", json()) == true ? "passed" : "not passed", fmt(r.value("examiner", json())).c_str());
       return 0;
     case Verdict::kNotChained: {
-      const json why = evidence.value("not_chained_because", json());
       std::printf("NOT CHAINED: exam %s has no entry in the exam chain (the chain and its anchor show no sign of tampering): %s. "
                   "Its result cannot be verified and does not count.\n",
                   id.c_str(), why.is_string() ? why.get<std::string>().c_str() : "the server gives no reason");
@@ -168,6 +265,7 @@ int verify_exam(const Client& cl, const std::string& id, const std::string& ca_f
 int main(int argc, char** argv) {
   CLI::App app{"forklift-menu: pupils, scenarios, sessions and histories through forklift-server"};
   app.set_version_flag("--version", FORKLIFT_VERSION);
+  app.option_defaults()->always_capture_default();  // --help shows each option's default
   app.require_subcommand(1);
   Client cl;
   cl.server = "http://127.0.0.1:8080";
@@ -178,6 +276,7 @@ int main(int argc, char** argv) {
       ->envname("FORKLIFT_CA")
       ->check(CLI::ExistingFile);
   app.add_option("--token-file", cl.token_file, "where the login token is kept");
+  app.add_flag("--json", g_json, "print the server's answer as JSON (for scripts) instead of words; export is CSV either way");
 
   std::string username, password, name, email, search, cab, scenario, mode = "training", drive, session, out;
   int64_t pupil = 0;
@@ -235,6 +334,10 @@ int main(int argc, char** argv) {
   verify->add_option("ID", session)->required();
   verify->add_option("--school-ca", school_ca, "the school's CA certificate (default $FORKLIFT_SECURITY_DIR/ca.pem)")->check(CLI::ExistingFile);
   verify->add_option("--crl", school_crl, "the school's revocation list (default $FORKLIFT_SECURITY_DIR/crl.pem)")->check(CLI::ExistingFile);
+  // A value that must be given has no default to show ("--pupil INT REQUIRED", not "=0").
+  for (CLI::App* command : app.get_subcommands({}))
+    for (CLI::Option* o : command->get_options())
+      if (o->get_required()) o->default_str("");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -246,19 +349,30 @@ int main(int argc, char** argv) {
       if (password.empty()) if (const char* p = std::getenv("FORKLIFT_PASSWORD")) password = p;
       const json r = cl.call("POST", "/api/login", {{"username", username}, {"password", password}}, false);
       std::ofstream(cl.token_file) << r["token"].get<std::string>() << '\n';
-      std::printf("logged in as %s (%s)\n", username.c_str(), r["role"].get<std::string>().c_str());
+      if (g_json) {
+        json shown = r;
+        shown.erase("token");  // kept in the token file, never printed
+        print_json(shown);
+      } else {
+        std::printf("logged in as %s (%s)\n", username.c_str(), r["role"].get<std::string>().c_str());
+      }
     } else if (*add) {
       json b = {{"name", name}, {"email", email}};
       if (!username.empty()) { b["username"] = username; b["password"] = password; }
       const json r = cl.call("POST", "/api/pupils", b);
-      std::printf("pupil %lld: %s\n", static_cast<long long>(r["id"].get<int64_t>()), r["name"].get<std::string>().c_str());
+      if (g_json) print_json(r);
+      else std::printf("pupil %lld: %s\n", static_cast<long long>(r["id"].get<int64_t>()), r["name"].get<std::string>().c_str());
     } else if (*list) {
       const json r = cl.call("GET", "/api/pupils?limit=1000&search=" + httplib::detail::encode_query_param(search));
+      if (g_json) { print_json(r); return 0; }
       for (const auto& p : r["pupils"]) std::printf("%6lld  %s\n", static_cast<long long>(p["id"].get<int64_t>()), p["name"].get<std::string>().c_str());
       if (r["total"].get<int64_t>() > static_cast<int64_t>(r["pupils"].size()))
         std::printf("(%zu of %lld pupils: narrow the search)\n", r["pupils"].size(), static_cast<long long>(r["total"].get<int64_t>()));
     } else if (*scen) {
-      for (const auto& s : cl.call("GET", "/api/scenarios")) std::printf("%-16s load %s\n", s["name"].get<std::string>().c_str(), s["load"].dump().c_str());
+      const json r = cl.call("GET", "/api/scenarios");
+      if (g_json) print_json(r);
+      else
+        for (const auto& s : r) print_scenario(s);
     } else if (*start) {
       json body = {{"pupil_id", pupil}, {"cab_id", cab}, {"scenario", scenario}, {"mode", mode}};
       if (time_limit > 0) body["time_limit_s"] = time_limit;
@@ -270,7 +384,7 @@ int main(int argc, char** argv) {
       }
       const json s = cl.call("POST", "/api/sessions", body);
       const std::string id = s["id"];
-      std::printf("session %s started on cab %s\n", id.c_str(), cab.c_str());
+      if (!g_json) std::printf("session %s started on cab %s\n", id.c_str(), cab.c_str());
       std::fflush(stdout);  // before the scripted cab writes to the same terminal
       if (!drive.empty()) {
         const std::string self = std::filesystem::canonical("/proc/self/exe").parent_path().string();
@@ -282,6 +396,7 @@ int main(int argc, char** argv) {
         if (!cab_frame.empty()) { args.push_back("--save-frame"); args.push_back(cab_frame); }
         const pid_t pid = fork();
         if (pid == 0) {
+          if (g_json) dup2(STDERR_FILENO, STDOUT_FILENO);  // stdout holds the one JSON answer
           std::vector<char*> argv;
           for (auto& a : args) argv.push_back(a.data());
           argv.push_back(nullptr);
@@ -309,17 +424,19 @@ int main(int argc, char** argv) {
           if (!busy) break;
           std::this_thread::sleep_for(std::chrono::milliseconds(100));
         }
-        std::printf("session %s: %s %s\n", id.c_str(), fmt(cur["state"]).c_str(), fmt(cur["reason"]).c_str());
+        if (g_json) print_json(cur);
+        else std::printf("%s\n", session_line(cur).c_str());
+      } else if (g_json) {
+        print_json(s);
       }
     } else if (*show) {
       const json s = cl.call("GET", "/api/sessions/" + session);
-      std::printf("session %s  pupil %s  cab %s  scenario %s  mode %s  state %s  mark %s  passed %s\n", fmt(s["id"]).c_str(),
-                  fmt(s["pupil_id"]).c_str(), fmt(s["cab_id"]).c_str(), fmt(s["scenario"]).c_str(), fmt(s["mode"]).c_str(),
-                  fmt(s["state"]).c_str(), fmt(s["mark"]).c_str(), fmt(s["passed"]).c_str());
-      for (const auto& e : s["events"])
-        std::printf("  t=%7.2f s  %-18s worry %d  %s\n", e["sim_time_s"].get<double>(), fmt(e["kind"]).c_str(), e["worry_level"].get<int>(), fmt(e["details"]).c_str());
+      if (g_json) print_json(s);
+      else print_session(s);
     } else if (*hist) {
-      print_history(cl.call("GET", "/api/pupils/" + std::to_string(pupil) + "/history"));
+      const json h = cl.call("GET", "/api/pupils/" + std::to_string(pupil) + "/history");
+      if (g_json) print_json(h);
+      else print_history(h);
     } else if (*exp) {
       const std::string csv = cl.get_text("/api/pupils/" + std::to_string(pupil) + "/history.csv");
       if (out.empty()) std::cout << csv; else std::ofstream(out) << csv;
@@ -327,7 +444,8 @@ int main(int argc, char** argv) {
       return follow_session(cl, session, frame_file, follow_s);
     } else if (*abort_cmd) {
       const json s = cl.call("POST", "/api/sessions/" + session + "/abort");
-      std::printf("session %s %s: %s\n", fmt(s["id"]).c_str(), fmt(s["state"]).c_str(), fmt(s["reason"]).c_str());
+      if (g_json) print_json(s);
+      else std::printf("%s\n", session_line(s).c_str());
     } else if (*verify) {
       if (school_ca.empty()) throw std::runtime_error("verify needs the school's CA: --school-ca FILE or FORKLIFT_SECURITY_DIR");
       return verify_exam(cl, session, school_ca, school_crl);

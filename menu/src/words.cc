@@ -1,0 +1,132 @@
+#include "words.h"
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+namespace forklift::menu {
+
+using nlohmann::json;
+
+namespace {
+
+// A code no table knows yet still reads as words, never as an identifier.
+std::string spaced(std::string code) {
+  for (char& c : code)
+    if (c == '_') c = ' ';
+  return code;
+}
+
+std::string lookup(const std::map<std::string, std::string>& words, const std::string& code) {
+  const auto it = words.find(code);
+  return it != words.end() ? it->second : spaced(code);
+}
+
+std::string text(const json& v) { return v.is_string() ? v.get<std::string>() : v.is_null() ? "" : v.dump(); }
+
+}  // namespace
+
+std::string number(const json& v, int decimals) {
+  if (!v.is_number()) return v.is_null() ? "-" : text(v);
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v.get<double>());
+  std::string s = buf;
+  if (s.find('.') != std::string::npos) {
+    while (s.back() == '0') s.pop_back();
+    if (s.back() == '.') s.pop_back();
+  }
+  return s == "-0" ? "0" : s;
+}
+
+std::string when(const json& iso) {
+  if (!iso.is_string()) return "-";
+  std::string s = iso.get<std::string>();
+  if (s.size() >= 16 && s[10] == 'T') return s.substr(0, 10) + " " + s.substr(11, 5);
+  return s;
+}
+
+std::string state_words(const std::string& state) {
+  static const std::map<std::string, std::string> words = {
+      {"waiting", "waiting for the cab"}, {"starting", "starting"}, {"running", "running"},
+      {"ended", "ended"},                 {"failed", "failed"},     {"aborted", "aborted"}};
+  return lookup(words, state);
+}
+
+// The worker's end reasons (forklift-worker) and the server's; the server's own are words already.
+std::string reason_words(const std::string& reason) {
+  static const std::map<std::string, std::string> words = {
+      {"task_complete", "the task was done"},   {"parked", "parked at the end"},
+      {"duration", "its time was up"},          {"time_limit", "the time limit was reached"},
+      {"aborted", "aborted by an instructor"},  {"signal", "stopped before its end"},
+      {"numerical_failure", "the simulation failed"}, {"tipped_over", "the truck tipped over"}};
+  return lookup(words, reason);
+}
+
+std::string outcome_words(const std::string& outcome) {
+  static const std::map<std::string, std::string> words = {
+      {"open", "under way"}, {"completed", "completed"}, {"timed_out", "timed out"},
+      {"aborted", "aborted"}, {"stopped", "stopped"},    {"failed", "failed"}};
+  return lookup(words, outcome);
+}
+
+std::string worry_words(int level) {
+  switch (level) {
+    case 0: return "information";
+    case 1: return "minor";
+    case 3: return "medium";
+    case 5: return "serious";
+    default: return "level " + std::to_string(level);
+  }
+}
+
+std::string mark_words(const json& s) {
+  const json mark = s.value("mark", json());
+  if (mark.is_number()) {
+    const json passed = s.value("passed", json());
+    return "mark " + number(mark) + " of 100" + (passed.is_boolean() ? (passed.get<bool>() ? ", passed" : ", not passed") : "");
+  }
+  // As the session page says it: only a session that ran its course has a mark.
+  static const std::map<std::string, std::string> unmarked = {
+      {"timed_out", "no mark: the time ran out"}, {"aborted", "no mark: the session was aborted"},
+      {"stopped", "no mark: the session was stopped before its end"}, {"failed", "no mark: the session failed"},
+      {"completed", "not marked yet"}, {"open", "not marked yet"}};
+  const auto it = unmarked.find(text(s.value("outcome", json())));
+  std::string words = it != unmarked.end() ? it->second : "no mark";
+  if (s.value("passed", json()) == false) words += ", not passed";
+  return words;
+}
+
+std::string session_line(const json& s) {
+  std::string line = "session " + text(s.value("id", json())) + ": " + state_words(text(s.value("state", json())));
+  if (const std::string reason = text(s.value("reason", json())); !reason.empty()) line += " (" + reason_words(reason) + ")";
+  return line + "; " + mark_words(s);
+}
+
+std::string load_words(const json& load) {
+  if (!load.is_object()) return "no load";
+  std::string s = number(load.value("mass_kg", json()), 0) + " kg";
+  if (load.contains("cog_height_m")) s += ", centre of gravity " + number(load["cog_height_m"], 2) + " m up";
+  if (load.value("lateral_m", 0.0) != 0.0) {
+    const double lateral = load["lateral_m"].get<double>();
+    s += ", " + number(std::abs(lateral), 2) + " m to the " + (lateral > 0 ? "left" : "right");
+  }
+  return s;
+}
+
+std::string event_words(const json& e) {
+  const json words = e.value("words", json::object());
+  std::string title = words.is_object() ? text(words.value("title", json())) : "";
+  if (title.empty()) title = spaced(text(e.value("kind", json())));
+  std::string s = worry_words(e.value("worry_level", 0)) + ": " + title;
+  if (words.is_object() && !text(words.value("summary", json())).empty()) s += ". " + text(words["summary"]);
+  return s;
+}
+
+std::string reasons_words(const json& reasons) {
+  std::string s;
+  if (!reasons.is_array()) return s;
+  for (const json& r : reasons) s += (s.empty() ? "" : "; ") + text(r.is_object() ? r.value("text", json()) : r);
+  return s;
+}
+
+}  // namespace forklift::menu
