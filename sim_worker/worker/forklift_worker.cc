@@ -73,6 +73,13 @@ nlohmann::json pose_json(const StateVector& x) {
   return {{"x", x[kX]}, {"y", x[kY]}, {"yaw", x[kAwc] * 180 / M_PI}};
 }
 
+// The mark as the worker's output gives it: a number a person reads, never the log's hex float.
+nlohmann::json score_json(const Score& score) {
+  return {{"mark", score.mark}, {"passed", score.passed}, {"points", score.points}, {"counts", score.counts},
+          {"automatic_failures", score.automatic_failures}, {"task_completed", score.task_completed},
+          {"end_reason", score.end_reason}, {"mode", score.mode}};
+}
+
 int replay_main(const std::string& path) {
   const ControlLog log = read_control_log(path);
   const ReplayResult r = replay_session(log, FORKLIFT_DATA_DIR);
@@ -81,7 +88,7 @@ int replay_main(const std::string& path) {
   nlohmann::json out = {{"session", log.header.session_id}, {"cab", log.header.cab_id}, {"ticks", r.ticks},
                         {"sim_time_s", r.ticks * log.header.tick_s}, {"final_pose", pose_json(r.final_state)},
                         {"state_hex", state_hex(r.final_state)}, {"events", r.event_lines.size()},
-                        {"score", r.score_line}};
+                        {"score", r.score_line.empty() ? nlohmann::json(nullptr) : score_json(r.score)}};
   if (log.final_state) out["matches_log"] = state_ok;
   out["events_match_log"] = events_ok;
   std::cout << out.dump(2) << std::endl;
@@ -798,9 +805,7 @@ int main(int argc, char** argv) {
         {"start_wall_ns", start_wall_ns},
         {"realtime", realtime_refused.empty()},
         {"events", event_seq}, {"frames", frame_publisher.frames()},
-        {"score", {{"mark", score.mark}, {"passed", score.passed}, {"points", score.points}, {"counts", score.counts},
-                   {"automatic_failures", score.automatic_failures}, {"task_completed", score.task_completed},
-                   {"end_reason", score.end_reason}, {"mode", score.mode}}}};
+        {"score", score_json(score)}};
     std::cout << out.dump(2) << std::endl;
     dds_sleepfor(DDS_MSECS(200));  // let the final reliable status reach its readers
     return 0;

@@ -131,6 +131,7 @@ TEST_P(ShippedScript, ReplaysGiveTheLiveMarks) {
   const json worker = run_json({bin + "/forklift-worker", "--replay", log}, s.name + "_worker");
   EXPECT_EQ(worker["matches_log"], true) << "final state bit for bit";
   EXPECT_EQ(worker["events_match_log"], true) << "the same events and the same mark";
+  EXPECT_EQ(worker["score"]["mark"], live["score"]["mark"]) << "a number, never the log's hex float";
 }
 
 // The debrief's replay (issue 18, item 3): `forklift-sim trace` re-simulates a log and samples it
