@@ -194,8 +194,9 @@ int main(int argc, char** argv) {
     const std::string host = colon == std::string::npos ? "" : listen.substr(0, colon);
     const std::string port_text = colon == std::string::npos ? "" : listen.substr(colon + 1);
     if (host.empty() || port_text.empty() || port_text.size() > 5 || port_text.find_first_not_of("0123456789") != std::string::npos ||
-        std::stoi(port_text) < 1 || std::stoi(port_text) > 65535)
-      throw std::runtime_error("--listen " + listen + ": give an address and a port from 1 to 65535, as 127.0.0.1:8080");
+        std::stoi(port_text) < 1024 || std::stoi(port_text) > 65535)  // as root too: the school's server needs no system port
+      throw std::runtime_error("--listen " + listen + ": give an address and a port from 1024 to 65535, as 127.0.0.1:8080 "
+                               "(ports below 1024 are kept for the system's own services, even when run as root)");
     const int port = std::stoi(port_text);
     require_db_folder(cfg.db_path);
     // The port before anything else: a second server started by mistake changes nothing (its
