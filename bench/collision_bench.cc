@@ -23,6 +23,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "benchmark_args.h"
 #include "forklift/collision/collision.h"
 
 using namespace forklift;
@@ -134,4 +135,10 @@ BENCHMARK(BM_StepCarrying);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  CLI::App app{"forklift-bench-collision: what the Collision module costs per physics tick in the shipped warehouse"};
+  if (const auto stop = forklift::bench::parse_benchmark_command_line(app, argc, argv)) return *stop;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -465,6 +465,8 @@ bool framed_fleet(int domain, int n, double fps, double seconds) {
 
 int main(int argc, char** argv) {
   CLI::App app{"forklift-bench-dds: round-trip latency and fleet capacity over loopback DDS"};
+  app.set_version_flag("--version", FORKLIFT_VERSION);
+  app.option_defaults()->always_capture_default();  // --help shows each option's default
   int samples = 500;
   double seconds = 10;
   std::vector<int> sizes = {1, 2, 4, 8, 12, 16};
@@ -505,7 +507,7 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 2;  // --help: 0; bad usage: 2, as every program
+    return app.exit(e) == 0 ? 0 : 2;  // --help and --version: 0; bad usage: 2, as every program
   }
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // each figure as it is measured, into a file too
   if (secure && domain > 230) {

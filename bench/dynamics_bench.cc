@@ -213,13 +213,14 @@ using bench::fmt;
 int main(int argc, char** argv) {
   CLI::App app{"forklift-bench-dynamics: integrators on manoeuvres 4 and 17 (paper Table 1), the worker's 1 ms "
                "tick, and MuJoCo on a comparable truck"};
+  app.set_version_flag("--version", FORKLIFT_VERSION);
+  app.option_defaults()->always_capture_default();  // --help shows each option's default
   int repeat = 5;
   // Both shipped trucks by default: the paper's (its Table 1) and the training truck.
   std::vector<std::string> truck_files = {std::string(FORKLIFT_DATA_DIR) + "/trucks/simucel_paper.json",
                                           std::string(FORKLIFT_DATA_DIR) + "/trucks/linde_e16c.json"};
   app.add_option("--repeat", repeat, "runs per row; the median wall time is reported")->check(CLI::Range(1, 1000));
   app.add_option("--truck", truck_files, "truck data files (one table each)")->check(CLI::ExistingFile);
-  app.set_version_flag("--version", "forklift-bench-dynamics 1");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

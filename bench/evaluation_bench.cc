@@ -29,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "benchmark_args.h"
 #include "figure.h"
 #include "forklift/session/session.h"
 
@@ -178,8 +179,8 @@ BENCHMARK_CAPTURE(BM_EvaluatorTick, warehouse, kWarehouse)->Name("evaluator/ware
 }  // namespace
 
 int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 2;
+  CLI::App app{"forklift-bench-evaluation: the evaluator's and the worker's whole tick, in the yard and the warehouse"};
+  if (const auto stop = forklift::bench::parse_benchmark_command_line(app, argc, argv)) return *stop;
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   // Goal (issue 19, goal 3): the worker's tick under 15 us without frames and events, p99 under 0.15 ms.

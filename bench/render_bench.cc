@@ -38,6 +38,7 @@
 #include <string>
 #include <unistd.h>
 
+#include "benchmark_args.h"
 #include "figure.h"
 #include "forklift/render/render.h"
 
@@ -181,17 +182,11 @@ std::string default_scenario() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  // Our one flag, taken out before Google Benchmark sees the rest.
+  CLI::App app{"forklift-bench-render: frame times of the driver's, chase and plan views, the aids and the depth cues"};
   g_scenario = default_scenario();
-  int kept = 1;
-  for (int i = 1; i < argc; ++i) {
-    if (std::strncmp(argv[i], "--scenario=", 11) == 0)
-      g_scenario = argv[i] + 11;
-    else
-      argv[kept++] = argv[i];
-  }
-  argc = kept;
-  benchmark::Initialize(&argc, argv);
+  app.option_defaults()->always_capture_default();
+  app.add_option("--scenario", g_scenario, "the scenario drawn")->check(CLI::ExistingFile);
+  if (const auto stop = forklift::bench::parse_benchmark_command_line(app, argc, argv)) return *stop;
   auto timed = [](benchmark::internal::Benchmark* b) { b->UseRealTime()->Unit(benchmark::kMillisecond); };
   for (auto [w, h] : {std::pair{640, 480}, {1280, 720}}) {
     const std::string size = std::to_string(w) + "x" + std::to_string(h);
@@ -209,7 +204,6 @@ int main(int argc, char** argv) {
     timed(benchmark::RegisterBenchmark(("quality/" + std::string(name) + "/640x480").c_str(), BM_Frame, View::kDriver,
                                        ViewOptions{}, 640, 480, quality));
   timed(benchmark::RegisterBenchmark("jpeg_frame/640x480", BM_JpegFrame, 640, 480, RenderQuality{}));
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 2;
 
   const char* threads = std::getenv("LP_NUM_THREADS");
   std::printf("scenario %s, LP_NUM_THREADS=%s\n", g_scenario.c_str(), threads ? threads : "(default: one per core)");

@@ -261,6 +261,8 @@ struct Figures {
 
 int main(int argc, char** argv) {
   CLI::App app{"forklift-bench-server: history requests/s and start-to-first-state time"};
+  app.set_version_flag("--version", FORKLIFT_VERSION);
+  app.option_defaults()->always_capture_default();  // --help shows each option's default
   int pupils = 10000, sessions = 50, clients = 4, port = 18180, domain = 77, runs = 5;
   double seconds = 10;
   std::string dir = "out/bench";
@@ -284,7 +286,11 @@ int main(int argc, char** argv) {
       });
   app.add_option("--server-bin", server_bin, "the forklift-server to measure (default: this build's)")->check(CLI::ExistingFile);
   app.add_flag("--lists-only", lists_only, "measure the lists alone, on a store made already (see above)");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help and --version: 0; bad usage: 2, as every program
+  }
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // each figure as it is measured, into a file too
 
   std::filesystem::create_directories(dir);

@@ -711,6 +711,7 @@ int main(int argc, char** argv) {
                "the head-up display over it, driven by keys held in the window or a game controller (wheel, pedals, "
                "gamepad)."};
   app.set_version_flag("--version", FORKLIFT_VERSION);
+  app.option_defaults()->always_capture_default();  // --help shows each option's default
   app.footer(help_footer(map));
   Options o;
   app.add_option("--cab", o.cab_id, "this cab's id");

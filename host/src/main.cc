@@ -38,6 +38,7 @@ int main(int argc, char** argv) {
   CLI::App app{"forklift-host: runs the sim workers the school's servers place on this machine, and tells them what it "
                "can take (DDS: fk_HostStatus, fk_WorkerRequest, fk_WorkerReport in partition host.<id>)"};
   app.set_version_flag("--version", FORKLIFT_VERSION);
+  app.option_defaults()->always_capture_default();  // --help shows each option's default
   forklift::host::HostConfig c;
   c.capacity = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()) * 4);
   std::optional<int> domain;

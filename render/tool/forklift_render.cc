@@ -84,6 +84,7 @@ std::string resolve(const std::string& path, const std::string& data_dir) {
 int run(int argc, char** argv) {
   CLI::App app{"forklift-render: one still of a scenario, as PNG"};
   app.set_version_flag("--version", FORKLIFT_VERSION);
+  app.option_defaults()->always_capture_default();  // --help shows each option's default
   std::string scenario_file, pose_text, view_text = "driver", size_text = "640x480", out_file;
   std::string data_dir = FORKLIFT_DATA_DIR;
   double fork_height_m = 0;

@@ -121,6 +121,7 @@ void on_signal(int) {
 int main(int argc, char** argv) {
   CLI::App app{"forklift-server: pupils, sessions, exams and the sim-worker fleet, over HTTP/JSON"};
   app.set_version_flag("--version", FORKLIFT_VERSION);
+  app.option_defaults()->always_capture_default();  // --help shows each option's default
   forklift::server::ServerConfig cfg;
   std::string listen = "127.0.0.1:8080", web_dir;
   std::string tls_cert, tls_key;

@@ -78,6 +78,7 @@ std::optional<Load> cli_load(const TruckParams& truck, double mass, double offse
 int main(int argc, char** argv) {
   CLI::App app{"forklift-sim: the SIMUCEL forklift truck model, offline"};
   app.set_version_flag("--version", FORKLIFT_VERSION);
+  app.option_defaults()->always_capture_default();  // --help shows each option's default
   app.require_subcommand(1);
   app.fallthrough();  // --truck before or after the command
   // The paper's manoeuvres run on the paper's truck, everything else on the training truck.
@@ -156,6 +157,10 @@ int main(int argc, char** argv) {
   TraceOptions trace_options;
   auto* trace = add_trace_command(app, trace_options);
 
+  // A value that must be given has no default to show ("N INT REQUIRED", not "N INT=0 REQUIRED").
+  for (CLI::App* command : app.get_subcommands({}))
+    for (CLI::Option* o : command->get_options())
+      if (o->get_required()) o->default_str("");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -273,6 +273,7 @@ void write_participant_file(const std::string& path, const std::string& guid) {
 int main(int argc, char** argv) {
   CLI::App app{"forklift-worker: the real-time simulation of one cab's truck"};
   app.set_version_flag("--version", FORKLIFT_VERSION);
+  app.option_defaults()->always_capture_default();  // --help shows each option's default
   std::string cab, session, scenario_file, log_file, log_dir = default_log_dir(), dds_config, replay_file, security_dir, identity;
   double rate = 60, deadman_s = 0.5, duration = 0, start_timeout = 0;
   std::optional<int> domain;
