@@ -4,6 +4,7 @@
 // per module with FORKLIFT_PROGRAMS naming that module's programs in build/bin, so each runs
 // under its module's label.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <map>
 #include <sstream>
@@ -25,7 +26,8 @@ Ran run(const std::string& program, const std::vector<std::string>& args) {
   static int n = 0;
   std::vector<std::string> argv = {kBin + "/" + program};
   argv.insert(argv.end(), args.begin(), args.end());
-  Process p(argv, testing::TempDir() + "/command-line-" + program + "-" + std::to_string(++n));
+  // The process id in the name: ctest runs each case of this binary as its own process, at once.
+  Process p(argv, testing::TempDir() + "/command-line-" + program + "-" + std::to_string(getpid()) + "-" + std::to_string(++n));
   const int code = p.wait(60);
   return {code, p.out(), p.err()};
 }
