@@ -780,17 +780,16 @@ void Fleet::on_report(store::Store& db, const fk_WorkerReport& r) {
     spdlog::warn("refused host {}'s report that session {}'s worker exited: {} ({} such so far)", r.host_id, session, **log_problem, n);
     return true;
   };
+  // Its files are not believed, and its states tell whether it really ended: if none come, the
+  // supervisor fails the session with this reason (a worker that crashed before signing).
+  auto distrust = [&](WorkerInfo& w) {
+    if (!w.hang_reason.empty()) return;
+    w.hang_reason = "its worker host reported that it ended, with a session log its worker did not sign";
+    w.hang_asked = now;
+  };
   // What becomes of the worker once it is ours: its participant believed, its end settled.
   auto follow = [&](WorkerInfo& w) {
-    if (refused_log(w.cab)) {
-      // Its files are not believed, and its states tell whether it really ended: if none come, the
-      // supervisor fails the session with this reason (a worker that crashed before signing).
-      if (w.hang_reason.empty()) {
-        w.hang_reason = "its worker host reported that it ended, with a session log its worker did not sign";
-        w.hang_asked = now;
-      }
-      return;
-    }
+    if (refused_log(w.cab)) return distrust(w);
     if (r.participant[0]) {
       w.participant = r.participant;
       bindings_[session].participant = r.participant;
@@ -813,7 +812,7 @@ void Fleet::on_report(store::Store& db, const fk_WorkerReport& r) {
                    r.host_id, session, n);
       return;
     }
-    if (w != workers_.end() && w->second.host == r.host_id && refused_log(w->second.cab)) return;
+    if (w != workers_.end() && w->second.host == r.host_id && refused_log(w->second.cab)) return distrust(w->second);
     start_answers_[session] = {r.host_id, state, r.reason};
     answered_.notify_all();
     if (state == "refused") return;
@@ -829,10 +828,9 @@ void Fleet::on_report(store::Store& db, const fk_WorkerReport& r) {
     }
     // One a restart left waiting for its host's word (adopt()) is adopted now; any other being
     // settled stays so.
-    const auto f = std::find_if(finishing_.begin(), finishing_.end(), [&](const Finishing& x) { return x.worker.session == session; });
-    const bool waiting = f != finishing_.end() && f->worker.host.empty() && !f->worker.child && f->worker.pid == 0;
-    if (waiting) finishing_.erase(f);
-    else if (f != finishing_.end() || unsettled_.count(session)) return;
+    const bool waiting = ending != finishing_.end() && ending->worker.host.empty() && !ending->worker.child && ending->worker.pid == 0;
+    if (waiting) finishing_.erase(ending);
+    else if (ending != finishing_.end() || unsettled_.count(session)) return;
   }
   // A session this server did not start: adopted if it is open for that cab (another server's,
   // or this one's before a restart); its worker stopped if the session is over or unknown.
