@@ -130,7 +130,7 @@ void HostAgent::adopt() {
   for (const fs::directory_entry& e : fs::directory_iterator(config_.log_dir, ec)) {
     const fs::path path = e.path();
     const std::string session = path.stem().string();
-    if (path.extension() != ".ctl" || !std::regex_match(session, std::regex("s-[0-9]{1,18}")) || workers_.count(session) ||
+    if (path.extension() != ".ctl" || !matches(session.c_str(), "s-[0-9]{1,18}") || workers_.count(session) ||
         fs::exists(base(session) + ".reported"))
       continue;
     const auto age = std::chrono::duration<double>(now - fs::last_write_time(path, ec)).count();

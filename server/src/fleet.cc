@@ -44,6 +44,9 @@ bool set_score(store::Store& db, const store::ScoreRecord& score, const store::A
 
 using Clock = std::chrono::steady_clock;
 
+// A span of seconds (from a setting) as the clock's duration.
+Clock::duration seconds(double s) { return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s)); }
+
 // Who the audit log names for what workers report over DDS.
 const store::Actor kWorker{std::nullopt, "worker"};
 const store::Actor kServer{std::nullopt, "server"};  // the supervisor's own findings
@@ -108,7 +111,7 @@ void Fleet::adopt(store::Store& db) {
     } else {
       // Not here: on a worker host, whose report adopts it within the hosts' lease (on_report);
       // else gone (or a second worker on a cab that has one), settled from its log after that.
-      const auto grace = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(dds::kHostLeaseS + 1));
+      const auto grace = seconds(dds::kHostLeaseS + 1);
       bindings_[s.public_id] = {w.cab, w.participant, now + grace + std::chrono::seconds(2)};
       finishing_.push_back({w, s.state == "starting" && !std::ifstream(log_path(s.public_id))
                                    ? "the session never started (the server stopped while starting it)"
@@ -249,7 +252,7 @@ void Fleet::start_local_worker(const store::Session& s, const host::WorkerLaunch
 bool Fleet::start_hosted_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
                                 const std::optional<std::string>& aids, std::vector<std::string> candidates,
                                 std::string& refusals) {
-  const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.start_budget_s));
+  const auto deadline = Clock::now() + seconds(config_.start_budget_s);
   auto r = std::make_unique<fk_WorkerRequest>();  // 64 KiB of scenario: not on the stack
   const std::string scenario = slurp(scenario_file);
   if (scenario.empty()) throw std::runtime_error("the scenario " + scenario_file + " cannot be read");
@@ -295,8 +298,7 @@ bool Fleet::start_hosted_worker(const store::Session& s, const std::string& scen
     }
     // Each host has its share of what is left of the budget, so that a silent one leaves time
     // for the next and for this machine.
-    const auto until = std::min(deadline, Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                                             std::chrono::duration<double>(config_.host_answer_timeout_s)));
+    const auto until = std::min(deadline, Clock::now() + seconds(config_.host_answer_timeout_s));
     // A writer made just now may not have found the host's reader yet.
     while (writer->matched() == 0 && Clock::now() < until) std::this_thread::sleep_for(std::chrono::milliseconds(20));
     dds::set_string(r->host_id, host);
@@ -318,8 +320,7 @@ bool Fleet::start_hosted_worker(const store::Session& s, const std::string& scen
     // Refused, or silent: the next host. A late start is stopped (its session runs elsewhere).
     if (!answered) {
       request(host, s.public_id, "kill");
-      hosts_[host].passed_over_until = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                                          std::chrono::duration<double>(config_.host_pass_over_s));
+      hosts_[host].passed_over_until = Clock::now() + seconds(config_.host_pass_over_s);
       spdlog::warn("worker host {} took session {} and named no running worker in time: passed over for {} s", host,
                    s.public_id, int(config_.host_pass_over_s));
     }
