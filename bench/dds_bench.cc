@@ -178,7 +178,7 @@ void round_trip(int domain, int samples) {
               machine.late_ms(), machine.count(), machine.wakeups(), machine.longest_ms());
   std::printf("samples clear of them: %zu (us): p50 %.0f  p99 %.0f  max %.0f; %zu samples overlapped a stall\n\n",
               clear_of_stalls.size(), clear_p50, clear_p99, percentile(clear_of_stalls, 1.0), in_stalls);
-  // Issue 19, goal 3: the round trip's p99 within the 1 ms tick plus 0.2 ms, over the samples the
+  // Goal: the round trip's p99 within the 1 ms tick plus 0.2 ms, over the samples the
   // machine did not stall; judged only when at least 90 % of them are clear of stalls.
   const bool judged = clear_of_stalls.size() >= 0.9 * double(rtt.size()) && !rtt.empty();
   bench::figure(std::string("control to applied state, round trip over loopback DDS (") + mode_name() +

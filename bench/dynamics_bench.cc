@@ -1,5 +1,5 @@
 // forklift-bench-dynamics: integrator cost on the paper's manoeuvres 4 (sharp braking) and 17
-// (zig-zag), beside the paper's Table 1, with issue 19's targets checked in the same run.
+// (zig-zag), beside the paper's Table 1, with the speed goals checked in the same run.
 //
 // Each row runs the 20 s manoeuvre without sampling output, `--repeat` times, and reports the
 // median wall time. The accuracy column is the final position's distance from an rtol 1e-9

@@ -183,7 +183,7 @@ int main(int argc, char** argv) {
   if (const auto stop = forklift::bench::parse_benchmark_command_line(app, argc, argv)) return *stop;
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
-  // Goal (issue 19, goal 3): the worker's tick under 15 us without frames and events, p99 under 0.15 ms.
+  // Goal: the worker's tick under 15 us without frames and events, p99 under 0.15 ms.
   for (auto& [scene, ticks] : g_tick_s) {
     if (ticks.empty()) continue;
     std::sort(ticks.begin(), ticks.end());

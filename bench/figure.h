@@ -1,4 +1,4 @@
-// A row of the README's table of figures: bench/figures.sh collects the lines a benchmark prints
+// A row of the table of figures (docs/figures.md): bench/figures.sh collects the lines a benchmark prints
 // as "FIGURE<tab>figure<tab>goal<tab>measured<tab>met".
 #pragma once
 

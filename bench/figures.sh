@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# The README's table of figures (issue 19's goals): runs each benchmark behind it, collects the
+# The table of figures in docs/figures.md (the speed goals): runs each benchmark behind it, collects the
 # lines they print as "FIGURE<tab>figure<tab>goal<tab>measured<tab>met", and prints the table
 # with the command that measured each row and the machine it ran on. With --readme it also writes
-# the table into README.md between its "bench-table" markers.
+# the table into docs/figures.md between its "bench-table" markers.
 #
 #   bench/figures.sh [--readme] [--quick]     # --quick: shorter runs (a smoke test of the table)
 set -euo pipefail
@@ -78,10 +78,10 @@ machine="$(nproc) cores ($(lscpu | sed -n 's/^Model name: *//p' | head -1)), $(f
 } > "$work/table"
 cat "$work/table"
 if [ "$readme" = 1 ]; then
-  grep -q '<!-- bench-table:begin -->' README.md || { echo "figures.sh: README.md has no bench-table markers" >&2; exit 1; }
+  grep -q '<!-- bench-table:begin -->' docs/figures.md || { echo "figures.sh: docs/figures.md has no bench-table markers" >&2; exit 1; }
   awk -v table="$work/table" '
     /<!-- bench-table:begin -->/ { print; while ((getline line < table) > 0) print line; skip = 1; next }
     /<!-- bench-table:end -->/ { skip = 0 }
-    !skip' README.md > "$work/readme" && cp "$work/readme" README.md
-  echo "figures.sh: README.md's table rewritten" >&2
+    !skip' docs/figures.md > "$work/readme" && cp "$work/readme" docs/figures.md
+  echo "figures.sh: docs/figures.md's table rewritten" >&2
 fi

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 20's figures for several machines, measured on one: forklift-bench-dds run twice in the
+# The worker-host figures for several machines, measured on one: forklift-bench-dds run twice in the
 # same sitting, once with the worker beside the cab over loopback, once with the worker in another
 # network namespace (a simulation PC) reached over a veth pair with protocol/config/lan.xml, as a
 # cab station reaches its school's simulation PC. The worker is started through a wrapper that

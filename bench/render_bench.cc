@@ -234,7 +234,7 @@ int main(int argc, char** argv) {
   }
   const double jpeg = row("jpeg_encode/640x480");
   if (jpeg > 0) std::printf("%-24s %9.2f\n", "jpeg_encode/640x480", jpeg);
-  // Issue 19, goals 4 and 5: the picture within the framed fleet's budget, eight cabs' 30 frames
+  // Goals: the picture within the framed fleet's budget, eight cabs' 30 frames
   // a second in at most one of the two cores (the other for their physics): 4.2 ms a frame.
   if (const double frame = row("jpeg_frame/640x480"); frame > 0)
     bench::figure("a 640x480 JPEG frame, driver view with shadows and depth cues (draw, read-back, encode; llvmpipe, LP_NUM_THREADS=" +

@@ -6,7 +6,7 @@
 //    a store holding --pupils pupils of --sessions marked sessions each (10,000 x 50 by default;
 //    each session has events and fault counts). The baseline, measured in the same run with the
 //    same clients, is GET /api/health: the HTTP floor of this machine, so the history figure
-//    reads as a ratio to it. Targets (issue 19): >= 5,000 requests/s, p99 < 5 ms. Also the store's own
+//    reads as a ratio to it. Targets: >= 5,000 requests/s, p99 < 5 ms. Also the store's own
 //    history() calls per second from one thread, without HTTP. With several --db, each store in
 //    turn under the same load, and a table of them side by side at the end.
 // 2. Start to first state: this program plays the cab (controls at 50 Hz over DDS), POSTs
@@ -14,7 +14,7 @@
 //    spawn, the worker's start-up, DDS discovery and the first physics tick. Target: < 300 ms.
 //    On the first --db only.
 //
-// 3. Lists (issue 18): requests per second and latency of a page of the pupils list (GET
+// 3. Lists: requests per second and latency of a page of the pupils list (GET
 //    /api/pupils, paged, and searched) and of the sessions list (a day's, a cab's day filtered by
 //    result, a pupil's, and the whole school's newest first, each with its total), on the same
 //    store. With --lists-only, these alone (no history, no start, the store not opened by this
@@ -372,7 +372,7 @@ int main(int argc, char** argv) {
     const std::string token = json::parse(login->body)["token"];
     auto first = c.Get("/api/pupils?limit=1", {{"Authorization", "Bearer " + token}});
     const json first_page = json::parse(first->body);
-    // "Pupil 0", the first created: a page with its total, or (before issue 18) a bare list.
+    // "Pupil 0", the first created: a page with its total, or (from an older server) a bare list.
     const int64_t first_id = (first_page.is_array() ? first_page : first_page["pupils"])[0]["id"];
     auto sample = c.Get("/api/pupils/" + std::to_string(first_id) + "/history", {{"Authorization", "Bearer " + token}});
     const json h = json::parse(sample->body);
@@ -415,7 +415,7 @@ int main(int argc, char** argv) {
     f.history = hammer(port, token, clients, seconds,
                        [&](std::mt19937& rng) { return "/api/pupils/" + std::to_string(pick(rng)) + "/history"; });
     row("GET /api/pupils/{id}/history", f.history);
-    // Issue 19, goal 6: >= 5,000 history requests/s with p99 under 5 ms on 10,000 x 50.
+    // Goal: >= 5,000 history requests/s with p99 under 5 ms on 10,000 x 50.
     const bool history_met = f.history.rps() >= 5000 && f.history.pct(0.99) < 5;
     std::printf("history throughput = %.2f x baseline; target >= 5000 req/s and p99 < 5 ms: %s\n",
                 f.history.rps() / f.health.rps(), history_met ? "met" : "NOT MET");

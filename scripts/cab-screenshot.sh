@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The README's picture of the cab (docs/cab-window.png): a real worker and forklift-cab in an Xvfb
+# The picture of the cab in docs/simulation.md (docs/cab-window.png): a real worker and forklift-cab in an Xvfb
 # window, driven by keys typed with xdotool in rack_pick: drive off, lift the forks a little,
 # see-through mast and rear-view mirror on, then a picture of the whole window (F12's, at exit).
 # Needs the build (build/bin/) and xvfb and xdotool (scripts/install-deps.sh).

@@ -3,7 +3,7 @@
 # view at its start pose (<name>.png), the instructor's chase view (<name>_chase.png) and a plan
 # view of the whole floor (<name>_plan.png), 640x480 each, and writes docs/scenarios/README.md
 # with one line per scenario. docs/scenarios/before/ keeps the stills as the renderer drew them
-# before issue 19 (flat-shaded, no shadows): the script leaves them alone.
+# before the renderer had shadows (flat-shaded, no shadows): the script leaves them alone.
 # Needs forklift-render built (build/bin/, or FORKLIFT_RENDER=path/to/forklift-render).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -24,7 +24,7 @@ readme=$out/README.md
   echo "a scenario or a mesh."
   echo
   echo "The pictures have shadows (the truck's, the pallets' and the loads' on the floor, from a shadow"
-  echo "map round the truck), orange fork tips and a haze with distance (issue 19). [before/](before/)"
+  echo "map round the truck), orange fork tips and a haze with distance. [before/](before/)"
   echo "keeps the driver's and plan views as they were drawn before that: flat-shaded, no shadows."
   echo
 } >"$readme"

@@ -8,7 +8,7 @@ const FL = (() => {
   const KEY = 'forklift.login';
   const STAFF = ['admin', 'instructor', 'examiner'];
 
-  // The browser's login, shared by its tabs (issue 18, item 7): an instructor watching four cabs
+  // The browser's login, shared by its tabs: an instructor watching four cabs
   // logs in once. On a school's shared PC "Log out" in any tab ends it in every tab (and on the
   // server); an expired one is removed by the first tab that sees it.
   function stored() {

@@ -140,7 +140,7 @@ json body_json(const httplib::Request& req) {
     throw ApiError(400, "bad_json", "the body is not valid JSON (a number in it is too large)");
   }
   if (!j.is_object()) throw ApiError(400, "bad_request", "the body must be a JSON object");
-  // The body as server/openapi.yaml has it for this request (issue 18, item 6).
+  // The body as server/openapi.yaml has it for this request.
   if (const Operation* op = api_contract().find(req.method, req.path)) api_contract().check_body(*op, j);
   return j;
 }

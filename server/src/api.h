@@ -157,7 +157,7 @@ void audit(store::Store& db, const Principal& p, int64_t pupil_id, const std::st
 // One page of audit rows, newest first, from the request's limit and offset.
 json audit_page(store::Store& db, const store::AuditScope& scope, const httplib::Request& req);
 // Records an administrator's change to an account (`user_id`) in the staff audit log, inside the
-// db.batch() that makes the change, as audit() does (issue 18, item 2).
+// db.batch() that makes the change, as audit() does.
 void staff_audit(store::Store& db, const Principal& p, int64_t user_id, const std::string& action, const json& details);
 // One page of the staff audit log of `school_id`'s accounts (only `user_id`'s when set), as audit_page().
 json staff_audit_page(store::Store& db, int64_t school_id, std::optional<int64_t> user_id, const httplib::Request& req);

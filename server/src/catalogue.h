@@ -30,7 +30,7 @@ std::pair<nlohmann::json, nlohmann::json> scenario_setup(const nlohmann::json& s
 // exam mode, and only their exams count toward a licence).
 bool is_exam_course(const nlohmann::json& scenario);
 
-// A scenario's exam course: its top-level "exam_course" object (issue 17, item 1: only an exam
+// A scenario's exam course: its top-level "exam_course" object (only an exam
 // course can be a practical exam, and only an exam on one counts toward a licence), else null.
 nlohmann::json exam_course(const nlohmann::json& scenario);
 // The scenario a session ran, from the store alone: the copy kept with it, else the file of that

@@ -1,4 +1,4 @@
-// Certificates of training and evaluation (issue 17, item 4): made when a licence is issued, from
+// Certificates of training and evaluation: made when a licence is issued, from
 // the exams that justify it, signed with the server's key and kept for ever; checked by anyone who
 // has the number (GET /api/certificates/{number}, menu/web/verify.html). docs/exam-evidence.md
 // has the design.

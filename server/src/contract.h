@@ -1,6 +1,6 @@
 // The API description (server/openapi.yaml, built into the server) as the contract: the
 // operations it documents, and each request checked against them before a handler sees it:
-// the body against the operation's schema, the query parameters against theirs (issue 18, item 6).
+// the body against the operation's schema, the query parameters against theirs.
 #pragma once
 
 #include <httplib.h>

@@ -1,4 +1,4 @@
-// A session's events as a school reads them (issue 18, item 3): the rule's title in words, not
+// A session's events as a school reads them: the rule's title in words, not
 // its code, and what was measured against its limit in units a person reads ("2.31 m/s (8.3
 // km/h)", "42 cm", "12.5°"), from the details the evaluator recorded. The evaluator names every
 // number with its unit ("impact_speed_m_s"), which is what this reads.

@@ -1,4 +1,4 @@
-// A pupil's exams as the school's records count them (issue 17): each exam record, and each exam
+// A pupil's exams as the school's records count them: each exam record, and each exam
 // session that ended without one, with its outcome, its mark if it has one, whether it passed and
 // why not, its evidence, its corrections, and whether it counts toward a licence. History, the
 // licence and the certificate all read them from here.

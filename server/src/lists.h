@@ -1,4 +1,4 @@
-// What the school's lists share (issue 18, item 1): a page of a list from the request's limit
+// What the school's lists share: a page of a list from the request's limit
 // and offset, its sort key and order, a date or a range of dates, an id in the query, and the
 // list as CSV, exactly as shown, safe to open in a spreadsheet.
 #pragma once

@@ -1,4 +1,4 @@
-// What a result means (issue 17, item 2): why a session or an exam did not pass, in the marking
+// What a result means: why a session or an exam did not pass, in the marking
 // sheet's words, and what a practical exam's record keeps of it. A session's outcome and whether
 // it has a mark are the store's one rule (forklift/store/store.h: session_outcome, mark_of); this
 // adds the reasons, from the marking scheme in data/evaluation/rules.json.

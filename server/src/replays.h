@@ -1,4 +1,4 @@
-// The debrief's replay of a finished session (issue 18, item 3): `forklift-sim trace` re-simulates
+// The debrief's replay of a finished session: `forklift-sim trace` re-simulates
 // the session's control log (as the store keeps it) through the worker's own step and samples the
 // truck, forks and pallets ten times a second. It runs as a child process, one at a time (the
 // cores belong to the sim workers), and each session's replay is kept in a cache folder, so it is

@@ -17,7 +17,7 @@ namespace forklift::server {
 
 // httplib::Server's route registration, keeping a table of what is registered: the server answers
 // a known path asked with another method 405 with Allow from it, and the contract test checks it
-// against server/openapi.yaml (issue 18, item 6).
+// against server/openapi.yaml.
 class Routes {
  public:
   struct Route {

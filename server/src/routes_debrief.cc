@@ -1,4 +1,4 @@
-// The debrief of a session (issue 18, item 3): the instructor's notes and sign-off, and a replay
+// The debrief of a session: the instructor's notes and sign-off, and a replay
 // of the finished session re-simulated from its control log (replays.h), which the session page
 // scrubs through with the plan, the events and their stills.
 #include <spdlog/spdlog.h>

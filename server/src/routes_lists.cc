@@ -1,4 +1,4 @@
-// The school's lists and its day (issue 18, items 1 and 4): sessions and exams a page at a time,
+// The school's lists and its day: sessions and exams a page at a time,
 // filtered, sorted and as CSV; groups (courses) of pupils with their instructor; cabs booked for
 // a session at a time, the day's bookings and sessions by cab, and a booked session started.
 #include <ctime>

@@ -1,4 +1,4 @@
-// Every program speaks the same command line (README, "Command lines"): --help lists its options
+// Every program speaks the same command line (docs/command-lines.md): --help lists its options
 // with their defaults and exits 0, --version prints the version and exits 0, and bad usage (an
 // unknown flag, a bad value) exits 2 with the reason on stderr and nothing on stdout. Built once
 // per module with FORKLIFT_PROGRAMS naming that module's programs in build/bin, so each runs
@@ -66,7 +66,7 @@ const std::multimap<std::string, Shown> kDefaults = {
 // Bad usage beyond an unknown flag, per program: a value the program must refuse.
 const std::multimap<std::string, std::vector<std::string>> kBadValues = {
     {"forklift-worker", {"--rate", "0"}},
-    // The README: a port below 1024 is refused, as root too.
+    // docs/command-lines.md: a port below 1024 is refused, as root too.
     {"forklift-server", {"--listen", "127.0.0.1:80"}},
     {"forklift-bench-collision", {"--benchmark_format=xml"}},
     {"forklift-bench-evaluation", {"--benchmark_min_time=soon"}},

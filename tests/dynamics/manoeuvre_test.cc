@@ -221,7 +221,7 @@ TEST(Manoeuvre, WorkEnergyBalanceClosesWithEveryForceOn) {
 }
 
 TEST(Manoeuvre, DefaultToleranceHoldsManoeuvre4WithinACentimetreInAtMost500Steps) {
-  // Issue 19's accuracy goal, on both shipped trucks: CVODE at its default tolerance (with the
+  // The accuracy goal, on both shipped trucks: CVODE at its default tolerance (with the
   // structured Newton solver and Jacobian) against a converged run.
   for (const TruckParams* truck : {&paper_truck(), &shipped_truck()}) {
     SCOPED_TRACE(truck->name);

@@ -1,4 +1,4 @@
-// The model pinned to a stored reference (issue 19): states sampled along manoeuvres 4 and 17 on
+// The model pinned to a stored reference: states sampled along manoeuvres 4 and 17 on
 // both shipped trucks, and a set of harder states (laden on a ramp, tipped onto the body, on a
 // tilt table with chocks, pushed by the scene), each with the derivative, M, Q, the driven forces
 // and the applied power the model gave when the file was written. Any reformulation of the

@@ -134,7 +134,7 @@ TEST_P(ShippedScript, ReplaysGiveTheLiveMarks) {
   EXPECT_EQ(worker["score"]["mark"], live["score"]["mark"]) << "a number, never the log's hex float";
 }
 
-// The debrief's replay (issue 18, item 3): `forklift-sim trace` re-simulates a log and samples it
+// The debrief's replay: `forklift-sim trace` re-simulates a log and samples it
 // every 0.1 s of sim time, ending where the log's session ended; a broken log is refused.
 TEST(Trace, SamplesTheReplayedSessionEveryTenthOfASecond) {
   const std::string bin = FORKLIFT_BIN_DIR, d = FORKLIFT_DATA_DIR, log = testing::TempDir() + "/session_trace.ctl";

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# DDS across machines (issue 20, item 1): two network namespaces joined by a veth pair stand for
+# DDS across machines: two network namespaces joined by a veth pair stand for
 # a simulation PC and a cab station on their own network, with nothing else on it. A real worker
 # in one and a real scripted cab in the other drive a session under each shipped network
 # configuration: lan.xml (multicast discovery, the interface by name), lan-unicast.xml and

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Worker hosts and two servers (issue 20, items 2 and 4): five network namespaces joined by a
+# Worker hosts and two servers: five network namespaces joined by a
 # bridge stand for a school's machines. S runs PostgreSQL and server A, T server B on the same
 # database, H1 and H2 a forklift-host each, C the cabs; all speak DDS by protocol/config/lan.xml
 # (multicast discovery on their one interface) and nothing leaves the namespaces.

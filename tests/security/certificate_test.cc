@@ -1,4 +1,4 @@
-// Certificates and exam records that stand up (issue 17, items 4 and 5), on a real server under DDS
+// Certificates and exam records that stand up, on a real server under DDS
 // Security with a real worker and cab: a pupil passes a supervised theory exam and a practical
 // exam on the shipped exam course; no licence before both, no certificate before the licence; the
 // certificate names the school and people by their full names and cites the exams; anyone can
@@ -257,7 +257,7 @@ TEST_F(Certificates, IssuedWithTheLicenceOnVerifiedExamsCheckedByAnyoneAndRefuse
   EXPECT_EQ(verify(s, number).first, 429);
 }
 
-// Issue 17, item 5: whatever the API is asked, a finished exam stays as it was written; a
+// Whatever the API is asked, a finished exam stays as it was written; a
 // correction is a new record beside it, with its reason, by an examiner, audited; a correction
 // that withdraws a pass stops the exam counting toward a licence.
 TEST_F(Certificates, NoApiCallChangesAFinishedExamAndACorrectionIsANewAuditedRecord) {

@@ -198,7 +198,7 @@ TEST_F(RemoteExam, FollowedLiveSignedChainedAndEveryChangeIsDetected) {
   EXPECT_EQ(ok_code, 0) << ok_out;
   EXPECT_NE(ok_out.find("verified: exam " + e.id), std::string::npos) << ok_out;
 
-  // The store keeps a finished exam as written (issue 17, item 5): it refuses to change it. Someone
+  // The store keeps a finished exam as written: it refuses to change it. Someone
   // with the disk drops those triggers first; the evidence must find what they change.
   const std::string kept_where = " WHERE session_id = (SELECT id FROM sessions WHERE public_id = '" + e.id + "')";
   for (const std::string& edit : {"UPDATE scores SET mark = mark + 1" + kept_where, "UPDATE exams SET passed = 1 - passed" + kept_where,
@@ -282,7 +282,7 @@ TEST_F(RemoteExam, FollowedLiveSignedChainedAndEveryChangeIsDetected) {
   EXPECT_NE(c3, 0) << out3;
 }
 
-// Issue 16, finding 2: the last chain entry deleted around the trigger, the exam moved to another
+// The last chain entry deleted around the trigger, the exam moved to another
 // pupil and examiner, the server restarted. Its start-up must not chain the edited record again:
 // the chain is shorter than its anchor, and verify says the chain was cut short.
 TEST_F(RemoteExam, ChainCutShortAndTheExamMovedIsRefusedAtStartAndReportedByVerify) {
@@ -331,7 +331,7 @@ TEST_F(RemoteExam, ChainCutShortAndTheExamMovedIsRefusedAtStartAndReportedByVeri
   EXPECT_EQ(json_at(exam, "/evidence/verified"), false) << exam;
 }
 
-// Issue 16, finding 2: the last entry and the log's signature deleted and the exam set passed.
+// The last entry and the log's signature deleted and the exam set passed.
 // verify says tampering (the anchor names the exam's entry), and neither history nor the
 // certificate counts the pass.
 TEST_F(RemoteExam, DeletedEntryAndSignatureWithPassedSetIsTamperingAndCountsForNothing) {
@@ -371,7 +371,7 @@ TEST_F(RemoteExam, DeletedEntryAndSignatureWithPassedSetIsTamperingAndCountsForN
   EXPECT_EQ(error_code(s.call("GET", pupil + "/certificate", e.admin).second), "not_certified");
 }
 
-// Issue 16, finding 2: a server that stopped between a worker's exit and the chaining chains the
+// A server that stopped between a worker's exit and the chaining chains the
 // exam at its next start, but only if the record agrees with the worker's signed log. Here the
 // result was flipped meanwhile: refused (logged, counted, audited) and verify says "not chained";
 // put back, it is chained at the next start.

@@ -1,4 +1,4 @@
-// Under DDS Security a worker's identity confines it to its own cab (issue 16, finding 3): the
+// Under DDS Security a worker's identity confines it to its own cab: the
 // identity worker.cab2 cannot even write scores in cab1's worker partition, and what it writes in
 // its own partition about a cab1 session is refused by the server and counted; the session keeps
 // the mark its own worker logged. A real server, worker and cab, all with identities made by

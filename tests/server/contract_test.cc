@@ -1,4 +1,4 @@
-// server/openapi.yaml is the contract (issue 18, item 6): every route the server registers is
+// server/openapi.yaml is the contract: every route the server registers is
 // documented and every documented operation is registered (compared in-process, from the table
 // Api::mount keeps); on a real forklift-server every documented operation answers (never the
 // "no such endpoint" 404 nor a 405), and the server keeps the rules the document states: 405 with

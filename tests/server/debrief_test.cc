@@ -1,4 +1,4 @@
-// The debrief of a session (issue 18, item 3), over real HTTP with a real worker and cab: the
+// The debrief of a session, over real HTTP with a real worker and cab: the
 // replay re-simulated from the control log puts the truck where the worker drove it, the events
 // come in words and units, and the notes and the sign-off are kept, audited and closed.
 #include <gtest/gtest.h>

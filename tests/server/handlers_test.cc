@@ -386,7 +386,7 @@ TEST(Handlers, BytesThatAreNotUtf8InPathsQueriesAndHeadersAreNeverA500) {
     }
   }
   // Query numbers: whole ones only, within their documented range: refused beyond it, never
-  // clamped (issue 18, item 6).
+  // clamped.
   EXPECT_EQ(s.call("GET", "/api/pupils?limit=1x", admin).first, 400);
   EXPECT_EQ(s.call("GET", "/api/pupils?limit=99999999999999999999", admin).first, 400);
   EXPECT_EQ(s.call("GET", "/api/pupils?limit=1001", admin).first, 400);
@@ -466,7 +466,7 @@ TEST(Handlers, TrainingAidsReachTheSpawnedWorkerAndAnAbortIsSignalledAsSuch) {
   EXPECT_EQ(wait_for_file(s.dir + "/bin/worker.signal"), "USR1");
 }
 
-// Issue 16, findings 3, 5 and 9: the ingest believes a session's reports only from its worker,
+// The ingest believes a session's reports only from its worker,
 // refuses what is not UTF-8 or not finite one sample at a time, and counts every refusal. The
 // stand-in worker here vouches for this test's own DDS participant (it writes the test's GUID
 // where a worker writes its own), so the test can speak as the worker, and as anyone else.

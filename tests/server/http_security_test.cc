@@ -277,7 +277,7 @@ const std::string kLoginHead = "POST /api/login HTTP/1.1\r\nHost: 127.0.0.1\r\nC
 
 }  // namespace
 
-// The issue's attack: a chunked body of 300 MB to the one path open before login, written by a
+// The attack: a chunked body of 300 MB to the one path open before login, written by a
 // real client that sends it whole before it reads.
 TEST(HttpSecurity, A300MBChunkedLoginIsAnswered413WithoutTheServerKeepingIt) {
   Server s(free_port(), free_domain(), "sec-chunked");

@@ -1,4 +1,4 @@
-// The school's lists and its day over real HTTP (issue 18, items 1 and 4): pupils, sessions and
+// The school's lists and its day over real HTTP: pupils, sessions and
 // exams a page at a time with the total, filtered and sorted by the server, and as CSV exactly as
 // listed; groups with their instructor; cabs booked without double booking, and the day view.
 // Sessions and exams are written straight into the server's SQLite file (the store's public

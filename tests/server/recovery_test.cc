@@ -1,4 +1,4 @@
-// Losing nothing across a server restart (issue 16, findings 4 and 6): a real forklift-server
+// Losing nothing across a server restart: a real forklift-server
 // killed with SIGKILL while its workers run on, then started again on the same SQLite file and
 // log folder. A session that ended while no server listened is stored as its worker's log says;
 // a worker left by a session that was still "starting" is adopted (its cab stays busy); a worker

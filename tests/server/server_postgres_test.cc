@@ -1,4 +1,4 @@
-// forklift-server on a PostgreSQL database (--db postgresql://..., issue 20), over real HTTP with
+// forklift-server on a PostgreSQL database (--db postgresql://...), over real HTTP with
 // real workers and cabs: what the SQLite tests show of a session holds there too, and the
 // database outlives the server. The PostgreSQL server is the test's own (support/postgres.h).
 #include <gtest/gtest.h>

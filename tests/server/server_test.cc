@@ -298,7 +298,7 @@ TEST(Server, AnAbortedSessionEndsAsAbortedAndTheCabIsToldWhy) {
   EXPECT_EQ(worker_out["score"]["end_reason"], "aborted");
 }
 
-// Issue 17, item 2: only a session that ran its course has a mark. An aborted session and one
+// Only a session that ran its course has a mark. An aborted session and one
 // whose time ran out with its task undone keep the evaluator's score in the store (their workers
 // sent one), but the API gives them an outcome and no mark, leaves them out of the marks the
 // pupil's chart draws and out of the trend, lists them apart, and exports no mark for them.

@@ -240,7 +240,7 @@ TEST(Service, MenusScriptedCabDrivesInTheServersDomain) {
   EXPECT_EQ(s.call("GET", "/api/fleet", token).second["dds_domain"], s.domain);
 }
 
-// The session log (issue 18, item 5): a line for each thing that happens to a session, started to
+// The session log: a line for each thing that happens to a session, started to
 // scored, as JSON objects with --log-format json, and nothing from HTTP requests.
 TEST(Service, TheSessionLogFollowsASessionFromItsStartToItsMark) {
   const std::string dir = testing::TempDir() + "/service-session-log";

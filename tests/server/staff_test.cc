@@ -1,4 +1,4 @@
-// Staff administration over real HTTP (issue 18, item 2): an admin adds, lists, resets,
+// Staff administration over real HTTP: an admin adds, lists, resets,
 // deactivates and reactivates accounts, each action in the staff audit log; a deactivated account
 // cannot log in and its tokens are refused at once; no one but an admin reaches these endpoints.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// The generated client's test (issue 18, item 6): types generated from server/openapi.yaml by
+// The generated client's test: types generated from server/openapi.yaml by
 // openapi-typescript, client/client_test.ts compiled against them by tsc --strict (a call the
 // document does not describe fails here), then run with openapi-fetch against a real
 // forklift-server on the port forklift-test-alloc gives. Everything comes from tests/web's

@@ -1,4 +1,4 @@
-// The debrief in the browser (issue 18, item 3), against a real forklift-server, worker and cab:
+// The debrief in the browser, against a real forklift-server, worker and cab:
 // a pupil drives the yard with faults; the instructor opens the finished session, whose replay is
 // re-simulated from its control log; at three events the replay shows the truck where and when
 // the event happened; the events read in words and units; the plan zooms; a note and the

@@ -16,7 +16,7 @@
 // Both cabs drive their scenario's shipped clean drive (data/evaluation/scripts/), so both
 // sessions complete their task and get a mark; the exam takes about 255 s of real time.
 //
-// The marks are the worker's evaluator's: the server believes no other sender (issue 16).
+// The marks are the worker's evaluator's: the server believes no other sender.
 //
 // Any page error, console error, failed request or unexpected HTTP error fails the test, as does
 // any expected element that does not appear. Screenshots of each page go to --screenshots (default
@@ -114,7 +114,7 @@ try {
     check((await page.textContent('#top .who')).includes('admin'), 'the top bar names the login');
   });
 
-  // Staff administration (issue 18, item 2): the staff page, for admins only.
+  // Staff administration: the staff page, for admins only.
   await step('add an examiner on the staff page, reset their password, deactivate and reactivate them', async () => {
     await page.click('#top a[href="staff.html"]');
     await page.waitForSelector('#staff tbody tr');

@@ -1,4 +1,4 @@
-// The school's lists in a browser (issue 18, items 1 and 4), against a real forklift-server on
+// The school's lists in a browser, against a real forklift-server on
 // loopback with 600 pupils added through its API, and a day of sessions and an exam written
 // straight into its SQLite file (no truck is driven: that is web_e2e's work):
 //   the pupils page a page at a time with the total, paged, sorted, searched by email, the CSV of

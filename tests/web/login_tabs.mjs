@@ -1,4 +1,4 @@
-// Logging in once per browser (issue 18, item 7), in Debian's headless Chromium (playwright-core)
+// Logging in once per browser, in Debian's headless Chromium (playwright-core)
 // against a real forklift-server on the port forklift-test-alloc gives:
 //
 //   log in on one page -> a second page of the same browser is logged in -> log out on one: the

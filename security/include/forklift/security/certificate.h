@@ -1,4 +1,4 @@
-// The signature on a certificate of training and evaluation (issue 17, item 4). The server signs
+// The signature on a certificate of training and evaluation. The server signs
 // the certificate's record, as it stores it, with its key; anyone holding the school CA's
 // certificate (and its CRL) can check that the record is the one the school's server signed.
 //

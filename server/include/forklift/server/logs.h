@@ -26,7 +26,7 @@ void start_server_log(LogFormat format);
 // request's first byte to its answer's last. Throws, naming the file, if it cannot be opened.
 void start_access_log(httplib::Server& svr, const std::string& path, LogFormat format);
 
-// The session log (issue 18, item 5): one line per thing that happens to a session, appended to
+// The session log: one line per thing that happens to a session, appended to
 // `path` ("-": stdout): started (pupil, cab, scenario, mode, by), the worker's states (running,
 // ended, failed, aborted, with the reason), scored (mark, passed). Text lines read
 // "<UTC time> <session> <event> key=value ..."; JSON lines {"time", "session", "event", ...}.
