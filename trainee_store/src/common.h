@@ -149,7 +149,7 @@ inline AuditRecord state_audit(const Session& before, const std::string& state, 
 }
 
 // The WHERE clause of a list (find_pupils and the like) as its filters add up: each condition in
-// the backend's dialect with `?` for its values, bound in order. PostgreSQL numbers them ($n).
+// the backend's dialect with `?` for its values, bound in order.
 class Conditions {
  public:
   using Value = std::variant<int64_t, std::string>;
@@ -170,18 +170,6 @@ class Conditions {
   std::string sql_;
   std::vector<Value> values_;
 };
-
-// `sql` with each `?` as $1, $2, ... (PostgreSQL's parameters); none of the store's statements
-// has a `?` in a literal.
-inline std::string numbered_parameters(const std::string& sql) {
-  std::string out;
-  int n = 0;
-  for (char c : sql) {
-    if (c == '?') out += "$" + std::to_string(++n);
-    else out += c;
-  }
-  return out;
-}
 
 // The ORDER BY terms of the sort key a list was asked for, looked up in its allow-list of (key,
 // expression), ties broken by `tie_breaker`; else kInvalid naming the keys it has.
