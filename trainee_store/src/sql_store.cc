@@ -10,6 +10,7 @@
 #include "forklift/store/store.h"
 
 #include "common.h"
+#include "rules.h"
 #include "sql_driver.h"
 
 #include <iterator>
@@ -78,8 +79,7 @@ class SqlStore final : public Store {
 
   int64_t create_user(const std::string& username, const std::string& password_hash, Role role, int64_t school_id,
                       std::optional<int64_t> pupil_id, const std::string& full_name) override {
-    require(canonical_username(username) == username, StoreError::kInvalid, __func__,
-            "username '" + username + "' is not of lower-case letters, digits, '.', '_' and '-' (1 to 64)");
+    check_username(__func__, username);
     Transaction tx(d_, __func__, TxKind::kStatement);
     Query q(d_, __func__, dialect_.insert_user);
     q.bind(username).bind(password_hash).bind(std::string(role_name(role))).bind(school_id).bind(pupil_id).bind(full_name);
@@ -157,7 +157,7 @@ class SqlStore final : public Store {
     if (!active && u->role == Role::kAdmin) {
       Query q(d_, __func__, "SELECT COUNT(*) FROM users WHERE school_id = ?1 AND role = 'admin' AND active = TRUE AND id <> ?2");
       q.bind(u->school_id).bind(id).step();
-      require(q.int64(0) > 0, StoreError::kConflict, __func__, "user " + std::to_string(id) + " is the school's last active admin");
+      check_deactivation(__func__, *u, q.int64(0));
     }
     Query(d_, __func__, "UPDATE users SET active = ?1, login_generation = login_generation + ?2 WHERE id = ?3")
         .bind(active).bind(active ? 0 : 1).bind(id).run();
@@ -560,7 +560,7 @@ class SqlStore final : public Store {
       q.bind(session.id).bind(kind).bind(count).run();
     }
     Query(d_, __func__, "UPDATE sessions SET mark = ?1, passed = ?2 WHERE id = ?3").bind(s.mark).bind(s.passed).bind(session.id).run();
-    if (session.mode == "exam") insert_exam(__func__, practical_exam(session, s, now), session.id);
+    if (makes_practical_record(session)) insert_exam(__func__, practical_exam(session, s, now), session.id);
     tx.commit();
     return true;
   }
@@ -720,8 +720,7 @@ class SqlStore final : public Store {
 
   int64_t add_licence(int64_t pupil_id, const std::string& issued_at, const std::string& issued_by) override {
     require(!issued_by.empty(), StoreError::kInvalid, __func__, "empty issued_by");
-    // OSHA 1910.178(l)(4)(iii): an operator's performance is evaluated at least every three years.
-    const std::string due = add_years_iso8601(issued_at, 3);
+    const std::string due = reevaluation_due(issued_at);
     Query q(d_, __func__,
             "INSERT INTO licences(pupil_id, issued_at, reevaluation_due, issued_by) VALUES (?1, ?2, ?3, ?4) RETURNING id");
     return inserted(__func__, q.bind(pupil_id).bind(issued_at).bind(due).bind(issued_by));
