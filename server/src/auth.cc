@@ -70,7 +70,7 @@ std::string new_password_hash(const nlohmann::json& body) {
 
 Tokens::Tokens(double ttl_s, double remember_expired_s) : ttl_(ttl_s), remember_expired_ms_(ms_of(remember_expired_s)) {}
 
-std::string Tokens::issue(store::Store& db, const Principal& p) {
+std::string Tokens::issue(store::LoginStore& db, const Principal& p) {
   unsigned char raw[32];
   randombytes_buf(raw, sizeof raw);
   char hex[65];
@@ -87,7 +87,7 @@ std::string Tokens::issue(store::Store& db, const Principal& p) {
   return hex;
 }
 
-Tokens::Check Tokens::check(store::Store& db, const std::string& token) {
+Tokens::Check Tokens::check(store::LoginStore& db, const std::string& token) {
   // Not hex of the right length: never issued, and not worth a look-up.
   if (token.size() != 64 || token.find_first_not_of("0123456789abcdef") != std::string::npos) return {};
   const auto t = db.find_login_token(token_hash(token));
@@ -97,7 +97,7 @@ Tokens::Check Tokens::check(store::Store& db, const std::string& token) {
   return {Principal{u.id, u.username, u.role, u.school_id, u.pupil_id, t->expires_at_ms, t->login_generation}, false, u};
 }
 
-void Tokens::revoke(store::Store& db, const std::string& token) { db.delete_login_token(token_hash(token)); }
+void Tokens::revoke(store::LoginStore& db, const std::string& token) { db.delete_login_token(token_hash(token)); }
 
 // ---------------------------------------------------------------- LoginThrottle
 

@@ -61,9 +61,9 @@ class Tokens {
   // `remember_expired_s`: how long an expired token is kept to tell "expired" from "unknown" in
   // a refusal; after that it reads as unknown.
   explicit Tokens(double ttl_s, double remember_expired_s = 24 * 3600);
-  std::string issue(store::Store& db, const Principal& p);
-  Check check(store::Store& db, const std::string& token);
-  void revoke(store::Store& db, const std::string& token);  // a revoked token reads as unknown, not expired
+  std::string issue(store::LoginStore& db, const Principal& p);
+  Check check(store::LoginStore& db, const std::string& token);
+  void revoke(store::LoginStore& db, const std::string& token);  // a revoked token reads as unknown, not expired
   double ttl() const { return ttl_; }
 
  private:

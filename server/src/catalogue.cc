@@ -72,7 +72,7 @@ json exam_course(const json& scenario) {
                                                                                                        : json(nullptr);
 }
 
-json scenario_as_run(store::Store& db, const std::string& data_dir, const store::Session& s) {
+json scenario_as_run(store::SessionStore& db, const std::string& data_dir, const store::Session& s) {
   if (const auto kept = db.get_session_log(s.public_id, "scenario")) {
     json j = json::parse(*kept, nullptr, false);
     if (j.is_object()) return j;

@@ -35,7 +35,7 @@ bool is_exam_course(const nlohmann::json& scenario);
 nlohmann::json exam_course(const nlohmann::json& scenario);
 // The scenario a session ran, from the store alone: the copy kept with it, else the file of that
 // name under `data_dir` (for sessions from before copies were kept); {} if neither is readable.
-nlohmann::json scenario_as_run(store::Store& db, const std::string& data_dir, const store::Session& s);
+nlohmann::json scenario_as_run(store::SessionStore& db, const std::string& data_dir, const store::Session& s);
 
 // The scenario a session ran: the copy kept with it (with the truck and load chosen), else, for
 // sessions from before copies were kept, the scenario file of that name.

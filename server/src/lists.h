@@ -79,14 +79,14 @@ auto listed(F&& find) {
 // The staff a list names, each read once per request: by full name, else username.
 class People {
  public:
-  explicit People(store::Store& db) : db_(db) {}
+  explicit People(store::AccountStore& db) : db_(db) {}
   std::string name(std::optional<int64_t> user_id);
   // {"id", "username", "name"} as person_json, or null.
   nlohmann::json json(std::optional<int64_t> user_id);
 
  private:
   const std::optional<store::User>& user(int64_t id);
-  store::Store& db_;
+  store::AccountStore& db_;
   std::map<int64_t, std::optional<store::User>> seen_;
 };
 

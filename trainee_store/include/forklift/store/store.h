@@ -1,9 +1,11 @@
 // The trainee store: pupils, users and roles, cabs, sessions, events, scores, theory and practical
 // exam records, licence records, session logs, theory papers, truck paths and the audit log of
-// changes to pupils' records. One narrow interface, two backends with the same schema
-// versions (migrations applied at open) and the same behaviour: SQLite, the embedded default (one
-// file, WAL, foreign keys), and PostgreSQL (libpq), for several servers sharing one database.
-// Every SQL statement lives in its backend's source (sqlite_store.cc, postgres_store.cc).
+// changes to pupils' records. One small interface per aggregate (accounts, logins, pupils, cabs,
+// sessions, exams, licences, theory, the exam chain, audit), which Store brings together; two
+// backends with the same schema versions (migrations applied at open) and the same behaviour:
+// SQLite, the embedded default (one file, WAL, foreign keys), and PostgreSQL (libpq), for several
+// servers sharing one database. Every SQL statement is written once (trainee_store/src/sql_store.cc);
+// the backends differ in their drivers and in a dialect of a few fragments.
 //
 // Contract: every call is atomic. Bad arguments (unknown ids, empty names, a mode that is not
 // "training" or "exam") throw StoreError with kind kInvalid or kNotFound; a duplicate unique value
@@ -450,32 +452,10 @@ struct PupilHistory {
   std::vector<ExamCorrection> corrections;  // of the pupil's exams, oldest first
 };
 
-class Store {
+// Schools and their accounts: staff and pupils' logins.
+class AccountStore {
  public:
-  // Opens the store at `location`: a PostgreSQL connection URI ("postgresql://" or "postgres://",
-  // is_postgresql_location) opens PostgreSQL, anything else is an SQLite file's path.
-  static std::unique_ptr<Store> open(const std::string& location);
-  // Opens (creating if need be) an SQLite database and applies pending migrations.
-  static std::unique_ptr<Store> open_sqlite(const std::string& path);
-  // Connects to a PostgreSQL database (a libpq connection URI or "key=value" string; the
-  // password best comes from ~/.pgpass or PGPASSWORD, not the URI) and applies pending
-  // migrations, one server at a time. The database must exist; the tables are made in it.
-  // kIo if it cannot connect, naming the location without its password.
-  static std::unique_ptr<Store> open_postgresql(const std::string& conninfo);
-  virtual ~Store() = default;
-
-  virtual int schema_version() = 0;
-
-  // Why the store could not write just now, as StorageUnavailable::reason() words it, or nullopt
-  // when it sees nothing wrong; writes nothing. SQLite looks at the database's file system (read
-  // only, or out of room); PostgreSQL asks its server (reachable, and not read-only). A full disk
-  // on the PostgreSQL server shows only when a write fails.
-  virtual std::optional<std::string> storage_problem() = 0;
-
-  // Runs `writes` (calls on this Store) as one transaction: all of them or, if it throws, none
-  // (the exception propagates). For imports and bulk loads: one commit instead of one per row.
-  // Batches do not nest (kInvalid).
-  virtual void batch(const std::function<void()>& writes) = 0;
+  virtual ~AccountStore() = default;
 
   virtual int64_t create_school(const std::string& name) = 0;
   // `username` must be its own canonical_username() (else kInvalid); kConflict if a user's name
@@ -500,171 +480,13 @@ class Store {
   // changed. kNotFound for an unknown user; kConflict for the last active admin of its school
   // (checked in the same transaction, so two admins deactivating each other leave one).
   virtual bool set_user_active(int64_t id, bool active) = 0;
+};
 
-  virtual int64_t create_pupil(int64_t school_id, const std::string& name, const std::string& email) = 0;
-  virtual std::optional<Pupil> get_pupil(int64_t id) = 0;
-  // Replaces a pupil's name and email; kNotFound for an unknown pupil, kInvalid for an empty name.
-  virtual void update_pupil(int64_t id, const std::string& name, const std::string& email) = 0;
-  // Pupils of a school whose name contains `search` (case-insensitive; empty: all), by name.
-  virtual std::vector<Pupil> list_pupils(int64_t school_id, const std::string& search, int limit, int offset) = 0;
-  // The lists of issue 18 (PupilFilter and the like): kInvalid for an unknown sort key, outcome or
-  // result, or a negative limit or offset.
-  virtual PupilPage find_pupils(const PupilFilter& f, int limit, int offset) = 0;
-  virtual SessionPage find_sessions(const SessionFilter& f, int limit, int offset) = 0;
-  virtual ExamPage find_exams(const ExamFilter& f, int limit, int offset) = 0;
-
-  // Groups: kInvalid for an empty name, kConflict for a name the school has (capitals or not),
-  // kNotFound for an unknown school, group or instructor.
-  virtual int64_t create_group(int64_t school_id, const std::string& name, std::optional<int64_t> instructor_id) = 0;
-  virtual std::optional<Group> get_group(int64_t id) = 0;
-  virtual std::vector<Group> list_groups(int64_t school_id) = 0;  // by name
-  virtual void update_group(int64_t id, const std::string& name, std::optional<int64_t> instructor_id) = 0;
-  // Moves a pupil into a group (of the pupil's school, else kInvalid), or out of any (nullopt).
-  virtual void set_pupil_group(int64_t pupil_id, std::optional<int64_t> group_id) = 0;
-
-  // Bookings: kConflict when the cab is booked at an overlapping time, kInvalid for a booking that
-  // ends before it starts or an unknown mode, kNotFound for an unknown pupil or instructor.
-  virtual int64_t create_booking(const Booking& b) = 0;
-  virtual std::optional<Booking> get_booking(int64_t id) = 0;
-  // A school's bookings that overlap [from, to), by cab and start.
-  virtual std::vector<Booking> list_bookings(int64_t school_id, const std::string& from, const std::string& to) = 0;
-  // Records the session started from a booking, once (kConflict if it has one).
-  virtual void set_booking_session(int64_t booking_id, const std::string& session_public_id) = 0;
-  virtual void delete_booking(int64_t booking_id) = 0;  // kNotFound; kConflict once a session started from it
-
-  // A cab announced itself (inserted if new, last_seen_at set to now).
-  virtual void cab_seen(const std::string& cab_id, int64_t school_id, const std::string& now) = 0;
-  virtual std::vector<Cab> list_cabs(int64_t school_id) = 0;
-
-  // New session in state "starting"; public_id assigned by the store ("s-" + zero-padded id).
-  // A cab has at most one open session (not ended, failed or aborted): kConflict if it has one,
-  // decided by a unique index, so that of two servers starting a session on one cab at once one
-  // fails. (Schema 11 failed the older of any open sessions that shared a cab before it.)
-  virtual Session create_session(int64_t pupil_id, const std::string& cab_id, const std::string& scenario,
-                                 const std::string& mode, std::optional<int64_t> examiner_id, const std::string& now,
-                                 std::optional<int64_t> started_by = std::nullopt) = 0;
-  virtual std::optional<Session> get_session(const std::string& public_id) = 0;
-  virtual std::vector<Session> list_sessions_for_pupil(int64_t pupil_id) = 0;
-  // Sessions not yet ended, failed or aborted (a restarted server resumes supervising these).
-  virtual std::vector<Session> open_sessions() = 0;
-  // Moves a session to `state`. A session that is ended, failed or aborted never changes again:
-  // the call then returns false and changes nothing. Sets ended_at for those three states.
-  virtual bool set_session_state(const std::string& public_id, const std::string& state, const std::string& reason,
-                                 const std::string& now) = 0;
-
-  // Exactly once: a second event with the same (session, seq) is ignored and returns false.
-  virtual bool add_event(const EventRecord& e) = 0;
-  virtual std::vector<EventRecord> list_events(const std::string& session_public_id) = 0;
-  // Exactly once per session: the first score is kept, later ones return false. Also sets the
-  // session's mark and passed, and, for an exam session, adds its practical exam record. Written
-  // with synchronous=FULL (an exam result must survive a power cut).
-  virtual bool set_score(const ScoreRecord& s, const std::string& now) = 0;
-  virtual std::optional<ScoreRecord> get_score(const std::string& session_public_id) = 0;
-
-  // Exam records are written once and kept as written: the schema refuses UPDATE and DELETE on
-  // them, on an exam session once it is over (but for its first score), on its scores, events and
-  // logs, and on a finished theory paper; a correction is a new record (add_exam_correction).
-  virtual int64_t add_exam(const ExamRecord& r) = 0;  // id ignored; synchronous=FULL
-  virtual std::optional<ExamRecord> get_exam(int64_t id) = 0;  // nullopt if no such exam
-  // Adds a correction (id ignored); kNotFound for an unknown exam or user, kInvalid for an empty
-  // reason or a correction that is not a JSON object. synchronous=FULL. Returns its id.
-  virtual int64_t add_exam_correction(const ExamCorrection& c) = 0;
-  virtual std::vector<ExamCorrection> list_exam_corrections(int64_t exam_id) = 0;  // oldest first
-
-  // A theory paper handed out (id ignored; exam_id, finished_at, outcome and result must be empty;
-  // kind "exam" or "practice"; kNotFound for an unknown pupil or user). Returns its id.
-  virtual int64_t create_theory_attempt(const TheoryAttempt& a) = 0;
-  virtual std::optional<TheoryAttempt> get_theory_attempt(int64_t id) = 0;
-  // Finishes an exam paper exactly once: adds `r` (kind "theory", the attempt's pupil) as its exam
-  // record and links it, with `outcome` ("marked" or "timed_out") and finished_at = r.taken_at, in
-  // one transaction written with synchronous=FULL. kNotFound for an unknown attempt, kInvalid if
-  // the attempt is a practice paper, `r` is not a theory record of its pupil or `outcome` is
-  // neither, kConflict if it was finished already. Returns the exam record's id.
-  virtual int64_t finish_theory_attempt(int64_t attempt_id, const ExamRecord& r,
-                                        const std::string& outcome = "marked") = 0;
-  // Finishes a practice paper exactly once, keeping its marking (`result`, JSON text). kNotFound
-  // for an unknown attempt, kInvalid for an exam paper or an unknown outcome, kConflict if it was
-  // finished already.
-  virtual void finish_practice_attempt(int64_t attempt_id, const std::string& outcome, const std::string& result,
-                                       const std::string& finished_at) = 0;
-  // A pupil's papers, exams and practice alike, oldest first.
-  virtual std::vector<TheoryAttempt> list_theory_attempts(int64_t pupil_id) = 0;
-  // Every paper not yet finished that has a deadline, oldest first (the server ends those whose
-  // time is up).
-  virtual std::vector<TheoryAttempt> open_theory_attempts() = 0;
-  // Adds an unlock (id ignored); kNotFound for an unknown pupil or user. Returns its id.
-  virtual int64_t add_theory_unlock(const TheoryUnlock& u) = 0;
-  virtual std::vector<TheoryUnlock> list_theory_unlocks(int64_t pupil_id) = 0;  // oldest first
-
-  // Appends points to a session's truck path; a point at a sim time already stored is ignored
-  // (a restarted ingest may see the same state twice). kNotFound for an unknown session.
-  virtual void add_path_points(const std::string& session_public_id, const std::vector<PathPoint>& points) = 0;
-  // The session's path in sim-time order (empty if none was stored); kNotFound for an unknown session.
-  virtual std::vector<PathPoint> list_path(const std::string& session_public_id) = 0;
-  virtual int64_t add_licence(int64_t pupil_id, const std::string& issued_at, const std::string& issued_by) = 0;
-
-  // Certificates, append-only like their revocations. add_certificate: id ignored; kConflict for
-  // a number taken or a licence that has one; kNotFound for an unknown pupil, licence or user;
-  // kInvalid for a licence of another pupil or an empty number. synchronous=FULL.
-  virtual int64_t add_certificate(const CertificateRecord& c) = 0;
-  virtual std::optional<CertificateRecord> find_certificate(const std::string& number) = 0;
-  virtual std::vector<CertificateRecord> list_certificates(int64_t pupil_id) = 0;  // oldest first
-  // kConflict if the certificate is revoked already; kNotFound for an unknown one or user;
-  // kInvalid for an empty reason. Returns its id.
-  virtual int64_t revoke_certificate(const CertificateRevocation& r) = 0;
-  virtual std::optional<CertificateRevocation> certificate_revocation(int64_t certificate_id) = 0;
-
-  // The session's control log and session log, stored as text; replaced by a later put, but for
-  // an exam that is over, whose logs are kept as they are (the schema refuses a changed body; the
-  // server's note "chain_refused" excepted).
-  virtual void put_session_log(const std::string& session_public_id, const std::string& name, const std::string& text) = 0;
-  virtual std::optional<std::string> get_session_log(const std::string& session_public_id, const std::string& name) = 0;
-
-  // The debrief's notes and sign-off, append-only (the schema refuses UPDATE and DELETE).
-  // add_session_note: id ignored; kNotFound for an unknown session or user, kInvalid for empty
-  // text, kConflict once the session is signed off. Returns its id.
-  virtual int64_t add_session_note(const SessionNote& n) = 0;
-  virtual std::vector<SessionNote> list_session_notes(const std::string& session_public_id) = 0;  // oldest first
-  // Signs a session off exactly once: false (and nothing written) if it was signed off already.
-  // kNotFound for an unknown session or user.
-  virtual bool sign_off_session(const SessionSignOff& s) = 0;
-  virtual std::optional<SessionSignOff> get_session_sign_off(const std::string& session_public_id) = 0;
-
-  // The exam hash chain, append-only (the schema refuses UPDATE and DELETE). kConflict unless
-  // seq follows the last entry's and the session has none yet; kNotFound for an unknown session.
-  virtual void append_chain_entry(const ChainEntry& e) = 0;
-  virtual std::optional<ChainEntry> last_chain_entry() = 0;
-  virtual std::optional<ChainEntry> get_chain_entry(const std::string& session_public_id) = 0;
-  virtual std::vector<ChainEntry> list_chain() = 0;  // in order
-  // How many entries the chain holds: the last entry's seq unless rows were deleted around the
-  // schema's triggers (a gap).
-  virtual int64_t count_chain_entries() = 0;
-  // Exam sessions with a signed log ("signature" session log) but no chain entry yet, oldest
-  // first: a server that stopped between a worker's exit and the chaining picks them up again.
-  virtual std::vector<std::string> unchained_signed_exams() = 0;
-
-  // The audit log, append-only: the schema itself refuses UPDATE and DELETE on it. Add a row in
-  // the same batch() as the change it records, so that both commit or neither. kNotFound for an
-  // unknown pupil or actor user; kInvalid for an empty actor name or action, or details that are
-  // not a JSON object. Returns the row's id.
-  virtual int64_t add_audit(const AuditRecord& r) = 0;
-  // Rows in `scope`, newest first.
-  virtual std::vector<AuditRecord> list_audit(const AuditScope& scope, int limit, int offset) = 0;
-
-  // The staff audit log, append-only as the audit log is, and added to the same way (in the batch
-  // of the change). kNotFound for an unknown account or actor user; kInvalid as add_audit.
-  virtual int64_t add_staff_audit(const StaffAuditRecord& r) = 0;
-  // Rows about the accounts of `school_id` (only `user_id`'s when set), newest first.
-  virtual std::vector<StaffAuditRecord> list_staff_audit(int64_t school_id, std::optional<int64_t> user_id, int limit,
-                                                         int offset) = 0;
-
-  // set_score and set_session_state with their audit row ("session_scored"; "session_<state>",
-  // with the state before and after) in one transaction, for writers outside the HTTP API (the
-  // DDS ingest: actor {nullopt, "worker"}). The row is written only when the call changes
-  // something; the return value is the plain call's.
-  virtual bool set_score_audited(const ScoreRecord& s, const std::string& now, const Actor& actor) = 0;
-  virtual bool set_session_state_audited(const std::string& public_id, const std::string& state,
-                                         const std::string& reason, const std::string& now, const Actor& actor) = 0;
+// What keeps a login on every server sharing the store: its tokens, and the attempts that limit
+// failed ones.
+class LoginStore {
+ public:
+  virtual ~LoginStore() = default;
 
   // Logins' tokens, shared by every server on the store. add_login_token: kInvalid for a hash that
   // is not 64 lower-case hex digits, kNotFound for an unknown user, kConflict for a hash stored
@@ -692,9 +514,268 @@ class Store {
   // Deletes the attempts made before `before_ms`, ended or not (a server that stopped mid-check
   // leaves its attempt pending), and the lockouts that ended before it.
   virtual void forget_attempts(int64_t before_ms) = 0;
+};
+
+// Pupils, their groups (courses) and their whole history.
+class PupilStore {
+ public:
+  virtual ~PupilStore() = default;
+
+  virtual int64_t create_pupil(int64_t school_id, const std::string& name, const std::string& email) = 0;
+  virtual std::optional<Pupil> get_pupil(int64_t id) = 0;
+  // Replaces a pupil's name and email; kNotFound for an unknown pupil, kInvalid for an empty name.
+  virtual void update_pupil(int64_t id, const std::string& name, const std::string& email) = 0;
+  // Pupils of a school whose name contains `search` (case-insensitive; empty: all), by name.
+  virtual std::vector<Pupil> list_pupils(int64_t school_id, const std::string& search, int limit, int offset) = 0;
+  // The lists a school works with (PupilFilter and the like), filtered, sorted and paged: kInvalid
+  // for an unknown sort key, outcome or result, or a negative limit or offset.
+  virtual PupilPage find_pupils(const PupilFilter& f, int limit, int offset) = 0;
+
+  // Groups: kInvalid for an empty name, kConflict for a name the school has (capitals or not),
+  // kNotFound for an unknown school, group or instructor.
+  virtual int64_t create_group(int64_t school_id, const std::string& name, std::optional<int64_t> instructor_id) = 0;
+  virtual std::optional<Group> get_group(int64_t id) = 0;
+  virtual std::vector<Group> list_groups(int64_t school_id) = 0;  // by name
+  virtual void update_group(int64_t id, const std::string& name, std::optional<int64_t> instructor_id) = 0;
+  // Moves a pupil into a group (of the pupil's school, else kInvalid), or out of any (nullopt).
+  virtual void set_pupil_group(int64_t pupil_id, std::optional<int64_t> group_id) = 0;
 
   // PupilHistory for `pupil_id`, with overdue computed against `now`; nullopt if no such pupil.
   virtual std::optional<PupilHistory> history(int64_t pupil_id, const std::string& now) = 0;
+};
+
+// Cabs, as they announce themselves, and their bookings.
+class CabStore {
+ public:
+  virtual ~CabStore() = default;
+
+  // A cab announced itself (inserted if new, last_seen_at set to now).
+  virtual void cab_seen(const std::string& cab_id, int64_t school_id, const std::string& now) = 0;
+  virtual std::vector<Cab> list_cabs(int64_t school_id) = 0;
+
+  // Bookings: kConflict when the cab is booked at an overlapping time, kInvalid for a booking that
+  // ends before it starts or an unknown mode, kNotFound for an unknown pupil or instructor.
+  virtual int64_t create_booking(const Booking& b) = 0;
+  virtual std::optional<Booking> get_booking(int64_t id) = 0;
+  // A school's bookings that overlap [from, to), by cab and start.
+  virtual std::vector<Booking> list_bookings(int64_t school_id, const std::string& from, const std::string& to) = 0;
+  // Records the session started from a booking, once (kConflict if it has one).
+  virtual void set_booking_session(int64_t booking_id, const std::string& session_public_id) = 0;
+  virtual void delete_booking(int64_t booking_id) = 0;  // kNotFound; kConflict once a session started from it
+};
+
+// Sessions: their life, events, score, truck path and logs, and their debrief.
+class SessionStore {
+ public:
+  virtual ~SessionStore() = default;
+
+  // New session in state "starting"; public_id assigned by the store ("s-" + zero-padded id).
+  // A cab has at most one open session (not ended, failed or aborted): kConflict if it has one,
+  // decided by a unique index, so that of two servers starting a session on one cab at once one
+  // fails. (Schema 11 failed the older of any open sessions that shared a cab before it.)
+  virtual Session create_session(int64_t pupil_id, const std::string& cab_id, const std::string& scenario,
+                                 const std::string& mode, std::optional<int64_t> examiner_id, const std::string& now,
+                                 std::optional<int64_t> started_by = std::nullopt) = 0;
+  virtual std::optional<Session> get_session(const std::string& public_id) = 0;
+  virtual std::vector<Session> list_sessions_for_pupil(int64_t pupil_id) = 0;
+  // Sessions not yet ended, failed or aborted (a restarted server resumes supervising these).
+  virtual std::vector<Session> open_sessions() = 0;
+  // Moves a session to `state`. A session that is ended, failed or aborted never changes again:
+  // the call then returns false and changes nothing. Sets ended_at for those three states.
+  virtual bool set_session_state(const std::string& public_id, const std::string& state, const std::string& reason,
+                                 const std::string& now) = 0;
+
+  // Exactly once: a second event with the same (session, seq) is ignored and returns false.
+  virtual bool add_event(const EventRecord& e) = 0;
+  virtual std::vector<EventRecord> list_events(const std::string& session_public_id) = 0;
+  // Exactly once per session: the first score is kept, later ones return false. Also sets the
+  // session's mark and passed, and, for an exam session, adds its practical exam record. Written
+  // with synchronous=FULL (an exam result must survive a power cut).
+  virtual bool set_score(const ScoreRecord& s, const std::string& now) = 0;
+  virtual std::optional<ScoreRecord> get_score(const std::string& session_public_id) = 0;
+
+  // As find_pupils, of sessions.
+  virtual SessionPage find_sessions(const SessionFilter& f, int limit, int offset) = 0;
+
+  // Appends points to a session's truck path; a point at a sim time already stored is ignored
+  // (a restarted ingest may see the same state twice). kNotFound for an unknown session.
+  virtual void add_path_points(const std::string& session_public_id, const std::vector<PathPoint>& points) = 0;
+  // The session's path in sim-time order (empty if none was stored); kNotFound for an unknown session.
+  virtual std::vector<PathPoint> list_path(const std::string& session_public_id) = 0;
+
+  // The session's control log and session log, stored as text; replaced by a later put, but for
+  // an exam that is over, whose logs are kept as they are (the schema refuses a changed body; the
+  // server's note "chain_refused" excepted).
+  virtual void put_session_log(const std::string& session_public_id, const std::string& name, const std::string& text) = 0;
+  virtual std::optional<std::string> get_session_log(const std::string& session_public_id, const std::string& name) = 0;
+
+  // The debrief's notes and sign-off, append-only (the schema refuses UPDATE and DELETE).
+  // add_session_note: id ignored; kNotFound for an unknown session or user, kInvalid for empty
+  // text, kConflict once the session is signed off. Returns its id.
+  virtual int64_t add_session_note(const SessionNote& n) = 0;
+  virtual std::vector<SessionNote> list_session_notes(const std::string& session_public_id) = 0;  // oldest first
+  // Signs a session off exactly once: false (and nothing written) if it was signed off already.
+  // kNotFound for an unknown session or user.
+  virtual bool sign_off_session(const SessionSignOff& s) = 0;
+  virtual std::optional<SessionSignOff> get_session_sign_off(const std::string& session_public_id) = 0;
+
+  // set_score and set_session_state with their audit row ("session_scored"; "session_<state>",
+  // with the state before and after) in one transaction, for writers outside the HTTP API (the
+  // DDS ingest: actor {nullopt, "worker"}). The row is written only when the call changes
+  // something; the return value is the plain call's.
+  virtual bool set_score_audited(const ScoreRecord& s, const std::string& now, const Actor& actor) = 0;
+  virtual bool set_session_state_audited(const std::string& public_id, const std::string& state,
+                                         const std::string& reason, const std::string& now, const Actor& actor) = 0;
+};
+
+// Exam records, kept as written, and their corrections.
+class ExamStore {
+ public:
+  virtual ~ExamStore() = default;
+
+  // Exam records are written once and kept as written: the schema refuses UPDATE and DELETE on
+  // them, on an exam session once it is over (but for its first score), on its scores, events and
+  // logs, and on a finished theory paper; a correction is a new record (add_exam_correction).
+  virtual int64_t add_exam(const ExamRecord& r) = 0;  // id ignored; synchronous=FULL
+  virtual std::optional<ExamRecord> get_exam(int64_t id) = 0;  // nullopt if no such exam
+  // Adds a correction (id ignored); kNotFound for an unknown exam or user, kInvalid for an empty
+  // reason or a correction that is not a JSON object. synchronous=FULL. Returns its id.
+  virtual int64_t add_exam_correction(const ExamCorrection& c) = 0;
+  virtual std::vector<ExamCorrection> list_exam_corrections(int64_t exam_id) = 0;  // oldest first
+
+  // As find_pupils, of exam records.
+  virtual ExamPage find_exams(const ExamFilter& f, int limit, int offset) = 0;
+};
+
+// Licences and the certificates issued with them.
+class LicenceStore {
+ public:
+  virtual ~LicenceStore() = default;
+
+  // A licence issued to a pupil, due its re-evaluation three years on (OSHA 1910.178(l)(4)).
+  virtual int64_t add_licence(int64_t pupil_id, const std::string& issued_at, const std::string& issued_by) = 0;
+
+  // Certificates, append-only like their revocations. add_certificate: id ignored; kConflict for
+  // a number taken or a licence that has one; kNotFound for an unknown pupil, licence or user;
+  // kInvalid for a licence of another pupil or an empty number. synchronous=FULL.
+  virtual int64_t add_certificate(const CertificateRecord& c) = 0;
+  virtual std::optional<CertificateRecord> find_certificate(const std::string& number) = 0;
+  virtual std::vector<CertificateRecord> list_certificates(int64_t pupil_id) = 0;  // oldest first
+  // kConflict if the certificate is revoked already; kNotFound for an unknown one or user;
+  // kInvalid for an empty reason. Returns its id.
+  virtual int64_t revoke_certificate(const CertificateRevocation& r) = 0;
+  virtual std::optional<CertificateRevocation> certificate_revocation(int64_t certificate_id) = 0;
+};
+
+// Theory papers handed out, finished once, and instructors' unlocks of further attempts.
+class TheoryStore {
+ public:
+  virtual ~TheoryStore() = default;
+
+  // A theory paper handed out (id ignored; exam_id, finished_at, outcome and result must be empty;
+  // kind "exam" or "practice"; kNotFound for an unknown pupil or user). Returns its id.
+  virtual int64_t create_theory_attempt(const TheoryAttempt& a) = 0;
+  virtual std::optional<TheoryAttempt> get_theory_attempt(int64_t id) = 0;
+  // Finishes an exam paper exactly once: adds `r` (kind "theory", the attempt's pupil) as its exam
+  // record and links it, with `outcome` ("marked" or "timed_out") and finished_at = r.taken_at, in
+  // one transaction written with synchronous=FULL. kNotFound for an unknown attempt, kInvalid if
+  // the attempt is a practice paper, `r` is not a theory record of its pupil or `outcome` is
+  // neither, kConflict if it was finished already. Returns the exam record's id.
+  virtual int64_t finish_theory_attempt(int64_t attempt_id, const ExamRecord& r,
+                                        const std::string& outcome = "marked") = 0;
+  // Finishes a practice paper exactly once, keeping its marking (`result`, JSON text). kNotFound
+  // for an unknown attempt, kInvalid for an exam paper or an unknown outcome, kConflict if it was
+  // finished already.
+  virtual void finish_practice_attempt(int64_t attempt_id, const std::string& outcome, const std::string& result,
+                                       const std::string& finished_at) = 0;
+  // A pupil's papers, exams and practice alike, oldest first.
+  virtual std::vector<TheoryAttempt> list_theory_attempts(int64_t pupil_id) = 0;
+  // Every paper not yet finished that has a deadline, oldest first (the server ends those whose
+  // time is up).
+  virtual std::vector<TheoryAttempt> open_theory_attempts() = 0;
+  // Adds an unlock (id ignored); kNotFound for an unknown pupil or user. Returns its id.
+  virtual int64_t add_theory_unlock(const TheoryUnlock& u) = 0;
+  virtual std::vector<TheoryUnlock> list_theory_unlocks(int64_t pupil_id) = 0;  // oldest first
+};
+
+// The exam hash chain.
+class ChainStore {
+ public:
+  virtual ~ChainStore() = default;
+
+  // The exam hash chain, append-only (the schema refuses UPDATE and DELETE). kConflict unless
+  // seq follows the last entry's and the session has none yet; kNotFound for an unknown session.
+  virtual void append_chain_entry(const ChainEntry& e) = 0;
+  virtual std::optional<ChainEntry> last_chain_entry() = 0;
+  virtual std::optional<ChainEntry> get_chain_entry(const std::string& session_public_id) = 0;
+  virtual std::vector<ChainEntry> list_chain() = 0;  // in order
+  // How many entries the chain holds: the last entry's seq unless rows were deleted around the
+  // schema's triggers (a gap).
+  virtual int64_t count_chain_entries() = 0;
+  // Exam sessions with a signed log ("signature" session log) but no chain entry yet, oldest
+  // first: a server that stopped between a worker's exit and the chaining picks them up again.
+  virtual std::vector<std::string> unchained_signed_exams() = 0;
+};
+
+// The audit logs of changes to pupils' records and to staff accounts.
+class AuditStore {
+ public:
+  virtual ~AuditStore() = default;
+
+  // The audit log, append-only: the schema itself refuses UPDATE and DELETE on it. Add a row in
+  // the same batch() as the change it records, so that both commit or neither. kNotFound for an
+  // unknown pupil or actor user; kInvalid for an empty actor name or action, or details that are
+  // not a JSON object. Returns the row's id.
+  virtual int64_t add_audit(const AuditRecord& r) = 0;
+  // Rows in `scope`, newest first.
+  virtual std::vector<AuditRecord> list_audit(const AuditScope& scope, int limit, int offset) = 0;
+
+  // The staff audit log, append-only as the audit log is, and added to the same way (in the batch
+  // of the change). kNotFound for an unknown account or actor user; kInvalid as add_audit.
+  virtual int64_t add_staff_audit(const StaffAuditRecord& r) = 0;
+  // Rows about the accounts of `school_id` (only `user_id`'s when set), newest first.
+  virtual std::vector<StaffAuditRecord> list_staff_audit(int64_t school_id, std::optional<int64_t> user_id, int limit,
+                                                         int offset) = 0;
+};
+
+// The whole store: each aggregate's interface above, and what concerns the database as a whole.
+// A part of the server that touches some aggregates only can take their interfaces (a Store is
+// each of them).
+class Store : public AccountStore,
+              public LoginStore,
+              public PupilStore,
+              public CabStore,
+              public SessionStore,
+              public ExamStore,
+              public LicenceStore,
+              public TheoryStore,
+              public ChainStore,
+              public AuditStore {
+ public:
+  // Opens the store at `location`: a PostgreSQL connection URI ("postgresql://" or "postgres://",
+  // is_postgresql_location) opens PostgreSQL, anything else is an SQLite file's path.
+  static std::unique_ptr<Store> open(const std::string& location);
+  // Opens (creating if need be) an SQLite database and applies pending migrations.
+  static std::unique_ptr<Store> open_sqlite(const std::string& path);
+  // Connects to a PostgreSQL database (a libpq connection URI or "key=value" string; the
+  // password best comes from ~/.pgpass or PGPASSWORD, not the URI) and applies pending
+  // migrations, one server at a time. The database must exist; the tables are made in it.
+  // kIo if it cannot connect, naming the location without its password.
+  static std::unique_ptr<Store> open_postgresql(const std::string& conninfo);
+  virtual ~Store() = default;
+
+  virtual int schema_version() = 0;
+
+  // Why the store could not write just now, as StorageUnavailable::reason() words it, or nullopt
+  // when it sees nothing wrong; writes nothing. SQLite looks at the database's file system (read
+  // only, or out of room); PostgreSQL asks its server (reachable, and not read-only). A full disk
+  // on the PostgreSQL server shows only when a write fails.
+  virtual std::optional<std::string> storage_problem() = 0;
+
+  // Runs `writes` (calls on this Store) as one transaction: all of them or, if it throws, none
+  // (the exception propagates). For imports and bulk loads: one commit instead of one per row.
+  // Batches do not nest (kInvalid).
+  virtual void batch(const std::function<void()>& writes) = 0;
 };
 
 // Whether `location` names a PostgreSQL database ("postgresql://..." or "postgres://...").
