@@ -4,7 +4,7 @@
 # files (testing::TempDir()) go to this build's tests/tmp, so that two build trees tested at once
 # never share one (their ports and DDS domains come from tests/support/ports.h).
 function(forklift_add_test)
-  cmake_parse_arguments(T "" "NAME;LABEL" "SOURCES;LIBS" ${ARGN})
+  cmake_parse_arguments(T "" "NAME;LABEL;DISCOVER_FILTER" "SOURCES;LIBS" ${ARGN})
   add_executable(${T_NAME} ${T_SOURCES})
   target_link_libraries(${T_NAME} PRIVATE ${T_LIBS} GTest::gtest GTest::gtest_main)
   target_include_directories(${T_NAME} PRIVATE ${CMAKE_SOURCE_DIR}/tests)
@@ -15,6 +15,9 @@ function(forklift_add_test)
   target_compile_definitions(${T_NAME} PRIVATE FORKLIFT_DATA_DIR="${FORKLIFT_DATA_DIR}")
   set_target_properties(${T_NAME} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
   file(MAKE_DIRECTORY ${CMAKE_BINARY_DIR}/tests/tmp)
+  if(NOT T_DISCOVER_FILTER)  # a gtest filter: the tests left out are registered by hand (fixtures)
+    set(T_DISCOVER_FILTER "*")
+  endif()
   gtest_discover_tests(${T_NAME} PROPERTIES LABELS ${T_LABEL} ENVIRONMENT TEST_TMPDIR=${CMAKE_BINARY_DIR}/tests/tmp
-                       DISCOVERY_TIMEOUT 60)
+                       DISCOVERY_TIMEOUT 60 TEST_FILTER ${T_DISCOVER_FILTER})
 endfunction()

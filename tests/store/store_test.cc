@@ -244,7 +244,7 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
   std::vector<std::string> made_;
 };
 
-// ---------------------------------------------------------------- lists, groups and bookings (issue 18)
+// ---------------------------------------------------------------- lists, groups and bookings
 
 TEST_P(StoreTest, PupilsAreFoundByNameOrEmailSortedAndPagedWithTheTotal) {
   const int64_t ann = store_->create_pupil(school_, "Ann Archer", "ann@depot.example");
@@ -1509,7 +1509,7 @@ TEST_P(StoreTest, ExamChainAppendsInOrderOncePerSessionAndRefusesEdits) {
   EXPECT_EQ(store_->last_chain_entry()->seq, 2);
 }
 
-// Issue 17, item 2: one rule says what a session's end means. Only a session that ran its course
+// One rule says what a session's end means. Only a session that ran its course
 // has a mark; aborted, timed-out, stopped and failed sessions have an outcome and no mark, even
 // when their worker sent a score, and count in no trend; exams are not training.
 TEST_P(StoreTest, OnlyCompletedSessionsHaveAMarkAndCountInTheTrend) {
@@ -1562,7 +1562,7 @@ TEST_P(StoreTest, OnlyCompletedSessionsHaveAMarkAndCountInTheTrend) {
   EXPECT_NEAR(*h->trend, 10.0, 1e-9);
 }
 
-// Issue 17, item 5: a finished exam is kept as written, whatever writes to the file: the schema
+// A finished exam is kept as written, whatever writes to the file: the schema
 // refuses to change or delete its record, its session once over, its score, events and logs, and
 // a finished theory exam paper. Training records are not held so.
 TEST_P(StoreTest, FinishedExamsAreKeptAsWritten) {
@@ -1669,7 +1669,7 @@ TEST_P(StoreTest, CorrectionsAreNewRecordsKeptForEver) {
   }
 }
 
-// Issue 17, item 4: a certificate per licence, its number unique, kept for ever; revoked once.
+// A certificate per licence, its number unique, kept for ever; revoked once.
 TEST_P(StoreTest, CertificatesAreKeptAndRevokedOnce) {
   const int64_t ann = NewPupil("Ann"), bob = NewPupil("Bob");
   const int64_t eve = store_->create_user("eve", "h", fs::Role::kExaminer, school_);
@@ -1725,7 +1725,7 @@ TEST_P(StoreTest, CertificatesAreKeptAndRevokedOnce) {
   }
 }
 
-// Staff administration (issue 18, item 2): accounts listed by full name with a total, passwords
+// Staff administration: accounts listed by full name with a total, passwords
 // reset and accounts deactivated ending their logins (login_generation), never the school's last
 // active admin; the staff audit log, append-only.
 TEST_P(StoreTest, UsersAreListedByFullNamePagedAndFiltered) {
@@ -1872,7 +1872,7 @@ TEST_P(StoreTest, AccountsFromBeforeStaffAdministrationAreActive) {
   EXPECT_TRUE(store_->list_staff_audit(school_, std::nullopt, 10, 0).empty());
 }
 
-// The debrief (issue 18, item 3): notes in order, a sign-off once, no note after it, both kept.
+// The debrief: notes in order, a sign-off once, no note after it, both kept.
 TEST_P(StoreTest, SessionNotesAndSignOffAreAppendOnlyAndNoNoteFollowsTheSignOff) {
   const int64_t ida = store_->create_user("ida", "h", fs::Role::kInstructor, school_);
   const int64_t pupil = store_->create_pupil(school_, "Ann Driver", "");

@@ -55,6 +55,26 @@ struct Server : ApiClient {
     extra.insert(extra.begin(), {"--log-dir", dir + "/logs"});
     start(extra);
   }
+  // On a copy of a school a test left behind (`folder`: its forklift.db and forklift.db.logs/, as
+  // a server made them), so that tests may change the copy as they please.
+  struct Copy {
+    std::string folder;
+  };
+  Server(const std::string& name, const Copy& school, std::vector<std::string> extra = {})
+      : port(forklift::test::free_port()), domain(forklift::test::free_domain()), dir(testing::TempDir() + "/server-" + name) {
+    namespace fs = std::filesystem;
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    for (const char* part : {"forklift.db", "forklift.db.logs"})
+      if (fs::exists(school.folder + "/" + part)) fs::copy(school.folder + "/" + part, dir + "/" + part, fs::copy_options::recursive);
+    db = dir + "/forklift.db";
+    start(extra);
+  }
+  // Stops it as a service manager would (SIGTERM), so that it finishes what it was writing.
+  int stop(double timeout_s = 30) {
+    proc->signal(SIGTERM);
+    return proc->wait(timeout_s);
+  }
   void start(std::vector<std::string> extra = {}) {
     std::vector<std::string> args = {std::string(kBin) + "/forklift-server", "--db", db, "--listen", "127.0.0.1:" + std::to_string(port),
                                      "--dds-domain", std::to_string(domain), "--admin-password", kAdminPassword};

@@ -120,3 +120,38 @@ export async function browserPage(args, viewport = { width: 1280, height: 860 })
   }
   return { browser, context, page, problems, step };
 }
+
+// A screenshot taker into `dir`. Whole pages are shot by growing the viewport to the page's height
+// and back: playwright's own fullPage mode leaves this Chromium clicking at stale coordinates afterwards.
+export function shooter(page, dir) {
+  return async function shot(name, { fullPage = true, of = page } = {}) {
+    const viewport = of.viewportSize();
+    if (fullPage) {
+      const height = await of.evaluate(() => Math.ceil(document.documentElement.scrollHeight));
+      await of.setViewportSize({ width: viewport.width, height: Math.min(Math.max(height, viewport.height), 4000) });
+    }
+    await of.screenshot({ path: path.join(dir, `${name}.png`), animations: 'disabled' });
+    if (fullPage) await of.setViewportSize(viewport);
+  };
+}
+
+// Logs in on the login page (already open) and waits for the page it leads to.
+export async function logInAs(page, username, password, landing) {
+  await page.fill('#username', username);
+  await page.fill('#password', password);
+  await page.click('#login button[type=submit]');
+  await page.waitForURL(landing);
+}
+
+// A test's end when a step failed: why, the page as it was (<out>/failure.png), what the page
+// reported, and `logs` (the tails of the programs' logs); then exit 1.
+export async function failed(e, { page, out, problems, browser, procs, logs = '' }) {
+  console.log('FAILED');
+  console.error(e && e.stack ? e.stack : e);
+  try { await page.screenshot({ path: path.join(out, 'failure.png'), fullPage: true }); } catch (x) { /* no page */ }
+  if (problems.length) console.error(`problems seen:\n${problems.join('\n')}`);
+  console.error(`page: ${page.url()}\n${logs}`);
+  await browser.close().catch(() => {});
+  await procs.stopAll();
+  process.exit(1);
+}
