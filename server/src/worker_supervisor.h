@@ -1,0 +1,51 @@
+// The workers' lives as this server sees them: spawning a session's worker on this machine,
+// adopting at start the workers of this server still running, reaping each one's exit, killing
+// one that hangs (a hosted one through its host), and handing each one gone over to be settled
+// once its last samples have had time to arrive.
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "fleet_state.h"
+#include "forklift/store/store.h"
+
+namespace forklift::server {
+
+class WorkerSupervisor {
+ public:
+  // How a hosted worker is signalled: its host is asked ("abort", "kill"), under mu.
+  using AskHost = std::function<void(const std::string& host, const std::string& session, const char* action)>;
+  WorkerSupervisor(FleetState& fleet, AskHost ask_host) : fleet_(fleet), ask_host_(std::move(ask_host)) {}
+
+  // Start-up: the sessions left open, and the workers of this server still running.
+  void adopt(store::Store& db);
+  // Spawns the session's worker on this machine. Throws std::runtime_error when the machine
+  // already runs max_workers, the cab is busy, or (under DDS Security) the worker has no identity.
+  void start_local(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
+                   const std::optional<std::string>& aids);
+  // The instructor's abort (SIGUSR1); false if the session has no worker here.
+  bool abort(const std::string& session);
+  // SIGTERM to every worker that runs on this machine (the server is stopping).
+  void stop_local_workers();
+
+  // One look at every worker (supervisor thread): exits reaped, hangs killed, each one gone
+  // queued to be settled; expired bindings dropped.
+  void watch();
+  // The workers gone whose last samples have had time to arrive, taken to be settled.
+  std::vector<FleetState::Finishing> due();
+  // Its logs are stored: the session is settled unless a new worker runs it.
+  void settled(const std::string& session);
+
+ private:
+  void signal_worker(const WorkerInfo& w, int sig);  // under mu
+  // Why the worker is done (its exit, its host's silence, a hang), with `done` set; or it hangs.
+  bool check(WorkerInfo& w, Clock::time_point now, std::string& reason);
+
+  FleetState& fleet_;
+  AskHost ask_host_;
+};
+
+}  // namespace forklift::server
