@@ -1,8 +1,8 @@
 // The server's view of the cabs and their sim workers, the one object the routes see. Its parts:
 // the worker supervisor (this machine's workers: spawned, reaped, killed when they hang, adopted
 // at start), host placement (worker hosts: chosen, asked, passed over, their reports), the sample
-// gate (every DDS sample authenticated and validated, or refused and counted) and the session
-// recorder (what a session leaves in the store, its exam chained, live follow). The fleet owns
+// gate (each sample of the seven topics it reads authenticated and validated, or refused and
+// counted) and the session recorder (what a session leaves in the store, its exam chained, live follow). The fleet owns
 // the DDS participant and its two threads: the supervisor's and the ingest's (DDS -> gate -> parts).
 #pragma once
 
