@@ -16,6 +16,7 @@
 
 #include "forklift/session/controls.h"
 #include "forklift/session/session.h"
+#include "forklift/session/session_run.h"
 
 namespace forklift {
 namespace {
@@ -68,6 +69,7 @@ int evaluate_main(const EvaluateOptions& o, const std::string& data_dir) {
   std::optional<SessionState> first;
   std::vector<InputChange> changes;
   int64_t end = 0;
+  EndReason reason = EndReason::kDuration;
   try {
     if (o.script.empty() == o.replay.empty()) throw std::runtime_error("evaluate needs --script or --replay");
     if (!o.replay.empty()) {
@@ -78,8 +80,11 @@ int evaluate_main(const EvaluateOptions& o, const std::string& data_dir) {
       model = load_session_model(log.header, data_dir);
       if (!o.rules.empty()) model->rules = load_rules(o.rules);
       first = initial_state(*model, log.header);
-      for (const ControlLog::Entry& e : log.entries) changes.push_back({e.tick, e.seq, {e.inputs, false}});
-      end = log.ticks ? *log.ticks : (changes.empty() ? 0 : changes.back().tick + 1);
+      // Its inputs and dead-man switches, as the worker applied them, to its end, marked as it
+      // ended (a log whose worker died before its end: as if its time had run out).
+      changes = logged_changes(log);
+      end = log.ticks ? *log.ticks : (log.entries.empty() ? 0 : log.entries.back().tick + 1);
+      reason = logged_end_reason(log).value_or(EndReason::kDuration);
     } else {
       if (o.scenario.empty()) throw std::runtime_error("evaluate needs --scenario");
       SessionSpec spec;
@@ -97,18 +102,21 @@ int evaluate_main(const EvaluateOptions& o, const std::string& data_dir) {
     std::cerr << "forklift-sim evaluate: " << e.what() << '\n';
     return 2;
   }
-  if (o.duration_s >= 0) end = first_tick_at(o.duration_s, model->tick_s);
+  if (o.duration_s >= 0) {
+    end = first_tick_at(o.duration_s, model->tick_s);
+    reason = EndReason::kDuration;
+  }
 
-  std::optional<ControlLogWriter> writer;
+  std::unique_ptr<ControlLogWriter> writer;
   if (!o.out_log.empty()) {
     try {
-      writer.emplace(o.out_log, log_header(*model, *first, "evaluate", "offline"));
+      writer = std::make_unique<ControlLogWriter>(o.out_log, log_header(*model, *first, "evaluate", "offline"));
     } catch (const std::exception& e) {
       std::cerr << "forklift-sim evaluate: " << e.what() << '\n';
       return 2;
     }
   }
-  const OfflineRun run = run_offline(*model, *first, changes, end, "duration", writer ? &*writer : nullptr);
+  const OfflineRun run = run_offline(*model, *first, changes, end, reason, std::move(writer));
   if (!run.failure.empty())
     std::cerr << "forklift-sim evaluate: numerical failure at t = " << run.final_state.t_s << " s: " << run.failure << '\n';
 
@@ -118,7 +126,7 @@ int evaluate_main(const EvaluateOptions& o, const std::string& data_dir) {
                        {"scenario_file", o.replay.empty() ? o.scenario : model->scenario_file},
                        {"mode", mode_name(model->mode)},
                        {"rules", {{"file", model->rules.file}, {"scheme", model->rules.scheme.name}}},
-                       {"end_reason", run.end_reason},
+                       {"end_reason", name(*run.end_reason)},
                        {"ticks", run.ticks},
                        {"sim_time_s", run.final_state.t_s},
                        {"events", ev},

@@ -155,9 +155,9 @@ std::string load_and_drive(const std::string& scenario_path, std::string& messag
   drive.inputs.driver.drive_torque_N_m = 0.3 * model->truck.drive.drive_torque_max_N_m;
   drive.inputs.driver.steer_rad = 0.1;
   drive.inputs.driver.lift_rate_m_s = 0.2 * model->truck.limits.lift_rate_max_m_s;
-  const OfflineRun run = run_offline(*model, *first, {drive}, 300, "duration");
+  const OfflineRun run = run_offline(*model, *first, {drive}, 300, EndReason::kDuration);
   message = run.failure;
-  if (run.end_reason == "numerical_failure") return "numerical failure, counted";
+  if (run.end_reason == EndReason::kNumericalFailure) return "numerical failure, counted";
   if (!run.final_state.x.allFinite()) return "non-finite state";  // must never happen
   return "ran";
 }

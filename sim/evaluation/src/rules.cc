@@ -210,12 +210,11 @@ Rules load_rules(const std::string& path) {
   return rules;
 }
 
-const char* mode_name(Mode mode) { return mode == Mode::kExam ? "exam" : "training"; }
+const char* mode_name(Mode mode) { return name(mode); }
 
-Mode parse_mode(const std::string& name) {
-  if (name == "exam") return Mode::kExam;
-  if (name == "training") return Mode::kTraining;
-  throw std::invalid_argument("mode must be 'training' or 'exam', not '" + name + "'");
+Mode parse_mode(const std::string& text) {
+  if (const auto m = parse<Mode>(text)) return *m;
+  throw std::invalid_argument("mode must be 'training' or 'exam', not '" + text + "'");
 }
 
 }  // namespace forklift

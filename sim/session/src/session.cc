@@ -10,6 +10,7 @@
 
 #include "forklift/script/script.h"
 #include "forklift/session/controls.h"
+#include "forklift/session/session_run.h"
 
 namespace forklift {
 
@@ -233,53 +234,43 @@ LogHeader log_header(const SessionModel& m, const SessionState& first, const std
 }
 
 OfflineRun run_offline(const SessionModel& model, SessionState state, const std::vector<InputChange>& changes,
-                       int64_t end_tick, const std::optional<std::string>& finish_reason, ControlLogWriter* log,
+                       int64_t end_tick, const std::optional<EndReason>& finish_reason, std::unique_ptr<ControlLogWriter> log,
                        const TickObserver& after_tick) {
-  SessionWorkspace ws(model);
+  // The offline session ends at end_tick (a script's end, a log's): not when its task is done.
+  SessionRun session(model, std::move(state), std::move(log), {0, false});
   OfflineRun run;
-  run.end_reason = finish_reason.value_or("");
-  std::vector<SessionEvent> found;
-  SessionInputs held;
+  run.end_reason = finish_reason;
   size_t next = 0;
-  try {
-    while (state.tick < end_tick) {
-      while (next < changes.size() && changes[next].tick <= state.tick) {
-        const InputChange& c = changes[next++];
-        if (log) log->input(state.tick, c.seq, c.inputs.driver);
-        if (log && c.inputs.deadman != held.deadman) log->deadman(state.tick, c.inputs.deadman);
-        held = c.inputs;
-      }
-      step(model, state, ws, held, found, nullptr);
-      if (after_tick) after_tick(state, ws);
-      bool over_time = false;
-      for (const SessionEvent& e : found) {
-        run.events.emplace_back(state.tick, e);
-        if (log) log->event(state.tick, e.kind, e.worry_level);
-        over_time = over_time || e.kind == "time_limit";
-      }
-      run.evaluation_events.insert(run.evaluation_events.end(), ws.evaluation_events().begin(), ws.evaluation_events().end());
-      found.clear();
-      if (over_time) {
-        run.end_reason = "time_limit";
-        break;
-      }
+  // A session whose integrator failed ended at the tick it could not step: that tick is tried
+  // again, with its inputs, to the same failure.
+  const int64_t last_tried = finish_reason == EndReason::kNumericalFailure ? end_tick + 1 : end_tick;
+  while (session.state().tick < last_tried) {
+    for (; next < changes.size() && changes[next].tick <= session.state().tick; ++next) feed(session, changes[next]);
+    const SessionRun::Tick t = session.tick();
+    if (t.end == EndReason::kNumericalFailure) {
+      run.end_reason = t.end;
+      run.failure = session.failure();
+      break;
     }
-  } catch (const IntegratorError& e) {
-    run.end_reason = "numerical_failure";
-    run.failure = e.what();
+    if (after_tick) after_tick(session.state(), session.workspace());
+    for (const SessionEvent& e : t.events) run.events.emplace_back(session.state().tick, e);
+    const auto& found = session.workspace().evaluation_events();
+    run.evaluation_events.insert(run.evaluation_events.end(), found.begin(), found.end());
+    if (t.end) {
+      run.end_reason = t.end;
+      break;
+    }
   }
   if (finish_reason) {
-    run.score = finish(model, state, ws, run.end_reason, found);
-    for (const SessionEvent& e : found) {
-      run.events.emplace_back(state.tick, e);
-      if (log) log->event(state.tick, e.kind, e.worry_level);
-    }
-    run.evaluation_events.insert(run.evaluation_events.end(), ws.evaluation_events().begin(), ws.evaluation_events().end());
-    if (log) log->score(score_line(*run.score));
+    run.score = session.end(*run.end_reason);
+    for (const SessionEvent& e : session.end_events()) run.events.emplace_back(session.state().tick, e);
+    const auto& found = session.workspace().evaluation_events();
+    run.evaluation_events.insert(run.evaluation_events.end(), found.begin(), found.end());
+  } else {
+    session.close();
   }
-  if (log) log->finish(state.tick, state.x);
-  run.ticks = state.tick;
-  run.final_state = std::move(state);
+  run.ticks = session.state().tick;
+  run.final_state = session.state();
   return run;
 }
 
@@ -297,37 +288,24 @@ std::vector<InputChange> script_changes(const std::string& path, const SessionMo
   return out;
 }
 
+std::optional<EndReason> logged_end_reason(const ControlLog& log) {
+  if (!log.ticks) return std::nullopt;
+  const std::string word = log.end_reason().value_or(name(EndReason::kSignal));
+  const auto reason = parse<EndReason>(word);
+  if (!reason) throw std::runtime_error("the log's session ended with '" + word + "', not a reason a session ends with");
+  return reason;
+}
+
 ReplayResult replay_session(const ControlLog& log, const std::string& data_dir, const TickObserver& after_tick) {
   return replay_session(log, load_session_model(log.header, data_dir), after_tick);
 }
 
 ReplayResult replay_session(const ControlLog& log, const SessionModel& model, const TickObserver& after_tick) {
-  // The inputs and the dead-man switches, merged by tick in the order the worker applied them.
-  std::vector<InputChange> changes;
-  SessionInputs held;
-  size_t next = 0, next_dm = 0;
-  while (next < log.entries.size() || next_dm < log.deadman.size()) {
-    const bool input_first = next_dm >= log.deadman.size() ||
-                             (next < log.entries.size() && log.entries[next].tick <= log.deadman[next_dm].first);
-    int64_t tick;
-    uint32_t seq = 0;
-    if (input_first) {
-      held.driver = log.entries[next].inputs;
-      tick = log.entries[next].tick;
-      seq = log.entries[next++].seq;
-    } else {
-      held.deadman = log.deadman[next_dm].second;
-      tick = log.deadman[next_dm++].first;
-    }
-    changes.push_back({tick, seq, held});
-  }
   const int64_t end = log.ticks ? *log.ticks : (log.entries.empty() ? 0 : log.entries.back().tick + 1);
-  // The session ended the way its logged score says (its last word), or by a signal.
   // A finished session ended the way its logged score says (its last word), or by a signal; one
   // whose worker died before its end has no end-of-session lines to compare.
-  std::optional<std::string> reason;
-  if (log.ticks) reason = log.end_reason().value_or("signal");
-  const OfflineRun run = run_offline(model, initial_state(model, log.header), changes, end, reason, nullptr, after_tick);
+  const OfflineRun run = run_offline(model, initial_state(model, log.header), logged_changes(log), end,
+                                     logged_end_reason(log), nullptr, after_tick);
   ReplayResult r;
   for (const auto& [tick, e] : run.events) r.event_lines.push_back(event_line(tick, e.kind, e.worry_level));
   if (run.score) {

@@ -25,6 +25,7 @@
 #include "forklift/collision/collision.h"  // StepReport, Contact, HandlingEvent
 #include "forklift/dynamics/dynamics.h"   // Outputs, BodyPoses, DriverInputs, Load
 #include "forklift/scene/scene.h"      // Scene, PalletState, TruckShape
+#include "forklift/session/vocabulary.h"  // Mode
 
 namespace forklift {
 
@@ -77,8 +78,8 @@ Rules load_rules(const std::string& path);
 // The rule ids the Evaluator implements (each must appear once in a rules file).
 const std::vector<std::string>& rule_ids();
 
-enum class Mode { kTraining, kExam };
-const char* mode_name(Mode mode);          // "training", "exam"
+// Mode (training or exam) is the session vocabulary's (forklift/session/vocabulary.h).
+const char* mode_name(Mode mode);          // name(mode): "training", "exam"
 Mode parse_mode(const std::string& name);  // throws std::invalid_argument
 
 // What one physics tick produced, after dynamics and collision (the worker's pipeline order).

@@ -23,6 +23,7 @@
 #include "forklift/evaluation/evaluation.h"
 #include "forklift/scene/scene.h"
 #include "forklift/session/session_log.h"
+#include "forklift/session/vocabulary.h"
 
 namespace forklift {
 
@@ -143,8 +144,9 @@ CoordVector coordinates_of(const SessionState& state);
 LogHeader log_header(const SessionModel& model, const SessionState& first, const std::string& session_id,
                      const std::string& cab_id);
 
-// A session offline, tick by tick: inputs changing at given ticks (from a script or a log), the
-// dead-man switches the worker logged, until `end_tick`, the time limit or a numerical failure.
+// A session offline, tick by tick, through a SessionRun (session_run.h): inputs changing at given
+// ticks (from a script or a log), the dead-man switches the worker logged, until `end_tick`, the
+// time limit or a numerical failure.
 struct InputChange {
   int64_t tick = 0;
   uint32_t seq = 0;
@@ -154,7 +156,8 @@ struct OfflineRun {
   std::vector<std::pair<int64_t, SessionEvent>> events;  // with the tick after which each was found
   std::vector<EvaluationEvent> evaluation_events;        // in full, for reports
   std::optional<Score> score;  // when finished
-  std::string end_reason;  // "duration", "time_limit", "numerical_failure", or the one asked for
+  // kTimeLimit, kNumericalFailure, or the one asked for; nullopt: it ran to end_tick, unfinished.
+  std::optional<EndReason> end_reason;
   std::string failure;     // the integrator's words, when it failed
   int64_t ticks = 0;
   SessionState final_state;
@@ -168,8 +171,8 @@ using TickObserver = std::function<void(const SessionState&, const SessionWorksp
 // given, records every applied input, the events, the score and the end; `after_tick`, when
 // given, sees every tick.
 OfflineRun run_offline(const SessionModel& model, SessionState state, const std::vector<InputChange>& changes,
-                       int64_t end_tick, const std::optional<std::string>& finish_reason, ControlLogWriter* log = nullptr,
-                       const TickObserver& after_tick = {});
+                       int64_t end_tick, const std::optional<EndReason>& finish_reason,
+                       std::unique_ptr<ControlLogWriter> log = nullptr, const TickObserver& after_tick = {});
 
 // A cab script's rows as input changes at tick boundaries: a row at time t is applied at the
 // first tick boundary at or after t. Rows a cab would have refused are refused here, with their
@@ -177,7 +180,8 @@ OfflineRun run_offline(const SessionModel& model, SessionState state, const std:
 std::vector<InputChange> script_changes(const std::string& script_file, const SessionModel& model);
 
 // Re-simulates a logged session through step(): its scene, truck and mode from the header, its
-// inputs and dead-man switches at their ticks. `event_lines` and `score_line` are what the log's
+// inputs and dead-man switches at their ticks, ended as its score line says (or by a signal).
+// Throws std::runtime_error for an end reason no session ends with. `event_lines` and `score_line` are what the log's
 // own lines must equal.
 struct ReplayResult {
   StateVector final_state = StateVector::Zero();
@@ -186,6 +190,10 @@ struct ReplayResult {
   std::string score_line;                // re-derived, when the log has an end
   Score score;
 };
+// How a logged session ended: its score line's last word, or a signal for a finished log with no
+// score; nullopt for a log whose worker died before its end. Throws std::runtime_error for a word
+// that is no end reason.
+std::optional<EndReason> logged_end_reason(const ControlLog& log);
 ReplayResult replay_session(const ControlLog& log, const std::string& data_dir, const TickObserver& after_tick = {});
 // The same replay with a model already loaded from the log's header (load_session_model).
 ReplayResult replay_session(const ControlLog& log, const SessionModel& model, const TickObserver& after_tick = {});

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "forklift/dynamics/simulation.h"
+#include "forklift/session/vocabulary.h"  // kNoControlsEvent, kControlsResumedEvent
 
 namespace forklift {
 
@@ -48,9 +49,6 @@ class ControlLogWriter {
  private:
   FILE* f_;
 };
-
-// What the worker says when no cab spoke within its start timeout (a "w" line at tick 0).
-inline constexpr const char* kNoControlsEvent = "no_controls_from_cab";
 
 struct ControlLog {
   LogHeader header;

@@ -1,0 +1,106 @@
+// The life of one session around its tick, in one place: which inputs apply at which tick (the
+// cab's, the dead man's), what the log records, when and why the session ends, and how its end is
+// marked. The live worker, the offline run (run_offline: forklift-sim evaluate, its --replay,
+// replay_session, forklift-worker --replay) and the tests all drive a SessionRun, so a session
+// and its replay write the same log, byte for byte, and get the same mark.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "forklift/session/session.h"
+#include "forklift/session/session_log.h"
+#include "forklift/session/vocabulary.h"
+
+namespace forklift {
+
+// The ends a run watches for besides the time limit and a numerical failure (always).
+struct SessionEnds {
+  double duration_s = 0;      // > 0: "duration" once the sim time reaches it
+  bool task_complete = true;  // "task_complete" once the task is done and the truck at rest
+};
+
+class SessionRun {
+ public:
+  // The worker's tally of the cab's samples, for the log's "controls" line (name=count words).
+  using ControlCounts = std::vector<std::pair<std::string, long>>;
+
+  // `log`: where the session is recorded (nullptr: nowhere); its header is the caller's
+  // (log_header(model, first, ...)).
+  SessionRun(SessionModel model, SessionState first, std::unique_ptr<ControlLogWriter> log = nullptr,
+             SessionEnds ends = {});
+  ~SessionRun();
+  SessionRun(const SessionRun&) = delete;
+  SessionRun& operator=(const SessionRun&) = delete;
+
+  const SessionModel& model() const { return model_; }
+  const SessionState& state() const { return state_; }
+  const SessionWorkspace& workspace() const { return workspace_; }
+  const SessionInputs& inputs() const { return held_; }  // what the next tick is driven with
+  uint32_t applied_seq() const { return applied_seq_; }  // the cab's sample last applied
+  bool deadman_on() const { return held_.deadman; }
+  const std::string& failure() const { return failure_; }  // the integrator's words, after a numerical failure
+
+  // The cab's sample `seq`, with these inputs, applied from the current tick on. At most one
+  // input is logged per tick ("i", written when the tick is stepped): the last applied in a tick
+  // stands for it, and inputs identical to the logged ones are applied (their seq goes out in
+  // the states) but not logged again. Returns whether the truck's inputs change.
+  bool apply(uint32_t seq, const DriverInputs& inputs);
+  // The cab fell silent: throttle off and full brake (deadman_inputs of the held ones, or `stop`
+  // as a log recorded them) from this tick on, logged at once as "i" and "dm 1" (an input applied
+  // earlier in this tick is dropped). The evaluation reports its deadman_stop on this tick.
+  void deadman();
+  void deadman(const DriverInputs& stop);
+  // The cab spoke again after a dead-man stop: "dm 0" and the worker's controls_resumed ("w"); its
+  // sample follows with apply().
+  void resume();
+  // A worker's own event at the current tick ("w": not marked).
+  void worker_event(const std::string& kind);
+
+  // One physics tick with the held inputs: the tick's input line, step(), an "e" line per event
+  // the session found. `end`: why the session must end after it, if it must: the time limit (the
+  // evaluation's time_limit fault), the duration, the task complete, or a numerical failure (the
+  // tick was not stepped, and the state is the last good one).
+  struct Tick {
+    const std::vector<SessionEvent>& events;
+    std::optional<EndReason> end;
+  };
+  Tick tick();
+
+  // Ends the session: the end-of-session checks (their events logged, and in end_events()), the
+  // "score" line, the control counts (when given), then "end" and "final". Call once.
+  Score end(EndReason reason, const std::optional<ControlCounts>& counts = std::nullopt);
+  // Ends the session with no mark (a logged session whose worker died before its end; a cab that
+  // never spoke): the control counts (when given), "end" and "final".
+  void close(const std::optional<ControlCounts>& counts = std::nullopt);
+  const std::vector<SessionEvent>& end_events() const { return events_; }
+
+ private:
+  void write_input();
+
+  const SessionModel model_;
+  SessionState state_;
+  SessionWorkspace workspace_;
+  std::unique_ptr<ControlLogWriter> log_;
+  SessionEnds ends_;
+  SessionInputs held_;
+  uint32_t applied_seq_ = 0;
+  std::optional<DriverInputs> logged_;  // the inputs the log last recorded (none yet: the first is logged)
+  bool input_owed_ = false;             // held_.driver is to be logged when the tick is stepped
+  std::vector<SessionEvent> events_;
+  std::string failure_;
+};
+
+// The inputs and dead-man switches of a log as input changes, merged by tick in the order the
+// worker applied them (a dead-man stop after the input it logged, a resume before its input).
+std::vector<InputChange> logged_changes(const ControlLog& log);
+
+// An input change onto a run: a change of the dead-man flag is a dead-man stop (with its logged
+// inputs) or a resume; any other is the cab's sample.
+void feed(SessionRun& run, const InputChange& change);
+
+}  // namespace forklift

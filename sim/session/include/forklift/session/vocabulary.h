@@ -1,0 +1,68 @@
+// The words a session is told by, once: how it ended, what phase it is in, how it is marked, and
+// who raised an event. Every program that reads or writes these names (the worker, the session
+// log, the store's outcome, the server, the cab's head-up display) goes through name() and
+// parse() here; the IDL carries them as strings, produced and parsed with these functions only.
+// No dependency: the store and the cab link it without the simulation.
+#pragma once
+
+#include <optional>
+#include <string_view>
+
+namespace forklift {
+
+// Why a session ended (the SessionStatus reason of "ended", the session log's score line's last
+// word, the store's session reason).
+enum class EndReason {
+  kDuration,          // "duration": the time the session was given (--duration, a script's end) ran out
+  kTimeLimit,         // "time_limit": the scene's time limit (the evaluation's time_limit fault)
+  kTaskComplete,      // "task_complete": the task done and the truck at rest
+  kAborted,           // "aborted": the instructor's abort
+  kSignal,            // "signal": the worker was stopped (SIGTERM, SIGINT)
+  kNumericalFailure,  // "numerical_failure": the integrator failed; the state is the last good one
+};
+
+// Where a session is in its life (SessionStatus.state; the store's session state).
+enum class SessionPhase {
+  kStarting,  // "starting": the server placed it; no worker has spoken yet
+  kWaiting,   // "waiting": the worker is up, waiting for the cab's first sample
+  kRunning,   // "running"
+  kEnded,     // "ended": with an end reason and a mark
+  kAborted,   // "aborted": ended by the instructor, as the store keeps it
+  kFailed,    // "failed": it could not run (a broken file, a worker that died, no cab)
+};
+
+// How the evaluation marks a session.
+enum class Mode { kTraining, kExam };  // "training", "exam"
+
+// Who raised an event of a session, by its kind.
+enum class EventOrigin {
+  kEvaluation,  // a rule of the evaluation (counted in the mark, by its worry level)
+  kHandling,    // pallet handling: "picked_up", "set_down", "sliding", "dropped" (information)
+  kWorker,      // the worker's own: "controls_resumed", "no_controls_from_cab" (not marked)
+};
+
+const char* name(EndReason reason);
+const char* name(SessionPhase phase);
+const char* name(Mode mode);
+const char* name(EventOrigin origin);
+
+// The value a name stands for; nullopt for a name that is not one of them (exact, case and all).
+template <class E>
+std::optional<E> parse(std::string_view name);
+template <> std::optional<EndReason> parse<EndReason>(std::string_view name);
+template <> std::optional<SessionPhase> parse<SessionPhase>(std::string_view name);
+template <> std::optional<Mode> parse<Mode>(std::string_view name);
+template <> std::optional<EventOrigin> parse<EventOrigin>(std::string_view name);
+
+// Ended, aborted or failed: the session will not change again.
+bool is_terminal(SessionPhase phase);
+
+// Who raises events of this kind: the handling and worker kinds above, every other kind is an
+// evaluation rule's.
+EventOrigin event_origin(std::string_view kind);
+
+// The worker's own events (EventOrigin::kWorker).
+inline constexpr const char* kControlsResumedEvent = "controls_resumed";
+inline constexpr const char* kNoControlsEvent = "no_controls_from_cab";  // a "w" line at tick 0: no cab spoke
+
+}  // namespace forklift

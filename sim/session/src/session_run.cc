@@ -1,0 +1,124 @@
+#include "forklift/session/session_run.h"
+
+#include "forklift/session/controls.h"
+
+namespace forklift {
+
+SessionRun::SessionRun(SessionModel model, SessionState first, std::unique_ptr<ControlLogWriter> log, SessionEnds ends)
+    : model_(std::move(model)), state_(std::move(first)), workspace_(model_), log_(std::move(log)), ends_(ends) {
+  held_ = state_.inputs;
+  events_.reserve(16);
+}
+
+SessionRun::~SessionRun() = default;
+
+bool SessionRun::apply(uint32_t seq, const DriverInputs& u) {
+  applied_seq_ = seq;
+  if (logged_ && identical(u, *logged_)) {
+    // No change from what the log holds: an input applied earlier in this tick is withdrawn.
+    held_.driver = u;
+    input_owed_ = false;
+    return false;
+  }
+  held_.driver = u;
+  input_owed_ = true;
+  return true;
+}
+
+void SessionRun::deadman() { deadman(deadman_inputs(held_.driver, model_.truck)); }
+
+void SessionRun::deadman(const DriverInputs& stop) {
+  held_.driver = stop;
+  held_.deadman = true;
+  // Written at once, so that "dm 1" follows the input it stopped the truck with.
+  write_input();
+  if (log_) log_->deadman(state_.tick, true);
+}
+
+void SessionRun::resume() {
+  held_.deadman = false;
+  if (log_) {
+    log_->deadman(state_.tick, false);
+    log_->worker_event(state_.tick, kControlsResumedEvent);
+  }
+}
+
+void SessionRun::worker_event(const std::string& kind) {
+  if (log_) log_->worker_event(state_.tick, kind);
+}
+
+void SessionRun::write_input() {
+  if (log_) log_->input(state_.tick, applied_seq_, held_.driver);
+  logged_ = held_.driver;
+  input_owed_ = false;
+}
+
+SessionRun::Tick SessionRun::tick() {
+  events_.clear();
+  if (input_owed_) write_input();
+  try {
+    step(model_, state_, workspace_, held_, events_);
+  } catch (const IntegratorError& e) {
+    failure_ = e.what();
+    return {events_, EndReason::kNumericalFailure};
+  }
+  std::optional<EndReason> end;
+  for (const SessionEvent& e : events_) {
+    if (log_) log_->event(state_.tick, e.kind, e.worry_level);
+    if (e.kind == name(EndReason::kTimeLimit)) end = EndReason::kTimeLimit;  // the evaluation's fault ends it
+  }
+  if (!end && ends_.duration_s > 0 && state_.t_s >= ends_.duration_s - 1e-12) end = EndReason::kDuration;
+  if (!end && ends_.task_complete && task_done_and_stopped(model_, state_)) end = EndReason::kTaskComplete;
+  return {events_, end};
+}
+
+Score SessionRun::end(EndReason reason, const std::optional<ControlCounts>& counts) {
+  events_.clear();
+  const Score score = finish(model_, state_, workspace_, name(reason), events_);
+  if (log_) {
+    for (const SessionEvent& e : events_) log_->event(state_.tick, e.kind, e.worry_level);
+    log_->score(score_line(score));
+  }
+  close(counts);
+  return score;
+}
+
+void SessionRun::close(const std::optional<ControlCounts>& counts) {
+  if (!log_) return;
+  if (counts) log_->control_counts(*counts);
+  log_->finish(state_.tick, state_.x);
+}
+
+std::vector<InputChange> logged_changes(const ControlLog& log) {
+  std::vector<InputChange> changes;
+  SessionInputs held;
+  size_t next = 0, next_dm = 0;
+  while (next < log.entries.size() || next_dm < log.deadman.size()) {
+    const bool input_first = next_dm >= log.deadman.size() ||
+                             (next < log.entries.size() && log.entries[next].tick <= log.deadman[next_dm].first);
+    int64_t tick;
+    uint32_t seq = 0;
+    if (input_first) {
+      held.driver = log.entries[next].inputs;
+      tick = log.entries[next].tick;
+      seq = log.entries[next++].seq;
+    } else {
+      held.deadman = log.deadman[next_dm].second;
+      tick = log.deadman[next_dm++].first;
+    }
+    changes.push_back({tick, seq, held});
+  }
+  return changes;
+}
+
+void feed(SessionRun& run, const InputChange& c) {
+  if (c.inputs.deadman == run.deadman_on()) {
+    run.apply(c.seq, c.inputs.driver);
+  } else if (c.inputs.deadman) {
+    run.deadman(c.inputs.driver);
+  } else {
+    run.resume();
+  }
+}
+
+}  // namespace forklift

@@ -1,0 +1,69 @@
+#include "forklift/session/vocabulary.h"
+
+#include <array>
+#include <utility>
+
+namespace forklift {
+namespace {
+
+template <class E, size_t N>
+using Names = std::array<std::pair<E, const char*>, N>;
+
+constexpr Names<EndReason, 6> kEndReasons{{{EndReason::kDuration, "duration"},
+                                           {EndReason::kTimeLimit, "time_limit"},
+                                           {EndReason::kTaskComplete, "task_complete"},
+                                           {EndReason::kAborted, "aborted"},
+                                           {EndReason::kSignal, "signal"},
+                                           {EndReason::kNumericalFailure, "numerical_failure"}}};
+constexpr Names<SessionPhase, 6> kPhases{{{SessionPhase::kStarting, "starting"},
+                                          {SessionPhase::kWaiting, "waiting"},
+                                          {SessionPhase::kRunning, "running"},
+                                          {SessionPhase::kEnded, "ended"},
+                                          {SessionPhase::kAborted, "aborted"},
+                                          {SessionPhase::kFailed, "failed"}}};
+constexpr Names<Mode, 2> kModes{{{Mode::kTraining, "training"}, {Mode::kExam, "exam"}}};
+constexpr Names<EventOrigin, 3> kOrigins{
+    {{EventOrigin::kEvaluation, "evaluation"}, {EventOrigin::kHandling, "handling"}, {EventOrigin::kWorker, "worker"}}};
+
+template <class E, size_t N>
+const char* name_in(const Names<E, N>& names, E value) {
+  for (const auto& [v, n] : names)
+    if (v == value) return n;
+  return "?";  // not reached: every enumerator is in its table (vocabulary_test checks)
+}
+
+template <class E, size_t N>
+std::optional<E> parse_in(const Names<E, N>& names, std::string_view text) {
+  for (const auto& [v, n] : names)
+    if (text == n) return v;
+  return std::nullopt;
+}
+
+// The kinds only pallet handling and the worker raise (collision's handling_event_name() gives
+// the first four; vocabulary_test holds the two lists together).
+constexpr std::array<const char*, 4> kHandlingKinds{"picked_up", "set_down", "sliding", "dropped"};
+
+}  // namespace
+
+const char* name(EndReason r) { return name_in(kEndReasons, r); }
+const char* name(SessionPhase p) { return name_in(kPhases, p); }
+const char* name(Mode m) { return name_in(kModes, m); }
+const char* name(EventOrigin o) { return name_in(kOrigins, o); }
+
+template <> std::optional<EndReason> parse<EndReason>(std::string_view s) { return parse_in(kEndReasons, s); }
+template <> std::optional<SessionPhase> parse<SessionPhase>(std::string_view s) { return parse_in(kPhases, s); }
+template <> std::optional<Mode> parse<Mode>(std::string_view s) { return parse_in(kModes, s); }
+template <> std::optional<EventOrigin> parse<EventOrigin>(std::string_view s) { return parse_in(kOrigins, s); }
+
+bool is_terminal(SessionPhase p) {
+  return p == SessionPhase::kEnded || p == SessionPhase::kAborted || p == SessionPhase::kFailed;
+}
+
+EventOrigin event_origin(std::string_view kind) {
+  for (const char* k : kHandlingKinds)
+    if (kind == k) return EventOrigin::kHandling;
+  if (kind == kControlsResumedEvent || kind == kNoControlsEvent) return EventOrigin::kWorker;
+  return EventOrigin::kEvaluation;
+}
+
+}  // namespace forklift

@@ -1,0 +1,162 @@
+// SessionRun: the one owner of a session's life around its tick. A run driven as the live worker
+// drives it (the cab's samples, a dead-man stop and the cab's return, the instructor's abort, an
+// integrator that fails) and its offline replay from the log write the same log, byte for byte,
+// and give the same mark.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include "forklift/session/controls.h"
+#include "forklift/session/session.h"
+#include "forklift/session/session_run.h"
+
+namespace {
+
+using namespace forklift;
+
+const std::string kData = FORKLIFT_DATA_DIR;
+
+std::string text_of(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+SessionModel yard_model() {
+  SessionSpec spec;
+  spec.scenario_file = kData + "/scenarios/first_drive_yard.json";
+  return load_session_model(spec, kData);
+}
+
+DriverInputs drive(const SessionModel& m, double accelerator, double steer) {
+  ControlSample c;
+  c.accelerator = accelerator;
+  c.steer_rad = steer;
+  return driver_inputs(c, m.truck);
+}
+
+// What happens to the live run at a tick.
+struct Act {
+  int64_t tick;
+  enum { kSample, kSilence, kResume, kAbort } what;
+  double accelerator = 0, steer = 0;
+};
+
+// Drives a run as the worker does and ends it; returns the log's path.
+std::string live(const std::string& name, const std::vector<Act>& acts, bool nan_at_end = false) {
+  const SessionModel model = yard_model();
+  SessionState first = initial_state(model);
+  const std::string path = testing::TempDir() + "/session_run_" + name + ".ctl";
+  auto log = std::make_unique<ControlLogWriter>(path, log_header(model, first, name, "cab1"));
+  SessionRun run(model, std::move(first), std::move(log), {0, false});
+  uint32_t seq = 0;
+  std::optional<EndReason> end;
+  for (size_t next = 0; !end;) {
+    for (; next < acts.size() && acts[next].tick <= run.state().tick; ++next) {
+      const Act& a = acts[next];
+      if (a.what == Act::kSample) run.apply(++seq, drive(model, a.accelerator, a.steer));
+      if (a.what == Act::kSample) run.apply(seq, drive(model, a.accelerator, a.steer));  // a repeat: not logged again
+      if (a.what == Act::kSilence) run.deadman();
+      if (a.what == Act::kResume) run.resume();
+      if (a.what == Act::kAbort) end = EndReason::kAborted;
+    }
+    if (end) break;
+    if (next == acts.size() && nan_at_end) {
+      DriverInputs broken = drive(model, 0.5, 0);
+      broken.drive_torque_N_m = std::numeric_limits<double>::quiet_NaN();
+      run.apply(++seq, broken);
+    }
+    end = run.tick().end;
+  }
+  run.end(*end);
+  return path;
+}
+
+// The log's session again, offline, writing its own log; returns that log's path.
+std::string offline(const std::string& live_path, const std::string& name) {
+  const ControlLog log = read_control_log(live_path);
+  const SessionModel model = load_session_model(log.header, kData);
+  const SessionState first = initial_state(model, log.header);
+  const std::string path = testing::TempDir() + "/session_run_" + name + ".offline.ctl";
+  auto writer = std::make_unique<ControlLogWriter>(path, log_header(model, first, log.header.session_id, log.header.cab_id));
+  run_offline(model, first, logged_changes(log), *log.ticks, logged_end_reason(log), std::move(writer));
+  return path;
+}
+
+TEST(SessionRun, ADeadManStopAndAnAbortLogAndMarkTheSameLiveAndOffline) {
+  const std::string a = live("abort", {{0, Act::kSample, 0.6, 0},
+                                       {700, Act::kSample, 0.6, 0.2},
+                                       {1500, Act::kSilence},        // the cab falls silent: stopped
+                                       {2600, Act::kResume},         // and speaks again
+                                       {2600, Act::kSample, 0.3, -0.1},
+                                       {3100, Act::kSample, 0.3, -0.1},  // no change: not logged
+                                       {3800, Act::kAbort}});
+  const ControlLog log = read_control_log(a);
+  ASSERT_EQ(log.deadman.size(), 2u);
+  EXPECT_EQ(log.deadman[0], std::make_pair(int64_t(1500), true));
+  EXPECT_EQ(log.deadman[1], std::make_pair(int64_t(2600), false));
+  ASSERT_EQ(log.worker_events.size(), 1u);
+  EXPECT_EQ(log.worker_events[0].second, kControlsResumedEvent);
+  EXPECT_EQ(log.entries.size(), 4u) << "two samples, the dead man's stop, the resumed sample; never a repeat";
+  EXPECT_EQ(log.end_reason(), "aborted");
+  EXPECT_EQ(*log.ticks, 3800);
+  bool deadman_event = false;
+  for (const std::string& e : log.event_lines) deadman_event |= e.rfind("e 1501 deadman_stop ", 0) == 0;
+  EXPECT_TRUE(deadman_event) << "the evaluation reports the stop on its tick";
+
+  EXPECT_EQ(text_of(offline(a, "abort")), text_of(a)) << "the offline run's log, byte for byte";
+  const ReplayResult r = replay_session(log, kData);
+  EXPECT_EQ(r.score_line, *log.score_line);
+  EXPECT_EQ(r.event_lines, log.event_lines);
+  EXPECT_EQ(r.final_state, *log.final_state);
+}
+
+TEST(SessionRun, ANumericalFailureEndsTheSessionTheSameLiveAndOffline) {
+  const std::string a = live("failure", {{0, Act::kSample, 0.5, 0}, {900, Act::kSilence}, {1200, Act::kResume}}, true);
+  const ControlLog log = read_control_log(a);
+  EXPECT_EQ(log.end_reason(), "numerical_failure");
+  ASSERT_TRUE(log.final_state);
+  EXPECT_TRUE(log.final_state->allFinite()) << "the last good state";
+  EXPECT_EQ(text_of(offline(a, "failure")), text_of(a));
+  const ReplayResult r = replay_session(log, kData);
+  EXPECT_EQ(r.score_line, *log.score_line);
+  EXPECT_EQ(r.ticks, *log.ticks);
+}
+
+TEST(SessionRun, TheLastInputAppliedInATickStandsForIt) {
+  const SessionModel model = yard_model();
+  const SessionState first = initial_state(model);
+  const std::string path = testing::TempDir() + "/session_run_one_per_tick.ctl";
+  SessionRun run(model, first, std::make_unique<ControlLogWriter>(path, log_header(model, first, "t", "c")));
+  EXPECT_TRUE(run.apply(1, drive(model, 0.4, 0)));   // the first is always logged
+  run.tick();
+  EXPECT_TRUE(run.apply(2, drive(model, 0.8, 0)));
+  EXPECT_TRUE(run.apply(3, drive(model, 0.2, 0)));   // supersedes 2 within the tick
+  run.tick();
+  EXPECT_TRUE(run.apply(4, drive(model, 0.9, 0)));
+  EXPECT_FALSE(run.apply(5, drive(model, 0.2, 0)));  // back to the logged inputs: 4 is withdrawn
+  EXPECT_EQ(run.applied_seq(), 5u);
+  run.tick();
+  run.end(EndReason::kSignal);
+  const ControlLog log = read_control_log(path);
+  ASSERT_EQ(log.entries.size(), 2u);
+  EXPECT_EQ(log.entries[0].tick, 0);
+  EXPECT_EQ(log.entries[1].tick, 1);
+  EXPECT_EQ(log.entries[1].seq, 3u);
+  EXPECT_EQ(log.end_reason(), "signal");
+}
+
+TEST(SessionRun, ItEndsWhenItsTimeIsUpOrItsTaskIsDone) {
+  const SessionModel model = yard_model();
+  SessionRun run(model, initial_state(model), nullptr, {0.05, true});
+  std::optional<EndReason> end;
+  while (!end) end = run.tick().end;
+  EXPECT_EQ(end, EndReason::kDuration);
+  EXPECT_NEAR(run.state().t_s, 0.05, 1e-9);
+}
+
+}  // namespace

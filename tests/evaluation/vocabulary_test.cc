@@ -1,0 +1,64 @@
+// The session's vocabulary: every name parses back to its value, and nothing else parses.
+#include <gtest/gtest.h>
+
+#include "forklift/collision/collision.h"
+#include "forklift/session/vocabulary.h"
+
+namespace {
+
+using namespace forklift;
+
+template <class E>
+void round_trips(std::initializer_list<E> all) {
+  for (E e : all) {
+    const std::string n = name(e);
+    EXPECT_NE(n, "?");
+    EXPECT_EQ(parse<E>(n), e) << n;
+    // Exact words only: no case folding, no spaces, no prefix.
+    std::string upper = n;
+    upper[0] = static_cast<char>(std::toupper(upper[0]));
+    EXPECT_EQ(parse<E>(upper), std::nullopt) << upper;
+    EXPECT_EQ(parse<E>(n + " "), std::nullopt);
+    EXPECT_EQ(parse<E>(n.substr(0, n.size() - 1)), std::nullopt);
+  }
+  EXPECT_EQ(parse<E>(""), std::nullopt);
+  EXPECT_EQ(parse<E>("nonsense"), std::nullopt);
+}
+
+TEST(Vocabulary, EveryNameParsesBackAndNothingElseParses) {
+  round_trips({EndReason::kDuration, EndReason::kTimeLimit, EndReason::kTaskComplete, EndReason::kAborted,
+               EndReason::kSignal, EndReason::kNumericalFailure});
+  round_trips({SessionPhase::kStarting, SessionPhase::kWaiting, SessionPhase::kRunning, SessionPhase::kEnded,
+               SessionPhase::kAborted, SessionPhase::kFailed});
+  round_trips({Mode::kTraining, Mode::kExam});
+  round_trips({EventOrigin::kEvaluation, EventOrigin::kHandling, EventOrigin::kWorker});
+}
+
+TEST(Vocabulary, TheNamesAreTheWireAndLogWords) {
+  EXPECT_STREQ(name(EndReason::kTimeLimit), "time_limit");
+  EXPECT_STREQ(name(EndReason::kNumericalFailure), "numerical_failure");
+  EXPECT_STREQ(name(SessionPhase::kEnded), "ended");
+  EXPECT_STREQ(name(Mode::kExam), "exam");
+  EXPECT_EQ(parse<EndReason>("parked"), std::nullopt);  // an evaluation's end word, not a session's end
+}
+
+TEST(Vocabulary, TerminalPhases) {
+  EXPECT_FALSE(is_terminal(SessionPhase::kStarting));
+  EXPECT_FALSE(is_terminal(SessionPhase::kWaiting));
+  EXPECT_FALSE(is_terminal(SessionPhase::kRunning));
+  EXPECT_TRUE(is_terminal(SessionPhase::kEnded));
+  EXPECT_TRUE(is_terminal(SessionPhase::kAborted));
+  EXPECT_TRUE(is_terminal(SessionPhase::kFailed));
+}
+
+TEST(Vocabulary, EventOriginsMatchTheirRaisers) {
+  using K = HandlingEvent::Kind;
+  for (K k : {K::kPickedUp, K::kSetDown, K::kSliding, K::kDropped})
+    EXPECT_EQ(event_origin(handling_event_name(k)), EventOrigin::kHandling) << handling_event_name(k);
+  EXPECT_EQ(event_origin(kControlsResumedEvent), EventOrigin::kWorker);
+  EXPECT_EQ(event_origin(kNoControlsEvent), EventOrigin::kWorker);
+  EXPECT_EQ(event_origin("speed_near_walkway"), EventOrigin::kEvaluation);
+  EXPECT_EQ(event_origin("deadman_stop"), EventOrigin::kEvaluation);
+}
+
+}  // namespace
