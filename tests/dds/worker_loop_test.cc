@@ -222,6 +222,42 @@ TEST(WorkerLoop, BadControlsAreRefusedSilenceStopsTheTruckAndTheWorkerStaysUp) {
   }
 }
 
+// A worker's log with a dead-man stop and the cab's return (its "dm" lines) re-evaluated offline:
+// forklift-sim evaluate --replay applies the dead man where the worker did, and gives its mark.
+TEST(WorkerLoop, EvaluateReplayOfAWorkerLogWithADeadManStopGivesTheWorkersMark) {
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "c1", "dm", {"--duration", "4", "--deadman-timeout", "0.5", "--scenario",
+                                          kData + "/scenarios/first_drive_yard.json"});
+  dds::Participant p(dds::DomainSettings::resolve(domain, ""));
+  dds::Writer<fk_Controls> out(p, dds::cab_partition("c1"));
+  ASSERT_TRUE(wait_matched(out, 10)) << w.err();
+  uint32_t seq = 0;
+  auto speak = [&](double seconds, double accel) {
+    for (int i = 0; i < seconds * 50; ++i) {
+      out.write(controls("c1", ++seq, accel));
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  };
+  speak(0.8, 0.6);
+  std::this_thread::sleep_for(std::chrono::milliseconds(1200));  // silence beyond the 0.5 s dead man
+  speak(0.6, 0.3);                                               // and the cab speaks again
+  ASSERT_EQ(w.wait(20), 0) << w.err();
+  const json live = output_json(w);
+  EXPECT_GE(live["deadman_stops"].get<int>(), 1);
+  const ControlLog log = read_control_log(tmp("dm.ctl"));
+  ASSERT_GE(log.deadman.size(), 2u) << "a stop and a resume";
+
+  Process ev({kBin + "/forklift-sim", "evaluate", "--replay", tmp("dm.ctl")}, tmp("dm.evaluate"));
+  ASSERT_EQ(ev.wait(60), 0) << ev.err();
+  const json again = output_json(ev);
+  EXPECT_EQ(again["ticks"], live["ticks"]);
+  EXPECT_EQ(again["end_reason"], live["score"]["end_reason"]);
+  EXPECT_EQ(again["score"]["mark"], live["score"]["mark"]);
+  EXPECT_EQ(again["score"]["passed"], live["score"]["passed"]);
+  EXPECT_EQ(again["score"]["points"], live["score"]["points"]);
+  EXPECT_EQ(again["score"]["counts"], live["score"]["counts"]);
+}
+
 TEST(WorkerLoop, AnotherCabsControlsNeverReachThisWorker) {
   const int domain = forklift::test::free_domain();
   Process w = worker(domain, "c1", "lonely", {"--start-timeout", "2"});

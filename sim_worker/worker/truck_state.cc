@@ -1,0 +1,83 @@
+#include "truck_state.h"
+
+#include <algorithm>
+#include <climits>
+
+#include "forklift/collision/collision.h"
+#include "forklift/dynamics/stability.h"
+
+namespace forklift::worker {
+
+fk_TruckState truck_state(const SessionRun& run, const std::string& cab, const std::string& session, double time_limit_s,
+                          uint8_t aids) {
+  const SessionModel& model = run.model();
+  const SessionState& state = run.state();
+  const Outputs& o = run.workspace().outputs();
+  fk_TruckState s{};
+  dds::set_string(s.cab_id, cab);
+  dds::set_string(s.session_id, session);
+  s.sim_time_s = state.t_s;
+  s.x_m = o.q[kX]; s.y_m = o.q[kY]; s.z_m = o.q[kZ];
+  s.yaw_rad = o.q[kAwc]; s.roll_rad = o.q[kAuc]; s.pitch_rad = o.q[kAvc];
+  s.speed_m_s = o.forward_speed_m_s;
+  s.steer_rad = o.q[kAwr3]; s.tilt_rad = o.q[kBeta]; s.lift_m = o.q[kS]; s.side_shift_m = o.q[kR];
+  s.fz_front_left_N = o.wheels[kFrontLeft].fz_N;
+  s.fz_front_right_N = o.wheels[kFrontRight].fz_N;
+  s.fz_rear_N = o.wheels[kRear].fz_N;
+  s.load_attached = state.load.has_value();
+  s.load_mass_kg = s.load_attached ? state.load->mass_kg : 0.0;
+  s.stability_margin = stability_margin(o);
+  s.applied_control_sequence = run.applied_seq();
+  s.deadman = run.deadman_on();
+  // The head-up display's figures, from the evaluation's view of this moment.
+  const BodyPoses& poses = run.workspace().poses();
+  const Eigen::Vector3d forks_mid = poses.carriage * Eigen::Vector3d(0.5 * model.shape.fork_length_m, 0, 0);
+  s.fork_height_m = forks_mid.z() - model.scene.ground.height(forks_mid.x(), forks_mid.y());
+  s.speed_limit_m_s = model.scene.speed_limit(o.q.head<2>()).value_or(0.0);
+  const Stability& stab = state.evaluation.stability();
+  s.stability_fraction = stab.fraction;
+  s.stability_edge = static_cast<int8_t>(stab.edge);
+  s.load_capacity_kg = state.load ? derated_capacity_kg(model.truck, state.load->cog_m.x()) : 0.0;
+  const size_t steps_total = model.scene.task.steps.size();
+  const size_t steps_done = std::min<size_t>(std::max(0, state.evaluation.steps_done()), steps_total);
+  s.task_steps_done = static_cast<uint16_t>(std::min<size_t>(steps_done, UINT16_MAX));
+  s.task_steps_total = static_cast<uint16_t>(std::min<size_t>(steps_total, UINT16_MAX));
+  dds::set_string(s.task_step, steps_done < steps_total ? model.scene.task.steps[steps_done].description : "");
+  s.time_left_s = time_limit_s > 0 ? std::max(0.0, time_limit_s - state.t_s) : -1.0;
+  s.aids = aids;
+  // Lining up with a pallet: a learning aid, never in an exam.
+  if (model.mode == Mode::kTraining)
+    if (const auto a = pallet_approach(model.scene, state.handling.pallets(), poses, model.shape)) {
+      dds::set_string(s.pallet_ahead, a->pallet);
+      s.pallet_distance_m = a->distance_m;
+      s.pallet_height_m = a->height_m;
+      s.pallet_lateral_m = a->lateral_m;
+      s.pallet_angle_rad = a->angle_rad;
+      s.pallet_height_tolerance_m = a->height_tolerance_m;
+      s.pallet_lateral_tolerance_m = a->lateral_tolerance_m;
+      s.pallet_angle_tolerance_rad = a->angle_tolerance_rad;
+      s.pallet_engaged = a->engaged;
+    }
+  return s;
+}
+
+fk_Score score_sample(const std::string& session, const Score& score, std::vector<fk_FaultCount>& counts) {
+  fk_Score sc{};
+  dds::set_string(sc.session_id, session);
+  sc.mark = score.mark;
+  sc.passed = score.passed;
+  counts.clear();
+  for (const auto& [kind, n] : score.counts) {
+    fk_FaultCount fc{};
+    dds::set_string(fc.kind, kind);
+    fc.count = static_cast<uint32_t>(n);
+    counts.push_back(fc);
+    if (counts.size() == 64) break;  // the IDL's bound
+  }
+  sc.counts._buffer = counts.data();
+  sc.counts._length = sc.counts._maximum = static_cast<uint32_t>(counts.size());
+  sc.counts._release = false;
+  return sc;
+}
+
+}  // namespace forklift::worker

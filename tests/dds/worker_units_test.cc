@@ -1,0 +1,130 @@
+// The worker's units that need no DDS entity, in-process: the cab's control intake and the
+// samples the worker publishes from a SessionRun.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "control_intake.h"
+#include "forklift/session/session_run.h"
+#include "truck_state.h"
+
+namespace {
+
+using namespace forklift;
+using namespace forklift::worker;
+using Clock = ControlIntake::Clock;
+
+const std::string kData = FORKLIFT_DATA_DIR;
+
+struct Intake : testing::Test {
+  TruckParams truck = load_truck(kData + "/trucks/linde_e16c.json");
+  std::vector<std::string> said;
+  ControlIntake intake{"c1", truck, 1e-3, 0.5, [this](const std::string& s) { said.push_back(s); }};
+  Clock::time_point t0 = Clock::now();
+
+  ControlSample sample(uint32_t seq, double accel = 0.2, double at_s = 0) {
+    ControlSample s;
+    s.seq = seq;
+    s.accelerator = accel;
+    s.apply_at_sim_s = at_s;
+    return s;
+  }
+};
+
+TEST_F(Intake, RefusesWhatMustNotReachTheTruckAndCountsIt) {
+  intake.offer("c9", sample(1), 0, 0, t0);             // another cab's
+  intake.offer("c1", sample(2, NAN), 0, 0, t0);        // not finite
+  intake.offer("c1", sample(3, 2.0), 0, 0, t0);        // out of range
+  EXPECT_FALSE(intake.heard());
+  EXPECT_FALSE(intake.has_pending());
+  intake.offer("c1", sample(4), 0, 0, t0);
+  intake.offer("c1", sample(4), 0, 0, t0);             // a duplicate
+  intake.offer("c1", sample(3), 0, 0, t0);             // old
+  EXPECT_TRUE(intake.heard());
+  EXPECT_EQ(intake.rejected_cab(), 1);
+  EXPECT_EQ(intake.rejected_non_finite(), 1);
+  EXPECT_EQ(intake.rejected_range(), 1);
+  EXPECT_EQ(intake.sequence_counts().duplicate, 1);
+  EXPECT_EQ(intake.sequence_counts().old, 1);
+  ASSERT_EQ(said.size(), 5u);
+  EXPECT_NE(said[0].find("rejected control 1 from cab 'c9'"), std::string::npos) << said[0];
+  const auto s = intake.take_pending();
+  ASSERT_TRUE(s);
+  EXPECT_EQ(s->seq, 4u);
+  EXPECT_FALSE(intake.has_pending());
+  const auto tally = intake.tally();
+  ASSERT_EQ(tally.size(), 9u);
+  EXPECT_EQ(tally[0], std::make_pair(std::string("accepted"), 1L));
+}
+
+TEST_F(Intake, OnlyTheFirstFewRefusalsOfAKindAreSaid) {
+  for (uint32_t i = 1; i <= 20; ++i) intake.offer("c2", sample(i), 0, 0, t0);
+  EXPECT_EQ(intake.rejected_cab(), 20);
+  EXPECT_EQ(said.size(), size_t(ControlIntake::kRefusalsSaid));
+  EXPECT_NE(said.back().find("further refusals"), std::string::npos);
+}
+
+TEST_F(Intake, ScriptedRowsApplyAtTheirTickAndALateResendChangesNothing) {
+  intake.offer("c1", sample(1, 0.1, 0.010), 0, 0, t0);  // tick 10
+  intake.offer("c1", sample(2, 0.2, 0.020), 0, 0, t0);  // tick 20
+  intake.offer("c1", sample(3, 0.3, 5.0), 0, 0, t0);    // more than 2 s ahead: refused
+  EXPECT_EQ(intake.rejected_range(), 1);
+  EXPECT_FALSE(intake.has_pending());
+  EXPECT_FALSE(intake.take_scheduled(9));
+  EXPECT_TRUE(intake.take_scheduled(10));
+  EXPECT_EQ(intake.take_pending()->seq, 1u);
+  EXPECT_TRUE(intake.take_scheduled(25));
+  EXPECT_EQ(intake.take_pending()->seq, 2u);
+  intake.offer("c1", sample(4, 0.1, 0.010), 25, 0.025, t0);  // a resend of an older row's time
+  EXPECT_FALSE(intake.has_pending());
+  intake.offer("c1", sample(5, 0.4), 25, 0.025, t0);         // a live sample: at once
+  EXPECT_EQ(intake.take_pending()->seq, 5u);
+}
+
+TEST_F(Intake, TheDeadManForgetsASilentCabsWishes) {
+  ControlSample s = sample(1, 0.2, 0.5);
+  s.frames_wanted = true;
+  s.camera = 1;
+  intake.offer("c1", s, 0, 0, t0);
+  ASSERT_TRUE(intake.view_request());
+  EXPECT_EQ(intake.view_request()->camera, 1);
+  EXPECT_NEAR(intake.silence_s(t0 + std::chrono::milliseconds(600)), 0.6, 1e-9);
+  intake.forget();
+  EXPECT_FALSE(intake.view_request());
+  EXPECT_FALSE(intake.take_scheduled(1000));
+}
+
+TEST(TruckState, TellsTheHudWhatTheRunHolds) {
+  SessionSpec spec;
+  spec.scenario_file = kData + "/scenarios/first_drive_yard.json";
+  const SessionModel model = load_session_model(spec, kData);
+  SessionRun run(model, initial_state(model));
+  ControlSample c;
+  c.accelerator = 0.5;
+  run.apply(7, driver_inputs(c, model.truck));
+  for (int i = 0; i < 200; ++i) run.tick();
+  run.deadman();
+  run.tick();
+  const fk_TruckState s = truck_state(run, "c1", "s1", 10.0, 3);
+  EXPECT_EQ(std::string(s.cab_id), "c1");
+  EXPECT_EQ(std::string(s.session_id), "s1");
+  EXPECT_EQ(s.applied_control_sequence, 7u);
+  EXPECT_TRUE(s.deadman);
+  EXPECT_NEAR(s.sim_time_s, 0.201, 1e-9);
+  EXPECT_NEAR(s.time_left_s, 10.0 - 0.201, 1e-9);
+  EXPECT_EQ(s.aids, 3);
+  EXPECT_GT(s.speed_m_s, 0.0);
+  EXPECT_EQ(truck_state(run, "c1", "s1", 0, 0).time_left_s, -1.0);
+
+  Score score;
+  score.mark = 91;
+  score.passed = true;
+  for (int i = 0; i < 70; ++i) score.counts["rule_" + std::to_string(i)] = i;
+  std::vector<fk_FaultCount> counts;
+  const fk_Score sc = score_sample("s1", score, counts);
+  EXPECT_EQ(sc.counts._length, 64u) << "the IDL's bound";
+  EXPECT_EQ(sc.mark, 91);
+  EXPECT_TRUE(sc.passed);
+}
+
+}  // namespace
