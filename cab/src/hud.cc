@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "forklift/protocol/aids.h"
+#include "forklift/session/vocabulary.h"
 #include "settings.h"
 
 namespace forklift::cab {
@@ -98,12 +99,16 @@ std::map<std::string, FaultWords> load_fault_words(const std::string& path) {
 }
 
 std::string end_words(const std::string& state, const std::string& reason) {
-  if (state == "failed") return "The session could not run: " + reason + ". Tell your instructor.";
-  if (reason == "aborted") return "Session aborted by your instructor";
-  if (reason == "task_complete") return "Session over: task complete";
-  if (reason == "time_limit") return "Session over: time is up";
-  if (reason == "duration") return "Session over: the session's time has run";
-  if (reason == "signal") return "Session stopped by the school's system";
+  if (parse<SessionPhase>(state) == SessionPhase::kFailed)
+    return "The session could not run: " + reason + ". Tell your instructor.";
+  if (const std::optional<EndReason> r = parse<EndReason>(reason)) switch (*r) {
+      case EndReason::kAborted: return "Session aborted by your instructor";
+      case EndReason::kTaskComplete: return "Session over: task complete";
+      case EndReason::kTimeLimit: return "Session over: time is up";
+      case EndReason::kDuration: return "Session over: the session's time has run";
+      case EndReason::kSignal: return "Session stopped by the school's system";
+      case EndReason::kNumericalFailure: break;  // said in the worker's own word, as any other
+    }
   return "Session over (" + reason + ")";
 }
 
@@ -135,15 +140,19 @@ void Hud::on_event(const fk_Event& e, double now_s) {
 }
 
 void Hud::on_status(const std::string& state, const std::string& reason, double now_s) {
-  if (state == "running" && !session_over_) {
+  const std::optional<SessionPhase> phase = parse<SessionPhase>(state);
+  if (phase == SessionPhase::kRunning && !session_over_) {
     session_line_.clear();
     add({"Session started: drive when ready", "", "session", kGreen, now_s, now_s + 3});
-  } else if (state == "waiting" && !session_over_) {
+  } else if (phase == SessionPhase::kWaiting && !session_over_) {
     session_line_ = "Waiting for the session to start";
-  } else if (state == "ended" || state == "failed") {
+  } else if (phase == SessionPhase::kEnded || phase == SessionPhase::kFailed) {
     session_over_ = true;
     session_line_ = end_words(state, reason);
-    session_colour_ = reason == "task_complete" ? kGreen : reason == "aborted" || state == "failed" ? kRed : kWhite;
+    const std::optional<EndReason> r = parse<EndReason>(reason);
+    session_colour_ = r == EndReason::kTaskComplete                                   ? kGreen
+                      : r == EndReason::kAborted || phase == SessionPhase::kFailed ? kRed
+                                                                                      : kWhite;
   }
 }
 

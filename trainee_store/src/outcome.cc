@@ -2,6 +2,7 @@
 // every backend.
 #include <string_view>
 
+#include "forklift/session/vocabulary.h"
 #include "forklift/store/store.h"
 
 namespace forklift::store {
@@ -20,18 +21,27 @@ const char* outcome_name(Outcome o) {
 
 Outcome session_outcome(const Session& s) {
   if (!is_terminal(s.state)) return Outcome::kOpen;
-  if (s.state == "aborted") return Outcome::kAborted;
-  if (s.state == "failed") return Outcome::kFailed;
+  const std::optional<SessionPhase> phase = parse<SessionPhase>(s.state);
+  if (phase == SessionPhase::kAborted) return Outcome::kAborted;
+  if (phase == SessionPhase::kFailed) return Outcome::kFailed;
   // Ended: as the worker's end reason says (forklift-worker: its SessionStatus and score line).
-  const std::string_view r = s.reason;
-  if (r == "task_complete" || r == "parked") return Outcome::kCompleted;
-  // The time the session was given (the scenario's duration, or the instructor's limit) ran
-  // out: the run's course for a drive without a task, out of time for a task left unfinished.
-  if (r == "duration") return s.task_left_unfinished ? Outcome::kTimedOut : Outcome::kCompleted;
-  if (r == "time_limit") return Outcome::kTimedOut;
-  if (r == "aborted") return Outcome::kAborted;
-  if (r == "signal") return Outcome::kStopped;
-  return Outcome::kFailed;  // "numerical_failure", "worker exited" with no mark, a tip-over end...
+  const std::optional<EndReason> reason = parse<EndReason>(s.reason);
+  if (!reason) {
+    // "parked": the evaluation's end word for a drive that ended parked, not a worker's reason;
+    // anything else ("worker exited" with no mark, a tip-over end...) is a failure.
+    return s.reason == "parked" ? Outcome::kCompleted : Outcome::kFailed;
+  }
+  switch (*reason) {
+    case EndReason::kTaskComplete: return Outcome::kCompleted;
+    // The time the session was given (the scenario's duration, or the instructor's limit) ran
+    // out: the run's course for a drive without a task, out of time for a task left unfinished.
+    case EndReason::kDuration: return s.task_left_unfinished ? Outcome::kTimedOut : Outcome::kCompleted;
+    case EndReason::kTimeLimit: return Outcome::kTimedOut;
+    case EndReason::kAborted: return Outcome::kAborted;
+    case EndReason::kSignal: return Outcome::kStopped;
+    case EndReason::kNumericalFailure: return Outcome::kFailed;
+  }
+  return Outcome::kFailed;
 }
 
 std::optional<double> mark_of(const Session& s) {
