@@ -1,6 +1,7 @@
 #include "forklift/security/evidence.h"
 
 #include "forklift/session/log_records.h"
+#include "forklift/session/vocabulary.h"
 
 #include <openssl/crypto.h>
 
@@ -62,68 +63,6 @@ const json* field(const json& obj, const char* key) {
 const std::string* string_field(const json& obj, const char* key) {
   const json* f = field(obj, key);
   return f && f->is_string() ? f->get_ptr<const std::string*>() : nullptr;
-}
-
-// Strict integer and double parsing for log fields: the whole word or nothing.
-std::optional<long long> parse_int(const std::string& w) {
-  if (w.empty()) return std::nullopt;
-  char* end = nullptr;
-  errno = 0;
-  const long long v = std::strtoll(w.c_str(), &end, 10);
-  if (errno || *end != '\0') return std::nullopt;
-  return v;
-}
-
-std::optional<double> parse_double(const std::string& w) {
-  if (w.empty()) return std::nullopt;
-  char* end = nullptr;
-  const double v = std::strtod(w.c_str(), &end);  // reads the log's %a exactly
-  if (*end != '\0') return std::nullopt;
-  return v;
-}
-
-// What the control log says about the exam (the lines that the record must agree with).
-struct LogFacts {
-  struct Event {
-    std::string kind;
-    long long worry = 0;
-  };
-  std::vector<std::string> sessions, cabs, modes;  // every "session"/"cab"/"mode" line's value
-  std::vector<Event> events;
-  struct Score {
-    double mark = 0;
-    bool passed = false;
-  };
-  std::vector<Score> scores;
-  std::vector<std::string> malformed;  // descriptions of e/score lines that do not parse
-};
-
-LogFacts read_log(const std::string& text) {
-  LogFacts f;
-  // The session log's own grammar (forklift/session/log_records.h); the facts are gathered here,
-  // tolerantly, because this log is the one under suspicion: repeats and torn lines are findings.
-  for (const LogRecord& r : scan_log_records(text)) {
-    const std::vector<std::string>& w = r.words;
-    const std::string where = "log line " + std::to_string(r.line);
-    if (w[0] == "session" || w[0] == "cab" || w[0] == "mode") {
-      (w[0] == "session" ? f.sessions : w[0] == "cab" ? f.cabs : f.modes).push_back(r.rest);
-    } else if (w[0] == "e" || w[0] == "w") {  // the evaluation's events and the worker's own, in order
-      const auto tick = w.size() == 4 ? parse_int(w[1]) : std::nullopt;
-      const auto worry = w.size() == 4 ? parse_int(w[3]) : std::nullopt;
-      if (!tick || !worry)
-        f.malformed.push_back(where + " is not '" + w[0] + " <tick> <kind> <worry>'");
-      else
-        f.events.push_back({w[2], *worry});
-    } else if (w[0] == "score") {
-      const auto mark = w.size() >= 4 ? parse_double(w[1]) : std::nullopt;
-      const bool passed_ok = w.size() >= 4 && (w[2] == "0" || w[2] == "1");
-      if (!mark || !passed_ok || !parse_int(w[3]))
-        f.malformed.push_back(where + " is not 'score <mark> <0|1> <points> <reason>'");
-      else
-        f.scores.push_back({*mark, w[2] == "1"});
-    }
-  }
-  return f;
 }
 
 // The top-level keys in which two records differ, for a report line.
@@ -295,7 +234,9 @@ class Verifier {
   }
 
   void check_log(const std::string& text, const json& record) {
-    const LogFacts f = read_log(text);
+    // The session log's own reader (forklift/session/log_records.h), tolerant: this log is the one
+    // under suspicion, and its repeats and torn lines are findings.
+    const LogFacts f = read_log_facts(text, LogReading::kTolerant);
     for (const std::string& m : f.malformed) problem(m);
 
     // Header: exactly one session and one cab line, the record's.
@@ -313,7 +254,7 @@ class Verifier {
     header("session", f.sessions, rec_session_);
     header("cab", f.cabs, rec_cab_);
     // A log from before the mode line was written is a training log, as the typed reader has it.
-    const std::vector<std::string> modes = f.modes.empty() ? std::vector<std::string>{"training"} : f.modes;
+    const std::vector<std::string> modes = f.modes.empty() ? std::vector<std::string>{name(Mode::kTraining)} : f.modes;
     const std::string* rec_mode = string_field(record, "mode");
     header("mode", modes, rec_mode);
     if (header_ok && rec_session_ && rec_cab_)
@@ -333,7 +274,7 @@ class Verifier {
     if (f.scores.size() != 1) {
       problem("log has " + std::to_string(f.scores.size()) + " score lines, expected one");
     } else if (mark && mark->is_number() && rec_passed) {
-      const LogFacts::Score& s = f.scores[0];
+      const ScoreRecord& s = f.scores[0];
       const double rec_mark = mark->get<double>();
       bool ok = true;
       if (s.mark != rec_mark) {
@@ -353,22 +294,23 @@ class Verifier {
     // Events: the same (kind, worry) in the same order.
     const json* events = field(record, "events");
     if (!events || !events->is_array()) return problem("record has no array \"events\"");
-    std::vector<LogFacts::Event> rec_events;
+    std::vector<EventRecord> rec_events;
     for (size_t i = 0; i < events->size(); ++i) {
       const json& e = (*events)[i];
       const std::string* kind = string_field(e, "kind");
       const json* worry = field(e, "worry");
       if (!kind || !worry || !worry->is_number_integer())
         return problem("record event " + std::to_string(i + 1) + " has no string \"kind\" and integer \"worry\"");
-      rec_events.push_back({*kind, worry->get<long long>()});
+      rec_events.push_back({0, *kind, worry->get<long long>(), false});
     }
     bool same = rec_events.size() == f.events.size();
     for (size_t i = 0; i < std::min(rec_events.size(), f.events.size()); ++i) {
-      const LogFacts::Event& l = f.events[i];
-      const LogFacts::Event& r = rec_events[i];
-      if (l.kind != r.kind || l.worry != r.worry) {
+      const EventRecord& l = f.events[i];
+      const EventRecord& r = rec_events[i];
+      if (l.kind != r.kind || l.worry_level != r.worry_level) {
         problem("event " + std::to_string(i + 1) + " differs: the log has " + show(l.kind) + " worry " +
-                std::to_string(l.worry) + ", the record " + show(r.kind) + " worry " + std::to_string(r.worry));
+                std::to_string(l.worry_level) + ", the record " + show(r.kind) + " worry " +
+                std::to_string(r.worry_level));
         same = false;
         break;  // after one difference, the rest is shifted and says nothing new
       }

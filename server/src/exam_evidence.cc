@@ -12,6 +12,8 @@
 #include <stdexcept>
 
 #include "forklift/security/evidence.h"
+#include "forklift/session/log_records.h"
+#include "forklift/session/vocabulary.h"
 
 namespace forklift::server {
 
@@ -21,16 +23,9 @@ namespace {
 
 const store::Actor kServer{std::nullopt, "server"};
 
-// Events the worker published, as its log lists them: "e" (the evaluation's) and "w" (its own).
-size_t logged_events(const std::string& log) {
-  size_t n = 0;
-  for (size_t at = 0; at < log.size();) {
-    if (log.compare(at, 2, "e ") == 0 || log.compare(at, 2, "w ") == 0) ++n;
-    const size_t nl = log.find('\n', at);
-    at = nl == std::string::npos ? log.size() : nl + 1;
-  }
-  return n;
-}
+// Events the worker published, as its log lists them: "e" (the evaluation's) and "w" (its own);
+// a torn line is the verifier's finding, not an event.
+size_t logged_events(const std::string& log) { return read_log_facts(log, LogReading::kTolerant).events.size(); }
 
 // Stored JSON text as JSON; text that does not parse as itself, for the verifier to report.
 json parsed(const std::string& text) {
@@ -288,7 +283,7 @@ json exam_record(store::Store& db, const store::Session& s, const json* chained)
 ChainOutcome chain_exam(store::Store& db, const std::string& session, ChainAnchor& anchor, const ChainKeys& keys,
                         bool anyway) {
   const auto s = db.get_session(session);
-  if (!s || s->mode != "exam") return {ChainResult::kNotSignable, "not a practical exam"};
+  if (!s || parse<Mode>(s->mode) != Mode::kExam) return {ChainResult::kNotSignable, "not a practical exam"};
   if (db.get_chain_entry(session)) return {ChainResult::kAlreadyChained, ""};
   const auto sig_text = db.get_session_log(session, "signature");
   if (!sig_text || sig_text->empty()) return {ChainResult::kNotSignable, "its worker left no signed log"};
@@ -366,7 +361,7 @@ std::string check_chain_at_start(store::Store& db, ChainAnchor& anchor, const Ch
 }
 
 json exam_evidence(store::Store& db, const store::Session& s, const ChainAnchor& anchor) {
-  if (s.mode != "exam")
+  if (parse<Mode>(s.mode) != Mode::kExam)
     throw store::StoreError(store::StoreError::kNotFound, "session " + s.public_id + " is not a practical exam: it has no exam evidence");
   const auto held = anchor.hold_chain();  // the chain and its anchor as of one moment
   json chain = json::array();
@@ -393,7 +388,7 @@ json exam_evidence(store::Store& db, const store::Session& s, const ChainAnchor&
 }
 
 ExamStanding exam_standing(store::Store& db, const store::Session& s, const ChainAnchor& anchor, const ChainKeys& keys) {
-  if (s.mode != "exam") return {false, "it is not a practical exam"};
+  if (parse<Mode>(s.mode) != Mode::kExam) return {false, "it is not a practical exam"};
   if (keys.ca_pem.empty()) return {false, "this server has no school CA (--security) to check exam evidence with"};
   const auto held = anchor.hold_chain();
   const auto mine = db.get_chain_entry(s.public_id);

@@ -1,32 +1,15 @@
 #include "worker_log.h"
 
-#include "forklift/collision/collision.h"
-#include "forklift/session/session_log.h"
-
-
-#include <cerrno>
-#include <cstdlib>
+#include <climits>
 #include <fstream>
-#include <map>
 #include <sstream>
+
+#include "forklift/session/log_records.h"
+#include "forklift/session/session_log.h"
+#include "forklift/session/vocabulary.h"
 
 namespace forklift::server {
 namespace {
-
-std::vector<std::string> words(const std::string& line) {
-  std::vector<std::string> w;
-  std::istringstream in(line);
-  for (std::string x; in >> x;) w.push_back(x);
-  return w;
-}
-
-// Pallet handling events are information the evaluation does not count as faults.
-bool counted_as_fault(const std::string& kind) {
-  using K = HandlingEvent::Kind;
-  for (K k : {K::kPickedUp, K::kSetDown, K::kSliding, K::kDropped})
-    if (kind == handling_event_name(k)) return false;
-  return true;
-}
 
 std::string read_text(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -35,73 +18,56 @@ std::string read_text(const std::string& path) {
   return s.str();
 }
 
+// A score record as the server takes it: a mark out of 100, points that fit.
+std::optional<LoggedMark> logged_mark(const ScoreRecord& s) {
+  if (!(s.mark >= 0 && s.mark <= 100) || s.points < INT_MIN || s.points > INT_MAX) return std::nullopt;
+  return LoggedMark{s.mark, s.passed, static_cast<int>(s.points), s.end_reason};
+}
+
 }  // namespace
 
 std::optional<LoggedMark> parse_score_line(const std::string& line) {
-  const auto w = words(line);
-  if (w.size() < 4 || w[0] != "score" || (w[2] != "0" && w[2] != "1")) return std::nullopt;
-  char* end = nullptr;
-  errno = 0;
-  const double mark = std::strtod(w[1].c_str(), &end);
-  if (errno != 0 || *end != '\0' || !(mark >= 0 && mark <= 100)) return std::nullopt;
-  LoggedMark m{mark, w[2] == "1"};
-  try {
-    m.points = std::stoi(w[3]);
-  } catch (const std::exception&) {
-    return std::nullopt;
-  }
-  m.end_reason = w.size() >= 5 ? w.back() : "";
-  return m;
+  const std::vector<LogRecord> records = scan_log_records(line);
+  if (records.size() != 1) return std::nullopt;
+  const auto s = score_record(records[0]);
+  return s ? logged_mark(*s) : std::nullopt;
 }
 
 std::optional<LoggedSession> read_logged_session(const std::string& log_path, const std::string& session) {
-  std::ifstream in(log_path);
+  std::ifstream in(log_path, std::ios::binary);
   if (!in) return std::nullopt;
+  const std::string text = read_text(log_path);
+  if (text.rfind("forklift-control-log ", 0) != 0) return std::nullopt;  // not a log, or an empty file
+  // Tolerant: a torn last line (the worker was killed mid-write) leaves what came before standing.
+  const LogFacts f = read_log_facts(text, LogReading::kTolerant);
+  const double tick_s = f.tick ? std::strtod(f.tick->c_str(), nullptr) : 1e-3;
   LoggedSession out;
-  double tick_s = 1e-3;
-  std::optional<LoggedMark> mark;
   std::map<std::string, int> counts;  // the evaluation's events ("e" lines) by rule, as the Score counts them
-  std::string line;
-  bool first = true;
-  while (std::getline(in, line)) {
-    if (first) {
-      if (line.rfind("forklift-control-log ", 0) != 0) return std::nullopt;
-      first = false;
+  for (const EventRecord& r : f.events) {
+    if (r.worry_level < INT_MIN || r.worry_level > INT_MAX) continue;
+    // The worker's own event saying the cab never spoke was never published (the worker gave up
+    // before the session began).
+    if (r.worker && r.kind == kNoControlsEvent) {
+      out.gave_up = true;
       continue;
     }
-    const auto w = words(line);
-    if (w.empty()) continue;
-    try {
-      if (w[0] == "tick" && w.size() == 2) {
-        tick_s = std::strtod(w[1].c_str(), nullptr);
-      } else if ((w[0] == "e" || w[0] == "w") && w.size() == 4) {
-        // "w" lines are the worker's own events; the one saying the cab never spoke was never
-        // published (the worker gave up before the session began).
-        if (w[0] == "w" && w[2] == kNoControlsEvent) { out.gave_up = true; continue; }
-        store::EventRecord e;
-        e.session_public_id = session;
-        e.seq = static_cast<int64_t>(out.events.size()) + 1;
-        e.sim_time_s = static_cast<double>(std::stoll(w[1])) * tick_s;
-        e.kind = w[2];
-        e.worry_level = std::stoi(w[3]);
-        e.details = R"j({"recovered_from":"the worker's session log (no position or details)"})j";
-        if (w[0] == "e" && counted_as_fault(e.kind)) ++counts[e.kind];
-        out.events.push_back(std::move(e));
-      } else if (w[0] == "score") {
-        mark = parse_score_line(line);
-        if (mark) {
-          out.end_reason = mark->end_reason;
-          out.points = mark->points;
-        }
-      } else if (w[0] == "end") {
-        out.finished = true;
-      }
-    } catch (const std::exception&) {
-      // a torn last line (the worker was killed mid-write): what came before stands
-    }
+    store::EventRecord e;
+    e.session_public_id = session;
+    e.seq = static_cast<int64_t>(out.events.size()) + 1;
+    e.sim_time_s = static_cast<double>(r.tick) * tick_s;
+    e.kind = r.kind;
+    e.worry_level = static_cast<int>(r.worry_level);
+    e.details = R"j({"recovered_from":"the worker's session log (no position or details)"})j";
+    // Pallet handling is information the evaluation does not count as faults.
+    if (!r.worker && event_origin(e.kind) == EventOrigin::kEvaluation) ++counts[e.kind];
+    out.events.push_back(std::move(e));
   }
-  if (first) return std::nullopt;  // empty file
+  // The last score line that holds (as the log is read line by line: a later one supersedes).
+  std::optional<LoggedMark> mark;
+  for (const ScoreRecord& s : f.scores) mark = logged_mark(s);
   if (mark) {
+    out.end_reason = mark->end_reason;
+    out.points = mark->points;
     store::ScoreRecord s;
     s.session_public_id = session;
     s.mark = mark->mark;
@@ -109,6 +75,7 @@ std::optional<LoggedSession> read_logged_session(const std::string& log_path, co
     s.counts = counts;
     out.score = s;
   }
+  out.finished = f.ended;
   return out;
 }
 
