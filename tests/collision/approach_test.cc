@@ -13,7 +13,7 @@ struct Ahead : testing::Test {
   // The truck at (0, y) heading yaw_deg, its fork top heel_z above the floor.
   std::optional<PalletApproach> at(double y, double yaw_deg, double heel_z, double x = 0) {
     const StateVector s = settled(d, x, y, yaw_deg * M_PI / 180, heel_z);
-    return pallet_approach(scene, warehouse.pallets(), body_poses(truck(), coordinates(s)), truck_shape());
+    return pallet_approach(scene, warehouse.initial_handling().pallets(), body_poses(truck(), coordinates(s)), truck_shape());
   }
 };
 

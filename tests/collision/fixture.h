@@ -181,6 +181,7 @@ struct Driven {
   TruckDynamics dynamics;
   std::unique_ptr<Simulation> sim;
   std::unique_ptr<Warehouse> warehouse;
+  HandlingState handling;  // every pallet, as the warehouse steps them
   std::vector<std::pair<double, Contact>> contacts;  // every contact of every tick, with its time
   std::vector<HandlingEvent> events;
   std::vector<double> event_times;
@@ -189,6 +190,7 @@ struct Driven {
       : dynamics(truck(), Environment{scene.ground, Vector3d(0, 0, -9.81), std::nullopt, {}}) {
     sim = std::make_unique<Simulation>(dynamics, x0, IntegratorOptions{});
     warehouse = std::make_unique<Warehouse>(scene, shape, truck());
+    handling = warehouse->initial_handling();
   }
 
   const StateVector& x() const { return sim->state(); }
@@ -204,7 +206,8 @@ struct Driven {
     while (t() < end - 1e-9) {
       sim->set_inputs(control());
       sim->advance_to(t() + kTick);
-      const StepReport& r = warehouse->step(*sim);
+      const StepReport& r = warehouse->step(*sim, handling);
+      apply(r, *sim);
       for (const Contact& c : r.contacts) contacts.emplace_back(t(), c);
       for (const HandlingEvent& e : r.handling) {
         events.push_back(e);

@@ -82,10 +82,10 @@ TEST(Handling, ForkTipStrikingTheDeckIsAContactNotAPickUp) {
   drv.lift(0.5);
   EXPECT_NEAR(drv.heel_z(), 0.5, 0.005);
   EXPECT_EQ(run.count(HandlingEvent::Kind::kPickedUp), 0);
-  ASSERT_NE(run.warehouse->pallet("P1"), nullptr);
-  EXPECT_FALSE(run.warehouse->pallet("P1")->on_forks);
+  ASSERT_NE(run.handling.pallet("P1"), nullptr);
+  EXPECT_FALSE(run.handling.pallet("P1")->on_forks);
   EXPECT_NEAR(run.mass(), unladen, 1e-9);
-  EXPECT_NEAR(run.warehouse->pallet("P1")->pose.translation().z(), 0.0, 1e-12);  // it never moved
+  EXPECT_NEAR(run.handling.pallet("P1")->pose.translation().z(), 0.0, 1e-12);  // it never moved
 }
 
 // The whole handling cycle: forks at pocket height, in slowly, lift (picked up: the truck's
@@ -100,7 +100,7 @@ TEST(Handling, PickUpAndSetDownOnARackLevel) {
   Driven run(scene, truck_shape(), settled(d, 0, 0, 0, kPocketMid));
   Driver drv{run};
   const double unladen = run.mass();
-  const PalletState& p1 = *run.warehouse->pallet("P1");
+  const PalletState& p1 = *run.handling.pallet("P1");
 
   drv.insert_to(2.4 + 0.9);
   EXPECT_EQ(run.count(HandlingEvent::Kind::kPickedUp), 0);
@@ -193,7 +193,7 @@ TEST(Handling, SetDownOnTheFloor) {
   Driven run(scene, truck_shape(), settled(d, 0, 0, 0, kPocketMid));
   Driver drv{run};
   const double unladen = run.mass();
-  const PalletState& p1 = *run.warehouse->pallet("P1");
+  const PalletState& p1 = *run.handling.pallet("P1");
   drv.insert_to(2.4 + 0.9);
   drv.lift(0.35);
   ASSERT_TRUE(p1.on_forks);
@@ -227,7 +227,7 @@ TEST(Handling, ShippedWarehouseMovesP3FromLevel2ToLevel3) {
   TruckDynamics d(truck());
   Driven run(scene, shipped_shape(), settled(d, at.x(), 26.1, M_PI / 2, at.z() + kPocketMid));
   Driver drv{run, Eigen::Vector2d(at.x(), 0), M_PI / 2};  // along the line: world y
-  const PalletState& p3 = *run.warehouse->pallet("P3");
+  const PalletState& p3 = *run.handling.pallet("P3");
   EXPECT_EQ(p3.resting_on, "R2");
   EXPECT_EQ(p3.level, 2);
   const double unladen = run.mass();
@@ -289,7 +289,7 @@ BrakeResult brake_with_load_high(double brake_N_m) {
   EXPECT_EQ(run.count(HandlingEvent::Kind::kPickedUp), 1);
   run.run(2.0, [&] { DriverInputs u = hold_speed(0, run.v()); u.tilt_rate_rad_s = 0.1; return u; });
   EXPECT_NEAR(coordinates(run.x())[kBeta], truck().limits.tilt_forward_max_rad, 0.005);
-  const PalletState& p1 = *run.warehouse->pallet("P1");
+  const PalletState& p1 = *run.handling.pallet("P1");
   auto track = [&] { r.max_slide_m = std::max(r.max_slide_m, p1.slide_m); return false; };
   run.run(15.0, [&] { DriverInputs u; u.drive_torque_N_m = 300; return u; }, [&] { track(); return run.v() >= 2.0; });
   r.heel_x_at_brake = drv.heel_x();

@@ -106,6 +106,17 @@ HandlingState::HandlingState(HandlingState&&) noexcept = default;
 HandlingState& HandlingState::operator=(HandlingState&&) noexcept = default;
 HandlingState::~HandlingState() = default;
 const std::vector<PalletState>& HandlingState::pallets() const { return d_->states; }
+const PalletState* HandlingState::pallet(const std::string& id) const {
+  for (const PalletState& s : d_->states)
+    if (s.id == id) return &s;
+  return nullptr;
+}
+
+void apply(const StepReport& r, Simulation& sim) {
+  sim.set_external_forces(r.scene_push);
+  if (r.load_change == LoadChange::kAttached) sim.attach_load(r.load);
+  if (r.load_change == LoadChange::kReleased) sim.release_load();
+}
 
 // The scene's collision shapes and the handling rules; the state it works on is its base,
 // swapped with a session's own for the length of a step.
@@ -211,7 +222,13 @@ struct Warehouse::Impl : HandlingState::Data {
     report.handling.push_back({kind, states[p].id, on, level, states[p].pose.translation()});
   }
 
-  void pick_up(Simulation& sim, int p, const Isometry3d& carriage) {
+  void attach(const Load& load) {
+    report.load_change = LoadChange::kAttached;
+    report.load = load;
+    attached_cog = load.cog_m;
+  }
+
+  void pick_up(int p, const Isometry3d& carriage) {
     PalletState& st = states[p];
     const PalletSpec& s = spec(p);
     // Fixed to the carriage from now on, as it stands at this instant: its deck's underside has
@@ -227,9 +244,7 @@ struct Warehouse::Impl : HandlingState::Data {
     pickup_underside_z = underside(st.pose, s);
     lifted_clear = false;
     have_prev_v = false;
-    const Load load = handling::pallet_load(s, rel);
-    sim.attach_load(load);
-    attached_cog = load.cog_m;
+    attach(handling::pallet_load(s, rel));
     carried = p;
     world->set_carried(p);
     st.pose = load_pose(carriage);
@@ -242,10 +257,10 @@ struct Warehouse::Impl : HandlingState::Data {
     event(HandlingEvent::Kind::kPickedUp, p);
   }
 
-  void put_down(Simulation& sim, const Isometry3d& pose, bool dropped, const std::string& on, int level) {
+  void put_down(const Isometry3d& pose, bool dropped, const std::string& on, int level) {
     const int p = carried;
     PalletState& st = states[p];
-    sim.release_load();
+    report.load_change = LoadChange::kReleased;
     carried = -1;
     world->set_carried(-1);
     world->set_pallet_pose(p, pose);
@@ -258,7 +273,7 @@ struct Warehouse::Impl : HandlingState::Data {
     event(dropped ? HandlingEvent::Kind::kDropped : HandlingEvent::Kind::kSetDown, p, on, level);
   }
 
-  void handle_carried(Simulation& sim, double dt, const CoordVector& q, const BodyPoses& poses,
+  void handle_carried(const Simulation& sim, double dt, const CoordVector& q, const BodyPoses& poses,
                       const std::array<Twist, 3>& motion) {
     PalletState& st = states[carried];
     const PalletSpec& s = spec(carried);
@@ -288,7 +303,7 @@ struct Warehouse::Impl : HandlingState::Data {
     const Vector3d cog_c = on_forks * cog_local;
     if (cog_c.x() > fork_tip_x || std::abs(q[kAuc]) > truck.tipped_over_rad || std::abs(q[kAvc]) > truck.tipped_over_rad) {
       const Vector3d c = st.pose * cog_local;
-      put_down(sim, yaw_pose(Vector3d(c.x(), c.y(), scene.ground.height(c.x(), c.y())), yaw_of(st.pose.linear())),
+      put_down(yaw_pose(Vector3d(c.x(), c.y(), scene.ground.height(c.x(), c.y())), yaw_of(st.pose.linear())),
                true, "", 0);
       return;
     }
@@ -320,21 +335,17 @@ struct Warehouse::Impl : HandlingState::Data {
       const bool on_floor = !on && low <= floor + handling::kTouchM;
       if (on_floor) best = floor;
       if (on || on_floor) {
-        put_down(sim, yaw_pose(Vector3d(centre.x(), centre.y(), best), yaw_of(st.pose.linear())), false,
+        put_down(yaw_pose(Vector3d(centre.x(), centre.y(), best), yaw_of(st.pose.linear())), false,
                  on ? on->id : "", level);
         return;
       }
     }
 
     // Still on the forks: tell the model when the CoG has moved.
-    if ((cog_c - attached_cog).norm() > handling::kReattachM) {
-      const Load load = handling::pallet_load(s, on_forks);
-      sim.attach_load(load);
-      attached_cog = load.cog_m;
-    }
+    if ((cog_c - attached_cog).norm() > handling::kReattachM) attach(handling::pallet_load(s, on_forks));
   }
 
-  void handle_free(Simulation& sim, const Isometry3d& carriage) {
+  void handle_free(const Simulation& sim, const Isometry3d& carriage) {
     for (int p : world->nearby_pallets()) {
       const handling::Engagement& e = engagement[p];
       const PalletSpec& s = spec(p);
@@ -342,7 +353,7 @@ struct Warehouse::Impl : HandlingState::Data {
       if (e.fork_top_m <= s.pocket_top_m - handling::kPickArmClearanceM) pick_armed[p] = true;
       // One load at a time: not while the truck carries one (a scenario's load included).
       if (pick_armed[p] && e.fork_top_m > s.pocket_top_m && carried < 0 && !sim.dynamics().load()) {
-        pick_up(sim, p, carriage);
+        pick_up(p, carriage);
         return;
       }
     }
@@ -351,10 +362,7 @@ struct Warehouse::Impl : HandlingState::Data {
   // Fixed objects push back where the truck is inside them: a penalty force held for the next
   // tick. Light ones (cones, pallets) and people get none: they would give way, and the
   // evaluation counts the strike.
-  std::vector<ExternalForce> push;
-  void push_back(Simulation& sim) {
-    const bool pushed_before = !push.empty();
-    push.clear();
+  void push_back() {
     for (const Contact& c : report.contacts) {
       switch (c.object_kind) {
         case ObjectKind::kRack: case ObjectKind::kWall: case ObjectKind::kDoor:
@@ -366,14 +374,15 @@ struct Warehouse::Impl : HandlingState::Data {
                                                                                   : TruckBody::kCarriage;
       const SceneContactParams& k = truck.scene_contact;
       const double f = k.stiffness_N_m * c.depth_m + k.damping_N_s_m * c.relative_speed_m_s;
-      push.push_back({body, c.point_m, f * c.normal});
+      report.scene_push.push_back({body, c.point_m, f * c.normal});
     }
-    if (pushed_before || !push.empty()) sim.set_external_forces(push);
   }
 
-  const StepReport& step(Simulation& sim) {
+  const StepReport& step(const Simulation& sim) {
     report.contacts.clear();
     report.handling.clear();
+    report.scene_push.clear();
+    report.load_change = LoadChange::kNone;
     const double t = sim.time();
     double dt = have_time ? t - last_time : 0.0;
     if (dt < 0) {  // a simulation rewound: no acceleration across the jump
@@ -398,7 +407,7 @@ struct Warehouse::Impl : HandlingState::Data {
                 twist(poses.carriage, ahead.carriage, h)};
     }
     to_contacts(moving ? &motion : nullptr, poses.carriage.linear().col(0), report.contacts);
-    push_back(sim);
+    push_back();
 
     if (carried >= 0) handle_carried(sim, dt, q, poses, motion);
     else handle_free(sim, poses.carriage);
@@ -421,8 +430,7 @@ Warehouse::Warehouse(const Scene& scene, const TruckShape& shape, const TruckPar
 }
 Warehouse::~Warehouse() = default;
 
-const StepReport& Warehouse::step(Simulation& sim) { return impl_->step(sim); }
-const StepReport& Warehouse::step(Simulation& sim, HandlingState& state) {
+const StepReport& Warehouse::step(const Simulation& sim, HandlingState& state) {
   // The session's state in the warehouse for the step, and back afterwards (an exception too).
   struct Borrow {
     HandlingState::Data& mine;
@@ -434,11 +442,5 @@ const StepReport& Warehouse::step(Simulation& sim, HandlingState& state) {
   return impl_->step(sim);
 }
 std::vector<Contact> Warehouse::contacts_at(const CoordVector& q) { return impl_->contacts_at(q); }
-const std::vector<PalletState>& Warehouse::pallets() const { return impl_->states; }
-const PalletState* Warehouse::pallet(const std::string& id) const {
-  for (const PalletState& s : impl_->states)
-    if (s.id == id) return &s;
-  return nullptr;
-}
 
 }  // namespace forklift

@@ -747,8 +747,6 @@ struct Borrow {
 };
 }  // namespace
 
-void Evaluator::tick(const TickInput& in, std::vector<EvaluationEvent>& out) { impl_->tick(in, out); }
-Score Evaluator::finish(const std::string& end_reason, std::vector<EvaluationEvent>& out) { return impl_->finish(end_reason, out); }
 void Evaluator::tick(EvaluationMemory& memory, const TickInput& in, std::vector<EvaluationEvent>& out) {
   Borrow b(*impl_, *memory.d_, *initial_.d_);
   impl_->tick(in, out);
@@ -757,11 +755,5 @@ Score Evaluator::finish(EvaluationMemory& memory, const std::string& end_reason,
   Borrow b(*impl_, *memory.d_, *initial_.d_);
   return impl_->finish(end_reason, out);
 }
-const std::vector<EvaluationEvent>& Evaluator::events() const { return impl_->events; }
-const Stability& Evaluator::stability() const { return impl_->stab; }
-int Evaluator::points() const { return impl_->points; }
-bool Evaluator::task_completed() const { return impl_->step >= impl_->scene.task.steps.size(); }
-int Evaluator::steps_done() const { return int(impl_->step); }
-Mode Evaluator::mode() const { return impl_->mode; }
 
 }  // namespace forklift

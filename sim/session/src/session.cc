@@ -167,14 +167,17 @@ void step(const SessionModel& model, SessionState& state, SessionWorkspace& work
     sim.advance_to((state.tick + 1) * model.tick_s);
   }
   ++state.tick;
-  {  // collision and pallet handling (which may attach or release the load)
-    StageScope scope(observer, Stage::kCollision);
-    w.report = &w.warehouse.step(sim, state.handling);
-  }
   state.x = sim.state();
   state.t_s = sim.time();
-  state.load = sim.dynamics().load();
-  state.scene_push = sim.dynamics().environment().external_forces;
+  {  // collision and pallet handling; the load they attach or release and the scene's push-back
+     // are held from now on, in the state and in the simulation
+    StageScope scope(observer, Stage::kCollision);
+    const StepReport& r = *(w.report = &w.warehouse.step(sim, state.handling));
+    if (r.load_change == LoadChange::kAttached) state.load = r.load;
+    if (r.load_change == LoadChange::kReleased) state.load.reset();
+    state.scene_push = r.scene_push;
+    apply(r, sim);
+  }
   w.remember(state);
 
   // Pallets picked up and set down are information on the timeline.

@@ -37,10 +37,26 @@ struct HandlingEvent {
 };
 const char* handling_event_name(HandlingEvent::Kind kind);  // "picked_up", "set_down", "sliding", "dropped"
 
+// What a tick's handling does to the load on the forks.
+enum class LoadChange {
+  kNone,      // as it was
+  kAttached,  // StepReport::load is on the forks now (picked up, or its CoG moved as it slid)
+  kReleased,  // set down or dropped: the forks are empty
+};
+
 struct StepReport {
   std::vector<Contact> contacts;       // this tick's contacts (empty in a clear aisle)
   std::vector<HandlingEvent> handling; // what happened to pallets this tick
+  // What the truck's model must take on for the next tick (apply()): the load change, and the
+  // fixed objects' push-back (TruckParams::scene_contact), world, empty when nothing pushes.
+  LoadChange load_change = LoadChange::kNone;
+  Load load;                                // kAttached: the load now on the forks
+  std::vector<ExternalForce> scene_push;
 };
+
+// Gives a step's load change and push-back to the simulation (attaching or releasing the load
+// restarts its integrator, as Simulation::attach_load says).
+void apply(const StepReport& report, Simulation& sim);
 
 // What pallet handling remembers from tick to tick: every pallet's pose and support, the one on
 // the forks and how it sits there. A copyable value (part of a session's state).
@@ -53,7 +69,8 @@ class HandlingState {
   HandlingState& operator=(HandlingState&&) noexcept;
   ~HandlingState();
 
-  const std::vector<PalletState>& pallets() const;
+  const std::vector<PalletState>& pallets() const;  // empty before the first step
+  const PalletState* pallet(const std::string& id) const;  // nullptr: no such pallet
 
   struct Data;
 
@@ -93,25 +110,23 @@ class Warehouse {
   Warehouse(const Warehouse&) = delete;
   Warehouse& operator=(const Warehouse&) = delete;
 
-  // Call after every physics tick. Moves the truck's shapes to the simulation's state, finds
-  // the contacts, makes fixed objects (racks, walls, doors, docks, lorries, obstacles) push back
-  // on the truck for the next tick (sim.set_external_forces, TruckParams::scene_contact), then
-  // handles pallets: forks inside a pallet's pockets that lift it make it
-  // the attached load (sim.attach_load: the model's runtime mass change); lowered onto a rack
-  // level, a lorry bed or the floor, it is released there (sim.release_load); while carried it
-  // slides along the forks when inertia and fork tilt overcome friction, and drops when its
-  // centre of gravity passes the fork tips. A fork tip striking a pallet outside its pockets is
-  // a contact, not a pick-up.
-  const StepReport& step(Simulation& sim);
-  // The same on a session's own handling state (the warehouse's is left alone): the session
-  // pipeline's form, where that state is part of the session's.
-  const StepReport& step(Simulation& sim, HandlingState& state);
+  // Call after every physics tick, with the session's handling state (a fresh HandlingState
+  // starts as the scene stands the pallets). Moves the truck's shapes to the simulation's state,
+  // finds the contacts, has fixed objects (racks, walls, doors, docks, lorries, obstacles) push
+  // back on the truck for the next tick (StepReport::scene_push, TruckParams::scene_contact), then
+  // handles pallets: forks inside a pallet's pockets that lift it make it the attached load
+  // (LoadChange::kAttached: the model's runtime mass change); lowered onto a rack level, a lorry
+  // bed or the floor, it is released there (kReleased); while carried it slides along the forks
+  // when inertia and fork tilt overcome friction, and drops when its centre of gravity passes the
+  // fork tips. A fork tip striking a pallet outside its pockets is a contact, not a pick-up.
+  // The simulation is only read: the caller applies the report (apply()) before the next tick.
+  const StepReport& step(const Simulation& sim, HandlingState& state);
+
+  // The pallets as the scene stands them, before any step.
+  const HandlingState& initial_handling() const { return initial_; }
 
   // The contacts the truck would have at coordinates q, without handling (for tests and tools).
   std::vector<Contact> contacts_at(const CoordVector& q);
-
-  const std::vector<PalletState>& pallets() const;
-  const PalletState* pallet(const std::string& id) const;
 
  private:
   struct Impl;

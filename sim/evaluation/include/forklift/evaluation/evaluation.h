@@ -90,7 +90,7 @@ struct TickInput {
   const BodyPoses& poses;                  // body_poses(truck, out.q)
   const DriverInputs& inputs;              // what the truck was driven with during the tick
   const StepReport& report;                // Warehouse::step's contacts and pallet handling
-  const std::vector<PalletState>& pallets; // Warehouse::pallets() after the step
+  const std::vector<PalletState>& pallets; // HandlingState::pallets() after the step
   const std::optional<Load>& load;         // the load on the forks now (Simulation::dynamics().load())
   bool deadman = false;                    // the worker substituted the dead-man inputs
   Eigen::Vector3d gravity_m_s2 = Eigen::Vector3d(0, 0, -9.81);  // the environment's gravity
@@ -176,26 +176,15 @@ class Evaluator {
   Evaluator(const Evaluator&) = delete;
   Evaluator& operator=(const Evaluator&) = delete;
 
-  // One physics tick; appends the events found to `out` (usually none). After the first tick it
+  // One physics tick on a session's memory (part of its state; a fresh EvaluationMemory starts
+  // the session); appends the events found to `out` (usually none). After the first tick it
   // allocates nothing unless an event is found. Calling it after finish() is a programming error
   // (aborts). After a tip-over it marks nothing more.
-  void tick(const TickInput& in, std::vector<EvaluationEvent>& out);
+  void tick(EvaluationMemory& memory, const TickInput& in, std::vector<EvaluationEvent>& out);
 
   // Ends the session: parking checks (when `end_reason` is in the scheme's parking list) and the
-  // task check append their events to `out`; returns the Score. Call once.
-  Score finish(const std::string& end_reason, std::vector<EvaluationEvent>& out);
-
-  // The same on a session's own memory (the evaluator's is left alone): the session pipeline's
-  // form, where the memory is part of the session's state.
-  void tick(EvaluationMemory& memory, const TickInput& in, std::vector<EvaluationEvent>& out);
+  // task check append their events to `out`; returns the Score. Call once per memory.
   Score finish(EvaluationMemory& memory, const std::string& end_reason, std::vector<EvaluationEvent>& out);
-
-  const std::vector<EvaluationEvent>& events() const;  // every event so far
-  const Stability& stability() const;                  // at the last tick
-  int points() const;                                  // so far
-  bool task_completed() const;
-  int steps_done() const;
-  Mode mode() const;
 
  private:
   struct Impl;
