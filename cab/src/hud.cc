@@ -7,6 +7,7 @@
 
 #include "forklift/protocol/aids.h"
 #include "forklift/session/vocabulary.h"
+#include "forklift/units/units.h"
 #include "settings.h"
 
 namespace forklift::cab {
@@ -14,7 +15,6 @@ namespace {
 
 const Rgba kWhite{255, 255, 255, 255}, kGreen{70, 210, 90, 255}, kAmber{255, 180, 0, 255}, kRed{235, 50, 40, 255};
 const Rgba kGrey{190, 190, 190, 255}, kPanel{0, 0, 0, 150}, kBlue{120, 190, 255, 255};
-constexpr double kRad = 180 / M_PI;
 
 std::string format(const char* fmt, double a, double b = 0) {
   char buf[160];

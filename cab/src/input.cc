@@ -5,11 +5,10 @@
 #include <stdexcept>
 
 #include "settings.h"
+#include "forklift/units/units.h"
 
 namespace forklift::cab {
 namespace {
-
-constexpr double kDeg = M_PI / 180;
 
 double approach(double v, double target, double step) {
   return v < target ? std::min(target, v + step) : std::max(target, v - step);

@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "forklift/protocol/protocol.h"
+#include "forklift/units/units.h"
 
 namespace forklift::cab {
 
@@ -42,11 +43,11 @@ struct CabCommand {
 
 // The settings of data/cab/cab.json that input uses.
 struct InputSettings {
-  double steer_lock_rad = 88 * M_PI / 180;
+  double steer_lock_rad = 88 * kDeg;
   double accelerator_rise_s = 0.6, brake_rise_s = 0.15;
   double steer_rate_rad_s = M_PI / 2, steer_centring_rad_s = 2 * M_PI / 3;
-  double look_max_yaw_rad = 150 * M_PI / 180, look_max_pitch_rad = 30 * M_PI / 180;
-  double look_rate_rad_s = 2 * M_PI / 3, mouse_rad_per_pixel = 0.25 * M_PI / 180;
+  double look_max_yaw_rad = 150 * kDeg, look_max_pitch_rad = 30 * kDeg;
+  double look_rate_rad_s = 2 * M_PI / 3, mouse_rad_per_pixel = 0.25 * kDeg;
 };
 InputSettings input_settings(const nlohmann::json& cab_json);  // throws std::runtime_error naming the key
 

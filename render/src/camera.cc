@@ -4,13 +4,12 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include "forklift/units/units.h"
 
 namespace forklift {
 namespace {
 
 using Eigen::Vector3d;
-
-constexpr double kDeg = M_PI / 180.0;
 
 // The cab view: from the driver's eye, along the truck, pitched down a little so the fork
 // tips and the floor ahead of them are in the lower part of the picture.

@@ -8,11 +8,10 @@
 #include <stdexcept>
 
 #include "forklift/plot/svg_plot.h"
+#include "forklift/units/units.h"
 
 namespace forklift {
 namespace {
-
-constexpr double kDeg = 180.0 / M_PI;
 
 // One plotted quantity: a panel of its own, or one panel per wheel in an overlay.
 struct Quantity {
@@ -39,7 +38,7 @@ Quantity drive_torque() {
 }
 Quantity pitch() {
   return {"Pitch (+ nose down)", "pitch (deg)", 0.01, {},
-          [](const Sample& s, int) { return s.out.q[kAvc] * kDeg; }};
+          [](const Sample& s, int) { return s.out.q[kAvc] * kRad; }};
 }
 Quantity forward_speed() {
   return {"Forward speed", "v (m/s)", 0.01, {},
@@ -47,7 +46,7 @@ Quantity forward_speed() {
 }
 Quantity rear_wheel_angle() {
   return {"Rear-wheel angle (+ turns right)", "steer (deg)", 0.1, {},
-          [](const Sample& s, int) { return s.out.q[kAwr3] * kDeg; }};
+          [](const Sample& s, int) { return s.out.q[kAwr3] * kRad; }};
 }
 Quantity force(const char* name, const char* symbol, const std::vector<int>& wheels,
                double WheelContact::*field) {
@@ -56,7 +55,7 @@ Quantity force(const char* name, const char* symbol, const std::vector<int>& whe
 }
 Quantity slip_angle(const std::vector<int>& wheels) {
   return {"Slip angle alpha", "alpha (deg)", 0.01, wheels,
-          [](const Sample& s, int w) { return s.out.wheels[w].slip_angle_rad * kDeg; }};
+          [](const Sample& s, int w) { return s.out.wheels[w].slip_angle_rad * kRad; }};
 }
 
 // Longitudinal slip ratio (w r - V) / max(|V|, |w r|, v0): positive when the wheel spins faster

@@ -18,13 +18,12 @@
 #include "forklift/scene/scene.h"
 #include "forklift/dynamics/stability.h"
 #include "forklift/dynamics/validation.h"
+#include "forklift/units/units.h"
 
 using namespace forklift;
 using nlohmann::json;
 
 namespace {
-
-constexpr double kDeg = 180.0 / M_PI;
 
 json fz_json(const std::array<double, kNumWheels>& fz) {
   json j;
@@ -59,7 +58,7 @@ json result_json(const ManoeuvreResult& r) {
       {"min_fz_N", fz_json(r.min_fz_N)},
       {"rear_wheel_lifted", r.rear_wheel_lifted},
       {"stop_time_s", stop_times_json(r)},
-      {"final_pose", {{"x", r.final_pose.x()}, {"y", r.final_pose.y()}, {"yaw", r.final_pose.z() * kDeg}}},
+      {"final_pose", {{"x", r.final_pose.x()}, {"y", r.final_pose.y()}, {"yaw", r.final_pose.z() * kRad}}},
       {"tipped_over", r.tipped_over},
   };
 }
@@ -268,7 +267,7 @@ int main(int argc, char** argv) {
         std::printf("%-4d %-8s %7ld %8ld %9.1f %9.3f %9.3f %11.0f %11s %9s %9s %7.1f %6s\n", n, integrator_name(opts.kind),
                     r.stats.steps, r.stats.rhs_evals, r.wall_s * 1e3, r.max_pitch_deg, r.max_roll_deg,
                     r.min_fz_N[kRear], r.rear_wheel_lifted ? "yes" : "no", stop(r.stop_times[0].s).c_str(),
-                    stop(r.stop_times[1].s).c_str(), r.final_pose.z() * kDeg, r.tipped_over ? "yes" : "no");
+                    stop(r.stop_times[1].s).c_str(), r.final_pose.z() * kRad, r.tipped_over ? "yes" : "no");
         all.push_back(result_json(r));
 
         const FigureGroup* group = figure_group_of(n);
@@ -321,7 +320,7 @@ int main(int argc, char** argv) {
       bool all = true;
       for (const IsoTiltTest& t : iso_22915_2(truck)) {
         list.push_back({{"test", t.number}, {"name", t.name}, {"axis", t.axis == TiltAxis::kLateral ? "lateral" : "longitudinal"},
-                        {"load_kg", t.load_kg}, {"fork_height_m", t.fork_height_m}, {"mast_tilt_deg", t.mast_tilt_rad * kDeg},
+                        {"load_kg", t.load_kg}, {"fork_height_m", t.fork_height_m}, {"mast_tilt_deg", t.mast_tilt_rad * kRad},
                         {"required_slope_pct", t.required_slope_pct}, {"required_deg", t.required_deg},
                         {"critical_angle_deg", t.result.critical_angle_deg}, {"rigid_angle_deg", t.result.rigid_angle_deg},
                         {"margin_deg", t.margin_deg}, {"lifted_wheel", wheel_name(t.result.lifted_wheel)}, {"pass", t.pass}});

@@ -169,7 +169,7 @@ inline DriverInputs hold_speed(double target, double v) {
   const double e = target - v;
   // Proportional, plus the torque the unladen truck's rolling resistance takes at the wheels.
   const TruckParams& t = truck();
-  const double rolling = t.contact.rolling_resistance_coefficient * t.service_mass_kg * 9.81 * t.wheels[kFrontLeft].radius_m;
+  const double rolling = t.contact.rolling_resistance_coefficient * t.service_mass_kg * kGravity_m_s2 * t.wheels[kFrontLeft].radius_m;
   u.drive_torque_N_m = std::clamp(3000.0 * e + (target > 0 ? rolling : target < 0 ? -rolling : 0.0), -900.0, 900.0);
   if (std::abs(target) < 1e-9 && std::abs(v) > 0.02) { u.drive_torque_N_m = 0; u.brake_torque_N_m = 400; }
   return u;
@@ -187,7 +187,7 @@ struct Driven {
   std::vector<double> event_times;
 
   Driven(const Scene& scene, const TruckShape& shape, const StateVector& x0)
-      : dynamics(truck(), Environment{scene.ground, Vector3d(0, 0, -9.81), std::nullopt, {}}) {
+      : dynamics(truck(), Environment{scene.ground, Vector3d(0, 0, -kGravity_m_s2), std::nullopt, {}}) {
     sim = std::make_unique<Simulation>(dynamics, x0, IntegratorOptions{});
     warehouse = std::make_unique<Warehouse>(scene, shape, truck());
     handling = warehouse->initial_handling();

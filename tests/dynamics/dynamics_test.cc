@@ -11,8 +11,6 @@ using namespace forklift;
 
 namespace {
 
-constexpr double kG = 9.81;
-
 StateVector settled(const TruckDynamics& d, double lift = 0) {
   StateVector x = d.rest_state(0, 0, 0, 0, 0, lift, 0);
   EXPECT_TRUE(d.settle_static(x));
@@ -34,17 +32,17 @@ double sum_fz(const Outputs& o) { return o.wheels[0].fz_N + o.wheels[1].fz_N + o
 TEST(Statics, WheelLoadsCarryTheWholeWeight) {
   TruckDynamics d(shipped_truck());
   Outputs o = eval(d, settled(d));
-  EXPECT_NEAR(sum_fz(o), 3200 * kG, 1e-6 * 3200 * kG);
+  EXPECT_NEAR(sum_fz(o), 3200 * kGravity_m_s2, 1e-6 * 3200 * kGravity_m_s2);
   EXPECT_NEAR(o.wheels[kFrontLeft].fz_N, o.wheels[kFrontRight].fz_N, 1e-6);
 
   d.attach_load(box_load(1000, 1, 1, 1, 0.5, 0));
   const StateVector x = settled(d, 1.0);
   o = eval(d, x);
-  EXPECT_NEAR(sum_fz(o), 4200 * kG, 1e-6 * 4200 * kG);
+  EXPECT_NEAR(sum_fz(o), 4200 * kGravity_m_s2, 1e-6 * 4200 * kGravity_m_s2);
   EXPECT_NEAR(o.total_mass_kg, 4200, 1e-9);
   // Moment balance about the front axle: rear load = W * (distance of the CoG behind it) / L.
   const double front_x = x[kX] + shipped_truck().wheels[kFrontLeft].centre_m.x();
-  const double rear_expected = 4200 * kG * (front_x - o.cog_m.x()) / shipped_truck().wheelbase_m();
+  const double rear_expected = 4200 * kGravity_m_s2 * (front_x - o.cog_m.x()) / shipped_truck().wheelbase_m();
   EXPECT_NEAR(o.wheels[kRear].fz_N, rear_expected, 0.01 * rear_expected);
 }
 
@@ -61,10 +59,10 @@ TEST(Statics, LiftActuatorHoldsTheWeightOfCarriageAndLoad) {
   TruckDynamics d(shipped_truck());
   d.attach_load(box_load(700, 1, 1, 1, 0.5, 0));
   const Outputs o = eval(d, settled(d, 1.2));
-  const double w = (700 + shipped_truck().carriage.mass_kg) * kG;
+  const double w = (700 + shipped_truck().carriage.mass_kg) * kGravity_m_s2;
   EXPECT_NEAR(o.driven_force[kS - kNumDynamic], w, 0.002 * w);
   // The load ahead of the mast pulls it forward: the tilt cylinder must push back (negative).
-  EXPECT_LT(o.driven_force[kBeta - kNumDynamic], -0.5 * 700 * kG * 0.5);
+  EXPECT_LT(o.driven_force[kBeta - kNumDynamic], -0.5 * 700 * kGravity_m_s2 * 0.5);
 }
 
 TEST(MassMatrix, SymmetricPositiveDefiniteAtRandomStates) {
@@ -169,7 +167,7 @@ TEST(GroundForces, NoForceOffTheGroundAndFreeFall) {
     EXPECT_EQ(c.fz_N, 0.0);
     EXPECT_EQ(c.fx_N, 0.0);
   }
-  EXPECT_NEAR(dx[StateIndex::kQdot + kZ], -kG, 1e-9);
+  EXPECT_NEAR(dx[StateIndex::kQdot + kZ], -kGravity_m_s2, 1e-9);
 }
 
 TEST(GroundForces, LongitudinalForceSaturatesAtFxMax) {
@@ -309,11 +307,11 @@ TEST(Load, AttachedAndReleasedAtRunTime) {
   sim.attach_load(box_load(900, 1, 1, 1, 0.5, 0));
   EXPECT_NEAR(sim.outputs().total_mass_kg, 4100, 1e-9);
   sim.advance_to(10.0);  // the truck bounces and settles under the new weight
-  EXPECT_NEAR(sum_fz(sim.outputs()), 4100 * kG, 0.01 * 4100 * kG);
+  EXPECT_NEAR(sum_fz(sim.outputs()), 4100 * kGravity_m_s2, 0.01 * 4100 * kGravity_m_s2);
   sim.release_load();
   EXPECT_NEAR(sim.outputs().total_mass_kg, 3200, 1e-9);
   sim.advance_to(20.0);
-  EXPECT_NEAR(sum_fz(sim.outputs()), 3200 * kG, 0.01 * 3200 * kG);
+  EXPECT_NEAR(sum_fz(sim.outputs()), 3200 * kGravity_m_s2, 0.01 * 3200 * kGravity_m_s2);
 }
 
 TEST(Ground, RampHeightIsSmoothAndItsGradientMatches) {
@@ -388,7 +386,7 @@ TEST(Stability, StaticReportOfTheRatedLoad) {
   const StaticReport r = static_report(shipped_truck(), box_load(1600, 1, 1, 1, 0.5, 0), 0.05);
   EXPECT_TRUE(r.settled);
   EXPECT_FALSE(r.rear_wheel_lifted);
-  EXPECT_GT(r.fz_N[kRear], 0.03 * 4800 * kG);  // a counterbalance truck keeps a margin at rated load
+  EXPECT_GT(r.fz_N[kRear], 0.03 * 4800 * kGravity_m_s2);  // a counterbalance truck keeps a margin at rated load
   EXPECT_NEAR(r.wheel_contact_m[kFrontLeft].x(), 0.0, 0.01);  // geometry frame: front axle at x = 0
   EXPECT_NEAR(r.wheel_contact_m[kRear].x(), -1.25, 0.01);
   // Twice the rated load tips it.

@@ -11,8 +11,6 @@ using namespace forklift;
 
 namespace {
 
-constexpr double kDeg = 180.0 / M_PI;
-
 const ManoeuvreResult& run(int n, IntegratorKind kind = IntegratorKind::kCvodeBdf) {
   static std::map<std::pair<int, IntegratorKind>, ManoeuvreResult> cache;
   auto key = std::pair(n, kind);
@@ -132,7 +130,7 @@ TEST(Manoeuvre, UnbalancedLoadTurnsTheTruckWithZeroSteer) {
   EXPECT_LT(std::abs(s.out.q[kAwr3]), 0.01);
   EXPECT_GT(s.out.wheels[kFrontLeft].fz_N, 2 * s.out.wheels[kFrontRight].fz_N);
   EXPECT_GT(s.out.wheels[kFrontLeft].drive_torque_N_m, 2 * s.out.wheels[kFrontRight].drive_torque_N_m);
-  EXPECT_LT(s.out.q[kAwc] * kDeg, -5.0);
+  EXPECT_LT(s.out.q[kAwc] * kRad, -5.0);
 }
 
 TEST(Manoeuvre, SharpTurnWithUnbalancedLoadSaturatesTheFrontTyres) {
@@ -173,7 +171,7 @@ TEST(Manoeuvre, IntegratorsAgreeOnTheZigZag) {
     // heading from the converged run here; the explicit methods within 1 cm.
     const bool loose = r == &bdf;
     EXPECT_LT((r->final_pose.head<2>() - ref.final_pose.head<2>()).norm(), loose ? 0.25 : 0.10);
-    EXPECT_LT(std::abs(r->final_pose.z() - ref.final_pose.z()) * kDeg, loose ? 3.0 : 1.5);
+    EXPECT_LT(std::abs(r->final_pose.z() - ref.final_pose.z()) * kRad, loose ? 3.0 : 1.5);
     EXPECT_NEAR(r->max_roll_deg, ref.max_roll_deg, 0.05);
   }
 }

@@ -40,7 +40,7 @@ TEST(Truck, ShippedFilesGiveTheClassGeometryAndAxleLoads) {
     EXPECT_NEAR(t->wheels[kFrontLeft].centre_m.x(), -t->chassis_cog_geometry_m.x(), 1e-12);
     // Unladen axle loads within the class's data sheets (about 1.5 t front, 1.6-1.7 t rear).
     const StaticReport r = static_report(*t, std::nullopt, 0);
-    const double front_kg = (r.fz_N[kFrontLeft] + r.fz_N[kFrontRight]) / 9.81, rear_kg = r.fz_N[kRear] / 9.81;
+    const double front_kg = (r.fz_N[kFrontLeft] + r.fz_N[kFrontRight]) / kGravity_m_s2, rear_kg = r.fz_N[kRear] / kGravity_m_s2;
     EXPECT_GT(front_kg, 1400);
     EXPECT_LT(front_kg, 1750);
     EXPECT_GT(rear_kg, 1450);

@@ -14,7 +14,7 @@ double line_distance(const Vector2d& p, const Vector2d& a, const Vector2d& b) {
 
 // A 3-wheel truck's triangle: front wheels 0.9 m apart, rear wheel 1.25 m behind.
 const Vector3d kFl(0, 0.45, 0), kFr(0, -0.45, 0), kRear(-1.25, 0, 0);
-const Vector3d kG(0, 0, -9.81);
+const Vector3d kG(0, 0, -kGravity_m_s2);
 
 TEST(StabilityMargin, AtRestTheNearestEdgeOfTheTriangle) {
   const Vector3d cog(-0.6, 0, 0.7);
@@ -36,12 +36,12 @@ TEST(StabilityMargin, BrakingAndCorneringMoveTheProjectionAlongTheApparentGravit
   // Braking at 2 m/s^2 going +x: apparent gravity g - a with a = (-2, 0, 0); the projection moves
   // forward by h a / g.
   const Stability brake = stability_margin(cog, kG - Vector3d(-2, 0, 0), kFl, kFr, kRear);
-  EXPECT_NEAR(brake.cog_projection_m.x(), -0.3 + 0.8 * 2 / 9.81, 1e-12);
-  EXPECT_NEAR(brake.margin_m, 0.3 - 0.8 * 2 / 9.81, 1e-12);
+  EXPECT_NEAR(brake.cog_projection_m.x(), -0.3 + 0.8 * 2 / kGravity_m_s2, 1e-12);
+  EXPECT_NEAR(brake.margin_m, 0.3 - 0.8 * 2 / kGravity_m_s2, 1e-12);
   EXPECT_EQ(brake.edge, 0);
   // Turning left at 1.5 m/s^2 (acceleration towards +y): the projection moves right.
   const Stability turn = stability_margin(cog, kG - Vector3d(0, 1.5, 0), kFl, kFr, kRear);
-  const Vector2d p(-0.3, -0.8 * 1.5 / 9.81);
+  const Vector2d p(-0.3, -0.8 * 1.5 / kGravity_m_s2);
   EXPECT_NEAR(turn.cog_projection_m.y(), p.y(), 1e-12);
   EXPECT_NEAR(turn.margin_m, line_distance(p, Vector2d(0, -0.45), Vector2d(-1.25, 0)), 1e-12);
   EXPECT_EQ(turn.edge, 2);

@@ -8,11 +8,10 @@
 #include <cmath>
 #include <fstream>
 #include <stdexcept>
+#include "forklift/units/units.h"
 
 namespace forklift {
 namespace {
-
-constexpr double kDeg = 180.0 / M_PI;
 
 // A rear-wheel angle that rises from 0 to `peak` and back within `width` seconds, continuous and
 // differentiable (section 11.3).
@@ -153,7 +152,7 @@ ManoeuvreResult run_manoeuvre(const TruckParams& truck, int number, const Integr
   // from the outputs it keeps anyway (the same bits).
   auto record = [&](double t) {
     const StateVector& x = sim.state();
-    const double pitch = std::abs(x[StateIndex::kQ + kAvc]) * kDeg, roll = std::abs(x[StateIndex::kQ + kAuc]) * kDeg;
+    const double pitch = std::abs(x[StateIndex::kQ + kAvc]) * kRad, roll = std::abs(x[StateIndex::kQ + kAuc]) * kRad;
     r.max_pitch_deg = std::max(r.max_pitch_deg, pitch);
     r.max_roll_deg = std::max(r.max_roll_deg, roll);
     std::optional<Outputs> out;
@@ -168,7 +167,7 @@ ManoeuvreResult run_manoeuvre(const TruckParams& truck, int number, const Integr
     for (ManoeuvreResult::StopTime& stop : r.stop_times)
       if (spec.brake_onset_s && !stop.s && t > *spec.brake_onset_s && std::abs(forward_speed(x)) < stop.below_m_s)
         stop.s = t - *spec.brake_onset_s;
-    if (std::max(pitch, roll) > truck.tipped_over_rad * kDeg) r.tipped_over = true;
+    if (std::max(pitch, roll) > truck.tipped_over_rad * kRad) r.tipped_over = true;
     if (!out) return;
     Sample s;
     s.t = t;
@@ -216,14 +215,14 @@ void write_csv(const ManoeuvreResult& r, const std::string& path, int every_nth)
   for (size_t i = 0; i < r.samples.size(); i += std::max(1, every_nth)) {
     const Sample& s = r.samples[i];
     const Outputs& o = s.out;
-    f << s.t << ',' << o.q[kX] << ',' << o.q[kY] << ',' << o.q[kZ] << ',' << o.q[kAwc] * kDeg << ','
-      << o.q[kAuc] * kDeg << ',' << o.q[kAvc] * kDeg << ',' << o.forward_speed_m_s << ',' << o.q[kAwr3] * kDeg
-      << ',' << o.q[kBeta] * kDeg << ',' << o.q[kS] << ',' << o.q[kR] << ',' << s.drive_torque_N_m << ','
+    f << s.t << ',' << o.q[kX] << ',' << o.q[kY] << ',' << o.q[kZ] << ',' << o.q[kAwc] * kRad << ','
+      << o.q[kAuc] * kRad << ',' << o.q[kAvc] * kRad << ',' << o.forward_speed_m_s << ',' << o.q[kAwr3] * kRad
+      << ',' << o.q[kBeta] * kRad << ',' << o.q[kS] << ',' << o.q[kR] << ',' << s.drive_torque_N_m << ','
       << s.brake_torque_N_m;
     for (int w = 0; w < kNumWheels; ++w) {
       const WheelContact& c = o.wheels[w];
       f << ',' << c.fz_N << ',' << c.fx_N << ',' << c.fy_N << ',' << c.slip_x_m_s << ',' << c.slip_y_m_s << ','
-        << c.slip_angle_rad * kDeg << ',' << c.drive_torque_N_m + c.brake_torque_N_m << ',' << o.qdot[kAvr1 + w];
+        << c.slip_angle_rad * kRad << ',' << c.drive_torque_N_m + c.brake_torque_N_m << ',' << o.qdot[kAvr1 + w];
     }
     for (int d = 0; d < kNumDriven; ++d) f << ',' << o.driven_force[d];
     f << '\n';

@@ -4,11 +4,10 @@
 
 #include <cmath>
 #include <stdexcept>
+#include "forklift/units/units.h"
 
 namespace forklift {
 namespace {
-
-constexpr double kG = 9.81;
 
 // Runs the evaluator once at rest and returns its outputs.
 Outputs outputs_at(const TruckDynamics& dyn, const StateVector& x) {
@@ -25,7 +24,7 @@ StaticReport static_report(const TruckParams& truck, const std::optional<Load>& 
   TruckDynamics dyn(truck);
   if (load) dyn.attach_load(*load);
   const double slope = std::atan(grade_pct / 100);
-  dyn.environment().gravity_m_s2 = Eigen::Vector3d(-kG * std::sin(slope), 0, -kG * std::cos(slope));
+  dyn.environment().gravity_m_s2 = Eigen::Vector3d(-kGravity_m_s2 * std::sin(slope), 0, -kGravity_m_s2 * std::cos(slope));
   // Placed so that the geometry frame (ground below the front axle) is the world origin.
   StateVector x = dyn.rest_state(truck.chassis_cog_geometry_m.x(), 0, 0, 0, 0, lift_m, 0);
   StaticReport r;
@@ -99,7 +98,7 @@ TiltResult tilt_table(const TruckParams& truck, const std::optional<Load>& load,
   auto stands = [&](double a_deg, StateVector& s, int* lifted) {
     const double ang = a_deg * M_PI / 180;
     dyn.environment().gravity_m_s2 =
-        Eigen::Vector3d(kG * std::sin(ang) * down.x(), kG * std::sin(ang) * down.y(), -kG * std::cos(ang));
+        Eigen::Vector3d(kGravity_m_s2 * std::sin(ang) * down.x(), kGravity_m_s2 * std::sin(ang) * down.y(), -kGravity_m_s2 * std::cos(ang));
     const bool ok = dyn.settle_static(s);
     const Outputs out = outputs_at(dyn, s);
     int lowest = 0;

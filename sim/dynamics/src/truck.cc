@@ -7,12 +7,12 @@
 #include <stdexcept>
 
 #include "forklift/schema/data_file.h"
+#include "forklift/units/units.h"
 
 namespace forklift {
 namespace {
 
 using nlohmann::json;
-constexpr double kDeg = M_PI / 180.0;
 
 class Reader {
  public:

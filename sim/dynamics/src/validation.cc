@@ -11,12 +11,10 @@
 
 #include "forklift/dynamics/simulation.h"
 #include "forklift/dynamics/stability.h"
+#include "forklift/units/units.h"
 
 namespace forklift {
 namespace {
-
-constexpr double kG = 9.81;
-constexpr double kDeg = M_PI / 180;
 
 using Policy = std::function<DriverInputs(const Outputs&)>;
 using Watch = std::function<void(const Outputs&)>;
@@ -31,7 +29,7 @@ struct Rig {
   Rig(const TruckParams& t, std::optional<Load> load, double lift, double tilt, double grade_pct = 0) : dyn(t) {
     if (load) dyn.attach_load(*load);
     const double a = std::atan(grade_pct / 100);
-    dyn.environment().gravity_m_s2 = Eigen::Vector3d(-kG * std::sin(a), 0, -kG * std::cos(a));
+    dyn.environment().gravity_m_s2 = Eigen::Vector3d(-kGravity_m_s2 * std::sin(a), 0, -kGravity_m_s2 * std::cos(a));
     StateVector x = dyn.rest_state(0, 0, 0, 0, tilt, lift, 0);
     if (!dyn.settle_static(x)) throw std::runtime_error("the truck does not stand still on level ground");
     sim = std::make_unique<Simulation>(dyn, x, IntegratorOptions{});
@@ -101,10 +99,10 @@ class Checks {
       if (c.laden) load = rated();
       const StaticReport r = static_report(t_, load, c.laden ? lift_for_fork_height(t_, c.fork_top_m) : 0.0);
       const double front_x = r.wheel_contact_m[kFrontLeft].x(), rear_x = r.wheel_contact_m[kRear].x();
-      const double expected = r.total_mass_kg * kG * (front_x - r.cog_m.x()) / (front_x - rear_x);
+      const double expected = r.total_mass_kg * kGravity_m_s2 * (front_x - r.cog_m.x()) / (front_x - rear_x);
       relative(std::string("statics, ") + c.name + ": rear wheel load = W d / L", r.fz_N[kRear], expected, 0.005);
       if (c.laden && c.fork_top_m < 1) {
-        const double share = r.fz_N[kRear] / (r.total_mass_kg * kG) * 100;
+        const double share = r.fz_N[kRear] / (r.total_mass_kg * kGravity_m_s2) * 100;
         add("rated load low: rear wheel's share of the weight", share, "%", "8-12 % (the class's usual margin)",
             share >= 8 && share <= 12);
       }
@@ -202,7 +200,7 @@ class Checks {
       Rig r(t_, load, laden ? travel_lift() : 0, back());
       r.run(12, [&](const Outputs&) { return full_throttle(); });
       const double v0 = r.v(), m = r.out.total_mass_kg;
-      const double a = (2 * t_.drive.brake_torque_max_N_m / rf + t_.contact.rolling_resistance_coefficient * m * kG) / (m + spin_mass);
+      const double a = (2 * t_.drive.brake_torque_max_N_m / rf + t_.contact.rolling_resistance_coefficient * m * kGravity_m_s2) / (m + spin_mass);
       const Eigen::Vector2d start = r.xy();
       double pitch = 0;
       r.run(6, [&](const Outputs&) { return full_brake(); },
@@ -226,7 +224,7 @@ class Checks {
     const double v1 = coast.v(), t1 = coast.sim->time();
     coast.run(5, idle);
     relative("coast-down from 3 m/s: deceleration against C_rr g", (v1 - coast.v()) / (coast.sim->time() - t1),
-             t_.contact.rolling_resistance_coefficient * kG, 0.2);
+             t_.contact.rolling_resistance_coefficient * kGravity_m_s2, 0.2);
     coast.run(30, idle);
     add("coast-down: speed 35 s later", std::abs(coast.v()), "m/s", "< 0.001 (at rest)", std::abs(coast.v()) < 1e-3);
 

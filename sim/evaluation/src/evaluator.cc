@@ -11,6 +11,7 @@
 #include "forklift/dynamics/stability.h"
 #include "geometry.h"
 #include "rule_table.h"
+#include "forklift/units/units.h"
 
 namespace forklift {
 
@@ -20,8 +21,6 @@ using nlohmann::json;
 namespace ev = evaluation;
 
 namespace {
-
-constexpr double kDeg = M_PI / 180.0;
 
 // Our own bugs abort loudly (STYLE.md, three error tiers).
 [[noreturn]] void bug(const char* what) {
@@ -201,7 +200,7 @@ struct Evaluator::Impl : EvaluationMemory::Data {
     // The reference: the unladen truck at rest on level ground, forks down.
     const StaticReport st = static_report(truck, std::nullopt, 0.0);
     const auto c3 = [&](int w) { return Eigen::Vector3d(st.wheel_contact_m[w].x(), st.wheel_contact_m[w].y(), 0.0); };
-    static_margin_m = stability_margin(st.cog_m, Eigen::Vector3d(0, 0, -9.81), c3(kFrontLeft), c3(kFrontRight), c3(kRear)).margin_m;
+    static_margin_m = stability_margin(st.cog_m, Eigen::Vector3d(0, 0, -kGravity_m_s2), c3(kFrontLeft), c3(kFrontRight), c3(kRear)).margin_m;
     if (!(static_margin_m > 0)) throw std::runtime_error(truck.name + ": the unladen truck has no static stability margin");
     events.reserve(64);
     prev_pos = Eigen::Vector2d(scene.scenario.x_m, scene.scenario.y_m);

@@ -12,12 +12,12 @@
 #include "forklift/scene/scene.h"
 #include "mesh_builder.h"
 #include "mesh_internal.h"
+#include "forklift/units/units.h"
 
 namespace forklift {
 namespace {
 
 using nlohmann::json;
-constexpr double kDeg = M_PI / 180.0;
 // A file without "floor_m" (a manoeuvre on an empty floor) gets a square this far around the start.
 constexpr double kDefaultFloorHalfSize_m = 100.0;
 // Includes may nest this deep; deeper is taken for a cycle.

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "forklift/dynamics/truck.h"
+#include "forklift/units/units.h"
 
 namespace forklift {
 
@@ -51,7 +52,7 @@ struct ExternalForce {
 
 struct Environment {
   Ground ground;
-  Eigen::Vector3d gravity_m_s2{0, 0, -9.81};  // world frame; a tilt table tilts this vector
+  Eigen::Vector3d gravity_m_s2{0, 0, -kGravity_m_s2};  // world frame; a tilt table tilts this vector
   // Chocks: when set, each wheel's contact point is held to its anchor by a stiff horizontal
   // spring instead of the tyre's Fx and Fy (the tilt-table test, where sliding is prevented).
   std::optional<std::array<Eigen::Vector2d, kNumWheels>> chock_anchors_m;

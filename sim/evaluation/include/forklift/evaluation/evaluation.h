@@ -26,6 +26,7 @@
 #include "forklift/dynamics/dynamics.h"   // Outputs, BodyPoses, DriverInputs, Load
 #include "forklift/scene/scene.h"      // Scene, PalletState, TruckShape
 #include "forklift/session/vocabulary.h"  // Mode
+#include "forklift/units/units.h"
 
 namespace forklift {
 
@@ -93,7 +94,7 @@ struct TickInput {
   const std::vector<PalletState>& pallets; // HandlingState::pallets() after the step
   const std::optional<Load>& load;         // the load on the forks now (Simulation::dynamics().load())
   bool deadman = false;                    // the worker substituted the dead-man inputs
-  Eigen::Vector3d gravity_m_s2 = Eigen::Vector3d(0, 0, -9.81);  // the environment's gravity
+  Eigen::Vector3d gravity_m_s2 = Eigen::Vector3d(0, 0, -kGravity_m_s2);  // the environment's gravity
 };
 
 struct EvaluationEvent {
