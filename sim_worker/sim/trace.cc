@@ -1,6 +1,6 @@
 // forklift-sim trace LOG [--scenario FILE] [--every S]
 //
-// The debrief's replay (issue 18, item 3): a finished session's control log re-simulated tick by
+// The debrief's replay: a finished session's control log re-simulated tick by
 // tick through the same step() the worker ran (replay_session, so bit for bit what the pupil
 // drove), and sampled every `--every` seconds of sim time: where the chassis stood and faced, the
 // forks' tips and height, the mast's tilt, the speed, which pallet was on the forks, and every

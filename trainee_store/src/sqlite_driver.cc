@@ -219,12 +219,12 @@ BEGIN
   SELECT RAISE(ABORT, 'theory_unlocks is append-only');
 END;
 )sql",
-    // 6: exam records kept as written (issue 17, item 5): the triggers named kept_* refuse any
+    // 6: exam records kept as written: the triggers named kept_* refuse any
     // change to an exam record, to an exam session once it is over (but for its first score: a
     // score may follow an abort), to its score, events and logs (the server's note
     // 'chain_refused' excepted), and to a finished theory exam paper; a correction is a new,
-    // append-only record. Certificates issued with licences and their revocations, append-only
-    // (issue 17, item 4), and staff's full names, which certificates print.
+    // append-only record. Certificates issued with licences and their revocations, append-only,
+    // and staff's full names, which certificates print.
     R"sql(
 ALTER TABLE users ADD COLUMN full_name TEXT NOT NULL DEFAULT '';
 CREATE TRIGGER kept_exams_no_update BEFORE UPDATE ON exams
@@ -349,7 +349,7 @@ BEGIN
   SELECT RAISE(ABORT, 'certificate_revocations is append-only');
 END;
 )sql",
-    // 7: staff administration (issue 18, item 2): accounts deactivated and their logins ended
+    // 7: staff administration: accounts deactivated and their logins ended
     // (login_generation, raised by a password reset or a deactivation), listed by full name, and
     // the staff audit log of administrators' changes to accounts, append-only like the audit log.
     R"sql(
@@ -375,7 +375,7 @@ BEGIN
   SELECT RAISE(ABORT, 'staff_audit_log is append-only');
 END;
 )sql",
-    // 8: lists a school works with, groups and bookings (issue 18, items 1 and 4): who started a
+    // 8: lists a school works with, groups and bookings: who started a
     // session; the indexes the lists filter and sort by; groups (courses) of pupils with their
     // instructor, a pupil in at most one; cabs booked for a session at a time.
     R"sql(
@@ -417,7 +417,7 @@ CREATE TABLE bookings (
 CREATE INDEX bookings_by_cab ON bookings(cab_id, starts_at);
 CREATE INDEX bookings_by_school ON bookings(school_id, starts_at);
 )sql",
-    // 9: the debrief (issue 18, item 3): instructors' notes on a session and its sign-off, both
+    // 9: the debrief: instructors' notes on a session and its sign-off, both
     // kept for ever like the audit log.
     R"sql(
 CREATE TABLE session_notes (

@@ -5,7 +5,7 @@
 // carriage with its load) on a tree of single-coordinate joints, one per generalised
 // coordinate, so nothing symbolic is needed at run time. Both are built in world axes about one
 // reference point o, the chassis CoG (so lever arms stay the truck's size wherever it drives),
-// without point Jacobians (issue 19: their 13x3 products were two thirds of the cost):
+// without point Jacobians (their 13x3 products were two thirds of the cost):
 //   M: the composite-rigid-body algorithm. Each frame's subtree is summed into one composite
 //      (mass m, first moment h about o, rotational inertia J about o); joint j's motion S_j
 //      (axis u_j, velocity at o) gives the composite's momentum, whose power on each joint i from

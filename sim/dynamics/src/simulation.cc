@@ -48,7 +48,7 @@ StateVector tolerance_scale() {
   return s;
 }
 
-// The Newton matrix A = I - gamma J of CVODE has the model's structure (issue 19, item 3):
+// The Newton matrix A = I - gamma J of CVODE has the model's structure:
 // - q' = q-dot exactly, so the q rows of A are [I, -gamma I, 0];
 // - each driven coordinate's filter depends on its own three states alone, the drive and brake
 //   lags on themselves alone;

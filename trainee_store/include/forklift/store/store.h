@@ -79,7 +79,7 @@ struct User {
   // issues a licence); empty for accounts made before names were kept, and for pupils' logins
   // (their pupil record has the name).
   std::string full_name;
-  // A deactivated account cannot log in and its tokens are refused (issue 18, item 2).
+  // A deactivated account cannot log in and its tokens are refused.
   bool active = true;
   // Raised when the password is reset or the account deactivated: the server refuses a token
   // issued under an earlier one, so those logins end at once, on every server sharing the store.
@@ -115,7 +115,7 @@ struct Pupil {
   std::optional<int64_t> group_id;  // the group (course) the pupil is in, if any: at most one
 };
 
-// A course or group of pupils with the instructor who teaches it (issue 18, item 4).
+// A course or group of pupils with the instructor who teaches it.
 struct Group {
   int64_t id = 0;
   int64_t school_id = 0;
@@ -148,7 +148,7 @@ struct Session {
   std::optional<int64_t> started_by;  // the user who started it (none for sessions from before it was kept)
 };
 
-// Lists a school works with (issue 18, item 1): filtered and sorted in SQL, a page at a time with
+// Lists a school works with: filtered and sorted in SQL, a page at a time with
 // the total that match. Sort keys come from a fixed list (the store refuses others, kInvalid);
 // ties are broken by id. Text filters are exact unless said otherwise; dates are ISO-8601 UTC
 // strings compared as such ("2026-11-23" matches from the start of that day).
@@ -202,7 +202,7 @@ struct ExamFilter {
   bool descending = true;
 };
 
-// What a session's end means (issue 17, item 2), the one rule that the store's trend, the API,
+// What a session's end means, the one rule that the store's trend, the API,
 // its exports and the pages follow. A session is "completed" when it ran its course: its task
 // done ("task_complete", or "parked"), or the time it was given ran out ("duration") with no task
 // left unfinished (the paper's manoeuvres, which have no task, end so). It is "timed_out" when
@@ -261,7 +261,7 @@ struct ExamPage {
   int64_t total = 0;
 };
 
-// A cab booked for a pupil's session at a time (issue 18, item 4). A cab is never booked twice at
+// A cab booked for a pupil's session at a time. A cab is never booked twice at
 // once: bookings of one cab do not overlap ([starts_at, ends_at) intervals).
 struct Booking {
   int64_t id = 0;
@@ -277,8 +277,8 @@ struct Booking {
   std::string pupil_name;          // as read
 };
 
-// A correction of a finished exam record: a new record, never a change to the old one (issue 17,
-// item 5). Kept for ever (the schema refuses UPDATE and DELETE).
+// A correction of a finished exam record: a new record, never a change to the old one.
+// Kept for ever (the schema refuses UPDATE and DELETE).
 struct ExamCorrection {
   int64_t id = 0;
   int64_t exam_id = 0;
@@ -296,7 +296,7 @@ struct LicenceRecord {
   std::string issued_by;         // username
 };
 
-// A certificate, issued with a licence (issue 17, item 4): its number, and the record the server
+// A certificate, issued with a licence: its number, and the record the server
 // signed (both JSON text, made and checked by the server, opaque to the store). Kept for ever.
 struct CertificateRecord {
   int64_t id = 0;
@@ -393,7 +393,7 @@ struct StaffAuditRecord {
   std::string details = "{}";  // a JSON object as text
 };
 
-// An instructor's note on a session, for the debrief (issue 18, item 3). Kept for ever.
+// An instructor's note on a session, for the debrief. Kept for ever.
 struct SessionNote {
   int64_t id = 0;
   std::string session_public_id;
