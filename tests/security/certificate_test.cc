@@ -125,7 +125,7 @@ class Certificates : public testing::Test {
     }
     ASSERT_EQ(at(practical, "/passed"), true) << history;
     ASSERT_EQ(s.stop(), 0) << s.proc->err();
-    for (const char* part : {"forklift.db", "forklift.db.logs"}) fs::copy(s.dir + "/" + part, folder + "/" + part, fs::copy_options::recursive);
+    for (const char* part : Server::kSchoolParts) fs::copy(s.dir + "/" + part, folder + "/" + part, fs::copy_options::recursive);
     std::ofstream(folder + "/school.json") << json{{"school", kSchool}, {"pupil", p.pupil}, {"examiner_id", p.examiner_id}, {"session", session},
                                                   {"admin_password", kAdminPassword}, {"logins", {{"examiner", {"eric", "examine-123"}},
                                                   {"instructor", {"ines", "instruct-123"}}, {"pupil", {"ann", "ann-pass-1"}}}}}.dump(2);

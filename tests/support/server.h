@@ -60,12 +60,14 @@ struct Server : ApiClient {
   struct Copy {
     std::string folder;
   };
+  // What of a server's folder makes its school: its database and its workers' logs.
+  static constexpr const char* kSchoolParts[] = {"forklift.db", "forklift.db.logs"};
   Server(const std::string& name, const Copy& school, std::vector<std::string> extra = {})
       : port(forklift::test::free_port()), domain(forklift::test::free_domain()), dir(testing::TempDir() + "/server-" + name) {
     namespace fs = std::filesystem;
     fs::remove_all(dir);
     fs::create_directories(dir);
-    for (const char* part : {"forklift.db", "forklift.db.logs"})
+    for (const char* part : kSchoolParts)
       if (fs::exists(school.folder + "/" + part)) fs::copy(school.folder + "/" + part, dir + "/" + part, fs::copy_options::recursive);
     db = dir + "/forklift.db";
     start(extra);
