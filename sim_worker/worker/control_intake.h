@@ -15,9 +15,15 @@
 #include <utility>
 #include <vector>
 
+#include "forklift/protocol/protocol.h"
 #include "forklift/session/controls.h"
 
 namespace forklift::worker {
+
+// A sample as it came off the wire, onto this truck: the wheel's fraction of the end stops becomes
+// the truck's angle (steer_from_fraction), before any check, so a fraction beyond 1 is refused as
+// an angle beyond the truck's stops.
+ControlSample control_sample(const fk_Controls& c, const TruckParams& truck);
 
 class ControlIntake {
  public:

@@ -196,9 +196,11 @@ int main(int argc, char** argv) {
   std::unique_ptr<dds::Participant> participant;
   // The session's status goes to the server (default partition) and to the cab (its own).
   std::unique_ptr<dds::Writer<fk_SessionStatus>> status_writer, cab_status_writer;
+  double steer_lock_rad = 0;  // the truck's, once its model is loaded: the cab's scale for steer
   auto publish_status = [&](SessionPhase phase, double t, const std::string& reason) {
     if (!status_writer) return;
     fk_SessionStatus s{};
+    s.steer_lock_rad = steer_lock_rad;
     dds::set_string(s.session_id, session);
     dds::set_string(s.cab_id, cab);
     dds::set_string(s.state, name(phase));
@@ -276,6 +278,7 @@ int main(int argc, char** argv) {
     SessionRun run(std::move(*loaded), std::move(first), std::move(log), {duration, true});
     loaded.reset();
     const SessionModel& model = run.model();
+    steer_lock_rad = model.truck.steer.max_rad;
     // Only now, with the session built, does the cab's writer match: a sample sent on that
     // match is read, not overwritten while the scene loads.
     dds::Reader<fk_Controls> controls(*participant, dds::cab_partition(cab));
@@ -313,11 +316,7 @@ int main(int argc, char** argv) {
     ControlIntake intake(cab, model.truck, model.tick_s, deadman_s, say);
     auto take_controls = [&] {
       controls.take_each([&](const fk_Controls& c) {
-        const ControlSample s{c.seq,     c.steer_rad,     c.accelerator,  c.brake,        c.lift,
-                              c.tilt,    c.side_shift,    c.horn,         c.parking_brake, c.frames_wanted,
-                              c.camera,  c.look_yaw_rad,  c.look_pitch_rad, c.rear_view,  c.see_through_mast,
-                              c.apply_at_sim_s};
-        intake.offer(c.cab_id, s, run.state().tick, run.state().t_s, Clock::now());
+        intake.offer(c.cab_id, control_sample(c, model.truck), run.state().tick, run.state().t_s, Clock::now());
       });
     };
 

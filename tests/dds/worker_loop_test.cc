@@ -50,7 +50,7 @@ fk_Controls controls(const std::string& cab, uint32_t seq, double accel = 0, dou
   dds::set_string(c.cab_id, cab);
   c.seq = seq;
   c.accelerator = accel;
-  c.steer_rad = steer;
+  c.steer = steer;
   return c;
 }
 
