@@ -625,8 +625,9 @@ int CabProgram::run() {
   // kScriptLeadS ahead of its time, stamped with it (apply_at_sim_s): the worker applies it at
   // its own tick, as the offline model does, whatever the network's delay or the machine's load.
   // Between rows the last one sent is sent again every 20 ms, so sparse scripts never trip the
-  // worker's dead man. After the last row's time the cab goes silent.
-  constexpr double kScriptLeadS = 0.2;
+  // worker's dead man. After the last row's time the cab goes silent. A second ahead: on a loaded
+  // machine a row can be tenths of a second on its way, and one that lands late changes the drive.
+  constexpr double kScriptLeadS = 1.0;
   start_ = Clock::now();
   sim_anchor_.reset();
   size_t next_row = 0;
