@@ -362,9 +362,10 @@ int main(int argc, char** argv) {
     // (SessionRun::apply logs at most one input per tick). `changed`: the truck's inputs changed.
     auto take_inputs = [&] {
       bool changed = false;
-      // Dead man: a silent cab gets throttle off and full brake, once, with an event.
+      // Dead man: a silent cab gets throttle off and full brake, once, with an event (a scripted
+      // cab's rows still to come speak for it until their time).
       const double silence = intake.silence_s(Clock::now());
-      if (!run.deadman_on() && silence > deadman_s) {
+      if (!run.deadman_on() && silence > deadman_s && !intake.scheduled_until_s()) {
         ++deadman_count;
         intake.forget();  // a silent cab's rows sent ahead do not drive the truck on, nor get frames
         ask_frames();
@@ -456,8 +457,10 @@ int main(int argc, char** argv) {
       // (its stop applies from the next tick), or the next tick for a sample not yet applied; a
       // control sample arriving wakes the loop earlier.
       wake_at_s = std::ceil(pacer.period_end_s() / model.tick_s - 1e-9) * model.tick_s - model.tick_s;
-      if (!run.deadman_on())
-        wake_at_s = std::min(wake_at_s, std::chrono::duration<double>(intake.last_heard() - start).count() + deadman_s);
+      if (!run.deadman_on()) {
+        const double silent_at_s = std::chrono::duration<double>(intake.last_heard() - start).count() + deadman_s;
+        wake_at_s = std::min(wake_at_s, std::max(silent_at_s, intake.scheduled_until_s().value_or(silent_at_s)));
+      }
       // A sample that came after this wake's last tick applies from the next one, at once.
       if (intake.has_pending()) wake_at_s = std::min(wake_at_s, state.t_s);
       wake_at_s = std::max(wake_at_s, state.t_s);  // not before the wall clock reaches the truck's time
