@@ -747,6 +747,13 @@ int main(int argc, char** argv) {
   app.add_flag("--no-window", o.no_window, "no window even when a display is present (the display goes to the terminal)");
   app.add_flag("--no-sound", o.no_sound, "no sound");
   app.add_option("--window-size", o.window_size, "the window's size, WxH (default 960x720)");
+  app.add_flag("--self-centring", input.self_centring,
+               "the keyboard's wheel comes back straight when no arrow is held (default: it stays where it is left, "
+               "as a truck's; data/cab/cab.json keyboard.self_centring)");
+  std::string mouse_steer;
+  app.add_option("--mouse-steer", mouse_steer, "steer with the mouse: off, motion (left and right) or wheel (its notches); "
+                 "default data/cab/cab.json mouse.steer")
+      ->check(CLI::IsMember({"off", "motion", "wheel"}));
   app.add_option("--controller-db", o.controller_db, "more SDL controller mappings (gamecontrollerdb.txt format; default FORKLIFT_CONTROLLER_DB)")
       ->check(CLI::ExistingFile);
   app.add_option("--calibration", o.calibration_file, "the controller calibration file (default ~/.config/forklift/cab-calibration.json)");
@@ -759,6 +766,7 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
     if (o.cab_id.empty() && !o.list) throw CLI::RequiredError("--cab");
+    if (!mouse_steer.empty()) input.mouse_steer = parse_mouse_steer(mouse_steer);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;  // --help and --version: 0; bad usage: 2, as every program
   }

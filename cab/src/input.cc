@@ -14,6 +14,25 @@ double approach(double v, double target, double step) {
   return v < target ? std::min(target, v + step) : std::max(target, v - step);
 }
 
+// A rate that starts at `start` and rises evenly to `full` over `ramp_s`: how far it has gone
+// after `t` s (its integral), so a pass of any length moves the wheel by the same amount.
+double ramp_travel(double t, double start, double full, double ramp_s) {
+  if (t <= ramp_s) return start * t + 0.5 * (full - start) * t * t / ramp_s;
+  return 0.5 * (start + full) * ramp_s + full * (t - ramp_s);
+}
+
+// A lever held `t` s by a key: `start` of full at once, full after `ramp_s`.
+double ramp_lever(double t, double start, double ramp_s) { return std::min(1.0, start + (1 - start) * t / ramp_s); }
+
+// One pair of keys on a ramped control: the direction held (-1, 0, +1) and how long, reset
+// when it changes or is let go.
+int hold(bool minus, bool plus, int& dir, double& held_s) {
+  const int d = (plus ? 1 : 0) - (minus ? 1 : 0);
+  if (d != dir) held_s = 0;
+  dir = d;
+  return d;
+}
+
 }  // namespace
 
 double CabCommand::drive() const {
@@ -47,17 +66,41 @@ InputSettings input_settings(const nlohmann::json& j) {
   const nlohmann::json& k = settings_at(j, "keyboard", where);
   s.accelerator_rise_s = settings_number(k, "accelerator_rise_s", where + " keyboard");
   s.brake_rise_s = settings_number(k, "brake_rise_s", where + " keyboard");
-  s.steer_rate_per_s = settings_number(k, "steer_rate_per_s", where + " keyboard");
+  s.steer_start_per_s = settings_number(k, "steer_start_per_s", where + " keyboard");
+  s.steer_full_per_s = settings_number(k, "steer_full_per_s", where + " keyboard");
+  s.steer_ramp_s = settings_number(k, "steer_ramp_s", where + " keyboard");
   s.steer_centring_per_s = settings_number(k, "steer_centring_per_s", where + " keyboard");
+  if (!k.contains("self_centring") || !k["self_centring"].is_boolean())
+    throw std::runtime_error(where + " keyboard: self_centring must be true or false");
+  s.self_centring = k["self_centring"].get<bool>();
+  s.lever_start = settings_number(k, "lever_start", where + " keyboard");
+  s.lever_ramp_s = settings_number(k, "lever_ramp_s", where + " keyboard");
+  const nlohmann::json& m = settings_at(j, "mouse", where);
+  if (!m.contains("steer") || !m["steer"].is_string()) throw std::runtime_error(where + " mouse: steer must be off, motion or wheel");
+  try {
+    s.mouse_steer = parse_mouse_steer(m["steer"].get<std::string>());
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(where + " mouse: " + e.what());
+  }
+  s.mouse_steer_per_pixel = settings_number(m, "steer_per_pixel", where + " mouse");
+  s.mouse_steer_per_notch = settings_number(m, "steer_per_notch", where + " mouse");
   const nlohmann::json& l = settings_at(j, "look", where);
   s.look_max_yaw_rad = settings_number(l, "max_yaw_deg", where + " look") * kDeg;
   s.look_max_pitch_rad = settings_number(l, "max_pitch_deg", where + " look") * kDeg;
   s.look_rate_rad_s = settings_number(l, "rate_deg_s", where + " look") * kDeg;
   s.mouse_rad_per_pixel = settings_number(l, "mouse_deg_per_pixel", where + " look") * kDeg;
-  if (s.accelerator_rise_s <= 0 || s.brake_rise_s <= 0 || s.steer_rate_per_s <= 0 || s.steer_centring_per_s <= 0 ||
-      s.look_rate_rad_s <= 0)
+  if (s.accelerator_rise_s <= 0 || s.brake_rise_s <= 0 || s.steer_start_per_s <= 0 || s.steer_full_per_s <= 0 ||
+      s.steer_ramp_s <= 0 || s.steer_centring_per_s <= 0 || s.lever_ramp_s <= 0 || s.look_rate_rad_s <= 0)
     throw std::runtime_error(where + ": rates and rise times must be positive");
+  if (!(s.lever_start > 0 && s.lever_start <= 1)) throw std::runtime_error(where + " keyboard: lever_start must be in (0, 1]");
   return s;
+}
+
+MouseSteer parse_mouse_steer(const std::string& name) {
+  if (name == "off") return MouseSteer::kOff;
+  if (name == "motion") return MouseSteer::kMotion;
+  if (name == "wheel") return MouseSteer::kWheel;
+  throw std::invalid_argument("mouse steering '" + name + "' is not off, motion or wheel");
 }
 
 ControllerMap load_controller_map(const std::string& path) {
@@ -157,7 +200,10 @@ void CabInput::open(int index) {
   c->id = SDL_JoystickInstanceID(SDL_GameControllerGetJoystick(pad));
   c->name = SDL_GameControllerName(pad) ? SDL_GameControllerName(pad) : "controller";
   controllers_.push_back(std::move(owned));
-  if (!active_) active_ = c;
+  if (!active_) {
+    active_ = c;
+    pad_steer_last_ = NAN;  // its wheel's first reading counts as a move
+  }
   cmd_.controller_lost = false;
   notices_.push_back("Controller '" + c->name + "' connected");
 }
@@ -173,7 +219,11 @@ void CabInput::close(SDL_JoystickID id) {
     notices_.push_back("Controller '" + (*it)->name + "' unplugged: the truck is braked");
   }
   controllers_.erase(it);
-  if (was_active) active_ = controllers_.empty() ? nullptr : controllers_.front().get();
+  if (was_active) {
+    active_ = controllers_.empty() ? nullptr : controllers_.front().get();
+    pad_steer_last_ = NAN;
+    if (!active_) pad_steers_ = false;
+  }
 }
 
 bool CabInput::handle(const SDL_Event& e) {
@@ -182,6 +232,7 @@ bool CabInput::handle(const SDL_Event& e) {
       if (e.key.repeat) return true;
       const SDL_Scancode k = e.key.keysym.scancode;
       held_.insert(k);
+      pressed_.insert(k);
       switch (k) {
         case SDL_SCANCODE_F: cmd_.direction = 1; break;
         case SDL_SCANCODE_N: cmd_.direction = 0; break;
@@ -191,6 +242,11 @@ bool CabInput::handle(const SDL_Event& e) {
         case SDL_SCANCODE_B: cmd_.rear_view = !cmd_.rear_view; break;
         case SDL_SCANCODE_M: cmd_.see_through_mast = !cmd_.see_through_mast; break;
         case SDL_SCANCODE_C: cmd_.chase_camera = !cmd_.chase_camera; break;
+        case SDL_SCANCODE_HOME:
+          centring_ = true;
+          pad_steers_ = false;
+          kb_steer_ = cmd_.steer;  // from where the wheel is now, whoever turned it
+          break;
         case SDL_SCANCODE_UP: case SDL_SCANCODE_DOWN: case SDL_SCANCODE_SPACE:
           cmd_.controller_lost = false;  // the pupil drives from the keyboard now
           break;
@@ -218,8 +274,17 @@ bool CabInput::handle(const SDL_Event& e) {
       if (e.button.button != SDL_BUTTON_LEFT) return false;
       mouse_look_ = false;
       return true;
+    case SDL_MOUSEWHEEL:
+      if (s_.mouse_steer != MouseSteer::kWheel || e.wheel.y == 0) return false;
+      // Rolled away from the driver turns left, as the top of a steering wheel would.
+      mouse_steer((e.wheel.direction == SDL_MOUSEWHEEL_FLIPPED ? 1 : -1) * e.wheel.y * s_.mouse_steer_per_notch);
+      return true;
     case SDL_MOUSEMOTION:
-      if (!mouse_look_) return false;
+      if (!mouse_look_) {
+        if (s_.mouse_steer != MouseSteer::kMotion || e.motion.xrel == 0) return false;
+        mouse_steer(e.motion.xrel * s_.mouse_steer_per_pixel);  // right turns right
+        return true;
+      }
       mouse_yaw_ = std::clamp(mouse_yaw_ - e.motion.xrel * s_.mouse_rad_per_pixel, -s_.look_max_yaw_rad, s_.look_max_yaw_rad);
       mouse_pitch_ =
           std::clamp(mouse_pitch_ - e.motion.yrel * s_.mouse_rad_per_pixel, -s_.look_max_pitch_rad, s_.look_max_pitch_rad);
@@ -258,7 +323,15 @@ bool CabInput::handle(const SDL_Event& e) {
   }
 }
 
-bool CabInput::held(SDL_Scancode k) const { return held_.count(k) > 0; }
+bool CabInput::held(SDL_Scancode k) const { return held_.count(k) > 0 || pressed_.count(k) > 0; }
+
+void CabInput::mouse_steer(double by) {
+  if (pad_steers_) kb_steer_ = cmd_.steer;
+  pad_steers_ = false;
+  centring_ = false;
+  kb_steer_ = std::clamp(kb_steer_ + by, -1.0, 1.0);
+  cmd_.steer = kb_steer_;
+}
 
 bool CabInput::button_held(const char* function) const {
   if (!active_) return false;
@@ -298,8 +371,17 @@ void CabInput::read_controller() {
   const double brake = axis_value(c, map_.brake, true, false);
   const double lift = axis_value(c, map_.lift, false, true);
   const double tilt = axis_value(c, map_.tilt, false, true);
+  // The wheel: the controller's while it is the last thing that moved (wheel left (-) turns the
+  // truck left); keys and the mouse take over from where it left it.
+  if (!(std::abs(steer - pad_steer_last_) <= 0.01)) {  // moved, or its first reading
+    pad_steer_last_ = steer;
+    if (steer_dir_ == 0) pad_steers_ = true;
+  }
+  if (pad_steers_) {
+    cmd_.steer = steer;
+    kb_steer_ = steer;
+  }
   // The keyboard's own commands win where it is pressed; the controller fills the rest.
-  if (kb_steer_ == 0) cmd_.steer = steer;  // wheel left (-) turns the truck left
   cmd_.accelerator = std::max(cmd_.accelerator, accel);
   cmd_.brake = std::max(cmd_.brake, brake);
   if (cmd_.lift == 0) cmd_.lift = lift;
@@ -312,14 +394,31 @@ const CabCommand& CabInput::update(double dt_s) {
   // Pedals: held keys press them smoothly, released keys let go at once.
   kb_accel_ = held(SDL_SCANCODE_UP) ? std::min(1.0, kb_accel_ + dt_s / s_.accelerator_rise_s) : 0;
   kb_brake_ = held(SDL_SCANCODE_DOWN) || held(SDL_SCANCODE_SPACE) ? std::min(1.0, kb_brake_ + dt_s / s_.brake_rise_s) : 0;
-  const bool left = held(SDL_SCANCODE_LEFT), right = held(SDL_SCANCODE_RIGHT);
-  if (left != right) kb_steer_ = std::clamp(kb_steer_ + (left ? -1 : 1) * s_.steer_rate_per_s * dt_s, -1.0, 1.0);
-  else kb_steer_ = approach(kb_steer_, 0, s_.steer_centring_per_s * dt_s);
+  // The wheel: slowly at first and faster the longer a key is held, so a tap moves it a degree
+  // or two; let go, it stays where it is (hydrostatic steering has no self-centring).
+  if (const int d = hold(held(SDL_SCANCODE_LEFT), held(SDL_SCANCODE_RIGHT), steer_dir_, steer_held_s_); d != 0) {
+    if (pad_steers_) kb_steer_ = cmd_.steer;
+    pad_steers_ = centring_ = false;
+    const double by = ramp_travel(steer_held_s_ + dt_s, s_.steer_start_per_s, s_.steer_full_per_s, s_.steer_ramp_s) -
+                      ramp_travel(steer_held_s_, s_.steer_start_per_s, s_.steer_full_per_s, s_.steer_ramp_s);
+    kb_steer_ = std::clamp(kb_steer_ + d * by, -1.0, 1.0);
+    steer_held_s_ += dt_s;
+  } else if (centring_ || s_.self_centring) {
+    kb_steer_ = approach(kb_steer_, 0, s_.steer_centring_per_s * dt_s);
+    centring_ = centring_ && kb_steer_ != 0;
+  }
   cmd_.steer = kb_steer_;
   cmd_.accelerator = kb_accel_;
   cmd_.brake = kb_brake_;
-  cmd_.lift = held(SDL_SCANCODE_W) ? 1 : held(SDL_SCANCODE_S) ? -1 : 0;
-  cmd_.tilt = held(SDL_SCANCODE_D) ? 1 : held(SDL_SCANCODE_A) ? -1 : 0;
+  // Lift and tilt: a tap moves the forks about a centimetre, a held key opens the lever fully.
+  auto lever = [&](SDL_Scancode minus, SDL_Scancode plus, int& dir, double& held_s) {
+    const int d = hold(held(minus), held(plus), dir, held_s);
+    const double v = d * ramp_lever(held_s, s_.lever_start, s_.lever_ramp_s);
+    if (d != 0) held_s += dt_s;
+    return v;
+  };
+  cmd_.lift = lever(SDL_SCANCODE_S, SDL_SCANCODE_W, lift_dir_, lift_held_s_);
+  cmd_.tilt = lever(SDL_SCANCODE_A, SDL_SCANCODE_D, tilt_dir_, tilt_held_s_);
   cmd_.side_shift = held(SDL_SCANCODE_Q) ? 1 : held(SDL_SCANCODE_E) ? -1 : 0;
   cmd_.horn = held(SDL_SCANCODE_H);
   read_controller();
@@ -337,6 +436,7 @@ const CabCommand& CabInput::update(double dt_s) {
     cmd_.look_yaw_rad = approach(cmd_.look_yaw_rad, yaw_dir * s_.look_max_yaw_rad, step);
     cmd_.look_pitch_rad = approach(cmd_.look_pitch_rad, pitch_dir * s_.look_max_pitch_rad, step);
   }
+  pressed_.clear();
   return cmd_;
 }
 
@@ -352,10 +452,11 @@ const std::vector<std::pair<std::string, std::string>>& key_map() {
   static const std::vector<std::pair<std::string, std::string>> keys = {
       {"Up (hold)", "accelerator: held presses it, released lets it go"},
       {"Down or Space (hold)", "brake (overrides the accelerator)"},
-      {"Left / Right (hold)", "steer left / right (the wheel straightens when let go)"},
+      {"Left / Right", "turn the wheel left / right: a tap a degree or two, held faster; it stays where it is left"},
+      {"Home", "bring the wheel back straight"},
       {"F / N / R", "direction lever: forward / neutral / reverse"},
-      {"W / S (hold)", "lift / lower the forks"},
-      {"A / D (hold)", "tilt the mast back / forward"},
+      {"W / S", "lift / lower the forks: a tap about 1 cm, held faster"},
+      {"A / D", "tilt the mast back / forward: a tap a fraction of a degree, held faster"},
       {"Q / E (hold)", "side-shift left / right"},
       {"H (hold)", "horn"},
       {"P", "parking brake on / off"},
@@ -364,6 +465,7 @@ const std::vector<std::pair<std::string, std::string>>& key_map() {
       {"B", "rear-view mirror on / off (training; shown by itself when reversing)"},
       {"M", "see-through mast on / off (training)"},
       {"C", "chase camera on / off (training)"},
+      {"Tab", "hide the display but the speed / show it all"},
       {"F1", "this help"},
       {"F12", "save a picture of the window"},
       {"Esc", "leave the cab"},

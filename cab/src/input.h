@@ -5,6 +5,7 @@
 
 #include <SDL.h>
 
+#include <cmath>
 #include <map>
 #include <memory>
 #include <optional>
@@ -42,9 +43,23 @@ struct CabCommand {
 };
 
 // The settings of data/cab/cab.json that input uses.
+// How the wheel is turned when the cab's own wheel is a key or a mouse.
+enum class MouseSteer { kOff, kMotion, kWheel };  // no; horizontal motion; the mouse wheel's notches
+MouseSteer parse_mouse_steer(const std::string& name);  // "off", "motion", "wheel"; throws std::invalid_argument
+
 struct InputSettings {
   double accelerator_rise_s = 0.6, brake_rise_s = 0.15;
-  double steer_rate_per_s = 1, steer_centring_per_s = 1.4;  // of the end stops, per second
+  // The wheel under a held key, of the end stops per second: `steer_start_per_s` when the key
+  // goes down, rising evenly to `steer_full_per_s` over `steer_ramp_s` held. Let go, it stays
+  // (hydrostatic steering), unless `self_centring`; Home (or self-centring) brings it back
+  // straight at `steer_centring_per_s`.
+  double steer_start_per_s = 0.3, steer_full_per_s = 1.5, steer_ramp_s = 1.0, steer_centring_per_s = 1.4;
+  bool self_centring = false;
+  // Lift and tilt levers under a held key: `lever_start` of full when the key goes down, rising
+  // evenly to full over `lever_ramp_s` held.
+  double lever_start = 0.45, lever_ramp_s = 1.0;
+  MouseSteer mouse_steer = MouseSteer::kOff;
+  double mouse_steer_per_pixel = 0.004, mouse_steer_per_notch = 0.02;  // of the end stops
   double look_max_yaw_rad = 150 * kDeg, look_max_pitch_rad = 30 * kDeg;
   double look_rate_rad_s = 2 * M_PI / 3, mouse_rad_per_pixel = 0.25 * kDeg;
 };
@@ -104,7 +119,8 @@ class CabInput {
   void close(SDL_JoystickID id);
   double axis_value(const Controller& c, const ControllerMap::Axis& a, bool pedal, bool centred) const;
   void read_controller();
-  bool held(SDL_Scancode k) const;
+  bool held(SDL_Scancode k) const;  // held, or tapped since the last update
+  void mouse_steer(double by);       // the wheel turned by the mouse, of the end stops
   bool button_held(const char* function) const;  // the active controller's button for it is down
 
   InputSettings s_;
@@ -116,7 +132,16 @@ class CabInput {
   // The keys held, by scancode, from the window's key events; a focus change lets go of them
   // all (a key released in another window never comes back as a key-up).
   std::set<SDL_Scancode> held_;
+  std::set<SDL_Scancode> pressed_;  // went down since the last update (a tap shorter than a pass still counts)
   double kb_accel_ = 0, kb_brake_ = 0, kb_steer_ = 0;
+  // How long the steering, lift and tilt keys have been held in their present direction, s.
+  double steer_held_s_ = 0, lift_held_s_ = 0, tilt_held_s_ = 0;
+  int steer_dir_ = 0, lift_dir_ = 0, tilt_dir_ = 0;
+  bool centring_ = false;  // Home was pressed: the wheel comes back straight
+  // The controller's wheel drives while it is the last thing that moved; a key or the mouse
+  // takes over from where it left the wheel.
+  bool pad_steers_ = false;
+  double pad_steer_last_ = NAN;
   bool mouse_look_ = false;
   double mouse_yaw_ = 0, mouse_pitch_ = 0;
   std::vector<std::string> notices_;

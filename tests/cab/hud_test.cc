@@ -176,6 +176,7 @@ TEST(Hud, F1ShowsTheKeyMap) {
   const auto items = hud.draw_list(960, 720, 1);
   EXPECT_TRUE(has_text(items, "direction lever: forward / neutral / reverse"));
   EXPECT_TRUE(has_text(items, "Up (hold)"));
+  EXPECT_TRUE(has_text(items, "bring the wheel back straight"));
 }
 
 }  // namespace
