@@ -129,7 +129,10 @@ TEST_F(CabWindow, KeysHeldInTheWindowDriveTheTruckAsADriverExpects) {
   EXPECT_GT(yaw1 - yaw0, 0.2);
   // Let go, the wheel stays where it was left until Home straightens it.
   const double home = key_times(t, "Home", true).at(0);
-  EXPECT_NEAR((*last_before(t, "controls", home - 0.02))["steer"].get<double>(), (*steering)["steer"].get<double>(), 0.1);
+  const json* let_go = first_after(t, "controls", left_up);  // sent as the key came up
+  ASSERT_TRUE(let_go);
+  EXPECT_LT((*let_go)["steer"].get<double>(), -0.5);
+  EXPECT_DOUBLE_EQ((*last_before(t, "controls", home - 0.02))["steer"].get<double>(), (*let_go)["steer"].get<double>());
   EXPECT_EQ((*last_before(t, "controls", home + 1.2))["steer"].get<double>(), 0.0);
 
   // Brake and accelerator together: the brake wins, no drive.
