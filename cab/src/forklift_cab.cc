@@ -382,6 +382,10 @@ void CabProgram::pump_events() {
       switch (e.key.keysym.scancode) {
         case SDL_SCANCODE_ESCAPE: g_stop = true; continue;
         case SDL_SCANCODE_F1: hud_.toggle_help(); continue;
+        case SDL_SCANCODE_TAB:
+          hud_.toggle_compact();
+          trace_.write({{"type", "hud_compact"}, {"compact", hud_.compact()}}, now());
+          continue;
         case SDL_SCANCODE_F12: capture_next_ = true; continue;
         case SDL_SCANCODE_RETURN:
           if (calib_step_ >= 0) calibration_step();
@@ -450,7 +454,10 @@ void CabProgram::take_dds() {
     if (state == "waiting" || state == "running") {
       session_ = s.session_id;
       // The worker's truck's end stops: what a script's angle is as a fraction of them.
-      if (std::isfinite(s.steer_lock_rad) && s.steer_lock_rad > 0 && s.steer_lock_rad <= M_PI / 2) steer_lock_rad_ = s.steer_lock_rad;
+      if (std::isfinite(s.steer_lock_rad) && s.steer_lock_rad > 0 && s.steer_lock_rad <= M_PI / 2) {
+        steer_lock_rad_ = s.steer_lock_rad;
+        hud_.set_steer_lock(steer_lock_rad_);  // the steering dial's mark for what the wheel asks
+      }
     }
     if (s.session_id != session_) return;
     hud_.on_status(state, s.reason, t);

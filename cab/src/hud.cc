@@ -14,7 +14,9 @@ namespace forklift::cab {
 namespace {
 
 const Rgba kWhite{255, 255, 255, 255}, kGreen{70, 210, 90, 255}, kAmber{255, 180, 0, 255}, kRed{235, 50, 40, 255};
-const Rgba kGrey{190, 190, 190, 255}, kPanel{0, 0, 0, 150}, kBlue{120, 190, 255, 255};
+const Rgba kGrey{190, 190, 190, 255}, kPanel{0, 0, 0, 120}, kBlue{120, 190, 255, 255};
+// The side columns' share of the window's width: text of 25-30 characters a line at any size.
+constexpr double kSideShare = 0.25;
 
 std::string format(const char* fmt, double a, double b = 0) {
   char buf[160];
@@ -52,9 +54,10 @@ std::string clock(double s) {
 }
 
 // How many lines `text` takes at `width_px` in HUD size `size` (the window wraps it at words;
-// DejaVu Sans is about 0.55 em a character).
+// DejaVu Sans is about 0.55 em a character, its bold, which titles use, about 0.62).
 int line_count(const std::string& text, int width_px, int size, int line) {
-  const size_t per_line = size_t(std::max(8.0, width_px / (0.55 * hud_font_px(size, line))));
+  const double em = size >= 1 ? 0.62 : 0.55;
+  const size_t per_line = size_t(std::max(8.0, width_px / (em * hud_font_px(size, line))));
   int n = 0;
   for (size_t at = 0; at < text.size(); ++n) {
     if (text.size() - at <= per_line) break;
@@ -65,6 +68,13 @@ int line_count(const std::string& text, int width_px, int size, int line) {
 }
 
 }  // namespace
+
+std::vector<HudRect> panel_rects(const std::vector<HudItem>& items) {
+  std::vector<HudRect> out;
+  for (const HudItem& i : items)
+    if (i.kind == HudItem::Kind::kFill) out.push_back({i.x, i.y, i.w, i.h});
+  return out;
+}
 
 int hud_line_px(int window_height) { return std::max(18, window_height / 30); }
 
@@ -210,6 +220,53 @@ Hud::PalletHint Hud::pallet_hint() const {
   return {out, false};
 }
 
+void Hud::steering_dial(std::vector<HudItem>& out, int cx, int cy, int r, int line, int text_w) const {
+  auto segment = [&](double x0, double y0, double x1, double y1, Rgba c, const char* role) {
+    HudItem i;
+    i.kind = HudItem::Kind::kLine;
+    i.x = int(std::lround(x0)), i.y = int(std::lround(y0));
+    i.w = int(std::lround(x1)) - i.x, i.h = int(std::lround(y1)) - i.y;
+    i.colour = c, i.role = role;
+    out.push_back(std::move(i));
+  };
+  // Angles from straight up, clockwise (the truck steering right).
+  auto at = [&](double a, double radius) { return std::pair(cx + radius * std::sin(a), cy - radius * std::cos(a)); };
+  constexpr int kRim = 32;
+  for (int k = 0; k < kRim; ++k) {
+    const auto [x0, y0] = at(2 * M_PI * k / kRim, r);
+    const auto [x1, y1] = at(2 * M_PI * (k + 1) / kRim, r);
+    segment(x0, y0, x1, y1, kGrey, "steer_dial");
+  }
+  const double lock = steer_lock_rad_ > 0 ? steer_lock_rad_ : M_PI / 2;
+  for (double a : {-lock, 0.0, lock}) {
+    const auto [x0, y0] = at(a, 0.8 * r);
+    const auto [x1, y1] = at(a, r);
+    segment(x0, y0, x1, y1, kGrey, "steer_dial");
+  }
+  // What the wheel asks for: a mark across the rim.
+  if (steer_lock_rad_ > 0) {
+    const double asked = std::clamp(cmd_.steer, -1.0, 1.0) * steer_lock_rad_;
+    const auto [x0, y0] = at(asked, 0.65 * r);
+    const auto [x1, y1] = at(asked, 1.15 * r);
+    segment(x0, y0, x1, y1, kAmber, "steer_asked");
+  }
+  // The rear wheel as it is: a needle three pixels wide.
+  const double a = std::isfinite(state_.steer_rad) ? state_.steer_rad : 0.0;
+  const auto [tx, ty] = at(a, 0.9 * r);
+  for (int k = -1; k <= 1; ++k)
+    segment(cx + k * std::cos(a), cy + k * std::sin(a), tx + k * std::cos(a), ty + k * std::sin(a), kWhite, "steer_needle");
+  const double deg = a * kRad;
+  auto words = [&](int y, std::string t, const char* role) {
+    HudItem i;
+    i.x = cx + r + line / 2, i.y = y, i.w = text_w;
+    i.colour = kWhite, i.size = 0, i.role = role, i.text = std::move(t);
+    out.push_back(std::move(i));
+  };
+  words(cy - line, "Rear wheel", "steer_title");
+  words(cy, std::abs(deg) < 0.5 ? std::string("straight") : format("%.0f deg ", std::abs(deg)) + (deg > 0 ? "right" : "left"),
+        "steer");
+}
+
 std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
   std::vector<HudItem> out;
   auto text = [&](int x, int y, std::string t, Rgba c, int size, const char* role, int wrap_w = 0) {
@@ -240,103 +297,127 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
     return out;
   }
 
-  // The top is two corners: the task on the left, faults on the right; the middle stays clear
-  // for the rear-view mirror the worker draws there (the middle 36% of the width, the top 21%).
-  const int side_w = int(width * 0.30);
-  const int top_x = line / 2;
+  // Two columns at the sides, a quarter of the width each, and nothing between them: the
+  // middle of the picture is the work (the forks, their tips and the pallet ahead, at any fork
+  // height, and the rear-view mirror the worker draws at the top). Left: the task at the top,
+  // the drive at the bottom (speed, lever, steering dial). Right: faults at the top, the forks,
+  // load, stability and the pallet hint at the bottom. Compact (Tab): the speed alone.
+  const int side_w = int(width * kSideShare);
+  const int pad = line / 2, wrap = side_w - line;
+  const int right_x0 = width - side_w;
+  auto wrapped_h = [&](const std::string& t, int size) {
+    return line_count(t, wrap, size, line) * (size == 0 ? line - 2 : size == 1 ? line : 2 * line);
+  };
   int yl = 4;
-  if (have_state_) {
+  if (have_state_ && !compact_) {
     // The step in hand (or what is left to do once the task is done), wrapped by the window.
     const bool done = !state_.task_step[0] && state_.task_steps_total > 0;
     const std::string step = state_.task_step[0] ? std::string(state_.task_step)
                              : done              ? std::string("Stop, lower the forks, controls to neutral")
                                                  : std::string();
-    const int step_h = step.empty() ? 0 : line_count(step, side_w - line, 0, line) * (line - 2);
+    const int step_h = step.empty() ? 0 : wrapped_h(step, 0);
     const int h = line + 8 + step_h + (state_.task_steps_total > 0 ? 9 : 0) + (state_.time_left_s >= 0 ? line : 0) + 6;
     fill(0, 0, side_w, h, kPanel, "panel");
     if (state_.task_step[0])
-      text(top_x, yl, format("Step %.0f of %.0f", state_.task_steps_done + 1.0, state_.task_steps_total), kWhite, 1, "task");
+      text(pad, yl, format("Step %.0f of %.0f", state_.task_steps_done + 1.0, state_.task_steps_total), kWhite, 1, "task");
     else
-      text(top_x, yl, done ? "Task done" : "Free driving", done ? kGreen : kWhite, 1, "task");
+      text(pad, yl, done ? "Task done" : "Free driving", done ? kGreen : kWhite, 1, "task");
     yl += line + 2;
-    if (!step.empty()) text(top_x, yl, step, kWhite, 0, "task_step", side_w - line);
+    if (!step.empty()) text(pad, yl, step, kWhite, 0, "task_step", wrap);
     yl += step_h;
     if (state_.task_steps_total > 0) {
-      const int w = side_w - line;
-      fill(top_x, yl + 2, w, 5, Rgba{80, 80, 80, 200}, "progress");
-      fill(top_x, yl + 2, int(w * double(state_.task_steps_done) / state_.task_steps_total), 5, kGreen, "progress");
+      fill(pad, yl + 2, wrap, 5, Rgba{80, 80, 80, 200}, "progress");
+      fill(pad, yl + 2, int(wrap * double(state_.task_steps_done) / state_.task_steps_total), 5, kGreen, "progress");
       yl += 9;
     }
     if (state_.time_left_s >= 0) {
       const Rgba c = state_.time_left_s < 30 ? kRed : state_.time_left_s < 60 ? kAmber : kWhite;
-      text(top_x, yl, "Time left " + clock(state_.time_left_s), c, 0, "time_left");
+      text(pad, yl, "Time left " + clock(state_.time_left_s), c, 0, "time_left");
       yl += line;
     }
     yl += 8;
   }
 
-  // Bottom: speed, direction, forks, load, stability.
-  const int panel_h = 4 * line + 8;
-  const int y0 = height - panel_h;
-  fill(0, y0, width, panel_h, kPanel, "panel");
+  // Bottom left: the drive. Speed and the direction lever, the zone's limit, what cuts the drive,
+  // and the steering dial.
   if (have_state_) {
     const double kmh = std::abs(state_.speed_m_s) * 3.6;
-    const double limit_kmh = state_.speed_limit_m_s * 3.6;
     const bool over = state_.speed_limit_m_s > 0 && std::abs(state_.speed_m_s) > state_.speed_limit_m_s + 1e-3;
-    text(line / 2, y0 + 4, format("%.1f km/h", kmh), over ? kRed : kWhite, 2, "speed");
-    text(line / 2, y0 + 2 * line + 8,
-         state_.speed_limit_m_s > 0 ? format("limit %.0f km/h", limit_kmh) + (over ? ": too fast" : "") : "no limit here",
-         over ? kRed : kGrey, 0, "speed_limit");
-    const char* lever = cmd_.direction > 0 ? "F" : cmd_.direction < 0 ? "R" : "N";
-    text(9 * line, y0 + 4, lever, cmd_.direction < 0 ? kAmber : kWhite, 2, "direction");
+    const std::string limit = state_.speed_limit_m_s > 0
+                                  ? format("limit %.0f km/h", state_.speed_limit_m_s * 3.6) + (over ? ": too fast" : "")
+                                  : "no limit here";
     std::string flags;
     if (cmd_.parking_brake) flags += "P brake  ";
     if (!cmd_.seated) flags += "Seat empty: drive off  ";
     if (cmd_.controller_lost) flags += "Controller lost: braking  ";
     if (state_.deadman) flags += "No controls reach the truck: braking";
-    int above = y0;  // lines stacked up from the panel, where the eye drops to the speed
+    const int flags_h = flags.empty() ? 0 : wrapped_h(flags, 0) + 4;
+    const int dial_r = std::max(12, line * 3 / 2);
+    const int dial_h = compact_ ? 0 : 2 * dial_r + 12;
+    // The lever's letter at the right of the limit's line, clear of the speed however wide.
+    const int limit_w = wrap - 2 * line, limit_h = std::max(line + 4, line_count(limit, limit_w, 0, line) * (line - 2));
+    const int h = 2 * line + 8 + limit_h + flags_h + dial_h;
+    const int y0 = height - h;
+    fill(0, y0, side_w, h, kPanel, "panel");
+    text(pad, y0 + 4, format("%.1f km/h", kmh), over ? kRed : kWhite, 2, "speed");
+    int y = y0 + 2 * line + 8;
+    const char* lever = cmd_.direction > 0 ? "F" : cmd_.direction < 0 ? "R" : "N";
+    text(side_w - 2 * line, y - line / 2, lever, cmd_.direction < 0 ? kAmber : kWhite, 2, "direction");
+    text(pad, y, limit, over ? kRed : kGrey, 0, "speed_limit", limit_w);
+    y += limit_h;
     if (!flags.empty()) {
-      above -= line + 6;
-      fill(0, above, width, line + 6, kPanel, "panel");
-      text(line / 2, above + 4, flags, kAmber, 0, "flags");
+      text(pad, y, flags, kAmber, 0, "flags", wrap);
+      y += flags_h;
     }
-    if (const PalletHint hint = pallet_hint(); !hint.words.empty()) {
-      above -= line + 6;
-      fill(0, above, width, line + 6, kPanel, "panel");
-      text(line / 2, above + 4, hint.words, hint.ready ? kGreen : kBlue, 0, "pallet");
-    }
+    if (!compact_) steering_dial(out, pad + dial_r, y + 4 + dial_r, dial_r, line, wrap - 2 * dial_r - line / 2);
+  }
 
-    const int xf = width * 2 / 7 + line;
+  // Bottom right: the forks, the load, the stability gauge and the pallet hint.
+  int right_bottom = height;
+  if (have_state_ && !compact_) {
     const double tilt_deg = state_.tilt_rad * kRad;
-    text(xf, y0 + 4,
-         format("Forks %.2f m up, mast tilted %.1f deg ", state_.fork_height_m, std::abs(tilt_deg)) +
-             (tilt_deg > 0.05 ? "forward" : tilt_deg < -0.05 ? "back" : "upright"),
-         kWhite, 0, "forks");
+    const std::string forks = format("Forks %.2f m up, mast %.1f deg ", state_.fork_height_m, std::abs(tilt_deg)) +
+                              (tilt_deg > 0.05 ? "forward" : tilt_deg < -0.05 ? "back" : "upright");
+    std::string load = "No load";
+    Rgba load_colour = kGrey;
     if (state_.load_attached) {
       const double share = state_.load_capacity_kg > 0 ? state_.load_mass_kg / state_.load_capacity_kg : 0;
-      const Rgba c = share > 1 ? kRed : share > s_.capacity_amber ? kAmber : kWhite;
-      text(xf, y0 + line + 6,
-           format("Load %.0f kg of %.0f kg allowed at this load centre", state_.load_mass_kg, state_.load_capacity_kg) +
-               (share > 1 ? ": overload" : ""),
-           c, 0, "load");
-    } else {
-      text(xf, y0 + line + 6, "No load", kGrey, 0, "load");
+      load_colour = share > 1 ? kRed : share > s_.capacity_amber ? kAmber : kWhite;
+      load = format("Load %.0f kg of %.0f kg allowed at this load centre", state_.load_mass_kg, state_.load_capacity_kg) +
+             (share > 1 ? ": overload" : "");
     }
+    const std::string stability = stability_words();
+    const PalletHint hint = pallet_hint();
+    const int hint_h = hint.words.empty() ? 0 : wrapped_h(hint.words, 0) + 6;
+    const int h = wrapped_h(forks, 0) + wrapped_h(load, 0) + line / 2 + 6 + wrapped_h(stability, 0) + hint_h + 12;
+    int y = height - h;
+    right_bottom = y;
+    fill(right_x0, y, side_w, h, kPanel, "panel");
+    const int x = right_x0 + pad;
+    y += 4;
+    if (!hint.words.empty()) {  // on top, nearest the work it is about
+      text(x, y, hint.words, hint.ready ? kGreen : kBlue, 0, "pallet", wrap);
+      y += hint_h;
+    }
+    text(x, y, forks, kWhite, 0, "forks", wrap);
+    y += wrapped_h(forks, 0);
+    text(x, y, load, load_colour, 0, "load", wrap);
+    y += wrapped_h(load, 0) + 2;
     // The stability gauge: a bar of the margin to the stability triangle's nearest edge.
     const Rgba sc = stability_colour();
-    const int gw = width / 3;
-    fill(xf, y0 + 2 * line + 10, gw, line / 2, Rgba{80, 80, 80, 220}, "stability_gauge");
-    fill(xf, y0 + 2 * line + 10, int(gw * std::clamp(state_.stability_fraction, 0.0, 1.0)), line / 2, sc, "stability_gauge");
-    text(xf, y0 + 3 * line, stability_words(), sc, 0, "stability");
+    fill(x, y, wrap, line / 2, Rgba{80, 80, 80, 220}, "stability_gauge");
+    fill(x, y, int(wrap * std::clamp(state_.stability_fraction, 0.0, 1.0)), line / 2, sc, "stability_gauge");
+    y += line / 2 + 4;
+    text(x, y, stability, sc, 0, "stability", wrap);
   }
 
   // The learning aids asked for but not allowed here, under the task.
   auto refused = [&](bool asked, int bit, const char* what) {
-    if (!asked || !have_state_ || (state_.aids & bit)) return;
+    if (compact_ || !asked || !have_state_ || (state_.aids & bit)) return;
     const std::string words = std::string(what) + " is not allowed in this session";
-    const int h = line_count(words, side_w - line, 0, line) * (line - 2);
+    const int h = wrapped_h(words, 0);
     fill(0, yl - 2, side_w, h + 4, kPanel, "panel");
-    text(top_x, yl, words, kAmber, 0, "aid_refused", side_w - line);
+    text(pad, yl, words, kAmber, 0, "aid_refused", wrap);
     yl += h + 4;
   };
   refused(cmd_.rear_view, aids::kRearView, "The rear-view mirror");
@@ -344,20 +425,20 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
   refused(cmd_.chase_camera, aids::kChaseCamera, "The chase camera");
 
   // Faults and notices in the top right corner, newest first, while they last: the three
-  // newest, the newest with the rule's advice.
-  const int right_x = width - side_w + line / 2;
+  // newest, the newest with the rule's advice, down to the panel below.
   int yr = 4;
   int shown = 0;
-  for (const Message& m : messages_) {
+  for (const Message& m : compact_ ? std::deque<Message>() : messages_) {
     if (now_s >= m.until_s || now_s < m.shown_at_s) continue;
-    const int title_h = line_count(m.text, side_w - line, 1, line) * line;
-    const int detail_h = shown == 0 && !m.detail.empty() ? line_count(m.detail, side_w - line, 0, line) * (line - 2) : 0;
-    fill(width - side_w, yr - 2, side_w, title_h + detail_h + 8, kPanel, "panel");
-    text(right_x, yr, m.text, m.colour, 1, m.role.c_str(), side_w - line);
+    const int title_h = wrapped_h(m.text, 1);
+    const int detail_h = shown == 0 && !m.detail.empty() ? wrapped_h(m.detail, 0) : 0;
+    if (yr + title_h + detail_h + 8 > right_bottom - line / 2) break;
+    fill(right_x0, yr - 2, side_w, title_h + detail_h + 8, kPanel, "panel");
+    text(right_x0 + pad, yr, m.text, m.colour, 1, m.role.c_str(), wrap);
     yr += title_h;
-    if (detail_h > 0) text(right_x, yr, m.detail, kWhite, 0, "fault_detail", side_w - line);
+    if (detail_h > 0) text(right_x0 + pad, yr, m.detail, kWhite, 0, "fault_detail", wrap);
     yr += detail_h + 8;
-    if (++shown == 3 || yr > y0 - 3 * line) break;
+    if (++shown == 3) break;
   }
 
   if (!session_line_.empty()) {

@@ -24,14 +24,22 @@ struct Rgba {
 };
 
 struct HudItem {
-  enum class Kind { kText, kFill };  // text at (x, y); a filled rectangle
+  enum class Kind { kText, kFill, kLine };  // text at (x, y); a filled rectangle; a line
   Kind kind = Kind::kText;
-  int x = 0, y = 0, w = 0, h = 0;  // text: w > 0 wraps it at that width
+  int x = 0, y = 0, w = 0, h = 0;  // text: w > 0 wraps it at that width; line: from (x, y) to (x + w, y + h)
   Rgba colour;
   int size = 1;      // text: 0 small, 1 normal, 2 large
   std::string text;
   std::string role;  // what it shows: "speed", "stability", "fault", "session", "help", ...
 };
+
+struct HudRect {
+  int x = 0, y = 0, w = 0, h = 0;
+  bool contains(double px, double py) const { return px >= x && px < x + w && py >= y && py < y + h; }
+};
+// The rectangles a draw list covers: every filled rectangle (each text and line of the display
+// sits on one). What the pupil cannot see through.
+std::vector<HudRect> panel_rects(const std::vector<HudItem>& items);
 
 // One scale for the display's layout and the fonts the window opens: the line height for a
 // window this high, and the font height of each text size (0 small, 1 normal, 2 large).
@@ -61,6 +69,11 @@ class Hud {
   void on_notice(const std::string& text, double now_s);
   void set_command(const CabCommand& c) { cmd_ = c; }
   void toggle_help() { help_ = !help_; }
+  // Compact: the speed (and what cuts the drive) alone, the rest hidden until toggled back.
+  void toggle_compact() { compact_ = !compact_; }
+  bool compact() const { return compact_; }
+  // The truck's end stops (the worker's status): the steering dial marks what the wheel asks.
+  void set_steer_lock(double rad) { steer_lock_rad_ = rad; }
   // A line in the middle of the window until replaced (the calibration's steps).
   void set_prompt(std::string text) { session_line_ = std::move(text); }
   void set_help(std::vector<std::pair<std::string, std::string>> lines) { help_lines_ = std::move(lines); }
@@ -90,6 +103,10 @@ class Hud {
     bool ready = false;  // lined up, or in: nothing left to correct
   };
   PalletHint pallet_hint() const;
+  // The steering-position indicator: a dial centred at (cx, cy) of radius r, the rear wheel's
+  // angle as a needle (turned right when the truck steers right), what the wheel asks for as a
+  // mark on the rim, and the angle in words beside it.
+  void steering_dial(std::vector<HudItem>& out, int cx, int cy, int r, int line, int text_w) const;
 
   HudSettings s_;
   std::map<std::string, FaultWords> words_;
@@ -101,6 +118,8 @@ class Hud {
   Rgba session_colour_{255, 255, 255, 255};
   bool session_over_ = false;
   bool help_ = false;
+  bool compact_ = false;
+  double steer_lock_rad_ = 0;  // 0: not heard yet
   std::vector<std::pair<std::string, std::string>> help_lines_;
 };
 

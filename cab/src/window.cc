@@ -105,6 +105,11 @@ void CabWindow::present(const std::vector<HudItem>& hud, Image* capture) {
       SDL_RenderFillRect(renderer_, &r);
       continue;
     }
+    if (i.kind == HudItem::Kind::kLine) {
+      SDL_SetRenderDrawColor(renderer_, i.colour.r, i.colour.g, i.colour.b, i.colour.a);
+      SDL_RenderDrawLine(renderer_, i.x, i.y, i.x + i.w, i.y + i.h);
+      continue;
+    }
     if (i.text.empty()) continue;
     int w = 0, h = 0;
     if (SDL_Texture* t = text_texture(i, w, h)) {

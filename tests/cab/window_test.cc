@@ -162,6 +162,53 @@ TEST_F(CabWindow, KeysHeldInTheWindowDriveTheTruckAsADriverExpects) {
   EXPECT_EQ(img.height, 720);
 }
 
+TEST_F(CabWindow, TenTapsTurnTheRearWheelAFewDegreesAndItStaysThereAndTabHidesTheDisplay) {
+  const int domain = forklift::test::free_domain();
+  Process w = worker("kc4", domain, "first_drive_yard", 60);
+  const std::string trace = tmp("kc4.trace");
+  Process cab({kBin + "/forklift-cab", "--cab", "kc4", "--keyboard", "--no-sound", "--dds-domain", std::to_string(domain),
+               "--wait-worker", "30", "--trace", trace},
+              tmp("kc4.cab"));
+  // Ten taps of 0.05 s on Right, the truck standing; 6 s with no key; Tab; Esc.
+  std::vector<std::string> steps = {"sleep", "2"};
+  for (int i = 0; i < 10; ++i)
+    for (const char* s : {"keydown", "Right", "sleep", "0.05", "keyup", "Right", "sleep", "0.25"}) steps.push_back(s);
+  for (const char* s : {"sleep", "6", "key", "Tab", "sleep", "1", "key", "Escape"}) steps.push_back(s);
+  xdotool("kc4", steps);
+  const std::vector<json> t = finish(cab, w, trace);
+  const std::vector<double> downs = key_times(t, "Right", true), ups = key_times(t, "Right", false);
+  ASSERT_EQ(downs.size(), 10u) << "the window did not get the keys";
+  ASSERT_EQ(ups.size(), 10u);
+  // The rear wheel as the TruckState the cab receives says, 1 s after the last tap (the servo
+  // has caught up) and 5 s later, no key held in between.
+  const json* before = last_before(t, "state", downs[0]);
+  const json* settled = last_before(t, "state", ups[9] + 1.0);
+  const json* later = last_before(t, "state", ups[9] + 6.0);
+  ASSERT_TRUE(before && settled && later);
+  const double turned_deg = ((*settled)["steer_rad"].get<double>() - (*before)["steer_rad"].get<double>()) * 180 / M_PI;
+  EXPECT_GT(turned_deg, 5);
+  EXPECT_LT(turned_deg, 25);
+  EXPECT_NEAR((*later)["steer_rad"].get<double>(), (*settled)["steer_rad"].get<double>(), 0.3 * M_PI / 180);
+  const json* asked = last_before(t, "controls", ups[9] + 6.0);
+  EXPECT_GT((*asked)["steer"].get<double>(), 0);  // Right: + (the rear wheel left)
+  std::printf("ten taps: rear wheel %.1f deg (%.2f deg a tap), held %.2f deg 5 s later\n", turned_deg, turned_deg / 10,
+              ((*later)["steer_rad"].get<double>() - (*before)["steer_rad"].get<double>()) * 180 / M_PI);
+  // Tab: the display keeps the speed and hides the rest.
+  const json* compact = nullptr;
+  for (const json& r : t)
+    if (r["type"] == "hud_compact" && r["compact"] == true) compact = &r;
+  ASSERT_TRUE(compact) << "Tab did not reach the display";
+  const json* shown = first_after(t, "hud", (*compact)["t"].get<double>());
+  ASSERT_TRUE(shown);
+  bool speed = false, stability = false;
+  for (const json& text : (*shown)["texts"]) {
+    speed = speed || text.get<std::string>().find("km/h") != std::string::npos;
+    stability = stability || text.get<std::string>().rfind("Stability", 0) == 0;
+  }
+  EXPECT_TRUE(speed);
+  EXPECT_FALSE(stability);
+}
+
 TEST_F(CabWindow, SigtermClosesTheCabAndTheWorkerBrakesOnTheSilence) {
   const int domain = forklift::test::free_domain();
   Process w = worker("kc3", domain, "first_drive_yard", 40);
