@@ -32,6 +32,8 @@ TEST(Vocabulary, EveryNameParsesBackAndNothingElseParses) {
                SessionPhase::kAborted, SessionPhase::kFailed});
   round_trips({Mode::kTraining, Mode::kExam});
   round_trips({EventOrigin::kEvaluation, EventOrigin::kHandling, EventOrigin::kWorker});
+  round_trips({Outcome::kOpen, Outcome::kCompleted, Outcome::kTimedOut, Outcome::kAborted, Outcome::kStopped,
+               Outcome::kFailed});
 }
 
 TEST(Vocabulary, TheNamesAreTheWireAndLogWords) {
@@ -39,6 +41,7 @@ TEST(Vocabulary, TheNamesAreTheWireAndLogWords) {
   EXPECT_STREQ(name(EndReason::kNumericalFailure), "numerical_failure");
   EXPECT_STREQ(name(SessionPhase::kEnded), "ended");
   EXPECT_STREQ(name(Mode::kExam), "exam");
+  EXPECT_STREQ(name(Outcome::kTimedOut), "timed_out");
   EXPECT_EQ(parse<EndReason>("parked"), std::nullopt);  // an evaluation's end word, not a session's end
 }
 

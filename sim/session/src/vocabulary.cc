@@ -24,6 +24,12 @@ constexpr Names<SessionPhase, 6> kPhases{{{SessionPhase::kStarting, "starting"},
 constexpr Names<Mode, 2> kModes{{{Mode::kTraining, "training"}, {Mode::kExam, "exam"}}};
 constexpr Names<EventOrigin, 3> kOrigins{
     {{EventOrigin::kEvaluation, "evaluation"}, {EventOrigin::kHandling, "handling"}, {EventOrigin::kWorker, "worker"}}};
+constexpr Names<Outcome, 6> kOutcomes{{{Outcome::kOpen, "open"},
+                                       {Outcome::kCompleted, "completed"},
+                                       {Outcome::kTimedOut, "timed_out"},
+                                       {Outcome::kAborted, "aborted"},
+                                       {Outcome::kStopped, "stopped"},
+                                       {Outcome::kFailed, "failed"}}};
 
 template <class E, size_t N>
 const char* name_in(const Names<E, N>& names, E value) {
@@ -49,11 +55,13 @@ const char* name(EndReason r) { return name_in(kEndReasons, r); }
 const char* name(SessionPhase p) { return name_in(kPhases, p); }
 const char* name(Mode m) { return name_in(kModes, m); }
 const char* name(EventOrigin o) { return name_in(kOrigins, o); }
+const char* name(Outcome o) { return name_in(kOutcomes, o); }
 
 template <> std::optional<EndReason> parse<EndReason>(std::string_view s) { return parse_in(kEndReasons, s); }
 template <> std::optional<SessionPhase> parse<SessionPhase>(std::string_view s) { return parse_in(kPhases, s); }
 template <> std::optional<Mode> parse<Mode>(std::string_view s) { return parse_in(kModes, s); }
 template <> std::optional<EventOrigin> parse<EventOrigin>(std::string_view s) { return parse_in(kOrigins, s); }
+template <> std::optional<Outcome> parse<Outcome>(std::string_view s) { return parse_in(kOutcomes, s); }
 
 bool is_terminal(SessionPhase p) {
   return p == SessionPhase::kEnded || p == SessionPhase::kAborted || p == SessionPhase::kFailed;

@@ -1,7 +1,8 @@
-// The words a session is told by, once: how it ended, what phase it is in, how it is marked, and
-// who raised an event. Every program that reads or writes these names (the worker, the session
-// log, the store's outcome, the server, the cab's head-up display) goes through name() and
-// parse() here; the IDL carries them as strings, produced and parsed with these functions only.
+// The words a session is told by, once: how it ended, what phase it is in, how it is marked, what
+// its end means for its mark, and who raised an event. Every program that reads or writes these
+// names (the worker, the session log, the store, the server, the menu, the cab's head-up display)
+// goes through name() and parse() here; the IDL, the SQL and the API carry them as strings,
+// produced and parsed with these functions only.
 // No dependency: the store and the cab link it without the simulation.
 #pragma once
 
@@ -34,6 +35,19 @@ enum class SessionPhase {
 // How the evaluation marks a session.
 enum class Mode { kTraining, kExam };  // "training", "exam"
 
+// What a session's end means for its mark (the store's session_outcome() decides it from the
+// phase, the end reason and whether a task was left): the word the API, its lists and exports, the
+// pages and the menu carry. Its own enum, not a phase or a reason: a "duration" end is completed
+// or timed out by the task, a "signal" end is stopped, and the menu, which links no store, reads it.
+enum class Outcome {
+  kOpen,       // "open": not over yet
+  kCompleted,  // "completed": ran its course; the only outcome with a mark
+  kTimedOut,   // "timed_out": the time limit, or its time ran out with its task unfinished
+  kAborted,    // "aborted": the instructor stopped it
+  kStopped,    // "stopped": its worker was told to stop before its end (the server shut down)
+  kFailed,     // "failed": it could not run or ended for any other reason
+};
+
 // Who raised an event of a session, by its kind.
 enum class EventOrigin {
   kEvaluation,  // a rule of the evaluation (counted in the mark, by its worry level)
@@ -45,6 +59,7 @@ const char* name(EndReason reason);
 const char* name(SessionPhase phase);
 const char* name(Mode mode);
 const char* name(EventOrigin origin);
+const char* name(Outcome outcome);
 
 // The value a name stands for; nullopt for a name that is not one of them (exact, case and all).
 template <class E>
@@ -53,6 +68,7 @@ template <> std::optional<EndReason> parse<EndReason>(std::string_view name);
 template <> std::optional<SessionPhase> parse<SessionPhase>(std::string_view name);
 template <> std::optional<Mode> parse<Mode>(std::string_view name);
 template <> std::optional<EventOrigin> parse<EventOrigin>(std::string_view name);
+template <> std::optional<Outcome> parse<Outcome>(std::string_view name);
 
 // Ended, aborted or failed: the session will not change again.
 bool is_terminal(SessionPhase phase);
