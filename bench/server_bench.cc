@@ -83,12 +83,12 @@ void populate(const std::string& db, int pupils, int sessions_per_pupil) {
         for (int s = 0; s < sessions_per_pupil; ++s) {
           char when[32];
           std::snprintf(when, sizeof when, "2026-%02d-%02dT%02d:00:00Z", 1 + s / 28 % 12, 1 + s % 28, 8 + s % 10);
-          const store::Session ses = store->create_session(pupil, "cab1", "practical_exam", "training", std::nullopt, when);
+          const store::Session ses = store->create_session(pupil, "cab1", "practical_exam", Mode::kTraining, std::nullopt, when);
           const std::string kind = kinds[(p + s) % 5];
           store->add_event({ses.public_id, 1, 3.0, "deadman", 0, 1, 2, "{}"});
           store->add_event({ses.public_id, 2, 7.5, kind, 3, 4, 5, "{}"});
           store->set_score({ses.public_id, mark(rng), true, {{kind, 1}}}, when);
-          store->set_session_state(ses.public_id, "ended", "", when);
+          store->set_session_state(ses.public_id, SessionPhase::kEnded, "", when);
         }
       }
     });

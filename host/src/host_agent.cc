@@ -63,7 +63,7 @@ std::optional<std::string> request_problem(const fk_WorkerRequest& r, const std:
   if (action == "abort" || action == "kill") return std::nullopt;
   if (action != "start") return "a request to '" + action + "' (start, abort or kill)";
   if (!matches(r.cab_id, "[A-Za-z0-9_-]{1,32}")) return "a start for cab '" + std::string(r.cab_id) + "', which is not a cab id";
-  if (std::string(r.mode) != "training" && std::string(r.mode) != "exam") return "a start in mode '" + std::string(r.mode) + "'";
+  if (!parse<Mode>(r.mode)) return "a start in mode '" + std::string(r.mode) + "'";
   if (!std::isfinite(r.duration_s) || r.duration_s > 7 * 86400) return "a start with a duration of " + std::to_string(r.duration_s) + " s";
   if (!matches(r.aids, "[a-z_,-]{0,63}")) return "a start with aids '" + std::string(r.aids) + "'";
   if (!std::isfinite(r.frame_fps) || r.frame_fps < 0 || r.frame_fps > 120) return "a start at " + std::to_string(r.frame_fps) + " frames per second";
@@ -210,7 +210,7 @@ void HostAgent::start(const fk_WorkerRequest& r) {
   l.binary = config_.worker_binary;
   l.session = r.session_id;
   l.cab = r.cab_id;
-  l.mode = r.mode;
+  l.mode = parse<Mode>(r.mode).value();  // request_problem() refused any other
   l.log_base = base(l.session);
   l.scenario_file = l.log_base + ".scenario.json";
   l.dds_domain = config_.dds_domain;
@@ -222,7 +222,7 @@ void HostAgent::start(const fk_WorkerRequest& r) {
   if (r.aids[0]) l.aids = std::string(r.aids);
   l.frames = WorkerFrames{r.frame_fps, r.frame_width, r.frame_height, bool(r.frame_jpeg)};
   if (r.frame_fps <= 0) l.frames = WorkerFrames{0, 640, 480, false};
-  if (l.mode == "exam" && config_.security_dir.empty()) return refuse(r, "host " + config_.host_id + " runs without DDS Security, which exams need");
+  if (l.mode == Mode::kExam && config_.security_dir.empty()) return refuse(r, "host " + config_.host_id + " runs without DDS Security, which exams need");
   if (!(std::ofstream(l.scenario_file) << r.scenario_json)) return refuse(r, "host " + config_.host_id + " cannot write to " + config_.log_dir);
   Worker w;
   w.session = l.session;

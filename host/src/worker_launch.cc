@@ -21,7 +21,7 @@ namespace forklift::host {
 std::vector<std::string> worker_command(const WorkerLaunch& w) {
   std::vector<std::string> args = {w.binary, "--cab", w.cab, "--session", w.session, "--scenario", w.scenario_file,
                                    "--dds-domain", std::to_string(w.dds_domain), "--log", w.log_base + ".ctl",
-                                   "--start-timeout", std::to_string(w.start_timeout_s), "--mode", w.mode};
+                                   "--start-timeout", std::to_string(w.start_timeout_s), "--mode", name(w.mode)};
   if (w.duration_s) { args.push_back("--duration"); args.push_back(std::to_string(*w.duration_s)); }
   if (w.aids) { args.push_back("--aids"); args.push_back(*w.aids); }
   if (!w.dds_config.empty()) { args.push_back("--dds-config"); args.push_back(w.dds_config); }

@@ -145,6 +145,12 @@ json body_json(const httplib::Request& req) {
   return j;
 }
 
+Mode mode_field(const json& j) {
+  const std::string text = field<std::string>(j, "mode", std::string(name(Mode::kTraining)));
+  if (const std::optional<Mode> mode = parse<Mode>(text)) return *mode;
+  throw ApiError(400, "bad_request", "'mode' must be training or exam");
+}
+
 std::string username_field(const json& j) {
   const auto name = store::canonical_username(field<std::string>(j, "username"));
   if (!name)

@@ -102,6 +102,9 @@ T field(const json& j, const char* key, std::optional<T> fallback = std::nullopt
   }
 }
 
+// The body's "mode": training when absent, else 400 for anything but training or exam.
+Mode mode_field(const json& j);
+
 // The body's "username" for a new login, as stored (store::canonical_username), else 400 with the rule.
 std::string username_field(const json& j);
 
@@ -132,15 +135,15 @@ void session_fields(const store::Session& s, Put&& put) {
   const store::Outcome o = store::session_outcome(s);
   std::optional<bool> passed;
   if (o == store::Outcome::kCompleted) passed = s.passed;
-  else if (s.mode == "exam" && o != store::Outcome::kOpen) passed.emplace(false);
+  else if (s.mode == Mode::kExam && o != store::Outcome::kOpen) passed.emplace(false);
   put("id", s.public_id);
   put("pupil_id", s.pupil_id);
   put("cab_id", s.cab_id);
   put("scenario", s.scenario);
-  put("mode", s.mode);
-  put("state", s.state);
+  put("mode", name(s.mode));
+  put("state", name(s.state));
   put("reason", s.reason);
-  put("outcome", store::outcome_name(o));
+  put("outcome", name(o));
   put("created_at", s.created_at);
   put("ended_at", s.ended_at);
   put("mark", store::mark_of(s));

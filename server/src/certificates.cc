@@ -164,7 +164,7 @@ json certificate_record(Context& ctx, const store::Pupil& pupil, const store::Pu
   }
   json training = {{"sessions", 0}, {"first_at", nullptr}, {"last_at", nullptr}};
   for (const auto& s : h.sessions)
-    if (s.mode == "training" && store::mark_of(s)) {
+    if (s.mode == Mode::kTraining && store::mark_of(s)) {
       if (training["first_at"].is_null()) training["first_at"] = s.created_at;
       training["last_at"] = s.created_at;
       training["sessions"] = training["sessions"].get<int>() + 1;

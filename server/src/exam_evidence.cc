@@ -92,7 +92,7 @@ SessionAudit session_audit(store::Store& db, const store::Session& s, std::optio
 
 json make_record(store::Store& db, const store::Session& s, const SessionAudit* audit) {
   json r = {{"session", s.public_id}, {"pupil_id", s.pupil_id}, {"cab", s.cab_id}, {"scenario", s.scenario},
-            {"mode", s.mode}, {"state", s.state}, {"ended_at", s.ended_at},
+            {"mode", name(s.mode)}, {"state", name(s.state)}, {"ended_at", s.ended_at},
             {"examiner_id", s.examiner_id ? json(*s.examiner_id) : json(nullptr)}, {"examiner", nullptr},
             {"mark", nullptr}, {"passed", nullptr}, {"counts", json::object()}, {"exam_id", nullptr}};
   if (audit) {
@@ -283,12 +283,12 @@ json exam_record(store::Store& db, const store::Session& s, const json* chained)
 ChainOutcome chain_exam(store::Store& db, const std::string& session, ChainAnchor& anchor, const ChainKeys& keys,
                         bool anyway) {
   const auto s = db.get_session(session);
-  if (!s || parse<Mode>(s->mode) != Mode::kExam) return {ChainResult::kNotSignable, "not a practical exam"};
+  if (!s || s->mode != Mode::kExam) return {ChainResult::kNotSignable, "not a practical exam"};
   if (db.get_chain_entry(session)) return {ChainResult::kAlreadyChained, ""};
   const auto sig_text = db.get_session_log(session, "signature");
   if (!sig_text || sig_text->empty()) return {ChainResult::kNotSignable, "its worker left no signed log"};
   // The supervisor asks again every 50 ms while the score is on its way: the log is read only after.
-  if (!store::is_terminal(s->state) || !db.get_score(session)) return {ChainResult::kNotReady, ""};
+  if (!is_terminal(s->state) || !db.get_score(session)) return {ChainResult::kNotReady, ""};
   const auto log = db.get_session_log(session, "control");
   if (!log) return {ChainResult::kNotSignable, "it has no control log"};
   if (!anyway && db.list_events(session).size() < logged_events(*log)) return {ChainResult::kNotReady, ""};
@@ -361,7 +361,7 @@ std::string check_chain_at_start(store::Store& db, ChainAnchor& anchor, const Ch
 }
 
 json exam_evidence(store::Store& db, const store::Session& s, const ChainAnchor& anchor) {
-  if (parse<Mode>(s.mode) != Mode::kExam)
+  if (s.mode != Mode::kExam)
     throw store::StoreError(store::StoreError::kNotFound, "session " + s.public_id + " is not a practical exam: it has no exam evidence");
   const auto held = anchor.hold_chain();  // the chain and its anchor as of one moment
   json chain = json::array();
@@ -377,7 +377,7 @@ json exam_evidence(store::Store& db, const store::Session& s, const ChainAnchor&
   json note = nullptr;
   if (!chained) {
     const auto refused = db.get_session_log(s.public_id, "chain_refused");
-    note = !store::is_terminal(s.state) ? "the exam has not ended"
+    note = !is_terminal(s.state) ? "the exam has not ended"
            : refused                    ? "the server refused to chain it: " + *refused
            : !sig                       ? "its worker left no signed log"
                                         : "the server has not chained it yet";
@@ -388,7 +388,7 @@ json exam_evidence(store::Store& db, const store::Session& s, const ChainAnchor&
 }
 
 ExamStanding exam_standing(store::Store& db, const store::Session& s, const ChainAnchor& anchor, const ChainKeys& keys) {
-  if (parse<Mode>(s.mode) != Mode::kExam) return {false, "it is not a practical exam"};
+  if (s.mode != Mode::kExam) return {false, "it is not a practical exam"};
   if (keys.ca_pem.empty()) return {false, "this server has no school CA (--security) to check exam evidence with"};
   const auto held = anchor.hold_chain();
   const auto mine = db.get_chain_entry(s.public_id);

@@ -72,10 +72,11 @@ std::vector<ExamResult> exam_results(Context& ctx, const store::PupilHistory& h)
     r.details = parsed_object(e.details);
     r.corrections = corrections[e.id];
     if (e.kind == "theory") {
+      // The paper's own outcome, as the theory attempt keeps it ("marked" or "timed_out").
       const bool timed_out = r.details.is_object() && r.details.value("outcome", "") == "timed_out";
-      r.outcome = timed_out ? "timed_out" : "completed";
+      r.outcome = timed_out ? Outcome::kTimedOut : Outcome::kCompleted;
       r.mark = e.score;
-      if (timed_out) r.reasons.push_back({"timed_out", "the paper's time ran out before it was handed in"});
+      if (timed_out) r.reasons.push_back({name(Outcome::kTimedOut), "the paper's time ran out before it was handed in"});
       else if (!e.passed) {
         const json d = r.details.is_object() ? r.details : json::object();
         r.reasons.push_back({"below_pass_mark", d.value("correct", json()).dump() + " of " + d.value("total", json()).dump() +
@@ -86,7 +87,7 @@ std::vector<ExamResult> exam_results(Context& ctx, const store::PupilHistory& h)
       if (s) {
         recorded[s->public_id] = true;
         r.session = *s;
-        r.outcome = store::outcome_name(store::session_outcome(*s));
+        r.outcome = store::session_outcome(*s);
         r.mark = store::mark_of(*s);
         r.course = exam_course(scenario_as_run(db, ctx.data_dir, *s));
         // As recorded when its score came; a record from before reasons were kept, from its score now.
@@ -101,7 +102,7 @@ std::vector<ExamResult> exam_results(Context& ctx, const store::PupilHistory& h)
         r.evidence = standing(*s);
         if (!r.evidence->verified) r.reasons.push_back({"evidence", "its evidence does not verify: " + r.evidence->why});
       } else {
-        r.outcome = "failed";
+        r.outcome = Outcome::kFailed;
         r.reasons.push_back({"evidence", "it has no exam session to check it against"});
       }
       if (!e.passed && r.reasons.empty()) r.reasons.push_back({"not_passed", "the evaluator did not pass it"});
@@ -125,12 +126,12 @@ std::vector<ExamResult> exam_results(Context& ctx, const store::PupilHistory& h)
   // Exam sessions over with no record: their score never came (the worker failed, or the exam was
   // aborted before it ended). They are exams that did not pass, and are shown as such.
   for (const auto& s : h.sessions) {
-    if (s.mode != "exam" || !store::is_terminal(s.state) || recorded.count(s.public_id)) continue;
+    if (s.mode != Mode::kExam || !is_terminal(s.state) || recorded.count(s.public_id)) continue;
     ExamResult r;
     r.session = s;
     r.kind = "practical";
     r.taken_at = s.ended_at.empty() ? s.created_at : s.ended_at;
-    r.outcome = store::outcome_name(store::session_outcome(s));
+    r.outcome = store::session_outcome(s);
     r.course = exam_course(scenario_as_run(db, ctx.data_dir, s));
     r.reasons = session_reasons(rules, s, {}, std::nullopt, std::nullopt);
     if (r.reasons.empty()) r.reasons.push_back({"no_score", "no score came from its worker"});
@@ -149,7 +150,7 @@ json exam_result_json(Context& ctx, const ExamResult& r) {
   const store::ExamRecord* e = r.record ? &*r.record : nullptr;
   const json& d = r.details;
   const auto detail = [&](const char* key) { return d.is_object() ? d.value(key, json(nullptr)) : json(nullptr); };
-  json x = {{"id", e ? json(e->id) : json(nullptr)}, {"kind", r.kind}, {"taken_at", r.taken_at}, {"outcome", r.outcome},
+  json x = {{"id", e ? json(e->id) : json(nullptr)}, {"kind", r.kind}, {"taken_at", r.taken_at}, {"outcome", name(r.outcome)},
             {"score", r.mark ? json(*r.mark) : json(nullptr)}, {"passed", r.passed}, {"reasons", reasons_json(r.reasons)},
             {"counts_toward_licence", r.counts}, {"not_counted", r.not_counted.empty() ? json(nullptr) : json(r.not_counted)},
             {"session", r.session ? json(r.session->public_id) : json(nullptr)},

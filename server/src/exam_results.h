@@ -20,7 +20,7 @@ struct ExamResult {
   std::optional<store::Session> session;    // a practical exam's session
   std::string kind;                         // "theory" or "practical"
   std::string taken_at;
-  std::string outcome;  // practical: the session's (store::session_outcome); theory: "completed" or "timed_out"
+  Outcome outcome = Outcome::kFailed;  // practical: the session's (store::session_outcome); theory: completed or timed out
   // Practical: the evaluator's mark of a completed exam (store::mark_of), else none; theory: the
   // fraction right.
   std::optional<double> mark;

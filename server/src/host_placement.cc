@@ -106,7 +106,7 @@ bool HostPlacement::start_hosted_worker(const store::Session& s, const std::stri
   dds::set_string(r->session_id, s.public_id);
   dds::set_string(r->action, "start");
   dds::set_string(r->cab_id, s.cab_id);
-  dds::set_string(r->mode, s.mode);
+  dds::set_string(r->mode, name(s.mode));
   r->duration_s = duration_s.value_or(0);
   dds::set_string(r->aids, aids.value_or(""));
   dds::set_string(r->scenario_json, scenario);
@@ -330,10 +330,10 @@ void HostPlacement::adopt_hosted(store::Store& db, Report& rep) {
   const fk_WorkerReport& r = rep.r;
   const std::string& session = rep.session;
   const auto s = db.get_session(session);
-  if (!s || store::is_terminal(s->state) || s->cab_id != r.cab_id) {
+  if (!s || is_terminal(s->state) || s->cab_id != r.cab_id) {
     if (rep.state == "exited") return;
     spdlog::warn("host {} runs a worker for session {}, which is {}: stopping it", r.host_id, session,
-                 !s ? "unknown here" : store::is_terminal(s->state) ? "over" : "on another cab");
+                 !s ? "unknown here" : is_terminal(s->state) ? "over" : "on another cab");
     std::lock_guard<std::mutex> lock(fleet_.mu);
     request(r.host_id, session, "kill");
     return;

@@ -35,8 +35,8 @@ json reasons_json(const std::vector<Reason>& reasons) {
 }
 
 store::Session as_ended(store::Session s, const std::string& end_reason, const std::map<std::string, int>& counts) {
-  if (store::is_terminal(s.state)) return s;
-  s.state = "ended";
+  if (is_terminal(s.state)) return s;
+  s.state = SessionPhase::kEnded;
   s.reason = end_reason;
   s.task_left_unfinished = counts.count("task_incomplete") > 0;
   return s;
@@ -45,15 +45,18 @@ store::Session as_ended(store::Session s, const std::string& end_reason, const s
 std::vector<Reason> session_reasons(const MarkingRules& rules, const store::Session& s, const std::map<std::string, int>& counts,
                                     std::optional<int> points, std::optional<bool> evaluator_passed) {
   std::vector<Reason> out;
+  // A session that did not complete has its outcome for a reason, named as the outcome is.
   const std::string why = s.reason.empty() ? "" : " (" + s.reason + ")";
-  switch (store::session_outcome(s)) {
+  const store::Outcome outcome = store::session_outcome(s);
+  switch (outcome) {
     case store::Outcome::kOpen: return out;
     case store::Outcome::kCompleted: break;
-    case store::Outcome::kAborted: out.push_back({"aborted", "the session was aborted before its end" + why}); break;
-    case store::Outcome::kStopped: out.push_back({"stopped", "the session was stopped before its end" + why}); break;
-    case store::Outcome::kFailed: out.push_back({"failed", "the session failed" + why}); break;
+    case store::Outcome::kAborted: out.push_back({name(outcome), "the session was aborted before its end" + why}); break;
+    case store::Outcome::kStopped: out.push_back({name(outcome), "the session was stopped before its end" + why}); break;
+    case store::Outcome::kFailed: out.push_back({name(outcome), "the session failed" + why}); break;
     case store::Outcome::kTimedOut:
-      out.push_back({"timed_out", s.reason == "time_limit" ? "the time limit was exceeded" : "the time ran out before the task was done"});
+      out.push_back({name(outcome), parse<EndReason>(s.reason) == EndReason::kTimeLimit ? "the time limit was exceeded"
+                                                                                          : "the time ran out before the task was done"});
       break;
   }
   const auto described = [&](const std::string& id) {
@@ -71,7 +74,7 @@ std::vector<Reason> session_reasons(const MarkingRules& rules, const store::Sess
       out.push_back({"repeated_serious_fault", "a serious fault " + std::to_string(n) + " times (more than " +
                                                    std::to_string(rules.max_same_serious_fault) + "), " + described(id)});
   }
-  if (counts.count("task_incomplete") && s.mode == "exam") out.push_back({"task_incomplete", "the task was not completed"});
+  if (counts.count("task_incomplete") && s.mode == Mode::kExam) out.push_back({"task_incomplete", "the task was not completed"});
   const int pts = points ? *points : s.mark ? static_cast<int>(std::lround(rules.mark_start - *s.mark)) : 0;
   if (pts > rules.fail_above_points)
     out.push_back({"too_many_points", std::to_string(pts) + " penalty points, more than the " +
@@ -84,12 +87,12 @@ std::string practical_exam_details(store::Store& db, const std::string& data_dir
                                    const std::string& session, const std::string& end_reason, std::optional<int> points,
                                    const std::map<std::string, int>& counts, bool passed) {
   const auto found = db.get_session(session);
-  if (!found || found->mode != "exam") return "";
+  if (!found || found->mode != Mode::kExam) return "";
   const store::Session s = as_ended(*found, end_reason, counts);
   const auto pupil = db.get_pupil(s.pupil_id);
   const auto examiner = s.examiner_id ? db.get_user(*s.examiner_id) : std::nullopt;
   const json course = exam_course(scenario_as_run(db, data_dir, s));
-  const json d = {{"outcome", store::outcome_name(store::session_outcome(s))}, {"end_reason", end_reason},
+  const json d = {{"outcome", name(store::session_outcome(s))}, {"end_reason", end_reason},
                   {"points", points ? json(*points) : json(nullptr)},
                   {"reasons", reasons_json(session_reasons(rules, s, counts, points, passed))},
                   {"pupil_name", pupil ? json(pupil->name) : json(nullptr)},

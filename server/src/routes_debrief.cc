@@ -25,7 +25,7 @@ json debrief_json(Context& ctx, const store::Session& s) {
   json sign_off = nullptr;
   if (const auto o = ctx.db().get_session_sign_off(s.public_id))
     sign_off = {{"at", o->at}, {"comment", o->comment}, {"by", people.json(o->signed_by)}};
-  return {{"session", s.public_id}, {"finished", store::is_terminal(s.state)}, {"notes", notes}, {"sign_off", sign_off}};
+  return {{"session", s.public_id}, {"finished", is_terminal(s.state)}, {"notes", notes}, {"sign_off", sign_off}};
 }
 
 // Text a person typed: trimmed, not empty, not too long.
@@ -71,8 +71,8 @@ void debrief_routes(Routes& svr, Context& ctx) {
     require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
     const store::Session s = visible_session(ctx, p, req.matches[1]);
     const std::string comment = typed_text(req.body.empty() ? json::object() : body_json(req), "comment", kMaxCommentChars, false);
-    if (!store::is_terminal(s.state))
-      throw ApiError(409, "not_finished", "session " + s.public_id + " is still " + s.state + ": sign it off when it has ended");
+    if (!is_terminal(s.state))
+      throw ApiError(409, "not_finished", "session " + s.public_id + " is still " + name(s.state) + ": sign it off when it has ended");
     bool signed_now = false;
     ctx.db().batch([&] {
       signed_now = ctx.db().sign_off_session({s.public_id, p.user_id, "", comment});
@@ -87,8 +87,8 @@ void debrief_routes(Routes& svr, Context& ctx) {
   svr.Get(R"(/api/sessions/(s-\d+)/replay)", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
     const store::Session s = visible_session(ctx, p, req.matches[1]);
-    if (!store::is_terminal(s.state))
-      throw ApiError(409, "not_finished", "session " + s.public_id + " is still " + s.state + ": its replay is ready when it has ended");
+    if (!is_terminal(s.state))
+      throw ApiError(409, "not_finished", "session " + s.public_id + " is still " + name(s.state) + ": its replay is ready when it has ended");
     const auto log = ctx.db().get_session_log(s.public_id, "control");
     if ((!log || log->empty()) && ctx.fleet->settling(s.public_id)) {
       res.set_header("Retry-After", "1");

@@ -25,6 +25,16 @@ std::string text_param(const httplib::Request& req, const char* key) {
   return v;
 }
 
+// A filter by a word of the session vocabulary (a mode, an outcome): none when absent, else 400
+// for a word that is not one.
+template <class E>
+std::optional<E> vocabulary_param(const httplib::Request& req, const char* key) {
+  const std::string text = text_param(req, key);
+  if (text.empty()) return std::nullopt;
+  if (const std::optional<E> e = parse<E>(text)) return e;
+  throw ApiError(400, "bad_request", std::string("'") + key + "' cannot be '" + text + "'");
+}
+
 json group_json(const store::Group& g, People& people) {
   return {{"id", g.id}, {"name", g.name}, {"instructor", people.json(g.instructor_id)}, {"pupils", g.pupils},
           {"created_at", g.created_at}};
@@ -37,7 +47,7 @@ json booking_json(const store::Booking& b, People& people) {
           {"starts_at", b.starts_at},
           {"ends_at", b.ends_at},
           {"scenario", b.scenario},
-          {"mode", b.mode},
+          {"mode", name(b.mode)},
           {"instructor", people.json(b.instructor_id)},
           {"session", b.session_public_id.empty() ? json(nullptr) : json(b.session_public_id)},
           {"created_at", b.created_at}};
@@ -104,8 +114,8 @@ void list_routes(Routes& svr, Context& ctx) {
     f.search = text_param(req, "search");
     f.cab_id = text_param(req, "cab");
     f.scenario = text_param(req, "scenario");
-    f.mode = text_param(req, "mode");
-    f.outcome = text_param(req, "outcome");
+    f.mode = vocabulary_param<Mode>(req, "mode");
+    f.outcome = vocabulary_param<Outcome>(req, "outcome");
     f.result = text_param(req, "result");
     f.pupil_id = query_id(req, "pupil");
     f.instructor_id = query_id(req, "instructor");
@@ -119,7 +129,7 @@ void list_routes(Routes& svr, Context& ctx) {
       for (const auto& r : found.sessions) {
         const json j = session_json(r.session);
         rows.push_back({r.session.public_id, r.session.created_at, r.pupil_name, r.session.cab_id, r.session.scenario,
-                        r.session.mode, people.name(r.session.started_by), j["outcome"].get<std::string>(),
+                        name(r.session.mode), people.name(r.session.started_by), j["outcome"].get<std::string>(),
                         csv_number(store::mark_of(r.session)),
                         j["passed"].is_boolean() ? (j["passed"].get<bool>() ? "yes" : "no") : "", r.session.ended_at});
       }
@@ -290,8 +300,7 @@ void list_routes(Routes& svr, Context& ctx) {
     k.ends_at = add_minutes(k.starts_at, minutes);
     k.scenario = field<std::string>(b, "scenario");
     scenario_file(ctx.data_dir, k.scenario);  // 404 for a scenario the school does not have
-    k.mode = field<std::string>(b, "mode", std::string("training"));
-    if (k.mode != "training" && k.mode != "exam") throw ApiError(400, "bad_request", "'mode' must be training or exam");
+    k.mode = mode_field(b);
     k.instructor_id = instructor_field(ctx, p, b, p.user_id);
     int64_t id = 0;
     try {
@@ -299,7 +308,7 @@ void list_routes(Routes& svr, Context& ctx) {
         id = ctx.db().create_booking(k);
         audit(ctx.db(), p, pupil.id, "session_booked",
               {{"booking", id}, {"cab", k.cab_id}, {"starts_at", k.starts_at}, {"ends_at", k.ends_at}, {"scenario", k.scenario},
-               {"mode", k.mode}});
+               {"mode", name(k.mode)}});
       });
     } catch (const store::StoreError& e) {
       if (e.kind() != store::StoreError::kConflict) throw;
@@ -350,7 +359,7 @@ void list_routes(Routes& svr, Context& ctx) {
     body["pupil_id"] = b->pupil_id;
     body["cab_id"] = b->cab_id;
     body["scenario"] = b->scenario;
-    body["mode"] = b->mode;
+    body["mode"] = name(b->mode);
     const store::Session s =
         start_session(ctx, p, body, [&](const store::Session& started) { ctx.db().set_booking_session(b->id, started.public_id); });
     res.set_header("Location", "/api/sessions/" + s.public_id);

@@ -56,12 +56,12 @@ std::string history_text(Context& ctx, const store::PupilHistory& h, const std::
   out.end_array().key("marks").begin_array();
   for (const auto& s : h.sessions)
     if (const auto m = store::mark_of(s))
-      out.begin_object().field("session", s.public_id).field("at", s.created_at).field("mark", *m).field("mode", s.mode).end_object();
+      out.begin_object().field("session", s.public_id).field("at", s.created_at).field("mark", *m).field("mode", name(s.mode)).end_object();
   out.end_array().key("unmarked").begin_array();
   for (const auto& s : h.sessions)
-    if (!store::mark_of(s) && store::is_terminal(s.state) && store::session_outcome(s) != store::Outcome::kCompleted)
-      out.begin_object().field("session", s.public_id).field("at", s.created_at).field("mode", s.mode).field("scenario", s.scenario)
-          .field("outcome", store::outcome_name(store::session_outcome(s))).field("reason", s.reason).end_object();
+    if (!store::mark_of(s) && is_terminal(s.state) && store::session_outcome(s) != store::Outcome::kCompleted)
+      out.begin_object().field("session", s.public_id).field("at", s.created_at).field("mode", name(s.mode)).field("scenario", s.scenario)
+          .field("outcome", name(store::session_outcome(s))).field("reason", s.reason).end_object();
   out.end_array().key("faults_by_kind").begin_object();
   for (const auto& [kind, n] : h.faults_by_kind) out.field(kind.c_str(), n);
   out.end_object().key("fault_titles").begin_object();  // the kinds in words, for the pages
@@ -211,7 +211,7 @@ void pupil_routes(Routes& svr, Context& ctx) {
       const json j = session_json(s);
       const auto exam = exam_of.find(s.public_id);
       const json passed = exam != exam_of.end() ? json(exam->second->passed) : j["passed"];
-      rows.push_back({pupil.name, "session", s.public_id, s.created_at, s.scenario, s.mode, s.state,
+      rows.push_back({pupil.name, "session", s.public_id, s.created_at, s.scenario, name(s.mode), name(s.state),
                       csv_number(store::mark_of(s)), "", yes_no(passed), j["outcome"].get<std::string>(),
                       exam != exam_of.end() ? why(exam->second->reasons) : ""});
     }
@@ -220,7 +220,7 @@ void pupil_routes(Routes& svr, Context& ctx) {
       const bool theory = r.kind == "theory";
       rows.push_back({pupil.name, "exam", std::to_string(r.record->id), r.taken_at, r.kind, "", "",
                       theory ? "" : csv_number(r.mark), theory && r.mark ? csv_number(*r.mark * 100) : "",
-                      r.passed ? "yes" : "no", r.outcome, why(r.reasons)});
+                      r.passed ? "yes" : "no", name(r.outcome), why(r.reasons)});
     }
     send_csv(res, "pupil-" + std::to_string(pupil.id) + "-history.csv",
              csv_table({"pupil", "record", "id", "date", "scenario_or_kind", "mode", "state", "practical_mark", "theory_percent",

@@ -43,17 +43,17 @@ std::pair<store::Session, LiveView> followed(Context& ctx, const httplib::Reques
   require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
   const store::Session s = session_for(ctx, req, p);
   const auto v = ctx.fleet->follow(s.public_id);
-  if (!v) throw ApiError(409, "not_running", "session " + s.public_id + " has no running worker (" + s.state + ")");
+  if (!v) throw ApiError(409, "not_running", "session " + s.public_id + " has no running worker (" + name(s.state) + ")");
   return {s, *v};
 }
 
 // The training aids asked for ("aids": ["rear_view", ...]) as the worker's --aids list; none
 // given: the worker's default (all of them in training, none in an exam). An exam takes no aids.
 // A list of known aids' names: body_json has checked it against NewSession.
-std::optional<std::string> aids_request(const json& b, const std::string& mode) {
+std::optional<std::string> aids_request(const json& b, Mode mode) {
   if (!b.contains("aids")) return std::nullopt;
   const json& a = b["aids"];
-  if (mode == "exam" && !a.empty())
+  if (mode == Mode::kExam && !a.empty())
     throw ApiError(400, "bad_request", "an exam is taken without training aids: leave 'aids' out of an exam session");
   uint8_t asked = 0;
   for (const json& x : a) {
@@ -96,7 +96,7 @@ store::Session start_session(Context& ctx, const Principal& p, const json& b,
   if (!std::regex_match(cab, std::regex("[A-Za-z0-9_-]{1,32}"))) throw ApiError(400, "bad_request", "'cab_id' must be 1-32 letters, digits, - or _");
   const std::string scenario = field<std::string>(b, "scenario");
   const std::string scenario_path = scenario_file(ctx.data_dir, scenario);
-  const std::string mode = field<std::string>(b, "mode", std::string("training"));
+  const Mode mode = mode_field(b);
   const std::optional<std::string> aids = aids_request(b, mode);
   json run;  // the scenario as this session runs it
   try {
@@ -104,7 +104,7 @@ store::Session start_session(Context& ctx, const Principal& p, const json& b,
   } catch (const std::exception&) {
     throw ApiError(500, "bad_scenario", "scenario '" + scenario + "' is unreadable");
   }
-  if (mode == "exam") {
+  if (mode == Mode::kExam) {
     require_role(p, {Role::kAdmin, Role::kExaminer});
     if (!is_exam_course(run)) throw ApiError(400, "not_exam_course", not_an_exam_course("scenario '" + scenario + "'"));
     // The course is marked as it is laid out: its truck and its loads are part of it.
@@ -142,7 +142,7 @@ store::Session start_session(Context& ctx, const Principal& p, const json& b,
   store::Session s;
   ctx.db().batch([&] {
     try {
-      s = ctx.db().create_session(pupil.id, cab, scenario, mode, mode == "exam" ? std::optional<int64_t>(p.user_id) : std::nullopt,
+      s = ctx.db().create_session(pupil.id, cab, scenario, mode, mode == Mode::kExam ? std::optional<int64_t>(p.user_id) : std::nullopt,
                                   store::now_iso8601(), p.user_id);
     } catch (const store::StoreError& e) {
       // The store keeps one open session per cab: another server (or request) started one first.
@@ -153,11 +153,11 @@ store::Session start_session(Context& ctx, const Principal& p, const json& b,
     ctx.db().put_session_log(s.public_id, "scenario", run.dump(2));
     const auto [truck, load] = scenario_setup(run);
     audit(ctx.db(), p, pupil.id, "session_started",
-          {{"session", s.public_id}, {"mode", mode}, {"cab", cab}, {"scenario", scenario},
+          {{"session", s.public_id}, {"mode", name(mode)}, {"cab", cab}, {"scenario", scenario},
            {"time_limit_s", duration ? json(*duration) : json(nullptr)}, {"truck", truck}, {"load", load},
            {"aids", aids ? json(*aids) : json(nullptr)}});
   });
-  session_log(s.public_id, "started", {{"pupil", pupil.id}, {"cab", cab}, {"scenario", scenario}, {"mode", mode}, {"by", p.username}});
+  session_log(s.public_id, "started", {{"pupil", pupil.id}, {"cab", cab}, {"scenario", scenario}, {"mode", name(mode)}, {"by", p.username}});
   std::string file = scenario_path;
   if (own_copy) {
     file = ctx.fleet->config().log_dir + "/" + s.public_id + ".scenario.json";
@@ -166,8 +166,8 @@ store::Session start_session(Context& ctx, const Principal& p, const json& b,
   try {
     ctx.fleet->start_worker(s, file, duration, aids);
   } catch (const std::exception& e) {
-    ctx.db().set_session_state_audited(s.public_id, "failed", e.what(), store::now_iso8601(), kServerActor);
-    session_log(s.public_id, "failed", {{"reason", "no worker could start"}, {"by", "server"}});
+    ctx.db().set_session_state_audited(s.public_id, SessionPhase::kFailed, e.what(), store::now_iso8601(), kServerActor);
+    session_log(s.public_id, name(SessionPhase::kFailed), {{"reason", "no worker could start"}, {"by", "server"}});
     spdlog::error("session {}: no worker: {}", s.public_id, e.what());
     throw ApiError(503, "no_worker", "no simulation could be started for this session: the server's log says why");
   }
@@ -194,7 +194,7 @@ void session_routes(Routes& svr, Context& ctx) {
       if (store::mark_of(s)) j["score"] = {{"mark", sc->mark}, {"passed", sc->passed}, {"counts", sc->counts}};
       else j["counts"] = sc->counts;
     }
-    if (store::is_terminal(s.state)) {
+    if (is_terminal(s.state)) {
       const auto sc = ctx.db().get_score(s.public_id);
       j["reasons"] = reasons_json(session_reasons(ctx.fleet->marking_rules(), s, sc ? sc->counts : std::map<std::string, int>{},
                                                   std::nullopt, sc ? std::optional<bool>(sc->passed) : std::nullopt));
@@ -254,8 +254,8 @@ void session_routes(Routes& svr, Context& ctx) {
     const Principal p = authenticate(ctx, req);
     require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
     const store::Session s = session_for(ctx, req, p);
-    if (!set_state(ctx.db(), s.public_id, "aborted", "aborted by " + p.username, actor_of(p)))
-      throw ApiError(409, "session_over", "session " + s.public_id + " is already " + s.state);
+    if (!set_state(ctx.db(), s.public_id, SessionPhase::kAborted, "aborted by " + p.username, actor_of(p)))
+      throw ApiError(409, "session_over", "session " + s.public_id + " is already " + name(s.state));
     ctx.fleet->abort(s.public_id);
     send_json(res, 200, session_json(*ctx.db().get_session(s.public_id)));
   }));
@@ -315,7 +315,7 @@ void session_routes(Routes& svr, Context& ctx) {
       json& c = cab(w["cab"].get<std::string>());
       if (!s || !pupil || pupil->school_id != p.school_id) { c["session"] = {{"id", nullptr}, {"other_school", true}}; continue; }
       c["session"] = {{"id", s->public_id}, {"pupil_id", pupil->id}, {"pupil_name", pupil->name}, {"scenario", s->scenario},
-                      {"mode", s->mode}, {"state", s->state}, {"created_at", s->created_at}, {"sim_time_s", w["sim_time_s"]},
+                      {"mode", name(s->mode)}, {"state", name(s->state)}, {"created_at", s->created_at}, {"sim_time_s", w["sim_time_s"]},
                       {"speed_m_s", w["speed_m_s"]}, {"seconds_since_state", w["seconds_since_state"]}, {"healthy", w["healthy"]},
                       {"pid", w["pid"]}, {"host", w["host"]}};
     }

@@ -182,8 +182,16 @@ std::optional<StatusIn> SampleGate::valid_status(const fk_SessionStatus& s) {
     return std::nullopt;
   }
   // The states a worker may set; the others are the server's own.
-  const std::string state = s.state;
-  if (state == "waiting" || state == "running" || state == "ended" || state == "failed") return StatusIn{s.session_id, state, s.reason};
+  const std::optional<SessionPhase> state = parse<SessionPhase>(s.state);
+  if (!state) return std::nullopt;
+  switch (*state) {
+    case SessionPhase::kWaiting:
+    case SessionPhase::kRunning:
+    case SessionPhase::kEnded:
+    case SessionPhase::kFailed: return StatusIn{s.session_id, *state, s.reason};
+    case SessionPhase::kStarting:
+    case SessionPhase::kAborted: break;
+  }
   return std::nullopt;
 }
 

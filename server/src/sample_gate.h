@@ -60,7 +60,9 @@ struct HostStatusIn {
   bool gone = false;
 };
 struct StatusIn {  // a worker's word on its session's state
-  std::string session, state, reason;
+  std::string session;
+  SessionPhase state = SessionPhase::kWaiting;
+  std::string reason;
 };
 struct CabIn {  // a cab's announcement
   std::string id, mode, site;

@@ -12,10 +12,10 @@
 
 namespace forklift::server {
 
-bool set_state(store::Store& db, const std::string& session, const std::string& state, const std::string& reason,
+bool set_state(store::Store& db, const std::string& session, SessionPhase state, const std::string& reason,
                const store::Actor& actor) {
   const bool changed = db.set_session_state_audited(session, state, reason, store::now_iso8601(), actor);
-  if (changed) session_log(session, state, {{"reason", reason}, {"by", actor.name}});
+  if (changed) session_log(session, name(state), {{"reason", reason}, {"by", actor.name}});
   return changed;
 }
 
@@ -85,11 +85,11 @@ void SessionRecorder::truck_state(const fk_TruckState& t, std::map<std::string, 
   }
 }
 
-void SessionRecorder::publish_status(const std::string& session, const std::string& cab, const char* state, const std::string& reason) {
+void SessionRecorder::publish_status(const std::string& session, const std::string& cab, SessionPhase state, const std::string& reason) {
   fk_SessionStatus s{};
   dds::set_string(s.session_id, session);
   dds::set_string(s.cab_id, cab);
-  dds::set_string(s.state, state);
+  dds::set_string(s.state, name(state));
   dds::set_string(s.reason, reason);
   status_writer_->write(s);
   // The cab reads its own partition only.
@@ -163,9 +163,9 @@ void SessionRecorder::take_followed_frames() {
 }
 
 void SessionRecorder::fail(store::Store& db, const std::string& session, const std::string& cab, const std::string& reason) {
-  if (set_state(db, session, "failed", reason, kServer)) {
+  if (set_state(db, session, SessionPhase::kFailed, reason, kServer)) {
     spdlog::warn("session {} failed: {}", session, reason);
-    publish_status(session, cab, "failed", reason);
+    publish_status(session, cab, SessionPhase::kFailed, reason);
   }
 }
 
@@ -201,11 +201,11 @@ void SessionRecorder::settle(store::Store& db, const WorkerInfo& w, const std::s
     to_chain.push_back({w.session, Clock::now() + std::chrono::seconds(15)});
   }
   const auto s = db.get_session(w.session);
-  if (!s || store::is_terminal(s->state)) return;
+  if (!s || is_terminal(s->state)) return;
   if (logged && logged->score && logged->end_reason) {
     // The log's end is the session's, whatever became of the worker's last status.
-    if (set_state(db, w.session, "ended", *logged->end_reason, kWorkerLog))
-      publish_status(w.session, w.cab, "ended", *logged->end_reason);
+    if (set_state(db, w.session, SessionPhase::kEnded, *logged->end_reason, kWorkerLog))
+      publish_status(w.session, w.cab, SessionPhase::kEnded, *logged->end_reason);
   } else if (logged && logged->gave_up) {
     fail(db, w.session, w.cab, "the cab never spoke");
   } else if (!reason.empty()) {
@@ -216,7 +216,7 @@ void SessionRecorder::settle(store::Store& db, const WorkerInfo& w, const std::s
   } else {
     // A clean exit with no mark in the log (a session that never ran): ended, which carries no
     // mark and so is never a pass.
-    set_state(db, w.session, "ended", "worker exited", kServer);
+    set_state(db, w.session, SessionPhase::kEnded, "worker exited", kServer);
   }
 }
 

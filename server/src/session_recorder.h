@@ -62,7 +62,7 @@ class SessionRecorder {
 
   // Never a pass: a session whose worker died is failed with the reason, and the cab is told.
   void fail(store::Store& db, const std::string& session, const std::string& cab, const std::string& reason);
-  void publish_status(const std::string& session, const std::string& cab, const char* state, const std::string& reason);
+  void publish_status(const std::string& session, const std::string& cab, SessionPhase state, const std::string& reason);
   // Live follow (see Fleet::follow).
   std::optional<LiveView> follow(const std::string& session);
 
@@ -94,7 +94,7 @@ class SessionRecorder {
 };
 
 // The store's audited state change, also a line in the session log when it changes something.
-bool set_state(store::Store& db, const std::string& session, const std::string& state, const std::string& reason,
+bool set_state(store::Store& db, const std::string& session, SessionPhase state, const std::string& reason,
                const store::Actor& actor);
 
 }  // namespace forklift::server

@@ -46,7 +46,7 @@ void WorkerSupervisor::adopt(store::Store& db) {
       // else gone (or a second worker on a cab that has one), settled from its log after that.
       const auto grace = seconds(dds::kHostLeaseS + 1);
       fleet_.bindings[s.public_id] = {w.cab, w.participant, now + grace + std::chrono::seconds(2)};
-      fleet_.finishing.push_back({w, s.state == "starting" && !std::ifstream(fleet_.log_path(s.public_id))
+      fleet_.finishing.push_back({w, s.state == SessionPhase::kStarting && !std::ifstream(fleet_.log_path(s.public_id))
                                          ? "the session never started (the server stopped while starting it)"
                                          : "",
                                   now + grace});

@@ -169,9 +169,9 @@ TEST(Lists, SessionsAndExamsAreFilteredSortedAndExportedAsShown) {
     auto db = fs::Store::open_sqlite(s.db);
     auto ended = [&](int64_t pupil, const std::string& cab, const std::string& at, std::optional<int64_t> by,
                      const std::string& reason, std::optional<double> mark, bool passed = true) {
-      const std::string id = db->create_session(pupil, cab, "manoeuvre_4", "training", std::nullopt, at, by).public_id;
+      const std::string id = db->create_session(pupil, cab, "manoeuvre_4", forklift::Mode::kTraining, std::nullopt, at, by).public_id;
       if (mark) db->set_score({id, *mark, passed, {}}, at);
-      db->set_session_state(id, "ended", reason, at);
+      db->set_session_state(id, forklift::SessionPhase::kEnded, reason, at);
       return id;
     };
     day.push_back(ended(ann, "cab1", "2026-11-23T08:00:00Z", ines, "task_complete", 82.456));
@@ -283,8 +283,8 @@ TEST(Lists, ACabIsBookedOnceAtATimeAndTheDayShowsBookingsAndSessions) {
 
   {
     auto db = fs::Store::open_sqlite(s.db);
-    const std::string id = db->create_session(ann, "cab4", "manoeuvre_4", "training", std::nullopt, "2026-11-23T13:00:00Z").public_id;
-    db->set_session_state(id, "ended", "task_complete", "2026-11-23T13:10:00Z");
+    const std::string id = db->create_session(ann, "cab4", "manoeuvre_4", forklift::Mode::kTraining, std::nullopt, "2026-11-23T13:00:00Z").public_id;
+    db->set_session_state(id, forklift::SessionPhase::kEnded, "task_complete", "2026-11-23T13:10:00Z");
   }
   auto [dst, d] = s.call("GET", "/api/day?date=2026-11-23", admin);
   ASSERT_EQ(dst, 200) << d;

@@ -300,7 +300,7 @@ TEST(SampleGate, Statuses) {
   const auto s = gate.status(status("failed"), from(kWorker), 0, SampleGate::Clock::now());
   ASSERT_TRUE(s);
   EXPECT_EQ(s->session, "s-1");
-  EXPECT_EQ(s->state, "failed");
+  EXPECT_EQ(s->state, SessionPhase::kFailed);
   EXPECT_EQ(s->reason, "time_limit");
   // A hosted worker's status waits for its participant, like its events.
   EXPECT_FALSE(gate.status(status("running", "s-2"), from(kWorker), 0, SampleGate::Clock::now()));
@@ -309,7 +309,7 @@ TEST(SampleGate, Statuses) {
   auto held = gate.take_held();
   const auto again = gate.statuses_again(held.statuses, SampleGate::Clock::now());
   ASSERT_EQ(again.size(), 1u);
-  EXPECT_EQ(again[0].state, "running");
+  EXPECT_EQ(again[0].state, SessionPhase::kRunning);
 }
 
 // --- fk_TruckState ---

@@ -26,6 +26,9 @@
 #include "support/postgres.h"
 
 namespace fs = forklift::store;
+using forklift::Mode;
+using forklift::Outcome;
+using forklift::SessionPhase;
 
 namespace {
 
@@ -216,7 +219,7 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
     return sql + "ALTER TABLE users DROP COLUMN full_name; DELETE FROM schema_migrations WHERE version >= 6; ";
   }
   // A new open session, on a cab of its own ("cab1", "cab2", ...: a cab has one open session).
-  fs::Session NewSession(int64_t pupil, const std::string& mode = "training",
+  fs::Session NewSession(int64_t pupil, Mode mode = Mode::kTraining,
                          const std::string& now = "2026-01-01T10:00:00Z",
                          std::optional<int64_t> examiner = std::nullopt) {
     return store_->create_session(pupil, "cab" + std::to_string(++cabs_used_), "manoeuvre_4", mode, examiner, now);
@@ -225,9 +228,9 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
   std::string EndedSession(int64_t pupil, const std::string& cab, const std::string& scenario, const std::string& now,
                            std::optional<int64_t> by, const std::string& reason, std::optional<double> mark = std::nullopt,
                            bool passed = true) {
-    const std::string id = store_->create_session(pupil, cab, scenario, "training", std::nullopt, now, by).public_id;
+    const std::string id = store_->create_session(pupil, cab, scenario, Mode::kTraining, std::nullopt, now, by).public_id;
     if (mark) store_->set_score({id, *mark, passed, {}}, now);
-    store_->set_session_state(id, "ended", reason, now);
+    store_->set_session_state(id, SessionPhase::kEnded, reason, now);
     return id;
   }
   fs::EventRecord MakeEvent(const std::string& session, int64_t seq, const std::string& kind, int worry) {
@@ -338,8 +341,8 @@ TEST_P(StoreTest, SessionsAreFoundByDateCabScenarioInstructorOutcomeAndResult) {
   const std::string a2 = EndedSession(ann, "cab2", "manoeuvre_4", "2026-11-23T09:00:00Z", std::nullopt, "time_limit");
   const std::string b1 = EndedSession(bob, "cab1", "yard_drive", "2026-11-23T10:00:00Z", ines, "task_complete", 40, false);
   const std::string b2 = EndedSession(bob, "cab1", "manoeuvre_4", "2026-11-24T08:00:00Z", ines, "signal");
-  const std::string open = store_->create_session(bob, "cab2", "yard_drive", "training", std::nullopt, "2026-11-24T09:00:00Z", ines).public_id;
-  store_->create_session(store_->create_pupil(store_->create_school("Other"), "Zed", ""), "cab1", "yard_drive", "training",
+  const std::string open = store_->create_session(bob, "cab2", "yard_drive", Mode::kTraining, std::nullopt, "2026-11-24T09:00:00Z", ines).public_id;
+  store_->create_session(store_->create_pupil(store_->create_school("Other"), "Zed", ""), "cab1", "yard_drive", Mode::kTraining,
                          std::nullopt, "2026-11-23T08:30:00Z");
 
   auto ids = [&](fs::SessionFilter f) {
@@ -365,10 +368,10 @@ TEST_P(StoreTest, SessionsAreFoundByDateCabScenarioInstructorOutcomeAndResult) {
   EXPECT_EQ(ids(f), (V{a1, b1, b2, open}));
   f = {};
   f.group_id = group;
-  f.outcome = "stopped";
+  f.outcome = Outcome::kStopped;
   EXPECT_EQ(ids(f), V{b2});
   f = {};
-  f.outcome = "open";
+  f.outcome = Outcome::kOpen;
   EXPECT_EQ(ids(f), V{open});
   f = {};
   f.result = "passed";
@@ -396,7 +399,7 @@ TEST_P(StoreTest, SessionsAreFoundByDateCabScenarioInstructorOutcomeAndResult) {
   page.sort = "password";
   EXPECT_EQ(ErrorKind([&] { store_->find_sessions(page, 10, 0); }), fs::StoreError::kInvalid);
   page.sort = "created_at";
-  page.outcome = "won";
+  page.result = "won";
   EXPECT_EQ(ErrorKind([&] { store_->find_sessions(page, 10, 0); }), fs::StoreError::kInvalid);
 }
 
@@ -582,21 +585,20 @@ TEST_P(StoreTest, UsernamesAreStoredLowerCaseUniqueAndFoundWhateverTheirCapitals
 TEST_P(StoreTest, CreateSessionValidatesAndAssignsPublicId) {
   const int64_t pupil = NewPupil("Ann");
   EXPECT_EQ(ErrorKind([&] { NewSession(pupil + 999); }), fs::StoreError::kNotFound);
-  EXPECT_EQ(ErrorKind([&] { NewSession(pupil, "practice"); }), fs::StoreError::kInvalid);
-  EXPECT_EQ(ErrorKind([&] { store_->create_session(pupil, "", "m4", "training", std::nullopt, "t"); }),
+  EXPECT_EQ(ErrorKind([&] { store_->create_session(pupil, "", "m4", Mode::kTraining, std::nullopt, "t"); }),
             fs::StoreError::kInvalid);
-  EXPECT_EQ(ErrorKind([&] { store_->create_session(pupil, "cab1", "", "training", std::nullopt, "t"); }),
+  EXPECT_EQ(ErrorKind([&] { store_->create_session(pupil, "cab1", "", Mode::kTraining, std::nullopt, "t"); }),
             fs::StoreError::kInvalid);
 
   const fs::Session s = NewSession(pupil);
   EXPECT_EQ(s.public_id, "s-000001");
-  EXPECT_EQ(s.state, "starting");
+  EXPECT_EQ(s.state, SessionPhase::kStarting);
   const auto stored = store_->get_session("s-000001");
   ASSERT_TRUE(stored.has_value());
   EXPECT_EQ(stored->pupil_id, pupil);
   EXPECT_EQ(stored->cab_id, s.cab_id);
-  EXPECT_EQ(stored->mode, "training");
-  EXPECT_EQ(stored->state, "starting");
+  EXPECT_EQ(stored->mode, Mode::kTraining);
+  EXPECT_EQ(stored->state, SessionPhase::kStarting);
   EXPECT_TRUE(stored->ended_at.empty());
   EXPECT_FALSE(stored->mark.has_value());
   EXPECT_EQ(NewSession(pupil).public_id, "s-000002");
@@ -660,7 +662,7 @@ TEST_P(StoreTest, ScoreIsKeptOnceAndSetsTheMark) {
 TEST_P(StoreTest, ExamSessionScoreAddsPracticalExam) {
   const int64_t pupil = NewPupil("Ann");
   const int64_t examiner = store_->create_user("eve", "h", fs::Role::kExaminer, school_);
-  const std::string s = NewSession(pupil, "exam", "2026-01-01T10:00:00Z", examiner).public_id;
+  const std::string s = NewSession(pupil, Mode::kExam, "2026-01-01T10:00:00Z", examiner).public_id;
   ASSERT_TRUE(store_->set_score(fs::ScoreRecord{s, 81, true, {}}, "2026-01-01T10:30:00Z"));
   ASSERT_FALSE(store_->set_score(fs::ScoreRecord{s, 20, false, {}}, "2026-01-01T10:40:00Z"));
   const auto exams = store_->history(pupil, "2026-01-02T00:00:00Z")->exams;
@@ -700,25 +702,24 @@ TEST_P(StoreTest, TerminalStatesNeverChange) {
   const int64_t pupil = NewPupil("Ann");
   const std::string s = NewSession(pupil).public_id;
   const std::string other = NewSession(pupil).public_id;
-  EXPECT_EQ(ErrorKind([&] { store_->set_session_state(s, "paused", "", "t"); }), fs::StoreError::kInvalid);
-  EXPECT_EQ(ErrorKind([&] { store_->set_session_state("s-999999", "running", "", "t"); }),
+  EXPECT_EQ(ErrorKind([&] { store_->set_session_state("s-999999", SessionPhase::kRunning, "", "t"); }),
             fs::StoreError::kNotFound);
 
-  EXPECT_TRUE(store_->set_session_state(s, "running", "", "2026-01-01T10:01:00Z"));
+  EXPECT_TRUE(store_->set_session_state(s, SessionPhase::kRunning, "", "2026-01-01T10:01:00Z"));
   EXPECT_TRUE(store_->get_session(s)->ended_at.empty());
-  EXPECT_TRUE(store_->set_session_state(s, "ended", "finished", "2026-01-01T10:20:00Z"));
-  EXPECT_FALSE(store_->set_session_state(s, "running", "again", "2026-01-01T10:30:00Z"));
-  EXPECT_FALSE(store_->set_session_state(s, "aborted", "late", "2026-01-01T10:31:00Z"));
+  EXPECT_TRUE(store_->set_session_state(s, SessionPhase::kEnded, "finished", "2026-01-01T10:20:00Z"));
+  EXPECT_FALSE(store_->set_session_state(s, SessionPhase::kRunning, "again", "2026-01-01T10:30:00Z"));
+  EXPECT_FALSE(store_->set_session_state(s, SessionPhase::kAborted, "late", "2026-01-01T10:31:00Z"));
   const auto ended = store_->get_session(s);
-  EXPECT_EQ(ended->state, "ended");
+  EXPECT_EQ(ended->state, SessionPhase::kEnded);
   EXPECT_EQ(ended->reason, "finished");
   EXPECT_EQ(ended->ended_at, "2026-01-01T10:20:00Z");
 
   const auto open = store_->open_sessions();
   ASSERT_EQ(open.size(), 1u);
   EXPECT_EQ(open[0].public_id, other);
-  EXPECT_TRUE(store_->set_session_state(other, "failed", "worker died", "t"));
-  EXPECT_FALSE(store_->set_session_state(other, "ended", "", "t"));
+  EXPECT_TRUE(store_->set_session_state(other, SessionPhase::kFailed, "worker died", "t"));
+  EXPECT_FALSE(store_->set_session_state(other, SessionPhase::kEnded, "", "t"));
   EXPECT_TRUE(store_->open_sessions().empty());
 }
 
@@ -763,10 +764,10 @@ TEST_P(StoreTest, SessionLogsAreReplaced) {
 TEST_P(StoreTest, HistoryAggregatesFaultsTrendAndLicence) {
   const int64_t pupil = NewPupil("Ann");
   const int64_t other = NewPupil("Bob");
-  const std::string s1 = NewSession(pupil, "training", "2026-01-01T10:00:00Z").public_id;
-  const std::string aborted = NewSession(pupil, "training", "2026-01-02T10:00:00Z").public_id;
-  const std::string s2 = NewSession(pupil, "training", "2026-01-03T10:00:00Z").public_id;
-  const std::string s3 = NewSession(pupil, "training", "2026-01-04T10:00:00Z").public_id;
+  const std::string s1 = NewSession(pupil, Mode::kTraining, "2026-01-01T10:00:00Z").public_id;
+  const std::string aborted = NewSession(pupil, Mode::kTraining, "2026-01-02T10:00:00Z").public_id;
+  const std::string s2 = NewSession(pupil, Mode::kTraining, "2026-01-03T10:00:00Z").public_id;
+  const std::string s3 = NewSession(pupil, Mode::kTraining, "2026-01-04T10:00:00Z").public_id;
   const std::string bobs = NewSession(other).public_id;
   store_->add_event(MakeEvent(s1, 1, "overspeed", 2));
   store_->add_event(MakeEvent(s1, 2, "overspeed", 1));
@@ -774,13 +775,13 @@ TEST_P(StoreTest, HistoryAggregatesFaultsTrendAndLicence) {
   store_->add_event(MakeEvent(s2, 1, "overspeed", 3));
   store_->add_event(MakeEvent(s2, 2, "collision", 3));
   store_->add_event(MakeEvent(bobs, 1, "collision", 3));  // someone else's
-  store_->set_session_state(aborted, "aborted", "cab lost", "2026-01-02T10:05:00Z");
+  store_->set_session_state(aborted, SessionPhase::kAborted, "cab lost", "2026-01-02T10:05:00Z");
   // The worker's score follows an abort: an aborted session keeps it, and has no mark.
   store_->set_score(fs::ScoreRecord{aborted, 95, true, {}}, "t");
   store_->set_score(fs::ScoreRecord{s1, 50, false, {}}, "t");
   store_->set_score(fs::ScoreRecord{s2, 60, false, {}}, "t");
   store_->set_score(fs::ScoreRecord{s3, 70, true, {}}, "t");
-  for (const std::string& s : {s1, s2, s3}) store_->set_session_state(s, "ended", "task_complete", "t");
+  for (const std::string& s : {s1, s2, s3}) store_->set_session_state(s, SessionPhase::kEnded, "task_complete", "t");
   store_->add_licence(pupil, "2021-05-01T12:00:00Z", "inspector");
   const int64_t latest = store_->add_licence(pupil, "2022-05-01T12:00:00Z", "inspector");
 
@@ -869,7 +870,7 @@ TEST_P(StoreTest, TwoStoresOnOneFileSeeEachOthersWrites) {
   auto second = Open();
   const int64_t pupil = NewPupil("Ann");
   ASSERT_TRUE(second->get_pupil(pupil).has_value());
-  const std::string s = second->create_session(pupil, "cab1", "m4", "training", std::nullopt, "t").public_id;
+  const std::string s = second->create_session(pupil, "cab1", "m4", Mode::kTraining, std::nullopt, "t").public_id;
   ASSERT_TRUE(store_->get_session(s).has_value());
 
   // Two threads writing at once, one store each: SQLite's busy timeout serialises them,
@@ -895,7 +896,7 @@ TEST_P(StoreTest, HistoryOnALargeStore) {
     const int64_t pupil = NewPupil("Pupil " + std::to_string(p));
     if (p == kPupils / 2) probe = pupil;
     for (int i = 0; i < kSessions; ++i) {
-      const std::string s = NewSession(pupil, "training", "2026-01-01T10:00:" + std::to_string(10 + i) + "Z").public_id;
+      const std::string s = NewSession(pupil, Mode::kTraining, "2026-01-01T10:00:" + std::to_string(10 + i) + "Z").public_id;
       if (pupil == probe) store_->add_event(MakeEvent(s, 1, "overspeed", 1));
     }
   }
@@ -916,7 +917,7 @@ TEST_P(StoreTest, TwoServersIngestTheSameSessionsExactlyOnce) {
   const int64_t examiner = store_->create_user("eve", "h", fs::Role::kExaminer, school_);
   std::vector<fs::Session> sessions;
   for (int i = 0; i < kSessions; ++i)
-    sessions.push_back(i % 2 ? NewSession(pupil, "exam", "2026-01-01T10:00:00Z", examiner) : NewSession(pupil));
+    sessions.push_back(i % 2 ? NewSession(pupil, Mode::kExam, "2026-01-01T10:00:00Z", examiner) : NewSession(pupil));
   const fs::Actor worker{std::nullopt, "worker"};
 
   struct Tally {
@@ -929,7 +930,7 @@ TEST_P(StoreTest, TwoServersIngestTheSameSessionsExactlyOnce) {
       const auto last = db.last_chain_entry();
       const int64_t seq = last ? last->seq + 1 : 1;
       const std::string prev = last ? nlohmann::json::parse(last->entry).at("entry_hash").get<std::string>() : std::string(64, '0');
-      const nlohmann::json record = {{"session", s.public_id}, {"cab", s.cab_id}, {"mode", s.mode}};
+      const nlohmann::json record = {{"session", s.public_id}, {"cab", s.cab_id}, {"mode", forklift::name(s.mode)}};
       const nlohmann::json entry =
           forklift::security::make_chain_entry(seq, prev, record, forklift::security::sha256_hex(s.public_id), "", "", "");
       try {
@@ -952,8 +953,8 @@ TEST_P(StoreTest, TwoServersIngestTheSameSessionsExactlyOnce) {
           t->events += db->add_event(MakeEvent(s.public_id, seq, seq % 2 ? "overspeed" : "collision", seq % 3));
         t->scores += db->set_score_audited({s.public_id, 40.0 + i / 4.0, i % 3 != 0, {{"overspeed", 5}, {"collision", 5}}},
                                            "2026-01-01T10:30:00Z", worker);
-        t->ends += db->set_session_state_audited(s.public_id, "ended", "duration", "2026-01-01T10:30:00Z", worker);
-        if (s.mode == "exam") chain_exam(*db, s, *t);
+        t->ends += db->set_session_state_audited(s.public_id, SessionPhase::kEnded, "duration", "2026-01-01T10:30:00Z", worker);
+        if (s.mode == Mode::kExam) chain_exam(*db, s, *t);
       }
     } catch (const std::exception& e) {
       t->error = e.what();
@@ -979,7 +980,7 @@ TEST_P(StoreTest, TwoServersIngestTheSameSessionsExactlyOnce) {
     ASSERT_EQ(events.size(), static_cast<size_t>(kEvents)) << s.public_id;
     for (int seq = 1; seq <= kEvents; ++seq) EXPECT_EQ(events[seq - 1].seq, seq) << s.public_id;
     EXPECT_EQ(store_->get_score(s.public_id)->counts.at("overspeed"), 5);
-    EXPECT_EQ(store_->get_session(s.public_id)->state, "ended");
+    EXPECT_EQ(store_->get_session(s.public_id)->state, SessionPhase::kEnded);
   }
   const auto h = store_->history(pupil, "2026-02-01T00:00:00Z");
   EXPECT_EQ(h->sessions.size(), static_cast<size_t>(kSessions));
@@ -1451,14 +1452,14 @@ TEST_P(StoreTest, AnAuditRowInAFailedBatchIsUndoneWithItsChange) {
 
 TEST_P(StoreTest, AuditedScoreAndStateWriteOneRowOnlyWhenTheyChangeSomething) {
   const int64_t ann = NewPupil("Ann");
-  const fs::Session s = NewSession(ann, "exam");
+  const fs::Session s = NewSession(ann, Mode::kExam);
   const fs::Actor worker{std::nullopt, "worker"};
   EXPECT_TRUE(store_->set_score_audited(fs::ScoreRecord{s.public_id, 82.5, true, {{"collision", 2}}},
                                         "2026-01-01T10:05:00Z", worker));
   EXPECT_FALSE(store_->set_score_audited(fs::ScoreRecord{s.public_id, 10, false, {}}, "2026-01-01T10:06:00Z", worker));
-  EXPECT_TRUE(store_->set_session_state_audited(s.public_id, "ended", "duration", "2026-01-01T10:07:00Z", worker));
-  EXPECT_FALSE(store_->set_session_state_audited(s.public_id, "failed", "late", "2026-01-01T10:08:00Z", worker));
-  EXPECT_EQ(store_->get_session(s.public_id)->state, "ended");
+  EXPECT_TRUE(store_->set_session_state_audited(s.public_id, SessionPhase::kEnded, "duration", "2026-01-01T10:07:00Z", worker));
+  EXPECT_FALSE(store_->set_session_state_audited(s.public_id, SessionPhase::kFailed, "late", "2026-01-01T10:08:00Z", worker));
+  EXPECT_EQ(store_->get_session(s.public_id)->state, SessionPhase::kEnded);
 
   const auto rows = store_->list_audit({ann, std::nullopt}, 10, 0);
   ASSERT_EQ(rows.size(), 2u);
@@ -1472,13 +1473,13 @@ TEST_P(StoreTest, AuditedScoreAndStateWriteOneRowOnlyWhenTheyChangeSomething) {
   EXPECT_EQ(rows[1].details, R"({"session":")" + s.public_id +
                                  R"(","mode":"exam","mark":82.5,"passed":true,"counts":{"collision":2},"exam_id":)" +
                                  exam_id + "}");
-  EXPECT_EQ(ErrorKind([&] { store_->set_session_state_audited("s-999999", "ended", "", "2026-01-01T10:00:00Z", worker); }),
+  EXPECT_EQ(ErrorKind([&] { store_->set_session_state_audited("s-999999", SessionPhase::kEnded, "", "2026-01-01T10:00:00Z", worker); }),
             fs::StoreError::kNotFound);
 }
 
 TEST_P(StoreTest, ExamChainAppendsInOrderOncePerSessionAndRefusesEdits) {
   const int64_t ann = NewPupil("Ann");
-  const fs::Session a = NewSession(ann, "exam"), b = NewSession(ann, "exam");
+  const fs::Session a = NewSession(ann, Mode::kExam), b = NewSession(ann, Mode::kExam);
   EXPECT_FALSE(store_->last_chain_entry());
   store_->append_chain_entry({1, a.public_id, R"({"entry_hash":"aa"})"});
   // A gap, a repeat of seq 1 and a second entry for the same session are all refused.
@@ -1492,7 +1493,7 @@ TEST_P(StoreTest, ExamChainAppendsInOrderOncePerSessionAndRefusesEdits) {
   ASSERT_EQ(store_->list_chain().size(), 2u);
   EXPECT_EQ(store_->list_chain()[1].seq, 2);
   EXPECT_TRUE(store_->unchained_signed_exams().empty()) << "neither has a signed log";
-  const fs::Session c = NewSession(ann, "exam"), d = NewSession(ann, "training");
+  const fs::Session c = NewSession(ann, Mode::kExam), d = NewSession(ann, Mode::kTraining);
   store_->put_session_log(c.public_id, "signature", "{}");
   store_->put_session_log(d.public_id, "signature", "{}");
   store_->put_session_log(a.public_id, "signature", "{}");
@@ -1515,33 +1516,35 @@ TEST_P(StoreTest, ExamChainAppendsInOrderOncePerSessionAndRefusesEdits) {
 TEST_P(StoreTest, OnlyCompletedSessionsHaveAMarkAndCountInTheTrend) {
   const int64_t pupil = NewPupil("Ann");
   struct Case {
-    std::string mode, state, reason;
+    Mode mode;
+    SessionPhase state;
+    std::string reason;
     std::map<std::string, int> counts;
     double mark;
     fs::Outcome outcome;
   };
   const std::vector<Case> cases = {
-      {"training", "ended", "task_complete", {}, 40, fs::Outcome::kCompleted},
-      {"training", "ended", "duration", {}, 50, fs::Outcome::kCompleted},  // a manoeuvre: no task, its time is its course
-      {"training", "aborted", "aborted by eric", {}, 96, fs::Outcome::kAborted},
-      {"training", "ended", "time_limit", {{"time_limit", 1}}, 91, fs::Outcome::kTimedOut},
-      {"training", "ended", "duration", {{"task_incomplete", 1}}, 82, fs::Outcome::kTimedOut},  // 0 of 5 steps
-      {"training", "ended", "signal", {}, 45, fs::Outcome::kStopped},
-      {"training", "ended", "numerical_failure", {}, 30, fs::Outcome::kFailed},
-      {"training", "ended", "tip_over", {}, 20, fs::Outcome::kFailed},
-      {"training", "ended", "parked", {}, 60, fs::Outcome::kCompleted},
-      {"exam", "ended", "task_complete", {}, 99, fs::Outcome::kCompleted},  // a result, not a training mark
+      {Mode::kTraining, SessionPhase::kEnded, "task_complete", {}, 40, fs::Outcome::kCompleted},
+      {Mode::kTraining, SessionPhase::kEnded, "duration", {}, 50, fs::Outcome::kCompleted},  // a manoeuvre: no task, its time is its course
+      {Mode::kTraining, SessionPhase::kAborted, "aborted by eric", {}, 96, fs::Outcome::kAborted},
+      {Mode::kTraining, SessionPhase::kEnded, "time_limit", {{"time_limit", 1}}, 91, fs::Outcome::kTimedOut},
+      {Mode::kTraining, SessionPhase::kEnded, "duration", {{"task_incomplete", 1}}, 82, fs::Outcome::kTimedOut},  // 0 of 5 steps
+      {Mode::kTraining, SessionPhase::kEnded, "signal", {}, 45, fs::Outcome::kStopped},
+      {Mode::kTraining, SessionPhase::kEnded, "numerical_failure", {}, 30, fs::Outcome::kFailed},
+      {Mode::kTraining, SessionPhase::kEnded, "tip_over", {}, 20, fs::Outcome::kFailed},
+      {Mode::kTraining, SessionPhase::kEnded, "parked", {}, 60, fs::Outcome::kCompleted},
+      {Mode::kExam, SessionPhase::kEnded, "task_complete", {}, 99, fs::Outcome::kCompleted},  // a result, not a training mark
   };
   std::vector<std::string> ids;
   for (const Case& c : cases) {
     const std::string id = NewSession(pupil, c.mode).public_id;
     ids.push_back(id);
-    if (c.state == "aborted") store_->set_session_state(id, "aborted", c.reason, "t");
+    if (c.state == SessionPhase::kAborted) store_->set_session_state(id, SessionPhase::kAborted, c.reason, "t");
     store_->set_score(fs::ScoreRecord{id, c.mark, true, c.counts}, "t");
-    if (c.state != "aborted") store_->set_session_state(id, c.state, c.reason, "t");
+    if (c.state != SessionPhase::kAborted) store_->set_session_state(id, c.state, c.reason, "t");
   }
   const std::string failed = NewSession(pupil).public_id;  // the worker crashed: no score at all
-  store_->set_session_state(failed, "failed", "worker killed by signal 9", "t");
+  store_->set_session_state(failed, SessionPhase::kFailed, "worker killed by signal 9", "t");
   const std::string open = NewSession(pupil).public_id;
   store_->set_score(fs::ScoreRecord{open, 70, true, {}}, "t");  // the score comes before the end
 
@@ -1554,7 +1557,7 @@ TEST_P(StoreTest, OnlyCompletedSessionsHaveAMarkAndCountInTheTrend) {
   EXPECT_EQ(fs::session_outcome(*store_->get_session(failed)), fs::Outcome::kFailed);
   EXPECT_EQ(fs::session_outcome(*store_->get_session(open)), fs::Outcome::kOpen);
   EXPECT_FALSE(fs::mark_of(*store_->get_session(open)).has_value());
-  EXPECT_STREQ(fs::outcome_name(fs::Outcome::kTimedOut), "timed_out");
+  EXPECT_STREQ(forklift::name(fs::Outcome::kTimedOut), "timed_out");
 
   // The trend is over the marked training sessions alone: 40, 50, 60 in order.
   const auto h = store_->history(pupil, "t");
@@ -1575,11 +1578,11 @@ TEST_P(StoreTest, FinishedExamsAreKeptAsWritten) {
   }
   const int64_t examiner = store_->create_user("eve", "h", fs::Role::kExaminer, school_, std::nullopt, "Eve Examiner");
   EXPECT_EQ(store_->get_user(examiner)->full_name, "Eve Examiner");
-  const std::string exam = NewSession(pupil, "exam", "2026-01-01T10:00:00Z", examiner).public_id;
+  const std::string exam = NewSession(pupil, Mode::kExam, "2026-01-01T10:00:00Z", examiner).public_id;
   store_->add_event(MakeEvent(exam, 1, "collision_rack", 3));
   store_->put_session_log(exam, "control", "log v1");
   // Aborted, then its score comes: the first score of a session that is over is still taken.
-  ASSERT_TRUE(store_->set_session_state(exam, "aborted", "aborted by eve", "2026-01-01T10:10:00Z"));
+  ASSERT_TRUE(store_->set_session_state(exam, SessionPhase::kAborted, "aborted by eve", "2026-01-01T10:10:00Z"));
   fs::ScoreRecord score{exam, 70, false, {{"collision_rack", 1}}};
   score.exam_details = R"({"outcome":"aborted"})";
   ASSERT_TRUE(store_->set_score(score, "2026-01-01T10:10:01Z"));
@@ -1626,7 +1629,7 @@ TEST_P(StoreTest, FinishedExamsAreKeptAsWritten) {
 
   // Training stays as it was: its logs are replaced, its rows are not held.
   const std::string training = NewSession(pupil).public_id;
-  store_->set_session_state(training, "ended", "duration", "t");
+  store_->set_session_state(training, SessionPhase::kEnded, "duration", "t");
   store_->put_session_log(training, "control", "v1");
   store_->put_session_log(training, "control", "v2");
   EXPECT_EQ(RawExec("UPDATE sessions SET reason = 'x' WHERE public_id = '" + training + "'"), "");
@@ -2018,17 +2021,17 @@ TEST_P(StoreTest, AttemptsAreCountedPerKeyAndLockoutsHoldForEveryStore) {
 
 TEST_P(StoreTest, ACabHasOneOpenSessionAndOfStoresRacingForItOneWins) {
   const int64_t pupil = NewPupil("Ann");
-  const std::string first = store_->create_session(pupil, "cabX", "m4", "training", std::nullopt, "t").public_id;
-  EXPECT_EQ(ErrorKind([&] { Open()->create_session(pupil, "cabX", "m4", "training", std::nullopt, "t"); }), fs::StoreError::kConflict);
+  const std::string first = store_->create_session(pupil, "cabX", "m4", Mode::kTraining, std::nullopt, "t").public_id;
+  EXPECT_EQ(ErrorKind([&] { Open()->create_session(pupil, "cabX", "m4", Mode::kTraining, std::nullopt, "t"); }), fs::StoreError::kConflict);
   // Refused inside a batch, it undoes only itself.
   store_->batch([&] {
-    EXPECT_EQ(ErrorKind([&] { store_->create_session(pupil, "cabX", "m4", "training", std::nullopt, "t"); }), fs::StoreError::kConflict);
-    store_->create_session(pupil, "cabY", "m4", "training", std::nullopt, "t");
+    EXPECT_EQ(ErrorKind([&] { store_->create_session(pupil, "cabX", "m4", Mode::kTraining, std::nullopt, "t"); }), fs::StoreError::kConflict);
+    store_->create_session(pupil, "cabY", "m4", Mode::kTraining, std::nullopt, "t");
   });
   EXPECT_EQ(store_->open_sessions().size(), 2u);
-  ASSERT_TRUE(store_->set_session_state(first, "ended", "task_complete", "t"));
-  const std::string next = store_->create_session(pupil, "cabX", "m4", "training", std::nullopt, "t").public_id;
-  ASSERT_TRUE(store_->set_session_state(next, "aborted", "aborted", "t"));
+  ASSERT_TRUE(store_->set_session_state(first, SessionPhase::kEnded, "task_complete", "t"));
+  const std::string next = store_->create_session(pupil, "cabX", "m4", Mode::kTraining, std::nullopt, "t").public_id;
+  ASSERT_TRUE(store_->set_session_state(next, SessionPhase::kAborted, "aborted", "t"));
 
   // Eight stores (servers) start a session on one free cab at once: one wins, the rest are refused.
   constexpr int kRacers = 8;
@@ -2041,7 +2044,7 @@ TEST_P(StoreTest, ACabHasOneOpenSessionAndOfStoresRacingForItOneWins) {
     racers.emplace_back([&, i] {
       go.arrive_and_wait();
       try {
-        stores[i]->batch([&] { stores[i]->create_session(pupil, "cabX", "m4", "training", std::nullopt, "t"); });
+        stores[i]->batch([&] { stores[i]->create_session(pupil, "cabX", "m4", Mode::kTraining, std::nullopt, "t"); });
         ++won;
       } catch (const fs::StoreError& e) {
         ++(e.kind() == fs::StoreError::kConflict ? refused : other_errors);
@@ -2058,22 +2061,22 @@ TEST_P(StoreTest, ACabHasOneOpenSessionAndOfStoresRacingForItOneWins) {
 TEST_P(StoreTest, TheUpgradeToOneOpenSessionPerCabFailsTheOlderOnesAndAuditsThem) {
   const int64_t pupil = NewPupil("Ann");
   ASSERT_EQ(RawExec(DropMigration11()), "");  // schema 10, as an older program left it, with two open sessions on cabA
-  const std::string older = store_->create_session(pupil, "cabA", "m4", "training", std::nullopt, "2026-01-01T09:00:00Z").public_id;
-  const std::string middle = store_->create_session(pupil, "cabA", "m4", "training", std::nullopt, "2026-01-01T09:30:00Z").public_id;
-  const std::string newest = store_->create_session(pupil, "cabA", "m4", "training", std::nullopt, "2026-01-01T10:00:00Z").public_id;
-  const std::string alone = store_->create_session(pupil, "cabB", "m4", "training", std::nullopt, "2026-01-01T10:00:00Z").public_id;
+  const std::string older = store_->create_session(pupil, "cabA", "m4", Mode::kTraining, std::nullopt, "2026-01-01T09:00:00Z").public_id;
+  const std::string middle = store_->create_session(pupil, "cabA", "m4", Mode::kTraining, std::nullopt, "2026-01-01T09:30:00Z").public_id;
+  const std::string newest = store_->create_session(pupil, "cabA", "m4", Mode::kTraining, std::nullopt, "2026-01-01T10:00:00Z").public_id;
+  const std::string alone = store_->create_session(pupil, "cabB", "m4", Mode::kTraining, std::nullopt, "2026-01-01T10:00:00Z").public_id;
   store_.reset();
 
   store_ = Open();
   EXPECT_EQ(store_->schema_version(), 12);
   for (const std::string& id : {older, middle}) {
     const auto s = store_->get_session(id);
-    EXPECT_EQ(s->state, "failed") << id;
+    EXPECT_EQ(s->state, SessionPhase::kFailed) << id;
     EXPECT_NE(s->reason.find("one open session per cab"), std::string::npos) << s->reason;
     EXPECT_FALSE(s->ended_at.empty());
   }
-  EXPECT_EQ(store_->get_session(newest)->state, "starting");
-  EXPECT_EQ(store_->get_session(alone)->state, "starting");
+  EXPECT_EQ(store_->get_session(newest)->state, SessionPhase::kStarting);
+  EXPECT_EQ(store_->get_session(alone)->state, SessionPhase::kStarting);
   const auto rows = store_->list_audit(fs::AuditScope{pupil, std::nullopt}, 10, 0);
   ASSERT_EQ(rows.size(), 2u);
   for (const auto& r : rows) {
@@ -2085,5 +2088,5 @@ TEST_P(StoreTest, TheUpgradeToOneOpenSessionPerCabFailsTheOlderOnesAndAuditsThem
     EXPECT_EQ(d["to"], "failed");
     EXPECT_TRUE(d["session"] == older || d["session"] == middle) << d;
   }
-  EXPECT_EQ(ErrorKind([&] { store_->create_session(pupil, "cabA", "m4", "training", std::nullopt, "t"); }), fs::StoreError::kConflict);
+  EXPECT_EQ(ErrorKind([&] { store_->create_session(pupil, "cabA", "m4", Mode::kTraining, std::nullopt, "t"); }), fs::StoreError::kConflict);
 }

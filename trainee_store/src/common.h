@@ -145,6 +145,14 @@ inline std::string session_public_id(int64_t id) {
   return text.append(digits, n);
 }
 
+// A word of the session vocabulary as a row holds it. The schema's CHECK keeps it one of the
+// names, so another word is a database this store did not write.
+template <class E>
+E stored(const std::string& word, const char* column) {
+  if (const std::optional<E> e = parse<E>(word)) return *e;
+  throw StoreError(StoreError::kIo, std::string("the database holds an unknown ") + column + " '" + word + "'");
+}
+
 template <class Row>
 Session read_session(const Row& q) {
   Session s;
@@ -153,8 +161,8 @@ Session read_session(const Row& q) {
   s.pupil_id = q.int64(2);
   s.cab_id = q.text(3);
   s.scenario = q.text(4);
-  s.mode = q.text(5);
-  s.state = q.text(6);
+  s.mode = stored<Mode>(q.text(5), "session mode");
+  s.state = stored<SessionPhase>(q.text(6), "session state");
   s.reason = q.text(7);
   s.examiner_id = q.opt_int64(8);
   s.created_at = q.text(9);
@@ -227,7 +235,7 @@ Group read_group(const Row& q) {
 template <class Row>
 Booking read_booking(const Row& q) {
   return Booking{q.int64(0), q.int64(1), q.int64(2), q.text(3), q.text(4), q.text(5), q.text(6),
-                 q.text(7), q.opt_int64(8), q.text(9), q.text(10), q.text(11)};
+                 stored<Mode>(q.text(7), "booking mode"), q.opt_int64(8), q.text(9), q.text(10), q.text(11)};
 }
 
 template <class Row>

@@ -7,23 +7,10 @@
 
 namespace forklift::store {
 
-const char* outcome_name(Outcome o) {
-  switch (o) {
-    case Outcome::kOpen: return "open";
-    case Outcome::kCompleted: return "completed";
-    case Outcome::kTimedOut: return "timed_out";
-    case Outcome::kAborted: return "aborted";
-    case Outcome::kStopped: return "stopped";
-    case Outcome::kFailed: return "failed";
-  }
-  return "failed";
-}
-
 Outcome session_outcome(const Session& s) {
   if (!is_terminal(s.state)) return Outcome::kOpen;
-  const std::optional<SessionPhase> phase = parse<SessionPhase>(s.state);
-  if (phase == SessionPhase::kAborted) return Outcome::kAborted;
-  if (phase == SessionPhase::kFailed) return Outcome::kFailed;
+  if (s.state == SessionPhase::kAborted) return Outcome::kAborted;
+  if (s.state == SessionPhase::kFailed) return Outcome::kFailed;
   // Ended: as the worker's end reason says (forklift-worker: its SessionStatus and score line).
   const std::optional<EndReason> reason = parse<EndReason>(s.reason);
   if (!reason) {

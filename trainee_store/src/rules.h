@@ -6,8 +6,6 @@
 // updates, named where they are written.
 #pragma once
 
-#include <algorithm>
-#include <iterator>
 #include <optional>
 #include <string>
 #include <vector>
@@ -15,10 +13,6 @@
 #include "forklift/store/store.h"
 
 namespace forklift::store::detail {
-
-inline bool is_state(const std::string& state) {
-  return state == "starting" || state == "waiting" || state == "running" || is_terminal(state);
-}
 
 inline bool is_theory_outcome(const std::string& outcome) { return outcome == "marked" || outcome == "timed_out"; }
 
@@ -28,9 +22,7 @@ inline void require(bool ok, StoreError::Kind kind, const char* op, const std::s
 
 // The checks of a call's arguments that need no database, the same for every backend. Each
 // throws StoreError naming `op`.
-inline void check_new_session(const char* op, const std::string& mode, const std::string& cab_id,
-                              const std::string& scenario) {
-  require(mode == "training" || mode == "exam", StoreError::kInvalid, op, "mode '" + mode + "' is neither training nor exam");
+inline void check_new_session(const char* op, const std::string& cab_id, const std::string& scenario) {
   require(!cab_id.empty(), StoreError::kInvalid, op, "empty cab id");
   require(!scenario.empty(), StoreError::kInvalid, op, "empty scenario");
 }
@@ -120,12 +112,12 @@ inline ExamRecord practical_exam(const Session& session, const ScoreRecord& s, c
 }
 
 // The audit row of a session's move from `before`'s state to `state`, but for its details.
-inline AuditRecord state_audit(const Session& before, const std::string& state, const std::string& now, const Actor& actor) {
+inline AuditRecord state_audit(const Session& before, SessionPhase state, const std::string& now, const Actor& actor) {
   AuditRecord r;
   r.at = now;
   r.actor = actor;
   r.pupil_id = before.pupil_id;
-  r.action = "session_" + state;
+  r.action = std::string("session_") + name(state);
   return r;
 }
 
@@ -133,17 +125,12 @@ inline void check_page(const char* op, int limit, int offset) {
   require(limit >= 0 && offset >= 0, StoreError::kInvalid, op, "negative limit or offset");
 }
 
-inline void check_outcome_filter(const char* op, const SessionFilter& f) {
-  static const char* const kOutcomes[] = {"open", "completed", "timed_out", "aborted", "stopped", "failed"};
-  require(f.outcome.empty() || std::find(std::begin(kOutcomes), std::end(kOutcomes), f.outcome) != std::end(kOutcomes),
-          StoreError::kInvalid, op, "unknown outcome '" + f.outcome + "'");
+inline void check_result_filter(const char* op, const SessionFilter& f) {
   require(f.result.empty() || f.result == "passed" || f.result == "not_passed", StoreError::kInvalid, op,
           "result '" + f.result + "' is neither passed nor not_passed");
-  require(f.mode.empty() || f.mode == "training" || f.mode == "exam", StoreError::kInvalid, op, "unknown mode '" + f.mode + "'");
 }
 
 inline void check_booking(const char* op, const Booking& b) {
-  require(b.mode == "training" || b.mode == "exam", StoreError::kInvalid, op, "mode '" + b.mode + "' is neither training nor exam");
   require(!b.cab_id.empty() && !b.scenario.empty(), StoreError::kInvalid, op, "a booking needs its cab and scenario");
   require(!b.starts_at.empty() && b.ends_at > b.starts_at, StoreError::kInvalid, op, "a booking ends after it starts");
 }
@@ -154,7 +141,7 @@ inline void check_booking(const char* op, const Booking& b) {
 inline std::optional<double> mark_trend(const std::vector<Session>& sessions) {
   std::vector<double> marks;
   for (const Session& s : sessions) {
-    if (const auto m = mark_of(s); m && s.mode == "training") marks.push_back(*m);
+    if (const auto m = mark_of(s); m && s.mode == Mode::kTraining) marks.push_back(*m);
   }
   if (marks.size() < 2) return std::nullopt;
   const double n = static_cast<double>(marks.size());
@@ -176,7 +163,7 @@ inline void check_new_audit(const char* op, const Actor& actor, const std::strin
 }
 
 // Whether a session's first score makes its practical exam record (an exam's does).
-inline bool makes_practical_record(const Session& session) { return session.mode == "exam"; }
+inline bool makes_practical_record(const Session& session) { return session.mode == Mode::kExam; }
 
 // When a licence issued at `issued_at` is due its re-evaluation. OSHA 1910.178(l)(4)(iii): an
 // operator's performance is evaluated at least every three years.

@@ -242,7 +242,7 @@ class SqlStore final : public Store {
 
   SessionPage find_sessions(const SessionFilter& f, int limit, int offset) override {
     check_page(__func__, limit, offset);
-    check_outcome_filter(__func__, f);
+    check_result_filter(__func__, f);
     const std::string order = order_by(__func__,
                                        {{"created_at", "sessions.created_at"},
                                         {"pupil", dialect_.folded("p.name")},
@@ -264,10 +264,10 @@ class SqlStore final : public Store {
     if (!f.to.empty()) where.add("sessions.created_at < ?", {f.to});
     if (!f.cab_id.empty()) where.add("sessions.cab_id = ?", {f.cab_id});
     if (!f.scenario.empty()) where.add("sessions.scenario = ?", {f.scenario});
-    if (!f.mode.empty()) where.add("sessions.mode = ?", {f.mode});
+    if (f.mode) where.add("sessions.mode = ?", {std::string(name(*f.mode))});
     if (f.instructor_id) where.add("sessions.started_by = ?", {*f.instructor_id});
     if (f.group_id) where.add("p.group_id = ?", {*f.group_id});
-    if (!f.outcome.empty()) where.add(SESSION_OUTCOME_SQL " = ?", {f.outcome});
+    if (f.outcome) where.add(SESSION_OUTCOME_SQL " = ?", {std::string(name(*f.outcome))});
     if (f.result == "passed") where.add(SESSION_OUTCOME_SQL " = 'completed' AND sessions.passed = TRUE");
     if (f.result == "not_passed")
       where.add("sessions.state IN ('ended', 'failed', 'aborted') AND NOT (" SESSION_OUTCOME_SQL
@@ -391,7 +391,7 @@ class SqlStore final : public Store {
     Query ins(d_, __func__,
               "INSERT INTO bookings(school_id, pupil_id, cab_id, starts_at, ends_at, scenario, mode, instructor_id, created_at) "
               "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9) RETURNING id");
-    ins.bind(p->school_id).bind(b.pupil_id).bind(b.cab_id).bind(b.starts_at).bind(b.ends_at).bind(b.scenario).bind(b.mode);
+    ins.bind(p->school_id).bind(b.pupil_id).bind(b.cab_id).bind(b.starts_at).bind(b.ends_at).bind(b.scenario).bind(std::string(name(b.mode)));
     const int64_t id = ins.bind(b.instructor_id).bind(now_iso8601()).returned_id();
     tx.commit();
     return id;
@@ -454,16 +454,16 @@ class SqlStore final : public Store {
   }
 
   Session create_session(int64_t pupil_id, const std::string& cab_id, const std::string& scenario,
-                         const std::string& mode, std::optional<int64_t> examiner_id, const std::string& now,
+                         Mode mode, std::optional<int64_t> examiner_id, const std::string& now,
                          std::optional<int64_t> started_by) override {
-    check_new_session(__func__, mode, cab_id, scenario);
+    check_new_session(__func__, cab_id, scenario);
     Transaction tx(d_, __func__, TxKind::kStatement);
     const std::optional<Pupil> of = pupil(__func__, pupil_id);
     require(of.has_value(), StoreError::kNotFound, __func__, "no pupil " + std::to_string(pupil_id));
     Query q(d_, __func__,
             "INSERT INTO sessions(pupil_id, cab_id, scenario, mode, state, examiner_id, created_at, started_by, school_id) "
             "VALUES (?1, ?2, ?3, ?4, 'starting', ?5, ?6, ?7, ?8) RETURNING id, public_id");
-    q.bind(pupil_id).bind(cab_id).bind(scenario).bind(mode).bind(examiner_id).bind(now).bind(started_by).bind(of->school_id);
+    q.bind(pupil_id).bind(cab_id).bind(scenario).bind(std::string(name(mode))).bind(examiner_id).bind(now).bind(started_by).bind(of->school_id);
     q.step();
     Session s;
     s.id = q.int64(0);
@@ -473,7 +473,7 @@ class SqlStore final : public Store {
     s.cab_id = cab_id;
     s.scenario = scenario;
     s.mode = mode;
-    s.state = "starting";
+    s.state = SessionPhase::kStarting;
     s.examiner_id = examiner_id;
     s.created_at = now;
     s.started_by = started_by;
@@ -503,16 +503,15 @@ class SqlStore final : public Store {
     return rows(__func__, q, read_session<Query>);
   }
 
-  bool set_session_state(const std::string& public_id, const std::string& state, const std::string& reason,
+  bool set_session_state(const std::string& public_id, SessionPhase state, const std::string& reason,
                          const std::string& now) override {
-    require(is_state(state), StoreError::kInvalid, __func__, "unknown session state '" + state + "'");
     Transaction tx(d_, __func__, TxKind::kStatement);
     // One statement, so that two writers cannot both move a session out of an open state: the
     // second one's guard is checked again once the first one's row is committed.
     Query q(d_, __func__,
             "UPDATE sessions SET state = ?1, reason = ?2, ended_at = ?3 "
             "WHERE public_id = ?4 AND state NOT IN ('ended', 'failed', 'aborted')");
-    const bool changed = q.bind(state).bind(reason).bind(is_terminal(state) ? now : std::string()).bind(public_id).changes() > 0;
+    const bool changed = q.bind(std::string(name(state))).bind(reason).bind(is_terminal(state) ? now : std::string()).bind(public_id).changes() > 0;
     if (!changed) require_session(__func__, public_id);  // kNotFound rather than false for an unknown session
     tx.commit();
     return changed;
@@ -921,7 +920,7 @@ class SqlStore final : public Store {
     return true;
   }
 
-  bool set_session_state_audited(const std::string& public_id, const std::string& state, const std::string& reason,
+  bool set_session_state_audited(const std::string& public_id, SessionPhase state, const std::string& reason,
                                  const std::string& now, const Actor& actor) override {
     Transaction tx(d_, __func__, TxKind::kWrite);
     const Session before = require_session(__func__, public_id);
@@ -929,7 +928,7 @@ class SqlStore final : public Store {
     AuditRecord r = state_audit(before, state, now, actor);
     {
       Query q(d_, __func__, dialect_.state_audit_details);
-      q.bind(public_id).bind(before.state).bind(state).bind(reason).step();
+      q.bind(public_id).bind(std::string(name(before.state))).bind(std::string(name(state))).bind(reason).step();
       r.details = q.text(0);
     }
     add_audit(r);

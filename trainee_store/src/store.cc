@@ -36,8 +36,6 @@ std::optional<std::string> canonical_username(const std::string& name) {
   return out;
 }
 
-bool is_terminal(const std::string& state) { return state == "ended" || state == "failed" || state == "aborted"; }
-
 std::string now_iso8601() {
   const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
   std::tm utc{};

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "forklift/session/vocabulary.h"
+
 namespace forklift::host {
 
 // The frames a worker renders while its cab asks for them.
@@ -19,7 +21,8 @@ struct WorkerFrames {
 
 struct WorkerLaunch {
   std::string binary;         // forklift-worker
-  std::string session, cab, mode = "training";
+  std::string session, cab;
+  Mode mode = Mode::kTraining;
   std::string scenario_file;
   std::string log_base;       // <dir>/<session>: the session log is <log_base>.ctl, stdout and stderr .out and .err
   int dds_domain = 0;

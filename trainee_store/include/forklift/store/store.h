@@ -7,8 +7,9 @@
 // servers sharing one database. Every SQL statement is written once (trainee_store/src/sql_store.cc);
 // the backends differ in their drivers and in a dialect of a few fragments.
 //
-// Contract: every call is atomic. Bad arguments (unknown ids, empty names, a mode that is not
-// "training" or "exam") throw StoreError with kind kInvalid or kNotFound; a duplicate unique value
+// Contract: every call is atomic. Bad arguments (unknown ids, empty names) throw StoreError with
+// kind kInvalid or kNotFound (modes, session phases and outcomes are the session vocabulary's
+// enums, named in SQL by name() and read back with parse<>()); a duplicate unique value
 // (username, cab id), or a change to a record the schema keeps as written, throws kConflict; I/O
 // or database failure throws kIo; a database that cannot be written or reached just now (a full
 // disk, a read-only file system or server, a lost connection) throws StorageUnavailable, of kind kIo. Times are ISO-8601 UTC strings ("2026-11-23T10:30:00Z"). A Store
@@ -29,6 +30,8 @@
 #include <string>
 #include <utility>
 #include <vector>
+
+#include "forklift/session/vocabulary.h"
 
 namespace forklift::store {
 
@@ -137,9 +140,9 @@ struct Session {
   int64_t pupil_id = 0;
   std::string cab_id;
   std::string scenario;
-  std::string mode;       // "training" or "exam"
-  std::string state;      // "starting", "waiting", "running", "ended", "failed", "aborted"
-  std::string reason;
+  Mode mode = Mode::kTraining;
+  SessionPhase state = SessionPhase::kStarting;
+  std::string reason;     // an EndReason's name when its worker ended it; else the words of who ended it
   std::optional<int64_t> examiner_id;  // a user
   std::string created_at, ended_at;    // ended_at empty while open
   std::optional<double> mark;    // the evaluator's, as stored: mark_of() says whether it counts
@@ -171,10 +174,11 @@ struct SessionFilter {
   std::optional<int64_t> pupil_id;
   std::string search;                    // in the pupil's name or email, capitals or not
   std::string from, to;                  // created_at in [from, to); empty: open-ended
-  std::string cab_id, scenario, mode;    // exact; empty: any
+  std::string cab_id, scenario;          // exact; empty: any
+  std::optional<Mode> mode;              // none: any
   std::optional<int64_t> instructor_id;  // started by this user
   std::optional<int64_t> group_id;       // of pupils in this group
-  std::string outcome;                   // an outcome_name(); empty: any
+  std::optional<Outcome> outcome;        // none: any
   std::string result;                    // "passed" (completed and passed), "not_passed" (over, and not so); empty: any
   std::string sort = "created_at";       // "created_at", "pupil", "cab", "scenario", "mode", "mark"
   bool descending = true;
@@ -212,8 +216,8 @@ struct ExamFilter {
 // or ended it for any other reason (a crash, a hang, a numerical failure, a tip-over that ends a
 // run); "open" until it ends. Only a completed session has a mark: the others have an outcome and
 // no mark, and count in no chart or trend.
-enum class Outcome { kOpen, kCompleted, kTimedOut, kAborted, kStopped, kFailed };
-const char* outcome_name(Outcome o);  // "open", "completed", "timed_out", "aborted", "stopped", "failed"
+// The words are the session vocabulary's (forklift::Outcome, name() and parse<Outcome>()).
+using Outcome = forklift::Outcome;
 Outcome session_outcome(const Session& s);
 // The session's mark as its record gives it: the evaluator's mark of a completed session, else none.
 std::optional<double> mark_of(const Session& s);
@@ -270,7 +274,7 @@ struct Booking {
   std::string cab_id;
   std::string starts_at, ends_at;  // ISO-8601 UTC, "YYYY-MM-DDTHH:MM:SSZ"; ends_at after starts_at
   std::string scenario;
-  std::string mode = "training";   // "training" or "exam"
+  Mode mode = Mode::kTraining;
   std::optional<int64_t> instructor_id;
   std::string session_public_id;   // the session started from it; empty until then
   std::string created_at;
@@ -528,7 +532,7 @@ class PupilStore {
   // Pupils of a school whose name contains `search` (case-insensitive; empty: all), by name.
   virtual std::vector<Pupil> list_pupils(int64_t school_id, const std::string& search, int limit, int offset) = 0;
   // The lists a school works with (PupilFilter and the like), filtered, sorted and paged: kInvalid
-  // for an unknown sort key, outcome or result, or a negative limit or offset.
+  // for an unknown sort key or result, or a negative limit or offset.
   virtual PupilPage find_pupils(const PupilFilter& f, int limit, int offset) = 0;
 
   // Groups: kInvalid for an empty name, kConflict for a name the school has (capitals or not),
@@ -554,7 +558,7 @@ class CabStore {
   virtual std::vector<Cab> list_cabs(int64_t school_id) = 0;
 
   // Bookings: kConflict when the cab is booked at an overlapping time, kInvalid for a booking that
-  // ends before it starts or an unknown mode, kNotFound for an unknown pupil or instructor.
+  // ends before it starts, kNotFound for an unknown pupil or instructor.
   virtual int64_t create_booking(const Booking& b) = 0;
   virtual std::optional<Booking> get_booking(int64_t id) = 0;
   // A school's bookings that overlap [from, to), by cab and start.
@@ -574,7 +578,7 @@ class SessionStore {
   // decided by a unique index, so that of two servers starting a session on one cab at once one
   // fails. (Schema 11 failed the older of any open sessions that shared a cab before it.)
   virtual Session create_session(int64_t pupil_id, const std::string& cab_id, const std::string& scenario,
-                                 const std::string& mode, std::optional<int64_t> examiner_id, const std::string& now,
+                                 Mode mode, std::optional<int64_t> examiner_id, const std::string& now,
                                  std::optional<int64_t> started_by = std::nullopt) = 0;
   virtual std::optional<Session> get_session(const std::string& public_id) = 0;
   virtual std::vector<Session> list_sessions_for_pupil(int64_t pupil_id) = 0;
@@ -582,7 +586,7 @@ class SessionStore {
   virtual std::vector<Session> open_sessions() = 0;
   // Moves a session to `state`. A session that is ended, failed or aborted never changes again:
   // the call then returns false and changes nothing. Sets ended_at for those three states.
-  virtual bool set_session_state(const std::string& public_id, const std::string& state, const std::string& reason,
+  virtual bool set_session_state(const std::string& public_id, SessionPhase state, const std::string& reason,
                                  const std::string& now) = 0;
 
   // Exactly once: a second event with the same (session, seq) is ignored and returns false.
@@ -624,7 +628,7 @@ class SessionStore {
   // DDS ingest: actor {nullopt, "worker"}). The row is written only when the call changes
   // something; the return value is the plain call's.
   virtual bool set_score_audited(const ScoreRecord& s, const std::string& now, const Actor& actor) = 0;
-  virtual bool set_session_state_audited(const std::string& public_id, const std::string& state,
+  virtual bool set_session_state_audited(const std::string& public_id, SessionPhase state,
                                          const std::string& reason, const std::string& now, const Actor& actor) = 0;
 };
 
@@ -782,9 +786,6 @@ class Store : public AccountStore,
 bool is_postgresql_location(const std::string& location);
 // `location` fit to print: a PostgreSQL URI's password (user:password@, password=...) as "***".
 std::string printable_location(const std::string& location);
-
-// Whether a session in `state` is over (ended, failed or aborted): such a session never changes.
-bool is_terminal(const std::string& state);
 
 // ISO-8601 UTC time of the system clock, and the date `years` after an ISO time.
 std::string now_iso8601();
