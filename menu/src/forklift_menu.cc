@@ -20,8 +20,12 @@
 #include <vector>
 
 #include "forklift/security/evidence.h"
+#include "forklift/session/vocabulary.h"
 #include "words.h"
 
+using forklift::is_terminal;
+using forklift::parse;
+using forklift::SessionPhase;
 using nlohmann::json;
 using namespace forklift::menu;
 
@@ -193,12 +197,13 @@ int follow_session(const Client& cl, const std::string& id, const std::string& f
   while (std::chrono::steady_clock::now() < until) {
     const json s = cl.call("GET", "/api/sessions/" + id);
     const std::string state = s["state"];
-    if (state != "waiting" && state != "running" && state != "starting") {
+    const std::optional<SessionPhase> phase = parse<SessionPhase>(state);
+    if (!phase || is_terminal(*phase)) {
       if (g_json) std::printf("%s\n", s.dump().c_str());
       else std::printf("%s\n", session_line(s).c_str());
       return no_frame("before it was over");
     }
-    if (state != "starting") {
+    if (*phase != SessionPhase::kStarting) {
       const json v = cl.call("GET", "/api/sessions/" + id + "/live");
       const json& t = v["state"];
       if (g_json) std::printf("%s\n", v.dump().c_str());  // one JSON document a line
@@ -278,7 +283,7 @@ int main(int argc, char** argv) {
   app.add_option("--token-file", cl.token_file, "where the login token is kept");
   app.add_flag("--json", g_json, "print the server's answer as JSON (for scripts) instead of words; export is CSV either way");
 
-  std::string username, password, name, email, search, cab, scenario, mode = "training", drive, session, out;
+  std::string username, password, name, email, search, cab, scenario, mode = forklift::name(forklift::Mode::kTraining), drive, session, out;
   int64_t pupil = 0;
   int dds_domain = -1;
   bool wait = false;
@@ -297,7 +302,7 @@ int main(int argc, char** argv) {
   start->add_option("--pupil", pupil)->required();
   start->add_option("--cab", cab)->required();
   start->add_option("--scenario", scenario)->required();
-  start->add_option("--mode", mode)->check(CLI::IsMember({"training", "exam"}));
+  start->add_option("--mode", mode)->check(CLI::IsMember(std::vector<std::string>{forklift::name(forklift::Mode::kTraining), forklift::name(forklift::Mode::kExam)}));
   std::string aids;
   start->add_option("--aids", aids, "training: the learning aids the cab may use, comma-separated (rear_view, see_through_mast, "
                                     "chase_camera) or none; default all (an exam has none)");
@@ -411,8 +416,8 @@ int main(int argc, char** argv) {
         json cur;
         for (int i = 0; i < 600; ++i) {
           cur = cl.call("GET", "/api/sessions/" + id);
-          const std::string st = cur["state"];
-          if (st == "ended" || st == "failed" || st == "aborted") break;
+          const std::optional<SessionPhase> phase = parse<SessionPhase>(cur["state"].get<std::string>());
+          if (phase && is_terminal(*phase)) break;
           std::this_thread::sleep_for(std::chrono::milliseconds(200));
         }
         // Over is not yet free: the worker still writes its log (and signs it) before it exits, and

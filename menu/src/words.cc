@@ -3,6 +3,9 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <optional>
+
+#include "forklift/session/vocabulary.h"
 
 namespace forklift::menu {
 
@@ -17,12 +20,65 @@ std::string spaced(std::string code) {
   return code;
 }
 
-std::string lookup(const std::map<std::string, std::string>& words, const std::string& code) {
-  const auto it = words.find(code);
-  return it != words.end() ? it->second : spaced(code);
+std::string text(const json& v) { return v.is_string() ? v.get<std::string>() : v.is_null() ? "" : v.dump(); }
+
+// The words of the session vocabulary's values, one switch each (a new value does not compile
+// until it has its words).
+const char* words(SessionPhase phase) {
+  switch (phase) {
+    case SessionPhase::kStarting: return "starting";
+    case SessionPhase::kWaiting: return "waiting for the cab";
+    case SessionPhase::kRunning: return "running";
+    case SessionPhase::kEnded: return "ended";
+    case SessionPhase::kAborted: return "aborted";
+    case SessionPhase::kFailed: return "failed";
+  }
+  return "?";
 }
 
-std::string text(const json& v) { return v.is_string() ? v.get<std::string>() : v.is_null() ? "" : v.dump(); }
+const char* words(EndReason reason) {
+  switch (reason) {
+    case EndReason::kDuration: return "its time was up";
+    case EndReason::kTimeLimit: return "the time limit was reached";
+    case EndReason::kTaskComplete: return "the task was done";
+    case EndReason::kAborted: return "aborted by an instructor";
+    case EndReason::kSignal: return "stopped before its end";
+    case EndReason::kNumericalFailure: return "the simulation failed";
+  }
+  return "?";
+}
+
+const char* words(Outcome outcome) {
+  switch (outcome) {
+    case Outcome::kOpen: return "under way";
+    case Outcome::kCompleted: return "completed";
+    case Outcome::kTimedOut: return "timed out";
+    case Outcome::kAborted: return "aborted";
+    case Outcome::kStopped: return "stopped";
+    case Outcome::kFailed: return "failed";
+  }
+  return "?";
+}
+
+// Why a session without a mark has none, as the session page says it.
+const char* unmarked_words(Outcome outcome) {
+  switch (outcome) {
+    case Outcome::kOpen:
+    case Outcome::kCompleted: return "not marked yet";
+    case Outcome::kTimedOut: return "no mark: the time ran out";
+    case Outcome::kAborted: return "no mark: the session was aborted";
+    case Outcome::kStopped: return "no mark: the session was stopped before its end";
+    case Outcome::kFailed: return "no mark: the session failed";
+  }
+  return "no mark";
+}
+
+// A word of the vocabulary in its words; a code it does not know still reads as words.
+template <class E>
+std::string worded(const std::string& code) {
+  const std::optional<E> e = parse<E>(code);
+  return e ? words(*e) : spaced(code);
+}
 
 }  // namespace
 
@@ -45,29 +101,19 @@ std::string when(const json& iso) {
   return s;
 }
 
-std::string state_words(const std::string& state) {
-  static const std::map<std::string, std::string> words = {
-      {"waiting", "waiting for the cab"}, {"starting", "starting"}, {"running", "running"},
-      {"ended", "ended"},                 {"failed", "failed"},     {"aborted", "aborted"}};
-  return lookup(words, state);
-}
+std::string state_words(const std::string& state) { return worded<SessionPhase>(state); }
 
-// The worker's end reasons (forklift-worker) and the server's; the server's own are words already.
+// The worker's end reasons (forklift-worker), the evaluation's ends and the server's; the
+// server's own are words already.
 std::string reason_words(const std::string& reason) {
-  static const std::map<std::string, std::string> words = {
-      {"task_complete", "the task was done"},   {"parked", "parked at the end"},
-      {"duration", "its time was up"},          {"time_limit", "the time limit was reached"},
-      {"aborted", "aborted by an instructor"},  {"signal", "stopped before its end"},
-      {"numerical_failure", "the simulation failed"}, {"tipped_over", "the truck tipped over"}};
-  return lookup(words, reason);
+  // The evaluation's end words, which are not a worker's end reason.
+  static const std::map<std::string, std::string> evaluation_ends = {{"parked", "parked at the end"},
+                                                                     {"tipped_over", "the truck tipped over"}};
+  if (const auto it = evaluation_ends.find(reason); it != evaluation_ends.end()) return it->second;
+  return worded<EndReason>(reason);
 }
 
-std::string outcome_words(const std::string& outcome) {
-  static const std::map<std::string, std::string> words = {
-      {"open", "under way"}, {"completed", "completed"}, {"timed_out", "timed out"},
-      {"aborted", "aborted"}, {"stopped", "stopped"},    {"failed", "failed"}};
-  return lookup(words, outcome);
-}
+std::string outcome_words(const std::string& outcome) { return worded<Outcome>(outcome); }
 
 std::string worry_words(int level) {
   switch (level) {
@@ -86,14 +132,10 @@ std::string mark_words(const json& s) {
     return "mark " + number(mark) + " of 100" + (passed.is_boolean() ? (passed.get<bool>() ? ", passed" : ", not passed") : "");
   }
   // As the session page says it: only a session that ran its course has a mark.
-  static const std::map<std::string, std::string> unmarked = {
-      {"timed_out", "no mark: the time ran out"}, {"aborted", "no mark: the session was aborted"},
-      {"stopped", "no mark: the session was stopped before its end"}, {"failed", "no mark: the session failed"},
-      {"completed", "not marked yet"}, {"open", "not marked yet"}};
-  const auto it = unmarked.find(text(s.value("outcome", json())));
-  std::string words = it != unmarked.end() ? it->second : "no mark";
-  if (s.value("passed", json()) == false) words += ", not passed";
-  return words;
+  const std::optional<Outcome> outcome = parse<Outcome>(text(s.value("outcome", json())));
+  std::string said = outcome ? unmarked_words(*outcome) : "no mark";
+  if (s.value("passed", json()) == false) said += ", not passed";
+  return said;
 }
 
 std::string session_line(const json& s) {
