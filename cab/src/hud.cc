@@ -107,6 +107,7 @@ std::string end_words(const std::string& state, const std::string& reason) {
       case EndReason::kTimeLimit: return "Session over: time is up";
       case EndReason::kDuration: return "Session over: the session's time has run";
       case EndReason::kSignal: return "Session stopped by the school's system";
+      case EndReason::kCabGone: return "Session over: this cab sent no controls for too long";
       case EndReason::kNumericalFailure: break;  // said in the worker's own word, as any other
     }
   return "Session over (" + reason + ")";

@@ -58,7 +58,8 @@ std::string reason_words(const std::string& reason) {
       {"task_complete", "the task was done"},   {"parked", "parked at the end"},
       {"duration", "its time was up"},          {"time_limit", "the time limit was reached"},
       {"aborted", "aborted by an instructor"},  {"signal", "stopped before its end"},
-      {"numerical_failure", "the simulation failed"}, {"tipped_over", "the truck tipped over"}};
+      {"numerical_failure", "the simulation failed"}, {"tipped_over", "the truck tipped over"},
+      {"cab_gone", "the cab stopped sending its controls"}};
   return lookup(words, reason);
 }
 

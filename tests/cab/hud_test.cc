@@ -128,6 +128,7 @@ TEST(Hud, TheSessionsEndIsSaidInWordsAndAnAbortNamesTheInstructor) {
   hud.on_status("ended", "aborted", 20);
   EXPECT_TRUE(has_text(hud.draw_list(960, 720, 20.5), "Session aborted by your instructor"));
   EXPECT_EQ(end_words("ended", "task_complete"), "Session over: task complete");
+  EXPECT_EQ(end_words("ended", "cab_gone"), "Session over: this cab sent no controls for too long");
 }
 
 TEST(Hud, AnAidTheSessionDoesNotAllowIsSaidToBeNotAllowed) {

@@ -1527,6 +1527,7 @@ TEST_P(StoreTest, OnlyCompletedSessionsHaveAMarkAndCountInTheTrend) {
       {"training", "ended", "time_limit", {{"time_limit", 1}}, 91, fs::Outcome::kTimedOut},
       {"training", "ended", "duration", {{"task_incomplete", 1}}, 82, fs::Outcome::kTimedOut},  // 0 of 5 steps
       {"training", "ended", "signal", {}, 45, fs::Outcome::kStopped},
+      {"training", "ended", "cab_gone", {}, 47, fs::Outcome::kStopped},  // the pupil closed the cab
       {"training", "ended", "numerical_failure", {}, 30, fs::Outcome::kFailed},
       {"training", "ended", "tip_over", {}, 20, fs::Outcome::kFailed},
       {"training", "ended", "parked", {}, 60, fs::Outcome::kCompleted},
