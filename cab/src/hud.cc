@@ -360,6 +360,7 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
     yl += h + 4;
   };
   refused(cmd_.rear_view, aids::kRearView, "The rear-view mirror");
+  refused(cmd_.fork_camera, aids::kForkCamera, "The fork camera");
   refused(cmd_.see_through_mast, aids::kSeeThroughMast, "The see-through mast");
   refused(cmd_.chase_camera, aids::kChaseCamera, "The chase camera");
 

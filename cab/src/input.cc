@@ -38,6 +38,7 @@ fk_Controls CabCommand::sample() const {
   s.look_pitch_rad = look_pitch_rad;
   s.rear_view = rear_view;
   s.see_through_mast = see_through_mast;
+  s.fork_camera = fork_camera;
   return s;
 }
 
@@ -192,6 +193,7 @@ bool CabInput::handle(const SDL_Event& e) {
         case SDL_SCANCODE_B: cmd_.rear_view = !cmd_.rear_view; break;
         case SDL_SCANCODE_M: cmd_.see_through_mast = !cmd_.see_through_mast; break;
         case SDL_SCANCODE_C: cmd_.chase_camera = !cmd_.chase_camera; break;
+        case SDL_SCANCODE_V: cmd_.fork_camera = !cmd_.fork_camera; break;
         case SDL_SCANCODE_UP: case SDL_SCANCODE_DOWN: case SDL_SCANCODE_SPACE:
           cmd_.controller_lost = false;  // the pupil drives from the keyboard now
           break;
@@ -365,6 +367,7 @@ const std::vector<std::pair<std::string, std::string>>& key_map() {
       {"B", "rear-view mirror on / off (training; shown by itself when reversing)"},
       {"M", "see-through mast on / off (training)"},
       {"C", "chase camera on / off (training)"},
+      {"V", "fork camera on / off: the view from between the forks, at the right (training)"},
       {"F1", "this help"},
       {"F12", "save a picture of the window"},
       {"Esc", "leave the cab"},

@@ -53,7 +53,8 @@ void ControlIntake::offer(const std::string& from_cab, const ControlSample& s, i
   last_valid_ = now;
   heard_ = true;
   view_.reset();
-  if (s.frames_wanted) view_ = ViewRequest{s.camera, s.look_yaw_rad, s.look_pitch_rad, s.see_through_mast, s.rear_view};
+  if (s.frames_wanted)
+    view_ = ViewRequest{s.camera, s.look_yaw_rad, s.look_pitch_rad, s.see_through_mast, s.rear_view, s.fork_camera};
 }
 
 std::optional<ControlSample> ControlIntake::take_pending() {

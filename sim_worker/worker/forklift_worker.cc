@@ -146,7 +146,8 @@ int main(int argc, char** argv) {
   app.add_option("--view", view_name_arg, "the cab's camera 0: driver, chase or plan (an exam: driver only)")
       ->check(CLI::IsMember({"driver", "chase", "plan"}));
   app.add_option("--aids", aids_arg,
-                 "training aids a cab may ask for: a comma list of rear_view, see_through_mast, chase_camera, or all or none "
+                 "training aids a cab may ask for: a comma list of rear_view, see_through_mast, chase_camera, fork_camera, or all or "
+                 "none "
                  "(training default: all; an exam allows none)");
   app.add_flag("--jpeg", frames.jpeg, "publish JPEG frames (for cabs on a real network) instead of raw RGB");
   app.add_option("--jpeg-quality", frames.jpeg_quality, "JPEG quality of --jpeg frames, 1-100")->check(CLI::Range(1, 100));
@@ -319,7 +320,7 @@ int main(int argc, char** argv) {
         const ControlSample s{c.seq,     c.steer_rad,     c.accelerator,  c.brake,        c.lift,
                               c.tilt,    c.side_shift,    c.horn,         c.parking_brake, c.frames_wanted,
                               c.camera,  c.look_yaw_rad,  c.look_pitch_rad, c.rear_view,  c.see_through_mast,
-                              c.apply_at_sim_s};
+                              c.apply_at_sim_s, c.fork_camera};
         intake.offer(c.cab_id, s, run.state().tick, run.state().t_s, Clock::now());
       });
     };
