@@ -126,7 +126,7 @@ fk_Controls sample(const std::string& cab, uint32_t seq, double t) {
   c.seq = seq;
   c.cab_time_s = t;
   c.accelerator = 0.3;
-  c.steer_rad = 0.4 * std::sin(0.5 * t);
+  c.steer = 0.4 * std::sin(0.5 * t);
   return c;
 }
 

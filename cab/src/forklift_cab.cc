@@ -272,6 +272,7 @@ class CabProgram {
   std::unique_ptr<dds::Reader<fk_TruckState>> states_;
   std::unique_ptr<dds::Writer<fk_CabAnnounce>> announce_;
   std::unique_ptr<dds::Reader<fk_SessionStatus>> statuses_;
+  double steer_lock_rad_ = 0;  // the worker's truck's end stops, from its status (0: not heard yet)
   std::unique_ptr<dds::Reader<fk_Event>> events_;
   std::unique_ptr<FrameView> frames_;
   std::unique_ptr<CabWindow> window_;
@@ -364,7 +365,7 @@ void CabProgram::send(const fk_Controls& in) {
   last_sent_ = c;
   last_sent_t_ = c.cab_time_s;
   latency_.sent(c.seq);
-  trace_.write({{"type", "controls"}, {"seq", c.seq}, {"steer_rad", c.steer_rad}, {"accelerator", c.accelerator},
+  trace_.write({{"type", "controls"}, {"seq", c.seq}, {"steer", c.steer}, {"accelerator", c.accelerator},
                 {"brake", c.brake}, {"lift", c.lift}, {"tilt", c.tilt}, {"horn", c.horn},
                 {"direction", input_.command().direction}, {"rear_view", c.rear_view},
                 {"see_through_mast", c.see_through_mast}, {"camera", c.camera}, {"look_yaw_rad", c.look_yaw_rad},
@@ -447,7 +448,11 @@ void CabProgram::take_dds() {
     if (o_.cab_id != s.cab_id) return;
     // Statuses are durable: a cab started later also hears of this cab's past sessions. Only the
     // session it drives (named by the worker's "waiting"/"running" or its truck state) counts.
-    if (state == "waiting" || state == "running") session_ = s.session_id;
+    if (state == "waiting" || state == "running") {
+      session_ = s.session_id;
+      // The worker's truck's end stops: what a script's angle is as a fraction of them.
+      if (std::isfinite(s.steer_lock_rad) && s.steer_lock_rad > 0 && s.steer_lock_rad <= M_PI / 2) steer_lock_rad_ = s.steer_lock_rad;
+    }
     if (s.session_id != session_) return;
     hud_.on_status(state, s.reason, t);
     trace_.write({{"type", "status"}, {"state", state}, {"reason", s.reason}}, t);
@@ -604,7 +609,13 @@ int CabProgram::run() {
     draw(frames_->poll());
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
-  if (writer_->matched() == 0) {
+  // A script's steer is an angle; it goes out as a fraction of the worker's truck's end stops,
+  // which the worker's status says.
+  while (!g_stop && !o_.script.empty() && steer_lock_rad_ == 0 && now() < give_up) {
+    take_dds();
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  if (writer_->matched() == 0 || (!o_.script.empty() && steer_lock_rad_ == 0)) {
     if (g_stop) return 0;
     std::cerr << "forklift-cab: no worker for cab " << o_.cab_id << " after " << o_.wait_s
               << " s: is the session started for this cab?\n";
@@ -615,8 +626,9 @@ int CabProgram::run() {
   // kScriptLeadS ahead of its time, stamped with it (apply_at_sim_s): the worker applies it at
   // its own tick, as the offline model does, whatever the network's delay or the machine's load.
   // Between rows the last one sent is sent again every 20 ms, so sparse scripts never trip the
-  // worker's dead man. After the last row's time the cab goes silent.
-  constexpr double kScriptLeadS = 0.2;
+  // worker's dead man. After the last row's time the cab goes silent. A second ahead: on a loaded
+  // machine a row can be tenths of a second on its way, and one that lands late changes the drive.
+  constexpr double kScriptLeadS = 1.0;
   start_ = Clock::now();
   sim_anchor_.reset();
   size_t next_row = 0;
@@ -632,7 +644,7 @@ int CabProgram::run() {
       while (next_row < rows.size() && rows[next_row].t <= script_t + kScriptLeadS) {
         const ScriptRow& r = rows[next_row++];
         fk_Controls s = controls_from(CabCommand{});
-        s.steer_rad = r.steer, s.accelerator = r.accelerator, s.brake = r.brake, s.lift = r.lift, s.tilt = r.tilt;
+        s.steer = steer_fraction(r.steer, steer_lock_rad_), s.accelerator = r.accelerator, s.brake = r.brake, s.lift = r.lift, s.tilt = r.tilt;
         s.side_shift = r.shift, s.parking_brake = r.parking_brake;
         s.apply_at_sim_s = r.t;
         held = s;

@@ -25,7 +25,7 @@ double CabCommand::braking() const { return controller_lost ? 1.0 : brake; }
 
 fk_Controls CabCommand::sample() const {
   fk_Controls s{};
-  s.steer_rad = steer_rad;
+  s.steer = steer;
   s.accelerator = drive();
   s.brake = braking();
   s.lift = lift;
@@ -45,20 +45,19 @@ fk_Controls CabCommand::sample() const {
 InputSettings input_settings(const nlohmann::json& j) {
   const std::string where = "data/cab/cab.json";
   InputSettings s;
-  s.steer_lock_rad = settings_number(j, "steer_lock_deg", where) * kDeg;
   const nlohmann::json& k = settings_at(j, "keyboard", where);
   s.accelerator_rise_s = settings_number(k, "accelerator_rise_s", where + " keyboard");
   s.brake_rise_s = settings_number(k, "brake_rise_s", where + " keyboard");
-  s.steer_rate_rad_s = settings_number(k, "steer_rate_deg_s", where + " keyboard") * kDeg;
-  s.steer_centring_rad_s = settings_number(k, "steer_centring_deg_s", where + " keyboard") * kDeg;
+  s.steer_rate_per_s = settings_number(k, "steer_rate_per_s", where + " keyboard");
+  s.steer_centring_per_s = settings_number(k, "steer_centring_per_s", where + " keyboard");
   const nlohmann::json& l = settings_at(j, "look", where);
   s.look_max_yaw_rad = settings_number(l, "max_yaw_deg", where + " look") * kDeg;
   s.look_max_pitch_rad = settings_number(l, "max_pitch_deg", where + " look") * kDeg;
   s.look_rate_rad_s = settings_number(l, "rate_deg_s", where + " look") * kDeg;
   s.mouse_rad_per_pixel = settings_number(l, "mouse_deg_per_pixel", where + " look") * kDeg;
-  if (s.steer_lock_rad <= 0 || s.accelerator_rise_s <= 0 || s.brake_rise_s <= 0 || s.steer_rate_rad_s <= 0 ||
+  if (s.accelerator_rise_s <= 0 || s.brake_rise_s <= 0 || s.steer_rate_per_s <= 0 || s.steer_centring_per_s <= 0 ||
       s.look_rate_rad_s <= 0)
-    throw std::runtime_error(where + ": rates, rise times and the steer lock must be positive");
+    throw std::runtime_error(where + ": rates and rise times must be positive");
   return s;
 }
 
@@ -302,7 +301,7 @@ void CabInput::read_controller() {
   const double lift = axis_value(c, map_.lift, false, true);
   const double tilt = axis_value(c, map_.tilt, false, true);
   // The keyboard's own commands win where it is pressed; the controller fills the rest.
-  if (kb_steer_ == 0) cmd_.steer_rad = steer * s_.steer_lock_rad;  // wheel left (-) turns the truck left
+  if (kb_steer_ == 0) cmd_.steer = steer;  // wheel left (-) turns the truck left
   cmd_.accelerator = std::max(cmd_.accelerator, accel);
   cmd_.brake = std::max(cmd_.brake, brake);
   if (cmd_.lift == 0) cmd_.lift = lift;
@@ -316,9 +315,9 @@ const CabCommand& CabInput::update(double dt_s) {
   kb_accel_ = held(SDL_SCANCODE_UP) ? std::min(1.0, kb_accel_ + dt_s / s_.accelerator_rise_s) : 0;
   kb_brake_ = held(SDL_SCANCODE_DOWN) || held(SDL_SCANCODE_SPACE) ? std::min(1.0, kb_brake_ + dt_s / s_.brake_rise_s) : 0;
   const bool left = held(SDL_SCANCODE_LEFT), right = held(SDL_SCANCODE_RIGHT);
-  if (left != right) kb_steer_ = std::clamp(kb_steer_ + (left ? -1 : 1) * s_.steer_rate_rad_s * dt_s, -s_.steer_lock_rad, s_.steer_lock_rad);
-  else kb_steer_ = approach(kb_steer_, 0, s_.steer_centring_rad_s * dt_s);
-  cmd_.steer_rad = kb_steer_;
+  if (left != right) kb_steer_ = std::clamp(kb_steer_ + (left ? -1 : 1) * s_.steer_rate_per_s * dt_s, -1.0, 1.0);
+  else kb_steer_ = approach(kb_steer_, 0, s_.steer_centring_per_s * dt_s);
+  cmd_.steer = kb_steer_;
   cmd_.accelerator = kb_accel_;
   cmd_.brake = kb_brake_;
   cmd_.lift = held(SDL_SCANCODE_W) ? 1 : held(SDL_SCANCODE_S) ? -1 : 0;

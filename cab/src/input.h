@@ -21,7 +21,7 @@ namespace forklift::cab {
 
 // The cab's levers, pedals and switches, and where the driver looks.
 struct CabCommand {
-  double steer_rad = 0;    // rear wheel angle; + points the wheel left (going forward the truck turns right)
+  double steer = 0;        // the wheel, [-1, 1] of the truck's end stops; + points the rear wheel left (going forward the truck turns right)
   double accelerator = 0;  // pedal [0, 1]
   double brake = 0;        // pedal [0, 1]
   int direction = 1;       // the direction lever: +1 forward, 0 neutral, -1 reverse
@@ -44,9 +44,8 @@ struct CabCommand {
 
 // The settings of data/cab/cab.json that input uses.
 struct InputSettings {
-  double steer_lock_rad = 88 * kDeg;
   double accelerator_rise_s = 0.6, brake_rise_s = 0.15;
-  double steer_rate_rad_s = M_PI / 2, steer_centring_rad_s = 2 * M_PI / 3;
+  double steer_rate_per_s = 1, steer_centring_per_s = 1.4;  // of the end stops, per second
   double look_max_yaw_rad = 150 * kDeg, look_max_pitch_rad = 30 * kDeg;
   double look_rate_rad_s = 2 * M_PI / 3, mouse_rad_per_pixel = 0.25 * kDeg;
 };

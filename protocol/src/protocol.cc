@@ -160,10 +160,10 @@ dds_qos_t* make_qos(QosKind kind, const std::string& partition) {
   dds_qos_t* q = dds_create_qos();
   switch (kind) {
     case QosKind::kLatestReliable:
-      // Keep the last 32, not 1: a scripted cab sends its rows ahead of their time, several
-      // between two of the worker's passes, and each must arrive (the newest live one wins).
+      // Keep the last 256, not 1: a scripted cab sends its rows up to a second ahead of their
+      // time (100 at once when it starts), and each must arrive (the newest live one wins).
       dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
-      dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 32);
+      dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 256);
       break;
     case QosKind::kLatestBestEffort:
       dds_qset_reliability(q, DDS_RELIABILITY_BEST_EFFORT, 0);

@@ -2,6 +2,19 @@
 
 namespace forklift::worker {
 
+ControlSample control_sample(const fk_Controls& c, const TruckParams& truck) {
+  ControlSample s;
+  s.seq = c.seq;
+  s.steer_rad = steer_from_fraction(c.steer, truck);
+  s.accelerator = c.accelerator, s.brake = c.brake, s.lift = c.lift, s.tilt = c.tilt, s.side_shift = c.side_shift;
+  s.horn = c.horn, s.parking_brake = c.parking_brake;
+  s.frames_wanted = c.frames_wanted, s.camera = c.camera, s.look_yaw_rad = c.look_yaw_rad;
+  s.look_pitch_rad = c.look_pitch_rad, s.rear_view = c.rear_view, s.see_through_mast = c.see_through_mast;
+  s.apply_at_sim_s = c.apply_at_sim_s;
+  s.fork_camera = c.fork_camera;
+  return s;
+}
+
 ControlIntake::ControlIntake(std::string cab, const TruckParams& truck, double tick_s, double deadman_s,
                              std::function<void(const std::string&)> say)
     : cab_(std::move(cab)), truck_(truck), tick_s_(tick_s), say_(std::move(say)), sequence_(deadman_s) {}

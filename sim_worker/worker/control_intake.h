@@ -15,9 +15,15 @@
 #include <utility>
 #include <vector>
 
+#include "forklift/protocol/protocol.h"
 #include "forklift/session/controls.h"
 
 namespace forklift::worker {
+
+// A sample as it came off the wire, onto this truck: the wheel's fraction of the end stops becomes
+// the truck's angle (steer_from_fraction), before any check, so a fraction beyond 1 is refused as
+// an angle beyond the truck's stops.
+ControlSample control_sample(const fk_Controls& c, const TruckParams& truck);
 
 class ControlIntake {
  public:
@@ -42,6 +48,14 @@ class ControlIntake {
   bool heard() const { return heard_; }                      // a good sample has come
   Clock::time_point last_heard() const { return last_valid_; }
   double silence_s(Clock::time_point now) const { return std::chrono::duration<double>(now - last_valid_).count(); }
+
+  // A scripted cab's rows sent ahead are its word until their time: the sim time of the last one
+  // still scheduled (nullopt: none). Until then its silence is no reason for the dead man, so that
+  // a cab held up for less than its lead (a loaded machine) drives the truck as the script says.
+  std::optional<double> scheduled_until_s() const {
+    if (scheduled_.empty()) return std::nullopt;
+    return scheduled_.rbegin()->first * tick_s_;
+  }
 
   // The newest good sample not yet applied, if any.
   bool has_pending() const { return pending_.has_value(); }

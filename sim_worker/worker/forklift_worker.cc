@@ -200,9 +200,11 @@ int main(int argc, char** argv) {
   std::unique_ptr<dds::Participant> participant;
   // The session's status goes to the server (default partition) and to the cab (its own).
   std::unique_ptr<dds::Writer<fk_SessionStatus>> status_writer, cab_status_writer;
+  double steer_lock_rad = 0;  // the truck's, once its model is loaded: the cab's scale for steer
   auto publish_status = [&](SessionPhase phase, double t, const std::string& reason) {
     if (!status_writer) return;
     fk_SessionStatus s{};
+    s.steer_lock_rad = steer_lock_rad;
     dds::set_string(s.session_id, session);
     dds::set_string(s.cab_id, cab);
     dds::set_string(s.state, name(phase));
@@ -280,6 +282,7 @@ int main(int argc, char** argv) {
     SessionRun run(std::move(*loaded), std::move(first), std::move(log), {duration, true});
     loaded.reset();
     const SessionModel& model = run.model();
+    steer_lock_rad = model.truck.steer.max_rad;
     // Only now, with the session built, does the cab's writer match: a sample sent on that
     // match is read, not overwritten while the scene loads.
     dds::Reader<fk_Controls> controls(*participant, dds::cab_partition(cab));
@@ -317,11 +320,7 @@ int main(int argc, char** argv) {
     ControlIntake intake(cab, model.truck, model.tick_s, deadman_s, say);
     auto take_controls = [&] {
       controls.take_each([&](const fk_Controls& c) {
-        const ControlSample s{c.seq,     c.steer_rad,     c.accelerator,  c.brake,        c.lift,
-                              c.tilt,    c.side_shift,    c.horn,         c.parking_brake, c.frames_wanted,
-                              c.camera,  c.look_yaw_rad,  c.look_pitch_rad, c.rear_view,  c.see_through_mast,
-                              c.apply_at_sim_s, c.fork_camera};
-        intake.offer(c.cab_id, s, run.state().tick, run.state().t_s, Clock::now());
+        intake.offer(c.cab_id, control_sample(c, model.truck), run.state().tick, run.state().t_s, Clock::now());
       });
     };
 
@@ -367,9 +366,10 @@ int main(int argc, char** argv) {
     // (SessionRun::apply logs at most one input per tick). `changed`: the truck's inputs changed.
     auto take_inputs = [&] {
       bool changed = false;
-      // Dead man: a silent cab gets throttle off and full brake, once, with an event.
+      // Dead man: a silent cab gets throttle off and full brake, once, with an event (a scripted
+      // cab's rows still to come speak for it until their time).
       const double silence = intake.silence_s(Clock::now());
-      if (!run.deadman_on() && silence > deadman_s) {
+      if (!run.deadman_on() && silence > deadman_s && !intake.scheduled_until_s()) {
         ++deadman_count;
         intake.forget();  // a silent cab's rows sent ahead do not drive the truck on, nor get frames
         ask_frames();
@@ -469,8 +469,10 @@ int main(int argc, char** argv) {
       // (its stop applies from the next tick), or the next tick for a sample not yet applied; a
       // control sample arriving wakes the loop earlier.
       wake_at_s = std::ceil(pacer.period_end_s() / model.tick_s - 1e-9) * model.tick_s - model.tick_s;
-      if (!run.deadman_on())
-        wake_at_s = std::min(wake_at_s, std::chrono::duration<double>(intake.last_heard() - start).count() + deadman_s);
+      if (!run.deadman_on()) {
+        const double silent_at_s = std::chrono::duration<double>(intake.last_heard() - start).count() + deadman_s;
+        wake_at_s = std::min(wake_at_s, std::max(silent_at_s, intake.scheduled_until_s().value_or(silent_at_s)));
+      }
       // A sample that came after this wake's last tick applies from the next one, at once.
       if (intake.has_pending()) wake_at_s = std::min(wake_at_s, state.t_s);
       wake_at_s = std::max(wake_at_s, state.t_s);  // not before the wall clock reaches the truck's time

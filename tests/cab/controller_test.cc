@@ -82,7 +82,7 @@ class PedalSet : public testing::Test {
   // The command as the cab sends it, as the worker takes it in.
   static ControlSample sample(const CabCommand& c) {
     const fk_Controls s = c.sample();
-    return {0, s.steer_rad, s.accelerator, s.brake, s.lift, s.tilt, s.side_shift, s.horn, s.parking_brake};
+    return {0, s.steer, s.accelerator, s.brake, s.lift, s.tilt, s.side_shift, s.horn, s.parking_brake};
   }
   // Drives the truck for `seconds` with the device as it is now.
   void drive(evt::Session& s, double seconds) {
@@ -103,13 +103,13 @@ TEST_F(PedalSet, ResetPedalsAndACentredWheelAskForNothing) {
   const CabCommand& c = pump();
   EXPECT_EQ(c.drive(), 0);
   EXPECT_EQ(c.braking(), 0);
-  EXPECT_EQ(c.steer_rad, 0);
+  EXPECT_EQ(c.steer, 0);
 }
 
 TEST_F(PedalSet, AWheelOffCentreWithinTheDeadZoneDoesNotSteerAndThePedalsAreSeparate) {
   set(kWheel, 0.05);  // a worn wheel resting 5% off centre, inside the 10% dead zone
   set(kAccelerator, -1 + 2 * 0.03);  // a pedal resting 3% down, inside its 5% dead zone
-  EXPECT_EQ(pump().steer_rad, 0);
+  EXPECT_EQ(pump().steer, 0);
   EXPECT_EQ(pump().drive(), 0);
   set(kAccelerator, 1);
   EXPECT_DOUBLE_EQ(pump().drive(), 1);
@@ -135,7 +135,7 @@ TEST_F(PedalSet, TheTruckDoesWhatTheMappingSays) {
   const Eigen::Vector2d heading(std::cos(yaw0), std::sin(yaw0));
   EXPECT_GT((s.pos() - start).dot(heading), 1.0);
   EXPECT_GT(evt::wrap(s.yaw() - yaw0), 0.1);
-  EXPECT_LT(pump().steer_rad, 0);  // the wheel to the left points the rear wheel right
+  EXPECT_LT(pump().steer, 0);  // the wheel to the left points the rear wheel right
 
   // Brake pedal down, accelerator released: it stops.
   set(kAccelerator, -1);

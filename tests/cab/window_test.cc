@@ -110,7 +110,7 @@ TEST_F(CabWindow, KeysHeldInTheWindowDriveTheTruckAsADriverExpects) {
   // Left turns left: the rear wheel points right and the heading rises (counter-clockwise).
   const double left_down = key_times(t, "Left", true).at(0), left_up = key_times(t, "Left", false).at(0);
   const json* steering = last_before(t, "controls", left_up - 0.05);
-  EXPECT_LT((*steering)["steer_rad"].get<double>(), -0.5);
+  EXPECT_LT((*steering)["steer"].get<double>(), -0.5);  // of the end stops, after 1 s held
   const double yaw0 = (*last_before(t, "state", left_down))["yaw_rad"].get<double>();
   const double yaw1 = (*last_before(t, "state", left_up + 0.2))["yaw_rad"].get<double>();
   EXPECT_GT(yaw1 - yaw0, 0.2);

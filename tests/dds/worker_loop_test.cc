@@ -50,7 +50,7 @@ fk_Controls controls(const std::string& cab, uint32_t seq, double accel = 0, dou
   dds::set_string(c.cab_id, cab);
   c.seq = seq;
   c.accelerator = accel;
-  c.steer_rad = steer;
+  c.steer = steer;
   return c;
 }
 
@@ -157,6 +157,29 @@ TEST(WorkerLoop, TheCabSetsTheParkingBrakeAndTheLogKeepsIt) {
   Process rp({kBin + "/forklift-worker", "--replay", tmp("park.ctl")}, tmp("park.replay"));
   ASSERT_EQ(rp.wait(30), 0) << rp.err();
   EXPECT_EQ(output_json(rp)["matches_log"], true);
+}
+
+// A scripted cab's rows sent ahead are its word until their time: a cab held up for less than its
+// lead (here it falls silent after sending 1.5 s of rows at once) does not trip the dead man, which
+// stops the truck once the rows have run out, not half a second after the cab's last sample.
+TEST(WorkerLoop, RowsSentAheadSpeakForASilentScriptedCabUntilTheirTime) {
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "c1", "ahead", {"--duration", "3"});
+  dds::Participant p(dds::DomainSettings::resolve(domain, ""));
+  dds::Writer<fk_Controls> out(p, dds::cab_partition("c1"));
+  ASSERT_TRUE(wait_matched(out, 10)) << w.err();
+  uint32_t seq = 0;
+  for (double at : {0.0, 0.5, 1.0, 1.5}) {
+    fk_Controls c = controls("c1", ++seq, 0.3);
+    c.apply_at_sim_s = at;
+    out.write(c);
+  }
+  ASSERT_EQ(w.wait(30), 0) << w.err();
+  EXPECT_EQ(output_json(w)["deadman_stops"], 1);
+  const ControlLog log = read_control_log(tmp("ahead.ctl"));
+  ASSERT_FALSE(log.deadman.empty()) << "the dead man never stopped the truck";
+  EXPECT_TRUE(log.deadman.front().second);
+  EXPECT_GE(log.deadman.front().first, 1500) << "the dead man stopped the truck before the cab's last row was due";
 }
 
 TEST(WorkerLoop, BadControlsAreRefusedSilenceStopsTheTruckAndTheWorkerStaysUp) {

@@ -33,6 +33,27 @@ struct Intake : testing::Test {
   }
 };
 
+// The wheel goes on the wire as a fraction of the end stops; this truck's file says what 1 is, and a
+// fraction beyond 1 is an angle beyond the truck's stops, refused as any out-of-range value.
+TEST_F(Intake, TheWiresSteerIsAFractionOfTheTrucksOwnEndStops) {
+  fk_Controls c{};
+  c.seq = 1, c.steer = -1.0;
+  EXPECT_EQ(control_sample(c, truck).steer_rad, -truck.steer.max_rad);
+  EXPECT_NEAR(truck.steer.max_rad, 88 * M_PI / 180, 1e-12);  // the shipped truck's file
+  TruckParams narrow = truck;
+  narrow.steer.max_rad = 0.5;
+  c.steer = 0.5;
+  EXPECT_DOUBLE_EQ(control_sample(c, narrow).steer_rad, 0.25);
+  c.steer = 1.02;
+  intake.offer("c1", control_sample(c, truck), 0, 0, t0);
+  EXPECT_FALSE(intake.heard());
+  ASSERT_EQ(said.size(), 1u);
+  EXPECT_NE(said[0].find("steer_rad"), std::string::npos) << said[0];
+  c.steer = 1.0;
+  intake.offer("c1", control_sample(c, truck), 0, 0, t0);
+  EXPECT_TRUE(intake.heard());
+}
+
 TEST_F(Intake, RefusesWhatMustNotReachTheTruckAndCountsIt) {
   intake.offer("c9", sample(1), 0, 0, t0);             // another cab's
   intake.offer("c1", sample(2, NAN), 0, 0, t0);        // not finite

@@ -211,8 +211,8 @@ if [ "$secure" != "--secure" ]; then
   [ "$failed" -eq 0 ] && echo "1: four sessions ran two on each host; every event and mark is in the store once; h2's ticks ran real time"
 
   # 2. A host dies mid-session: its session fails with the reason; the next goes to the other.
-  s1=$(start c1 40); drive c1
-  s2=$(start c2 40); drive c2
+  s1=$(start c1 25); drive c1
+  s2=$(start c2 25); drive c2
   h1_session=$s1 h2_session=$s2
   [ "$(host_of "$s1")" = h1 ] || { h1_session=$s2 h2_session=$s1; }
   wait_state "$h1_session" running 30 || fail host_dies "session $h1_session never ran"

@@ -12,6 +12,12 @@ struct ScriptRow {
   bool parking_brake = false;
 };
 
+// A row's steer is the rear wheel's angle; on the wire (fk_Controls.steer) it goes as a fraction of
+// the truck's end stops, which the worker scales back by its truck file (steer_from_fraction in
+// forklift/session/controls.h). A scripted cab sends this; the offline model passes a row through it
+// too, so that a scripted drive is the same drive live and offline, bit for bit.
+inline double steer_fraction(double steer_rad, double lock_rad) { return steer_rad / lock_rad; }
+
 // Throws std::runtime_error with the file and line number on a malformed row or times that go
 // backwards. Values are not range-checked here: the worker is the one that must refuse them.
 std::vector<ScriptRow> read_script(const std::string& path);

@@ -11,7 +11,8 @@
 
 namespace forklift {
 
-// One cab control sample, as received (protocol's fk_Controls without the strings).
+// One cab control sample, as received (protocol's fk_Controls without the strings), its steer
+// already scaled onto the truck (steer_from_fraction).
 struct ControlSample {
   uint32_t seq = 0;
   double steer_rad = 0, accelerator = 0, brake = 0, lift = 0, tilt = 0, side_shift = 0;
@@ -40,6 +41,10 @@ int64_t first_tick_at(double t_s, double tick_s);
 // (0 or 1) included.
 std::optional<std::string> control_problem(const ControlSample& c, const TruckParams& truck);
 
+// The wire's steer, a fraction of the truck's end stops (fk_Controls.steer, + points the rear wheel
+// left), as the rear wheel's angle on this truck: the one place a cab's wheel meets a truck's stops.
+inline double steer_from_fraction(double fraction, const TruckParams& truck) { return fraction * truck.steer.max_rad; }
+
 // Normalised cab commands onto the truck's limits.
 DriverInputs driver_inputs(const ControlSample& c, const TruckParams& truck);
 
@@ -53,7 +58,7 @@ bool identical(const DriverInputs& a, const DriverInputs& b);
 // The order of one cab's samples (fk_Controls.seq rises by one per sample a cab program sends).
 // A sample is judged against the newest one accepted:
 //  - newer (a higher seq): accepted; a jump over missing numbers is counted (samples are lost on
-//    the wire, and a reader drops those it had no time to take when more than its history of 32
+//    the wire, and a reader drops those it had no time to take when more than its history of 256
 //    wait), never refused;
 //  - not newer (the same seq: a duplicate; a lower one: old, a replay): refused and counted,
 //  - unless the cab has been silent for at least `restart_after_s` (the dead-man interval: the
