@@ -129,6 +129,7 @@ const std::pair<const char*, ViewOptions> kAidRows[] = {
     {"aids/see_through", {0, 0, true, false}},
     {"aids/mirror", {0, 0, false, true}},
     {"aids/see_through+mirror", {0, 0, true, true}},
+    {"aids/fork_camera", {0, 0, false, false, true}},
 };
 
 // The depth cues (RenderQuality) the quality rows compare; the driver view at 640x480.

@@ -352,6 +352,7 @@ fk_Controls CabProgram::controls_from(const CabCommand& c) const {
 bool same_switches(const fk_Controls& a, const fk_Controls& b) {
   return a.horn == b.horn && a.parking_brake == b.parking_brake && a.frames_wanted == b.frames_wanted &&
          a.camera == b.camera && a.rear_view == b.rear_view && a.see_through_mast == b.see_through_mast &&
+         a.fork_camera == b.fork_camera &&
          (a.accelerator == 0) == (b.accelerator == 0) && (a.brake == 0) == (b.brake == 0);
 }
 

@@ -67,6 +67,17 @@ int line_count(const std::string& text, int width_px, int size, int line) {
   return text.empty() ? 0 : n + 1;
 }
 
+// Where a pallet lies from the driver's seat, in words: "ahead on your left", "behind you".
+std::string bearing_words(double bearing_rad) {
+  const double deg = std::abs(bearing_rad) * kRad;
+  const char* side = bearing_rad > 0 ? "left" : "right";
+  if (deg <= 15) return "straight ahead";
+  if (deg <= 60) return std::string("ahead on your ") + side;
+  if (deg <= 120) return std::string("to your ") + side;
+  if (deg <= 165) return std::string("behind you on the ") + side;
+  return "behind you";
+}
+
 }  // namespace
 
 std::vector<HudRect> panel_rects(const std::vector<HudItem>& items) {
@@ -117,6 +128,7 @@ std::string end_words(const std::string& state, const std::string& reason) {
       case EndReason::kTimeLimit: return "Session over: time is up";
       case EndReason::kDuration: return "Session over: the session's time has run";
       case EndReason::kSignal: return "Session stopped by the school's system";
+      case EndReason::kCabGone: return "Session over: this cab sent no controls for too long";
       case EndReason::kNumericalFailure: break;  // said in the worker's own word, as any other
     }
   return "Session over (" + reason + ")";
@@ -201,7 +213,15 @@ std::string Hud::pallet_words() const { return pallet_hint().words; }
 
 Hud::PalletHint Hud::pallet_hint() const {
   const fk_TruckState& s = state_;
-  if (!s.pallet_ahead[0] || s.load_attached || s.pallet_distance_m > 3) return {};
+  if (s.load_attached) return {};
+  // The task's pallet is not ahead of the forks: where it is, so that the pupil drives to it.
+  if (s.task_pallet[0] && std::string(s.pallet_ahead) != s.task_pallet) {
+    std::string out = std::string("Pallet ") + s.task_pallet + " is " + format("%.1f m away, ", s.task_pallet_range_m) +
+                      bearing_words(s.task_pallet_bearing_rad);
+    if (s.task_pallet_height_m > 0.3) out += format(", %.1f m up", s.task_pallet_height_m);
+    return {out, false};
+  }
+  if (!s.pallet_ahead[0] || s.pallet_distance_m > 3) return {};
   const std::string name = std::string("Pallet ") + s.pallet_ahead;
   if (s.pallet_engaged) return {name + " in: lift the forks to take it", true};
   std::vector<std::string> todo;
@@ -421,6 +441,7 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
     yl += h + 4;
   };
   refused(cmd_.rear_view, aids::kRearView, "The rear-view mirror");
+  refused(cmd_.fork_camera, aids::kForkCamera, "The fork camera");
   refused(cmd_.see_through_mast, aids::kSeeThroughMast, "The see-through mast");
   refused(cmd_.chase_camera, aids::kChaseCamera, "The chase camera");
 

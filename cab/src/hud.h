@@ -88,7 +88,8 @@ class Hud {
   // Stability in words: green / amber / red and what makes it worse.
   std::string stability_words() const;
   Rgba stability_colour() const;
-  // Lining up with the pallet ahead (training): what to correct, or "" when there is none.
+  // Lining up with the pallet ahead (training; the task's pallet when its step names one): what to
+  // correct, where the task's pallet is when it is not ahead, or "" when there is none.
   std::string pallet_words() const;
 
  private:

@@ -57,6 +57,7 @@ fk_Controls CabCommand::sample() const {
   s.look_pitch_rad = look_pitch_rad;
   s.rear_view = rear_view;
   s.see_through_mast = see_through_mast;
+  s.fork_camera = fork_camera;
   return s;
 }
 
@@ -247,6 +248,7 @@ bool CabInput::handle(const SDL_Event& e) {
           pad_steers_ = false;
           kb_steer_ = cmd_.steer;  // from where the wheel is now, whoever turned it
           break;
+        case SDL_SCANCODE_V: cmd_.fork_camera = !cmd_.fork_camera; break;
         case SDL_SCANCODE_UP: case SDL_SCANCODE_DOWN: case SDL_SCANCODE_SPACE:
           cmd_.controller_lost = false;  // the pupil drives from the keyboard now
           break;
@@ -466,6 +468,7 @@ const std::vector<std::pair<std::string, std::string>>& key_map() {
       {"M", "see-through mast on / off (training)"},
       {"C", "chase camera on / off (training)"},
       {"Tab", "hide the display but the speed / show it all"},
+      {"V", "fork camera on / off: the view from between the forks, at the right (training)"},
       {"F1", "this help"},
       {"F12", "save a picture of the window"},
       {"Esc", "leave the cab"},

@@ -31,6 +31,7 @@ struct CabCommand {
   bool seated = true;      // the seat switch: standing up cuts the drive
   double look_yaw_rad = 0, look_pitch_rad = 0;  // the head turned: + left, + up
   bool rear_view = false, see_through_mast = false, chase_camera = false;  // asked for (training aids)
+  bool fork_camera = false;
   bool controller_lost = false;  // the controller in use was unplugged: the truck is braked
 
   // The drive torque share the truck gets: the pedal along the lever; none in neutral, with the

@@ -183,6 +183,25 @@ void print_scenario(const json& s) {
 
 // Prints the session's live state once a second (and keeps its newest frame) until it is over.
 // Asked for a frame and given none, it says why and exits 5: a script must not find no file.
+// The DDS Security folder a scripted cab on `cab` runs with: "" when the server's fleet meets in
+// clear DDS; under DDS Security, `given` (--security or FORKLIFT_SECURITY_DIR), else the server's
+// own folder when it is on this machine. Throws, saying what to give, when no folder holds the
+// cab's identity: such a cab could never reach its worker, whose session would fail.
+std::string drive_security(const json& fleet, const std::string& given, const std::string& cab) {
+  if (!fleet.value("dds_security", false)) return "";
+  const json server_dir = fleet.value("dds_security_dir", json());
+  const std::string folder = !given.empty() ? given : server_dir.is_string() ? server_dir.get<std::string>() : "";
+  const std::string identity = folder + "/identities/cab." + cab;
+  std::error_code ec;
+  if (!folder.empty() && std::filesystem::is_directory(identity, ec)) return folder;
+  throw std::runtime_error(
+      "the server runs its cabs under DDS Security, and the scripted cab needs the identity cab." + cab + " from the school's "
+      "security folder: " + (folder.empty() ? std::string("give --security DIR (or FORKLIFT_SECURITY_DIR)")
+                                           : folder + " has no " + identity.substr(folder.size() + 1) +
+                                                 (given.empty() ? " on this machine: give --security DIR" : "")) +
+      " (scripts/forklift-pki.sh add-cab makes it)");
+}
+
 int follow_session(const Client& cl, const std::string& id, const std::string& frame_file, double seconds) {
   const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds > 0 ? seconds : 1e9);
   uint32_t saved = 0;
@@ -308,11 +327,17 @@ int main(int argc, char** argv) {
                                     "chase_camera) or none; default all (an exam has none)");
   start->add_option("--drive", drive, "drive it with a scripted cab (forklift-cab --script)")->check(CLI::ExistingFile);
   start->add_option("--dds-domain", dds_domain, "DDS domain of the scripted cab (default: the server's)")->check(CLI::Range(0, 232));
+  std::string cab_security;
+  start->add_option("--security", cab_security,
+                    "with --drive on a server under DDS Security: the school's security folder holding the cab's identity "
+                    "(default FORKLIFT_SECURITY_DIR, else the server's own folder when the server runs on this machine)")
+      ->envname("FORKLIFT_SECURITY_DIR");
   std::string cab_frame;
   double time_limit = 0;
   start->add_option("--time-limit", time_limit, "end the session after this many seconds (the scenario's own limit if shorter)")->check(CLI::Range(0.0, 86400.0));
   start->add_option("--save-frame", cab_frame, "with --drive: the scripted cab saves the last frame it saw as PNG");
-  start->add_flag("--wait", wait, "wait until the session is over and print it");
+  start->add_flag("--wait", wait, "wait until the session is over and print it (exit 3 unless it ran to its end: failed, "
+                                  "aborted, or not over within 2 minutes)");
   auto* show = app.add_subcommand("session", "show a session's state, events and mark");
   show->add_option("ID", session)->required();
   auto* hist = app.add_subcommand("history", "a pupil's history as a table");
@@ -387,6 +412,17 @@ int main(int argc, char** argv) {
         for (std::string a; std::getline(list, a, ',');)
           if (!a.empty() && a != "none") body["aids"].push_back(a);
       }
+      // The scripted cab meets the worker in the server's domain (GET /api/fleet), unless told
+      // another, and under DDS Security when the server is: known before the session is made,
+      // so that a cab that could never speak to its worker starts no session.
+      std::vector<std::string> cab_args;
+      if (!drive.empty()) {
+        const json fleet = cl.call("GET", "/api/fleet");
+        if (dds_domain < 0) dds_domain = fleet.at("dds_domain").get<int>();
+        cab_args = {"--dds-domain", std::to_string(dds_domain)};
+        if (const std::string folder = drive_security(fleet, cab_security, cab); !folder.empty())
+          cab_args.insert(cab_args.end(), {"--security", folder});
+      }
       const json s = cl.call("POST", "/api/sessions", body);
       const std::string id = s["id"];
       if (!g_json) std::printf("session %s started on cab %s\n", id.c_str(), cab.c_str());
@@ -394,10 +430,7 @@ int main(int argc, char** argv) {
       if (!drive.empty()) {
         const std::string self = std::filesystem::canonical("/proc/self/exe").parent_path().string();
         std::vector<std::string> args = {self + "/forklift-cab", "--cab", cab, "--script", drive, "--wait-worker", "30"};
-        // The cab meets the worker in the server's domain (GET /api/fleet), unless told another.
-        if (dds_domain < 0) dds_domain = cl.call("GET", "/api/fleet").at("dds_domain").get<int>();
-        args.push_back("--dds-domain");
-        args.push_back(std::to_string(dds_domain));
+        args.insert(args.end(), cab_args.begin(), cab_args.end());
         if (!cab_frame.empty()) { args.push_back("--save-frame"); args.push_back(cab_frame); }
         const pid_t pid = fork();
         if (pid == 0) {
@@ -410,13 +443,18 @@ int main(int argc, char** argv) {
         }
         int status = 0;
         waitpid(pid, &status, 0);
+        if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+          std::fprintf(stderr, "forklift-menu: the scripted cab ended with an error (%s); waiting for session %s's end\n",
+                       WIFEXITED(status) ? ("exit status " + std::to_string(WEXITSTATUS(status))).c_str() : "killed by a signal",
+                       id.c_str());
         wait = true;
       }
       if (wait) {
         json cur;
+        std::optional<SessionPhase> phase;
         for (int i = 0; i < 600; ++i) {
           cur = cl.call("GET", "/api/sessions/" + id);
-          const std::optional<SessionPhase> phase = parse<SessionPhase>(cur["state"].get<std::string>());
+          phase = parse<SessionPhase>(cur["state"].get<std::string>());
           if (phase && is_terminal(*phase)) break;
           std::this_thread::sleep_for(std::chrono::milliseconds(200));
         }
@@ -431,6 +469,12 @@ int main(int argc, char** argv) {
         }
         if (g_json) print_json(cur);
         else std::printf("%s\n", session_line(cur).c_str());
+        // A session that did not run to its end is a failure for a script that started it.
+        if (phase != SessionPhase::kEnded) {
+          std::fprintf(stderr, "forklift-menu: session %s did not run to its end: %s\n", id.c_str(),
+                       phase && is_terminal(*phase) ? session_line(cur).c_str() : "it is not over after 2 minutes of waiting");
+          return 3;
+        }
       } else if (g_json) {
         print_json(s);
       }

@@ -44,6 +44,7 @@ const char* words(EndReason reason) {
     case EndReason::kAborted: return "aborted by an instructor";
     case EndReason::kSignal: return "stopped before its end";
     case EndReason::kNumericalFailure: return "the simulation failed";
+    case EndReason::kCabGone: return "the cab stopped sending its controls";
   }
   return "?";
 }

@@ -21,6 +21,8 @@ constexpr double kDriverFovDeg = 75;
 constexpr double kHeadLeanM = 0.15;
 constexpr double kMirrorPitchDownDeg = 8;
 constexpr double kMirrorFovDeg = 30;
+// The fork camera: above the forks' top face at their heel, looking down this much, this wide.
+constexpr double kForkCameraUpM = 0.06, kForkCameraPitchDownDeg = 4, kForkCameraFovDeg = 60;
 // The instructor's view: behind, above and to the left of the truck (in its heading frame, so
 // it neither rolls nor pitches with the chassis), looking down at about 45 degrees on a point
 // ahead of the front axle, so that both forks and their load show past the cab and the mast.
@@ -113,6 +115,17 @@ Camera mirror_camera(const BodyPoses& poses, const TruckShape& shape) {
   c.target = c.eye + R * Vector3d(-std::cos(p), 0, -std::sin(p));
   c.up = R.col(2);
   c.fov_y_deg = kMirrorFovDeg;
+  return c;
+}
+
+Camera fork_camera(const BodyPoses& poses) {
+  const Eigen::Matrix3d R = poses.carriage.linear();
+  const double p = kForkCameraPitchDownDeg * kDeg;
+  Camera c;
+  c.eye = poses.carriage * Vector3d(0, 0, kForkCameraUpM);
+  c.target = c.eye + R * Vector3d(std::cos(p), 0, -std::sin(p));
+  c.up = R.col(2);
+  c.fov_y_deg = kForkCameraFovDeg;
   return c;
 }
 

@@ -42,6 +42,11 @@ constexpr float kHaze = 0.35f;
 // top edge (share of the height), and its frame's width in pixels.
 constexpr double kMirrorWidthShare = 0.36, kMirrorHeightShare = 0.18, kMirrorTopShare = 0.025;
 constexpr int kMirrorFramePx = 3;
+// The fork camera's inset: its share of the frame's width and height, at the right edge, below
+// the corner where the cab's HUD lists faults (its top's and right side's distance from the
+// frame's edges, shares of the height and width).
+constexpr double kForkCameraWidthShare = 0.27, kForkCameraHeightShare = 0.27, kForkCameraTopShare = 0.30,
+                 kForkCameraRightShare = 0.02;
 const uint8_t kMirrorFrameColour[3] = {25, 25, 28};
 
 // Which parts of the truck a see-through view draws translucent: the overhead guard's (named
@@ -592,30 +597,36 @@ struct Renderer::Impl {
     stats.static_parts_drawn =
         draw_pass(render::view_projection(camera, width, height, extent), camera.eye, options.see_through_mast);
 
-    // The mirror: the same instances from the eye looking back, in a rectangle at the top centre
-    // (GL's y runs up; the framebuffer's rows run down), flipped left-right as a mirror shows it.
-    int mx = 0, my = 0, mw = 0, mh = 0;
+    // The insets, near the top (GL's y runs up; the framebuffer's rows run down). The mirror: the
+    // same instances from the eye looking back, at the top centre, flipped left-right as a mirror
+    // shows it. The fork camera: from between the forks, looking ahead, at the right edge.
+    const int top = int(kMirrorTopShare * height);
+    Inset mirror_at, fork_at;
     if (options.rear_view) {
-      mw = std::max(8, int(kMirrorWidthShare * width));
-      mh = std::max(6, int(kMirrorHeightShare * height));
-      mx = (width - mw) / 2;
-      const int top = int(kMirrorTopShare * height);
-      my = std::max(0, height - top - mh);
+      mirror_at.w = std::max(8, int(kMirrorWidthShare * width));
+      mirror_at.h = std::max(6, int(kMirrorHeightShare * height));
+      mirror_at.x = (width - mirror_at.w) / 2;
+      mirror_at.y = std::max(0, height - top - mirror_at.h);
       const Camera mirror = mirror_camera(poses, shape);
       const Eigen::Matrix4d flip = Eigen::Vector4d(-1, 1, 1, 1).asDiagonal();
-      glEnable(GL_SCISSOR_TEST);
-      glScissor(mx, my, mw, mh);
-      glViewport(mx, my, mw, mh);
-      glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
       glFrontFace(GL_CW);  // the flip turns every triangle's winding round
-      draw_pass(flip * render::view_projection(mirror, mw, mh, extent), mirror.eye, options.see_through_mast);
+      draw_inset(mirror_at, flip * render::view_projection(mirror, mirror_at.w, mirror_at.h, extent), mirror.eye,
+                 options.see_through_mast);
       glFrontFace(GL_CCW);
-      glDisable(GL_SCISSOR_TEST);
+    }
+    if (options.fork_camera) {
+      fork_at.w = std::max(8, int(kForkCameraWidthShare * width));
+      fork_at.h = std::max(6, int(kForkCameraHeightShare * height));
+      fork_at.x = std::max(0, width - int(kForkCameraRightShare * width) - fork_at.w);
+      fork_at.y = std::max(0, height - int(kForkCameraTopShare * height) - fork_at.h);
+      const Camera fork = fork_camera(poses);
+      draw_inset(fork_at, render::view_projection(fork, fork_at.w, fork_at.h, extent), fork.eye, false);
     }
     glBindVertexArray(0);
     glFinish();  // OSMesa copies the picture into `framebuffer` here
     gl::check_error("rendering a frame");
-    if (options.rear_view) frame_inset(mx, height - my - mh, mw, mh);
+    for (const Inset* i : {&mirror_at, &fork_at})
+      if (i->w > 0) frame_inset(i->x, height - i->y - i->h, i->w, i->h);
     return {width, height, framebuffer.data()};
   }
 
@@ -630,6 +641,19 @@ struct Renderer::Impl {
       dst[2] = src[2];
     }
     return image;
+  }
+
+  // A rectangle of the frame another camera draws into, in GL's pixels (y up); w 0: none.
+  struct Inset {
+    int x = 0, y = 0, w = 0, h = 0;
+  };
+  void draw_inset(const Inset& at, const Eigen::Matrix4d& view_projection, const Vector3d& eye, bool see_through) {
+    glEnable(GL_SCISSOR_TEST);
+    glScissor(at.x, at.y, at.w, at.h);
+    glViewport(at.x, at.y, at.w, at.h);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    draw_pass(view_projection, eye, see_through);
+    glDisable(GL_SCISSOR_TEST);
   }
 
   // One camera's picture into the current viewport, leaving out what the camera cannot see.

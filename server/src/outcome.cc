@@ -74,7 +74,7 @@ std::vector<Reason> session_reasons(const MarkingRules& rules, const store::Sess
       out.push_back({"repeated_serious_fault", "a serious fault " + std::to_string(n) + " times (more than " +
                                                    std::to_string(rules.max_same_serious_fault) + "), " + described(id)});
   }
-  if (counts.count("task_incomplete") && s.mode == Mode::kExam) out.push_back({"task_incomplete", "the task was not completed"});
+  if (counts.count("task_incomplete")) out.push_back({"task_incomplete", "the task was not completed"});
   const int pts = points ? *points : s.mark ? static_cast<int>(std::lround(rules.mark_start - *s.mark)) : 0;
   if (pts > rules.fail_above_points)
     out.push_back({"too_many_points", std::to_string(pts) + " penalty points, more than the " +

@@ -334,11 +334,15 @@ void session_routes(Routes& svr, Context& ctx) {
     const json recovered = {{"events", r.recovered_events}, {"scores", r.recovered_scores}};
     // Whether exams can be chained (and so certified), and how many were refused since start.
     const Fleet::ChainStatus chain = ctx.fleet->chain_status();
-    // The DDS domain its workers and cabs meet in: forklift-menu start --drive runs its cab there.
+    // The DDS domain its workers and cabs meet in, and whether under DDS Security (with the
+    // school's folder as this machine names it): forklift-menu start --drive runs its cab there,
+    // with the cab's identity from that folder when the menu runs on the server's machine.
+    const json security_dir = ctx.fleet->secure() ? json(ctx.fleet->config().security_dir) : json(nullptr);
     send_json(res, 200, {{"workers", workers}, {"cabs_online", cabs}, {"cabs", every}, {"hosts", hosts},
                          {"max_workers", ctx.fleet->config().max_workers}, {"local_workers", ctx.fleet->config().local_workers},
                          {"hosts_believed", ctx.fleet->hosts_believed()},
                          {"dds_domain", ctx.fleet->config().dds_domain},
+                         {"dds_security", ctx.fleet->secure()}, {"dds_security_dir", security_dir},
                          {"refused_samples", refused}, {"recovered_from_logs", recovered},
                          {"exam_chain", {{"ok", chain.problem.empty()}, {"problem", chain.problem.empty() ? json(nullptr) : json(chain.problem)},
                                          {"refused", chain.refused}}}});

@@ -11,6 +11,7 @@ ControlSample control_sample(const fk_Controls& c, const TruckParams& truck) {
   s.frames_wanted = c.frames_wanted, s.camera = c.camera, s.look_yaw_rad = c.look_yaw_rad;
   s.look_pitch_rad = c.look_pitch_rad, s.rear_view = c.rear_view, s.see_through_mast = c.see_through_mast;
   s.apply_at_sim_s = c.apply_at_sim_s;
+  s.fork_camera = c.fork_camera;
   return s;
 }
 
@@ -65,7 +66,8 @@ void ControlIntake::offer(const std::string& from_cab, const ControlSample& s, i
   last_valid_ = now;
   heard_ = true;
   view_.reset();
-  if (s.frames_wanted) view_ = ViewRequest{s.camera, s.look_yaw_rad, s.look_pitch_rad, s.see_through_mast, s.rear_view};
+  if (s.frames_wanted)
+    view_ = ViewRequest{s.camera, s.look_yaw_rad, s.look_pitch_rad, s.see_through_mast, s.rear_view, s.fork_camera};
 }
 
 std::optional<ControlSample> ControlIntake::take_pending() {

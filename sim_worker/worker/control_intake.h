@@ -32,7 +32,7 @@ class ControlIntake {
   struct ViewRequest {
     int camera = 0;
     double look_yaw_rad = 0, look_pitch_rad = 0;
-    bool see_through_mast = false, rear_view = false;
+    bool see_through_mast = false, rear_view = false, fork_camera = false;
   };
   static constexpr long kRefusalsSaid = 5;             // of each kind
   static constexpr double kScheduleAheadMaxS = 2.0;    // a row may come this far ahead of the truck

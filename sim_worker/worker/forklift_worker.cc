@@ -119,7 +119,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", FORKLIFT_VERSION);
   app.option_defaults()->always_capture_default();  // --help shows each option's default
   std::string cab, session, scenario_file, log_file, log_dir = default_log_dir(), dds_config, replay_file, security_dir, identity;
-  double rate = 60, deadman_s = 0.5, duration = 0, start_timeout = 0;
+  double rate = 60, deadman_s = 0.5, duration = 0, start_timeout = 120;
   std::optional<int> domain;
   FramePublisher::Options frames;
   std::string frame_size = "640x480", view_name_arg = "driver", mode = "training", aids_arg;
@@ -131,7 +131,10 @@ int main(int argc, char** argv) {
   app.add_option("--log-dir", log_dir, "where session logs go (default: FORKLIFT_LOG_DIR, or ~/.local/state/forklift/sessions)");
   app.add_option("--deadman-timeout", deadman_s, "silence after which the truck is stopped, s")->check(CLI::Range(0.05, 60.0));
   app.add_option("--duration", duration, "end the session after this much sim time, s (0: run until signalled)")->check(CLI::Range(0.0, 1e6));
-  app.add_option("--start-timeout", start_timeout, "fail if no cab speaks within this many seconds (0: wait)")->check(CLI::Range(0.0, 1e6));
+  app.add_option("--start-timeout", start_timeout,
+                 "fail if no cab speaks within this many seconds, and end the session (cab_gone) if its cab, once heard, "
+                 "then sends nothing for longer (0: wait for ever)")
+      ->check(CLI::Range(0.0, 1e6));
   app.add_option("--dds-domain", domain, "DDS domain id (default FORKLIFT_DDS_DOMAIN or 0)")->check(CLI::Range(0, 232));
   app.add_option("--dds-config", dds_config, "Cyclone DDS configuration file (default: loopback)")->check(CLI::ExistingFile);
   app.add_option("--security", security_dir, "the school's DDS Security folder (scripts/forklift-pki.sh; default FORKLIFT_SECURITY_DIR)");
@@ -143,7 +146,8 @@ int main(int argc, char** argv) {
   app.add_option("--view", view_name_arg, "the cab's camera 0: driver, chase or plan (an exam: driver only)")
       ->check(CLI::IsMember({"driver", "chase", "plan"}));
   app.add_option("--aids", aids_arg,
-                 "training aids a cab may ask for: a comma list of rear_view, see_through_mast, chase_camera, or all or none "
+                 "training aids a cab may ask for: a comma list of rear_view, see_through_mast, chase_camera, fork_camera, or all or "
+                 "none "
                  "(training default: all; an exam allows none)");
   app.add_flag("--jpeg", frames.jpeg, "publish JPEG frames (for cabs on a real network) instead of raw RGB");
   app.add_option("--jpeg-quality", frames.jpeg_quality, "JPEG quality of --jpeg frames, 1-100")->check(CLI::Range(1, 100));
@@ -402,6 +406,14 @@ int main(int argc, char** argv) {
     while (!g_stop && !end_reason) {
       take_controls();
       const SessionState& state = run.state();
+      // The cab is gone (the pupil closed it, or its link failed), not merely quiet: the dead man
+      // has long stopped the truck; the session ends rather than wait for ever.
+      if (const double silence = intake.silence_s(Clock::now()); start_timeout > 0 && silence > start_timeout) {
+        log_line(cab, "no controls from cab " + cab + " for " + std::to_string(silence) + " s, longer than the start timeout of " +
+                          std::to_string(start_timeout) + " s: the cab is gone, ending the session");
+        end_reason = EndReason::kCabGone;
+        break;
+      }
       const double wall = std::chrono::duration<double>(Clock::now() - start).count();
       if (wall - std::max(wake_at_s, state.t_s) > max_lag_s) {
         max_lag_s = wall - std::max(wake_at_s, state.t_s);

@@ -54,7 +54,7 @@ class FramePublisher {
   };
   static std::optional<Request> request_of(const std::optional<ControlIntake::ViewRequest>& v) {
     if (!v) return std::nullopt;
-    return Request{v->camera, {v->look_yaw_rad, v->look_pitch_rad, v->see_through_mast, v->rear_view}};
+    return Request{v->camera, {v->look_yaw_rad, v->look_pitch_rad, v->see_through_mast, v->rear_view, v->fork_camera}};
   }
   // `say`: how a renderer that cannot start is told (the worker's stderr).
   FramePublisher(const SessionModel& model, dds::Participant& participant, const std::string& cab, Options opt,
@@ -113,6 +113,7 @@ class FramePublisher {
     ViewOptions v = r.view;
     v.rear_view = v.rear_view && (aids & aids::kRearView);
     v.see_through_mast = v.see_through_mast && (aids & aids::kSeeThroughMast);
+    v.fork_camera = v.fork_camera && (aids & aids::kForkCamera);
     const View view = r.camera == 1 && (aids & aids::kChaseCamera) ? View::kChase : camera0;
     return {view, v};
   }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <climits>
+#include <cmath>
 
 #include "forklift/collision/collision.h"
 #include "forklift/dynamics/stability.h"
@@ -45,9 +46,22 @@ fk_TruckState truck_state(const SessionRun& run, const std::string& cab, const s
   dds::set_string(s.task_step, steps_done < steps_total ? model.scene.task.steps[steps_done].description : "");
   s.time_left_s = time_limit_s > 0 ? std::max(0.0, time_limit_s - state.t_s) : -1.0;
   s.aids = aids;
-  // Lining up with a pallet: a learning aid, never in an exam.
-  if (model.mode == Mode::kTraining)
-    if (const auto a = pallet_approach(model.scene, state.handling.pallets(), poses, model.shape)) {
+  // Lining up with a pallet: a learning aid, never in an exam. It follows the task: the pallet
+  // the current step is about, wherever it is (another nearer is not the one to take); with no
+  // such step, the nearest ahead.
+  if (model.mode != Mode::kTraining) return s;
+  const std::string task_pallet = steps_done < steps_total ? model.scene.task.steps[steps_done].pallet : "";
+  const PalletState* p = task_pallet.empty() ? nullptr : state.handling.pallet(task_pallet);
+  if (p && !p->on_forks) {
+    const Eigen::Vector3d heel = poses.carriage.translation(), centre = p->pose.translation();
+    const Eigen::Vector2d d = (centre - heel).head<2>();
+    dds::set_string(s.task_pallet, task_pallet);
+    s.task_pallet_range_m = d.norm();
+    s.task_pallet_bearing_rad = std::remainder(std::atan2(d.y(), d.x()) - o.q[kAwc], 2 * M_PI);
+    s.task_pallet_height_m = centre.z() - model.scene.ground.height(centre.x(), centre.y());
+  }
+  if (task_pallet.empty() || (p && !p->on_forks))
+    if (const auto a = pallet_approach(model.scene, state.handling.pallets(), poses, model.shape, 3.0, task_pallet)) {
       dds::set_string(s.pallet_ahead, a->pallet);
       s.pallet_distance_m = a->distance_m;
       s.pallet_height_m = a->height_m;

@@ -12,8 +12,9 @@
 namespace forklift::worker {
 
 // The truck's state after the run's last tick: pose, speed, wheel loads, the head-up display's
-// figures (fork height, speed limit, stability, task step, time left, lining up with a pallet in
-// training), the cab's sample applied and the dead man. `time_limit_s` <= 0: no limit; `aids`:
+// figures (fork height, speed limit, stability, task step, time left; in training, lining up with
+// the pallet the task's step is about, or where it is, else with the nearest pallet ahead), the
+// cab's sample applied and the dead man. `time_limit_s` <= 0: no limit; `aids`:
 // the training aids granted (aids::Bit).
 fk_TruckState truck_state(const SessionRun& run, const std::string& cab, const std::string& session, double time_limit_s,
                           uint8_t aids);

@@ -107,6 +107,7 @@ TEST(Hud, TheSessionsEndIsSaidInWordsAndAnAbortNamesTheInstructor) {
   hud.on_status("ended", "aborted", 20);
   EXPECT_TRUE(has_text(hud.draw_list(960, 720, 20.5), "Session aborted by your instructor"));
   EXPECT_EQ(end_words("ended", "task_complete"), "Session over: task complete");
+  EXPECT_EQ(end_words("ended", "cab_gone"), "Session over: this cab sent no controls for too long");
 }
 
 TEST(Hud, AnAidTheSessionDoesNotAllowIsSaidToBeNotAllowed) {
@@ -123,17 +124,22 @@ TEST(Hud, AnAidTheSessionDoesNotAllowIsSaidToBeNotAllowed) {
   EXPECT_FALSE(has_text(hud.draw_list(960, 720, 1), "not allowed"));
 }
 
-TEST(Hud, LiningUpWithAPalletSaysWhatToCorrect) {
-  Hud hud = make_hud();
-  fk_TruckState s = moving();
-  dds::set_string(s.pallet_ahead, "P3");
-  s.pallet_distance_m = 1.24;
-  s.pallet_height_m = 0.06;  // 6 cm too high
-  s.pallet_lateral_m = -0.04;  // 4 cm right of the pockets
+// `id` ahead of the forks, with a EUR pallet's pockets' room.
+void pallet_ahead(fk_TruckState& s, const char* id, double distance_m, double height_m, double lateral_m) {
+  dds::set_string(s.pallet_ahead, id);
+  s.pallet_distance_m = distance_m;
+  s.pallet_height_m = height_m;
+  s.pallet_lateral_m = lateral_m;
   s.pallet_angle_rad = 0.01;
   s.pallet_height_tolerance_m = 0.03;
   s.pallet_lateral_tolerance_m = 0.025;
   s.pallet_angle_tolerance_rad = 10 * M_PI / 180;
+}
+
+TEST(Hud, LiningUpWithAPalletSaysWhatToCorrect) {
+  Hud hud = make_hud();
+  fk_TruckState s = moving();
+  pallet_ahead(s, "P3", 1.24, 0.06, -0.04);  // 6 cm too high, 4 cm right of the pockets
   hud.on_state(s);
   EXPECT_EQ(hud.pallet_words(), "Pallet P3 1.2 m ahead: lower the forks 6 cm, move 4 cm left");
   s.pallet_height_m = 0.01;
@@ -146,6 +152,31 @@ TEST(Hud, LiningUpWithAPalletSaysWhatToCorrect) {
   s.load_attached = true;  // carrying one: no hint
   hud.on_state(s);
   EXPECT_EQ(hud.pallet_words(), "");
+}
+
+// The hint follows the task: the pallet its step is about, ahead or not; where it is in words
+// when it is not ahead of the forks.
+TEST(Hud, ThePalletHintNamesTheTasksPalletAndSaysWhereItIs) {
+  Hud hud = make_hud();
+  fk_TruckState s = moving();
+  dds::set_string(s.task_pallet, "P3");
+  s.task_pallet_range_m = 6.24;
+  s.task_pallet_bearing_rad = 100 * M_PI / 180;
+  s.task_pallet_height_m = 1.8;  // on a rack's second level
+  hud.on_state(s);
+  EXPECT_EQ(hud.pallet_words(), "Pallet P3 is 6.2 m away, to your left, 1.8 m up");
+  EXPECT_TRUE(has_text(hud.draw_list(960, 720, 1), "Pallet P3 is 6.2 m away, to your left, 1.8 m up"));
+  s.task_pallet_bearing_rad = -30 * M_PI / 180;
+  s.task_pallet_height_m = 0;  // on the floor
+  hud.on_state(s);
+  EXPECT_EQ(hud.pallet_words(), "Pallet P3 is 6.2 m away, ahead on your right");
+  s.task_pallet_bearing_rad = 170 * M_PI / 180;
+  hud.on_state(s);
+  EXPECT_EQ(hud.pallet_words(), "Pallet P3 is 6.2 m away, behind you");
+  // Ahead of the forks: the lining-up words, about it.
+  pallet_ahead(s, "P3", 0.3, -0.04, 0.1);
+  hud.on_state(s);
+  EXPECT_EQ(hud.pallet_words(), "Pallet P3 0.3 m ahead: raise the forks 4 cm, move 10 cm right");
 }
 
 TEST(Hud, F1ShowsTheKeyMap) {

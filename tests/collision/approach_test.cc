@@ -48,6 +48,16 @@ TEST_F(Ahead, SaysHowMuchTooHighTooFarLeftAndTurned) {
   EXPECT_GT(turned->lateral_m, 0.0);  // turned left, the forks' line reaches the face left of centre
 }
 
+TEST_F(Ahead, ANamedPalletAloneIsLookedAt) {
+  const StateVector s = settled(d, 0, 0, 0, 0.09);
+  const BodyPoses poses = body_poses(truck(), coordinates(s));
+  const auto named = pallet_approach(scene, warehouse.initial_handling().pallets(), poses, truck_shape(), 3.0, "P1");
+  ASSERT_TRUE(named);
+  EXPECT_EQ(named->pallet, "P1");
+  EXPECT_FALSE(pallet_approach(scene, warehouse.initial_handling().pallets(), poses, truck_shape(), 3.0, "P2"))
+      << "P1 is ahead, but the one asked about is another";
+}
+
 TEST_F(Ahead, NothingBehindTheForksOrOutOfRange) {
   EXPECT_FALSE(at(0, 180, 0.09));     // facing away
   EXPECT_FALSE(at(0, 0, 0.09, -4.0)); // 5 m short of it

@@ -150,7 +150,7 @@ TEST(CabHud, TruckStateCarriesTheHeadUpDisplaysFigures) {
     EXPECT_LT(s->stability_fraction, 1.5);
     EXPECT_GE(s->stability_edge, 0);
     EXPECT_LE(s->stability_edge, 2);
-    EXPECT_EQ(s->aids, 7) << "a training worker grants every aid by default";
+    EXPECT_EQ(s->aids, 15) << "a training worker grants every aid by default";
   }
   EXPECT_GT(b.sim_time_s, a.sim_time_s);
   EXPECT_LT(b.time_left_s, a.time_left_s);
@@ -310,45 +310,79 @@ TEST(CabFrames, NotDrawnWhileNothingReadsThem) {
   EXPECT_LE(output_json(w)["frames"].get<long>() - received, 5);
 }
 
+namespace {
+
+// A 320x240 frame of the standing truck, the cab asking for an aid (`ask` sets it in the sample),
+// from a worker given `args`; `aids`: the aids its states say were granted.
+std::vector<uint8_t> aid_frame(const std::string& session, std::vector<std::string> args,
+                               const std::function<void(fk_Controls&)>& ask, int* aids) {
+  args.insert(args.end(), {"--frame-size", "320x240"});
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, session, args);
+  Cab cab(domain);
+  EXPECT_TRUE(cab.wait_worker(20)) << w.err();
+  cab.sample.frames_wanted = true;
+  ask(cab.sample);
+  std::vector<uint8_t> rgb;
+  EXPECT_GT(cab.drive_until_frames(30, &rgb), 0) << w.err();
+  cab.drive(0.3);
+  cab.take_frames(&rgb);  // a frame drawn once the aid was asked for, whatever came first
+  const auto states = cab.take_states();
+  *aids = states.empty() ? -1 : states.back().aids;
+  w.signal(SIGTERM);
+  EXPECT_EQ(w.wait(20), 0) << w.err();
+  return rgb;
+}
+
+// The cab asking for an aid from a worker that grants every aid, and from one given
+// `refusing_args`: the two frames and the aids their states said were granted.
+struct AidFrames {
+  std::vector<uint8_t> granted, refused;
+  int granted_aids = 0, refused_aids = 0;
+  bool whole() const { return granted.size() == 320u * 240 * 3 && refused.size() == granted.size(); }
+};
+AidFrames aid_frames(const std::string& name, const std::vector<std::string>& refusing_args,
+                     const std::function<void(fk_Controls&)>& ask) {
+  AidFrames f;
+  f.granted = aid_frame(name + "-granted", {}, ask, &f.granted_aids);
+  f.refused = aid_frame(name + "-refused", refusing_args, ask, &f.refused_aids);
+  return f;
+}
+
+// Mean difference per byte between two 320x240 frames in rows [y0, y1) and columns [x0, x1).
+double mean_diff(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, int y0, int y1, int x0, int x1) {
+  double sum = 0;
+  long n = 0;
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x)
+      for (int c = 0; c < 3; ++c, ++n) sum += std::abs(int(a[(y * 320 + x) * 3 + c]) - int(b[(y * 320 + x) * 3 + c]));
+  return sum / n;
+}
+
+}  // namespace
+
 TEST(CabFrames, ARearViewIsDrawnOnlyWhenTheWorkerAllowsIt) {
   // The same standing truck, the cab asking for the mirror: granted (the default aids) it draws
-  // the inset at the top centre; with --aids none the picture is the plain one.
-  auto frame = [](const std::string& session, std::vector<std::string> args, int* aids) {
-    args.insert(args.end(), {"--frame-size", "320x240"});
-    const int domain = forklift::test::free_domain();
-    Process w = worker(domain, session, args);
-    Cab cab(domain);
-    EXPECT_TRUE(cab.wait_worker(20)) << w.err();
-    cab.sample.frames_wanted = true;
-    cab.sample.rear_view = true;
-    std::vector<uint8_t> rgb;
-    EXPECT_GT(cab.drive_until_frames(30, &rgb), 0) << w.err();
-    cab.drive(0.3);
-    cab.take_frames(&rgb);  // a frame drawn once the inset was asked for, whatever came first
-    const auto states = cab.take_states();
-    *aids = states.empty() ? -1 : states.back().aids;
-    w.signal(SIGTERM);
-    EXPECT_EQ(w.wait(20), 0) << w.err();
-    return rgb;
-  };
-  int granted_aids = 0, refused_aids = 0;
-  const std::vector<uint8_t> granted = frame("mirror-granted", {}, &granted_aids);
-  const std::vector<uint8_t> refused = frame("mirror-refused", {"--aids", "see_through_mast,chase_camera"}, &refused_aids);
-  ASSERT_EQ(granted.size(), 320u * 240 * 3);
-  ASSERT_EQ(refused.size(), granted.size());
-  EXPECT_EQ(granted_aids, 7);
-  EXPECT_EQ(refused_aids, 2 | 4);
-  // Mean difference per byte in the inset's rows and columns, and below it.
-  auto mean_diff = [&](int y0, int y1, int x0, int x1) {
-    double sum = 0;
-    long n = 0;
-    for (int y = y0; y < y1; ++y)
-      for (int x = x0; x < x1; ++x)
-        for (int c = 0; c < 3; ++c, ++n) sum += std::abs(int(granted[(y * 320 + x) * 3 + c]) - int(refused[(y * 320 + x) * 3 + c]));
-    return sum / n;
-  };
-  EXPECT_GT(mean_diff(10, 45, 120, 200), 10.0) << "the granted frame has its mirror";
-  EXPECT_LT(mean_diff(80, 240, 0, 320), 1.0) << "and is the same picture below it";
+  // the inset at the top centre; without it among the aids the picture is the plain one.
+  const AidFrames f = aid_frames("mirror", {"--aids", "see_through_mast,chase_camera"}, [](fk_Controls& c) { c.rear_view = true; });
+  ASSERT_TRUE(f.whole());
+  EXPECT_EQ(f.granted_aids, 15);
+  EXPECT_EQ(f.refused_aids, 2 | 4);
+  EXPECT_GT(mean_diff(f.granted, f.refused, 10, 45, 120, 200), 10.0) << "the granted frame has its mirror";
+  EXPECT_LT(mean_diff(f.granted, f.refused, 80, 240, 0, 320), 1.0) << "and is the same picture below it";
+}
+
+TEST(CabFrames, AForkCameraIsDrawnOnlyWhenTheWorkerAllowsItAndNeverInAnExam) {
+  // The cab asking for the fork camera (key V): granted, the worker draws the view from between
+  // the forks into the frame it sends, an inset at the right edge (x 0.71-0.98, y 0.30-0.57 of
+  // the frame); with no aids (as an exam's worker grants none) the picture is the plain one.
+  const AidFrames f = aid_frames("fork", {"--aids", "none"}, [](fk_Controls& c) { c.fork_camera = true; });
+  ASSERT_TRUE(f.whole());
+  EXPECT_EQ(f.granted_aids & 8, 8);
+  EXPECT_EQ(f.refused_aids, 0);
+  EXPECT_GT(mean_diff(f.granted, f.refused, 76, 133, 230, 310), 10.0) << "the granted frame has its fork camera";
+  EXPECT_LT(mean_diff(f.granted, f.refused, 0, 70, 0, 320), 1.0) << "and is the same picture above it";
+  EXPECT_LT(mean_diff(f.granted, f.refused, 140, 240, 0, 320), 1.0) << "and below it";
 }
 
 TEST(CabControls, BadViewRequestsAreRefusedWithTheirReason) {

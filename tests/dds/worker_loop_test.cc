@@ -68,6 +68,27 @@ bool wait_matched(dds::Writer<fk_Controls>& w, double s) {
   return w.matched() > 0;
 }
 
+// A cab that is no process: the test's own participant writes its controls, 50 a second while it
+// speaks, nothing between.
+class SpeakingCab {
+ public:
+  SpeakingCab(int domain, const std::string& cab)
+      : participant(dds::DomainSettings::resolve(domain, "")), out_(participant, dds::cab_partition(cab)), cab_(cab) {}
+  bool matched(double s) { return wait_matched(out_, s); }
+  void speak(double seconds, double accel) {
+    for (int i = 0; i < seconds * 50; ++i) {
+      out_.write(controls(cab_, ++seq_, accel));
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  }
+  dds::Participant participant;
+
+ private:
+  dds::Writer<fk_Controls> out_;
+  std::string cab_;
+  uint32_t seq_ = 0;
+};
+
 }  // namespace
 
 TEST(WorkerLoop, ScriptedCabDrivesManoeuvre17LikeTheOfflineModelAndReplaysExactly) {
@@ -251,19 +272,11 @@ TEST(WorkerLoop, EvaluateReplayOfAWorkerLogWithADeadManStopGivesTheWorkersMark) 
   const int domain = forklift::test::free_domain();
   Process w = worker(domain, "c1", "dm", {"--duration", "4", "--deadman-timeout", "0.5", "--scenario",
                                           kData + "/scenarios/first_drive_yard.json"});
-  dds::Participant p(dds::DomainSettings::resolve(domain, ""));
-  dds::Writer<fk_Controls> out(p, dds::cab_partition("c1"));
-  ASSERT_TRUE(wait_matched(out, 10)) << w.err();
-  uint32_t seq = 0;
-  auto speak = [&](double seconds, double accel) {
-    for (int i = 0; i < seconds * 50; ++i) {
-      out.write(controls("c1", ++seq, accel));
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-  };
-  speak(0.8, 0.6);
+  SpeakingCab cab(domain, "c1");
+  ASSERT_TRUE(cab.matched(10)) << w.err();
+  cab.speak(0.8, 0.6);
   std::this_thread::sleep_for(std::chrono::milliseconds(1200));  // silence beyond the 0.5 s dead man
-  speak(0.6, 0.3);                                               // and the cab speaks again
+  cab.speak(0.6, 0.3);                                           // and the cab speaks again
   ASSERT_EQ(w.wait(20), 0) << w.err();
   const json live = output_json(w);
   EXPECT_GE(live["deadman_stops"].get<int>(), 1);
@@ -279,6 +292,51 @@ TEST(WorkerLoop, EvaluateReplayOfAWorkerLogWithADeadManStopGivesTheWorkersMark) 
   EXPECT_EQ(again["score"]["passed"], live["score"]["passed"]);
   EXPECT_EQ(again["score"]["points"], live["score"]["points"]);
   EXPECT_EQ(again["score"]["counts"], live["score"]["counts"]);
+}
+
+// A worker started by hand, its cab closed by the pupil: a silence shorter than the start timeout
+// is the dead man's (the truck stops, and drives on when the cab speaks again); a longer one ends
+// the session as "cab_gone", said in words on stderr, in the status, the log and the summary,
+// whose mark says the task left undone is not passed. The log replays to the same end.
+TEST(WorkerLoop, AWorkerWhoseCabIsGoneLongerThanItsStartTimeoutEndsTheSession) {
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, "c1", "gone", {"--start-timeout", "4", "--deadman-timeout", "0.5", "--scenario",
+                                            kData + "/scenarios/first_drive_yard.json"});
+  SpeakingCab cab(domain, "c1");
+  dds::Reader<fk_SessionStatus> status(cab.participant, dds::worker_partition("c1"));
+  ASSERT_TRUE(cab.matched(10)) << w.err();
+  cab.speak(0.8, 0.4);
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // the dead man's, well short of the 4 s
+  ASSERT_TRUE(w.running()) << "a short silence ends nothing: " << w.err();
+  cab.speak(0.6, 0.0);
+  const auto closed = std::chrono::steady_clock::now();  // the pupil closes the cab
+  ASSERT_EQ(w.wait(30), 0) << w.err();
+  EXPECT_GE(std::chrono::duration<double>(std::chrono::steady_clock::now() - closed).count(), 4.0);
+  EXPECT_NE(w.err().find("the cab is gone, ending the session"), std::string::npos) << w.err();
+  const json live = output_json(w);
+  EXPECT_EQ(live["score"]["end_reason"], "cab_gone");
+  EXPECT_EQ(live["deadman_stops"], 2) << "one for the short silence, one as the cab went";
+  EXPECT_EQ(live["score"]["task_completed"], false);
+  EXPECT_EQ(live["score"]["passed"], false) << "the task was not done: " << live["score"].dump();
+  std::string state, reason;
+  status.take_each([&](const fk_SessionStatus& s) {
+    if (std::string(s.session_id) == "gone") state = s.state, reason = s.reason;
+  });
+  EXPECT_EQ(state, "ended");
+  EXPECT_EQ(reason, "cab_gone");
+  const ControlLog log = read_control_log(tmp("gone.ctl"));
+  EXPECT_EQ(log.end_reason(), "cab_gone");
+  EXPECT_EQ(log.deadman.size(), 3u) << "stopped, resumed, stopped";
+  EXPECT_EQ(std::count_if(log.worker_events.begin(), log.worker_events.end(),
+                          [](const auto& e) { return e.second == kControlsResumedEvent; }),
+            1);
+
+  Process ev({kBin + "/forklift-sim", "evaluate", "--replay", tmp("gone.ctl")}, tmp("gone.evaluate"));
+  ASSERT_EQ(ev.wait(60), 0) << ev.err();
+  const json again = output_json(ev);
+  EXPECT_EQ(again["end_reason"], "cab_gone");
+  EXPECT_EQ(again["score"]["passed"], live["score"]["passed"]);
+  EXPECT_EQ(again["score"]["mark"], live["score"]["mark"]);
 }
 
 TEST(WorkerLoop, AnotherCabsControlsNeverReachThisWorker) {

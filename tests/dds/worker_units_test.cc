@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
+#include <memory>
 
 #include "control_intake.h"
 #include "forklift/session/session_run.h"
@@ -113,6 +115,49 @@ TEST_F(Intake, TheDeadManForgetsASilentCabsWishes) {
   intake.forget();
   EXPECT_FALSE(intake.view_request());
   EXPECT_FALSE(intake.take_scheduled(1000));
+}
+
+// The lining-up hint follows the task: with the task's pallet behind the truck and another
+// pallet square ahead of its forks, the state names the task's pallet and where it is, never the
+// one ahead; once the truck faces the task's pallet, the hint is about it.
+// A run on a floor where P1 lies behind the truck on its left and P2 square ahead of its forks,
+// one tick in; `task`: the scenario's "task" JSON, or "" for none.
+std::unique_ptr<SessionRun> two_pallets(const std::string& name, const std::string& task) {
+  const std::string scenario = testing::TempDir() + "/" + name + ".json";
+  std::ofstream(scenario) << R"({
+    "name": ")" << name << R"(", "description": "P1 behind on the left; P2 square ahead of the forks.",
+    "truck": "trucks/linde_e16c.json", "start": {"x_m": 0.0, "y_m": 0.0, "yaw_deg": 0}, "floor_m": [-20, -20, 20, 20],
+    "objects": [
+      {"id": "P1", "kind": "pallet", "x_m": -6.0, "y_m": 6.0, "yaw_deg": 0, "pallet": {"load_mass_kg": 300, "load_size_m": [1.0, 0.8, 0.5]}},
+      {"id": "P2", "kind": "pallet", "x_m": 4.0, "y_m": 0.0, "yaw_deg": 0, "pallet": {"load_mass_kg": 300, "load_size_m": [1.0, 0.8, 0.5]}}
+    ])" << (task.empty() ? "" : ",\n    \"task\": " + task) << "\n  }";
+  SessionSpec spec;
+  spec.scenario_file = scenario;
+  const SessionModel model = load_session_model(spec, kData);
+  auto run = std::make_unique<SessionRun>(model, initial_state(model));
+  run->tick();
+  return run;
+}
+
+// The lining-up hint follows the task: with the task's pallet behind the truck and another
+// pallet square ahead of its forks, the state names the task's pallet and where it is, never the
+// one ahead; with no task, the nearest ahead, as before.
+TEST(TruckState, ThePalletHintIsAboutTheTasksPalletNotTheNearestAhead) {
+  const auto run = two_pallets("two_pallets",
+                                     R"({"summary": "Take P1", "steps": [{"kind": "take", "description": "Take P1", "pallet": "P1"}]})");
+  const fk_TruckState s = truck_state(*run, "c1", "s1", 0, 3);
+  EXPECT_EQ(std::string(s.pallet_ahead), "") << "P2 is ahead, but the task is about P1";
+  EXPECT_EQ(std::string(s.task_pallet), "P1");
+  EXPECT_GT(s.task_pallet_bearing_rad, 100 * M_PI / 180);  // behind, on the left
+  EXPECT_LT(s.task_pallet_bearing_rad, 170 * M_PI / 180);
+  EXPECT_GT(s.task_pallet_range_m, 7.0);  // about 9 m from the carriage
+  EXPECT_LT(s.task_pallet_range_m, 11.0);
+  EXPECT_NEAR(s.task_pallet_height_m, 0.0, 0.01);
+
+  const auto free_run = two_pallets("two_pallets_no_task", "");
+  const fk_TruckState f = truck_state(*free_run, "c1", "s1", 0, 3);
+  EXPECT_EQ(std::string(f.pallet_ahead), "P2");
+  EXPECT_EQ(std::string(f.task_pallet), "");
 }
 
 TEST(TruckState, TellsTheHudWhatTheRunHolds) {

@@ -52,7 +52,7 @@ TEST(Rules, TheShippedFileHasEveryRuleWithWordsAndASource) {
   EXPECT_EQ(r.scheme.fail_above_points, 40);
   EXPECT_EQ(r.scheme.max_same_serious_fault, 3);
   EXPECT_EQ(r.scheme.mark_start, 100);
-  EXPECT_TRUE(r.scheme.task_required_in_exam);
+  EXPECT_TRUE(r.scheme.task_required);
   for (const char* id : {"collision_pedestrian", "violent_collision", "tip_over", "load_dropped", "overload", "unsafe_stacking",
                          "time_limit"})
     EXPECT_TRUE(r.find(id)->automatic_fail) << id;

@@ -27,7 +27,7 @@ void round_trips(std::initializer_list<E> all) {
 
 TEST(Vocabulary, EveryNameParsesBackAndNothingElseParses) {
   round_trips({EndReason::kDuration, EndReason::kTimeLimit, EndReason::kTaskComplete, EndReason::kAborted,
-               EndReason::kSignal, EndReason::kNumericalFailure});
+               EndReason::kSignal, EndReason::kNumericalFailure, EndReason::kCabGone});
   round_trips({SessionPhase::kStarting, SessionPhase::kWaiting, SessionPhase::kRunning, SessionPhase::kEnded,
                SessionPhase::kAborted, SessionPhase::kFailed});
   round_trips({Mode::kTraining, Mode::kExam});
@@ -39,6 +39,7 @@ TEST(Vocabulary, EveryNameParsesBackAndNothingElseParses) {
 TEST(Vocabulary, TheNamesAreTheWireAndLogWords) {
   EXPECT_STREQ(name(EndReason::kTimeLimit), "time_limit");
   EXPECT_STREQ(name(EndReason::kNumericalFailure), "numerical_failure");
+  EXPECT_STREQ(name(EndReason::kCabGone), "cab_gone");
   EXPECT_STREQ(name(SessionPhase::kEnded), "ended");
   EXPECT_STREQ(name(Mode::kExam), "exam");
   EXPECT_STREQ(name(Outcome::kTimedOut), "timed_out");

@@ -708,6 +708,38 @@ TEST(Renderer, RearViewInsetShowsWhatIsBehindMirroredAtTheTopCentre) {
   EXPECT_TRUE(std::equal(plain.rgb.begin() + from, plain.rgb.end(), mirror.rgb.begin() + from));
 }
 
+// The fork camera: a pallet square ahead of the forks, in line with them, fills the middle of an
+// inset at the right edge, seen from between the forks; the rest of the picture is the plain one.
+TEST(Renderer, ForkCameraInsetShowsThePalletAheadOfTheForksAtTheRightEdge) {
+  Scene with = floor_scene(), without = floor_scene();
+  with.objects.push_back(pallet_at("P1", 3.0, 0));  // its near face a little beyond the fork tips
+  without.objects.push_back(rack_at(-8, 0));        // something in the scene, behind the truck
+  Renderer r(with, panel_mast_shape(), truck()), empty(without, panel_mast_shape(), truck());
+  const RenderState state = truck_at(0, 0, 0);
+  const ViewOptions fork_camera{0, 0, false, false, true};
+  const Image plain = r.render(state, View::kDriver, ViewOptions{});
+  const Image inset = r.render(state, View::kDriver, fork_camera);
+  const Image nothing = empty.render(state, View::kDriver, fork_camera);
+  dump("fork_camera", inset);
+  // The inset: the right 0.71-0.98 of the width, 0.30-0.57 of the height down; its middle.
+  const double x0 = 0.75, x1 = 0.94, y0 = 0.34, y1 = 0.53;
+  // What the pallet changes there: much of it (the pallet's deck and its load), the deck's blue.
+  long changed = 0, n = 0;
+  for (int y = int(y0 * inset.height); y < int(y1 * inset.height); ++y)
+    for (int x = int(x0 * inset.width); x < int(x1 * inset.width); ++x, ++n) {
+      const uint8_t *a = inset.pixel(x, y), *b = nothing.pixel(x, y);
+      if (std::abs(a[0] - b[0]) + std::abs(a[1] - b[1]) + std::abs(a[2] - b[2]) > 60) ++changed;
+    }
+  EXPECT_GT(changed, n / 4) << changed << " of " << n << " pixels";
+  EXPECT_GT(fraction(inset, x0, y0, x1, y1, bluish), 0.01) << "the pallet's deck in the fork camera";
+  EXPECT_EQ(fraction(nothing, x0, y0, x1, y1, bluish), 0.0);
+  // Above and below the inset the picture is the plain one, byte for byte.
+  const size_t row = size_t(inset.width) * 3, above = size_t(0.28 * inset.height) * row, below = size_t(0.59 * inset.height) * row;
+  EXPECT_TRUE(std::equal(plain.rgb.begin(), plain.rgb.begin() + above, inset.rgb.begin()));
+  EXPECT_TRUE(std::equal(plain.rgb.begin() + below, plain.rgb.end(), inset.rgb.begin() + below));
+  EXPECT_FALSE(std::equal(plain.rgb.begin(), plain.rgb.end(), inset.rgb.begin()));
+}
+
 // ---- image files ----------------------------------------------------------------------------
 
 Image rendered_still() {

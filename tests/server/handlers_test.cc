@@ -404,7 +404,7 @@ TEST(Handlers, AidsAreRefusedInAnExamAndCheckedInTraining) {
   };
   const std::tuple<const char*, json, const char*> bad[] = {
       {"exam", json::array({"rear_view"}), "an exam is taken without training aids: leave 'aids' out of an exam session"},
-      {"training", json::array({"rear_view", "autopilot"}), "'aids[1]' must be rear_view, see_through_mast or chase_camera (found autopilot)"},
+      {"training", json::array({"rear_view", "autopilot"}), "'aids[1]' must be rear_view, see_through_mast, chase_camera or fork_camera (found autopilot)"},
       {"training", "rear_view", "'aids' must be an array (found a string)"},
       {"training", json::array({7}), "'aids[0]' is not a string (found a number)"},
   };

@@ -1530,6 +1530,7 @@ TEST_P(StoreTest, OnlyCompletedSessionsHaveAMarkAndCountInTheTrend) {
       {Mode::kTraining, SessionPhase::kEnded, "time_limit", {{"time_limit", 1}}, 91, fs::Outcome::kTimedOut},
       {Mode::kTraining, SessionPhase::kEnded, "duration", {{"task_incomplete", 1}}, 82, fs::Outcome::kTimedOut},  // 0 of 5 steps
       {Mode::kTraining, SessionPhase::kEnded, "signal", {}, 45, fs::Outcome::kStopped},
+      {Mode::kTraining, SessionPhase::kEnded, "cab_gone", {}, 47, fs::Outcome::kStopped},  // the pupil closed the cab
       {Mode::kTraining, SessionPhase::kEnded, "numerical_failure", {}, 30, fs::Outcome::kFailed},
       {Mode::kTraining, SessionPhase::kEnded, "tip_over", {}, 20, fs::Outcome::kFailed},
       {Mode::kTraining, SessionPhase::kEnded, "parked", {}, 60, fs::Outcome::kCompleted},

@@ -26,6 +26,8 @@ Outcome session_outcome(const Session& s) {
     case EndReason::kTimeLimit: return Outcome::kTimedOut;
     case EndReason::kAborted: return Outcome::kAborted;
     case EndReason::kSignal: return Outcome::kStopped;
+    // The pupil left (the cab closed, or its link failed) before the end: stopped, as a signal.
+    case EndReason::kCabGone: return Outcome::kStopped;
     case EndReason::kNumericalFailure: return Outcome::kFailed;
   }
   return Outcome::kFailed;

@@ -1,4 +1,4 @@
-// The forks against the nearest pallet ahead: how far, how high, how far to the side and how
+// The forks against the nearest pallet ahead (or one named pallet): how far, how high, how far to the side and how
 // far off square, for the pupil lining up (the engagement test itself is pallet_handling's).
 #include <cmath>
 
@@ -9,11 +9,12 @@
 namespace forklift {
 
 std::optional<PalletApproach> pallet_approach(const Scene& scene, const std::vector<PalletState>& pallets,
-                                              const BodyPoses& poses, const TruckShape& shape, double range_m) {
+                                              const BodyPoses& poses, const TruckShape& shape, double range_m,
+                                              const std::string& only) {
   const std::array<collision::LocalBox, 2> forks = collision::fork_boxes(shape);
   std::optional<PalletApproach> best;
   for (const PalletState& p : pallets) {
-    if (p.on_forks || p.dropped) continue;
+    if (p.on_forks || p.dropped || (!only.empty() && p.id != only)) continue;
     const SceneObject* o = scene.find(p.id);
     if (!o || !o->pallet) continue;
     const PalletSpec& spec = *o->pallet;

@@ -720,8 +720,9 @@ struct Evaluator::Impl : EvaluationMemory::Data {
     }
     for (const auto& [id, n] : serious)
       if (n > sc.max_same_serious_fault) s.automatic_failures.push_back("repeated:" + id);
-    s.passed = s.points <= sc.fail_above_points && s.automatic_failures.empty() &&
-               (mode != Mode::kExam || !sc.task_required_in_exam || complete);
+    // A task left undone is not passed in training either: the summary, the store and the pupil
+    // read one decision.
+    s.passed = s.points <= sc.fail_above_points && s.automatic_failures.empty() && (!sc.task_required || complete);
     return s;
   }
 };

@@ -71,7 +71,7 @@ struct Node {
 
 Scheme read_scheme(const Node& n) {
   n.only({"name", "source", "points_by_worry_level", "fail_above_points", "serious_worry_level",
-          "max_same_serious_fault", "mark_start", "task_required_in_exam", "parking_checked_on_end"});
+          "max_same_serious_fault", "mark_start", "task_required", "parking_checked_on_end"});
   Scheme s;
   s.name = n.at("name").string();
   s.source = n.at("source").string();
@@ -100,7 +100,7 @@ Scheme read_scheme(const Node& n) {
   if (!s.points_by_worry_level.count(s.serious_worry_level))
     fail(n.file, n.key + ".serious_worry_level", "is not in points_by_worry_level");
   s.mark_start = n.at("mark_start").non_negative();
-  s.task_required_in_exam = n.at("task_required_in_exam").boolean();
+  s.task_required = n.at("task_required").boolean();
   const Node ends = n.at("parking_checked_on_end");
   for (size_t i = 0; i < ends.size(); ++i) s.parking_checked_on_end.push_back(ends.at(i).string());
   return s;

@@ -9,12 +9,13 @@ namespace {
 template <class E, size_t N>
 using Names = std::array<std::pair<E, const char*>, N>;
 
-constexpr Names<EndReason, 6> kEndReasons{{{EndReason::kDuration, "duration"},
+constexpr Names<EndReason, 7> kEndReasons{{{EndReason::kDuration, "duration"},
                                            {EndReason::kTimeLimit, "time_limit"},
                                            {EndReason::kTaskComplete, "task_complete"},
                                            {EndReason::kAborted, "aborted"},
                                            {EndReason::kSignal, "signal"},
-                                           {EndReason::kNumericalFailure, "numerical_failure"}}};
+                                           {EndReason::kNumericalFailure, "numerical_failure"},
+                                           {EndReason::kCabGone, "cab_gone"}}};
 constexpr Names<SessionPhase, 6> kPhases{{{SessionPhase::kStarting, "starting"},
                                           {SessionPhase::kWaiting, "waiting"},
                                           {SessionPhase::kRunning, "running"},

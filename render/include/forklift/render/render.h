@@ -33,6 +33,7 @@ struct ViewOptions {
   double look_pitch_rad = 0;  // + up, clamped to +-kLookPitchMaxRad
   bool see_through_mast = false;  // mast, carriage frame and overhead guard translucent; forks and load solid
   bool rear_view = false;         // a mirror inset at the top centre: from the eye, looking back, mirrored
+  bool fork_camera = false;       // an inset at the right edge: from the carriage between the forks, looking ahead
 };
 
 // The driver's eye (the truck file's shape.eye_m) with the head turned: yaw about the chassis's
@@ -41,6 +42,9 @@ struct ViewOptions {
 Camera driver_camera(const BodyPoses& poses, const TruckShape& shape, double look_yaw_rad, double look_pitch_rad);
 // The rear-view mirror's camera: from the eye, looking back along the truck (drawn mirrored).
 Camera mirror_camera(const BodyPoses& poses, const TruckShape& shape);
+// The fork camera's: on the carriage between the forks, just above their top face at the heel,
+// looking ahead along them and a little down (as trucks are fitted with, for high racks).
+Camera fork_camera(const BodyPoses& poses);
 
 // Everything that moves, at one instant.
 struct RenderState {

@@ -93,9 +93,11 @@ struct PalletApproach {
   bool engaged = false;         // both forks in the pockets far enough to lift it
 };
 // nullopt when no pallet's near face is within `range_m` ahead of the fork tips, within 1 m to
-// either side of the forks and 45 degrees of square.
+// either side of the forks and 45 degrees of square. `only` not empty: that pallet alone is
+// looked at (the one a task's step is about), however near the others are.
 std::optional<PalletApproach> pallet_approach(const Scene& scene, const std::vector<PalletState>& pallets,
-                                              const BodyPoses& poses, const TruckShape& shape, double range_m = 3.0);
+                                              const BodyPoses& poses, const TruckShape& shape, double range_m = 3.0,
+                                              const std::string& only = {});
 
 // FCL is loaded the first time a Warehouse is built (a module of its own, 10-15 ms to map and
 // relocate). A program that will build one soon can load it now, on a thread of its own, while it

@@ -57,7 +57,7 @@ struct Scheme {
   int serious_worry_level = 5;               // the level whose repetition fails ...
   int max_same_serious_fault = 3;            // ... when one such rule occurs more often than this
   double mark_start = 100;                   // mark = max(0, mark_start - points)
-  bool task_required_in_exam = true;         // an exam is failed unless its task is complete
+  bool task_required = true;                 // a session (training or exam) is failed unless its task is complete
   std::vector<std::string> parking_checked_on_end;  // end reasons after which the truck was left
 };
 
@@ -111,8 +111,9 @@ struct EvaluationEvent {
 
 struct Score {
   double mark = 0;   // mark_start - points, floor 0
-  // Points not above fail_above_points, no automatic failure and, in an exam when the scheme
-  // requires it, the task completed.
+  // Points not above fail_above_points, no automatic failure and, when the scheme requires it (the
+  // default), the task completed: a session whose task was left undone is not passed, training
+  // or exam.
   bool passed = false;
   int points = 0;
   std::map<std::string, int> counts;  // events by rule id (warnings included)

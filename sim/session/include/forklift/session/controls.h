@@ -27,6 +27,7 @@ struct ControlSample {
   bool see_through_mast = false;
   // A scripted cab's row time (sim s): applied from the first tick at or after it; 0: at once.
   double apply_at_sim_s = 0;
+  bool fork_camera = false;  // what the window shows, as rear_view
 };
 
 

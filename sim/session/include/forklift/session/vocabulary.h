@@ -20,6 +20,7 @@ enum class EndReason {
   kAborted,           // "aborted": the instructor's abort
   kSignal,            // "signal": the worker was stopped (SIGTERM, SIGINT)
   kNumericalFailure,  // "numerical_failure": the integrator failed; the state is the last good one
+  kCabGone,           // "cab_gone": the cab, heard once, sent no controls for longer than the worker's start timeout
 };
 
 // Where a session is in its life (SessionStatus.state; the store's session state).
