@@ -73,9 +73,12 @@ TEST(MenuDrive, AScriptedCabDrivesUnderTheServersDdsSecurityAndAnUnfinishedSessi
 
   // A session that does not run to its end: the menu says so and exits 3. (Once the first
   // session's worker has gone: it signs its log after the session ends, and the cab is busy until then.)
+  // (The fleet's workers, not /api/cabs: that lists only the cabs the school has registered.)
+  // (The answer is kept: a range-for over a member of the call's temporary would read freed memory.)
   auto busy = [&] {
-    for (const json& c : s.call("GET", "/api/cabs", admin).second)
-      if (c["id"] == "cab1") return c.value("busy", false);
+    const json fleet = s.call("GET", "/api/fleet", admin).second;
+    for (const json& w : fleet["workers"])
+      if (w.value("cab", "") == "cab1") return true;
     return false;
   };
   for (int i = 0; i < 600 && busy(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
