@@ -515,7 +515,9 @@ TEST(WorkerLoop, RealtimeTickRunsFifoFramesStayIdleAndARefusalRunsOn) {
     EXPECT_EQ(idle, 1) << "the render thread, and it alone, is SCHED_IDLE";
     const json r = output_json(w);
     EXPECT_EQ(r.value("realtime", false), true);
-    EXPECT_GE(r["frames"].get<long>(), 20);
+    // Frames flow with the renderer at SCHED_IDLE; how many depends on what else the machine runs
+    // (any other process comes first), so the test asks that they flow, not at what rate.
+    EXPECT_GE(r["frames"].get<long>(), 1);
     EXPECT_EQ(w.err().find("normal priority"), std::string::npos) << w.err();
   }
   {
