@@ -327,10 +327,13 @@ bool CabInput::handle(const SDL_Event& e) {
 
 bool CabInput::held(SDL_Scancode k) const { return held_.count(k) > 0 || pressed_.count(k) > 0; }
 
-void CabInput::mouse_steer(double by) {
+void CabInput::take_wheel() {
   if (pad_steers_) kb_steer_ = cmd_.steer;
-  pad_steers_ = false;
-  centring_ = false;
+  pad_steers_ = centring_ = false;
+}
+
+void CabInput::mouse_steer(double by) {
+  take_wheel();
   kb_steer_ = std::clamp(kb_steer_ + by, -1.0, 1.0);
   cmd_.steer = kb_steer_;
 }
@@ -399,8 +402,7 @@ const CabCommand& CabInput::update(double dt_s) {
   // The wheel: slowly at first and faster the longer a key is held, so a tap moves it a degree
   // or two; let go, it stays where it is (hydrostatic steering has no self-centring).
   if (const int d = hold(held(SDL_SCANCODE_LEFT), held(SDL_SCANCODE_RIGHT), steer_dir_, steer_held_s_); d != 0) {
-    if (pad_steers_) kb_steer_ = cmd_.steer;
-    pad_steers_ = centring_ = false;
+    take_wheel();
     const double by = ramp_travel(steer_held_s_ + dt_s, s_.steer_start_per_s, s_.steer_full_per_s, s_.steer_ramp_s) -
                       ramp_travel(steer_held_s_, s_.steer_start_per_s, s_.steer_full_per_s, s_.steer_ramp_s);
     kb_steer_ = std::clamp(kb_steer_ + d * by, -1.0, 1.0);

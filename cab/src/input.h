@@ -122,6 +122,7 @@ class CabInput {
   void read_controller();
   bool held(SDL_Scancode k) const;  // held, or tapped since the last update
   void mouse_steer(double by);       // the wheel turned by the mouse, of the end stops
+  void take_wheel();                 // keys or the mouse turn it now, from where the controller left it
   bool button_held(const char* function) const;  // the active controller's button for it is down
 
   InputSettings s_;
