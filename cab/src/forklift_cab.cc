@@ -23,6 +23,7 @@
 
 #include "forklift/protocol/protocol.h"
 #include "forklift/script/script.h"
+#include "forklift/session/vocabulary.h"
 #include "frame_view.h"
 #include "hud.h"
 #include "input.h"
@@ -449,10 +450,11 @@ void CabProgram::take_dds() {
   });
   statuses_->take_each([&](const fk_SessionStatus& s) {
     const std::string state = s.state;
+    const std::optional<SessionPhase> phase = parse<SessionPhase>(state);
     if (o_.cab_id != s.cab_id) return;
     // Statuses are durable: a cab started later also hears of this cab's past sessions. Only the
     // session it drives (named by the worker's "waiting"/"running" or its truck state) counts.
-    if (state == "waiting" || state == "running") {
+    if (phase == SessionPhase::kWaiting || phase == SessionPhase::kRunning) {
       session_ = s.session_id;
       // The worker's truck's end stops: what a script's angle is as a fraction of them.
       if (std::isfinite(s.steer_lock_rad) && s.steer_lock_rad > 0 && s.steer_lock_rad <= M_PI / 2) {
@@ -463,7 +465,7 @@ void CabProgram::take_dds() {
     if (s.session_id != session_) return;
     hud_.on_status(state, s.reason, t);
     trace_.write({{"type", "status"}, {"state", state}, {"reason", s.reason}}, t);
-    if (state != "ended" && state != "failed") return;
+    if (phase != SessionPhase::kEnded && phase != SessionPhase::kFailed) return;
     std::printf("%ssession %s %s%s%s\n%s\n", isatty(STDOUT_FILENO) && !window_ ? "\n" : "", s.session_id, state.c_str(),
                 s.reason[0] ? ": " : "", s.reason, end_words(state, s.reason).c_str());
     std::fflush(stdout);
