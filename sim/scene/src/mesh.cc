@@ -1,6 +1,14 @@
 // Meshes: loading mesh files (through the mesh module, mesh_files.h), meshes built in memory, and
 // writing the shipped ones (mesh_builder.cc).
+#include <sys/stat.h>
+
 #include <exception>
+#include <fstream>
+#include <iterator>
+#include <optional>
+#include <map>
+#include <mutex>
+#include <tuple>
 
 #include "forklift/module/module.h"
 #include "forklift/scene/scene.h"
@@ -25,11 +33,57 @@ MeshFiles& mesh_files() {
 
 void preload_mesh_files() { mesh_files(); }
 
+namespace {
+
+// Meshes read once per process, by file content and scale. assimp's OBJ reader clears two 16 MiB
+// buffers for every file it reads (about 5 ms), which a program loading scenes again and again
+// (the scene checks, forklift-sim, a server validating scenarios) would pay per mesh each time.
+// The key is the file's bytes, not its time (which may not change between two quick writes); a
+// change to its .mtl alone is seen by the next process.
+class ProcessMeshCache {
+ public:
+  std::shared_ptr<const Mesh> get(const std::string& path, const Eigen::Vector3d& scale) {
+    std::optional<std::string> bytes = small_regular_file(path);
+    if (!bytes) return read(path, scale);  // the reader says why, or reads what the cache keeps not
+    const Key key{path, scale.x(), scale.y(), scale.z(), bytes->size(), std::hash<std::string>{}(*bytes)};
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (auto it = meshes_.find(key); it != meshes_.end()) return it->second;
+    }
+    std::shared_ptr<const Mesh> mesh = read(path, scale);
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (meshes_.size() >= kMaxMeshes) meshes_.clear();  // a bound, not a policy: scenes name a few dozen
+    meshes_.emplace(key, mesh);
+    return mesh;
+  }
+
+ private:
+  using Key = std::tuple<std::string, double, double, double, size_t, size_t>;
+  static constexpr size_t kMaxMeshes = 256;
+  static constexpr off_t kMaxCachedBytes = 4 << 20;
+  static std::optional<std::string> small_regular_file(const std::string& path) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode) || st.st_size > kMaxCachedBytes) return std::nullopt;
+    std::ifstream in(path, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (!in.good() && !in.eof()) return std::nullopt;
+    return bytes;
+  }
+  static std::shared_ptr<const Mesh> read(const std::string& path, const Eigen::Vector3d& scale) {
+    std::string error;
+    std::shared_ptr<const Mesh> mesh = mesh_files().read(path, scale, error);
+    if (!mesh) throw SceneError(error);
+    return mesh;
+  }
+  std::mutex mutex_;
+  std::map<Key, std::shared_ptr<const Mesh>> meshes_;
+};
+
+}  // namespace
+
 std::shared_ptr<const Mesh> load_mesh_scaled(const std::string& path, const Eigen::Vector3d& scale) {
-  std::string error;
-  std::shared_ptr<const Mesh> mesh = mesh_files().read(path, scale, error);
-  if (!mesh) throw SceneError(error);
-  return mesh;
+  static ProcessMeshCache cache;
+  return cache.get(path, scale);
 }
 
 std::shared_ptr<const Mesh> mesh_from_spec(const meshgen::MeshSpec& spec, const std::string& source) {

@@ -193,22 +193,6 @@ void merge(const std::string& path, const std::string& data_dir, Merged& m, int 
   }
 }
 
-// Meshes loaded once per load_scene call, by path and scale.
-class MeshCache {
- public:
-  std::shared_ptr<const Mesh> get(const std::string& path, const Eigen::Vector3d& scale) {
-    const auto key = std::make_tuple(path, scale.x(), scale.y(), scale.z());
-    auto it = cache_.find(key);
-    if (it != cache_.end()) return it->second;
-    auto mesh = load_mesh_scaled(path, scale);
-    cache_.emplace(key, mesh);
-    return mesh;
-  }
-
- private:
-  std::map<std::tuple<std::string, double, double, double>, std::shared_ptr<const Mesh>> cache_;
-};
-
 Eigen::AlignedBox2d xy(const Eigen::AlignedBox3d& b) {
   return Eigen::AlignedBox2d(b.min().head<2>(), b.max().head<2>());
 }
@@ -292,7 +276,7 @@ struct PendingPlacement {
   Node node;
 };
 
-SceneObject read_object(const Node& n, const std::string& data_dir, MeshCache& meshes) {
+SceneObject read_object(const Node& n, const std::string& data_dir) {
   n.only({"id", "kind", "mesh", "x_m", "y_m", "z_m", "yaw_deg", "scale", "collidable", "levels_m",
           "support_footprint_m", "supports", "pallet", "load_mesh", "on", "level"});
   SceneObject o;
@@ -309,7 +293,7 @@ SceneObject read_object(const Node& n, const std::string& data_dir, MeshCache& m
   }
   const std::string mesh_rel = n.string_or("mesh", std::string("meshes/") + kind + ".obj");
   try {
-    o.mesh = meshes.get(resolve(data_dir, mesh_rel), scale);
+    o.mesh = load_mesh_scaled(resolve(data_dir, mesh_rel), scale);
   } catch (const SceneError& e) {
     n.fail(std::string("mesh: ") + e.what());
   }
@@ -347,7 +331,7 @@ SceneObject read_object(const Node& n, const std::string& data_dir, MeshCache& m
     if (!spec.load_size_m.isZero()) {
       const std::string load_rel = n.string_or("load_mesh", "meshes/load_box.obj");
       try {
-        o.load_mesh = meshes.get(resolve(data_dir, load_rel), Eigen::Vector3d::Ones());
+        o.load_mesh = load_mesh_scaled(resolve(data_dir, load_rel), Eigen::Vector3d::Ones());
       } catch (const SceneError& e) {
         n.fail(std::string("load_mesh: ") + e.what());
       }
@@ -730,12 +714,11 @@ Scene load_scene(const std::string& path, const std::string& data_dir) {
   for (const Merged::Item& item : m.ramps) scene.ramps.push_back(read_ramp(node(item)));
   scene.ground = Ground(scene.ramps);
 
-  MeshCache meshes;
   std::set<std::string> ids;
   std::vector<PendingPlacement> placements;
   for (const Merged::Item& item : m.objects) {
     const Node n = node(item);
-    SceneObject o = read_object(n, data_dir, meshes);
+    SceneObject o = read_object(n, data_dir);
     if (!ids.insert(o.id).second) n.at("id").fail("repeats the id '" + o.id + "'");
     if (o.kind == ObjectKind::kPallet && n.has("on")) placements.push_back({scene.objects.size(), n});
     scene.objects.push_back(std::move(o));
