@@ -37,7 +37,9 @@ namespace forklift::worker {
 // cannot start costs the session its frames, never the session.
 class FramePublisher {
  public:
-  static constexpr int kRenderNice = 5;  // the render thread's nice value above the worker's
+  // The render thread's nice value: the least share a normal thread gets (a weight of 15 against
+  // a tick's 1024), never none.
+  static constexpr int kRenderNice = 19;
   struct Options {
     double fps = 30;
     int width = 640, height = 480;
@@ -72,12 +74,12 @@ class FramePublisher {
     setenv("LP_NUM_THREADS", "0", 0);
     thread_ = std::thread([this] {
       // Frames give way to physics: on a machine with fewer cores than busy threads the tick
-      // loop (and with it the cab's controls taking effect) must not wait behind a frame.
-      // SCHED_IDLE: the render thread runs only when no physics thread of any worker wants the
-      // core, which needs no privilege (a lower priority); else a nice value above the worker's.
-      sched_param idle{};
-      if (pthread_setschedparam(pthread_self(), SCHED_IDLE, &idle) != 0)
-        setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kRenderNice);
+      // loop (and with it the cab's controls taking effect) must not wait behind a frame. Nice
+      // 19, not SCHED_IDLE: an idle thread runs only when nothing else wants the core, so a host
+      // kept busy by other work froze every cab's picture (one frame in three minutes beside six
+      // busy processes); at nice 19 it slows instead. A tick at --realtime is SCHED_FIFO, above
+      // any nice value; a normal one wakes ahead of it (a lower priority needs no privilege).
+      setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kRenderNice);
       run();
     });
   }

@@ -391,21 +391,25 @@ TEST(WorkerLoop, FramesOfTheWarehouseReachTheCabRawAndAsJpeg) {
   struct Case { std::string name; std::vector<std::string> args; int w, h; };
   for (const Case& c : {Case{"raw", {"--fps", "20"}, 640, 480}, Case{"jpeg", {"--fps", "20", "--jpeg", "--frame-size", "320x240"}, 320, 240}}) {
     SCOPED_TRACE(c.name);
-    std::vector<std::string> args = {"--scenario", kData + "/scenarios/rack_pick.json", "--duration", "3"};
+    // The session runs until the cab has three frames, then ends by a signal.
+    std::vector<std::string> args = {"--scenario", kData + "/scenarios/rack_pick.json"};
     args.insert(args.end(), c.args.begin(), c.args.end());
     const int domain = forklift::test::free_domain();
     Process w = worker(domain, "cf", "frames_" + c.name, args);
-    const std::string png = tmp("frames_" + c.name + ".png");
+    const std::string png = tmp("frames_" + c.name + ".png"), saved = tmp("frames_" + c.name + "_saved");
     std::remove(png.c_str());
+    std::filesystem::remove_all(saved);
     Process cab({kBin + "/forklift-cab", "--cab", "cf", "--script", script, "--dds-domain", std::to_string(domain), "--no-window",
-                 "--save-frame", png, "--wait-worker", "20"},
+                 "--save-frame", png, "--save-frames", saved, "--save-every", "1", "--wait-worker", "20"},
                 tmp("frames_" + c.name + ".cab"));
+    // Frames flow and reach the cab. How many a second is forklift-bench-dds's business: they
+    // render at nice 19 and are the first to slow on a busy machine, so this waits for them.
+    EXPECT_GE(forklift_test::wait_for_files(saved, 3, 180), 3u) << w.err() << cab.err();
+    w.signal(SIGTERM);
     ASSERT_EQ(w.wait(30), 0) << w.err();
-    ASSERT_EQ(cab.wait(10), 0) << cab.err();
+    ASSERT_EQ(cab.wait(30), 0) << cab.err();
     const json r = output_json(w);
-    // Frames flow, and reach the cab: how many in 3 s depends on the machine (frames render at idle
-    // priority and are the first to go on a busy one), which forklift-bench-dds measures, not this.
-    EXPECT_GE(r["frames"].get<long>(), 5);
+    EXPECT_GE(r["frames"].get<long>(), 3);
     const size_t at = cab.out().find("frames received: ");
     ASSERT_NE(at, std::string::npos) << cab.out();
     EXPECT_GE(std::stol(cab.out().substr(at + 17)), 3);
@@ -433,10 +437,10 @@ TEST(WorkerLoop, FramesOfTheWarehouseReachTheCabRawAndAsJpeg) {
 namespace {
 
 // A thread's name and scheduling as the kernel has them (/proc/PID/task/TID: comm; stat fields
-// 40 rt_priority and 41 policy, counted after the command's closing parenthesis).
+// 19 nice, 40 rt_priority and 41 policy, counted after the command's closing parenthesis).
 struct ThreadSched {
   std::string name;
-  int policy = -1, priority = -1;
+  int policy = -1, priority = -1, nice = 0;
 };
 std::map<int, ThreadSched> threads_of(int pid) {
   std::map<int, ThreadSched> out;
@@ -451,6 +455,7 @@ std::map<int, ThreadSched> threads_of(int pid) {
     std::istringstream rest(stat.substr(close + 2));
     std::string field;
     for (int i = 3; i <= 41 && rest >> field; ++i) {
+      if (i == 19) t.nice = std::stoi(field);
       if (i == 40) t.priority = std::stoi(field);
       if (i == 41) t.policy = std::stoi(field);
     }
@@ -473,35 +478,40 @@ bool realtime_permitted() {
 }  // namespace
 
 // --realtime: the tick and DDS's receive threads run SCHED_FIFO 10 while the session runs, the
-// render thread stays SCHED_IDLE (frames take only what is left), and the worker says so. Where
+// render thread runs at nice 19 (frames take what is left), and the worker says so. Where
 // real-time priority is not permitted, the worker says why on stderr and the session runs on.
-TEST(WorkerLoop, RealtimeTickRunsFifoFramesStayIdleAndARefusalRunsOn) {
-  const std::vector<std::string> args = {"--scenario", kData + "/scenarios/rack_pick.json", "--duration", "3", "--fps", "20",
-                                         "--jpeg", "--realtime"};
+TEST(WorkerLoop, RealtimeTickRunsFifoFramesRunLowAndARefusalRunsOn) {
+  const std::vector<std::string> args = {"--scenario", kData + "/scenarios/rack_pick.json", "--fps", "20", "--jpeg", "--realtime"};
   if (!realtime_permitted()) {
     GTEST_SKIP() << "this machine does not let the test run real-time threads (no CAP_SYS_NICE, rtprio limit 0)";
   }
   {
     const int domain = forklift::test::free_domain();
-    Process w = worker(domain, "rt1", "realtime_on", args);
+    Process w = worker(domain, "rt1", "realtime_on", args);  // until signalled, once its threads are read and a frame came
+    const std::string saved = tmp("realtime_on_saved");
+    std::filesystem::remove_all(saved);
     Process cab({kBin + "/forklift-cab", "--cab", "rt1", "--script", frames_script("realtime_on"), "--dds-domain",
-                 std::to_string(domain), "--no-window", "--save-frame", tmp("realtime_on.png"), "--wait-worker", "20"},
+                 std::to_string(domain), "--no-window", "--save-frames", saved, "--save-every", "1", "--wait-worker", "20"},
                 tmp("realtime_on.cab"));
     // While it runs (the cab drives and asks for frames), read the worker's threads.
     std::map<int, ThreadSched> seen;
     for (int i = 0; i < 2000 && w.running(); ++i) {
       seen = threads_of(w.pid());
       const bool main_fifo = seen.count(w.pid()) && seen[w.pid()].policy == SCHED_FIFO;
-      const bool idle_render = std::any_of(seen.begin(), seen.end(), [](const auto& t) { return t.second.policy == SCHED_IDLE; });
-      if (main_fifo && idle_render) break;
+      const bool low_render = std::any_of(seen.begin(), seen.end(), [](const auto& t) { return t.second.nice == 19; });
+      if (main_fifo && low_render) break;
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
+    // Frames flow with the renderer at nice 19; how many a second depends on what else the
+    // machine runs, so the test waits for one, not for a rate.
+    EXPECT_GE(forklift_test::wait_for_files(saved, 1, 180), 1u) << w.err();
+    w.signal(SIGTERM);
     ASSERT_EQ(w.wait(30), 0) << w.err();
     ASSERT_EQ(cab.wait(10), 0) << cab.err();
     ASSERT_TRUE(seen.count(w.pid())) << "the worker's threads were never read";
     EXPECT_EQ(seen[w.pid()].policy, SCHED_FIFO);
     EXPECT_EQ(seen[w.pid()].priority, 10);
-    int receivers = 0, idle = 0;
+    int receivers = 0, low = 0;
     for (const auto& [tid, t] : seen) {
       if (t.name.rfind("recv", 0) == 0) {
         ++receivers;
@@ -509,14 +519,12 @@ TEST(WorkerLoop, RealtimeTickRunsFifoFramesStayIdleAndARefusalRunsOn) {
       } else if (tid != w.pid()) {
         EXPECT_NE(t.policy, SCHED_FIFO) << t.name << ": only the tick and DDS's receivers run real time";
       }
-      idle += t.policy == SCHED_IDLE;
+      low += t.policy == SCHED_OTHER && t.nice == 19;
     }
     EXPECT_GE(receivers, 1);
-    EXPECT_EQ(idle, 1) << "the render thread, and it alone, is SCHED_IDLE";
+    EXPECT_EQ(low, 1) << "the render thread, and it alone, runs at nice 19";
     const json r = output_json(w);
     EXPECT_EQ(r.value("realtime", false), true);
-    // Frames flow with the renderer at SCHED_IDLE; how many depends on what else the machine runs
-    // (any other process comes first), so the test asks that they flow, not at what rate.
     EXPECT_GE(r["frames"].get<long>(), 1);
     EXPECT_EQ(w.err().find("normal priority"), std::string::npos) << w.err();
   }
@@ -527,6 +535,7 @@ TEST(WorkerLoop, RealtimeTickRunsFifoFramesStayIdleAndARefusalRunsOn) {
                                     "--inh-caps=-sys_nice", kBin + "/forklift-worker", "--cab", "rt2", "--session", "realtime_off",
                                     "--dds-domain", std::to_string(domain), "--log", tmp("realtime_off.ctl")};
     cmd.insert(cmd.end(), args.begin(), args.end());
+    cmd.insert(cmd.end(), {"--duration", "3"});
     Process w(cmd, tmp("realtime_off.worker"));
     Process cab({kBin + "/forklift-cab", "--cab", "rt2", "--script", frames_script("realtime_off"), "--dds-domain",
                  std::to_string(domain), "--no-window", "--wait-worker", "20"},
