@@ -241,7 +241,7 @@ TEST(CabFrames, RenderedOnlyWhileTheCabAsksAndNotForASilentCab) {
   EXPECT_FALSE(mapped("libassimp"));
   cab.sample.frames_wanted = true;
   int width = 0;
-  EXPECT_GT(cab.drive_until_frames(30, nullptr, &width), 0) << w.err();
+  EXPECT_GT(cab.drive_until_frames(180, nullptr, &width), 0) << w.err();
   EXPECT_EQ(width, 160);
   EXPECT_TRUE(osmesa_mapped());
   cab.sample.frames_wanted = false;
@@ -250,8 +250,7 @@ TEST(CabFrames, RenderedOnlyWhileTheCabAsksAndNotForASilentCab) {
   cab.drive(0.7);
   EXPECT_EQ(cab.take_frames(), 0) << "frames stop when the cab stops asking";
   cab.sample.frames_wanted = true;
-  cab.drive(0.5);
-  EXPECT_GT(cab.take_frames(), 0);
+  EXPECT_GT(cab.drive_until_frames(180), 0);
   cab.listen(0.9);  // silent beyond the 0.5 s dead man
   bool deadman = false;
   for (const fk_TruckState& s : cab.take_states()) deadman = s.deadman;
@@ -261,7 +260,7 @@ TEST(CabFrames, RenderedOnlyWhileTheCabAsksAndNotForASilentCab) {
   EXPECT_EQ(cab.take_frames(), 0) << "a silent cab gets no frames";
   w.signal(SIGTERM);
   ASSERT_EQ(w.wait(20), 0) << w.err();
-  EXPECT_GT(output_json(w)["frames"].get<long>(), 5);
+  EXPECT_GE(output_json(w)["frames"].get<long>(), 2) << "drawn in both spells the cab asked";
 
   // --fps 0: no frames, whatever the cab asks.
   Process none = worker(domain, "no-fps", {"--fps", "0", "--frame-size", "160x120", "--duration", "2"});
@@ -293,7 +292,7 @@ TEST(CabFrames, NotDrawnWhileNothingReadsThem) {
   Cab cab(domain);
   ASSERT_TRUE(cab.wait_worker(20)) << w.err();
   cab.sample.frames_wanted = true;
-  long received = cab.drive_until_frames(30);
+  long received = cab.drive_until_frames(180);
   EXPECT_GT(received, 0) << w.err();
   cab.drive(0.5);
   received += cab.take_frames();
@@ -324,7 +323,7 @@ std::vector<uint8_t> aid_frame(const std::string& session, std::vector<std::stri
   cab.sample.frames_wanted = true;
   ask(cab.sample);
   std::vector<uint8_t> rgb;
-  EXPECT_GT(cab.drive_until_frames(30, &rgb), 0) << w.err();
+  EXPECT_GT(cab.drive_until_frames(180, &rgb), 0) << w.err();
   cab.drive(0.3);
   cab.take_frames(&rgb);  // a frame drawn once the aid was asked for, whatever came first
   const auto states = cab.take_states();

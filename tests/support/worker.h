@@ -3,8 +3,11 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "support/process.h"
@@ -29,6 +32,23 @@ inline nlohmann::json output_json(const Process& p) {
   } catch (const std::exception&) {
     ADD_FAILURE() << "not JSON: " << out << "\nstderr: " << p.err();
     return nlohmann::json::object();
+  }
+}
+
+// Waits until `folder` holds at least `n` files, at most `timeout_s`; the count it saw. For a cab
+// saving every frame (--save-frames DIR --save-every 1): a worker renders at nice 19, so on a busy
+// machine frames come when the rest of its work leaves room, and a test waits for them rather than
+// for a set time.
+inline size_t wait_for_files(const std::string& folder, size_t n, double timeout_s) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  size_t seen = 0;
+  while (true) {
+    std::error_code ec;
+    seen = 0;
+    for (auto it = std::filesystem::directory_iterator(folder, ec); !ec && it != std::filesystem::directory_iterator(); it.increment(ec))
+      ++seen;
+    if (seen >= n || std::chrono::steady_clock::now() >= until) return seen;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
 }
 
