@@ -59,9 +59,9 @@ std::optional<std::string> request_problem(const fk_WorkerRequest& r, const std:
     if (!dds::valid_utf8(text)) return "a request whose text is not UTF-8";
   if (host_id != r.host_id) return "a request for host '" + std::string(r.host_id) + "'";
   if (!matches(r.session_id, "s-[0-9]{1,18}")) return "a request for session '" + std::string(r.session_id) + "', which is not a session id";
-  const std::string action = r.action;
-  if (action == "abort" || action == "kill") return std::nullopt;
-  if (action != "start") return "a request to '" + action + "' (start, abort or kill)";
+  const std::optional<WorkerAction> action = parse<WorkerAction>(r.action);
+  if (!action) return "a request to '" + std::string(r.action) + "' (start, abort or kill)";
+  if (*action != WorkerAction::kStart) return std::nullopt;
   if (!matches(r.cab_id, "[A-Za-z0-9_-]{1,32}")) return "a start for cab '" + std::string(r.cab_id) + "', which is not a cab id";
   if (!parse<Mode>(r.mode)) return "a start in mode '" + std::string(r.mode) + "'";
   if (!std::isfinite(r.duration_s) || r.duration_s > 7 * 86400) return "a start with a duration of " + std::to_string(r.duration_s) + " s";
@@ -142,7 +142,7 @@ void HostAgent::adopt() {
     w.exited_at = Clock::now();
     spdlog::info("the worker of session {} ended while no agent ran here: reporting its end", session);
     workers_[session] = w;
-    report(w, "exited", "", true);
+    report(w, WorkerReportState::kExited, "", true);
   }
 }
 
@@ -156,7 +156,7 @@ void HostAgent::publish_status(bool stopping) {
   fk_HostStatus s{};
   dds::set_string(s.host_id, config_.host_id);
   dds::set_string(s.site, config_.site);
-  dds::set_string(s.state, stopping ? "stopping" : "ready");
+  dds::set_string(s.state, name(stopping ? HostState::kStopping : HostState::kReady));
   s.capacity = static_cast<uint16_t>(config_.capacity);
   s.running = static_cast<uint16_t>(running());
   s.cores = static_cast<uint16_t>(std::thread::hardware_concurrency());
@@ -165,12 +165,12 @@ void HostAgent::publish_status(bool stopping) {
   status_->write(s);
 }
 
-void HostAgent::report(const Worker& w, const char* state, const std::string& reason, bool with_files) {
+void HostAgent::report(const Worker& w, WorkerReportState state, const std::string& reason, bool with_files) {
   fk_WorkerReport r{};
   dds::set_string(r.session_id, w.session);
   dds::set_string(r.host_id, config_.host_id);
   dds::set_string(r.cab_id, w.cab);
-  dds::set_string(r.state, state);
+  dds::set_string(r.state, name(state));
   dds::set_string(r.reason, reason);
   dds::set_string(r.participant, w.participant);
   r.pid = static_cast<uint32_t>(w.pid);
@@ -185,7 +185,7 @@ void HostAgent::report(const Worker& w, const char* state, const std::string& re
   }
   reports_->write(r);
   // An end reported is not reported again by a later agent (adopt()).
-  if (with_files && std::string(state) == "exited") std::ofstream(base(w.session) + ".reported");
+  if (with_files && state == WorkerReportState::kExited) std::ofstream(base(w.session) + ".reported");
 }
 
 void HostAgent::refuse(const fk_WorkerRequest& r, const std::string& why) {
@@ -193,14 +193,15 @@ void HostAgent::refuse(const fk_WorkerRequest& r, const std::string& why) {
   Worker w;
   w.session = r.session_id;
   w.cab = r.cab_id;
-  report(w, "refused", why);
+  report(w, WorkerReportState::kRefused, why);
 }
 
 void HostAgent::start(const fk_WorkerRequest& r) {
   const auto known = workers_.find(r.session_id);
   if (known != workers_.end()) {  // asked twice (a second server, a resent request): the answer again
-    report(known->second, known->second.exited ? "exited" : known->second.participant.empty() ? "starting" : "running", "",
-           known->second.exited);
+    const Worker& w = known->second;
+    report(w, w.exited ? WorkerReportState::kExited : w.participant.empty() ? WorkerReportState::kStarting : WorkerReportState::kRunning,
+           "", w.exited);
     return;
   }
   if (running() >= config_.capacity) return refuse(r, "host " + config_.host_id + " is full (" + std::to_string(config_.capacity) + " workers)");
@@ -236,7 +237,7 @@ void HostAgent::start(const fk_WorkerRequest& r) {
   }
   spdlog::info("started the worker (pid {}) of session {} on cab {}", w.pid, w.session, w.cab);
   workers_[w.session] = w;
-  report(w, "starting", "");
+  report(w, WorkerReportState::kStarting, "");
   publish_status(false);
 }
 
@@ -246,18 +247,18 @@ void HostAgent::take_requests(bool stopping) {
       spdlog::warn("refused {}", *problem);
       return;
     }
-    const std::string action = r.action;
-    if (action == "start") {
+    const WorkerAction action = parse<WorkerAction>(r.action).value();  // request_problem() refused any other
+    if (action == WorkerAction::kStart) {
       if (stopping) refuse(r, "host " + config_.host_id + " is stopping");
       else start(r);
       return;
     }
     const auto it = workers_.find(r.session_id);
     if (it == workers_.end() || it->second.exited) return;
-    spdlog::info("{} the worker of session {} as a server asks", action == "abort" ? "aborting" : "killing", r.session_id);
+    spdlog::info("{} the worker of session {} as a server asks", action == WorkerAction::kAbort ? "aborting" : "killing", r.session_id);
     const Worker& w = it->second;
     if (!w.adopted || still_running({w.pid, w.session, w.cab, base(w.session) + ".ctl", w.start_ticks}))
-      kill(w.pid, action == "abort" ? SIGUSR1 : SIGKILL);
+      kill(w.pid, action == WorkerAction::kAbort ? SIGUSR1 : SIGKILL);
   });
 }
 
@@ -271,7 +272,7 @@ void HostAgent::reap() {
         std::string guid;
         if (in >> guid && guid.size() == 32) {
           w.participant = guid;
-          report(w, "running", "");
+          report(w, WorkerReportState::kRunning, "");
         }
       }
       int status = 0;
@@ -285,7 +286,7 @@ void HostAgent::reap() {
         w.exited_at = now;
         const std::string how = ours ? exit_words(status) : "";
         spdlog::info("the worker of session {} ended{}", w.session, how.empty() ? "" : ": " + how);
-        report(w, "exited", how, true);
+        report(w, WorkerReportState::kExited, how, true);
       }
     } else if (std::chrono::duration<double>(now - w.exited_at).count() > config_.report_kept_s) {
       fk_WorkerReport key{};

@@ -15,6 +15,7 @@
 
 #include "forklift/host/worker_launch.h"
 #include "forklift/protocol/protocol.h"
+#include "forklift/session/host_vocabulary.h"
 
 namespace forklift::host {
 
@@ -67,7 +68,7 @@ class HostAgent {
   void start(const fk_WorkerRequest& r);
   void reap();
   void publish_status(bool stopping);
-  void report(const Worker& w, const char* state, const std::string& reason, bool with_files = false);
+  void report(const Worker& w, WorkerReportState state, const std::string& reason, bool with_files = false);
   void refuse(const fk_WorkerRequest& r, const std::string& why);
   int running() const;
   std::string base(const std::string& session) const { return config_.log_dir + "/" + session; }

@@ -83,7 +83,7 @@ class Fleet : private GateWorld {
   std::unique_ptr<dds::Participant> participant_ = std::make_unique<dds::Participant>(
       dds::DomainSettings::resolve(config_.dds_domain, config_.dds_config, config_.security_dir, config_.identity));
   SessionRecorder recorder_{state_, *participant_};
-  WorkerSupervisor supervisor_{state_, [this](const std::string& host, const std::string& session, const char* action) {
+  WorkerSupervisor supervisor_{state_, [this](const std::string& host, const std::string& session, WorkerAction action) {
                                  placement_.request(host, session, action);
                                }};
   HostPlacement placement_{state_, *participant_, supervisor_};

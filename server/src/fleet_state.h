@@ -67,7 +67,8 @@ struct WorkerInfo {
 
 // A worker host as its status says (fk_HostStatus).
 struct HostInfo {
-  std::string id, site, state;  // state: "ready", "stopping"
+  std::string id, site;
+  HostState state = HostState::kReady;
   int capacity = 0, running = 0, cores = 0;
   double load_1min = 0, memory_free_mib = 0;
   std::chrono::steady_clock::time_point last_seen;
@@ -75,7 +76,7 @@ struct HostInfo {
   int placed = 0;     // starts this server asked of it that it has not answered yet
   std::chrono::steady_clock::time_point passed_over_until{};  // it took a start and went silent
   bool alive(std::chrono::steady_clock::time_point now) const;
-  bool has_room() const { return state == "ready" && running + placed < capacity; }
+  bool has_room() const { return state == HostState::kReady && running + placed < capacity; }
 };
 
 struct CabInfo {
@@ -135,7 +136,9 @@ struct FleetState {
     Clock::time_point at;
   };
   struct StartAnswer {
-    std::string host, state, reason;
+    std::string host;
+    std::optional<WorkerReportState> state;  // none: no answer in time
+    std::string reason;
   };
 
   const FleetConfig& config;

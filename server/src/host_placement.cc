@@ -61,11 +61,11 @@ dds::Writer<fk_WorkerRequest>& HostPlacement::request_writer(const std::string& 
   return *writer;
 }
 
-void HostPlacement::request(const std::string& host, const std::string& session, const char* action) {
+void HostPlacement::request(const std::string& host, const std::string& session, WorkerAction action) {
   auto r = std::make_unique<fk_WorkerRequest>();  // 64 KiB of scenario: not on the stack
   dds::set_string(r->session_id, session);
   dds::set_string(r->host_id, host);
-  dds::set_string(r->action, action);
+  dds::set_string(r->action, name(action));
   request_writer(host).write(*r);
 }
 
@@ -104,7 +104,7 @@ bool HostPlacement::start_hosted_worker(const store::Session& s, const std::stri
   if (scenario.empty()) throw std::runtime_error("the scenario " + scenario_file + " cannot be read");
   if (scenario.size() >= sizeof(r->scenario_json)) throw std::runtime_error("the scenario is over 64 KiB, more than a host takes");
   dds::set_string(r->session_id, s.public_id);
-  dds::set_string(r->action, "start");
+  dds::set_string(r->action, name(WorkerAction::kStart));
   dds::set_string(r->cab_id, s.cab_id);
   dds::set_string(r->mode, name(s.mode));
   r->duration_s = duration_s.value_or(0);
@@ -151,19 +151,19 @@ bool HostPlacement::start_hosted_worker(const store::Session& s, const std::stri
     // session): a host that says "starting" and then nothing more is passed over like a silent one.
     const bool answered = fleet_.answered.wait_until(lock, until, [&] {
       const auto a = fleet_.start_answers.find(s.public_id);
-      return a != fleet_.start_answers.end() && a->second.host == host && a->second.state != "starting";
+      return a != fleet_.start_answers.end() && a->second.host == host && a->second.state != WorkerReportState::kStarting;
     });
     --fleet_.hosts[host].placed;
     const FleetState::StartAnswer a =
-        answered ? fleet_.start_answers[s.public_id] : FleetState::StartAnswer{host, "", "no running worker named in time"};
+        answered ? fleet_.start_answers[s.public_id] : FleetState::StartAnswer{host, std::nullopt, "no running worker named in time"};
     fleet_.start_answers.erase(s.public_id);
-    if (answered && a.state != "refused") {
+    if (answered && a.state != WorkerReportState::kRefused) {
       spdlog::info("session {} on cab {}: its worker runs on host {}", s.public_id, s.cab_id, host);
       return true;
     }
     // Refused, or silent: the next host. A late start is stopped (its session runs elsewhere).
     if (!answered) {
-      request(host, s.public_id, "kill");
+      request(host, s.public_id, WorkerAction::kKill);
       fleet_.hosts[host].passed_over_until = Clock::now() + seconds(config.host_pass_over_s);
       spdlog::warn("worker host {} took session {} and named no running worker in time: passed over for {} s", host,
                    s.public_id, int(config.host_pass_over_s));
@@ -256,7 +256,7 @@ std::optional<std::string> HostPlacement::unsigned_log_problem(const fk_WorkerRe
 bool HostPlacement::refused_log(Report& rep, const std::string& cab) {
   // An exited worker's files settle the mark: they count only as the session's worker signed them
   // (checked once, for the cab the session was started on); refused, the report is not an answer.
-  if (rep.state != "exited") return false;
+  if (rep.state != WorkerReportState::kExited) return false;
   if (!rep.log_problem) rep.log_problem = unsigned_log_problem(rep.r, cab);
   if (!*rep.log_problem) return false;
   const uint64_t n = ++fleet_.refused.unsigned_log;
@@ -277,7 +277,7 @@ void HostPlacement::follow(WorkerInfo& w, Report& rep) {
     w.participant = rep.r.participant;
     fleet_.bindings[rep.session].participant = rep.r.participant;
   }
-  if (rep.state != "exited") return;
+  if (rep.state != WorkerReportState::kExited) return;
   write_worker_files(rep.r);
   const std::string reason = !w.hang_reason.empty() ? w.hang_reason : rep.r.reason;
   fleet_.finishing.push_back({w, reason, rep.now + kLastSamples});
@@ -286,7 +286,7 @@ void HostPlacement::follow(WorkerInfo& w, Report& rep) {
 }
 
 void HostPlacement::on_report(store::Store& db, const fk_WorkerReport& r) {
-  Report rep{r, r.state, r.session_id, Clock::now(), std::nullopt};
+  Report rep{r, parse<WorkerReportState>(r.state).value(), r.session_id, Clock::now(), std::nullopt};
   const std::string& session = rep.session;
   {
     std::lock_guard<std::mutex> lock(fleet_.mu);
@@ -304,12 +304,12 @@ void HostPlacement::on_report(store::Store& db, const fk_WorkerReport& r) {
       return distrust(w->second, rep.now);
     fleet_.start_answers[session] = {r.host_id, rep.state, r.reason};
     fleet_.answered.notify_all();
-    if (rep.state == "refused") return;
+    if (rep.state == WorkerReportState::kRefused) return;
     if (w != fleet_.workers.end()) {
       if (w->second.host != r.host_id) {
         spdlog::warn("host {} reports a worker for session {}, which runs {}: stopping it", r.host_id, session,
                      w->second.host.empty() ? "here" : "on host " + w->second.host);
-        if (rep.state != "exited") request(r.host_id, session, "kill");  // a start that answered too late
+        if (rep.state != WorkerReportState::kExited) request(r.host_id, session, WorkerAction::kKill);  // a start that answered too late
         return;
       }
       follow(w->second, rep);
@@ -331,18 +331,18 @@ void HostPlacement::adopt_hosted(store::Store& db, Report& rep) {
   const std::string& session = rep.session;
   const auto s = db.get_session(session);
   if (!s || is_terminal(s->state) || s->cab_id != r.cab_id) {
-    if (rep.state == "exited") return;
+    if (rep.state == WorkerReportState::kExited) return;
     spdlog::warn("host {} runs a worker for session {}, which is {}: stopping it", r.host_id, session,
                  !s ? "unknown here" : is_terminal(s->state) ? "over" : "on another cab");
     std::lock_guard<std::mutex> lock(fleet_.mu);
-    request(r.host_id, session, "kill");
+    request(r.host_id, session, WorkerAction::kKill);
     return;
   }
   std::lock_guard<std::mutex> lock(fleet_.mu);
   for (const auto& [id, other] : fleet_.workers)
     if (other.cab == s->cab_id && id != session) {
       spdlog::warn("host {} runs a worker for session {} on cab {}, which runs session {}: stopping it", r.host_id, session, s->cab_id, id);
-      request(r.host_id, session, "kill");
+      request(r.host_id, session, WorkerAction::kKill);
       return;
     }
   WorkerInfo w;

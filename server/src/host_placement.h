@@ -27,7 +27,7 @@ class HostPlacement {
   // See Fleet::start_worker.
   void start_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
                     const std::optional<std::string>& aids);
-  void request(const std::string& host, const std::string& session, const char* action);  // abort, kill (under mu)
+  void request(const std::string& host, const std::string& session, WorkerAction action);  // abort, kill (under mu)
 
   // What the gate let in (ingest thread).
   void host_status(const HostStatusIn& h);
@@ -53,7 +53,8 @@ class HostPlacement {
   std::optional<std::string> unsigned_log_problem(const fk_WorkerReport& r, const std::string& cab);
   struct Report {  // one report being handled
     const fk_WorkerReport& r;
-    std::string state, session;
+    WorkerReportState state;  // the gate let in no other word
+    std::string session;
     Clock::time_point now;
     std::optional<std::optional<std::string>> log_problem;  // unsigned_log_problem(), checked once
   };

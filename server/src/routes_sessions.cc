@@ -324,7 +324,7 @@ void session_routes(Routes& svr, Context& ctx) {
     // The worker hosts (forklift-host) heard from: what each can take and whether it is alive.
     json hosts = json::array();
     for (const HostInfo& h : ctx.fleet->hosts())
-      hosts.push_back({{"id", h.id}, {"site", h.site}, {"alive", h.alive(now)}, {"state", h.state}, {"capacity", h.capacity},
+      hosts.push_back({{"id", h.id}, {"site", h.site}, {"alive", h.alive(now)}, {"state", name(h.state)}, {"capacity", h.capacity},
                        {"running", h.running}, {"cores", h.cores}, {"load_1min", h.load_1min}, {"memory_free_mib", h.memory_free_mib},
                        {"seconds_since_status", std::chrono::duration<double>(now - h.last_seen).count()},
                        {"passed_over_s", std::max(0.0, std::chrono::duration<double>(h.passed_over_until - now).count())}});

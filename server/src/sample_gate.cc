@@ -92,13 +92,12 @@ std::optional<HostStatusIn> SampleGate::host_status(const fk_HostStatus& h, cons
     world_.refuse(&RefusedSamples::wrong_sender, std::string("a status of worker host ") + h.host_id + " from outside its partition");
     return std::nullopt;
   }
-  const std::string state = dds::valid_utf8(h.state) ? h.state : "";
-  if (!dds::valid_utf8(h.site) || (state != "ready" && state != "stopping") || h.capacity == 0 || !std::isfinite(h.load_1min) ||
-      !std::isfinite(h.memory_free_mib)) {
+  const std::optional<HostState> state = parse<HostState>(h.state);
+  if (!dds::valid_utf8(h.site) || !state || h.capacity == 0 || !std::isfinite(h.load_1min) || !std::isfinite(h.memory_free_mib)) {
     world_.refuse(&RefusedSamples::malformed, std::string("a status of worker host ") + h.host_id + " out of range");
     return std::nullopt;
   }
-  return HostStatusIn{h.host_id, h.site, state, int(h.capacity), int(h.running), int(h.cores), h.load_1min, h.memory_free_mib, false};
+  return HostStatusIn{h.host_id, h.site, *state, int(h.capacity), int(h.running), int(h.cores), h.load_1min, h.memory_free_mib, false};
 }
 
 bool SampleGate::report(const fk_WorkerReport& r, const dds_sample_info_t& info, dds_entity_t reader) {
@@ -127,9 +126,8 @@ bool SampleGate::report(const fk_WorkerReport& r, const dds_sample_info_t& info,
     malformed(kTopic, std::string("a report on session '") + r.session_id + "'");
     return false;
   }
-  const std::string state = r.state;
-  if (state != "starting" && state != "running" && state != "exited" && state != "refused") {
-    malformed(kTopic, "a report of a worker " + state);
+  if (!parse<WorkerReportState>(r.state)) {
+    malformed(kTopic, std::string("a report of a worker ") + r.state);
     return false;
   }
   if (r.participant[0] && !std::regex_match(r.participant, std::regex("[0-9a-f]{32}"))) {

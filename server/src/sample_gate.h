@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "forklift/protocol/protocol.h"
+#include "forklift/session/host_vocabulary.h"
 #include "forklift/store/store.h"
 
 namespace forklift::server {
@@ -54,7 +55,8 @@ class GateWorld {
 
 // A worker host's status: its room and load, or (gone) that its writer has gone.
 struct HostStatusIn {
-  std::string id, site, state;
+  std::string id, site;
+  HostState state = HostState::kReady;
   int capacity = 0, running = 0, cores = 0;
   double load_1min = 0, memory_free_mib = 0;
   bool gone = false;

@@ -71,7 +71,7 @@ void WorkerSupervisor::stop_local_workers() {
 
 void WorkerSupervisor::signal_worker(const WorkerInfo& w, int sig) {
   if (!w.host.empty()) {
-    ask_host_(w.host, w.session, sig == SIGUSR1 ? "abort" : "kill");
+    ask_host_(w.host, w.session, sig == SIGUSR1 ? WorkerAction::kAbort : WorkerAction::kKill);
     return;
   }
   // An adopted worker's pid is checked first: after it exits, the number may be another's.

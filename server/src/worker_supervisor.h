@@ -16,8 +16,8 @@ namespace forklift::server {
 
 class WorkerSupervisor {
  public:
-  // How a hosted worker is signalled: its host is asked ("abort", "kill"), under mu.
-  using AskHost = std::function<void(const std::string& host, const std::string& session, const char* action)>;
+  // How a hosted worker is signalled: its host is asked (abort, kill), under mu.
+  using AskHost = std::function<void(const std::string& host, const std::string& session, WorkerAction action)>;
   WorkerSupervisor(FleetState& fleet, AskHost ask_host) : fleet_(fleet), ask_host_(std::move(ask_host)) {}
 
   // Start-up: the sessions left open, and the workers of this server still running.

@@ -3,6 +3,7 @@
 
 #include "forklift/collision/collision.h"
 #include "forklift/session/vocabulary.h"
+#include "forklift/session/host_vocabulary.h"
 
 namespace {
 
@@ -34,6 +35,10 @@ TEST(Vocabulary, EveryNameParsesBackAndNothingElseParses) {
   round_trips({EventOrigin::kEvaluation, EventOrigin::kHandling, EventOrigin::kWorker});
   round_trips({Outcome::kOpen, Outcome::kCompleted, Outcome::kTimedOut, Outcome::kAborted, Outcome::kStopped,
                Outcome::kFailed});
+  round_trips({HostState::kReady, HostState::kStopping});
+  round_trips({WorkerAction::kStart, WorkerAction::kAbort, WorkerAction::kKill});
+  round_trips({WorkerReportState::kStarting, WorkerReportState::kRunning, WorkerReportState::kExited,
+               WorkerReportState::kRefused});
 }
 
 TEST(Vocabulary, TheNamesAreTheWireAndLogWords) {
@@ -43,6 +48,9 @@ TEST(Vocabulary, TheNamesAreTheWireAndLogWords) {
   EXPECT_STREQ(name(SessionPhase::kEnded), "ended");
   EXPECT_STREQ(name(Mode::kExam), "exam");
   EXPECT_STREQ(name(Outcome::kTimedOut), "timed_out");
+  EXPECT_STREQ(name(HostState::kStopping), "stopping");
+  EXPECT_STREQ(name(WorkerAction::kAbort), "abort");
+  EXPECT_STREQ(name(WorkerReportState::kExited), "exited");
   EXPECT_EQ(parse<EndReason>("parked"), std::nullopt);  // an evaluation's end word, not a session's end
 }
 

@@ -1,4 +1,5 @@
 #include "forklift/session/vocabulary.h"
+#include "forklift/session/host_vocabulary.h"
 
 #include <array>
 #include <utility>
@@ -31,6 +32,13 @@ constexpr Names<Outcome, 6> kOutcomes{{{Outcome::kOpen, "open"},
                                        {Outcome::kAborted, "aborted"},
                                        {Outcome::kStopped, "stopped"},
                                        {Outcome::kFailed, "failed"}}};
+constexpr Names<HostState, 2> kHostStates{{{HostState::kReady, "ready"}, {HostState::kStopping, "stopping"}}};
+constexpr Names<WorkerAction, 3> kWorkerActions{
+    {{WorkerAction::kStart, "start"}, {WorkerAction::kAbort, "abort"}, {WorkerAction::kKill, "kill"}}};
+constexpr Names<WorkerReportState, 4> kReportStates{{{WorkerReportState::kStarting, "starting"},
+                                                     {WorkerReportState::kRunning, "running"},
+                                                     {WorkerReportState::kExited, "exited"},
+                                                     {WorkerReportState::kRefused, "refused"}}};
 
 template <class E, size_t N>
 const char* name_in(const Names<E, N>& names, E value) {
@@ -57,12 +65,18 @@ const char* name(SessionPhase p) { return name_in(kPhases, p); }
 const char* name(Mode m) { return name_in(kModes, m); }
 const char* name(EventOrigin o) { return name_in(kOrigins, o); }
 const char* name(Outcome o) { return name_in(kOutcomes, o); }
+const char* name(HostState s) { return name_in(kHostStates, s); }
+const char* name(WorkerAction a) { return name_in(kWorkerActions, a); }
+const char* name(WorkerReportState s) { return name_in(kReportStates, s); }
 
 template <> std::optional<EndReason> parse<EndReason>(std::string_view s) { return parse_in(kEndReasons, s); }
 template <> std::optional<SessionPhase> parse<SessionPhase>(std::string_view s) { return parse_in(kPhases, s); }
 template <> std::optional<Mode> parse<Mode>(std::string_view s) { return parse_in(kModes, s); }
 template <> std::optional<EventOrigin> parse<EventOrigin>(std::string_view s) { return parse_in(kOrigins, s); }
 template <> std::optional<Outcome> parse<Outcome>(std::string_view s) { return parse_in(kOutcomes, s); }
+template <> std::optional<HostState> parse<HostState>(std::string_view s) { return parse_in(kHostStates, s); }
+template <> std::optional<WorkerAction> parse<WorkerAction>(std::string_view s) { return parse_in(kWorkerActions, s); }
+template <> std::optional<WorkerReportState> parse<WorkerReportState>(std::string_view s) { return parse_in(kReportStates, s); }
 
 bool is_terminal(SessionPhase p) {
   return p == SessionPhase::kEnded || p == SessionPhase::kAborted || p == SessionPhase::kFailed;
