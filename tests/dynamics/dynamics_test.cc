@@ -156,6 +156,54 @@ TEST(Energy, DampingDissipatesIt) {
   EXPECT_LT(e1, e0 - 10.0);
 }
 
+namespace {
+// The training truck rolled about its right front wheel's contact, so its left front wheel is
+// `lift_m` up (and the rear wheel half that), released at rest or rolling forward at `speed`: the
+// energy (kinetic, gravity and the tyres' vertical springs) from the last instant the left wheel is
+// in the air, and the largest and last values in the 2 s after it lands, every millisecond.
+struct Landing { double before = NAN, largest_after = -INFINITY, last = NAN; };
+Landing drop_a_wheel(double lift_m, double speed) {
+  const TruckDynamics d(shipped_truck());
+  StateVector x = settled(d);
+  const double roll = std::asin(lift_m / shipped_truck().front_track_m());
+  const double h = x[StateIndex::kQ + kZ], half = 0.5 * shipped_truck().front_track_m();
+  x[StateIndex::kQ + kAuc] = roll;  // about the chassis' x axis through the right wheel's contact
+  x[StateIndex::kQ + kY] += half * (std::cos(roll) - 1) - h * std::sin(roll);
+  x[StateIndex::kQ + kZ] += half * std::sin(roll) + h * (std::cos(roll) - 1);
+  x[StateIndex::kQdot + kX] = speed;
+  for (int w = 0; w < kNumWheels; ++w) x[StateIndex::kQdot + kAvr1 + w] = speed / shipped_truck().wheels[w].radius_m;
+  IntegratorOptions o;
+  o.rtol = 1e-8;
+  Simulation sim(d, x, o);
+  Landing l;
+  bool landed = false;
+  for (int k = 1; k <= 3000 && !(landed && sim.time() > 2.0); ++k) {
+    sim.advance_to(k * 1e-3);
+    const double e = d.energy(sim.state());
+    const bool down = sim.outputs().wheels[kFrontLeft].fz_N > 0;
+    if (!down && !landed) l.before = e;
+    landed = landed || (down && !std::isnan(l.before));
+    if (landed) l.largest_after = std::max(l.largest_after, e);
+    l.last = e;
+  }
+  return l;
+}
+}  // namespace
+
+TEST(Energy, AWheelLandingDissipatesItNeverCreatesIt) {
+  for (double speed : {0.0, 3.0})
+    for (double lift : {0.02, 0.05}) {
+      SCOPED_TRACE("left front wheel dropped from " + std::to_string(std::lround(lift * 100)) + " cm at " +
+                   std::to_string(std::lround(speed)) + " m/s");
+      const Landing l = drop_a_wheel(lift, speed);
+      ASSERT_FALSE(std::isnan(l.before)) << "the wheel was in the air, then landed";
+      RecordProperty("energy_change_J_" + std::to_string(std::lround(lift * 100)) + "cm_" + std::to_string(std::lround(speed)) + "m_s",
+                     std::to_string(l.largest_after - l.before) + " largest, " + std::to_string(l.last - l.before) + " after 2 s");
+      EXPECT_LE(l.largest_after, l.before);
+      EXPECT_LT(l.last, l.before - 1.0);  // the tyres' damping and friction took some
+    }
+}
+
 TEST(GroundForces, NoForceOffTheGroundAndFreeFall) {
   TruckDynamics d(shipped_truck());
   StateVector x = d.rest_state(0, 0, 0);
