@@ -218,6 +218,54 @@ TEST(GroundForces, NoForceOffTheGroundAndFreeFall) {
   EXPECT_NEAR(dx[StateIndex::kQdot + kZ], -kGravity_m_s2, 1e-9);
 }
 
+namespace {
+// The rear tyre's steady lateral force per unit load, |Fy| / Fz, with the truck rolling at 3 m/s
+// and sliding sideways at the slip angle `alpha`. The bristle's rate is affine in its deflection,
+// z' = a - b z, so two evaluations of the model give the steady deflection a / b it settles to.
+double steady_lateral_grip(const TruckParams& t, double alpha) {
+  const TruckDynamics d(t);
+  StateVector x = settled(d);
+  const double v = 3.0;
+  x[StateIndex::kQdot + kX] = v;
+  x[StateIndex::kQdot + kY] = v * std::tan(alpha);
+  for (int w = 0; w < kNumWheels; ++w) x[StateIndex::kQdot + kAvr1 + w] = v / t.wheels[w].radius_m;
+  const int zy = StateIndex::kTyre + 2 * kRear + 1;
+  StateVector dx0, dx1;
+  x[zy] = 0;
+  eval(d, x, {}, &dx0);
+  x[zy] = 1;
+  eval(d, x, {}, &dx1);
+  x[zy] = dx0[zy] / (dx0[zy] - dx1[zy]);
+  StateVector dx;
+  const Outputs o = eval(d, x, {}, &dx);
+  EXPECT_NEAR(dx[zy], 0, 1e-9);
+  return std::abs(o.wheels[kRear].fy_N) / o.wheels[kRear].fz_N;
+}
+}  // namespace
+
+TEST(GroundForces, AGripPeakTyreRisesToItsPeakThenDropsToItsSlidingGrip) {
+  // Pacejka's and TMeasy's shape: the force rises with the slip to the peak, then falls as the
+  // contact slides. The brush without a peak only ever rises towards its grip.
+  const ContactParams& c = grip_peak_truck().contact;
+  double peak = 0, peak_at = 0;
+  for (double deg = 0.5; deg <= 60; deg += 0.5) {
+    const double f = steady_lateral_grip(grip_peak_truck(), deg * kDeg);
+    if (f > peak) { peak = f; peak_at = deg; }
+  }
+  RecordProperty("lateral_peak", std::to_string(peak) + " at " + std::to_string(peak_at) + " deg");
+  EXPECT_NEAR(peak, c.mu_static, 0.05 * c.mu_static);  // mu_static holds the peak
+  EXPECT_GT(peak_at, 4);
+  EXPECT_LT(peak_at, 16);
+  EXPECT_NEAR(steady_lateral_grip(grip_peak_truck(), 45 * kDeg), c.mu_sliding, 0.02);
+  EXPECT_NEAR(steady_lateral_grip(grip_peak_truck(), 60 * kDeg), c.mu_sliding, 0.02);
+  double last = 0;
+  for (double deg : {2.0, 5.0, 10.0, 20.0, 40.0, 60.0}) {
+    const double f = steady_lateral_grip(shipped_truck(), deg * kDeg);
+    EXPECT_GT(f, last) << deg << " deg";
+    last = f;
+  }
+}
+
 TEST(GroundForces, LongitudinalForceSaturatesAtFxMax) {
   // A locked wheel sliding at 3 m/s: eq (8) asks for k Fz sx, well above 4500 N.
   TruckDynamics d(paper_truck());
