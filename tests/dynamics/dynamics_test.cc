@@ -156,6 +156,54 @@ TEST(Energy, DampingDissipatesIt) {
   EXPECT_LT(e1, e0 - 10.0);
 }
 
+namespace {
+// The training truck rolled about its right front wheel's contact, so its left front wheel is
+// `lift_m` up (and the rear wheel half that), released at rest or rolling forward at `speed`: the
+// energy (kinetic, gravity and the tyres' vertical springs) from the last instant the left wheel is
+// in the air, and the largest and last values in the 2 s after it lands, every millisecond.
+struct Landing { double before = NAN, largest_after = -INFINITY, last = NAN; };
+Landing drop_a_wheel(double lift_m, double speed) {
+  const TruckDynamics d(shipped_truck());
+  StateVector x = settled(d);
+  const double roll = std::asin(lift_m / shipped_truck().front_track_m());
+  const double h = x[StateIndex::kQ + kZ], half = 0.5 * shipped_truck().front_track_m();
+  x[StateIndex::kQ + kAuc] = roll;  // about the chassis' x axis through the right wheel's contact
+  x[StateIndex::kQ + kY] += half * (std::cos(roll) - 1) - h * std::sin(roll);
+  x[StateIndex::kQ + kZ] += half * std::sin(roll) + h * (std::cos(roll) - 1);
+  x[StateIndex::kQdot + kX] = speed;
+  for (int w = 0; w < kNumWheels; ++w) x[StateIndex::kQdot + kAvr1 + w] = speed / shipped_truck().wheels[w].radius_m;
+  IntegratorOptions o;
+  o.rtol = 1e-8;
+  Simulation sim(d, x, o);
+  Landing l;
+  bool landed = false;
+  for (int k = 1; k <= 3000 && !(landed && sim.time() > 2.0); ++k) {
+    sim.advance_to(k * 1e-3);
+    const double e = d.energy(sim.state());
+    const bool down = sim.outputs().wheels[kFrontLeft].fz_N > 0;
+    if (!down && !landed) l.before = e;
+    landed = landed || (down && !std::isnan(l.before));
+    if (landed) l.largest_after = std::max(l.largest_after, e);
+    l.last = e;
+  }
+  return l;
+}
+}  // namespace
+
+TEST(Energy, AWheelLandingDissipatesItNeverCreatesIt) {
+  for (double speed : {0.0, 3.0})
+    for (double lift : {0.02, 0.05}) {
+      SCOPED_TRACE("left front wheel dropped from " + std::to_string(std::lround(lift * 100)) + " cm at " +
+                   std::to_string(std::lround(speed)) + " m/s");
+      const Landing l = drop_a_wheel(lift, speed);
+      ASSERT_FALSE(std::isnan(l.before)) << "the wheel was in the air, then landed";
+      RecordProperty("energy_change_J_" + std::to_string(std::lround(lift * 100)) + "cm_" + std::to_string(std::lround(speed)) + "m_s",
+                     std::to_string(l.largest_after - l.before) + " largest, " + std::to_string(l.last - l.before) + " after 2 s");
+      EXPECT_LE(l.largest_after, l.before);
+      EXPECT_LT(l.last, l.before - 1.0);  // the tyres' damping and friction took some
+    }
+}
+
 TEST(GroundForces, NoForceOffTheGroundAndFreeFall) {
   TruckDynamics d(shipped_truck());
   StateVector x = d.rest_state(0, 0, 0);
@@ -168,6 +216,54 @@ TEST(GroundForces, NoForceOffTheGroundAndFreeFall) {
     EXPECT_EQ(c.fx_N, 0.0);
   }
   EXPECT_NEAR(dx[StateIndex::kQdot + kZ], -kGravity_m_s2, 1e-9);
+}
+
+namespace {
+// The rear tyre's steady lateral force per unit load, |Fy| / Fz, with the truck rolling at 3 m/s
+// and sliding sideways at the slip angle `alpha`. The bristle's rate is affine in its deflection,
+// z' = a - b z, so two evaluations of the model give the steady deflection a / b it settles to.
+double steady_lateral_grip(const TruckParams& t, double alpha) {
+  const TruckDynamics d(t);
+  StateVector x = settled(d);
+  const double v = 3.0;
+  x[StateIndex::kQdot + kX] = v;
+  x[StateIndex::kQdot + kY] = v * std::tan(alpha);
+  for (int w = 0; w < kNumWheels; ++w) x[StateIndex::kQdot + kAvr1 + w] = v / t.wheels[w].radius_m;
+  const int zy = StateIndex::kTyre + 2 * kRear + 1;
+  StateVector dx0, dx1;
+  x[zy] = 0;
+  eval(d, x, {}, &dx0);
+  x[zy] = 1;
+  eval(d, x, {}, &dx1);
+  x[zy] = dx0[zy] / (dx0[zy] - dx1[zy]);
+  StateVector dx;
+  const Outputs o = eval(d, x, {}, &dx);
+  EXPECT_NEAR(dx[zy], 0, 1e-9);
+  return std::abs(o.wheels[kRear].fy_N) / o.wheels[kRear].fz_N;
+}
+}  // namespace
+
+TEST(GroundForces, AGripPeakTyreRisesToItsPeakThenDropsToItsSlidingGrip) {
+  // Pacejka's and TMeasy's shape: the force rises with the slip to the peak, then falls as the
+  // contact slides. The brush without a peak only ever rises towards its grip.
+  const ContactParams& c = grip_peak_truck().contact;
+  double peak = 0, peak_at = 0;
+  for (double deg = 0.5; deg <= 60; deg += 0.5) {
+    const double f = steady_lateral_grip(grip_peak_truck(), deg * kDeg);
+    if (f > peak) { peak = f; peak_at = deg; }
+  }
+  RecordProperty("lateral_peak", std::to_string(peak) + " at " + std::to_string(peak_at) + " deg");
+  EXPECT_NEAR(peak, c.mu_static, 0.05 * c.mu_static);  // mu_static holds the peak
+  EXPECT_GT(peak_at, 4);
+  EXPECT_LT(peak_at, 16);
+  EXPECT_NEAR(steady_lateral_grip(grip_peak_truck(), 45 * kDeg), c.mu_sliding, 0.02);
+  EXPECT_NEAR(steady_lateral_grip(grip_peak_truck(), 60 * kDeg), c.mu_sliding, 0.02);
+  double last = 0;
+  for (double deg : {2.0, 5.0, 10.0, 20.0, 40.0, 60.0}) {
+    const double f = steady_lateral_grip(shipped_truck(), deg * kDeg);
+    EXPECT_GT(f, last) << deg << " deg";
+    last = f;
+  }
 }
 
 TEST(GroundForces, LongitudinalForceSaturatesAtFxMax) {

@@ -1,5 +1,9 @@
 // Shared fixture data for the dynamics tests: the two shipped trucks.
 #pragma once
+#include <gtest/gtest.h>
+#include <fstream>
+#include <functional>
+#include <nlohmann/json.hpp>
 #include <string>
 #include "forklift/dynamics/truck.h"
 
@@ -12,5 +16,26 @@ inline const forklift::TruckParams& shipped_truck() {
 // The SIMUCEL paper's truck, with its force laws, for section 11's manoeuvres.
 inline const forklift::TruckParams& paper_truck() {
   static const forklift::TruckParams t = forklift::load_truck(std::string(FORKLIFT_DATA_DIR) + "/trucks/simucel_paper.json");
+  return t;
+}
+
+// The training truck's data file with `edit` applied, written where the test may write; its path.
+inline std::string shipped_truck_variant(const std::string& name, const std::function<void(nlohmann::json&)>& edit) {
+  std::ifstream in(std::string(FORKLIFT_DATA_DIR) + "/trucks/linde_e16c.json");
+  nlohmann::json j = nlohmann::json::parse(in);
+  edit(j);
+  const std::string path = testing::TempDir() + "/" + name + ".json";
+  std::ofstream(path) << j.dump();
+  return path;
+}
+
+// The training truck on tyres with a grip peak: data/tyres/linde_e16c_grip_peak.json's
+// ground_contact merged over its own (a JSON merge patch).
+inline void with_grip_peak_tyres(nlohmann::json& truck) {
+  std::ifstream in(std::string(FORKLIFT_DATA_DIR) + "/tyres/linde_e16c_grip_peak.json");
+  truck["ground_contact"].merge_patch(nlohmann::json::parse(in)["ground_contact"]);
+}
+inline const forklift::TruckParams& grip_peak_truck() {
+  static const forklift::TruckParams t = forklift::load_truck(shipped_truck_variant("grip_peak", with_grip_peak_tyres));
   return t;
 }

@@ -391,7 +391,7 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
 
   // Ground-to-wheel forces, section 7, each applied at its contact point to the wheel.
   const ContactParams& cp = t.contact;
-  const bool bristle = cp.tyre == TyreModel::kBristle;
+  const bool bristle = cp.tyre != TyreModel::kPaper, peak = cp.tyre == TyreModel::kGripPeak;
   std::array<WheelContact, kNumWheels> wc{};
   for (int w = 0; w < kNumWheels; ++w) {
     const FrameState& F = e.kin.f[kWheelFrame[w]];
@@ -408,10 +408,27 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
       const Eigen::Vector2d z = x.segment<2>(StateIndex::kTyre + 2 * w);
       const double v = std::hypot(c.slip_x_m_s, c.slip_y_m_s);
       stribeck = std::exp(-sq(v / cp.stribeck_speed_m_s));
-      mu = cp.mu_sliding + (cp.mu_static - cp.mu_sliding) * stribeck;
-      const double relax = std::abs(F.w.dot(axle) * radius) / cp.relaxation_length_m;
-      e.tyre_rate[w] = Eigen::Vector2d(c.slip_x_m_s - (cp.bristle_stiffness_x_per_m * v / mu + relax) * z.x(),
-                                       c.slip_y_m_s - (cp.bristle_stiffness_y_per_m * v / mu + relax) * z.y());
+      const double rolling = std::abs(F.w.dot(axle) * radius);
+      const double relax = rolling / cp.relaxation_length_m;
+      if (peak) {
+        // Grip as a function of the slip (Pacejka's and TMeasy's shape): the peak up to slip_peak,
+        // a smoothstep down to the sliding value. The bristle relaxes by whichever is faster,
+        // sliding or rolling (a rounded maximum, |.|_4), so the steady force is the brush's
+        // sigma0 L s below the grip and the grip above it, with a rounded corner between.
+        const double s = v / (rolling + cp.slip_angle_speed_floor_m_s);
+        const double u = std::clamp((s - cp.slip_peak) / (cp.slip_sliding - cp.slip_peak), 0.0, 1.0);
+        mu = cp.mu_static - (cp.mu_static - cp.mu_sliding) * u * u * (3 - 2 * u);
+        auto rate = [&](double sigma0) {
+          const double slide = sigma0 * v / mu;
+          return std::sqrt(std::sqrt(sq(sq(slide)) + sq(sq(relax))));
+        };
+        e.tyre_rate[w] = Eigen::Vector2d(c.slip_x_m_s - rate(cp.bristle_stiffness_x_per_m) * z.x(),
+                                         c.slip_y_m_s - rate(cp.bristle_stiffness_y_per_m) * z.y());
+      } else {
+        mu = cp.mu_sliding + (cp.mu_static - cp.mu_sliding) * stribeck;
+        e.tyre_rate[w] = Eigen::Vector2d(c.slip_x_m_s - (cp.bristle_stiffness_x_per_m * v / mu + relax) * z.x(),
+                                         c.slip_y_m_s - (cp.bristle_stiffness_y_per_m * v / mu + relax) * z.y());
+      }
     }
     Vector3d force = c.fz_N * n;
     if (env.chock_anchors_m) {

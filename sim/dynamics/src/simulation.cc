@@ -151,7 +151,7 @@ class CoupledLu {
   int n_ = 0;
 };
 
-bool bristle_tyres(const TruckParams& truck) { return truck.contact.tyre == TyreModel::kBristle; }
+bool bristle_tyres(const TruckParams& truck) { return truck.contact.tyre != TyreModel::kPaper; }
 bool brake_sticks(const TruckParams& truck) { return truck.drive.brake_stick_angle_rad > 0; }
 
 struct StructuredSolver {

@@ -176,18 +176,25 @@ TruckParams load_truck(const std::string& path) {
     c.fx_max_N = r.non_negative("ground_contact.fx_max_N");
     c.fy_mu = r.non_negative("ground_contact.fy_mu");
     c.fy_alpha0_rad = r.positive("ground_contact.fy_alpha0_deg") * kDeg;
-  } else if (tyre == "bristle") {
-    c.tyre = TyreModel::kBristle;
-    c.mu_static = r.positive("ground_contact.mu_static");
+  } else if (tyre == "bristle" || tyre == "grip_peak") {
+    const bool peak = tyre == "grip_peak";
+    c.tyre = peak ? TyreModel::kGripPeak : TyreModel::kBristle;
+    c.mu_static = r.positive(peak ? "ground_contact.mu_peak" : "ground_contact.mu_static");
     c.mu_sliding = r.positive("ground_contact.mu_sliding");
-    if (c.mu_sliding > c.mu_static) r.fail("ground_contact.mu_sliding", "must not exceed mu_static");
+    if (c.mu_sliding > c.mu_static)
+      r.fail("ground_contact.mu_sliding", peak ? "must not exceed mu_peak" : "must not exceed mu_static");
+    if (peak) {
+      c.slip_peak = r.positive("ground_contact.slip_peak");
+      c.slip_sliding = r.positive("ground_contact.slip_sliding");
+      if (c.slip_sliding <= c.slip_peak) r.fail("ground_contact.slip_sliding", "must exceed slip_peak");
+    }
     c.stribeck_speed_m_s = r.positive("ground_contact.stribeck_speed_m_s");
     c.bristle_stiffness_x_per_m = r.positive("ground_contact.bristle_stiffness_x_per_m");
     c.bristle_stiffness_y_per_m = r.positive("ground_contact.bristle_stiffness_y_per_m");
     c.bristle_damping_s_m = r.non_negative("ground_contact.bristle_damping_s_m");
     c.relaxation_length_m = r.positive("ground_contact.relaxation_length_m");
   } else {
-    r.fail("ground_contact.tyre_model", "must be \"paper\" or \"bristle\"");
+    r.fail("ground_contact.tyre_model", "must be \"paper\", \"bristle\" or \"grip_peak\"");
   }
   c.slip_angle_speed_floor_m_s = r.positive("ground_contact.slip_angle_speed_floor_m_s");
   c.rolling_resistance_N_m_s = optional("ground_contact.rolling_resistance_N_m_s", 0, false);

@@ -49,6 +49,9 @@ enum class TyreModel {
   kBristle,  // an averaged LuGre brush: the contact sticks below the friction limit (it holds a
              // braked truck on a slope), gives slip-proportional forces when rolling, and slides
              // at mu Fz on a friction circle (Canudas de Wit et al. 2003, the lumped LuGre tyre)
+  kGripPeak, // the same brush, but its grip follows the slip as Pacejka's and TMeasy's curves do: it
+             // rises with the slip stiffness to a peak mu_peak Fz, holds it to slip_peak, and falls
+             // to mu_sliding Fz by slip_sliding, so sliding is a distinct event that loses grip
 };
 
 struct ContactParams {
@@ -67,6 +70,9 @@ struct ContactParams {
   double bristle_stiffness_x_per_m = 0, bristle_stiffness_y_per_m = 0;  // sigma0, per unit Fz
   double bristle_damping_s_m = 0;                                         // sigma1, per unit Fz
   double relaxation_length_m = 0;                                         // L: slip stiffness = sigma0 L
+  // kGripPeak: mu_static is the peak; the slip s = |v| / (|w r| + slip_angle_speed_floor) sets the
+  // grip mu(s): mu_static up to slip_peak, a smoothstep down to mu_sliding at slip_sliding and beyond.
+  double slip_peak = 0, slip_sliding = 0;
   // Rolling resistance: the paper's viscous k of eq (6), and a Coulomb part C_rr Fz r (smoothed
   // through zero over `rolling_resistance_speed_rad_s`) that brings a coasting truck to rest.
   double rolling_resistance_N_m_s = 0;
