@@ -280,7 +280,10 @@ double floor_pallet_seen(const std::string& truck_file, double ahead_m) {
   RenderState with;
   with.q = coordinates(x);
   RenderState without = with;
-  without.pallets.push_back({"P14", Eigen::Translation3d(at.x(), -100, 0) * Eigen::Isometry3d::Identity()});
+  PalletState away;  // far behind the truck, out of the driver's sight
+  away.id = "P14";
+  away.pose = Eigen::Translation3d(at.x(), -100, 0) * Eigen::Isometry3d::Identity();
+  without.pallets.push_back(away);
   Renderer renderer(scene, shape, truck, kWidth, kHeight);
   const Image seen = renderer.render(with, View::kDriver);
   const Image bare = renderer.render(without, View::kDriver);
