@@ -507,7 +507,7 @@ TEST(Textures, APalletsDeckAndTheFloorShowTheirGrainAndKeepTheirColour) {
     const auto [plain, plain_mean] = spread_and_mean(b, x0, y0, x1, y1);
     RecordProperty(std::string(what) + "_spread", std::to_string(grain) + " textured, " + std::to_string(plain) + " flat");
     EXPECT_LT(plain, 1.0);          // flat shading: one colour
-    EXPECT_GT(grain, plain + 3.0);  // the grain shows
+    EXPECT_GT(grain, plain + 2.0);  // the grain shows (3.5 levels on the floor, 6 on the deck)
     EXPECT_NEAR(grain_mean, plain_mean, 0.08 * plain_mean);
   }
 }
