@@ -13,7 +13,8 @@
 //               60 degrees left (look_left: the plain view's cost from another direction)
 //   jpeg        encode_jpeg of a 640x480 driver frame at quality 85 (the worker's stream)
 //   quality     the driver view at 640x480 with each depth cue (RenderQuality) alone and none:
-//               what the shadow map (two sizes), the haze and the metre grid cost
+//               what the shadow map (two sizes), the haze, the metre grid, the textures and
+//               the anti-aliasing cost
 //   jpeg_frame  what the worker does for a JPEG frame: render, RGBX read-back, encode
 // Counters: calls (draw calls in the frame, the shadow map's included), parts (static parts
 // drawn of the scene's, after frustum culling).
@@ -134,9 +135,13 @@ const std::pair<const char*, ViewOptions> kAidRows[] = {
 
 // The depth cues (RenderQuality) the quality rows compare; the driver view at 640x480.
 const std::pair<const char*, RenderQuality> kQualityRows[] = {
-    {"none", {0, false, false}},          {"haze", {0, true, false}},
-    {"grid", {0, false, true}},           {"shadow_512", {512, false, false}},
-    {"shadow_1024", {1024, false, false}}, {"all_512", {512, true, true}},
+    {"none", {0, false, false, false, false}},          {"haze", {0, true, false, false, false}},
+    {"grid", {0, false, true, false, false}},           {"textures", {0, false, false, true, false}},
+    {"antialias", {0, false, false, false, true}},      {"shadow_512", {512, false, false, false, false}},
+    {"shadow_1024", {1024, false, false, false, false}}, {"all_512", {512, true, true, true, true}},
+    // The default (shadows, haze, textures, anti-aliasing) without each of the two newest.
+    {"default", {}},                                     {"default_flat", {512, true, false, false, true}},
+    {"default_aliased", {512, true, false, true, false}}, {"default_flat_aliased", {512, true, false, false, false}},
 };
 
 void BM_JpegEncode(benchmark::State& state, int width, int height) {
@@ -205,6 +210,11 @@ int main(int argc, char** argv) {
     timed(benchmark::RegisterBenchmark(("quality/" + std::string(name) + "/640x480").c_str(), BM_Frame, View::kDriver,
                                        ViewOptions{}, 640, 480, quality));
   timed(benchmark::RegisterBenchmark("jpeg_frame/640x480", BM_JpegFrame, 640, 480, RenderQuality{}));
+  // The same without the textures, without the anti-aliasing, and without both (the frame before them).
+  timed(benchmark::RegisterBenchmark("jpeg_frame_flat/640x480", BM_JpegFrame, 640, 480, RenderQuality{512, true, false, false, true}));
+  timed(benchmark::RegisterBenchmark("jpeg_frame_aliased/640x480", BM_JpegFrame, 640, 480, RenderQuality{512, true, false, true, false}));
+  timed(benchmark::RegisterBenchmark("jpeg_frame_flat_aliased/640x480", BM_JpegFrame, 640, 480,
+                                     RenderQuality{512, true, false, false, false}));
 
   const char* threads = std::getenv("LP_NUM_THREADS");
   std::printf("scenario %s, LP_NUM_THREADS=%s\n", g_scenario.c_str(), threads ? threads : "(default: one per core)");

@@ -445,6 +445,15 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
   refused(cmd_.see_through_mast, aids::kSeeThroughMast, "The see-through mast");
   refused(cmd_.chase_camera, aids::kChaseCamera, "The chase camera");
 
+  // The see-through mast, while it is on, says what the faint shapes in front of the forks are.
+  if (!compact_ && cmd_.see_through_mast && have_state_ && (state_.aids & aids::kSeeThroughMast)) {
+    const std::string words = see_through_mast_words();
+    const int h = wrapped_h(words, 0);
+    fill(0, yl - 2, side_w, h + 4, kPanel, "panel");
+    text(pad, yl, words, kBlue, 0, "aid_explained", wrap);
+    yl += h + 4;
+  }
+
   // Faults and notices in the top right corner, newest first, while they last: the three
   // newest, the newest with the rule's advice, down to the panel below.
   int yr = 4;
@@ -468,6 +477,12 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
     text(line, height / 2 - line / 2, session_line_, session_colour_, 2, "session", width - 2 * line);
   }
   return out;
+}
+
+std::string see_through_mast_words() {
+  return "See-through mast (training aid): the mast, the overhead guard and the carriage's plate and backrest are "
+         "drawn faint so you see the pallet behind them; the forks stay solid. A real mast is solid: look round it "
+         "(J / L)";
 }
 
 std::vector<std::string> Hud::texts(const std::vector<HudItem>& items) {

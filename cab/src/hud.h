@@ -127,4 +127,7 @@ class Hud {
 // "aborted" -> "Session aborted by your instructor", ...
 std::string end_words(const std::string& state, const std::string& reason);
 
+// What the see-through mast aid shows, in words: the HUD says it while the aid is on.
+std::string see_through_mast_words();
+
 }  // namespace forklift::cab

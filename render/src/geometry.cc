@@ -105,6 +105,25 @@ void add_ramps(const Ground& ground, const Eigen::AlignedBox2d& area, Geometry& 
 
 }  // namespace
 
+Eigen::Vector2f texture_uv(const Vector3d& p, const Vector3d& n, Pattern pattern) {
+  // Metres a texture covers: boards and rack sections are small, a floor's grain is coarse.
+  double size_m = 0;
+  switch (pattern) {
+    case Pattern::kPlain: return Eigen::Vector2f::Zero();
+    case Pattern::kWood: size_m = 0.6; break;
+    case Pattern::kSteel: size_m = 0.5; break;
+    case Pattern::kJoints: size_m = 2.0; break;
+    case Pattern::kStripes:
+    case Pattern::kPaint: size_m = 1.0; break;
+  }
+  const Vector3d a = n.cwiseAbs();
+  // Along the grain: a board's length is x or y, so the first coordinate runs along it.
+  const Eigen::Vector2d uv = a.z() >= a.x() && a.z() >= a.y() ? Eigen::Vector2d(p.x(), p.y())
+                             : a.x() >= a.y()                 ? Eigen::Vector2d(p.y(), p.z())
+                                                              : Eigen::Vector2d(p.x(), p.z());
+  return (uv / size_m).cast<float>();
+}
+
 void Geometry::add_vertex(const Vector3d& p, const Vector3d& n, const Vector3f& colour, Pattern pattern) {
   Vertex v;
   for (int k = 0; k < 3; ++k) {
@@ -113,11 +132,14 @@ void Geometry::add_vertex(const Vector3d& p, const Vector3d& n, const Vector3f& 
     v.colour[k] = to_byte(colour[k]);
   }
   v.colour[3] = uint8_t(pattern);
+  const Eigen::Vector2f uv = texture_uv(p, n, pattern);
+  v.uv[0] = uv.x();
+  v.uv[1] = uv.y();
   vertices.push_back(v);
   bounds.extend(p);
 }
 
-void Geometry::add_part(const MeshPart& part, const Eigen::Isometry3d& pose) {
+void Geometry::add_part(const MeshPart& part, const Eigen::Isometry3d& pose, Pattern pattern) {
   const size_t n = part.positions.size();
   if (n == 0 || part.triangles.size() < 3) return;
   // Normals as given; if a loader left them out, smooth ones from the faces.
@@ -139,7 +161,7 @@ void Geometry::add_part(const MeshPart& part, const Eigen::Isometry3d& pose) {
   for (size_t i = 0; i < n; ++i) {
     Vector3d nw = R * normals[i];
     if (nw.squaredNorm() > 0) nw.normalize();
-    add_vertex(pose * part.positions[i].cast<double>(), nw, part.colour, Pattern::kPlain);
+    add_vertex(pose * part.positions[i].cast<double>(), nw, part.colour, pattern);
   }
   // Each triangle wound counter-clockwise seen from the side its normals point to, so the
   // renderer can cull back faces whatever winding the file had.
@@ -154,8 +176,8 @@ void Geometry::add_part(const MeshPart& part, const Eigen::Isometry3d& pose) {
   }
 }
 
-void Geometry::add_mesh(const Mesh& mesh, const Eigen::Isometry3d& pose) {
-  for (const MeshPart& part : mesh.parts) add_part(part, pose);
+void Geometry::add_mesh(const Mesh& mesh, const Eigen::Isometry3d& pose, Pattern pattern) {
+  for (const MeshPart& part : mesh.parts) add_part(part, pose, pattern);
 }
 
 void Geometry::add_box(const Eigen::AlignedBox3d& box, const Eigen::Isometry3d& pose, const Vector3f& colour,
@@ -252,14 +274,14 @@ void add_floor(const Scene& scene, const Eigen::AlignedBox2d& area, Geometry& ou
     const Vector2d d = b - a;
     if (d.norm() < 1e-9) return;
     const Vector2d side = Vector2d(-d.y(), d.x()).normalized() * (0.5 * width);
-    paint.push_back({z, {a - side, b - side, b + side, a + side}, colour, Pattern::kPlain});
+    paint.push_back({z, {a - side, b - side, b + side, a + side}, colour, Pattern::kPaint});
   };
 
   // Zones tinted by kind, walkways striped; edge lines on aisles and walkways.
   for (const Zone& zone : scene.zones) {
     if (zone.polygon.size() < 3) continue;
     const double z = zone_height(zone.kind);
-    paint.push_back({z, zone.polygon, zone_colour(zone.kind), zone.kind == "walkway" ? Pattern::kStripes : Pattern::kPlain});
+    paint.push_back({z, zone.polygon, zone_colour(zone.kind), zone.kind == "walkway" ? Pattern::kStripes : Pattern::kPaint});
     if (zone.kind != "aisle" && zone.kind != "walkway") continue;
     const Vector3f line = zone.kind == "aisle" ? kAisleLine : kWalkwayLine;
     for (size_t i = 0, j = zone.polygon.size() - 1; i < zone.polygon.size(); j = i++)

@@ -11,19 +11,29 @@
 
 namespace forklift::render {
 
-// How the fragment shader paints a surface; stored in the vertex colour's alpha byte.
+// How the fragment shader paints a surface; stored in the vertex colour's alpha byte. Each but
+// kPlain also has a texture (textures.h) that shades its base colour.
 enum class Pattern : uint8_t {
   kPlain = 255,
-  kStripes = 1,  // walkway hatching: diagonal stripes of kStripeColour over the base colour
-  kJoints = 2,   // concrete floor: slab joints every 5 m, darker
+  kStripes = 1,  // walkway hatching: diagonal stripes of kStripeColour over the base colour; worn paint
+  kJoints = 2,   // concrete floor: slab joints every 5 m, darker; concrete
+  kWood = 3,     // pallets: wood grain
+  kSteel = 4,    // racks: painted steel, scuffed
+  kPaint = 5,    // floor markings and tinted zones: worn paint
 };
 
 struct Vertex {
   float position[3];
   float normal[3];
   uint8_t colour[4];  // RGB, Pattern
+  float uv[2];        // texture coordinates, in repeats of the pattern's texture (texture_uv)
 };
-static_assert(sizeof(Vertex) == 28);
+static_assert(sizeof(Vertex) == 36);
+
+// A box-mapped texture coordinate: the position projected along the normal's largest axis onto
+// the other two, in repeats of the pattern's texture (each pattern's texture covers its own
+// size on the ground: wood 0.5 m, concrete 2 m, ...). Plain surfaces get (0, 0).
+Eigen::Vector2f texture_uv(const Eigen::Vector3d& position, const Eigen::Vector3d& normal, Pattern pattern);
 
 struct Geometry {
   std::vector<Vertex> vertices;
@@ -35,8 +45,9 @@ struct Geometry {
   // point to): the renderer culls back faces.
   // One mesh part, its positions mapped by `pose` (rigid) and its normals by its rotation;
   // triangles wound against their normals are turned round.
-  void add_part(const MeshPart& part, const Eigen::Isometry3d& pose);
-  void add_mesh(const Mesh& mesh, const Eigen::Isometry3d& pose);
+  // `pattern` paints the part (a pallet's wood, a rack's steel); kPlain leaves it its colour.
+  void add_part(const MeshPart& part, const Eigen::Isometry3d& pose, Pattern pattern = Pattern::kPlain);
+  void add_mesh(const Mesh& mesh, const Eigen::Isometry3d& pose, Pattern pattern = Pattern::kPlain);
   // An axis-aligned box in the frame given by `pose`, with face normals.
   void add_box(const Eigen::AlignedBox3d& box, const Eigen::Isometry3d& pose, const Eigen::Vector3f& colour,
                Pattern pattern = Pattern::kPlain);

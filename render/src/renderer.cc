@@ -1,20 +1,24 @@
 // The off-screen Graphic Engine: one OSMesa context per Renderer, the static warehouse in one
-// vertex buffer drawn with one call (its objects outside the view left out), and every moving
-// mesh (truck parts, pallets, loads) drawn instanced, one call per distinct mesh with instances
-// in view. Before the picture, the moving meshes near the truck are drawn once more into the key
-// light's shadow map. A frame is about twenty draw calls whatever the number of pallets (each
-// costs about 130 us on llvmpipe).
+// vertex buffer drawn with one call (its objects outside the view left out), the truck in one
+// buffer moved on the CPU and drawn with one call, and every other moving mesh (pallets, loads)
+// drawn instanced, one call per distinct mesh with instances in view. Before the picture, the
+// moving meshes near the truck are drawn once more into the key light's shadow map; after it,
+// the edges are smoothed (antialias.h). A frame is a handful of draw calls whatever the number
+// of pallets.
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <map>
 #include <stdexcept>
 #include <unordered_map>
 
+#include "antialias.h"
 #include "camera.h"
 #include "forklift/render/render.h"
 #include "geometry.h"
 #include "gl.h"
 #include "shaders.h"
+#include "textures.h"
 
 namespace forklift {
 namespace {
@@ -62,8 +66,6 @@ struct GpuMesh {
   GLsizei index_count = 0;
   Eigen::AlignedBox3d bounds;  // in the mesh's frame
   std::vector<Eigen::Matrix4f> transforms;
-  bool see_through = false;  // drawn translucent when the view asks for a see-through mast
-  bool truck_part = false;   // drawn first, and without shadows on it (see MainProgram)
 
   explicit GpuMesh(const Geometry& g) : bounds(g.bounds) {
     vao = gl::make_vertex_array();
@@ -82,6 +84,8 @@ struct GpuMesh {
     glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(offsetof(render::Vertex, normal)));
     glEnableVertexAttribArray(2);
     glVertexAttribPointer(2, 4, GL_UNSIGNED_BYTE, GL_TRUE, stride, reinterpret_cast<void*>(offsetof(render::Vertex, colour)));
+    glEnableVertexAttribArray(7);
+    glVertexAttribPointer(7, 2, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(offsetof(render::Vertex, uv)));
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, indices.get());
     glBufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(g.indices.size() * sizeof(uint32_t)), g.indices.data(),
                  GL_STATIC_DRAW);
@@ -205,6 +209,85 @@ struct StaticBatch {
   }
 };
 
+// The truck in one vertex buffer, its vertices moved into world coordinates on the CPU each
+// frame: a few thousand vertices, instead of a draw call per part in the picture and again in
+// the shadow map. The parts a see-through mast draws
+// translucent (guard, mast, carriage frame) come last, so that one call draws the solid parts
+// and, for a see-through view, one more the rest; otherwise one call draws it all.
+struct TruckBatch {
+  struct Piece {
+    Geometry geometry;  // in its body's frame
+    const Isometry3d BodyPoses::*body = nullptr;
+    int wheel = -1;  // a wheel's index into BodyPoses::wheels, else -1
+  };
+  std::vector<Piece> solid, see_through;
+  std::unique_ptr<GpuMesh> mesh;
+  GLsizei solid_indices = 0, all_indices = 0;
+  std::vector<render::Vertex> world;  // this frame's vertices
+  Eigen::AlignedBox3d bounds;         // this frame's, in world
+
+  void add(Geometry g, const Isometry3d BodyPoses::*body, int wheel, bool translucent) {
+    if (g.empty()) return;
+    (translucent ? see_through : solid).push_back({std::move(g), body, wheel});
+  }
+
+  void upload() {
+    Geometry all;
+    for (const std::vector<Piece>* list : {&solid, &see_through}) {
+      for (const Piece& p : *list) {
+        const uint32_t base = uint32_t(all.vertices.size());
+        all.vertices.insert(all.vertices.end(), p.geometry.vertices.begin(), p.geometry.vertices.end());
+        for (uint32_t i : p.geometry.indices) all.indices.push_back(base + i);
+        all.bounds.extend(p.geometry.bounds);
+      }
+      if (list == &solid) solid_indices = GLsizei(all.indices.size());
+    }
+    if (all.empty()) return;
+    all_indices = GLsizei(all.indices.size());
+    world = all.vertices;
+    mesh = std::make_unique<GpuMesh>(all);
+    mesh->add(Isometry3d::Identity());
+    glBindBuffer(GL_ARRAY_BUFFER, mesh->instances.get());  // one instance, for good
+    glBufferData(GL_ARRAY_BUFFER, sizeof(Eigen::Matrix4f), mesh->transforms.data(), GL_STATIC_DRAW);
+  }
+
+  // Moves every vertex to where its body is and uploads them.
+  void place(const BodyPoses& poses) {
+    if (!mesh) return;
+    bounds.setEmpty();
+    size_t k = 0;
+    for (const std::vector<Piece>* list : {&solid, &see_through})
+      for (const Piece& p : *list) {
+        const Isometry3d& pose = p.wheel >= 0 ? poses.wheels[p.wheel] : poses.*(p.body);
+        const Eigen::Matrix3f R = pose.linear().cast<float>();
+        const Eigen::Vector3f t = pose.translation().cast<float>();
+        for (const render::Vertex& v : p.geometry.vertices) {
+          render::Vertex& out = world[k++];
+          Eigen::Map<Eigen::Vector3f>(out.position) = R * Eigen::Map<const Eigen::Vector3f>(v.position) + t;
+          Eigen::Map<Eigen::Vector3f>(out.normal) = R * Eigen::Map<const Eigen::Vector3f>(v.normal);
+        }
+        Eigen::AlignedBox3d b;
+        for (int i = 0; i < 8; ++i) b.extend(pose * p.geometry.bounds.corner(Eigen::AlignedBox3d::CornerType(i)));
+        bounds.extend(b);
+      }
+    glBindBuffer(GL_ARRAY_BUFFER, mesh->vertices.get());
+    glBufferSubData(GL_ARRAY_BUFFER, 0, GLsizeiptr(world.size() * sizeof(render::Vertex)), world.data());
+  }
+
+  // Draws the solid parts, the see-through ones or all, if `view` may see the truck (all: null).
+  enum Parts { kSolid, kSeeThrough, kAll };
+  int draw(Parts parts, const render::Frustum* view, long& triangles) const {
+    const GLsizei first = parts == kSeeThrough ? solid_indices : 0;
+    const GLsizei last = parts == kSolid ? solid_indices : all_indices;
+    if (!mesh || last <= first || (view && !view->may_see(bounds))) return 0;
+    glBindVertexArray(mesh->vao.get());
+    glDrawElementsInstanced(GL_TRIANGLES, last - first, GL_UNSIGNED_INT,
+                            reinterpret_cast<const void*>(size_t(first) * sizeof(uint32_t)), 1);
+    triangles += (last - first) / 3;
+    return 1;
+  }
+};
+
 // The parts of a mesh for which `keep` holds, in the mesh's frame.
 template <class Keep>
 Geometry parts_geometry(const Mesh& mesh, Keep keep) {
@@ -265,6 +348,7 @@ struct Renderer::Impl {
   RenderQuality quality;
   OSMesaContext context = nullptr;
   std::vector<uint8_t> framebuffer;  // RGBA, rows top to bottom (OSMESA_Y_UP = 0)
+  render::EdgeSmoother smoother;     // RenderQuality::antialias
   Image image;
   FrameStats stats;
 
@@ -288,6 +372,7 @@ struct Renderer::Impl {
       const Vector3f key = Eigen::Map<const Vector3f>(render::kKeyLight).normalized();
       glUniform3fv(glGetUniformLocation(p, "u_key_light"), 1, key.data());
       glUniform1i(glGetUniformLocation(p, "u_shadow_map"), 0);
+      glUniform1i(glGetUniformLocation(p, "u_surfaces"), 1);
     }
   };
   MainProgram shadowed, unshadowed;
@@ -297,11 +382,12 @@ struct Renderer::Impl {
   GLint u_shadow_view_projection = -1;
   gl::Texture shadow_map;
   gl::Framebuffer shadow_target;
-  std::vector<std::unique_ptr<GpuMesh>> meshes;  // moving meshes, each drawn once a frame
+  gl::Texture surfaces;  // the textures' array (textures.h), on texture unit 1
+  std::vector<std::unique_ptr<GpuMesh>> meshes;  // pallets and loads, each mesh drawn once a frame
   std::map<const Mesh*, GpuMesh*> by_mesh;
-  // The truck's parts; the guard, the mast and the carriage's frame can be drawn see-through.
-  GpuMesh *chassis = nullptr, *guard = nullptr, *mast = nullptr, *carriage_frame = nullptr, *forks = nullptr,
-          *front_wheel = nullptr, *rear_wheel = nullptr, *load_box = nullptr;
+  GpuMesh* load_box = nullptr;
+  // The truck; the guard, the mast and the carriage's frame can be drawn see-through.
+  TruckBatch truck_batch;
 
   struct Pallet {
     GpuMesh* mesh;
@@ -349,8 +435,10 @@ struct Renderer::Impl {
     OSMesaMakeCurrent(context, framebuffer.data(), GL_UNSIGNED_BYTE, width, height);
     // GL objects go while their context is current.
     static_batch.mesh.reset();
+    truck_batch.mesh.reset();
     shadow_target.reset();
     shadow_map.reset();
+    surfaces.reset();
     shadow_program.reset();
     by_mesh.clear();
     meshes.clear();
@@ -387,56 +475,57 @@ struct Renderer::Impl {
     return load_box;
   }
 
-  GpuMesh* mesh_for(const std::shared_ptr<const Mesh>& mesh) {
+  // One GPU mesh per scene mesh, painted with `pattern` (the first asked for it).
+  GpuMesh* mesh_for(const std::shared_ptr<const Mesh>& mesh, render::Pattern pattern = render::Pattern::kPlain) {
     if (!mesh) return nullptr;
     auto it = by_mesh.find(mesh.get());
     if (it != by_mesh.end()) return it->second;
     Geometry g;
-    g.add_mesh(*mesh, Isometry3d::Identity());
+    g.add_mesh(*mesh, Isometry3d::Identity(), pattern);
     return by_mesh[mesh.get()] = add_mesh(g);
   }
 
   void upload() {
     // The main shaders with what this quality draws compiled in, and nothing else.
-    auto head = [&](bool shadows, bool haze) {
+    auto head = [&](bool shadows, bool haze, bool textures) {
       return std::string("#version 330 core\n#define SHADOWS ") + (shadows ? "1" : "0") + "\n#define HAZE " +
-             (haze ? "1" : "0") + "\n#define GRID " + (quality.grid ? "1" : "0") + "\n#define HAZE_START_M " +
-             std::to_string(kHazeStartM) + "\n#define HAZE_FULL_M " + std::to_string(kHazeFullM) + "\n";
+             (haze ? "1" : "0") + "\n#define GRID " + (quality.grid ? "1" : "0") + "\n#define TEXTURES " +
+             (textures ? "1" : "0") + "\n#define HAZE_START_M " + std::to_string(kHazeStartM) +
+             "\n#define HAZE_FULL_M " + std::to_string(kHazeFullM) + "\n";
     };
-    shadowed.make(head(quality.shadow_map_px > 0, quality.haze));
+    shadowed.make(head(quality.shadow_map_px > 0, quality.haze, quality.textures));
+    if (quality.textures) make_surface_textures();
     // The truck is never as far from a hazed view's camera as the haze's start (kHazeStartM: the
     // driver's eye is within 8 m of any of its parts, the chase camera within 11 m; a test pins
     // it for every shipped truck), so its pixels, a third of the driver's picture, skip the
     // haze's arithmetic at no change to them (forklift-bench-render: 3.85 to 3.46 ms a frame).
-    unshadowed.make(head(false, false));
+    // The truck is painted steel, untextured: its program skips the texture's tap too.
+    unshadowed.make(head(false, false, false));
     if (quality.shadow_map_px > 0) make_shadow_map();
 
-    // The truck's parts first (nearest the driver's and the chase camera: drawn first); wheels
-    // share a mesh when the shape does.
-    auto see_through = [](GpuMesh* m) {
-      if (m) m->see_through = true;
-      return m;
-    };
+    // The truck (nearest the driver's and the chase camera: drawn first), in one batch.
+    auto whole = [](const MeshPart&) { return true; };
     if (shape.chassis) {
-      chassis = add_mesh(parts_geometry(*shape.chassis, [](const MeshPart& p) { return !guard_part(p); }));
-      guard = see_through(add_mesh(parts_geometry(*shape.chassis, guard_part)));
+      truck_batch.add(parts_geometry(*shape.chassis, [](const MeshPart& p) { return !guard_part(p); }), &BodyPoses::chassis, -1, false);
+      truck_batch.add(parts_geometry(*shape.chassis, guard_part), &BodyPoses::chassis, -1, true);
     }
-    if (shape.mast) mast = see_through(add_mesh(parts_geometry(*shape.mast, [](const MeshPart&) { return true; })));
+    if (shape.mast) truck_batch.add(parts_geometry(*shape.mast, whole), &BodyPoses::mast, -1, true);
     if (shape.carriage) {
-      carriage_frame = see_through(add_mesh(parts_geometry(*shape.carriage, [](const MeshPart& p) { return !fork_part(p); })));
-      forks = add_mesh(fork_geometry(shape));
+      truck_batch.add(parts_geometry(*shape.carriage, [](const MeshPart& p) { return !fork_part(p); }), &BodyPoses::carriage, -1,
+                      true);
+      truck_batch.add(fork_geometry(shape), &BodyPoses::carriage, -1, false);
     }
-    front_wheel = mesh_for(shape.front_wheel);
-    rear_wheel = mesh_for(shape.rear_wheel);
-    for (GpuMesh* m : {chassis, guard, mast, carriage_frame, forks, front_wheel, rear_wheel})
-      if (m) m->truck_part = true;
+    if (shape.front_wheel)
+      for (int w : {kFrontLeft, kFrontRight}) truck_batch.add(parts_geometry(*shape.front_wheel, whole), nullptr, w, false);
+    if (shape.rear_wheel) truck_batch.add(parts_geometry(*shape.rear_wheel, whole), nullptr, kRear, false);
+    truck_batch.upload();
 
     // Everything that never moves, in world coordinates, in one buffer, a part per object:
     // objects before the floor they stand on (drawn in this order: see draw()).
     Geometry world;
     for (const SceneObject& o : scene.objects) {
       if (o.kind == ObjectKind::kPallet) {
-        Pallet p{mesh_for(o.mesh), nullptr, o.pose, 0, Vector3d::Zero()};
+        Pallet p{mesh_for(o.mesh, render::Pattern::kWood), nullptr, o.pose, 0, Vector3d::Zero()};
         if (o.pallet && (o.pallet->load_size_m.array() > 0).all()) {
           p.load = o.load_mesh ? mesh_for(o.load_mesh) : unit_load_box();
           p.deck_height_m = o.pallet->height_m;
@@ -445,7 +534,8 @@ struct Renderer::Impl {
         pallet_index[o.id] = pallets.size();
         pallets.push_back(p);
       } else if (o.mesh) {
-        static_batch.add_part(world, [&] { world.add_mesh(*o.mesh, o.pose); });
+        const render::Pattern pattern = o.kind == ObjectKind::kRack ? render::Pattern::kSteel : render::Pattern::kPlain;
+        static_batch.add_part(world, [&] { world.add_mesh(*o.mesh, o.pose, pattern); });
       }
     }
     static_batch.add_part(world, [&] { render::add_floor(scene, floor_area(scene), world); });
@@ -496,6 +586,39 @@ struct Renderer::Impl {
     gl::check_error("making the shadow map");
   }
 
+  // The surfaces' textures, made here (textures.h), as one array on texture unit 1, read with
+  // one nearest tap and no mipmaps (the shader fades them out where a texel gets smaller than a
+  // pixel): llvmpipe's bilinear or mipmapped taps cost it twice or three times as much a frame.
+  // Each pattern's layer and each layer's mean go to the shader, which divides by the mean so a
+  // surface keeps its colour on average.
+  void make_surface_textures() {
+    const std::vector<uint8_t> texels = render::surface_textures();
+    GLuint id = 0;
+    glGenTextures(1, &id);
+    surfaces = gl::Texture(id);
+    glActiveTexture(GL_TEXTURE1);
+    glBindTexture(GL_TEXTURE_2D_ARRAY, id);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_R8, render::kTextureSize, render::kTextureSize, render::kTextureLayers, 0,
+                 GL_RED, GL_UNSIGNED_BYTE, texels.data());
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_S, GL_REPEAT);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_T, GL_REPEAT);
+    glActiveTexture(GL_TEXTURE0);
+    const std::array<float, render::kTextureLayers> mean = render::texture_means(texels);
+    std::array<float, render::kTextureLayers> gain{};
+    for (int i = 0; i < render::kTextureLayers; ++i) gain[i] = i == 0 ? 1.0f : 1.0f / mean[i];
+    GLint layer_of[6] = {0, 0, 0, 0, 0, 0};
+    for (render::Pattern p : {render::Pattern::kStripes, render::Pattern::kJoints, render::Pattern::kWood,
+                              render::Pattern::kSteel, render::Pattern::kPaint})
+      layer_of[int(p)] = render::texture_layer(p);
+    glUseProgram(shadowed.program.get());
+    glUniform1iv(glGetUniformLocation(shadowed.program.get(), "u_layer_of"), 6, layer_of);
+    glUniform1fv(glGetUniformLocation(shadowed.program.get(), "u_gain"), render::kTextureLayers, gain.data());
+    gl::check_error("making the surfaces' textures");
+  }
+
   // The key light's view: orthographic, straight along the light onto the square of
   // kShadowAreaM round the truck (its chassis origin), from 30 m away along the light. The
   // square moves a whole texel at a time, so a shadow's edge does not crawl as the truck drives.
@@ -525,6 +648,7 @@ struct Renderer::Impl {
     glEnable(GL_POLYGON_OFFSET_FILL);
     glPolygonOffset(1.5f, 4.0f);
     const render::Frustum seen(light);
+    stats.draw_calls += truck_batch.draw(TruckBatch::kAll, &seen, stats.triangles);
     for (const auto& mesh : meshes) stats.draw_calls += mesh->draw(&seen, stats.triangles);
     glDisable(GL_POLYGON_OFFSET_FILL);
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
@@ -549,14 +673,7 @@ struct Renderer::Impl {
     for (const auto& m : meshes) m->clear();
     stats.static_parts_drawn = stats.draw_calls = 0;
     stats.triangles = 0;
-    for (GpuMesh* m : {chassis, guard}) if (m) m->add(poses.chassis);
-    if (mast) mast->add(poses.mast);
-    for (GpuMesh* m : {carriage_frame, forks}) if (m) m->add(poses.carriage);
-    if (front_wheel) {
-      front_wheel->add(poses.wheels[kFrontLeft]);
-      front_wheel->add(poses.wheels[kFrontRight]);
-    }
-    if (rear_wheel) rear_wheel->add(poses.wheels[kRear]);
+    truck_batch.place(poses);
     place_pallets(state);
     for (size_t i = 0; i < pallets.size(); ++i) {
       const Pallet& p = pallets[i];
@@ -572,6 +689,7 @@ struct Renderer::Impl {
     Eigen::AlignedBox3d extent;
     if (static_batch.mesh) extent.extend(static_batch.mesh->bounds);
     for (const auto& m : meshes) m->extend(extent);
+    extent.extend(truck_batch.bounds);
 
     if (quality.shadow_map_px > 0) {
       const Eigen::Matrix4d light = light_view_projection(poses);
@@ -625,6 +743,7 @@ struct Renderer::Impl {
     glBindVertexArray(0);
     glFinish();  // OSMesa copies the picture into `framebuffer` here
     gl::check_error("rendering a frame");
+    if (quality.antialias) smoother.apply(framebuffer.data(), width, height);
     for (const Inset* i : {&mirror_at, &fork_at})
       if (i->w > 0) frame_inset(i->x, height - i->y - i->h, i->w, i->h);
     return {width, height, framebuffer.data()};
@@ -671,11 +790,9 @@ struct Renderer::Impl {
       glUniform1f(p->alpha, 1.0f);
     }
     // The truck (unshadowed, still current), then what its shadows fall on.
-    for (const auto& m : meshes)
-      if (m->truck_part && !(see_through && m->see_through)) stats.draw_calls += m->draw(&seen, stats.triangles);
+    stats.draw_calls += truck_batch.draw(see_through ? TruckBatch::kSolid : TruckBatch::kAll, &seen, stats.triangles);
     glUseProgram(shadowed.program.get());
-    for (const auto& m : meshes)
-      if (!m->truck_part) stats.draw_calls += m->draw(&seen, stats.triangles);
+    for (const auto& m : meshes) stats.draw_calls += m->draw(&seen, stats.triangles);
     const int parts = static_batch.draw(seen, stats.draw_calls, stats.triangles);
     if (!see_through) return parts;
     glEnable(GL_BLEND);
@@ -683,8 +800,7 @@ struct Renderer::Impl {
     glDepthMask(GL_FALSE);
     glUseProgram(unshadowed.program.get());
     glUniform1f(unshadowed.alpha, kSeeThroughAlpha);
-    for (const auto& m : meshes)
-      if (m->see_through) stats.draw_calls += m->draw(&seen, stats.triangles);
+    stats.draw_calls += truck_batch.draw(TruckBatch::kSeeThrough, &seen, stats.triangles);
     glDepthMask(GL_TRUE);
     glDisable(GL_BLEND);
     return parts;

@@ -9,7 +9,8 @@
 // shadow (one compare-filtered tap of the shadow map, which the truck, the pallets and the loads
 // are drawn into from the key light first), a distance haze towards the sky colour in the driver's
 // and chase views (how far away a rack is reads from its colour too), and the floor's patterns (walkway stripes, slab joints,
-// a faint metre grid near the truck to judge distances by). See-through parts (the training
+// a faint metre grid near the truck to judge distances by) and the surfaces' textures (wood,
+// steel, concrete, worn paint: one nearest tap of an array, faded out with distance). See-through parts (the training
 // aid) are the same surfaces at a uniform alpha, blended over what stands behind them.
 #pragma once
 
@@ -19,13 +20,14 @@ namespace forklift::render {
 // and to the right of what casts them, where the driver sees them beside the forks.
 inline constexpr float kKeyLight[3] = {0.35f, 0.25f, 0.90f};
 
-// Both main shaders are compiled with SHADOWS, HAZE and GRID defined 0 or 1 (RenderQuality):
+// Both main shaders are compiled with SHADOWS, HAZE, GRID and TEXTURES defined 0 or 1 (RenderQuality):
 // what a renderer does not draw costs its pixels nothing.
 inline constexpr const char* kVertexShader = R"glsl(
 layout(location = 0) in vec3 a_position;
 layout(location = 1) in vec3 a_normal;
 layout(location = 2) in vec4 a_colour;
 layout(location = 3) in mat4 a_model;  // locations 3..6, one per instance
+layout(location = 7) in vec2 a_uv;     // in repeats of the surface's texture
 uniform mat4 u_view_projection;
 uniform vec3 u_eye;
 uniform vec3 u_key_light;  // towards the key light, unit
@@ -35,6 +37,13 @@ out float v_ambient;  // ambient and fill: what a shadow leaves
 out float v_key;      // the key light: what a shadow takes away
 #if GRID
 out float v_height;  // world z: the metre grid is on the floor only
+#endif
+#if TEXTURES
+uniform int u_layer_of[6];   // the texture layer of each Pattern below kPlain (textures.h)
+uniform float u_gain[5];     // each layer's 1 / mean: a texture shades, it does not darken
+out vec2 v_uv;
+flat out float v_layer;
+flat out float v_gain;
 #endif
 #if SHADOWS
 uniform mat4 u_light_view_projection;  // world to the shadow map's [0, 1] texture and depth
@@ -52,6 +61,13 @@ void main() {
   v_colour = a_colour;
 #if GRID
   v_height = world.z;
+#endif
+#if TEXTURES
+  int pattern = int(a_colour.a * 255.0 + 0.5);
+  int layer = pattern < 6 ? u_layer_of[pattern] : 0;
+  v_uv = a_uv;
+  v_layer = float(layer);
+  v_gain = u_gain[layer];
 #endif
 #if SHADOWS
   v_shadow = (u_light_view_projection * world).xyz;
@@ -74,6 +90,13 @@ uniform vec2 u_grid_centre;  // the metre grid fades out 6 m from here (the truc
 in vec3 v_shadow;
 uniform sampler2DShadow u_shadow_map;
 #endif
+#if TEXTURES
+in vec2 v_uv;
+flat in float v_layer;
+flat in float v_gain;
+uniform sampler2DArray u_surfaces;  // layer 0 is all ones: plain surfaces keep their colour exactly
+const float kTextureFadeStartM = 6.0, kTextureFadeEndM = 14.0;  // a texel is about a pixel at 6 m
+#endif
 #if HAZE
 uniform vec3 u_sky;
 uniform float u_haze;  // the most the haze takes of a far surface's colour (0: none, the plan view)
@@ -83,7 +106,7 @@ out vec4 o_colour;
 const vec3 kStripe = vec3(0.95, 0.80, 0.10);
 void main() {
   vec3 base = v_colour.rgb;
-  if (v_colour.a < 0.5) {  // a pattern (plain surfaces have alpha 1)
+  if (v_colour.a < 2.5 / 255.0) {  // a floor pattern (plain surfaces have alpha 1, textured ones 3-5)
     if (v_colour.a < 1.5 / 255.0) {
       // Walkway hatching: 0.4 m stripes at 45 degrees.
       if (fract((v_floor.x + v_floor.y) * 1.25) < 0.5) base = kStripe;
@@ -93,6 +116,13 @@ void main() {
       if (min(d.x, d.y) < 0.025) base *= 0.82;
     }
   }
+#if TEXTURES
+  // One nearest tap, no mipmaps (llvmpipe's cheapest: a mip level is chosen from per-pixel
+  // derivatives, which costs a tenth of a frame). Far off, where a texel is smaller than a
+  // pixel and would sparkle as the truck moves, the grain fades out instead.
+  float grain = texture(u_surfaces, vec3(v_uv, v_layer)).r * v_gain;
+  base *= mix(grain, 1.0, clamp((1.0 / gl_FragCoord.w - kTextureFadeStartM) * (1.0 / (kTextureFadeEndM - kTextureFadeStartM)), 0.0, 1.0));
+#endif
 #if GRID
   // Near the truck, faint lines every metre on the floor and its paint (all within 3 cm of z = 0).
   if (v_height < 0.03 && distance(v_floor, u_grid_centre) < 6.0) {

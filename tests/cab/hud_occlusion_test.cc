@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "camera.h"  // render's view-projection: the matrices the frame is drawn with
+#include "forklift/protocol/aids.h"
 #include "forklift/render/render.h"
 #include "forklift/scene/scene.h"
 #include "hud.h"
@@ -118,7 +119,9 @@ std::vector<Work> work_in_sight(double h, int W, int H) {
 
 // A HUD with everything it can show at once while driving: the task, time, a fault with its
 // advice, refused aids, what cuts the drive, the load, amber stability and the pallet hint.
-Hud busy_hud(double fork_height_m) {
+// `allowed_aids`: the training aids the session allows (none: each one asked for is said to be refused;
+// all: the see-through mast explains itself).
+Hud busy_hud(double fork_height_m, uint8_t allowed_aids = 0) {
   Hud hud = cab::test::make_hud();
   fk_TruckState s = cab::test::moving();
   s.speed_m_s = 2.9;  // over the limit
@@ -126,7 +129,7 @@ Hud busy_hud(double fork_height_m) {
   s.fork_height_m = fork_height_m;
   s.steer_rad = 0.4;
   dds::set_string(s.task_step, "Take pallet P3 from rack R2, level 2, and set it down on the dock of bay 1 (D1)");
-  s.aids = 0;
+  s.aids = allowed_aids;
   dds::set_string(s.pallet_ahead, "P11");
   s.pallet_distance_m = 1.5;
   s.pallet_height_m = 0.06;
@@ -167,19 +170,21 @@ TEST(HudOcclusion, TheForksTheirTipsAndThePalletAheadAreNeverUnderAPanel) {
                       w.box.min().y(), w.box.max().y());
       ASSERT_GE(work.size(), 6u) << "the forks and the pallet are not in the picture at " << h << " m";
       for (bool compact : {false, true}) {
-        Hud hud = busy_hud(h);
-        if (compact) hud.toggle_compact();
-        const std::vector<HudItem> items = hud.draw_list(W, H, 2);
-        ASSERT_TRUE(std::any_of(items.begin(), items.end(), [](const HudItem& i) { return i.role == "speed"; }));
-        for (const HudRect& r : panel_rects(items))
-          for (const Work& w : work)
-            if (overlaps(r, w.box)) {
-              ++hidden;
-              ADD_FAILURE() << W << "x" << H << ", forks " << h << " m up" << (compact ? " (compact)" : "") << ": the "
-                            << w.what << " (x " << w.box.min().x() << "-" << w.box.max().x() << ", y " << w.box.min().y()
-                            << "-" << w.box.max().y() << ") is under a panel at x " << r.x << "-" << r.x + r.w << ", y "
-                            << r.y << "-" << r.y + r.h;
-            }
+        for (uint8_t allowed : {uint8_t(0), aids::kAll}) {
+          Hud hud = busy_hud(h, allowed);
+          if (compact) hud.toggle_compact();
+          const std::vector<HudItem> items = hud.draw_list(W, H, 2);
+          ASSERT_TRUE(std::any_of(items.begin(), items.end(), [](const HudItem& i) { return i.role == "speed"; }));
+          for (const HudRect& r : panel_rects(items))
+            for (const Work& w : work)
+              if (overlaps(r, w.box)) {
+                ++hidden;
+                ADD_FAILURE() << W << "x" << H << ", forks " << h << " m up" << (compact ? " (compact)" : "") << ": the "
+                              << w.what << " (x " << w.box.min().x() << "-" << w.box.max().x() << ", y " << w.box.min().y()
+                              << "-" << w.box.max().y() << ") is under a panel at x " << r.x << "-" << r.x + r.w << ", y "
+                              << r.y << "-" << r.y + r.h;
+              }
+        }
       }
     }
   RecordProperty("hidden", hidden);

@@ -124,6 +124,29 @@ TEST(Hud, AnAidTheSessionDoesNotAllowIsSaidToBeNotAllowed) {
   EXPECT_FALSE(has_text(hud.draw_list(960, 720, 1), "not allowed"));
 }
 
+// The see-through mast says what it shows while it is on (and only then), at the side, and the
+// F1 help says it too.
+TEST(Hud, TheSeeThroughMastExplainsItselfWhileItIsOn) {
+  Hud hud = make_hud();
+  fk_TruckState s = moving();
+  s.aids = 2;  // the see-through mast allowed
+  hud.on_state(s);
+  CabCommand c;
+  hud.set_command(c);
+  EXPECT_FALSE(has_text(hud.draw_list(960, 720, 1), "drawn faint"));
+  c.see_through_mast = true;
+  hud.set_command(c);
+  const std::vector<HudItem> items = hud.draw_list(960, 720, 1);
+  EXPECT_TRUE(has_text(items, "See-through mast (training aid): the mast, the overhead guard and the carriage"));
+  for (const HudItem& i : items)
+    if (i.role == "aid_explained") EXPECT_LT(i.x, 960 / 4) << "at the side, clear of the forks";
+  hud.toggle_compact();
+  EXPECT_FALSE(has_text(hud.draw_list(960, 720, 1), "drawn faint"));
+  bool in_help = false;
+  for (const auto& [keys, what] : key_map()) in_help = in_help || what.find("drawn faint") != std::string::npos;
+  EXPECT_TRUE(in_help);
+}
+
 // `id` ahead of the forks, with a EUR pallet's pockets' room.
 void pallet_ahead(fk_TruckState& s, const char* id, double distance_m, double height_m, double lateral_m) {
   dds::set_string(s.pallet_ahead, id);

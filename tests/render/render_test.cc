@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <tuple>
 
 #include "forklift/render/render.h"
 #include "support/process.h"
@@ -424,12 +425,14 @@ TEST(Haze, FarRacksFadeTowardsTheSkyTheTruckNever) {
   const TruckShape shape = test_truck_shape();
   const RenderState state = truck_at(0, 0, 0);
   // The truck's own pixels: where it covers the sky of an empty world (no floor, no objects).
-  Renderer sky_only(Scene{}, TruckShape{}, truck());
-  Renderer truck_only(Scene{}, shape, truck());
+  // Without anti-aliasing, which would blend the truck's outline into whatever lies behind it.
+  const RenderQuality unsmoothed{512, true, false, true, false};
+  Renderer sky_only(Scene{}, TruckShape{}, truck(), 640, 480, unsmoothed);
+  Renderer truck_only(Scene{}, shape, truck(), 640, 480, unsmoothed);
   Scene scene = floor_scene();
   scene.objects.push_back(rack_at(60, 0));  // far ahead: well into the haze
-  Renderer hazed(scene, shape, truck(), 640, 480, RenderQuality{0, true, false});
-  Renderer clear(scene, shape, truck(), 640, 480, RenderQuality{0, false, false});
+  Renderer hazed(scene, shape, truck(), 640, 480, RenderQuality{0, true, false, false, false});
+  Renderer clear(scene, shape, truck(), 640, 480, RenderQuality{0, false, false, false, false});
   for (View v : {View::kDriver, View::kChase}) {
     SCOPED_TRACE(view_name(v));
     const Image sky = sky_only.render(state, v), alone = truck_only.render(state, v);
@@ -459,6 +462,86 @@ TEST(Haze, FarRacksFadeTowardsTheSkyTheTruckNever) {
     EXPECT_LT(hazed_from_sky, clear_from_sky);  // towards the sky's colour
     EXPECT_EQ(away_from_sky, 0);
   }
+}
+
+// ---- textures and anti-aliasing -------------------------------------------------------------
+
+// Brightness's spread (standard deviation, 0..255) and mean over a rectangle of the picture
+// (shares of its width and height).
+std::pair<double, double> spread_and_mean(const Image& im, double x0, double y0, double x1, double y1) {
+  double sum = 0, sum2 = 0;
+  long n = 0;
+  for (int y = int(y0 * im.height); y < int(y1 * im.height); ++y)
+    for (int x = int(x0 * im.width); x < int(x1 * im.width); ++x, ++n) {
+      const uint8_t* p = im.pixel(x, y);
+      const double l = (p[0] + 2.0 * p[1] + p[2]) / 4;
+      sum += l;
+      sum2 += l * l;
+    }
+  const double mean = sum / n;
+  return {std::sqrt(std::max(0.0, sum2 / n - mean * mean)), mean};
+}
+
+// Textures are applied: looked at from above, a pallet's deck and the concrete floor beside it
+// vary from pixel to pixel where flat shading paints each one colour, and keep that colour on
+// average (each texture shades its surface, it does not darken it).
+TEST(Textures, APalletsDeckAndTheFloorShowTheirGrainAndKeepTheirColour) {
+  Scene scene = floor_scene();
+  SceneObject pallet = pallet_at("P1", 2.5, 0);
+  pallet.pallet->load_size_m = Vector3d::Zero();  // no load: the deck in sight
+  scene.objects.push_back(pallet);
+  const RenderState state = truck_at(0, 0, 0);
+  Camera above;  // 2.5 m over the pallet, the truck's x up the picture
+  above.eye = Vector3d(2.5, 0, 2.5);
+  above.target = Vector3d(2.5, 0, 0);
+  above.up = Vector3d::UnitX();
+  above.fov_y_deg = 50;
+  Renderer textured(scene, test_truck_shape(), truck(), 640, 480, RenderQuality{0, false, false, true, false});
+  Renderer flat(scene, test_truck_shape(), truck(), 640, 480, RenderQuality{0, false, false, false, false});
+  const Image a = textured.render(state, above), b = flat.render(state, above);
+  dump("textures", a);
+  // The deck fills the middle (1.2 m up the picture, 0.8 m across); the floor is at the left edge.
+  for (const auto& [what, x0, y0, x1, y1] : {std::tuple{"deck", 0.45, 0.4, 0.55, 0.6}, {"floor", 0.02, 0.3, 0.12, 0.7}}) {
+    SCOPED_TRACE(what);
+    const auto [grain, grain_mean] = spread_and_mean(a, x0, y0, x1, y1);
+    const auto [plain, plain_mean] = spread_and_mean(b, x0, y0, x1, y1);
+    RecordProperty(std::string(what) + "_spread", std::to_string(grain) + " textured, " + std::to_string(plain) + " flat");
+    EXPECT_LT(plain, 1.0);          // flat shading: one colour
+    EXPECT_GT(grain, plain + 2.0);  // the grain shows (3.5 levels on the floor, 6 on the deck)
+    EXPECT_NEAR(grain_mean, plain_mean, 0.08 * plain_mean);
+  }
+}
+
+// Anti-aliasing touches only edges: with it, pixels change where the picture drawn without it
+// steps in brightness against a neighbour (a rack against the floor and the sky, the truck
+// against both), and nowhere else.
+TEST(AntiAliasing, SmoothsEdgesAndLeavesEverythingElseAsDrawn) {
+  Scene scene = floor_scene();
+  SceneObject rack = rack_at(7, 0);
+  rack.pose.linear() = Eigen::AngleAxisd(0.4, Vector3d::UnitZ()).toRotationMatrix();  // its edges slant
+  scene.objects.push_back(rack);
+  const RenderState state = truck_at(0, 0, 0);
+  Renderer smooth(scene, test_truck_shape(), truck(), 640, 480, RenderQuality{0, false, false, false, true});
+  Renderer stepped(scene, test_truck_shape(), truck(), 640, 480, RenderQuality{0, false, false, false, false});
+  const Image a = smooth.render(state, View::kChase), b = stepped.render(state, View::kChase);
+  dump("antialias", a);
+  auto green = [&](int x, int y) { return int(b.pixel(std::clamp(x, 0, b.width - 1), std::clamp(y, 0, b.height - 1))[1]); };
+  long changed = 0, far_from_steps = 0;
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 0; x < a.width; ++x) {
+      if (std::equal(a.pixel(x, y), a.pixel(x, y) + 3, b.pixel(x, y))) continue;
+      ++changed;
+      // A step: the pixel and its four neighbours, as drawn, span 24 levels of green or more.
+      int hi = green(x, y), lo = hi;
+      for (auto [dx, dy] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+        hi = std::max(hi, green(x + dx, y + dy));
+        lo = std::min(lo, green(x + dx, y + dy));
+      }
+      far_from_steps += hi - lo < 24;
+    }
+  EXPECT_GT(changed, 500);
+  EXPECT_EQ(far_from_steps, 0);
+  EXPECT_GT(fraction(a, 0, 0, 1, 1, reddish), 0.01);  // the rack is in the picture
 }
 
 // ---- frustum culling --------------------------------------------------------------------------

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -214,6 +215,130 @@ TEST(TruckShapeFromFile, EveryShippedTruckIsNearerItsCamerasThanTheHazeStarts) {
       EXPECT_GE(meshes, 4);
     }
   }
+}
+
+
+// ---- the view from the seat ------------------------------------------------------------------
+
+// linde_e16c.json with its mast as the files before the clear-view mast drew it: one lift
+// cylinder down the middle between the channels (no cylinder_y_m), 80 mm wide, just behind the
+// channels' front, and the channels and the inner mast as they were.
+std::string truck_with_middle_cylinder() {
+  std::ifstream in(kTruck);
+  nlohmann::json j = nlohmann::json::parse(in);
+  nlohmann::json& mast = j["shape"]["mast"];
+  mast.erase("cylinder_y_m");
+  mast["channel_y_m"] = {0.27, 0.35};
+  mast["cylinder_x_m"] = {0.0, 0.08};
+  mast["cylinder_width_m"] = 0.08;
+  mast["cylinder_z_m"] = {-0.2, 1.5};
+  j["shape"]["carriage"]["inner_mast_y_m"] = {0.2, 0.28};
+  const fs::path dir = fs::temp_directory_path() / ("truck_shape_test_middle_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const std::string path = (dir / "truck.json").string();
+  std::ofstream(path) << j.dump(2);
+  return path;
+}
+
+// The pixels inside the convex hull of points (Andrew's monotone chain), pixel centres counted.
+template <class Each>
+void for_each_pixel_in_hull(std::vector<Eigen::Vector2d> p, int width, int height, Each each) {
+  std::sort(p.begin(), p.end(), [](const auto& a, const auto& b) { return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y()); });
+  auto cross = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+    return (a - o).x() * (b - o).y() - (a - o).y() * (b - o).x();
+  };
+  std::vector<Eigen::Vector2d> hull(2 * p.size());
+  size_t k = 0;
+  for (size_t i = 0; i < p.size(); hull[k++] = p[i++])
+    while (k >= 2 && cross(hull[k - 2], hull[k - 1], p[i]) <= 0) --k;
+  for (size_t i = p.size() - 1, t = k + 1; i-- > 0; hull[k++] = p[i])
+    while (k >= t && cross(hull[k - 2], hull[k - 1], p[i]) <= 0) --k;
+  hull.resize(k - 1);  // counter-clockwise in x right, y down: every edge has the inside on one side
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const Eigen::Vector2d c(x + 0.5, y + 0.5);
+      bool inside = hull.size() >= 3;
+      for (size_t i = 0; inside && i < hull.size(); ++i) inside = cross(hull[i], hull[(i + 1) % hull.size()], c) >= 0;
+      if (inside) each(x, y);
+    }
+}
+
+// The share of a floor pallet's outline, its near face `ahead_m` before the truck's front axle
+// and square to it (lengthwise: the way the forks go in), that the driver sees from the seat: the pixels inside the pallet's projected outline that
+// change when the pallet is taken away (rack_pick's bare floor pallet P14, the truck facing it).
+double floor_pallet_seen(const std::string& truck_file, double ahead_m) {
+  const Scene scene = load_scene(std::string(FORKLIFT_DATA_DIR) + "/scenarios/rack_pick.json", FORKLIFT_DATA_DIR);
+  const SceneObject* pallet = scene.find("P14");
+  if (!pallet || !pallet->mesh) throw std::runtime_error("rack_pick has no floor pallet P14");
+  const Vector3d at = pallet->pose.translation();
+  const TruckParams truck = load_truck(truck_file);
+  const TruckShape shape = load_truck_shape(truck_file, FORKLIFT_DATA_DIR);
+  const TruckDynamics dynamics(truck);
+  const double half_length = 0.5 * pallet->mesh->bounds.sizes().x();  // the pallet stands at 90 deg: along y
+  StateVector x = dynamics.rest_state(at.x(), at.y() - half_length - ahead_m, M_PI / 2);
+  EXPECT_TRUE(dynamics.settle_static(x));
+  RenderState with;
+  with.q = coordinates(x);
+  RenderState without = with;
+  PalletState away;  // far behind the truck, out of the driver's sight
+  away.id = "P14";
+  away.pose = Eigen::Translation3d(at.x(), -100, 0) * Eigen::Isometry3d::Identity();
+  without.pallets.push_back(away);
+  Renderer renderer(scene, shape, truck, kWidth, kHeight);
+  const Image seen = renderer.render(with, View::kDriver);
+  const Image bare = renderer.render(without, View::kDriver);
+  if (const char* dir = std::getenv("TRUCK_SHAPE_DUMP"))
+    write_png(std::string(dir) + "/seat_" + fs::path(truck_file).parent_path().filename().string() + "_" +
+                  std::to_string(int(ahead_m)) + "m.png", seen);
+  const Projector cam{view_camera(View::kDriver, body_poses(truck, with.q), shape, scene), kWidth, kHeight};
+  std::vector<Eigen::Vector2d> corners;
+  for (int i = 0; i < 8; ++i) corners.push_back(cam.pixel(pallet->pose * pallet->mesh->bounds.corner(Eigen::AlignedBox3d::CornerType(i))));
+  long inside = 0, changed = 0;
+  for_each_pixel_in_hull(corners, kWidth, kHeight, [&](int x, int y) {
+    ++inside;
+    changed += differs(seen, bare, x, y);
+  });
+  EXPECT_GT(inside, 300) << "the pallet is too small in the picture to judge at " << ahead_m << " m";
+  return inside > 0 ? double(changed) / inside : 0;
+}
+
+constexpr double kSeenShare = 0.85;  // of the pallet's outline: all of it but its anti-aliased rim
+
+// The training truck's clear-view mast: from the seat, a pallet on the floor 3 to 5 m ahead is
+// seen between the mast's channels, whole. The same truck with its lift cylinder down the middle
+// (as the files before it drew the mast) hides a third or more of it: the test tells the two apart.
+TEST(ViewFromTheSeat, AFloorPalletThreeToFiveMetresAheadIsSeenBetweenTheChannels) {
+  const std::string middle = truck_with_middle_cylinder();
+  for (double ahead : {3.0, 4.0, 5.0}) {
+    const double clear_view = floor_pallet_seen(kTruck, ahead);
+    const double one_cylinder = floor_pallet_seen(middle, ahead);
+    RecordProperty("seen_at_" + std::to_string(int(ahead)) + "_m", std::to_string(clear_view));
+    RecordProperty("seen_past_a_middle_cylinder_at_" + std::to_string(int(ahead)) + "_m", std::to_string(one_cylinder));
+    EXPECT_GE(clear_view, kSeenShare) << ahead << " m ahead";
+    EXPECT_LT(one_cylinder, kSeenShare - 0.15) << ahead << " m ahead, one cylinder in the middle";
+  }
+  fs::remove_all(fs::path(middle).parent_path());
+}
+
+// The mast's cylinders as the truck file places them: the training truck's two, each behind a
+// channel (nearer the seat) and beside it, none in the middle; a file without cylinder_y_m, one
+// in the middle, as before.
+TEST(ViewFromTheSeat, TheLiftCylindersStandBehindTheChannelsOrInTheMiddleForOlderFiles) {
+  const TruckShape e16 = load_truck_shape(kTruck, FORKLIFT_DATA_DIR);
+  const Eigen::AlignedBox3d& channel = part(*e16.mast, "mast_left").bounds;
+  const Eigen::AlignedBox3d& left = part(*e16.mast, "mast_cylinder_left").bounds;
+  const Eigen::AlignedBox3d& right = part(*e16.mast, "mast_cylinder_right").bounds;
+  EXPECT_LE(left.max().x(), channel.min().x() + 1e-6);
+  EXPECT_GT(left.min().y(), 0.5 * (channel.min().y()));  // beside the channel, not towards the middle
+  EXPECT_LE(left.max().y(), channel.max().y() + 1e-6);
+  EXPECT_NEAR(right.min().y(), -left.max().y(), 1e-6);
+  for (const MeshPart& p : e16.mast->parts) EXPECT_NE(p.name, "mast_cylinder");
+  const std::string middle = truck_with_middle_cylinder();
+  const TruckShape old = load_truck_shape(middle, FORKLIFT_DATA_DIR);
+  const Eigen::AlignedBox3d& one = part(*old.mast, "mast_cylinder").bounds;
+  EXPECT_NEAR(one.center().y(), 0, 1e-6);
+  EXPECT_NEAR(one.sizes().y(), 0.08, 1e-6);
+  fs::remove_all(fs::path(middle).parent_path());
 }
 
 

@@ -258,7 +258,8 @@ MeshSpec truck_chassis(const TruckDrawing& t) {
 }
 
 // Mast frame: origin at the tilt pivot. Two outer channels from the foot to the built height
-// (both given above the floor), cross members and the lift cylinder between them.
+// (both given above the floor), cross members, and the lift cylinder between the channels or,
+// on a clear-view mast, a cylinder behind each channel, where the driver looks past it.
 MeshSpec truck_mast(const TruckDrawing& t) {
   MeshSpec m{"truck_mast.obj", {}};
   const TruckDrawing::Mast& a = t.mast;
@@ -270,8 +271,16 @@ MeshSpec truck_mast(const TruckDrawing& t) {
   m.parts.push_back(box("mast_cross_top", V(x0, -yi, top - a.top_cross_member), V(xc, yi, top), kDarkSteel));
   m.parts.push_back(box("mast_cross_middle", V(x0, -yi, a.middle_cross_member_bottom), V(xc, yi, a.middle_cross_member_top),
                         kDarkSteel));
-  m.parts.push_back(box("mast_cylinder", V(a.cylinder_rear, -cy, a.cylinder_bottom), V(a.cylinder_front, cy, a.cylinder_top),
-                        kSteel));
+  if (a.cylinder_axis_y > 0) {
+    const float yc = a.cylinder_axis_y;
+    m.parts.push_back(box("mast_cylinder_left", V(a.cylinder_rear, yc - cy, a.cylinder_bottom),
+                          V(a.cylinder_front, yc + cy, a.cylinder_top), kSteel));
+    m.parts.push_back(box("mast_cylinder_right", V(a.cylinder_rear, -yc - cy, a.cylinder_bottom),
+                          V(a.cylinder_front, -yc + cy, a.cylinder_top), kSteel));
+  } else {
+    m.parts.push_back(box("mast_cylinder", V(a.cylinder_rear, -cy, a.cylinder_bottom),
+                          V(a.cylinder_front, cy, a.cylinder_top), kSteel));
+  }
   return m;
 }
 

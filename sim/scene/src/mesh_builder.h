@@ -78,6 +78,9 @@ struct TruckDrawing {
     float foot, built_height, channel_rear, channel_front, channel_inner_y, channel_outer_y;
     float cross_member_depth, top_cross_member, middle_cross_member_bottom, middle_cross_member_top;
     float cylinder_rear, cylinder_front, cylinder_half_width, cylinder_bottom, cylinder_top;
+    // Each lift cylinder's axis from the middle: 0, one cylinder in the middle; else two, one
+    // either side (a clear-view mast's, behind its channels).
+    float cylinder_axis_y = 0;
   } mast;
   struct Carriage {  // fork-heel frame
     float half_width, plate_depth, plate_height, backrest_height, backrest_frame;

@@ -582,7 +582,8 @@ TruckModel read_truck_model(const std::string& truck_file) {
 
   const Node mast = n.at("mast");
   mast.only({"foot_above_floor_m", "built_height_m", "channel_x_m", "channel_y_m", "cross_member_depth_m",
-             "top_cross_member_m", "middle_cross_member_z_m", "cylinder_x_m", "cylinder_width_m", "cylinder_z_m"});
+             "top_cross_member_m", "middle_cross_member_z_m", "cylinder_x_m", "cylinder_width_m", "cylinder_z_m",
+             "cylinder_y_m"});
   d.mast.foot = static_cast<float>(mast.at("foot_above_floor_m").non_negative());
   d.mast.built_height = length(mast.at("built_height_m"));
   std::tie(d.mast.channel_rear, d.mast.channel_front) = span(mast.at("channel_x_m"));
@@ -593,6 +594,13 @@ TruckModel read_truck_model(const std::string& truck_file) {
   std::tie(d.mast.cylinder_rear, d.mast.cylinder_front) = span(mast.at("cylinder_x_m"));
   d.mast.cylinder_half_width = 0.5f * length(mast.at("cylinder_width_m"));
   std::tie(d.mast.cylinder_bottom, d.mast.cylinder_top) = span(mast.at("cylinder_z_m"));
+  // Older files have one cylinder in the middle; a clear-view mast names where its two are.
+  if (mast.has("cylinder_y_m")) {
+    d.mast.cylinder_axis_y = static_cast<float>(mast.at("cylinder_y_m").non_negative());
+    if (d.mast.cylinder_axis_y > 0)
+      fits(mast, "cylinder_y_m", d.mast.cylinder_half_width, d.mast.cylinder_axis_y,
+           "two cylinders apart, each clear of the middle (cylinder_width_m)");
+  }
   fits(mast, "built_height_m", d.mast.foot, d.mast.built_height, "the channels from the foot up to the built height");
 
   const Node carriage = n.at("carriage");

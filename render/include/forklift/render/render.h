@@ -60,6 +60,8 @@ struct RenderQuality {
   bool haze = true;   // far things fade towards the sky's colour (driver and chase views)
   bool grid = false;  // faint lines every metre on the floor within 6 m of the truck (costs
                       // about an eighth of a frame on llvmpipe: forklift-bench-render's quality rows)
+  bool textures = true;   // wood on pallets, steel on racks, concrete and worn paint on the floor
+  bool antialias = true;  // edges smoothed where the picture's contrast steps (after drawing, on the CPU)
 };
 inline constexpr double kShadowAreaM = 12.0;  // the square round the truck whose floor shows shadows
 // The haze (RenderQuality::haze) begins this far from the camera and is whole at kHazeFullM. The
