@@ -8,6 +8,7 @@
 #include "forklift/protocol/aids.h"
 #include "forklift/session/vocabulary.h"
 #include "forklift/units/units.h"
+#include "input.h"
 #include "settings.h"
 
 namespace forklift::cab {
@@ -332,7 +333,7 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
   if (have_state_ && !compact_) {
     // The step in hand (or what is left to do once the task is done), wrapped by the window.
     const bool done = !state_.task_step[0] && state_.task_steps_total > 0;
-    const std::string step = state_.task_step[0] ? std::string(state_.task_step)
+    const std::string step = state_.task_step[0] ? name_keys(state_.task_step)
                              : done              ? std::string("Stop, lower the forks, controls to neutral")
                                                  : std::string();
     const int step_h = step.empty() ? 0 : wrapped_h(step, 0);

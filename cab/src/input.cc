@@ -235,26 +235,26 @@ bool CabInput::handle(const SDL_Event& e) {
       held_.insert(k);
       pressed_.insert(k);
       switch (k) {
-        case SDL_SCANCODE_F: cmd_.direction = 1; break;
-        case SDL_SCANCODE_N: cmd_.direction = 0; break;
-        case SDL_SCANCODE_R: cmd_.direction = -1; break;
-        case SDL_SCANCODE_P: cmd_.parking_brake = !cmd_.parking_brake; break;
+        case keys::kForward: cmd_.direction = 1; break;
+        case keys::kNeutral: cmd_.direction = 0; break;
+        case keys::kReverse: cmd_.direction = -1; break;
+        case keys::kParkingBrake: cmd_.parking_brake = !cmd_.parking_brake; break;
         case SDL_SCANCODE_T: cmd_.seated = !cmd_.seated; break;
         case SDL_SCANCODE_B: cmd_.rear_view = !cmd_.rear_view; break;
         case SDL_SCANCODE_M: cmd_.see_through_mast = !cmd_.see_through_mast; break;
         case SDL_SCANCODE_C: cmd_.chase_camera = !cmd_.chase_camera; break;
-        case SDL_SCANCODE_HOME:
+        case keys::kCentre:
           centring_ = true;
           pad_steers_ = false;
           kb_steer_ = cmd_.steer;  // from where the wheel is now, whoever turned it
           break;
         case SDL_SCANCODE_V: cmd_.fork_camera = !cmd_.fork_camera; break;
-        case SDL_SCANCODE_UP: case SDL_SCANCODE_DOWN: case SDL_SCANCODE_SPACE:
+        case keys::kAccelerator: case keys::kBrake: case keys::kBrakeToo:
           cmd_.controller_lost = false;  // the pupil drives from the keyboard now
           break;
-        default: return k == SDL_SCANCODE_LEFT || k == SDL_SCANCODE_RIGHT || k == SDL_SCANCODE_W ||
-                        k == SDL_SCANCODE_S || k == SDL_SCANCODE_A || k == SDL_SCANCODE_D || k == SDL_SCANCODE_Q ||
-                        k == SDL_SCANCODE_E || k == SDL_SCANCODE_H || k == SDL_SCANCODE_J || k == SDL_SCANCODE_L ||
+        default: return k == keys::kSteerLeft || k == keys::kSteerRight || k == keys::kLift ||
+                        k == keys::kLower || k == keys::kTiltBack || k == keys::kTiltForward || k == SDL_SCANCODE_Q ||
+                        k == SDL_SCANCODE_E || k == keys::kHorn || k == SDL_SCANCODE_J || k == SDL_SCANCODE_L ||
                         k == SDL_SCANCODE_I || k == SDL_SCANCODE_K;
       }
       return true;
@@ -397,11 +397,11 @@ void CabInput::read_controller() {
 const CabCommand& CabInput::update(double dt_s) {
   dt_s = std::clamp(dt_s, 0.0, 0.1);
   // Pedals: held keys press them smoothly, released keys let go at once.
-  kb_accel_ = held(SDL_SCANCODE_UP) ? std::min(1.0, kb_accel_ + dt_s / s_.accelerator_rise_s) : 0;
-  kb_brake_ = held(SDL_SCANCODE_DOWN) || held(SDL_SCANCODE_SPACE) ? std::min(1.0, kb_brake_ + dt_s / s_.brake_rise_s) : 0;
+  kb_accel_ = held(keys::kAccelerator) ? std::min(1.0, kb_accel_ + dt_s / s_.accelerator_rise_s) : 0;
+  kb_brake_ = held(keys::kBrake) || held(keys::kBrakeToo) ? std::min(1.0, kb_brake_ + dt_s / s_.brake_rise_s) : 0;
   // The wheel: slowly at first and faster the longer a key is held, so a tap moves it a degree
   // or two; let go, it stays where it is (hydrostatic steering has no self-centring).
-  if (const int d = hold(held(SDL_SCANCODE_LEFT), held(SDL_SCANCODE_RIGHT), steer_dir_, steer_held_s_); d != 0) {
+  if (const int d = hold(held(keys::kSteerLeft), held(keys::kSteerRight), steer_dir_, steer_held_s_); d != 0) {
     take_wheel();
     const double by = ramp_travel(steer_held_s_ + dt_s, s_.steer_start_per_s, s_.steer_full_per_s, s_.steer_ramp_s) -
                       ramp_travel(steer_held_s_, s_.steer_start_per_s, s_.steer_full_per_s, s_.steer_ramp_s);
@@ -421,10 +421,10 @@ const CabCommand& CabInput::update(double dt_s) {
     if (d != 0) held_s += dt_s;
     return v;
   };
-  cmd_.lift = lever(SDL_SCANCODE_S, SDL_SCANCODE_W, lift_dir_, lift_held_s_);
-  cmd_.tilt = lever(SDL_SCANCODE_A, SDL_SCANCODE_D, tilt_dir_, tilt_held_s_);
+  cmd_.lift = lever(keys::kLower, keys::kLift, lift_dir_, lift_held_s_);
+  cmd_.tilt = lever(keys::kTiltBack, keys::kTiltForward, tilt_dir_, tilt_held_s_);
   cmd_.side_shift = held(SDL_SCANCODE_Q) ? 1 : held(SDL_SCANCODE_E) ? -1 : 0;
-  cmd_.horn = held(SDL_SCANCODE_H);
+  cmd_.horn = held(keys::kHorn);
   read_controller();
 
   // The head: held keys or the hat turn it, the mouse drags it; let go, it comes back ahead.
@@ -477,6 +477,33 @@ const std::vector<std::pair<std::string, std::string>>& key_map() {
       {"Esc", "leave the cab"},
   };
   return keys;
+}
+
+const std::vector<std::pair<std::string, SDL_Scancode>>& key_bindings() {
+  static const std::vector<std::pair<std::string, SDL_Scancode>> bindings = {
+      {"accelerator", keys::kAccelerator}, {"brake", keys::kBrake},       {"steer_left", keys::kSteerLeft},
+      {"steer_right", keys::kSteerRight},  {"centre", keys::kCentre},     {"forward", keys::kForward},
+      {"neutral", keys::kNeutral},         {"reverse", keys::kReverse},   {"lift", keys::kLift},
+      {"lower", keys::kLower},             {"tilt_back", keys::kTiltBack}, {"tilt_forward", keys::kTiltForward},
+      {"parking_brake", keys::kParkingBrake}, {"horn", keys::kHorn},
+  };
+  return bindings;
+}
+
+std::string name_keys(const std::string& text) {
+  std::string out;
+  size_t at = 0;
+  for (size_t open; (open = text.find('{', at)) != std::string::npos;) {
+    const size_t close = text.find('}', open);
+    if (close == std::string::npos) break;
+    const std::string control = text.substr(open + 1, close - open - 1);
+    const auto& b = key_bindings();
+    const auto it = std::find_if(b.begin(), b.end(), [&](const auto& k) { return k.first == control; });
+    out += text.substr(at, open - at);
+    out += it == b.end() ? text.substr(open, close - open + 1) : std::string(SDL_GetScancodeName(it->second));
+    at = close + 1;
+  }
+  return out + text.substr(at);
 }
 
 std::vector<std::pair<std::string, std::string>> controller_help(const ControllerMap& m) {

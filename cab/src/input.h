@@ -43,6 +43,24 @@ struct CabCommand {
   fk_Controls sample() const;
 };
 
+// The keys of the controls a pupil learns first, in one place: the input reads them, and the
+// head-up display names them in a lesson's steps ("{lift}" reads "W").
+namespace keys {
+inline constexpr SDL_Scancode kAccelerator = SDL_SCANCODE_UP, kBrake = SDL_SCANCODE_DOWN, kBrakeToo = SDL_SCANCODE_SPACE;
+inline constexpr SDL_Scancode kSteerLeft = SDL_SCANCODE_LEFT, kSteerRight = SDL_SCANCODE_RIGHT, kCentre = SDL_SCANCODE_HOME;
+inline constexpr SDL_Scancode kForward = SDL_SCANCODE_F, kNeutral = SDL_SCANCODE_N, kReverse = SDL_SCANCODE_R;
+inline constexpr SDL_Scancode kLift = SDL_SCANCODE_W, kLower = SDL_SCANCODE_S;
+inline constexpr SDL_Scancode kTiltBack = SDL_SCANCODE_A, kTiltForward = SDL_SCANCODE_D;
+inline constexpr SDL_Scancode kParkingBrake = SDL_SCANCODE_P, kHorn = SDL_SCANCODE_H;
+}  // namespace keys
+// The controls a step's text may name in braces, with their keys: "accelerator", "brake",
+// "steer_left", "steer_right", "centre", "forward", "neutral", "reverse", "lift", "lower",
+// "tilt_back", "tilt_forward", "parking_brake", "horn".
+const std::vector<std::pair<std::string, SDL_Scancode>>& key_bindings();
+// `text` with each "{control}" written as its key's name ("Hold {accelerator}" -> "Hold Up");
+// braces naming no control are left as they are.
+std::string name_keys(const std::string& text);
+
 // The settings of data/cab/cab.json that input uses.
 // How the wheel is turned when the cab's own wheel is a key or a mouse.
 enum class MouseSteer { kOff, kMotion, kWheel };  // no; horizontal motion; the mouse wheel's notches

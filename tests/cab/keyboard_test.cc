@@ -3,10 +3,12 @@
 #include <SDL.h>
 #include <gtest/gtest.h>
 
+#include <deque>
 #include <fstream>
 
 #include "evaluation/harness.h"
 #include "input.h"
+#include "key_driver.h"
 
 using namespace forklift;
 using namespace forklift::cab;
@@ -39,7 +41,9 @@ class Keys : public testing::Test {
       if (s) {
         const fk_Controls w = c.sample();
         // The wire's steer is a fraction of the end stops; the worker scales it by its truck's.
-        s->set({0, w.steer * s->truck.steer.max_rad, w.accelerator, w.brake, w.lift, w.tilt, w.side_shift, w.horn, w.parking_brake});
+        // (Within the stops once rounded to the 3 decimals a script keeps.)
+        const double lock = std::floor(s->truck.steer.max_rad * 1000) / 1000;
+        s->set({0, std::clamp(w.steer * s->truck.steer.max_rad, -lock, lock), w.accelerator, w.brake, w.lift, w.tilt, w.side_shift, w.horn, w.parking_brake});
         for (int k = 0; k < int(std::lround(kPass / evt::Session::kTick)); ++k) s->tick();
       }
     }
@@ -143,6 +147,135 @@ TEST_F(Keys, ATapLiftsTheForksAboutACentimetreAndAHeldKeyFaster) {
   const double tilt_deg = (s.q()[kBeta] - b0) * 180 / M_PI;
   EXPECT_GT(tilt_deg, 0.03);
   EXPECT_LT(tilt_deg, 0.5);
+}
+
+// --- a pupil's closed-loop key drive, in-process ---
+
+// The cab's keyboard wheel before it held its angle: a held arrow turned it at 1.0 of the end
+// stops a second and it sprang back straight at 1.4 a second when let go (data/cab/cab.json's
+// keyboard.steer_rate_per_s and steer_centring_per_s then). The same law, through today's
+// settings: one rate from the first instant, and self-centring.
+InputSettings old_wheel() {
+  InputSettings s = input_settings(cab_json());
+  s.steer_start_per_s = s.steer_full_per_s = 1.0;
+  s.steer_centring_per_s = 1.4;
+  s.self_centring = true;
+  return s;
+}
+
+// What the driver reads, as the worker's TruckState would carry it.
+key_driver::Seen seen(const evt::Session& s) {
+  key_driver::Seen o;
+  const CoordVector q = s.q();
+  o.t_s = s.t();
+  o.x_m = q[kX];
+  o.y_m = q[kY];
+  o.yaw_rad = q[kAwc];
+  o.speed_m_s = s.v();
+  o.steer_rad = q[kAwr3];
+  o.lift_m = q[kS];
+  o.tilt_rad = q[kBeta];
+  o.side_shift_m = q[kR];
+  o.load_attached = s.state.load.has_value();
+  o.task_steps_done = s.state.evaluation.steps_done();
+  const auto& steps = s.scene.task.steps;
+  o.task_steps_total = int(steps.size());
+  o.task_step = o.task_steps_done < int(steps.size()) ? steps[o.task_steps_done].description : "";
+  return o;
+}
+
+struct DriveResult {
+  bool done = false;
+  double t_s = 0;
+  int fork_strikes = 0, pallet_collisions = 0;
+};
+
+class KeyDrive : public Keys {
+ protected:
+  static constexpr double kLateS = 0.1;
+  // The driver looks every kLookS of sim time and its fingers press the keys it asks for, until it
+  // says it is done or `max_s` has gone by.
+  template <class Driver>
+  DriveResult drive(Driver& d, evt::Session& s, double max_s) {
+    std::set<std::string> down;
+    auto code = [](const std::string& k) { return SDL_GetScancodeFromName(k.c_str()); };
+    const double t0 = s.t();
+    std::deque<key_driver::Seen> seen_so_far;
+    while (!d.done() && s.t() - t0 < max_s) {
+      // What the pupil sees is a little old (the worker's state, the network, the cab): the
+      // state kLateS ago.
+      seen_so_far.push_back(seen(s));
+      while (seen_so_far.size() > 1 && seen_so_far[1].t_s <= s.t() - kLateS) seen_so_far.pop_front();
+      const key_driver::Fingers f = d.decide(seen_so_far.front());
+      for (auto it = down.begin(); it != down.end();)
+        if (!f.held.count(*it)) key(code(*it), false), it = down.erase(it);
+        else ++it;
+      for (const std::string& k : f.held)
+        if (down.insert(k).second) key(code(k), true);
+      for (const std::string& k : f.taps) key(code(k), true);
+      run(f.taps.empty() ? key_driver::kLookS : key_driver::kTapS, &s);
+      for (const std::string& k : f.taps) key(code(k), false);
+      if (!f.taps.empty()) run(key_driver::kLookS - key_driver::kTapS, &s);
+    }
+    DriveResult r{d.done(), s.t() - t0};
+    for (const EvaluationEvent& e : s.events) {
+      r.fork_strikes += e.rule == "fork_strike_pallet";
+      r.pallet_collisions += e.rule == "collision_pallet";
+    }
+    return r;
+  }
+};
+
+// rack_pick's nearest floor pallet to its start: P13 at (31.0, 26.0), its openings facing south
+// (data/scenarios/README.md), reached along aisle A, down the east cross aisle and back north.
+key_driver::Pick p13_pick() {
+  return key_driver::Pick({{31.0, 26.0}, M_PI / 2},
+                          {{9.25, 26.15}, {26.5, 26.15}, {26.5, 18.0}, {31.0, 18.0}});
+}
+evt::Session rack_pick() { return evt::Session(load_scene(evt::data("scenarios/rack_pick.json"), FORKLIFT_DATA_DIR)); }
+
+TEST_F(KeyDrive, KeysAloneTakeAFloorPalletWithTheWheelThatStaysAndMissWithTheOneThatSpringsBack) {
+  evt::Session s = rack_pick();
+  key_driver::Pick pick = p13_pick();
+  const DriveResult now = drive(pick, s, 90);
+  std::printf("keys, today's wheel: %s in %.1f s of sim time, %d fork strikes, entered %.1f mm off and %.2f deg\n",
+              now.done ? "picked P13" : "no pick", now.t_s, now.fork_strikes, pick.entry_lateral_m * 1000,
+              pick.entry_angle_rad * 180 / M_PI);
+  EXPECT_TRUE(now.done) << "stopped at the " << pick.phase() << " phase";
+  EXPECT_EQ(now.fork_strikes, 0);
+  EXPECT_EQ(now.pallet_collisions, 0);
+  EXPECT_TRUE(s.pallet("P13") && s.pallet("P13")->on_forks);
+  RecordProperty("pick_s", std::to_string(now.t_s));
+
+  make(old_wheel());
+  evt::Session old_s = rack_pick();
+  key_driver::Pick old_pick = p13_pick();
+  const DriveResult old = drive(old_pick, old_s, 90);
+  std::printf("keys, the old wheel: %s in %.1f s of sim time (at the %s phase, backed off %d times to come in "
+              "squarer), %d fork strikes, %d pallet collisions\n",
+              old.done ? "picked P13" : "no pick", old.t_s, old_pick.phase(), old_pick.tries, old.fork_strikes,
+              old.pallet_collisions);
+  EXPECT_FALSE(old.done && old.fork_strikes == 0 && old.pallet_collisions == 0)
+      << "the same keys took the pallet cleanly with a wheel that springs back";
+  RecordProperty("old_wheel_pick_s", old.done ? std::to_string(old.t_s) : "none in 90");
+}
+
+TEST_F(KeyDrive, TheFirstLessonByKeysAloneCompletes) {
+  evt::Session s(load_scene(evt::data("scenarios/first_drive.json"), FORKLIFT_DATA_DIR));
+  key_driver::Lesson lesson({{16.0, 20.0}, 0.0});
+  const DriveResult r = drive(lesson, s, 240);
+  std::printf("first lesson by keys in-process: %d of %zu steps in %.1f s of sim time, %d fork strikes\n",
+              s.state.evaluation.steps_done(), s.scene.task.steps.size(), r.t_s, r.fork_strikes);
+  EXPECT_TRUE(r.done);
+  EXPECT_TRUE(s.task_completed());
+  EXPECT_EQ(r.fork_strikes, 0);
+}
+
+TEST(KeyMap, ALessonsStepNamesItsKeysFromTheCabsOwnBindings) {
+  EXPECT_EQ(name_keys("Press {forward}, hold {accelerator}, lift with {lift}; {centre} straightens; {unknown} stays"),
+            "Press F, hold Up, lift with W; Home straightens; {unknown} stays");
+  EXPECT_EQ(name_keys("no keys {unclosed"), "no keys {unclosed");
+  for (const auto& [control, key] : key_bindings()) EXPECT_STRNE(SDL_GetScancodeName(key), "") << control;
 }
 
 TEST(KeyMap, NamesTheCentringAndTheHideKeys) {

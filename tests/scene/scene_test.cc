@@ -178,7 +178,7 @@ TEST(Scenarios, EveryShippedScenarioLoadsWithATask) {
     // The start stands in a zone with a speed limit.
     EXPECT_TRUE(s.speed_limit(Eigen::Vector2d(s.scenario.x_m, s.scenario.y_m)).has_value());
   }
-  for (const char* n : {"first_drive_yard", "slalom", "rack_pick", "load_lorry", "practical_exam", "counterbalance_exam"})
+  for (const char* n : {"first_drive", "first_drive_yard", "slalom", "rack_pick", "load_lorry", "practical_exam", "counterbalance_exam"})
     EXPECT_TRUE(names.count(n)) << n;
 }
 
@@ -594,6 +594,12 @@ INSTANTIATE_TEST_SUITE_P(
                 R"({"objects": [)" CONE("c1") R"(], "task": {"summary": "s", "steps": [
                    {"kind": "move", "pallet": "P99", "to_object": "c1"}]}})",
                 {"'task.steps[0].pallet'", "P99"}},
+        BadCase{"control_without_its_measure",
+                R"({"task": {"steps": [{"kind": "control", "action": "lift"}]}})",
+                {"'task.steps[0].height_m'", "missing"}},
+        BadCase{"control_with_another_measure",
+                R"({"task": {"steps": [{"kind": "control", "action": "lift", "height_m": 0.3, "speed_m_s": 1}]}})",
+                {"'task.steps[0].speed_m_s'", "lift", "height_m"}},
         BadCase{"missing_target",
                 R"({"objects": [{"id": "P1", "kind": "pallet", "x_m": 0, "y_m": 0}], "task": {"steps": [
                    {"kind": "move", "pallet": "P1", "to_object": "R9"}]}})",

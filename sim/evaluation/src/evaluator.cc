@@ -612,7 +612,26 @@ struct Evaluator::Impl : EvaluationMemory::Data {
            out);
   }
 
-  // reach and pass steps, in order (take and move steps complete in handling()).
+  // How far a lesson's control step's action has gone at this tick, in its amount's unit: the
+  // speed forward or back, the rear wheel turned for a left or right turn (going forward: + of the
+  // coordinate points the rear wheel left, turning the truck right), the lift, the tilt.
+  static double control_measure(const std::string& action, const Outputs& o) {
+    const double v = o.forward_speed_m_s, steer = o.q[kAwr3], tilt = o.q[kBeta];
+    if (action == "forward") return v;
+    if (action == "reverse") return -v;
+    if (action == "stop") return std::abs(v);
+    if (action == "steer_left") return -steer;
+    if (action == "steer_right") return steer;
+    if (action == "steer_straight") return std::abs(steer);
+    if (action == "lift" || action == "lower") return o.q[kS];
+    if (action == "tilt_back") return -tilt;
+    if (action == "tilt_forward") return tilt;
+    return std::abs(tilt);  // tilt_level: the scene loader lets no other action through
+  }
+
+  // reach, pass and control steps, in order (take and move steps complete in handling()). A
+  // control step is judged only once it is the current one, so each action of a lesson counts
+  // only after the one before it is done.
   void task(const TickInput& in) {
     const Eigen::Vector2d p = in.out.q.head<2>();
     const std::vector<TaskStep>& steps = scene.task.steps;
@@ -621,6 +640,10 @@ struct Evaluator::Impl : EvaluationMemory::Data {
       bool done = false;
       if (s.kind == "reach") done = (p - s.point).norm() <= s.radius_m;
       else if (s.kind == "pass") done = ev::crosses(prev_pos, p, s.gate_a, s.gate_b);
+      else if (s.kind == "control") {
+        const double m = control_measure(s.action, in.out);
+        done = find_control_action(s.action)->at_least ? m >= s.amount : m <= s.amount;
+      }
       if (!done) break;
       ++step;
     }

@@ -60,6 +60,22 @@ std::optional<double> Scene::speed_limit(const Eigen::Vector2d& p) const {
   return limit;
 }
 
+const std::vector<ControlAction>& control_actions() {
+  static const std::vector<ControlAction> actions = {
+      {"forward", "speed_m_s", true},       {"stop", "speed_m_s", false},      {"reverse", "speed_m_s", true},
+      {"steer_left", "angle_deg", true},    {"steer_right", "angle_deg", true}, {"steer_straight", "angle_deg", false},
+      {"lift", "height_m", true},           {"lower", "height_m", false},       {"tilt_back", "angle_deg", true},
+      {"tilt_forward", "angle_deg", true},  {"tilt_level", "angle_deg", false},
+  };
+  return actions;
+}
+
+const ControlAction* find_control_action(const std::string& name) {
+  for (const ControlAction& a : control_actions())
+    if (name == a.name) return &a;
+  return nullptr;
+}
+
 std::string not_an_exam_course(const std::string& what) {
   return what + " is not an exam course: an exam runs only on a scenario laid out as a practical test and "
                 "marked \"exam_course\" (the paper's manoeuvres and the training scenarios are for practice)";

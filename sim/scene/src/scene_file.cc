@@ -428,6 +428,18 @@ TaskStep read_step(const Node& n, const Scene& scene) {
     s.pallet = n.at("pallet").string();
     const SceneObject* p = scene.find(s.pallet);
     if (!p || p->kind != ObjectKind::kPallet) n.at("pallet").fail("names no pallet '" + s.pallet + "'");
+  } else if (s.kind == "control") {
+    n.only({"kind", "description", "action", "speed_m_s", "angle_deg", "height_m"});
+    s.action = n.at("action").string();
+    const ControlAction* a = find_control_action(s.action);
+    if (!a) {
+      std::string names;
+      for (const ControlAction& c : control_actions()) names += std::string(names.empty() ? "" : ", ") + c.name;
+      n.at("action").fail("must be one of " + names + " (found " + s.action + ")");
+    }
+    for (const char* key : {"speed_m_s", "angle_deg", "height_m"})
+      if (n.has(key) && std::string(key) != a->key) n.at(key).fail("is not a measure of '" + s.action + "' (" + a->key + " is)");
+    s.amount = n.at(a->key).non_negative() * (std::string(a->key) == "angle_deg" ? kDeg : 1.0);
   } else if (s.kind == "move") {
     n.only({"kind", "description", "pallet", "to_object", "to_level", "point", "area", "tolerance_m", "yaw_deg",
             "yaw_tolerance_deg"});
@@ -465,7 +477,7 @@ TaskStep read_step(const Node& n, const Scene& scene) {
       s.yaw_tolerance_rad = n.at("yaw_tolerance_deg").positive() * kDeg;
     }
   } else {
-    n.at("kind").fail("is an unknown step kind '" + s.kind + "' (reach, pass, take, move)");
+    n.at("kind").fail("is an unknown step kind '" + s.kind + "' (reach, pass, take, move, control)");
   }
   s.description = n.string_or("description", "");
   return s;

@@ -121,9 +121,10 @@ struct Route {
 // The task, as ordered steps. "reach": drive into a circle. "pass": go through a gate between
 // two points (slalom, doors). "move": take pallet `pallet` and set it down on `to_object`
 // (`to_level` for racks, 0 = the object's only support; to_object empty = the floor inside
-// `area`), within `tolerance_m` of the target's centre.
+// `area`), within `tolerance_m` of the target's centre. "control": a lesson's step, done when the
+// pupil has worked one control (`action`) as far as `amount` says (see ControlAction).
 struct TaskStep {
-  std::string kind;  // "reach", "pass", "take" (a pallet picked up: de-stacking), "move"
+  std::string kind;  // "reach", "pass", "take" (a pallet picked up: de-stacking), "move", "control"
   std::string description;
   Eigen::Vector2d point = Eigen::Vector2d::Zero();
   double radius_m = 0;
@@ -136,7 +137,22 @@ struct TaskStep {
   // yaw_rad (either way round: a pallet has two faces). Unset: any heading.
   std::optional<double> yaw_rad;
   double yaw_tolerance_rad = 0;
+  // A control step: what is to be worked, and how far (SI: m/s, rad or m, as the action's key says).
+  std::string action;
+  double amount = 0;
 };
+
+// A lesson's control steps: the action, the scenario key that gives its amount, and whether the
+// truck must reach at least that amount (speed forward or back, the rear wheel turned, the forks
+// lifted, the mast tilted) or come within it (stopped, the wheel straight, the forks down, the
+// mast level). The evaluator judges them, so every cab gets the same lesson.
+struct ControlAction {
+  const char* name;    // "forward", "stop", "reverse", "steer_left", ...
+  const char* key;     // "speed_m_s", "angle_deg" or "height_m"
+  bool at_least;       // true: the measure reaches the amount; false: it falls within it
+};
+const std::vector<ControlAction>& control_actions();
+const ControlAction* find_control_action(const std::string& name);  // nullptr if none
 
 struct Task {
   std::string summary;  // one line a pupil reads: "Take P3 from R2 level 2 to dock bay 1"
