@@ -4,7 +4,7 @@
 // other workers and their render threads for the cores: at normal priority eight framed cabs on
 // two cores saw ticks 4-12 ms late (forklift-bench-dds --framed-fleet 8). SCHED_FIFO for the
 // physics loop and for DDS's receive threads (which hand the cab's controls to it) keeps them
-// ahead of all normal work; the render thread runs at nice 19, so frames take what is left.
+// ahead of all normal work; the render thread runs at nice 10, so frames take what is left.
 #pragma once
 
 #include <string>

@@ -403,7 +403,7 @@ TEST(WorkerLoop, FramesOfTheWarehouseReachTheCabRawAndAsJpeg) {
                  "--save-frame", png, "--save-frames", saved, "--save-every", "1", "--wait-worker", "20"},
                 tmp("frames_" + c.name + ".cab"));
     // Frames flow and reach the cab. How many a second is forklift-bench-dds's business: they
-    // render at nice 19 and are the first to slow on a busy machine, so this waits for them.
+    // render at nice 10 and are the first to slow on a busy machine, so this waits for them.
     EXPECT_GE(forklift_test::wait_for_files(saved, 3, 180), 3u) << w.err() << cab.err();
     w.signal(SIGTERM);
     ASSERT_EQ(w.wait(30), 0) << w.err();
@@ -478,7 +478,7 @@ bool realtime_permitted() {
 }  // namespace
 
 // --realtime: the tick and DDS's receive threads run SCHED_FIFO 10 while the session runs, the
-// render thread runs at nice 19 (frames take what is left), and the worker says so. Where
+// render thread runs at nice 10 (frames take what is left), and the worker says so. Where
 // real-time priority is not permitted, the worker says why on stderr and the session runs on.
 TEST(WorkerLoop, RealtimeTickRunsFifoFramesRunLowAndARefusalRunsOn) {
   const std::vector<std::string> args = {"--scenario", kData + "/scenarios/rack_pick.json", "--fps", "20", "--jpeg", "--realtime"};
@@ -498,11 +498,11 @@ TEST(WorkerLoop, RealtimeTickRunsFifoFramesRunLowAndARefusalRunsOn) {
     for (int i = 0; i < 2000 && w.running(); ++i) {
       seen = threads_of(w.pid());
       const bool main_fifo = seen.count(w.pid()) && seen[w.pid()].policy == SCHED_FIFO;
-      const bool low_render = std::any_of(seen.begin(), seen.end(), [](const auto& t) { return t.second.nice == 19; });
+      const bool low_render = std::any_of(seen.begin(), seen.end(), [](const auto& t) { return t.second.nice == 10; });
       if (main_fifo && low_render) break;
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
-    // Frames flow with the renderer at nice 19; how many a second depends on what else the
+    // Frames flow with the renderer at nice 10; how many a second depends on what else the
     // machine runs, so the test waits for one, not for a rate.
     EXPECT_GE(forklift_test::wait_for_files(saved, 1, 180), 1u) << w.err();
     w.signal(SIGTERM);
@@ -519,10 +519,10 @@ TEST(WorkerLoop, RealtimeTickRunsFifoFramesRunLowAndARefusalRunsOn) {
       } else if (tid != w.pid()) {
         EXPECT_NE(t.policy, SCHED_FIFO) << t.name << ": only the tick and DDS's receivers run real time";
       }
-      low += t.policy == SCHED_OTHER && t.nice == 19;
+      low += t.policy == SCHED_OTHER && t.nice == 10;
     }
     EXPECT_GE(receivers, 1);
-    EXPECT_EQ(low, 1) << "the render thread, and it alone, runs at nice 19";
+    EXPECT_EQ(low, 1) << "the render thread, and it alone, runs at nice 10";
     const json r = output_json(w);
     EXPECT_EQ(r.value("realtime", false), true);
     EXPECT_GE(r["frames"].get<long>(), 1);

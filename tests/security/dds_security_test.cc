@@ -104,7 +104,7 @@ TEST_F(SecuredExam, EnrolledCabDrivesAndSeesItsFrames) {
   const std::string saved = tmp("enrolled-cab-frames");
   fs::remove_all(saved);
   Process c = cab(domain, "enrolled-cab", {"--security", school(), "--save-frames", saved, "--save-every", "1"}, "30");
-  // Frames render at nice 19: on a busy machine they come when they come.
+  // Frames render at nice 10: on a busy machine they come when they come.
   EXPECT_GE(forklift_test::wait_for_files(saved, 1, 180), 1u) << w.err() << c.err();
   w.signal(SIGTERM);
   ASSERT_EQ(w.wait(40), 0) << w.err();
@@ -298,7 +298,7 @@ Capture capture_session(int domain, const std::string& name, const std::string& 
                                     "--save-every", "1", "--wait-worker", "30"};
   cargs.insert(cargs.end(), sec.begin(), sec.end());
   Process c(cargs, tmp(name + ".cab"));
-  // The script's throttle is on the wire in its first seconds; frames render at nice 19 and come
+  // The script's throttle is on the wire in its first seconds; frames render at nice 10 and come
   // when a busy machine leaves room for them.
   EXPECT_GE(forklift_test::wait_for_files(saved, 3, 180), 3u) << w.err() << c.err();
   w.signal(SIGTERM);

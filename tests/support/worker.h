@@ -36,7 +36,7 @@ inline nlohmann::json output_json(const Process& p) {
 }
 
 // Waits until `folder` holds at least `n` files, at most `timeout_s`; the count it saw. For a cab
-// saving every frame (--save-frames DIR --save-every 1): a worker renders at nice 19, so on a busy
+// saving every frame (--save-frames DIR --save-every 1): a worker renders at nice 10, so on a busy
 // machine frames come when the rest of its work leaves room, and a test waits for them rather than
 // for a set time.
 inline size_t wait_for_files(const std::string& folder, size_t n, double timeout_s) {
