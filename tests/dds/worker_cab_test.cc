@@ -305,8 +305,10 @@ TEST(CabFrames, NotDrawnWhileNothingReadsThem) {
   cab.listen(0.3);
   received += cab.take_frames();
   ASSERT_EQ(w.wait(20), 0) << w.err();
-  // Every frame drawn was one this cab received (a few may be lost on the way): none for the blind one.
-  EXPECT_LE(output_json(w)["frames"].get<long>() - received, 5);
+  // Every frame drawn was one this cab received, but for a few lost on the way or still on it when
+  // the worker stopped (8 on a busy machine): none for the blind cab, whose 1.5 s at 30 a second
+  // would have been 45.
+  EXPECT_LE(output_json(w)["frames"].get<long>() - received, 15);
 }
 
 namespace {

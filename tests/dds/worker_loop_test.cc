@@ -54,12 +54,15 @@ fk_Controls controls(const std::string& cab, uint32_t seq, double accel = 0, dou
   return c;
 }
 
-// A cab script that drives ahead slowly for 2.5 s (a cab with a window asks for frames meanwhile).
+// A cab script that drives ahead slowly for 2.5 s and then holds the brake for 10 minutes: a cab
+// asks for frames while its script runs, and a test waiting for frames on a busy machine ends the
+// session (a signal, or --duration) long before the script does.
 std::string frames_script(const std::string& name) {
   const std::string script = tmp(name + ".csv");
   std::ofstream f(script);
   f << "t,steer,accelerator,brake,lift,tilt,shift\n";
   for (double t = 0; t <= 2.5; t += 0.02) f << t << ",0,0.2,0,0,0,0\n";
+  f << "2.52,0,0,1,0,0,0\n600,0,0,1,0,0,0\n";
   return script;
 }
 

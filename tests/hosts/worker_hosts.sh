@@ -141,8 +141,14 @@ forge() {  # NS FORGE_ARGUMENTS: a peer on machine NS that claims to be a host o
 forged_log() {  # SESSION CAB FILE
   printf 'forklift-control-log 1\nsession %s\ncab %s\nmode training\nscore 0x1.9p+6 1 0 completed forged\n' "$1" "$2" > "$3"
 }
-host_of() {  # SESSION: the host /api/fleet says runs it
-  fleet "$addr_S" | python3 -c "import json,sys; print(next((w['host'] or 'here') for w in json.load(sys.stdin)['workers'] if w['session']=='$1'))" 2>/dev/null
+host_of() {  # SESSION: the host /api/fleet says runs it (asked again while a busy machine gives no answer)
+  local h=""
+  for _ in $(seq 20); do
+    h=$(fleet "$addr_S" | python3 -c "import json,sys; print(next((w['host'] or 'here') for w in json.load(sys.stdin)['workers'] if w['session']=='$1'))" 2>/dev/null)
+    [ -n "$h" ] && break
+    sleep 0.25
+  done
+  echo "$h"
 }
 wait_hosts() {  # N: until server A sees N live hosts
   for _ in $(seq 150); do

@@ -57,7 +57,7 @@ class SecuredExam : public testing::Test {
     run_or_fail(kPki + " init " + rogue() + " --school 'Test School'");
     run_or_fail(kPki + " add-cab " + rogue() + " cab1");
     std::ofstream(script()) << std::setprecision(17) << "t,steer,accelerator,brake,lift,tilt,shift\n0,0," << kMarkerThrottle
-                            << ",0,0,0,0\n2.5,0,0,1,0,0,0\n";
+                            << ",0,0,0,0\n2.5,0,0,1,0,0,0\n600,0,0,1,0,0,0\n";  // braked until the test ends the session
   }
   static std::string school() { return tmp("school"); }
   static std::string rogue() { return tmp("rogue"); }
