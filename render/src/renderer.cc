@@ -487,20 +487,22 @@ struct Renderer::Impl {
 
   void upload() {
     // The main shaders with what this quality draws compiled in, and nothing else.
-    auto head = [&](bool shadows, bool haze, bool textures) {
-      return std::string("#version 330 core\n#define SHADOWS ") + (shadows ? "1" : "0") + "\n#define HAZE " +
+    auto head = [&](bool shadows, bool haze, bool textures, bool patterns) {
+      return std::string("#version 330 core\n#define PATTERNS ") + (patterns ? "1" : "0") + "\n#define SHADOWS " +
+             (shadows ? "1" : "0") + "\n#define HAZE " +
              (haze ? "1" : "0") + "\n#define GRID " + (quality.grid ? "1" : "0") + "\n#define TEXTURES " +
              (textures ? "1" : "0") + "\n#define HAZE_START_M " + std::to_string(kHazeStartM) +
              "\n#define HAZE_FULL_M " + std::to_string(kHazeFullM) + "\n";
     };
-    shadowed.make(head(quality.shadow_map_px > 0, quality.haze, quality.textures));
+    shadowed.make(head(quality.shadow_map_px > 0, quality.haze, quality.textures, true));
     if (quality.textures) make_surface_textures();
     // The truck is never as far from a hazed view's camera as the haze's start (kHazeStartM: the
     // driver's eye is within 8 m of any of its parts, the chase camera within 11 m; a test pins
     // it for every shipped truck), so its pixels, a third of the driver's picture, skip the
     // haze's arithmetic at no change to them (forklift-bench-render: 3.85 to 3.46 ms a frame).
-    // The truck is painted steel, untextured: its program skips the texture's tap too.
-    unshadowed.make(head(false, false, false));
+    // The truck is painted steel, untextured and with no floor pattern: its program skips the
+    // texture's tap and the patterns' arithmetic too.
+    unshadowed.make(head(false, false, false, false));
     if (quality.shadow_map_px > 0) make_shadow_map();
 
     // The truck (nearest the driver's and the chase camera: drawn first), in one batch.
