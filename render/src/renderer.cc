@@ -492,7 +492,9 @@ struct Renderer::Impl {
              (shadows ? "1" : "0") + "\n#define HAZE " +
              (haze ? "1" : "0") + "\n#define GRID " + (quality.grid ? "1" : "0") + "\n#define TEXTURES " +
              (textures ? "1" : "0") + "\n#define HAZE_START_M " + std::to_string(kHazeStartM) +
-             "\n#define HAZE_FULL_M " + std::to_string(kHazeFullM) + "\n";
+             "\n#define HAZE_FULL_M " + std::to_string(kHazeFullM) + "\n#define STRIPES_REPEAT_M " +
+             std::to_string(render::texture_repeat_m(render::Pattern::kStripes)) + "\n#define JOINTS_REPEAT_M " +
+             std::to_string(render::texture_repeat_m(render::Pattern::kJoints)) + "\n";
     };
     shadowed.make(head(quality.shadow_map_px > 0, quality.haze, quality.textures, true));
     if (quality.textures) make_surface_textures();

@@ -35,7 +35,10 @@ uniform mat4 u_view_projection;
 uniform vec3 u_eye;
 uniform vec3 u_key_light;  // towards the key light, unit
 flat out vec4 v_colour;  // base colour, pattern: one per surface, so not interpolated
-#if PATTERNS || GRID
+// The floor's patterns read world x, y from the texture's coordinates where there are some (the
+// floor lies flat: they are x, y over the pattern's repeat), one output fewer for every pixel.
+#define FLOOR_FROM_UV (TEXTURES && !GRID)
+#if (PATTERNS && !FLOOR_FROM_UV) || GRID
 out vec2 v_floor;   // world x, y: the floor's patterns and the metre grid
 #endif
 flat out float v_ambient;  // ambient and fill: what a shadow leaves
@@ -62,7 +65,7 @@ void main() {
   if (dot(n, u_eye - world.xyz) < 0.0) n = -n;
   v_ambient = 0.42 + 0.15 * max(dot(n, kFillLight), 0.0);
   v_key = 0.48 * max(dot(n, u_key_light), 0.0);
-#if PATTERNS || GRID
+#if (PATTERNS && !FLOOR_FROM_UV) || GRID
   v_floor = world.xy;
 #endif
   v_colour = a_colour;
@@ -85,7 +88,8 @@ void main() {
 
 inline constexpr const char* kFragmentShader = R"glsl(
 flat in vec4 v_colour;
-#if PATTERNS || GRID
+#define FLOOR_FROM_UV (TEXTURES && !GRID)
+#if (PATTERNS && !FLOOR_FROM_UV) || GRID
 in vec2 v_floor;
 #endif
 flat in float v_ambient;
@@ -117,12 +121,17 @@ void main() {
   vec3 base = v_colour.rgb;
 #if PATTERNS
   if (v_colour.a < 2.5 / 255.0) {  // a floor pattern (plain surfaces have alpha 1, textured ones 3-5)
+#if FLOOR_FROM_UV
+    vec2 floor_xy = v_uv * (v_colour.a < 1.5 / 255.0 ? STRIPES_REPEAT_M : JOINTS_REPEAT_M);
+#else
+    vec2 floor_xy = v_floor;
+#endif
     if (v_colour.a < 1.5 / 255.0) {
       // Walkway hatching: 0.4 m stripes at 45 degrees.
-      if (fract((v_floor.x + v_floor.y) * 1.25) < 0.5) base = kStripe;
+      if (fract((floor_xy.x + floor_xy.y) * 1.25) < 0.5) base = kStripe;
     } else {
       // Concrete slab joints every 5 m.
-      vec2 d = abs(fract(v_floor * 0.2 + 0.5) - 0.5) * 5.0;
+      vec2 d = abs(fract(floor_xy * 0.2 + 0.5) - 0.5) * 5.0;
       if (min(d.x, d.y) < 0.025) base *= 0.82;
     }
   }
