@@ -149,7 +149,8 @@ struct GpuMesh {
 // Everything that never moves, in world coordinates, in one buffer drawn with one call: each
 // part (an object, or the floor with its paint) a range of indices with its bounds, so that a
 // pass draws only the parts its camera may see (glMultiDrawElements: still one call).
-// Ranges are kept in the order added, which is the order drawn.
+// Ranges are kept in the order added, which is the order drawn; a pass may draw a range of the
+// parts (textured objects, plain ones, the floor) with a program of its own.
 struct StaticBatch {
   struct Part {
     GLsizei first = 0, count = 0;  // indices
@@ -182,14 +183,16 @@ struct StaticBatch {
     glBufferData(GL_ARRAY_BUFFER, sizeof(Eigen::Matrix4f), mesh->transforms.data(), GL_STATIC_DRAW);
   }
 
-  // Draws the parts `view` may see, adjacent ranges merged; returns how many parts that was.
-  int draw(const render::Frustum& view, int& calls, long& triangles) {
+  // Draws the parts from `from` up to `to` (all: the defaults) that `view` may see, adjacent
+  // ranges merged; returns how many parts that was.
+  int draw(const render::Frustum& view, int& calls, long& triangles, size_t from = 0, size_t to = SIZE_MAX) {
     if (!mesh) return 0;
     counts.clear();
     offsets.clear();
     int drawn = 0;
     GLsizei end = -1;
-    for (const Part& p : parts) {
+    for (size_t i = from; i < std::min(to, parts.size()); ++i) {
+      const Part& p = parts[i];
       if (!view.may_see(p.bounds)) continue;
       ++drawn;
       if (p.first == end) {
@@ -376,6 +379,10 @@ struct Renderer::Impl {
     }
   };
   MainProgram shadowed, unshadowed;
+  // With textures on, a third for the warehouse's plain objects (walls, doors, docks, lorries,
+  // cones: much of the driver's picture), without the texture's tap their layer of ones would make.
+  MainProgram plain;
+  size_t plain_from = 0, plain_to = 0;  // the static batch's parts that are plain objects
   StaticBatch static_batch;
   // The key light's shadow map: a depth texture the moving meshes are drawn into first.
   gl::Program shadow_program;
@@ -444,6 +451,7 @@ struct Renderer::Impl {
     meshes.clear();
     shadowed.program.reset();
     unshadowed.program.reset();
+    plain.program.reset();
     // Unbind before destroying, so a later context at the same address is never taken for
     // one that is already current (make_current's shortcut).
     OSMesaMakeCurrent(nullptr, nullptr, 0, 0, 0);
@@ -498,6 +506,7 @@ struct Renderer::Impl {
     };
     shadowed.make(head(quality.shadow_map_px > 0, quality.haze, quality.textures, true));
     if (quality.textures) make_surface_textures();
+    if (quality.textures) plain.make(head(quality.shadow_map_px > 0, quality.haze, false, false));
     // The truck is never as far from a hazed view's camera as the haze's start (kHazeStartM: the
     // driver's eye is within 8 m of any of its parts, the chase camera within 11 m; a test pins
     // it for every shipped truck), so its pixels, a third of the driver's picture, skip the
@@ -525,8 +534,13 @@ struct Renderer::Impl {
     truck_batch.upload();
 
     // Everything that never moves, in world coordinates, in one buffer, a part per object:
-    // objects before the floor they stand on (drawn in this order: see draw()).
+    // objects before the floor they stand on (drawn in this order: see draw()), the textured
+    // ones (racks) before the plain ones when textures are on, which another program draws.
     Geometry world;
+    auto add_object = [&](const SceneObject& o) {
+      const render::Pattern pattern = o.kind == ObjectKind::kRack ? render::Pattern::kSteel : render::Pattern::kPlain;
+      static_batch.add_part(world, [&] { world.add_mesh(*o.mesh, o.pose, pattern); });
+    };
     for (const SceneObject& o : scene.objects) {
       if (o.kind == ObjectKind::kPallet) {
         Pallet p{mesh_for(o.mesh, render::Pattern::kWood), nullptr, o.pose, 0, Vector3d::Zero()};
@@ -537,11 +551,15 @@ struct Renderer::Impl {
         }
         pallet_index[o.id] = pallets.size();
         pallets.push_back(p);
-      } else if (o.mesh) {
-        const render::Pattern pattern = o.kind == ObjectKind::kRack ? render::Pattern::kSteel : render::Pattern::kPlain;
-        static_batch.add_part(world, [&] { world.add_mesh(*o.mesh, o.pose, pattern); });
+      } else if (o.mesh && (o.kind == ObjectKind::kRack || !quality.textures)) {
+        add_object(o);
       }
     }
+    plain_from = static_batch.parts.size();
+    if (quality.textures)
+      for (const SceneObject& o : scene.objects)
+        if (o.kind != ObjectKind::kPallet && o.kind != ObjectKind::kRack && o.mesh) add_object(o);
+    plain_to = quality.textures ? static_batch.parts.size() : plain_from;
     static_batch.add_part(world, [&] { render::add_floor(scene, floor_area(scene), world); });
     static_batch.upload(world);
     stats.static_parts = int(static_batch.parts.size());
@@ -704,13 +722,17 @@ struct Renderer::Impl {
       Eigen::Matrix4d to_texture = 0.5 * Eigen::Matrix4d::Identity();
       to_texture.col(3) = Eigen::Vector4d(0.5, 0.5, 0.5, 1);
       const Eigen::Matrix4f m = (to_texture * light).cast<float>();
-      glUseProgram(shadowed.program.get());
-      glUniformMatrix4fv(shadowed.light_view_projection, 1, GL_FALSE, m.data());
+      for (MainProgram* p : {&shadowed, &plain}) {
+        if (p->program.get() == 0) continue;
+        glUseProgram(p->program.get());
+        glUniformMatrix4fv(p->light_view_projection, 1, GL_FALSE, m.data());
+      }
       glActiveTexture(GL_TEXTURE0);
       glBindTexture(GL_TEXTURE_2D, shadow_map.get());
     }
     const Eigen::Vector2f truck_at = poses.chassis.translation().head<2>().cast<float>();
-    for (MainProgram* p : {&shadowed, &unshadowed}) {
+    for (MainProgram* p : {&shadowed, &plain, &unshadowed}) {  // unshadowed last: still current after
+      if (p->program.get() == 0) continue;
       glUseProgram(p->program.get());
       glUniform2fv(p->grid_centre, 1, truck_at.data());
       glUniform1f(p->haze, hazed ? kHaze : 0.0f);
@@ -789,7 +811,8 @@ struct Renderer::Impl {
     const Eigen::Matrix4f vp = view_projection.cast<float>();
     const Eigen::Vector3f e = eye.cast<float>();
     const render::Frustum seen(view_projection);
-    for (MainProgram* p : {&shadowed, &unshadowed}) {
+    for (MainProgram* p : {&shadowed, &plain, &unshadowed}) {  // unshadowed last: still current after
+      if (p->program.get() == 0) continue;
       glUseProgram(p->program.get());
       glUniformMatrix4fv(p->view_projection, 1, GL_FALSE, vp.data());
       glUniform3fv(p->eye, 1, e.data());
@@ -799,7 +822,13 @@ struct Renderer::Impl {
     stats.draw_calls += truck_batch.draw(see_through ? TruckBatch::kSolid : TruckBatch::kAll, &seen, stats.triangles);
     glUseProgram(shadowed.program.get());
     for (const auto& m : meshes) stats.draw_calls += m->draw(&seen, stats.triangles);
-    const int parts = static_batch.draw(seen, stats.draw_calls, stats.triangles);
+    int parts = static_batch.draw(seen, stats.draw_calls, stats.triangles, 0, plain_from);
+    if (plain_to > plain_from) {
+      glUseProgram(plain.program.get());
+      parts += static_batch.draw(seen, stats.draw_calls, stats.triangles, plain_from, plain_to);
+      glUseProgram(shadowed.program.get());
+    }
+    parts += static_batch.draw(seen, stats.draw_calls, stats.triangles, plain_to);
     if (!see_through) return parts;
     glEnable(GL_BLEND);
     glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
