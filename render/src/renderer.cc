@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <map>
 #include <stdexcept>
 #include <unordered_map>
@@ -42,6 +43,9 @@ constexpr float kSeeThroughAlpha = 0.22f;
 // The distance haze of the driver's and chase views: at most this share of a far surface's
 // colour (100 m and beyond) is the sky's.
 constexpr float kHaze = 0.35f;
+// How far a shadow falls sideways per metre it falls down, from the key light (shaders.h).
+const double kShadowSlope =
+    std::hypot(double(render::kKeyLight[0]), double(render::kKeyLight[1])) / double(render::kKeyLight[2]);
 // The rear-view mirror inset: its share of the frame's width and height, its distance from the
 // top edge (share of the height), and its frame's width in pixels.
 constexpr double kMirrorWidthShare = 0.36, kMirrorHeightShare = 0.18, kMirrorTopShare = 0.025;
@@ -136,9 +140,13 @@ struct GpuMesh {
     return 1;
   }
 
-  // World bounds of this frame's instances.
+  // World bounds of this frame's instances (those `view` may see).
   void extend(Eigen::AlignedBox3d& box) const {
     for (const Eigen::AlignedBox3d& b : world_bounds) box.extend(b);
+  }
+  void extend_seen(const render::Frustum& view, Eigen::AlignedBox3d& box) const {
+    for (const Eigen::AlignedBox3d& b : world_bounds)
+      if (view.may_see(b)) box.extend(b);
   }
 
  private:
@@ -185,7 +193,9 @@ struct StaticBatch {
 
   // Draws the parts from `from` up to `to` (all: the defaults) that `view` may see, adjacent
   // ranges merged; returns how many parts that was.
-  int draw(const render::Frustum& view, int& calls, long& triangles, size_t from = 0, size_t to = SIZE_MAX) {
+  // `beyond`: if given, only the parts that lie wholly outside it (true) or that reach into it (false).
+  int draw(const render::Frustum& view, int& calls, long& triangles, size_t from = 0, size_t to = SIZE_MAX,
+           const Eigen::AlignedBox3d* reach = nullptr, bool beyond = false) {
     if (!mesh) return 0;
     counts.clear();
     offsets.clear();
@@ -194,6 +204,7 @@ struct StaticBatch {
     for (size_t i = from; i < std::min(to, parts.size()); ++i) {
       const Part& p = parts[i];
       if (!view.may_see(p.bounds)) continue;
+      if (reach && beyond != (reach->isEmpty() || !reach->intersects(p.bounds))) continue;
       ++drawn;
       if (p.first == end) {
         counts.back() += p.count;
@@ -383,6 +394,11 @@ struct Renderer::Impl {
   // cones: much of the driver's picture), without the texture's tap their layer of ones would make.
   MainProgram plain;
   size_t plain_from = 0, plain_to = 0;  // the static batch's parts that are plain objects
+  // With shadows on, the warehouse's objects that lie wholly outside the shadows' reach this frame
+  // (shadow_reach: the racks and walls away from the truck) are drawn by these, without the
+  // shadow's tap, which could only say "lit" there: the racks (textured), the plain objects.
+  MainProgram racks_lit, plain_lit;
+  Eigen::AlignedBox3d shadow_reach;  // this frame's: where the shadow map's casters may darken a surface
   StaticBatch static_batch;
   // The key light's shadow map: a depth texture the moving meshes are drawn into first.
   gl::Program shadow_program;
@@ -452,6 +468,8 @@ struct Renderer::Impl {
     shadowed.program.reset();
     unshadowed.program.reset();
     plain.program.reset();
+    racks_lit.program.reset();
+    plain_lit.program.reset();
     // Unbind before destroying, so a later context at the same address is never taken for
     // one that is already current (make_current's shortcut).
     OSMesaMakeCurrent(nullptr, nullptr, 0, 0, 0);
@@ -505,8 +523,11 @@ struct Renderer::Impl {
              std::to_string(render::texture_repeat_m(render::Pattern::kJoints)) + "\n";
     };
     shadowed.make(head(quality.shadow_map_px > 0, quality.haze, quality.textures, true));
+    const bool shadows = quality.shadow_map_px > 0;
+    if (shadows) racks_lit.make(head(false, quality.haze, quality.textures, false));
     if (quality.textures) make_surface_textures();
-    if (quality.textures) plain.make(head(quality.shadow_map_px > 0, quality.haze, false, false));
+    if (quality.textures) plain.make(head(shadows, quality.haze, false, false));
+    if (shadows && quality.textures) plain_lit.make(head(false, quality.haze, false, false));
     // The truck is never as far from a hazed view's camera as the haze's start (kHazeStartM: the
     // driver's eye is within 8 m of any of its parts, the chase camera within 11 m; a test pins
     // it for every shipped truck), so its pixels, a third of the driver's picture, skip the
@@ -637,9 +658,12 @@ struct Renderer::Impl {
     for (render::Pattern p : {render::Pattern::kStripes, render::Pattern::kJoints, render::Pattern::kWood,
                               render::Pattern::kSteel, render::Pattern::kPaint})
       layer_of[int(p)] = render::texture_layer(p);
-    glUseProgram(shadowed.program.get());
-    glUniform1iv(glGetUniformLocation(shadowed.program.get(), "u_layer_of"), 6, layer_of);
-    glUniform1fv(glGetUniformLocation(shadowed.program.get(), "u_gain"), render::kTextureLayers, gain.data());
+    for (MainProgram* p : {&shadowed, &racks_lit}) {
+      if (p->program.get() == 0) continue;
+      glUseProgram(p->program.get());
+      glUniform1iv(glGetUniformLocation(p->program.get(), "u_layer_of"), 6, layer_of);
+      glUniform1fv(glGetUniformLocation(p->program.get(), "u_gain"), render::kTextureLayers, gain.data());
+    }
     gl::check_error("making the surfaces' textures");
   }
 
@@ -675,6 +699,18 @@ struct Renderer::Impl {
     stats.draw_calls += truck_batch.draw(TruckBatch::kAll, &seen, stats.triangles);
     for (const auto& mesh : meshes) stats.draw_calls += mesh->draw(&seen, stats.triangles);
     glDisable(GL_POLYGON_OFFSET_FILL);
+    // Where what was drawn may darken a surface: below it along the light, down to the floor's
+    // underside (ramps stand on it), with a texel and a little more to spare.
+    Eigen::AlignedBox3d casters;
+    if (seen.may_see(truck_batch.bounds)) casters.extend(truck_batch.bounds);
+    for (const auto& mesh : meshes) mesh->extend_seen(seen, casters);
+    shadow_reach.setEmpty();
+    if (!casters.isEmpty()) {
+      constexpr double kFloorBottomM = -0.2, kMarginM = 0.1;
+      const double fall = kShadowSlope * (casters.max().z() - kFloorBottomM) + kShadowAreaM / n + kMarginM;
+      shadow_reach.extend(casters.min() - Vector3d(fall, fall, casters.min().z() - kFloorBottomM + kMarginM));
+      shadow_reach.extend(casters.max() + Vector3d(fall, fall, kMarginM));
+    }
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
   }
 
@@ -731,7 +767,7 @@ struct Renderer::Impl {
       glBindTexture(GL_TEXTURE_2D, shadow_map.get());
     }
     const Eigen::Vector2f truck_at = poses.chassis.translation().head<2>().cast<float>();
-    for (MainProgram* p : {&shadowed, &plain, &unshadowed}) {  // unshadowed last: still current after
+    for (MainProgram* p : {&shadowed, &plain, &racks_lit, &plain_lit, &unshadowed}) {  // unshadowed last: still current after
       if (p->program.get() == 0) continue;
       glUseProgram(p->program.get());
       glUniform2fv(p->grid_centre, 1, truck_at.data());
@@ -811,7 +847,7 @@ struct Renderer::Impl {
     const Eigen::Matrix4f vp = view_projection.cast<float>();
     const Eigen::Vector3f e = eye.cast<float>();
     const render::Frustum seen(view_projection);
-    for (MainProgram* p : {&shadowed, &plain, &unshadowed}) {  // unshadowed last: still current after
+    for (MainProgram* p : {&shadowed, &plain, &racks_lit, &plain_lit, &unshadowed}) {  // unshadowed last: still current after
       if (p->program.get() == 0) continue;
       glUseProgram(p->program.get());
       glUniformMatrix4fv(p->view_projection, 1, GL_FALSE, vp.data());
@@ -822,12 +858,20 @@ struct Renderer::Impl {
     stats.draw_calls += truck_batch.draw(see_through ? TruckBatch::kSolid : TruckBatch::kAll, &seen, stats.triangles);
     glUseProgram(shadowed.program.get());
     for (const auto& m : meshes) stats.draw_calls += m->draw(&seen, stats.triangles);
-    int parts = static_batch.draw(seen, stats.draw_calls, stats.triangles, 0, plain_from);
-    if (plain_to > plain_from) {
-      glUseProgram(plain.program.get());
-      parts += static_batch.draw(seen, stats.draw_calls, stats.triangles, plain_from, plain_to);
-      glUseProgram(shadowed.program.get());
+    int parts = 0;
+    // The racks, then the plain objects (textures on), each those in the shadows' reach first and
+    // then (shadows on) those beyond it; then the floor.
+    for (auto [from, to, near, far] : {std::tuple{size_t(0), plain_from, &shadowed, &racks_lit},
+                                       {plain_from, plain_to, &plain, &plain_lit}}) {
+      if (to <= from) continue;
+      const bool split = far->program.get() != 0;
+      glUseProgram(near->program.get());
+      parts += static_batch.draw(seen, stats.draw_calls, stats.triangles, from, to, split ? &shadow_reach : nullptr, false);
+      if (!split) continue;
+      glUseProgram(far->program.get());
+      parts += static_batch.draw(seen, stats.draw_calls, stats.triangles, from, to, &shadow_reach, true);
     }
+    glUseProgram(shadowed.program.get());
     parts += static_batch.draw(seen, stats.draw_calls, stats.triangles, plain_to);
     if (!see_through) return parts;
     glEnable(GL_BLEND);
