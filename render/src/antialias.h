@@ -23,7 +23,7 @@ class EdgeSmoother {
   void apply(uint8_t* rgbx, int width, int height);
 
  private:
-  std::vector<uint32_t> rows_;    // rows y - 1, y and y + 1 as drawn, and row y blended
+  std::vector<uint32_t> rows_;    // rows y - 1, y and y + 1 as drawn
   std::vector<int16_t> greens_;   // the three rows' greens
   std::vector<int16_t> masks_;    // row y: on an edge; the edge runs across the rows (all ones: yes)
 };

@@ -105,17 +105,22 @@ void add_ramps(const Ground& ground, const Eigen::AlignedBox2d& area, Geometry& 
 
 }  // namespace
 
-Eigen::Vector2f texture_uv(const Vector3d& p, const Vector3d& n, Pattern pattern) {
-  // Metres a texture covers: boards and rack sections are small, a floor's grain is coarse.
-  double size_m = 0;
+double texture_repeat_m(Pattern pattern) {
+  // Boards and rack sections are small, a floor's grain is coarse.
   switch (pattern) {
-    case Pattern::kPlain: return Eigen::Vector2f::Zero();
-    case Pattern::kWood: size_m = 0.6; break;
-    case Pattern::kSteel: size_m = 0.5; break;
-    case Pattern::kJoints: size_m = 2.0; break;
+    case Pattern::kPlain: return 0;
+    case Pattern::kWood: return 0.6;
+    case Pattern::kSteel: return 0.5;
+    case Pattern::kJoints: return 2.0;
     case Pattern::kStripes:
-    case Pattern::kPaint: size_m = 1.0; break;
+    case Pattern::kPaint: return 1.0;
   }
+  return 0;
+}
+
+Eigen::Vector2f texture_uv(const Vector3d& p, const Vector3d& n, Pattern pattern) {
+  const double size_m = texture_repeat_m(pattern);
+  if (size_m == 0) return Eigen::Vector2f::Zero();
   const Vector3d a = n.cwiseAbs();
   // Along the grain: a board's length is x or y, so the first coordinate runs along it.
   const Eigen::Vector2d uv = a.z() >= a.x() && a.z() >= a.y() ? Eigen::Vector2d(p.x(), p.y())

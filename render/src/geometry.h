@@ -34,6 +34,8 @@ static_assert(sizeof(Vertex) == 36);
 // the other two, in repeats of the pattern's texture (each pattern's texture covers its own
 // size on the ground: wood 0.5 m, concrete 2 m, ...). Plain surfaces get (0, 0).
 Eigen::Vector2f texture_uv(const Eigen::Vector3d& position, const Eigen::Vector3d& normal, Pattern pattern);
+// The metres one repeat of a pattern's texture covers (0: kPlain, untextured).
+double texture_repeat_m(Pattern pattern);
 
 struct Geometry {
   std::vector<Vertex> vertices;

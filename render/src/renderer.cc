@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <map>
 #include <stdexcept>
 #include <unordered_map>
@@ -42,6 +43,9 @@ constexpr float kSeeThroughAlpha = 0.22f;
 // The distance haze of the driver's and chase views: at most this share of a far surface's
 // colour (100 m and beyond) is the sky's.
 constexpr float kHaze = 0.35f;
+// How far a shadow falls sideways per metre it falls down, from the key light (shaders.h).
+const double kShadowSlope =
+    std::hypot(double(render::kKeyLight[0]), double(render::kKeyLight[1])) / double(render::kKeyLight[2]);
 // The rear-view mirror inset: its share of the frame's width and height, its distance from the
 // top edge (share of the height), and its frame's width in pixels.
 constexpr double kMirrorWidthShare = 0.36, kMirrorHeightShare = 0.18, kMirrorTopShare = 0.025;
@@ -136,9 +140,13 @@ struct GpuMesh {
     return 1;
   }
 
-  // World bounds of this frame's instances.
+  // World bounds of this frame's instances (those `view` may see).
   void extend(Eigen::AlignedBox3d& box) const {
     for (const Eigen::AlignedBox3d& b : world_bounds) box.extend(b);
+  }
+  void extend_seen(const render::Frustum& view, Eigen::AlignedBox3d& box) const {
+    for (const Eigen::AlignedBox3d& b : world_bounds)
+      if (view.may_see(b)) box.extend(b);
   }
 
  private:
@@ -149,7 +157,8 @@ struct GpuMesh {
 // Everything that never moves, in world coordinates, in one buffer drawn with one call: each
 // part (an object, or the floor with its paint) a range of indices with its bounds, so that a
 // pass draws only the parts its camera may see (glMultiDrawElements: still one call).
-// Ranges are kept in the order added, which is the order drawn.
+// Ranges are kept in the order added, which is the order drawn; a pass may draw a range of the
+// parts (textured objects, plain ones, the floor) with a program of its own.
 struct StaticBatch {
   struct Part {
     GLsizei first = 0, count = 0;  // indices
@@ -182,15 +191,20 @@ struct StaticBatch {
     glBufferData(GL_ARRAY_BUFFER, sizeof(Eigen::Matrix4f), mesh->transforms.data(), GL_STATIC_DRAW);
   }
 
-  // Draws the parts `view` may see, adjacent ranges merged; returns how many parts that was.
-  int draw(const render::Frustum& view, int& calls, long& triangles) {
+  // Draws the parts from `from` up to `to` (all: the defaults) that `view` may see, adjacent
+  // ranges merged; returns how many parts that was.
+  // `beyond`: if given, only the parts that lie wholly outside it (true) or that reach into it (false).
+  int draw(const render::Frustum& view, int& calls, long& triangles, size_t from = 0, size_t to = SIZE_MAX,
+           const Eigen::AlignedBox3d* reach = nullptr, bool beyond = false) {
     if (!mesh) return 0;
     counts.clear();
     offsets.clear();
     int drawn = 0;
     GLsizei end = -1;
-    for (const Part& p : parts) {
+    for (size_t i = from; i < std::min(to, parts.size()); ++i) {
+      const Part& p = parts[i];
       if (!view.may_see(p.bounds)) continue;
+      if (reach && beyond != (reach->isEmpty() || !reach->intersects(p.bounds))) continue;
       ++drawn;
       if (p.first == end) {
         counts.back() += p.count;
@@ -376,6 +390,15 @@ struct Renderer::Impl {
     }
   };
   MainProgram shadowed, unshadowed;
+  // With textures on, a third for the warehouse's plain objects (walls, doors, docks, lorries,
+  // cones: much of the driver's picture), without the texture's tap their layer of ones would make.
+  MainProgram plain;
+  size_t plain_from = 0, plain_to = 0;  // the static batch's parts that are plain objects
+  // With shadows on, the warehouse's objects that lie wholly outside the shadows' reach this frame
+  // (shadow_reach: the racks and walls away from the truck) are drawn by these, without the
+  // shadow's tap, which could only say "lit" there: the racks (textured), the plain objects.
+  MainProgram racks_lit, plain_lit;
+  Eigen::AlignedBox3d shadow_reach;  // this frame's: where the shadow map's casters may darken a surface
   StaticBatch static_batch;
   // The key light's shadow map: a depth texture the moving meshes are drawn into first.
   gl::Program shadow_program;
@@ -444,6 +467,9 @@ struct Renderer::Impl {
     meshes.clear();
     shadowed.program.reset();
     unshadowed.program.reset();
+    plain.program.reset();
+    racks_lit.program.reset();
+    plain_lit.program.reset();
     // Unbind before destroying, so a later context at the same address is never taken for
     // one that is already current (make_current's shortcut).
     OSMesaMakeCurrent(nullptr, nullptr, 0, 0, 0);
@@ -487,20 +513,28 @@ struct Renderer::Impl {
 
   void upload() {
     // The main shaders with what this quality draws compiled in, and nothing else.
-    auto head = [&](bool shadows, bool haze, bool textures) {
-      return std::string("#version 330 core\n#define SHADOWS ") + (shadows ? "1" : "0") + "\n#define HAZE " +
+    auto head = [&](bool shadows, bool haze, bool textures, bool patterns) {
+      return std::string("#version 330 core\n#define PATTERNS ") + (patterns ? "1" : "0") + "\n#define SHADOWS " +
+             (shadows ? "1" : "0") + "\n#define HAZE " +
              (haze ? "1" : "0") + "\n#define GRID " + (quality.grid ? "1" : "0") + "\n#define TEXTURES " +
              (textures ? "1" : "0") + "\n#define HAZE_START_M " + std::to_string(kHazeStartM) +
-             "\n#define HAZE_FULL_M " + std::to_string(kHazeFullM) + "\n";
+             "\n#define HAZE_FULL_M " + std::to_string(kHazeFullM) + "\n#define STRIPES_REPEAT_M " +
+             std::to_string(render::texture_repeat_m(render::Pattern::kStripes)) + "\n#define JOINTS_REPEAT_M " +
+             std::to_string(render::texture_repeat_m(render::Pattern::kJoints)) + "\n";
     };
-    shadowed.make(head(quality.shadow_map_px > 0, quality.haze, quality.textures));
+    shadowed.make(head(quality.shadow_map_px > 0, quality.haze, quality.textures, true));
+    const bool shadows = quality.shadow_map_px > 0;
+    if (shadows) racks_lit.make(head(false, quality.haze, quality.textures, false));
     if (quality.textures) make_surface_textures();
+    if (quality.textures) plain.make(head(shadows, quality.haze, false, false));
+    if (shadows && quality.textures) plain_lit.make(head(false, quality.haze, false, false));
     // The truck is never as far from a hazed view's camera as the haze's start (kHazeStartM: the
     // driver's eye is within 8 m of any of its parts, the chase camera within 11 m; a test pins
     // it for every shipped truck), so its pixels, a third of the driver's picture, skip the
     // haze's arithmetic at no change to them (forklift-bench-render: 3.85 to 3.46 ms a frame).
-    // The truck is painted steel, untextured: its program skips the texture's tap too.
-    unshadowed.make(head(false, false, false));
+    // The truck is painted steel, untextured and with no floor pattern: its program skips the
+    // texture's tap and the patterns' arithmetic too.
+    unshadowed.make(head(false, false, false, false));
     if (quality.shadow_map_px > 0) make_shadow_map();
 
     // The truck (nearest the driver's and the chase camera: drawn first), in one batch.
@@ -521,8 +555,13 @@ struct Renderer::Impl {
     truck_batch.upload();
 
     // Everything that never moves, in world coordinates, in one buffer, a part per object:
-    // objects before the floor they stand on (drawn in this order: see draw()).
+    // objects before the floor they stand on (drawn in this order: see draw()), the textured
+    // ones (racks) before the plain ones when textures are on, which another program draws.
     Geometry world;
+    auto add_object = [&](const SceneObject& o) {
+      const render::Pattern pattern = o.kind == ObjectKind::kRack ? render::Pattern::kSteel : render::Pattern::kPlain;
+      static_batch.add_part(world, [&] { world.add_mesh(*o.mesh, o.pose, pattern); });
+    };
     for (const SceneObject& o : scene.objects) {
       if (o.kind == ObjectKind::kPallet) {
         Pallet p{mesh_for(o.mesh, render::Pattern::kWood), nullptr, o.pose, 0, Vector3d::Zero()};
@@ -533,11 +572,15 @@ struct Renderer::Impl {
         }
         pallet_index[o.id] = pallets.size();
         pallets.push_back(p);
-      } else if (o.mesh) {
-        const render::Pattern pattern = o.kind == ObjectKind::kRack ? render::Pattern::kSteel : render::Pattern::kPlain;
-        static_batch.add_part(world, [&] { world.add_mesh(*o.mesh, o.pose, pattern); });
+      } else if (o.mesh && (o.kind == ObjectKind::kRack || !quality.textures)) {
+        add_object(o);
       }
     }
+    plain_from = static_batch.parts.size();
+    if (quality.textures)
+      for (const SceneObject& o : scene.objects)
+        if (o.kind != ObjectKind::kPallet && o.kind != ObjectKind::kRack && o.mesh) add_object(o);
+    plain_to = quality.textures ? static_batch.parts.size() : plain_from;
     static_batch.add_part(world, [&] { render::add_floor(scene, floor_area(scene), world); });
     static_batch.upload(world);
     stats.static_parts = int(static_batch.parts.size());
@@ -564,7 +607,9 @@ struct Renderer::Impl {
     shadow_map = gl::Texture(id);
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_2D, id);
-    glTexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT24, n, n, 0, GL_DEPTH_COMPONENT, GL_UNSIGNED_INT, nullptr);
+    // 16 bits: over the light's 59 m of depth a step is 0.9 mm, well inside the polygon offset,
+    // and half the bytes to clear and write each frame of a 24-bit (stored as 32-bit) map.
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT16, n, n, 0, GL_DEPTH_COMPONENT, GL_UNSIGNED_SHORT, nullptr);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_BORDER);
@@ -613,9 +658,12 @@ struct Renderer::Impl {
     for (render::Pattern p : {render::Pattern::kStripes, render::Pattern::kJoints, render::Pattern::kWood,
                               render::Pattern::kSteel, render::Pattern::kPaint})
       layer_of[int(p)] = render::texture_layer(p);
-    glUseProgram(shadowed.program.get());
-    glUniform1iv(glGetUniformLocation(shadowed.program.get(), "u_layer_of"), 6, layer_of);
-    glUniform1fv(glGetUniformLocation(shadowed.program.get(), "u_gain"), render::kTextureLayers, gain.data());
+    for (MainProgram* p : {&shadowed, &racks_lit}) {
+      if (p->program.get() == 0) continue;
+      glUseProgram(p->program.get());
+      glUniform1iv(glGetUniformLocation(p->program.get(), "u_layer_of"), 6, layer_of);
+      glUniform1fv(glGetUniformLocation(p->program.get(), "u_gain"), render::kTextureLayers, gain.data());
+    }
     gl::check_error("making the surfaces' textures");
   }
 
@@ -651,6 +699,18 @@ struct Renderer::Impl {
     stats.draw_calls += truck_batch.draw(TruckBatch::kAll, &seen, stats.triangles);
     for (const auto& mesh : meshes) stats.draw_calls += mesh->draw(&seen, stats.triangles);
     glDisable(GL_POLYGON_OFFSET_FILL);
+    // Where what was drawn may darken a surface: below it along the light, down to the floor's
+    // underside (ramps stand on it), with a texel and a little more to spare.
+    Eigen::AlignedBox3d casters;
+    if (seen.may_see(truck_batch.bounds)) casters.extend(truck_batch.bounds);
+    for (const auto& mesh : meshes) mesh->extend_seen(seen, casters);
+    shadow_reach.setEmpty();
+    if (!casters.isEmpty()) {
+      constexpr double kFloorBottomM = -0.2, kMarginM = 0.1;
+      const double fall = kShadowSlope * (casters.max().z() - kFloorBottomM) + kShadowAreaM / n + kMarginM;
+      shadow_reach.extend(casters.min() - Vector3d(fall, fall, casters.min().z() - kFloorBottomM + kMarginM));
+      shadow_reach.extend(casters.max() + Vector3d(fall, fall, kMarginM));
+    }
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
   }
 
@@ -698,13 +758,17 @@ struct Renderer::Impl {
       Eigen::Matrix4d to_texture = 0.5 * Eigen::Matrix4d::Identity();
       to_texture.col(3) = Eigen::Vector4d(0.5, 0.5, 0.5, 1);
       const Eigen::Matrix4f m = (to_texture * light).cast<float>();
-      glUseProgram(shadowed.program.get());
-      glUniformMatrix4fv(shadowed.light_view_projection, 1, GL_FALSE, m.data());
+      for (MainProgram* p : {&shadowed, &plain}) {
+        if (p->program.get() == 0) continue;
+        glUseProgram(p->program.get());
+        glUniformMatrix4fv(p->light_view_projection, 1, GL_FALSE, m.data());
+      }
       glActiveTexture(GL_TEXTURE0);
       glBindTexture(GL_TEXTURE_2D, shadow_map.get());
     }
     const Eigen::Vector2f truck_at = poses.chassis.translation().head<2>().cast<float>();
-    for (MainProgram* p : {&shadowed, &unshadowed}) {
+    for (MainProgram* p : {&shadowed, &plain, &racks_lit, &plain_lit, &unshadowed}) {  // unshadowed last: still current after
+      if (p->program.get() == 0) continue;
       glUseProgram(p->program.get());
       glUniform2fv(p->grid_centre, 1, truck_at.data());
       glUniform1f(p->haze, hazed ? kHaze : 0.0f);
@@ -783,7 +847,8 @@ struct Renderer::Impl {
     const Eigen::Matrix4f vp = view_projection.cast<float>();
     const Eigen::Vector3f e = eye.cast<float>();
     const render::Frustum seen(view_projection);
-    for (MainProgram* p : {&shadowed, &unshadowed}) {
+    for (MainProgram* p : {&shadowed, &plain, &racks_lit, &plain_lit, &unshadowed}) {  // unshadowed last: still current after
+      if (p->program.get() == 0) continue;
       glUseProgram(p->program.get());
       glUniformMatrix4fv(p->view_projection, 1, GL_FALSE, vp.data());
       glUniform3fv(p->eye, 1, e.data());
@@ -793,7 +858,21 @@ struct Renderer::Impl {
     stats.draw_calls += truck_batch.draw(see_through ? TruckBatch::kSolid : TruckBatch::kAll, &seen, stats.triangles);
     glUseProgram(shadowed.program.get());
     for (const auto& m : meshes) stats.draw_calls += m->draw(&seen, stats.triangles);
-    const int parts = static_batch.draw(seen, stats.draw_calls, stats.triangles);
+    int parts = 0;
+    // The racks, then the plain objects (textures on), each those in the shadows' reach first and
+    // then (shadows on) those beyond it; then the floor.
+    for (auto [from, to, near, far] : {std::tuple{size_t(0), plain_from, &shadowed, &racks_lit},
+                                       {plain_from, plain_to, &plain, &plain_lit}}) {
+      if (to <= from) continue;
+      const bool split = far->program.get() != 0;
+      glUseProgram(near->program.get());
+      parts += static_batch.draw(seen, stats.draw_calls, stats.triangles, from, to, split ? &shadow_reach : nullptr, false);
+      if (!split) continue;
+      glUseProgram(far->program.get());
+      parts += static_batch.draw(seen, stats.draw_calls, stats.triangles, from, to, &shadow_reach, true);
+    }
+    glUseProgram(shadowed.program.get());
+    parts += static_batch.draw(seen, stats.draw_calls, stats.triangles, plain_to);
     if (!see_through) return parts;
     glEnable(GL_BLEND);
     glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);

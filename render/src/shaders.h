@@ -20,8 +20,11 @@ namespace forklift::render {
 // and to the right of what casts them, where the driver sees them beside the forks.
 inline constexpr float kKeyLight[3] = {0.35f, 0.25f, 0.90f};
 
-// Both main shaders are compiled with SHADOWS, HAZE, GRID and TEXTURES defined 0 or 1 (RenderQuality):
-// what a renderer does not draw costs its pixels nothing.
+// Both main shaders are compiled with SHADOWS, HAZE, GRID and TEXTURES defined 0 or 1 (RenderQuality),
+// and PATTERNS 1 where floor patterns may be drawn (0 for the truck, which has none): what a
+// renderer does not draw costs its pixels nothing. The lights' shares are flat (the provoking
+// vertex's): every vertex of a flat face lights the same, and llvmpipe interpolates every other
+// output for every pixel.
 inline constexpr const char* kVertexShader = R"glsl(
 layout(location = 0) in vec3 a_position;
 layout(location = 1) in vec3 a_normal;
@@ -32,9 +35,14 @@ uniform mat4 u_view_projection;
 uniform vec3 u_eye;
 uniform vec3 u_key_light;  // towards the key light, unit
 flat out vec4 v_colour;  // base colour, pattern: one per surface, so not interpolated
-out vec2 v_floor;   // world x, y: the floor's patterns
-out float v_ambient;  // ambient and fill: what a shadow leaves
-out float v_key;      // the key light: what a shadow takes away
+// The floor's patterns read world x, y from the texture's coordinates where there are some (the
+// floor lies flat: they are x, y over the pattern's repeat), one output fewer for every pixel.
+#define FLOOR_FROM_UV (TEXTURES && !GRID)
+#if (PATTERNS && !FLOOR_FROM_UV) || GRID
+out vec2 v_floor;   // world x, y: the floor's patterns and the metre grid
+#endif
+flat out float v_ambient;  // ambient and fill: what a shadow leaves
+flat out float v_key;      // the key light: what a shadow takes away
 #if GRID
 out float v_height;  // world z: the metre grid is on the floor only
 #endif
@@ -57,7 +65,9 @@ void main() {
   if (dot(n, u_eye - world.xyz) < 0.0) n = -n;
   v_ambient = 0.42 + 0.15 * max(dot(n, kFillLight), 0.0);
   v_key = 0.48 * max(dot(n, u_key_light), 0.0);
+#if (PATTERNS && !FLOOR_FROM_UV) || GRID
   v_floor = world.xy;
+#endif
   v_colour = a_colour;
 #if GRID
   v_height = world.z;
@@ -78,9 +88,12 @@ void main() {
 
 inline constexpr const char* kFragmentShader = R"glsl(
 flat in vec4 v_colour;
+#define FLOOR_FROM_UV (TEXTURES && !GRID)
+#if (PATTERNS && !FLOOR_FROM_UV) || GRID
 in vec2 v_floor;
-in float v_ambient;
-in float v_key;
+#endif
+flat in float v_ambient;
+flat in float v_key;
 uniform float u_alpha;  // 1 opaque; below 1 for a see-through part (blended)
 #if GRID
 in float v_height;
@@ -106,16 +119,23 @@ out vec4 o_colour;
 const vec3 kStripe = vec3(0.95, 0.80, 0.10);
 void main() {
   vec3 base = v_colour.rgb;
+#if PATTERNS
   if (v_colour.a < 2.5 / 255.0) {  // a floor pattern (plain surfaces have alpha 1, textured ones 3-5)
+#if FLOOR_FROM_UV
+    vec2 floor_xy = v_uv * (v_colour.a < 1.5 / 255.0 ? STRIPES_REPEAT_M : JOINTS_REPEAT_M);
+#else
+    vec2 floor_xy = v_floor;
+#endif
     if (v_colour.a < 1.5 / 255.0) {
       // Walkway hatching: 0.4 m stripes at 45 degrees.
-      if (fract((v_floor.x + v_floor.y) * 1.25) < 0.5) base = kStripe;
+      if (fract((floor_xy.x + floor_xy.y) * 1.25) < 0.5) base = kStripe;
     } else {
       // Concrete slab joints every 5 m.
-      vec2 d = abs(fract(v_floor * 0.2 + 0.5) - 0.5) * 5.0;
+      vec2 d = abs(fract(floor_xy * 0.2 + 0.5) - 0.5) * 5.0;
       if (min(d.x, d.y) < 0.025) base *= 0.82;
     }
   }
+#endif
 #if TEXTURES
   // One nearest tap, no mipmaps (llvmpipe's cheapest: a mip level is chosen from per-pixel
   // derivatives, which costs a tenth of a frame). Far off, where a texel is smaller than a
