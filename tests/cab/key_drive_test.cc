@@ -32,13 +32,8 @@ struct Drive {
   int steps_done = 0, steps_total = 0;
 };
 
-class KeyDriveInTheWindow : public testing::Test {
+class KeyDriveInTheWindow : public forklift_test::WindowTest {
  protected:
-  void SetUp() override {
-    ASSERT_FALSE(x_.display().empty()) << "Xvfb did not start";
-    setenv("DISPLAY", x_.display().c_str(), 1);
-    setenv("SDL_AUDIODRIVER", "dummy", 1);
-  }
 
   // A worker on `scenario` and a keyboard cab in its window; the driver at the keys until it is
   // done or the session's sim time reaches `max_sim_s`.
@@ -134,8 +129,6 @@ class KeyDriveInTheWindow : public testing::Test {
     Process xdotool(args, tmp(cab + ".keys"));
     EXPECT_EQ(xdotool.wait(10), 0) << xdotool.err();
   }
-
-  forklift_test::Xvfb x_;
 };
 
 // rack_pick's nearest floor pallet to the start, P13 at (31.0, 26.0), openings facing south: along

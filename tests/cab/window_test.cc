@@ -51,13 +51,8 @@ std::vector<double> key_times(const std::vector<json>& trace, const std::string&
   return out;
 }
 
-class CabWindow : public testing::Test {
+class CabWindow : public forklift_test::WindowTest {
  protected:
-  void SetUp() override {
-    ASSERT_FALSE(x_.display().empty()) << "Xvfb did not start";
-    setenv("DISPLAY", x_.display().c_str(), 1);
-    setenv("SDL_AUDIODRIVER", "dummy", 1);
-  }
   Process worker(const std::string& cab, int domain, const std::string& scenario, double duration) {
     return forklift_test::start_worker(kBin, tmp(""), domain, cab, "s-" + cab,
                                        {"--scenario", kData + "/scenarios/" + scenario + ".json", "--duration",
@@ -88,7 +83,6 @@ class CabWindow : public testing::Test {
     worker.wait(30);
     return read_trace(trace);
   }
-  forklift_test::Xvfb x_;
 };
 
 TEST_F(CabWindow, KeysHeldInTheWindowDriveTheTruckAsADriverExpects) {

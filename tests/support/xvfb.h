@@ -2,6 +2,9 @@
 // so parallel tests never share one.
 #pragma once
 
+#include <gtest/gtest.h>
+#include <stdlib.h>
+
 #include <chrono>
 #include <fstream>
 #include <string>
@@ -31,6 +34,17 @@ class Xvfb {
   std::string prefix_;
   ::Process server_;
   std::string display_;
+};
+
+// A test whose programs open windows: its own Xvfb, DISPLAY set to it, SDL's sound silent.
+class WindowTest : public testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_FALSE(x_.display().empty()) << "Xvfb did not start";
+    setenv("DISPLAY", x_.display().c_str(), 1);
+    setenv("SDL_AUDIODRIVER", "dummy", 1);
+  }
+  Xvfb x_;
 };
 
 }  // namespace forklift_test
