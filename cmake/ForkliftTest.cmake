@@ -3,9 +3,13 @@
 # so `ctest -L <module>` runs one module. Tests run from the source tree's data/; their temporary
 # files (testing::TempDir()) go to this build's tests/tmp, so that two build trees tested at once
 # never share one (their ports and DDS domains come from tests/support/ports.h).
+# The same for the tests that are scripts (web pages, worker hosts): set as their ENVIRONMENT.
+set(FORKLIFT_TEST_PASSWORD_COST FORKLIFT_PASSWORD_COST=test)
+
 function(forklift_add_test)
   cmake_parse_arguments(T "" "NAME;LABEL;DISCOVER_FILTER" "SOURCES;LIBS" ${ARGN})
-  add_executable(${T_NAME} ${T_SOURCES})
+  # tests/support/test_environment.cc: the environment every test program's servers share.
+  add_executable(${T_NAME} ${T_SOURCES} ${CMAKE_SOURCE_DIR}/tests/support/test_environment.cc)
   target_link_libraries(${T_NAME} PRIVATE ${T_LIBS} GTest::gtest GTest::gtest_main)
   target_include_directories(${T_NAME} PRIVATE ${CMAKE_SOURCE_DIR}/tests)
   list(LENGTH T_SOURCES n_sources)

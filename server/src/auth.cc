@@ -34,36 +34,62 @@ int64_t unix_ms() {
 
 // ---------------------------------------------------------------- passwords
 
-std::string hash_password(const std::string& pw) {
+namespace {
+
+struct PasswordCostLevel {
+  PasswordCost cost;
+  const char* name;
+  unsigned long long passes;
+  size_t memory_bytes;
+};
+constexpr PasswordCostLevel kPasswordCosts[] = {
+    {PasswordCost::kInteractive, "interactive", crypto_pwhash_OPSLIMIT_INTERACTIVE, crypto_pwhash_MEMLIMIT_INTERACTIVE},
+    {PasswordCost::kModerate, "moderate", crypto_pwhash_OPSLIMIT_MODERATE, crypto_pwhash_MEMLIMIT_MODERATE},
+    {PasswordCost::kSensitive, "sensitive", crypto_pwhash_OPSLIMIT_SENSITIVE, crypto_pwhash_MEMLIMIT_SENSITIVE},
+    {PasswordCost::kTest, "test", crypto_pwhash_OPSLIMIT_MIN, crypto_pwhash_MEMLIMIT_MIN},
+};
+
+const PasswordCostLevel& level_of(PasswordCost cost) {
+  for (const auto& l : kPasswordCosts)
+    if (l.cost == cost) return l;
+  return kPasswordCosts[0];
+}
+
+}  // namespace
+
+const char* name(PasswordCost cost) { return level_of(cost).name; }
+
+std::optional<PasswordCost> parse_password_cost(const std::string& text) {
+  for (const auto& l : kPasswordCosts)
+    if (text == l.name) return l.cost;
+  return std::nullopt;
+}
+
+Passwords::Passwords(PasswordCost cost) : cost_(cost) {
+  unsigned char raw[32];
+  randombytes_buf(raw, sizeof raw);
+  decoy_ = hash(std::string(reinterpret_cast<const char*>(raw), sizeof raw));
+}
+
+std::string Passwords::hash(const std::string& pw) const {
+  const PasswordCostLevel& l = level_of(cost_);
   char out[crypto_pwhash_STRBYTES];
-  if (crypto_pwhash_str(out, pw.c_str(), pw.size(), crypto_pwhash_OPSLIMIT_INTERACTIVE, crypto_pwhash_MEMLIMIT_INTERACTIVE) != 0)
+  if (crypto_pwhash_str(out, pw.c_str(), pw.size(), l.passes, l.memory_bytes) != 0)
     throw std::runtime_error("out of memory hashing a password");
   return out;
 }
 
-bool verify_password(const std::string& hash, const std::string& pw) {
-  return crypto_pwhash_str_verify(hash.c_str(), pw.c_str(), pw.size()) == 0;
-}
-
-bool password_matches(const std::optional<store::User>& user, const std::string& password) {
-  const bool matches = verify_password(user ? user->password_hash : decoy_hash(), password);
+bool Passwords::matches(const std::optional<store::User>& user, const std::string& password) const {
+  const std::string& hash = user ? user->password_hash : decoy_;
+  const bool matches = crypto_pwhash_str_verify(hash.c_str(), password.c_str(), password.size()) == 0;
   return matches && user.has_value();
 }
 
-const std::string& decoy_hash() {
-  static const std::string hash = [] {
-    unsigned char raw[32];
-    randombytes_buf(raw, sizeof raw);
-    return hash_password(std::string(reinterpret_cast<const char*>(raw), sizeof raw));
-  }();
-  return hash;
-}
-
-std::string new_password_hash(const nlohmann::json& body) {
+std::string Passwords::new_hash(const nlohmann::json& body) const {
   const std::string pw = field<std::string>(body, "password");
   if (pw.size() < kMinPasswordLength)
     throw ApiError(400, "bad_request", "passwords have at least " + std::to_string(kMinPasswordLength) + " characters");
-  return hash_password(pw);
+  return hash(pw);
 }
 
 // ---------------------------------------------------------------- Tokens

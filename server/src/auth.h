@@ -10,24 +10,32 @@
 #include <utility>
 #include <vector>
 
+#include "forklift/server/server.h"
 #include "forklift/store/store.h"
 
 namespace forklift::server {
 
 constexpr size_t kMinPasswordLength = 8;
 
-// Argon2id, libsodium's interactive limits: memory-hard, about 0.1 s per hash here.
-std::string hash_password(const std::string& pw);
-bool verify_password(const std::string& hash, const std::string& pw);
-// The hash of a request body's new "password" (400 if missing or shorter than
-// kMinPasswordLength): hash it before taking any write lock, it takes 0.1 s.
-std::string new_password_hash(const nlohmann::json& body);
-// Whether `password` is `user`'s. With no user it is checked against decoy_hash(), so that a
-// username nobody has is refused as slowly as a wrong password (else the time of an answer tells
-// which usernames exist).
-bool password_matches(const std::optional<store::User>& user, const std::string& password);
-// The hash of a random password nobody knows, made at the first call (0.1 s): make it at start.
-const std::string& decoy_hash();
+// Passwords' hashes: Argon2id, memory-hard, at the school's cost (ServerConfig::password_cost;
+// interactive, libsodium's default, is about 0.1 s and 64 MiB per hash here).
+class Passwords {
+ public:
+  // Makes the decoy's hash now, not in the time of the first login of an unknown username.
+  explicit Passwords(PasswordCost cost);
+  std::string hash(const std::string& pw) const;
+  // The hash of a request body's new "password" (400 if missing or shorter than
+  // kMinPasswordLength): hash it before taking any write lock, it takes 0.1 s.
+  std::string new_hash(const nlohmann::json& body) const;
+  // Whether `password` is `user`'s, at the cost its hash was made with. With no user it is
+  // checked against a decoy of the same cost, so that a username nobody has is refused as slowly
+  // as a wrong password (else the time of an answer tells which usernames exist).
+  bool matches(const std::optional<store::User>& user, const std::string& password) const;
+
+ private:
+  PasswordCost cost_;
+  std::string decoy_;  // the hash of a random password nobody knows
+};
 
 // Who a token speaks for.
 struct Principal {

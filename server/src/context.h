@@ -18,6 +18,7 @@ namespace forklift::server {
 
 struct Context {
   std::string db_path, data_dir;
+  std::unique_ptr<Passwords> passwords;
   std::unique_ptr<Tokens> tokens;
   std::unique_ptr<LoginThrottle> logins;
   // Look-ups of certificate numbers that do not exist, limited per address as logins are.

@@ -156,6 +156,13 @@ int main(int argc, char** argv) {
                "closed network the school alone can reach; with --security hosts are believed by their identity");
   app.add_flag("--realtime-workers", cfg.realtime_workers, "the workers this server runs tick at real-time priority (forklift-worker "
                "--realtime; needs CAP_SYS_NICE or an rtprio limit, e.g. systemd's LimitRTPRIO=10)");
+  std::string password_cost = forklift::server::name(cfg.password_cost);
+  if (const char* env = std::getenv("FORKLIFT_PASSWORD_COST")) password_cost = env;
+  app.add_option("--password-cost", password_cost, "how costly each new password hash is (Argon2id): interactive (about "
+                 "0.1 s and 64 MiB), moderate, sensitive (seconds and 1 GiB), or test (next to nothing: for tests and "
+                 "demonstrations only, never for real passwords); hashes made before keep their cost (default "
+                 "FORKLIFT_PASSWORD_COST, else interactive)")
+      ->check(CLI::IsMember({"interactive", "moderate", "sensitive", "test"}));
   app.add_option("--token-ttl", cfg.token_ttl_s, "how long a login lasts, s")->check(CLI::Range(1.0, 30.0 * 86400));
   app.add_option("--tls-cert", tls_cert, "serve HTTPS with this PEM certificate (chain); needs --tls-key");
   app.add_option("--tls-key", tls_key, "the PEM private key of --tls-cert");
@@ -212,6 +219,7 @@ int main(int argc, char** argv) {
     char x = 0;
     std::istringstream(frame_size) >> frame_w >> x >> frame_h;  // checked with the flags
     cfg.local_workers = !no_local_workers;
+    cfg.password_cost = *forklift::server::parse_password_cost(password_cost);  // checked with the flags
     cfg.frames = forklift::host::WorkerFrames{frame_fps, frame_w, frame_h, frame_jpeg};
     if (web_dir.empty()) web_dir = (self.parent_path().parent_path() / "web").string();
 

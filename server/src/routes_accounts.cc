@@ -92,7 +92,7 @@ void account_routes(Routes& svr, Context& ctx) {
                      "too many failed logins for this user or from this address: try again in " + std::to_string(wait_s) + " s");
     }
     const auto user = ctx.db().find_user(username);
-    if (!password_matches(user, password)) throw ApiError(401, "bad_credentials", "unknown user or wrong password");
+    if (!ctx.passwords->matches(user, password)) throw ApiError(401, "bad_credentials", "unknown user or wrong password");
     // Said only to whoever knows the password.
     if (!user->active)
       throw ApiError(403, "account_deactivated", "this account has been deactivated: ask the school's administrator");
@@ -116,7 +116,7 @@ void account_routes(Routes& svr, Context& ctx) {
     const auto role = store::parse_role(field<std::string>(b, "role"));
     if (!role) throw ApiError(400, "bad_request", "'role' must be admin, instructor, examiner or pupil");
     const std::string username = username_field(b);
-    const std::string hash = new_password_hash(b);
+    const std::string hash = ctx.passwords->new_hash(b);
     std::optional<int64_t> pupil;
     if (*role == Role::kPupil) pupil = visible_pupil(ctx, p, field<int64_t>(b, "pupil_id")).id;
     const std::string full_name = full_name_field(b);
@@ -177,7 +177,7 @@ void account_routes(Routes& svr, Context& ctx) {
     require_role(p, {Role::kAdmin});
     const store::User u = school_user(ctx, p, req);
     const json b = body_json(req);  // the password alone (PasswordReset)
-    const std::string hash = new_password_hash(b);
+    const std::string hash = ctx.passwords->new_hash(b);
     ctx.db().batch([&] {
       ctx.db().set_user_password(u.id, hash);
       staff_audit(ctx.db(), p, u.id, "password_reset", {{"username", u.username}});

@@ -131,7 +131,7 @@ void pupil_routes(Routes& svr, Context& ctx) {
     std::optional<std::string> username, hash;
     if (b.contains("username")) {
       username = username_field(b);
-      hash = new_password_hash(b);
+      hash = ctx.passwords->new_hash(b);
     }
     int64_t id = 0;
     ctx.db().batch([&] {

@@ -92,7 +92,9 @@ Api::Api(ServerConfig c) : ctx_(std::make_unique<Context>()), contract_(&api_con
   ctx.db_path = c.db_path;
   ctx.data_dir = c.data_dir;
   ctx.tokens = std::make_unique<Tokens>(c.token_ttl_s);
-  decoy_hash();  // now, not in the time of the first login of an unknown username
+  ctx.passwords = std::make_unique<Passwords>(c.password_cost);
+  if (c.password_cost == PasswordCost::kTest)
+    spdlog::warn("passwords are hashed at the 'test' cost, which protects them next to nothing: for tests and demonstrations only");
   const int address_attempts = c.login_address_attempts.value_or(kAddressAttemptsPerUserAttempt * c.login_attempts);
   ctx.logins = std::make_unique<LoginThrottle>("login", LoginThrottle::Limits{c.login_attempts, address_attempts, c.login_window_s});
   // Keyed by address: an address gets as many unknown numbers as it would failed logins.
@@ -127,7 +129,7 @@ Api::Api(ServerConfig c) : ctx_(std::make_unique<Context>()), contract_(&api_con
     std::string password = c.admin_password;
     if (password.empty()) password = generated_admin_password_ = random_password();
     const int64_t school = ctx.db().create_school("Default school");
-    ctx.db().create_user("admin", hash_password(password), store::Role::kAdmin, school);
+    ctx.db().create_user("admin", ctx.passwords->hash(password), store::Role::kAdmin, school);
   }
   ctx.school_name = certificate_school_name(c, ctx.db());
   // A paper's time limit holds without anyone asking: the clock ends papers nobody hands in.

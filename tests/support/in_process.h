@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 
@@ -22,6 +23,9 @@ inline forklift::server::ServerConfig in_process_config(const std::string& dir, 
   c.bin_dir = dir + "/bin";
   c.admin_password = kAdminPassword;
   c.dds_domain = domain;
+  // As a server process started by the test would take it (tests/support/test_environment.cc).
+  if (const char* cost = std::getenv("FORKLIFT_PASSWORD_COST"))
+    if (const auto parsed = forklift::server::parse_password_cost(cost)) c.password_cost = *parsed;
   return c;
 }
 

@@ -8,6 +8,7 @@
 #include <httplib.h>
 
 #include <filesystem>
+#include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -71,6 +72,15 @@ struct Server : ApiClient {
       if (fs::exists(school.folder + "/" + part)) fs::copy(school.folder + "/" + part, dir + "/" + part, fs::copy_options::recursive);
     db = dir + "/forklift.db";
     start(extra);
+  }
+  // A failed test shows the server's own log (its last lines): the reason behind a 500 or a 503
+  // is there, and a CI run keeps nothing else.
+  ~Server() override {
+    if (!proc || !testing::Test::HasFailure()) return;
+    const std::string log = proc->err();
+    const size_t keep = 6000;
+    std::cerr << "--- forklift-server's log" << (log.size() > keep ? " (its end)" : "") << ":\n"
+              << (log.size() > keep ? log.substr(log.size() - keep) : log) << "---\n";
   }
   // Stops it as a service manager would (SIGTERM), so that it finishes what it was writing.
   int stop(double timeout_s = 30) {

@@ -16,6 +16,13 @@ class Server;
 
 namespace forklift::server {
 
+// How much a password's hash costs (Argon2id's passes and memory): libsodium's three levels, and
+// a fourth that costs next to nothing and so protects next to nothing, for tests and demonstrations.
+enum class PasswordCost { kInteractive, kModerate, kSensitive, kTest };
+// "interactive", "moderate", "sensitive", "test"; parse() of anything else: nullopt.
+const char* name(PasswordCost cost);
+std::optional<PasswordCost> parse_password_cost(const std::string& text);
+
 struct ServerConfig {
   // The store: an SQLite file, created if missing, or a PostgreSQL database's URI
   // ("postgresql://...", store::Store::open).
@@ -38,6 +45,8 @@ struct ServerConfig {
   // gives the school ("Default school" for a new one).
   std::string school_name;
 
+  // Of the hashes made from now on (each hash keeps its own cost, so a change never locks anyone out).
+  PasswordCost password_cost = PasswordCost::kInteractive;
   double token_ttl_s = 8 * 3600;  // how long a login lasts
   int login_attempts = 5;         // failed logins of one username within the window before a lockout
   std::optional<int> login_address_attempts;  // the same for one client address; default 4 x login_attempts
