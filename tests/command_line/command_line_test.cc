@@ -90,6 +90,7 @@ const std::multimap<std::string, std::vector<std::string>> kBadValues = {
     {"forklift-worker", {"--rate", "0"}},
     // docs/command-lines.md: a port below 1024 is refused, as root too.
     {"forklift-server", {"--listen", "127.0.0.1:80"}},
+    {"forklift-server", {"--public-url", "forklift.example.org"}},
     {"forklift-bench-server", {"--port", "80"}},
     {"forklift-bench-collision", {"--benchmark_format=xml"}},
     {"forklift-bench-evaluation", {"--benchmark_min_time=soon"}},
