@@ -274,7 +274,8 @@ int main(int argc, char** argv) {
   app.add_option("--clients", clients, "concurrent keep-alive HTTP clients")->check(CLI::Range(1, 64));
   app.add_option("--seconds", seconds, "length of each load phase")->check(CLI::Range(0.5, 600.0));
   app.add_option("--runs", runs, "session starts to time")->check(CLI::Range(0, 100));
-  app.add_option("--port", port, "loopback port for the server");
+  // From 1024, as root too, as every program of the project: ports below are the system's own.
+  app.add_option("--port", port, "loopback port for the server (1024 to 65535)")->check(CLI::Range(1024, 65535));
   app.add_option("--dds-domain", domain, "DDS domain")->check(CLI::Range(0, 232));
   app.add_option("--dir", dir, "where the populated stores are kept");
   app.add_option("--db", dbs, "the stores to measure, one after the other: sqlite (a file in --dir), postgresql (a server "

@@ -41,17 +41,25 @@ const CertificateView = (() => {
         p.truck ? el('div', { class: 'small' }, `truck: ${p.truck.title}${p.truck.osha_class ? `, ${p.truck.osha_class}` : ''}`) : '',
         el('div', { class: 'small' }, `examiner: `, el('span', { class: 'examiner' }, person(p.examiner)), ` (session ${p.session})`));
     }
-    const n = c.training ? c.training.sessions : 0;
-    fact(dl, 'Training', n ? `${n} marked simulator training session${n === 1 ? '' : 's'}, ${day(c.training.first_at)}${n > 1 ? ` to ${day(c.training.last_at)}` : ''}`
-                           : 'no marked simulator training sessions recorded');
+    // Only what the record holds: each training session counted, with its date and mark, and no
+    // word of training when the record lists none.
+    const trained = (c.training && c.training.list) || [];
+    if (trained.length)
+      fact(dl, 'Training', `${trained.length} marked simulator training session${trained.length === 1 ? '' : 's'}` +
+                           (c.training.truck_class ? ` on ${c.training.truck_class}` : '') + ':',
+           el('ul', { id: 'cert-training', class: 'small' },
+              trained.map((t) => el('li', {}, `${day(t.at)}: ${t.scenario.replace(/_/g, ' ')}, mark ${num(t.mark)} of 100`))));
     fact(dl, 'Date of evaluation', day(c.evaluated_at));
     fact(dl, 'Licence issued', `${day(c.licence.issued_at)} by ${person(c.licence.issued_by)}`);
     fact(dl, 'Re-evaluation due', el('strong', { id: 'cert-due' }, day(c.reevaluation_due)),
          el('div', { class: 'small' }, 'An evaluation of the operator\'s performance at least once every three years: 29 CFR 1910.178(l)(4)(iii).'));
   }
 
-  // The verification page's address for `number`, on this server.
-  function verifyUrl(number) { return `${location.origin}/verify.html?number=${encodeURIComponent(number)}`; }
+  // The verification page's address for a certificate: on the school's public address when the
+  // server has one (--public-url), else on the address this page was opened at.
+  function verifyUrl(v) {
+    return v.verify_url || `${location.origin}/verify.html?number=${encodeURIComponent(v.number)}`;
+  }
 
   // A QR code of `text` on `canvas`: 4 pixels a module, the standard's quiet zone of 4 modules.
   function qr(canvas, text) {

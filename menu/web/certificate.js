@@ -20,7 +20,7 @@
     $('cert-school-line').textContent = c.school;
     $('statement').textContent = c.statement || '';
     CertificateView.facts($('cert-facts'), c);
-    const url = CertificateView.verifyUrl(c.number);
+    const url = CertificateView.verifyUrl(v);
     $('verify-url').textContent = url;
     CertificateView.qr($('qr'), url);
     $('issued').textContent = `Issued on ${day(c.issued_at)}. Printed from the school's records on ${day(new Date().toISOString())}.`;

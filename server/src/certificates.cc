@@ -106,7 +106,24 @@ std::string exam_row_sha256(const store::ExamRecord& e) {
   return security::sha256_hex(row.dump(-1, ' ', false, json::error_handler_t::replace));
 }
 
-LicenceBasis licence_basis(const store::Pupil& pupil, const std::vector<ExamResult>& results) {
+namespace {
+
+// The truck class a session ran on, in words: the OSHA class data/theory/certification.json gives
+// its truck, else the truck's own name.
+std::string truck_class(Context& ctx, const store::Session& s) {
+  const json truck = scenario_setup(scenario_as_run(ctx.db(), ctx.data_dir, s)).first;
+  if (!truck.is_string()) return "the simulator's default truck";
+  const json t = truck_json(ctx.data_dir, truck.get<std::string>());
+  return t["osha_class"].is_string() ? t["osha_class"].get<std::string>() : t["title"].get<std::string>();
+}
+
+std::string plural(size_t n, const std::string& one) { return std::to_string(n) + " " + one + (n == 1 ? "" : "s"); }
+
+}  // namespace
+
+LicenceBasis licence_basis(Context& ctx, const store::Pupil& pupil, const store::PupilHistory& h,
+                           const std::vector<ExamResult>& results, const std::string& now) {
+  const LicenceRules& rules = *ctx.licence_rules;
   LicenceBasis b;
   std::map<std::string, const ExamResult*> by_course;  // the latest counted exam of each course (results are oldest first)
   std::vector<std::string> not_counted;
@@ -121,22 +138,43 @@ LicenceBasis licence_basis(const store::Pupil& pupil, const std::vector<ExamResu
     }
   }
   for (const auto& [course, r] : by_course) b.practical.push_back(r);
-  std::string missing;
-  if (!b.theory) missing = "the theory exam";
-  if (b.practical.empty()) missing += (missing.empty() ? "" : " and ") + std::string("a practical exam on an exam course");
-  if (!missing.empty()) {
-    b.missing = pupil.name + " has not passed " + missing;
-    if (b.practical.empty() && !not_counted.empty()) {
-      b.missing += " (a passed practical exam that does not count: ";
-      for (size_t i = 0; i < not_counted.size(); ++i) b.missing += (i ? "; " : "") + not_counted[i];
-      b.missing += ")";
+  if (!b.practical.empty() && b.practical.back()->session) b.truck_class = truck_class(ctx, *b.practical.back()->session);
+
+  if (!b.theory) {
+    b.missing.push_back("has not passed the theory exam");
+  } else if (rules.theory_within_months > 0 && b.theory->taken_at < store::add_months_iso8601(now, -rules.theory_within_months)) {
+    b.missing.push_back("passed the theory exam on " + b.theory->taken_at.substr(0, 10) + ", more than " +
+                        plural(rules.theory_within_months, "month") + " ago (the school's rules ask for a pass within " +
+                        plural(rules.theory_within_months, "month") + "): a new theory exam is needed");
+    b.theory = nullptr;
+  }
+  if (b.practical.empty()) {
+    std::string item = "has not passed a practical exam on an exam course";
+    if (!not_counted.empty()) {
+      item += " (a passed practical exam that does not count: ";
+      for (size_t i = 0; i < not_counted.size(); ++i) item += (i ? "; " : "") + not_counted[i];
+      item += ")";
     }
+    b.missing.push_back(item);
+  }
+  for (const store::Session& s : h.sessions) {
+    const std::optional<double> mark = store::mark_of(s);
+    if (s.mode != Mode::kTraining || !mark) continue;
+    if (!b.truck_class.empty() && truck_class(ctx, s) != b.truck_class) continue;
+    b.training.push_back({s.public_id, s.created_at, s.scenario, *mark});
+  }
+  if (b.training.size() < static_cast<size_t>(rules.training_sessions))
+    b.missing.push_back("has " + std::to_string(b.training.size()) + " of the " + plural(rules.training_sessions, "marked training session") +
+                        " the school's rules ask for" + (b.truck_class.empty() ? "" : " on the practical exam's truck (" + b.truck_class + ")") +
+                        ": a session counts when it ends with a mark, its task done or its course run");
+  if (!b.missing.empty()) {
+    b.why_not = pupil.name + " cannot be licensed yet: ";
+    for (size_t i = 0; i < b.missing.size(); ++i) b.why_not += (i ? "; " : "") + b.missing[i];
   }
   return b;
 }
 
-json certificate_record(Context& ctx, const store::Pupil& pupil, const store::PupilHistory& h, const LicenceBasis& basis,
-                        const store::LicenceRecord& licence, int64_t issued_by, const std::string& number,
+json certificate_record(Context& ctx, const store::Pupil& pupil, const LicenceBasis& basis, const store::LicenceRecord& licence, int64_t issued_by, const std::string& number,
                         const std::string& school) {
   store::Store& db = ctx.db();
   const ExamResult& t = *basis.theory;
@@ -162,16 +200,17 @@ json certificate_record(Context& ctx, const store::Pupil& pupil, const store::Pu
                          {"record_sha256", exam_row_sha256(*p->record)}});
     evaluated_at = std::max(evaluated_at, p->taken_at);
   }
-  json training = {{"sessions", 0}, {"first_at", nullptr}, {"last_at", nullptr}};
-  for (const auto& s : h.sessions)
-    if (s.mode == Mode::kTraining && store::mark_of(s)) {
-      if (training["first_at"].is_null()) training["first_at"] = s.created_at;
-      training["last_at"] = s.created_at;
-      training["sessions"] = training["sessions"].get<int>() + 1;
-    }
+  json list = json::array();
+  for (const TrainedSession& t : basis.training)
+    list.push_back({{"session", t.session}, {"at", t.at}, {"scenario", t.scenario}, {"mark", t.mark}});
+  const json training = {{"sessions", basis.training.size()}, {"truck_class", basis.truck_class},
+                         {"first_at", basis.training.empty() ? json(nullptr) : json(basis.training.front().at)},
+                         {"last_at", basis.training.empty() ? json(nullptr) : json(basis.training.back().at)}, {"list", list}};
   json statement = nullptr;
   try {
-    statement = read_json_file(ctx.data_dir + "/theory/certification.json").value("statement", json(nullptr));
+    // Only what the record holds: no word of training when none is listed.
+    statement = read_json_file(ctx.data_dir + "/theory/certification.json")
+                    .value(basis.training.empty() ? "statement_without_training" : "statement", json(nullptr));
   } catch (const std::exception&) {
   }
   return {{"format", kRecordFormat}, {"number", number}, {"school", school}, {"pupil", {{"id", pupil.id}, {"name", pupil.name}}},
@@ -264,7 +303,8 @@ json certificate_json(Context& ctx, const store::CertificateRecord& c, const Cer
   }
   return {{"number", c.number}, {"status", check.status}, {"checks", check.checks}, {"problems", check.problems},
           {"revocation", revocation}, {"certificate", check.record.is_object() ? check.record : json(nullptr)},
-          {"verify_page", "verify.html?number=" + c.number}, {"verify_api", "/api/certificates/" + c.number}};
+          {"verify_page", "verify.html?number=" + c.number}, {"verify_api", "/api/certificates/" + c.number},
+          {"verify_url", ctx.public_url.empty() ? json(nullptr) : json(ctx.public_url + "/verify.html?number=" + c.number)}};
 }
 
 }  // namespace forklift::server

@@ -6,7 +6,8 @@
 // A certificate's record (JSON, signed as stored; forklift/security/certificate.h):
 //   {"format": "forklift-certificate/1", "number", "school", "pupil": {"id", "name"},
 //    "licence": {"id", "issued_at", "issued_by": person}, "evaluated_at", "reevaluation_due",
-//    "reevaluation_rule", "theory": citation, "practical": [citation...], "training": {...},
+//    "reevaluation_rule", "theory": citation, "practical": [citation...],
+//    "training": {"sessions", "truck_class", "first_at", "last_at", "list": [{"session", "at", "scenario", "mark"}...]},
 //    "statement", "issued_at"}
 //   person:   {"id", "username", "name"} (the account's full name)
 //   citation: {"exam_id", "kind", "taken_at", "score", "passed", "examiner": person, "record_sha256"}
@@ -34,21 +35,31 @@ std::string canonical_certificate_number(const std::string& typed);
 // The hash a certificate cites an exam record by: its row, every field, as stored.
 std::string exam_row_sha256(const store::ExamRecord& e);
 
-// Why a licence cannot be issued yet, in words, or empty: a passed theory exam and a passed
-// practical exam on an exam course whose evidence verifies (ExamResult::counts), and the full
-// names the certificate prints.
+// What a licence rests on, and what is missing in words (empty when nothing is): a passed
+// practical exam on an exam course whose evidence verifies (ExamResult::counts), and what the
+// school's rules (LicenceRules) ask beside it: a theory pass recent enough, and marked training
+// sessions on the practical exam's truck class.
+struct TrainedSession {
+  std::string session, at, scenario;  // its public id, when it was started, the scenario's name
+  double mark = 0;
+};
 struct LicenceBasis {
   const ExamResult* theory = nullptr;
   std::vector<const ExamResult*> practical;  // the latest counted exam of each course
-  std::string missing;                      // empty when both are there
+  std::vector<TrainedSession> training;      // the marked training sessions that count, oldest first
+  std::string truck_class;                   // of the practical exams (empty before one counts)
+  std::vector<std::string> missing;          // each item the record lacks, in words
+  // "<pupil> cannot be licensed yet: <items>", or empty.
+  std::string why_not;
 };
-LicenceBasis licence_basis(const store::Pupil& pupil, const std::vector<ExamResult>& results);
+LicenceBasis licence_basis(Context& ctx, const store::Pupil& pupil, const store::PupilHistory& h,
+                           const std::vector<ExamResult>& results, const std::string& now);
 
 // The record of a new certificate for `pupil`'s licence (issued by user `issued_by`), citing
 // `basis`. Throws ApiError 409 "full_name_missing" when a person it names has no full name on
 // their account.
-nlohmann::json certificate_record(Context& ctx, const store::Pupil& pupil, const store::PupilHistory& h,
-                                  const LicenceBasis& basis, const store::LicenceRecord& licence, int64_t issued_by,
+nlohmann::json certificate_record(Context& ctx, const store::Pupil& pupil, const LicenceBasis& basis,
+                                  const store::LicenceRecord& licence, int64_t issued_by,
                                   const std::string& number, const std::string& school);
 
 // What a check of a stored certificate finds: "valid", "revoked" (whatever else holds), or
@@ -64,7 +75,8 @@ struct CertificateCheck {
 CertificateCheck check_certificate(Context& ctx, const store::CertificateRecord& c);
 
 // What the pages and the verification endpoint show: the number, the status and why, the record,
-// the revocation (with who, when and why), and where to verify it.
+// the revocation (with who, when and why), and where to verify it: "verify_url" on the school's
+// public address (ServerConfig::public_url; null without one: the page then uses its own).
 nlohmann::json certificate_json(Context& ctx, const store::CertificateRecord& c, const CertificateCheck& check);
 
 }  // namespace forklift::server

@@ -27,6 +27,10 @@ struct Context {
   std::unique_ptr<Fleet> fleet;
   std::unique_ptr<QuestionBank> bank;  // data/theory/questions.json, loaded at start
   std::unique_ptr<TheoryPolicy> theory_policy;  // data/theory/policy.json or --theory-policy, loaded at start
+  std::unique_ptr<LicenceRules> licence_rules;  // data/licence/rules.json or --licence-rules, loaded at start
+  // The school's public address (ServerConfig::public_url, no trailing slash): certificates' QR
+  // codes and links; empty: the pages use their own.
+  std::string public_url;
   std::unique_ptr<PlanCache> plans;
   std::unique_ptr<Stills> stills;
   std::unique_ptr<Replays> replays;  // the debrief's replays of finished sessions

@@ -180,6 +180,16 @@ int main(int argc, char** argv) {
                  "--security folder's CA, else the database's)")->envname("FORKLIFT_SCHOOL_NAME");
   app.add_option("--theory-policy", cfg.theory_policy, "the school's rules for theory papers: time limits, the wait between "
                  "exam attempts and their limit (default: data/theory/policy.json)")->check(CLI::ExistingFile);
+  app.add_option("--licence-rules", cfg.licence_rules, "the school's rules for a licence: the marked training sessions and how "
+                 "recent a theory pass it needs (default: data/licence/rules.json)")->check(CLI::ExistingFile);
+  app.add_option("--public-url", cfg.public_url, "the address employers reach this server at, printed in certificates' QR codes "
+                 "and links, as https://forklift.example.org (default: the address the examiner's browser used)")
+      ->check([](const std::string& v) {
+        const size_t scheme = v.rfind("https://", 0) == 0 ? 8 : v.rfind("http://", 0) == 0 ? 7 : 0;
+        return scheme && v.size() > scheme && v[scheme] != '/' && v.find_first_of("?# ") == std::string::npos
+                   ? std::string()
+                   : std::string("give the school's address with http:// or https://, as https://forklift.example.org");
+      });
   app.add_option("--web-dir", web_dir, "the built web pages (default: web/ beside bin/ in the build tree)");
   std::string log_format = "text", access_log, session_log;
   app.add_option("--log-format", log_format, "the server's log (stderr), access log and session log: text, or json (one object per line)")

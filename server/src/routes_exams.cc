@@ -92,8 +92,10 @@ void exam_routes(Routes& svr, Context& ctx) {
     send_json(res, 201, exam_now(ctx, pupil, e.id));
   }));
 
-  // A licence, issued only on a passed theory exam and a passed practical exam taken on an exam
-  // course whose evidence verifies; with it, the certificate, numbered and signed. Re-evaluation
+  // A licence, issued only on a passed practical exam taken on an exam course whose evidence
+  // verifies and what the school's licence rules ask beside it (a recent theory pass, marked
+  // training sessions: certificates.h), refused with each missing item named; with it, the
+  // certificate, numbered and signed. Re-evaluation
   // falls due three years after the evaluation (OSHA 1910.178(l)(4)(iii)).
   svr.Post(R"(/api/pupils/(\d+)/licence)", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
@@ -104,8 +106,8 @@ void exam_routes(Routes& svr, Context& ctx) {
     ctx.db().batch([&] {  // read inside, so that the exams cited are the ones standing when it is issued
       const auto h = ctx.db().history(pupil.id, store::now_iso8601());
       const std::vector<ExamResult> results = exam_results(ctx, *h);
-      const LicenceBasis basis = licence_basis(pupil, results);
-      if (!basis.missing.empty()) throw ApiError(409, "not_certified", basis.missing + ": no licence is issued before both are passed");
+      const LicenceBasis basis = licence_basis(ctx, pupil, *h, results, store::now_iso8601());
+      if (!basis.why_not.empty()) throw ApiError(409, "not_certified", basis.why_not);
       if (keys.server_key_file.empty())  // a practical exam verifies only under security: a school's server misconfigured since
         throw ApiError(409, "security_required",
                        "a licence comes with a certificate the server signs: start the server with --security DIR (scripts/forklift-pki.sh)");
@@ -122,7 +124,7 @@ void exam_routes(Routes& svr, Context& ctx) {
       c.licence_id = l.id;
       c.issued_at = now;
       c.issued_by = p.user_id;
-      c.record = certificate_record(ctx, pupil, *h, basis, l, p.user_id, c.number, ctx.school_name).dump(-1, ' ', false,
+      c.record = certificate_record(ctx, pupil, basis, l, p.user_id, c.number, ctx.school_name).dump(-1, ' ', false,
                                                                                                            json::error_handler_t::replace);
       c.signature = security::sign_certificate(c.record, keys.server_key_file, keys.server_cert_file).dump();
       ctx.db().add_certificate(c);
@@ -142,11 +144,11 @@ void exam_routes(Routes& svr, Context& ctx) {
     const auto all = ctx.db().list_certificates(pupil.id);
     if (all.empty()) {
       const auto h = ctx.db().history(pupil.id, store::now_iso8601());
-      const LicenceBasis basis = licence_basis(pupil, exam_results(ctx, *h));
+      const LicenceBasis basis = licence_basis(ctx, pupil, *h, exam_results(ctx, *h), store::now_iso8601());
       throw ApiError(409, "not_certified",
                      h->licence ? "the licence of " + pupil.name + " was issued before licences came with a numbered certificate: an "
                                       "examiner issues it again to make one"
-                     : !basis.missing.empty() ? basis.missing + ", and no licence has been issued"
+                     : !basis.why_not.empty() ? basis.why_not + "; and no licence has been issued"
                                               : "no licence has been issued to " + pupil.name +
                                                     " yet: the certificate is made when an examiner issues the licence");
     }

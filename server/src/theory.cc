@@ -135,10 +135,13 @@ QuestionBank load_question_bank(const std::string& path) {
   return b;
 }
 
-TheoryPolicy load_theory_policy(const std::string& path, const QuestionBank& bank) {
-  const json j = read_json(path, "theory exam policy");
-  TheoryPolicy p;
-  const auto number = [&](const char* section, const char* key, double lo, double hi) {
+namespace {
+
+// A rules file's numbers: `section`.`key`, within [lo, hi], or a failure naming the file and the key.
+struct RulesFile {
+  std::string path;
+  json j;
+  double number(const char* section, const char* key, double lo, double hi) const {
     const std::string where = std::string(section) + "." + key;
     const json* v = nullptr;
     if (j.is_object() && j.contains(section) && j[section].is_object() && j[section].contains(key)) v = &j[section][key];
@@ -146,20 +149,35 @@ TheoryPolicy load_theory_policy(const std::string& path, const QuestionBank& ban
     const double d = v->get<double>();
     if (!(d >= lo && d <= hi)) fail(path, where, "must be between " + json(lo).dump() + " and " + json(hi).dump());
     return d;
-  };
-  const auto whole = [&](const char* section, const char* key, double lo, double hi) {
+  }
+  int whole(const char* section, const char* key, double lo, double hi) const {
     const double d = number(section, key, lo, hi);
     if (d != static_cast<double>(static_cast<int>(d))) fail(path, std::string(section) + "." + key, "must be a whole number");
     return static_cast<int>(d);
-  };
+  }
+};
+
+}  // namespace
+
+TheoryPolicy load_theory_policy(const std::string& path, const QuestionBank& bank) {
+  const RulesFile f{path, read_json(path, "theory exam policy")};
+  TheoryPolicy p;
   constexpr double kWeek = 7 * 86400, kYear = 366 * 86400;
-  p.exam_time_limit_s = number("exam", "time_limit_s", 1, kWeek);
-  p.retake_wait_s = number("exam", "retake_wait_s", 0, kYear);
-  p.max_attempts = whole("exam", "max_attempts", 0, 1000);
-  p.practice_time_limit_s = number("practice", "time_limit_s", 1, kWeek);
-  p.practice_questions = whole("practice", "questions", 1, static_cast<double>(bank.questions.size()));
-  p.grace_s = number("hand_in", "grace_s", 0, 600);
+  p.exam_time_limit_s = f.number("exam", "time_limit_s", 1, kWeek);
+  p.retake_wait_s = f.number("exam", "retake_wait_s", 0, kYear);
+  p.max_attempts = f.whole("exam", "max_attempts", 0, 1000);
+  p.practice_time_limit_s = f.number("practice", "time_limit_s", 1, kWeek);
+  p.practice_questions = f.whole("practice", "questions", 1, static_cast<double>(bank.questions.size()));
+  p.grace_s = f.number("hand_in", "grace_s", 0, 600);
   return p;
+}
+
+LicenceRules load_licence_rules(const std::string& path) {
+  const RulesFile f{path, read_json(path, "licence rules")};
+  LicenceRules r;
+  r.training_sessions = f.whole("training", "marked_sessions", 0, 1000);
+  r.theory_within_months = f.whole("theory", "within_months", 0, 120);
+  return r;
 }
 
 Paper draw_paper(const QuestionBank& bank, uint64_t seed, int count, const PaperHistory& history) {

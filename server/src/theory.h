@@ -68,6 +68,19 @@ struct TheoryPolicy {
 // Throws std::runtime_error naming the file and the key. `bank` bounds practice_questions.
 TheoryPolicy load_theory_policy(const std::string& path, const QuestionBank& bank);
 
+// The school's rules for a licence, loaded and checked once (data/licence/rules.json): what the
+// record must hold before an examiner may issue one, beside a passed practical exam on an exam
+// course (always needed).
+struct LicenceRules {
+  // Marked training sessions (store::mark_of) on the truck class of the practical exam.
+  int training_sessions = 0;
+  // The theory exam's pass no older than this when the licence is issued; 0: any age.
+  int theory_within_months = 0;
+};
+
+// Throws std::runtime_error naming the file and the key.
+LicenceRules load_licence_rules(const std::string& path);
+
 // A paper as handed out: its questions in order, and for each the order its choices are shown in
 // (order[k] is the bank's index of the choice shown k-th).
 struct Paper {

@@ -16,6 +16,7 @@
 #include <regex>
 #include <thread>
 
+#include "support/cab_script.h"
 #include "support/exam_records.h"
 #include "support/ports.h"
 #include "support/server.h"
@@ -31,6 +32,8 @@ const std::string kPki = std::string(FORKLIFT_SOURCE_DIR) + "/scripts/forklift-p
 const std::string kCourse = "counterbalance_exam";  // the shipped exam course (data/scenarios/)
 const std::string kCleanDrive = std::string(FORKLIFT_DATA_DIR) + "/evaluation/scripts/counterbalance_exam_clean.csv";
 const std::string kSchool = "Hillside Forklift School";
+const int kTrainingSessions = 3;  // data/licence/rules.json's training.marked_sessions
+const std::string kPublicUrl = "https://certificates.hillside.example";
 
 std::string tmp(const std::string& name) { return process_path("certificate", name); }
 
@@ -85,6 +88,30 @@ class Certificates : public testing::Test {
       if (e["kind"] == kind && !e["id"].is_null()) return e;
     return nullptr;
   }
+  // `sessions` marked training sessions for the pupil on cab certcab: the paper's first manoeuvre
+  // on the training truck (the exam course's truck class), 3 s of it, a scripted cab driving the
+  // first second; the run's end marks it.
+  static void train(const Server& s, const std::string& token, int64_t pupil, const std::string& security, int sessions) {
+    for (int i = 0; i < sessions; ++i) {
+      auto [st, session] = s.call("POST", "/api/sessions", token,
+                                  json{{"pupil_id", pupil}, {"cab_id", "certcab"}, {"scenario", "manoeuvre_1"}, {"truck", "linde_e16c"},
+                                       {"time_limit_s", 3}}.dump());
+      ASSERT_EQ(st, 201) << session;
+      Process cab(std::vector<std::string>{kBin + "/forklift-cab", "--cab", "certcab", "--script", short_script(s.dir, 1.0), "--no-window",
+                                           "--security", security, "--dds-domain", std::to_string(s.domain), "--wait-worker", "30"},
+                  tmp("training-cab-" + std::to_string(i)));
+      const json done = s.wait_session(token, session["id"], 60);
+      ASSERT_EQ(done["outcome"], "completed") << done;
+      ASSERT_TRUE(done["mark"].is_number()) << done;
+      // The cab is free once the fleet has let the worker go.
+      for (int k = 0; k < 100 && cab_busy(s, token); ++k) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+  }
+  static bool cab_busy(const Server& s, const std::string& token) {
+    for (const json& w : s.call("GET", "/api/fleet", token).second.value("workers", json::array()))
+      if (w.value("cab", "") == "certcab") return true;
+    return false;
+  }
   // The school the exam course's drive leaves: ctest's fixture folder, or one of this process's.
   static std::string exam_course_school() {
     const char* folder = std::getenv("FORKLIFT_EXAM_COURSE_SCHOOL");
@@ -105,6 +132,8 @@ class Certificates : public testing::Test {
     const int port = forklift::test::free_port(), domain = forklift::test::free_domain();
     Server s(port, domain, "exam-course-" + std::to_string(port), secure(security));
     const School p = people(s);
+    // The training the school's licence rules ask for (data/licence/rules.json: 3 marked sessions).
+    ASSERT_NO_FATAL_FAILURE(train(s, p.examiner, p.pupil, security, kTrainingSessions));
     auto [es, exam] = s.call("POST", "/api/sessions", p.examiner,
                              json{{"pupil_id", p.pupil}, {"cab_id", "certcab"}, {"scenario", kCourse}, {"mode", "exam"}}.dump());
     ASSERT_EQ(es, 201) << exam;
@@ -171,7 +200,13 @@ TEST_F(Certificates, IssuedWithTheLicenceOnVerifiedExamsCheckedByAnyoneAndRefuse
   }
   const json made = json::parse(read_file(school + "/school.json"));
   const int port = forklift::test::free_port();
-  Server s("certificate-" + std::to_string(port), Server::Copy{school}, secure(school + "/pki"));
+  // Rules that ask for one training session more than the school's pupil has had, and the
+  // school's public address.
+  const std::string rules = tmp("licence-rules.json");
+  std::ofstream(rules) << json{{"training", {{"marked_sessions", kTrainingSessions + 1}}}, {"theory", {{"within_months", 12}}}}.dump();
+  std::vector<std::string> args = secure(school + "/pki");
+  args.insert(args.end(), {"--licence-rules", rules, "--public-url", kPublicUrl + "/"});
+  Server s("certificate-" + std::to_string(port), Server::Copy{school}, args);
   const School p = log_in(s, made);
   const std::string path = pupil_path(p);
   const std::string session = made["session"];
@@ -205,6 +240,18 @@ TEST_F(Certificates, IssuedWithTheLicenceOnVerifiedExamsCheckedByAnyoneAndRefuse
   auto [c0, before] = s.call("GET", path + "/certificate", p.pupil_token);
   EXPECT_EQ(c0, 409) << before;
   EXPECT_NE(before.dump().find("no licence has been issued"), std::string::npos) << before;
+  // Both exams passed, the training short of the rules: refused, naming the training alone.
+  auto [l2t, untrained] = s.call("POST", path + "/licence", p.examiner);
+  EXPECT_EQ(l2t, 409) << untrained;
+  EXPECT_EQ(error_code(untrained), "not_certified") << untrained;
+  const std::string untrained_why =
+      at(untrained, "/error/message").is_string() ? at(untrained, "/error/message").get<std::string>() : "";
+  EXPECT_NE(untrained_why.find("has " + std::to_string(kTrainingSessions) + " of the " + std::to_string(kTrainingSessions + 1) +
+                     " marked training sessions the school's rules ask for on the practical exam's truck (Class I"),
+            std::string::npos) << untrained_why;
+  EXPECT_EQ(untrained_why.find("theory"), std::string::npos) << untrained_why;
+  EXPECT_EQ(untrained_why.find("has not passed a practical exam"), std::string::npos) << untrained_why;
+  ASSERT_NO_FATAL_FAILURE(train(s, p.examiner, p.pupil, school + "/pki", 1));
   // The certificate names whoever issues the licence by their full name: the administrator has none.
   EXPECT_EQ(s.call("POST", path + "/licence", p.instructor).first, 403);
   auto [l2, nameless] = s.call("POST", path + "/licence", p.admin);
@@ -240,6 +287,19 @@ TEST_F(Certificates, IssuedWithTheLicenceOnVerifiedExamsCheckedByAnyoneAndRefuse
   EXPECT_EQ(at(c, "/practical/0/examiner/name"), "Eric Examiner");
   EXPECT_EQ(at(c, "/practical/0/score"), practical["score"]);
   EXPECT_FALSE(at(c, "/practical/0/chain/entry_hash").is_null());
+  // The training it lists is the record's: each marked session with its date and mark, and a
+  // statement that claims no more than that.
+  EXPECT_EQ(at(c, "/training/sessions"), kTrainingSessions + 1) << c;
+  ASSERT_EQ(at(c, "/training/list").size(), size_t(kTrainingSessions + 1)) << c;
+  for (const json& t : at(c, "/training/list")) {
+    EXPECT_EQ(t["scenario"], "manoeuvre_1") << t;
+    EXPECT_TRUE(t["mark"].is_number() && t["at"].is_string()) << t;
+  }
+  EXPECT_NE(at(c, "/training/truck_class").dump().find("Class I"), std::string::npos) << c;
+  EXPECT_EQ(at(c, "/statement").dump().find("formal instruction"), std::string::npos) << c;
+  EXPECT_NE(at(c, "/statement").dump().find("marked practical training sessions"), std::string::npos) << c;
+  // Its QR code and link carry the school's public address, not the one this request used.
+  EXPECT_EQ(mine["verify_url"], kPublicUrl + "/verify.html?number=" + number) << mine;
   // OSHA 1910.178(l)(4)(iii): evaluated again within three years of the evaluation.
   const std::string evaluated = at(c, "/evaluated_at"), due = at(c, "/reevaluation_due");
   EXPECT_EQ(evaluated, practical["taken_at"]);
@@ -322,10 +382,18 @@ TEST_F(Certificates, IssuedWithTheLicenceOnVerifiedExamsCheckedByAnyoneAndRefuse
     audited = audited || (r["action"] == "certificate_revoked" && at(r, "/details/certificate") == number && r["actor"] == "eric");
   EXPECT_TRUE(audited);
 
+  // The number with one character changed: not found (80 random bits: no near miss is another's).
+  std::string near = number;
+  near.back() = near.back() == '7' ? '8' : '7';
+  auto [nf, not_found] = verify(s, near);
+  EXPECT_EQ(nf, 404) << not_found;
+  EXPECT_EQ(error_code(not_found), "not_found") << not_found;
+
   // Numbers nobody was given: not found, and an address that tries them one after another is
-  // held back as a guesser of passwords is (here 8 a minute), whatever it asks next.
+  // held back as a guesser of passwords is (here 8 a minute, the near miss above among them),
+  // whatever it asks next.
   int status = 0;
-  for (int i = 0; i < 8 && status != 429; ++i) status = verify(s, "HFS-0000-0000-0000-000" + std::to_string(i)).first;
+  for (int i = 0; i < 7 && status != 429; ++i) status = verify(s, "HFS-0000-0000-0000-000" + std::to_string(i)).first;
   EXPECT_EQ(status, 404);
   auto [held, why] = verify(s, "HFS-0000-0000-0000-0009");
   EXPECT_EQ(held, 429) << why;

@@ -1,6 +1,7 @@
 // forklift-menu speaks to a person: after a real scripted session on a real server, the text of
 // each command (login, pupil-add, pupils, scenarios, start, session, history, export, follow,
-// abort) holds no JSON, no hex float, no code such as timed_out, open or null, and has its words:
+// abort, verify, and their errors) holds no JSON, no hex float, no code such as timed_out, open or
+// null, and has its words:
 // the mark "of 100", the events' titles as the debrief words them, outcomes in words. With
 // --json each gives JSON a script can parse. `follow --frame` with no frame says why and fails.
 // The server's text session log keeps those words as they are.
@@ -83,6 +84,7 @@ TEST(MenuWords, EveryCommandPrintsWordsAndJsonOnlyWhenAsked) {
   Ran r = menu({"login", "--user", "admin", "--password", kAdminPassword});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(contains(r.out, "logged in as admin")) << r.out;
+  expect_words("login", r.out, {"admin"});
   const json login = parsed(menu({"--json", "login", "--user", "admin", "--password", kAdminPassword}), "login");
   EXPECT_FALSE(login.contains("token")) << "the token stays in its file";
 
@@ -172,6 +174,17 @@ TEST(MenuWords, EveryCommandPrintsWordsAndJsonOnlyWhenAsked) {
   int documents = 0;
   for (std::string line; std::getline(lines, line); ++documents) EXPECT_NO_THROW((void)json::parse(line)) << line;
   EXPECT_GE(documents, 1);
+
+  // What goes wrong is said in words too: a session nobody started, and a practical exam's check
+  // asked of a training session on a server without DDS Security.
+  r = menu({"session", "s-999999"});
+  EXPECT_NE(r.code, 0) << r.out;
+  expect_words("session (unknown)", r.err, names);
+  const std::string ca = s.dir + "/not-a-ca.pem";
+  std::ofstream(ca) << "not a certificate\n";
+  r = menu({"verify", id, "--school-ca", ca});
+  EXPECT_NE(r.code, 0) << r.out;
+  expect_words("verify (a training session)", r.out + r.err, names);
 
   // The server's text session log writes what a person reads as it is: "aborted by admin" in
   // quotes, not aborted\x20by\x20admin.

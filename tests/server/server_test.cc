@@ -15,6 +15,7 @@
 #include "forklift/protocol/protocol.h"
 #include "support/cab_script.h"
 #include "support/loopback.h"
+#include "support/ports.h"
 #include "support/process.h"
 #include "support/server.h"
 
@@ -62,6 +63,56 @@ TEST(Server, LoginRolesAndVisibility) {
   EXPECT_EQ(error_code(lic), "not_certified") << lic;
   EXPECT_TRUE(s.call("GET", "/api/pupils/" + a_id + "/history", ana).second["licence"].is_null());
   EXPECT_EQ(s.call("GET", "/api/pupils", "not-a-token").first, 401);
+}
+
+// The school's licence rules (data/licence/rules.json, here a file of the test's own): a licence is
+// refused with every missing item named in words, and a marked training session on the
+// practical exam's truck class counts toward the training the rules ask for. The issue itself
+// (it needs exams under DDS Security) is in certificate_test.cc.
+TEST(Server, ALicenceIsRefusedWithEachMissingItemNamedAsTheSchoolsRulesSay) {
+  const std::string rules = testing::TempDir() + "/licence-rules-two-sessions.json";
+  std::ofstream(rules) << R"({"training": {"marked_sessions": 2}, "theory": {"within_months": 6}})";
+  Server s("licence-rules", {"--licence-rules", rules});
+  const std::string admin = s.login("admin", kAdminPassword);
+  const json pupil = s.call("POST", "/api/pupils", admin, R"({"name":"Lena Learner"})").second;
+  const std::string path = "/api/pupils/" + std::to_string(pupil["id"].get<int64_t>());
+  const auto message = [](const json& answer) { return answer.is_object() && answer.contains("error") ? answer["error"].value("message", "") : ""; };
+
+  auto [st0, none] = s.call("POST", path + "/licence", admin);
+  EXPECT_EQ(st0, 409) << none;
+  EXPECT_EQ(error_code(none), "not_certified") << none;
+  for (const char* item : {"Lena Learner cannot be licensed yet", "has not passed the theory exam",
+                           "has not passed a practical exam on an exam course", "has 0 of the 2 marked training sessions"})
+    EXPECT_NE(message(none).find(item), std::string::npos) << item << " not in: " << none;
+
+  // A training session on the training truck, run to its end and marked: one of the two.
+  auto [st, sess] = s.call("POST", "/api/sessions", admin,
+                           json{{"pupil_id", pupil["id"]}, {"cab_id", "cabL"}, {"scenario", "manoeuvre_1"}, {"truck", "linde_e16c"},
+                                {"time_limit_s", 3}}.dump());
+  ASSERT_EQ(st, 201) << sess;
+  Process c = cab(s, "cabL", short_script(s.dir, 1.0));
+  const json done = s.wait_session(admin, sess["id"], 60);
+  ASSERT_EQ(done["outcome"], "completed") << done;
+  ASSERT_TRUE(done["mark"].is_number()) << done;
+  auto [st1, one] = s.call("POST", path + "/licence", admin);
+  EXPECT_EQ(st1, 409) << one;
+  EXPECT_NE(message(one).find("has 1 of the 2 marked training sessions"), std::string::npos) << one;
+  EXPECT_NE(message(one).find("has not passed the theory exam"), std::string::npos) << one;
+  EXPECT_EQ(s.call("GET", path + "/certificate", admin).first, 409);
+  EXPECT_TRUE(s.call("GET", path + "/history", admin).second["licence"].is_null());
+}
+
+// A rules file the server cannot follow stops it at start, naming the file and the key.
+TEST(Server, ABadLicenceRulesFileIsRefusedAtStartNamingTheKey) {
+  const std::string rules = testing::TempDir() + "/licence-rules-bad.json";
+  std::ofstream(rules) << R"({"training": {"marked_sessions": 1.5}, "theory": {"within_months": 6}})";
+  const std::string dir = testing::TempDir() + "/licence-rules-bad";
+  std::filesystem::create_directories(dir);
+  Process p({kBin + "/forklift-server", "--db", dir + "/school.db", "--listen", "127.0.0.1:" + std::to_string(forklift::test::free_port()),
+             "--dds-domain", std::to_string(forklift::test::free_domain()), "--licence-rules", rules},
+            dir + "/server");
+  EXPECT_EQ(p.wait(30), 2) << p.err();
+  EXPECT_NE(p.err().find("training.marked_sessions: must be a whole number"), std::string::npos) << p.err();
 }
 
 // Token expiry (token_expired) is in http_security_test.cc.

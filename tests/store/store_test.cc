@@ -853,7 +853,7 @@ TEST_P(StoreTest, ACallTheDatabaseRefusesInsideABatchUndoesOnlyItself) {
   EXPECT_EQ(store_->list_pupils(school_, "", 10, 0).size(), 2u);
 }
 
-TEST(StoreTimeTest, AddYearsAndNow) {
+TEST(StoreTimeTest, AddYearsMonthsAndNow) {
   EXPECT_EQ(fs::add_years_iso8601("2024-02-29T08:00:00Z", 3), "2027-02-28T08:00:00Z");
   EXPECT_EQ(fs::add_years_iso8601("2024-02-29T08:00:00Z", 4), "2028-02-29T08:00:00Z");
   EXPECT_EQ(fs::add_years_iso8601("2026-11-23T10:30:00Z", 3), "2029-11-23T10:30:00Z");
@@ -861,6 +861,11 @@ TEST(StoreTimeTest, AddYearsAndNow) {
                           "2026-11-23 10:30:00Z", "2026-11-23T10:30:00"}) {
     EXPECT_EQ(ErrorKind([&] { fs::add_years_iso8601(bad, 3); }), fs::StoreError::kInvalid) << bad;
   }
+  // Months, forward and back, across a year's end, onto a month without the day.
+  EXPECT_EQ(fs::add_months_iso8601("2026-11-23T10:30:00Z", 2), "2027-01-23T10:30:00Z");
+  EXPECT_EQ(fs::add_months_iso8601("2027-01-23T10:30:00Z", -12), "2026-01-23T10:30:00Z");
+  EXPECT_EQ(fs::add_months_iso8601("2026-03-31T00:00:00Z", -1), "2026-02-28T00:00:00Z");
+  EXPECT_EQ(fs::add_months_iso8601("2026-01-15T00:00:00Z", -13), "2024-12-15T00:00:00Z");
   const std::string now = fs::now_iso8601();
   EXPECT_TRUE(std::regex_match(now, std::regex(R"(\d{4}-\d{2}-\d{2}T\d{2}:\d{2}:\d{2}Z)"))) << now;
   EXPECT_NO_THROW(fs::add_years_iso8601(now, 3));

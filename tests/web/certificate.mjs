@@ -4,8 +4,9 @@
 // practical exam on the exam course, and Debian's headless Chromium driven through playwright-core.
 //
 //   Ann's page shows her exam's mark -> she passes a supervised theory exam -> no certificate before
-//   the licence -> the examiner issues the licence -> the certificate, whose QR code opens the
-//   verification page for anyone (no login): valid -> the examiner revokes it, and the
+//   the licence -> the examiner issues the licence -> the certificate, listing her training sessions,
+//   whose QR code opens the verification page at the school's public address (--public-url) for
+//   anyone (no login): valid -> the examiner revokes it, and the
 //   verification page says so.
 //
 //   BUILD/tests/forklift-test-alloc node certificate.mjs --bin BUILD/bin --data data --school BUILD/tests/fixtures/exam-course
@@ -37,12 +38,15 @@ if (!args.school || !fs.existsSync(path.join(args.school, 'school.json'))) {
 const made = JSON.parse(fs.readFileSync(path.join(args.school, 'school.json'), 'utf8'));
 for (const part of ['forklift.db', 'forklift.db.logs', 'pki']) fs.cpSync(path.join(args.school, part), path.join(out, part), { recursive: true });
 const base = `http://127.0.0.1:${port}`;
+// The school's public address, as employers reach it (--public-url): the same server under another
+// name than the one the examiner's browser uses, so the QR code shows which one it carries.
+const publicBase = `http://localhost:${port}`;
 const adminPassword = made.admin_password;
 const annId = made.pupil;
 const [annUser, annPassword] = made.logins.pupil;
 const server = procs.start('server', path.join(args.bin, 'forklift-server'),
                            ['--db', path.join(out, 'forklift.db'), '--listen', `127.0.0.1:${port}`, '--dds-domain', String(domain),
-                            '--security', path.join(out, 'pki'), '--frame-fps', '0']);
+                            '--security', path.join(out, 'pki'), '--frame-fps', '0', '--public-url', publicBase]);
 const api = apiOf(base);
 const { browser, page, problems, step } = await browserPage(args);
 
@@ -122,6 +126,11 @@ try {
     check((await page.textContent('#cert-school')) === made.school, 'the record names the school');
     const facts = await page.textContent('#cert-facts');
     check(facts.includes('Alex Admin') && facts.includes('Counterbalance truck practical test'), `it names the licence's issuer and the exam course: ${facts}`);
+    // The training the record holds, each session with its date and mark, and nothing it does not.
+    const trained = await page.$$eval('#cert-training li', (li) => li.map((x) => x.textContent));
+    check(trained.length === 3 && trained.every((t) => / mark [0-9.]+ of 100$/.test(t)), `three marked training sessions listed: ${JSON.stringify(trained)}`);
+    check(!facts.includes('no marked simulator training') && !(await page.textContent('#statement')).includes('formal instruction'),
+          `it claims nothing the record does not hold: ${facts}`);
     const due = await page.textContent('#cert-due');
     check(Number(due.slice(0, 4)) === new Date().getUTCFullYear() + 3, `re-evaluation due in three years: ${due}`);
     number = await page.textContent('#cert-number');
@@ -130,7 +139,9 @@ try {
     const code = jsQR(Uint8ClampedArray.from(img.px), img.w, img.h);
     check(code !== null, 'the QR code reads');
     verifyAt = code.data;
-    check(verifyAt === `${base}/verify.html?number=${encodeURIComponent(number)}`, `the QR code opens the verification page: ${verifyAt}`);
+    check(verifyAt === `${publicBase}/verify.html?number=${encodeURIComponent(number)}`,
+          `the QR code opens the verification page at the school's public address: ${verifyAt}`);
+    check((await page.textContent('#verify-url')) === verifyAt, 'the printed link is the same address');
     await shot('certificate');
     await page.emulateMedia({ media: 'print' });
     await shot('certificate-print');

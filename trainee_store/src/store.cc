@@ -45,7 +45,9 @@ std::string now_iso8601() {
   return buf;
 }
 
-std::string add_years_iso8601(const std::string& iso, int years) {
+std::string add_years_iso8601(const std::string& iso, int years) { return add_months_iso8601(iso, 12 * years); }
+
+std::string add_months_iso8601(const std::string& iso, int months) {
   using namespace std::chrono;
   // Only the form the store writes, "YYYY-MM-DDTHH:MM:SSZ", so that times compare as strings.
   constexpr std::string_view kForm = "dddd-dd-ddTdd:dd:ddZ";
@@ -65,11 +67,13 @@ std::string add_years_iso8601(const std::string& iso, int years) {
   }
   if (!ok) throw StoreError(StoreError::kInvalid, "not an ISO-8601 UTC time (YYYY-MM-DDTHH:MM:SSZ): '" + iso + "'");
 
-  const int y = field(0, 4) + years;
+  const int total = field(0, 4) * 12 + (field(5, 2) - 1) + months;  // months since year 0
+  const int y = total >= 0 ? total / 12 : -1;
   if (y < 0 || y > 9999) throw StoreError(StoreError::kInvalid, "year out of range adding to '" + iso + "'");
-  const month m{static_cast<unsigned>(field(5, 2))};
+  const month m{static_cast<unsigned>(total % 12 + 1)};
   year_month_day date{year{y}, m, day{static_cast<unsigned>(field(8, 2))}};
-  if (!date.ok()) date = year_month_day{year{y} / m / last};  // 29 February into a common year: the 28th
+  // A day the month has not (29 February into a common year, 31 March less a month): its last.
+  if (!date.ok()) date = year_month_day{year{y} / m / last};
   char buf[32];
   std::snprintf(buf, sizeof buf, "%04d-%02u-%02u", y, static_cast<unsigned>(date.month()),
                 static_cast<unsigned>(date.day()));

@@ -31,6 +31,13 @@ struct ServerConfig {
   // The school's rules for theory papers (time limits, retakes; data/theory/README.md). Empty:
   // <data_dir>/theory/policy.json.
   std::string theory_policy;
+  // The school's rules for a licence (training, the theory pass's age; data/licence/README.md).
+  // Empty: <data_dir>/licence/rules.json.
+  std::string licence_rules;
+  // The address the school's employers reach this server at ("https://forklift.example.org", no
+  // path): certificates print it in their QR code and link. Empty: the pages use the address they
+  // were opened at.
+  std::string public_url;
   // Workers' logs and the stills cache; empty: <db_path>.logs, or forklift.logs in the working
   // directory for a PostgreSQL database.
   std::string log_dir;

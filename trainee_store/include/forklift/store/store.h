@@ -787,8 +787,10 @@ bool is_postgresql_location(const std::string& location);
 // `location` fit to print: a PostgreSQL URI's password (user:password@, password=...) as "***".
 std::string printable_location(const std::string& location);
 
-// ISO-8601 UTC time of the system clock, and the date `years` after an ISO time.
+// ISO-8601 UTC time of the system clock, and the same time `years` or `months` (either may be
+// negative) after an ISO time, on the month's last day when the month has not its day.
 std::string now_iso8601();
 std::string add_years_iso8601(const std::string& iso, int years);
+std::string add_months_iso8601(const std::string& iso, int months);
 
 }  // namespace forklift::store
