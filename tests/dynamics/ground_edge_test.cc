@@ -8,34 +8,73 @@
 
 #include "forklift/dynamics/dynamics.h"
 #include "forklift/dynamics/simulation.h"
+#include "ground_contact.h"  // the contact geometry, to count the body's spring energy
 #include "test_truck.h"
 
 using namespace forklift;
 
 namespace {
 
-// A step whose face stands across +x at `x_m`, `top_m` high, 20 m wide; beyond it (dock: before
-// it) the ground is at `top_m`.
+// A step from x = `x_from` to `x_to`, 20 m wide (y within 10 m of 0), its top at `top_m`: a dock
+// whose edge faces +x, or a kerb whose face does.
 GroundStep step_from(double x_from, double x_to, double top_m) {
   return {Eigen::AlignedBox2d(Eigen::Vector2d(x_from, -10), Eigen::Vector2d(x_to, 10)), top_m};
 }
 
+Environment on(const Ground& ground) {
+  Environment env;
+  env.ground = ground;
+  return env;
+}
+
+// The energy the body's contact springs hold at coordinates q: K depth^2 / 2 over its points, a
+// load's corners and the steps' edges on its edge boxes, found as the dynamics find them.
+double body_spring_energy(const TruckDynamics& d, const CoordVector& q) {
+  const TruckParams& t = d.truck();
+  const BodyPoses p = body_poses(t, q);
+  // The dynamics hold the chassis' points from its CoG, the others from the poses' origins.
+  const Eigen::Isometry3d chassis = p.chassis * Eigen::Translation3d(t.chassis_cog_geometry_m);
+  auto frame = [&](TruckBody b) -> const Eigen::Isometry3d& {
+    return b == TruckBody::kChassis ? chassis : b == TruckBody::kMast ? p.mast : p.carriage;
+  };
+  const Ground& g = d.environment().ground;
+  const double k = t.body_contact.stiffness_N_m;
+  double energy = 0;
+  auto point = [&](const Eigen::Vector3d& at) {
+    GroundTouch touch;
+    if (point_touch(g, at, touch)) energy += 0.5 * k * touch.depth_m * touch.depth_m;
+  };
+  for (const BodyContactPoint& b : t.body_contact.points) point(frame(b.body) * b.point_m);
+  if (d.load() && d.load()->size_m.minCoeff() > 0)
+    for (int c = 0; c < 8; ++c)
+      point(p.carriage * (d.load()->cog_m + 0.5 * Eigen::Vector3d(c & 1 ? 1 : -1, c & 2 ? 1 : -1, c & 4 ? 1 : -1)
+                                                   .cwiseProduct(d.load()->size_m)));
+  for (const BodyEdgeBox& b : t.body_contact.edge_boxes) {
+    GroundTouch touch[kMaxGroundTouches];
+    const int n = box_edge_touches(g, frame(b.body).linear(), frame(b.body).translation(), b.min_m, b.max_m, touch);
+    for (int i = 0; i < n; ++i) energy += 0.5 * k * touch[i].depth_m * touch[i].depth_m;
+  }
+  return energy;
+}
+
 // A drive ahead (+x) from rest at x = 0 on `ground`, the accelerator held to keep `speed_m_s`
-// (torque in proportion to the speed's shortfall, up to the truck's limit) until the front axle
-// passes `foot_off_x_m`, then none; every millisecond it checks the work-energy balance: the
-// kinetic, gravitational and tyre-spring energy may grow by no more than the drive's work on the
-// wheels (the brakes are off, so nothing else puts energy in: a landing may only take it out).
+// (torque in proportion to the speed's shortfall, up to the truck's limit) until a front wheel
+// passes `foot_off_x_m`, then none. Every millisecond it takes the work-energy balance: the
+// kinetic, gravitational and spring energy (tyres and body contacts) less the drive's work on the
+// wheels can only fall (the brakes are off, so nothing else puts energy in: a landing may only
+// take energy out).
 struct Drive {
   double largest_pitch_rad = 0, largest_roll_rad = 0;
-  double largest_energy_excess_J = -INFINITY;  // energy minus (start + drive work), its largest
-  double energy_lost_J = 0;                     // start + drive work - energy, at the end
+  double energy_lost_J = 0;  // start + drive work - energy, at the end
+  // That balance's largest rise above its lowest yet (zero for contact that only dissipates).
+  double largest_rise_J = 0;
   Outputs end;
   StateVector x_end;
 };
 Drive drive(const Ground& ground, double speed_m_s, double seconds, double lift_m, double foot_off_x_m = INFINITY,
             double yaw_rad = 0, const std::optional<Load>& load = std::nullopt) {
   const TruckParams& t = shipped_truck();
-  TruckDynamics d(t, Environment{ground});
+  TruckDynamics d(t, on(ground));
   if (load) d.attach_load(*load);
   StateVector x = d.rest_state(0, 0, yaw_rad, 0, 0, lift_m);
   EXPECT_TRUE(d.settle_static(x));
@@ -44,7 +83,7 @@ Drive drive(const Ground& ground, double speed_m_s, double seconds, double lift_
   Simulation sim(d, x, o);
   Drive r;
   const double e0 = d.energy(sim.state());
-  double work = 0, power_before = 0;
+  double work = 0, power_before = 0, lowest = e0;
   const double torque_max = t.drive.drive_torque_max_N_m;
   for (int k = 1; k <= std::lround(seconds * 1000); ++k) {
     const Outputs now = sim.outputs();
@@ -59,7 +98,9 @@ Drive drive(const Ground& ground, double speed_m_s, double seconds, double lift_
     work += 0.5 * (power + power_before) * 1e-3;
     power_before = power;
     const double e = d.energy(sim.state());
-    r.largest_energy_excess_J = std::max(r.largest_energy_excess_J, e - (e0 + work));
+    const double held = e + body_spring_energy(d, out.q) - work;
+    lowest = std::min(lowest, held);
+    r.largest_rise_J = std::max(r.largest_rise_J, held - lowest);
     r.energy_lost_J = e0 + work - e;
     r.largest_pitch_rad = std::max(r.largest_pitch_rad, std::abs(out.q[kAvc]));
     r.largest_roll_rad = std::max(r.largest_roll_rad, std::abs(out.q[kAuc]));
@@ -71,6 +112,13 @@ Drive drive(const Ground& ground, double speed_m_s, double seconds, double lift_
 
 // The front axle's x when the truck's CoG stands at x = 0, heading +x.
 double front_axle_x() { return shipped_truck().wheels[kFrontLeft].centre_m.x(); }
+
+// How far the energy (with the body's springs, less the drive's work) may rise in a drive. The
+// edge contacts add none (the laden truck's whole fall: under 1 mJ); up to 16 J appear when the
+// unladen truck's rear wheel comes down again on the flat dock after its belly meets the edge, a
+// plain plane contact, likely from the brush tyre, whose force is its load times its bristles'
+// deflection and so grows with the load a wheel lands with.
+constexpr double kEnergyRiseJ = 20.0;
 
 double weight_N() { return shipped_truck().service_mass_kg * kGravity_m_s2; }
 
@@ -100,7 +148,7 @@ TEST(GroundSteps, AWheelOverAnEdgeRestsOnItsCornerAndFallsWhenItRollsOff) {
   // line from the corner to its centre, not by the yard 1.2 m below nor by a floor under it.
   const TruckParams& t = shipped_truck();
   const double r = t.wheels[kFrontLeft].radius_m, edge = front_axle_x() - 0.03;
-  TruckDynamics on_dock(t, Environment{Ground({}, {step_from(-20, edge, 1.2)})});
+  TruckDynamics on_dock(t, on(Ground({}, {step_from(-20, edge, 1.2)})));
   StateVector x = on_dock.rest_state(0, 0, 0);
   StateVector dx;
   Outputs o;
@@ -152,7 +200,7 @@ void record(const std::string& name, const Drive& r) {
   testing::Test::RecordProperty(name + "_end_pitch_deg", std::to_string(r.end.q[kAvc] / kDeg));
   testing::Test::RecordProperty(name + "_end_cog_z_m", std::to_string(r.end.cog_m.z()));
   testing::Test::RecordProperty(name + "_energy_lost_J", std::to_string(r.energy_lost_J));
-  testing::Test::RecordProperty(name + "_largest_energy_excess_J", std::to_string(r.largest_energy_excess_J));
+  testing::Test::RecordProperty(name + "_largest_rise_J", std::to_string(r.largest_rise_J));
 }
 }  // namespace
 
@@ -171,7 +219,7 @@ TEST(GroundSteps, ALadenTruckDrivenOffADockFallsAndEndsOnItsForksOrOverturned) {
   // Nothing went through the yard's floor or the dock's edge.
   EXPECT_LT(r.end.body_penetration_max_m, 0.03);
   // The landing took energy out and never put any in.
-  EXPECT_LE(r.largest_energy_excess_J, 20.0);
+  EXPECT_LE(r.largest_rise_J, kEnergyRiseJ);
   EXPECT_GT(r.energy_lost_J, t.service_mass_kg * kGravity_m_s2 * 0.25);
   EXPECT_LT(Eigen::Vector3d(r.end.qdot[kX], r.end.qdot[kY], r.end.qdot[kZ]).norm(), 0.05) << "at rest";
 }
@@ -190,7 +238,7 @@ TEST(GroundSteps, AnUnladenTruckDrivenOffADockDropsOntoItsBellyAcrossTheEdge) {
   EXPECT_LT(r.largest_pitch_rad, t.tipped_over_rad);
   EXPECT_GE(r.end.body_points_on_ground, 1);
   EXPECT_LT(r.end.body_penetration_max_m, 0.01);
-  EXPECT_LE(r.largest_energy_excess_J, 20.0);
+  EXPECT_LE(r.largest_rise_J, kEnergyRiseJ);
   EXPECT_LT(Eigen::Vector3d(r.end.qdot[kX], r.end.qdot[kY], r.end.qdot[kZ]).norm(), 0.05) << "at rest";
 }
 
@@ -213,7 +261,7 @@ void expect_on_its_wheels(const Drive& r) {
   EXPECT_GT(fz, 0.97 * weight_N()) << "the wheels carry the truck, not its forks or body";
   EXPECT_LT(r.largest_pitch_rad, shipped_truck().tipped_over_rad);
   EXPECT_LT(r.largest_roll_rad, shipped_truck().tipped_over_rad);
-  EXPECT_LE(r.largest_energy_excess_J, 20.0);
+  EXPECT_LE(r.largest_rise_J, kEnergyRiseJ);
 }
 }  // namespace
 
@@ -228,6 +276,7 @@ KerbOutcome kerb_outcome(double height_m, double lift_m) {
   testing::Test::RecordProperty(name + "_front_wheel_x_m", std::to_string(r.end.wheels[kFrontLeft].contact_point_m.x()));
   testing::Test::RecordProperty(name + "_rear_wheel_z_m", std::to_string(r.end.wheels[kRear].contact_point_m.z()));
   testing::Test::RecordProperty(name + "_largest_pitch_deg", std::to_string(r.largest_pitch_rad / kDeg));
+  testing::Test::RecordProperty(name + "_largest_rise_J", std::to_string(r.largest_rise_J));
   expect_on_its_wheels(r);
   return {r.end.wheels[kRear].contact_point_m.z() > height_m - 0.005,
           r.end.wheels[kFrontLeft].contact_point_m.x() < kerb_face_x() + 0.01 && std::abs(r.end.forward_speed_m_s) < 0.05};
@@ -247,6 +296,8 @@ TEST(GroundSteps, AFiveCentimetreKerbIsClimbedOrStopsTheTruckNeverStrandsItOnIts
     SCOPED_TRACE("forks lifted " + std::to_string(lift) + " m");
     const KerbOutcome k = kerb_outcome(0.05, lift);
     EXPECT_TRUE(k.climbed || k.stopped);
-    if (lift > 0) EXPECT_TRUE(k.climbed) << "with its forks clear, a wheel of 0.23 m climbs 5 cm";
+    if (lift > 0) {
+      EXPECT_TRUE(k.climbed) << "with its forks clear, a wheel of 0.23 m climbs 5 cm";
+    }
   }
 }
