@@ -410,6 +410,25 @@ TEST(Layout, GroundRisesToTheRampPlateauAndIsFlatElsewhere) {
   EXPECT_DOUBLE_EQ(yard.ground.height(58.0, 30.0), 0.0);
 }
 
+TEST(Layout, DocksAndTheLorrysBedStand1Point2MetresAboveTheYardWithRealEdges) {
+  const Scene& s = warehouse_scene();
+  ASSERT_EQ(s.ground_steps.size(), 5u);
+  EXPECT_DOUBLE_EQ(s.ground.height(41.7, 5.0), 0.0);    // on dock D1, level with the floor
+  EXPECT_DOUBLE_EQ(s.ground.height(43.4, 5.0), 0.0);    // its dock plate
+  EXPECT_DOUBLE_EQ(s.ground.height(50.0, 5.0), 0.0);    // the lorry's bed
+  EXPECT_DOUBLE_EQ(s.ground.height(41.7, 8.0), -1.2);   // the yard between the docks
+  EXPECT_DOUBLE_EQ(s.ground.height(50.0, 7.0), -1.2);   // beside the lorry
+  EXPECT_DOUBLE_EQ(s.ground.height(39.9, 8.0), 0.0);    // inside the wall: the floor
+  // Each dock's top is the top of its support, and the bed's the bed's: the steps follow the objects.
+  for (const char* id : {"D1", "D2", "L1"}) {
+    const SceneObject* o = s.find(id);
+    ASSERT_NE(o, nullptr);
+    const Support& top = o->supports.at(0);
+    const Eigen::Vector2d c = (o->pose * Eigen::Vector3d(top.footprint.center().x(), top.footprint.center().y(), 0)).head<2>();
+    EXPECT_NEAR(s.ground.height(c.x(), c.y()), o->pose.translation().z() + top.height_m, 1e-9) << id;
+  }
+}
+
 TEST(Layout, SpeedLimitsFollowTheZones) {
   const Scene& s = warehouse_scene();
   EXPECT_DOUBLE_EQ(*s.speed_limit({17.0, 26.15}), 2.8);  // aisle A
@@ -630,6 +649,12 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"zone_without_limit", R"({"zones": [{"id": "z", "kind": "aisle", "rect": [0, 0, 1, 1]}]})",
                 {"'zones[0]'", "speed_limit_m_s"}},
         BadCase{"bad_start", R"({"start": {"x_m": "north", "y_m": 0}})", {"'start.x_m'", "not a number"}},
+        BadCase{"step_without_top", R"({"ground_steps": [{"id": "kerb", "rect": [0, 0, 1, 1]}]})",
+                {"'ground_steps[0].top_m'", "missing"}},
+        BadCase{"step_upside_down", R"({"ground_steps": [{"id": "kerb", "rect": [1, 0, 0, 1], "top_m": 0.15}]})",
+                {"'ground_steps[0].rect'"}},
+        BadCase{"step_without_area", R"({"ground_steps": [{"id": "kerb", "rect": [0, 0, 0, 1], "top_m": 0.15}]})",
+                {"'ground_steps[0].rect'", "xmax > xmin"}},
         BadCase{"negative_levels", R"({"objects": [{"id": "R1", "kind": "rack", "x_m": 0, "y_m": 0, "levels_m": [-0.9]}]})",
                 {"'objects[0].levels_m[0]'", "positive"}}),
     [](const testing::TestParamInfo<BadCase>& i) { return std::string(i.param.name); });

@@ -22,6 +22,8 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
+#include "ground_contact.h"
+
 namespace forklift {
 namespace {
 
@@ -229,31 +231,59 @@ ContactFrame wheel_on_ground(const FrameState& F, double radius, const Ground& g
   ContactFrame cf;
   double h;
   ground_under(ground, F.p, h, cf.n);
-  const Vector3d& n = cf.n;
   cf.axle = F.R.col(1);
   const Vector3d& axle = cf.axle;
-  const double height_over_ground = (F.p - Vector3d(F.p.x(), F.p.y(), h)).dot(n);
+  const double height_over_ground = (F.p - Vector3d(F.p.x(), F.p.y(), h)).dot(cf.n);
   // The disc's lowest point lies the radius times the cosine of the camber below its centre, a
   // little to one side: a wheel lying on its side reaches no lower than its centre.
-  const Vector3d down = -(n - n.dot(axle) * axle);
+  const Vector3d down = -(cf.n - cf.n.dot(axle) * axle);
   const double reach = radius * down.norm();
   c.penetration_m = reach - height_over_ground;
-  c.contact_point_m = F.p - height_over_ground * n;
-  if (reach > 1e-9 * radius) c.contact_point_m += radius * down / down.norm() + reach * n;
-  const Vector3d rolling = axle.cross(n);
+  c.contact_point_m = F.p - height_over_ground * cf.n;
+  if (reach > 1e-9 * radius) c.contact_point_m += radius * down / down.norm() + reach * cf.n;
+  c.spring_energy_J = 0;
+  if (c.penetration_m > 0) {
+    // eq (7); the damper may not pull the wheel into the ground.
+    c.fz_N = std::max(0.0, cp.stiffness_N_m * c.penetration_m - cp.damping_N_s_m * F.v.dot(cf.n));
+    c.spring_energy_J = 0.5 * cp.stiffness_N_m * c.penetration_m * c.penetration_m;
+  }
+  // The rim against the edges and faces of steps and ramps beside the level under the centre: each
+  // touch is a spring-damper of its own (a wheel against a kerb rests on the floor and on the
+  // kerb's edge), and the tyre works on their resultant. Every touch's force points at the wheel's
+  // centre, so the resultant is applied on the line through the centre, at the touches' mean
+  // distance from it: it puts no torque on the wheel's spin.
+  GroundTouch touch[kMaxGroundTouches];
+  const int touches = ground.flat() ? 0 : wheel_edge_touches(ground, F.p, axle, reach, touch);
+  if (touches > 0) {
+    Vector3d force = c.fz_N * cf.n;
+    double total = c.fz_N, distance = c.fz_N * (F.p - c.contact_point_m).norm();
+    for (int i = 0; i < touches; ++i) {
+      const GroundTouch& g = touch[i];
+      const double f = std::max(0.0, cp.stiffness_N_m * g.depth_m - cp.damping_N_s_m * F.v.dot(g.normal));
+      c.spring_energy_J += 0.5 * cp.stiffness_N_m * g.depth_m * g.depth_m;
+      c.penetration_m = std::max(c.penetration_m, g.depth_m);
+      force += f * g.normal;
+      distance += f * (F.p - g.point_m).norm();
+      total += f;
+    }
+    const double magnitude = force.norm();
+    if (total > 0 && magnitude > 0) {
+      c.fz_N = magnitude;
+      cf.n = force / magnitude;
+      c.contact_point_m = F.p - distance / total * cf.n;
+    }
+  }
+  c.normal = cf.n;
+  const Vector3d rolling = axle.cross(cf.n);
   cf.upright = rolling.norm() > 1e-6;
   cf.xw = cf.upright ? Vector3d(rolling.normalized()) : Vector3d(F.R.col(0));
-  cf.yw = n.cross(cf.xw);
+  cf.yw = cf.n.cross(cf.xw);
   cf.vs = F.v + F.w.cross(c.contact_point_m - F.p);  // VS: the contact point on the wheel
   c.slip_x_m_s = cf.vs.dot(cf.xw);
   c.slip_y_m_s = cf.vs.dot(cf.yw);
   const double vwx = F.v.dot(cf.xw), vwy = F.v.dot(cf.yw);
   const double vfloor = cp.slip_angle_speed_floor_m_s;
   c.slip_angle_rad = sign(vwy) * std::atan(std::abs(vwy) / std::sqrt(vwx * vwx + vfloor * vfloor + 1e-12));
-  if (c.penetration_m > 0) {
-    // eq (7); the damper may not pull the wheel into the ground.
-    c.fz_N = std::max(0.0, cp.stiffness_N_m * c.penetration_m - cp.damping_N_s_m * F.v.dot(n));
-  }
   c.on_ground = c.fz_N > 0;
   return cf;
 }
@@ -276,39 +306,6 @@ int frame_of(TruckBody body) {
 }
 
 }  // namespace
-
-Ground::Ground(std::vector<Ramp> ramps) : ramps_(std::move(ramps)) {}
-
-namespace {
-// Height of one ramp and its gradient at (x, y): smoothstep rise, then a plateau.
-double ramp_height(const Ramp& r, double x, double y, Eigen::Vector2d* grad) {
-  const Eigen::Vector2d dir(std::cos(r.heading_rad), std::sin(r.heading_rad));
-  const Eigen::Vector2d d = Eigen::Vector2d(x, y) - r.start_m;
-  const double along = d.dot(dir), across = d.x() * -dir.y() + d.y() * dir.x();
-  if (grad) grad->setZero();
-  if (std::abs(across) > 0.5 * r.width_m || along <= 0 || along > r.length_m + r.plateau_m) return 0;
-  if (along >= r.length_m) return r.rise_m;
-  const double u = along / r.length_m;
-  if (grad) *grad = dir * (r.rise_m * 6 * u * (1 - u) / r.length_m);
-  return r.rise_m * u * u * (3 - 2 * u);
-}
-}  // namespace
-
-double Ground::height(double x, double y) const {
-  double h = 0;
-  for (const Ramp& r : ramps_) h = std::max(h, ramp_height(r, x, y, nullptr));
-  return h;
-}
-
-Eigen::Vector2d Ground::gradient(double x, double y) const {
-  double h = 0;
-  Eigen::Vector2d best = Eigen::Vector2d::Zero(), g;
-  for (const Ramp& r : ramps_) {
-    const double hr = ramp_height(r, x, y, &g);
-    if (hr > h) { h = hr; best = g; }
-  }
-  return best;
-}
 
 TruckDynamics::TruckDynamics(const TruckParams& truck, Environment env)
     : truck_(truck), env_(std::move(env)) {}
@@ -465,23 +462,33 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
   const BodyGroundContact& bc = t.body_contact;
   int touching = 0;
   double deepest = 0;
-  auto touch = [&](int frame, const Vector3d& local) {
+  // A penalty force with friction where a part of body `frame` is `g.depth_m` into the ground.
+  auto press = [&](int frame, const GroundTouch& g) {
     const FrameState& F = e.kin.f[frame];
-    const Vector3d p = F.p + F.R * local;
-    double h;
-    Vector3d n;
-    ground_under(env.ground, p, h, n);
-    const double pen = (Vector3d(p.x(), p.y(), h) - p).dot(n);
-    if (pen <= 0) return;
+    const Vector3d& p = g.point_m;
+    const Vector3d& n = g.normal;
     ++touching;
-    deepest = std::max(deepest, pen);
+    deepest = std::max(deepest, g.depth_m);
     const Vector3d v = F.v + F.w.cross(p - F.p);
     const double vn = v.dot(n);
-    const double fn = std::max(0.0, bc.stiffness_N_m * pen - bc.damping_N_s_m * vn);  // never pulls
+    const double fn = std::max(0.0, bc.stiffness_N_m * g.depth_m - bc.damping_N_s_m * vn);  // never pulls
     const Vector3d vt = v - vn * n;
     const Vector3d f = fn * n - bc.mu * fn / std::sqrt(vt.squaredNorm() + sq(bc.friction_speed_m_s)) * vt;
     add_force(applied, frame, o, p, f);
   };
+  auto touch = [&](int frame, const Vector3d& local) {
+    const FrameState& F = e.kin.f[frame];
+    GroundTouch g;
+    if (point_touch(env.ground, F.p + F.R * local, g)) press(frame, g);
+  };
+  // Steps' top edges passing between the points: a belly on a dock's edge, a fork across a kerb.
+  if (bc.stiffness_N_m > 0 && !env.ground.steps().empty())
+    for (const BodyEdgeBox& b : bc.edge_boxes) {
+      const int frame = frame_of(b.body);
+      GroundTouch g[kMaxGroundTouches];
+      const int n = box_edge_touches(env.ground, e.kin.f[frame].R, e.kin.f[frame].p, b.min_m, b.max_m, g);
+      for (int i = 0; i < n; ++i) press(frame, g[i]);
+    }
   if (bc.stiffness_N_m > 0) {
     for (const BodyContactPoint& p : bc.points)
       touch(frame_of(p.body), p.point_m);
@@ -715,8 +722,7 @@ double TruckDynamics::energy(const StateVector& x, bool with_ground_springs) con
     energy -= b.mass * env_.gravity_m_s2.dot(F.p + F.R * b.cog);
   }
   if (with_ground_springs)
-    for (const WheelContact& c : out.wheels)
-      if (c.penetration_m > 0) energy += 0.5 * truck_.contact.stiffness_N_m * c.penetration_m * c.penetration_m;
+    for (const WheelContact& c : out.wheels) energy += c.spring_energy_J;
   return energy;
 }
 

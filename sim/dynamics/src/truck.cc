@@ -232,21 +232,33 @@ TruckParams load_truck(const std::string& path) {
     bc.damping_N_s_m = r.non_negative("body_ground_contact.damping_N_s_m");
     bc.mu = r.non_negative("body_ground_contact.mu");
     bc.friction_speed_m_s = optional("body_ground_contact.friction_speed_m_s", 0.01, true);
-    const json& pts = r.node("body_ground_contact.points");
-    if (!pts.is_object() || pts.empty()) r.fail("body_ground_contact.points", "must be an object of named points");
-    for (const auto& [name, v] : pts.items()) {
-      const std::string key = "body_ground_contact.points." + name;
-      if (!v.is_object() || !v.contains("body") || !v["body"].is_string()) r.fail(key, "needs a \"body\"");
-      const std::string body = v["body"].get<std::string>();
-      BodyContactPoint p;
-      p.name = name;
-      p.point_m = r.vec3(key + ".at_m");
-      if (body == "chassis") { p.body = TruckBody::kChassis; p.point_m -= chassis_cog; }
-      else if (body == "mast") p.body = TruckBody::kMast;
-      else if (body == "carriage") p.body = TruckBody::kCarriage;
-      else r.fail(key + ".body", "must be chassis, mast or carriage");
-      bc.points.push_back(p);
-    }
+    // Each named entry of `section` (an object of objects, each with a "body"): f(key, body).
+    auto each_on_a_body = [&](const std::string& section, const char* what, auto&& f) {
+      const json& entries = r.node(section);
+      if (!entries.is_object() || entries.empty()) r.fail(section, std::string("must be an object of named ") + what);
+      for (const auto& [name, v] : entries.items()) {
+        const std::string key = section + "." + name;
+        if (!v.is_object() || !v.contains("body") || !v["body"].is_string()) r.fail(key, "needs a \"body\"");
+        const std::string body = v["body"].template get<std::string>();
+        if (body != "chassis" && body != "mast" && body != "carriage")
+          r.fail(key + ".body", "must be chassis, mast or carriage");
+        f(name, key, body == "chassis" ? TruckBody::kChassis : body == "mast" ? TruckBody::kMast : TruckBody::kCarriage);
+      }
+    };
+    // The chassis' points are given in the geometry frame; the dynamics hold them from its CoG.
+    auto in_body_frame = [&](TruckBody body, const Eigen::Vector3d& at) -> Eigen::Vector3d {
+      return body == TruckBody::kChassis ? Eigen::Vector3d(at - chassis_cog) : at;
+    };
+    each_on_a_body("body_ground_contact.points", "points", [&](const std::string& name, const std::string& key, TruckBody body) {
+      bc.points.push_back({body, in_body_frame(body, r.vec3(key + ".at_m")), name});
+    });
+    // Boxes the ground steps' top edges press on between the points (optional).
+    if (r.has("body_ground_contact.edge_boxes"))
+      each_on_a_body("body_ground_contact.edge_boxes", "boxes", [&](const std::string& name, const std::string& key, TruckBody body) {
+        BodyEdgeBox b{body, in_body_frame(body, r.vec3(key + ".min_m")), in_body_frame(body, r.vec3(key + ".max_m")), name};
+        if ((b.max_m - b.min_m).minCoeff() <= 0) r.fail(key, "needs max_m above min_m on every axis");
+        bc.edge_boxes.push_back(b);
+      });
   }
   return t;
 }

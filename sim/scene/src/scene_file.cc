@@ -142,12 +142,12 @@ struct Merged {
     std::string file, key;
   };
   std::map<std::string, Item> keys;
-  std::vector<Item> objects, zones, ramps;
+  std::vector<Item> objects, zones, ramps, ground_steps;
 };
 
 const std::set<std::string> kTopKeys = {"name",   "description", "truck",        "start",  "exam_course",
                                         "load",   "include",     "objects",      "zones",
-                                        "ramps",  "route",       "task",         "time_limit_s",
+                                        "ramps",  "ground_steps", "route",     "task",         "time_limit_s",
                                         "floor_m", "zone_speed_limits_m_s", "exclude_objects",
                                         "manoeuvre", "duration_s"};
 
@@ -171,10 +171,10 @@ void merge(const std::string& path, const std::string& data_dir, Merged& m, int 
     if (k == "include" || (!k.empty() && k[0] == '_')) continue;
     if (!kTopKeys.count(k)) fail(path, k, "is not a known key");
     if (depth > 0 && kOwnKeys.count(k)) fail(path, k, "belongs in the scenario file itself, not in an included layout");
-    if (k == "objects" || k == "zones" || k == "ramps") {
+    if (k == "objects" || k == "zones" || k == "ramps" || k == "ground_steps") {
       const Node list(it.value(), path, k);
       list.array();
-      auto& out = k == "objects" ? m.objects : k == "zones" ? m.zones : m.ramps;
+      auto& out = k == "objects" ? m.objects : k == "zones" ? m.zones : k == "ramps" ? m.ramps : m.ground_steps;
       for (size_t i = 0; i < list.size(); ++i) out.push_back({it.value()[i], path, k + "[" + std::to_string(i) + "]"});
     } else if (k == "exclude_objects") {
       const Node list(it.value(), path, k);
@@ -409,6 +409,15 @@ Ramp read_ramp(const Node& n) {
   r.rise_m = n.at("rise_m").number();
   r.plateau_m = n.non_negative_or("plateau_m", 0.0);
   return r;
+}
+
+GroundStep read_ground_step(const Node& n) {
+  n.only({"id", "rect", "top_m"});
+  GroundStep g;
+  g.footprint_m = n.at("rect").box2();
+  if (!(g.footprint_m.sizes().minCoeff() > 0)) n.at("rect").fail("must have xmax > xmin and ymax > ymin");
+  g.top_m = n.at("top_m").number();
+  return g;
 }
 
 TaskStep read_step(const Node& n, const Scene& scene) {
@@ -732,7 +741,8 @@ Scene load_scene(const std::string& path, const std::string& data_dir) {
   }
 
   for (const Merged::Item& item : m.ramps) scene.ramps.push_back(read_ramp(node(item)));
-  scene.ground = Ground(scene.ramps);
+  for (const Merged::Item& item : m.ground_steps) scene.ground_steps.push_back(read_ground_step(node(item)));
+  scene.ground = Ground(scene.ramps, scene.ground_steps);
 
   std::set<std::string> ids;
   std::vector<PendingPlacement> placements;

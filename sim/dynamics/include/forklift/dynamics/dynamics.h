@@ -28,18 +28,31 @@ struct Ramp {
   double plateau_m = 0;
 };
 
+// A block of ground with vertical sides: a dock, a kerb, a lorry's bed, or (below the floor) the
+// yard at the foot of a dock. Its footprint is a world-axis-aligned rectangle; its top is flat.
+struct GroundStep {
+  Eigen::AlignedBox2d footprint_m;  // world x, y
+  double top_m = 0;                 // height of its top face; may be below the floor (a drop)
+};
+
 // Ground height as a function of position (x, y), not of time (beyond the paper's eq 7).
-// Flat at z = 0 apart from its ramps; where ramps overlap the highest wins.
+// The level is the highest top of the steps whose footprint holds (x, y), or the floor z = 0
+// where none does; a ramp raises it where the ramp is higher. Steps' sides and ramps' sides and
+// ends are true discontinuities: the wheels, the body's points and its edge boxes meet them as
+// edges and faces (dynamics.cc), not as a height under a point.
 class Ground {
  public:
   Ground() = default;
-  explicit Ground(std::vector<Ramp> ramps);
+  explicit Ground(std::vector<Ramp> ramps, std::vector<GroundStep> steps = {});
   double height(double x, double y) const;
-  Eigen::Vector2d gradient(double x, double y) const;  // (dh/dx, dh/dy)
-  bool flat() const { return ramps_.empty(); }         // z = 0 everywhere
+  Eigen::Vector2d gradient(double x, double y) const;  // (dh/dx, dh/dy); zero on steps
+  bool flat() const { return ramps_.empty() && steps_.empty(); }  // z = 0 everywhere
+  const std::vector<Ramp>& ramps() const { return ramps_; }
+  const std::vector<GroundStep>& steps() const { return steps_; }
 
  private:
   std::vector<Ramp> ramps_;
+  std::vector<GroundStep> steps_;
 };
 
 // A force from the scene on one of the truck's rigid bodies at a world point: a contact pushing
@@ -91,7 +104,11 @@ using CoordVector = Eigen::Matrix<double, kNumCoords, 1>;
 struct WheelContact {
   bool on_ground = false;
   Eigen::Vector3d contact_point_m = Eigen::Vector3d::Zero();  // world
+  // The deepest contact's depth. A wheel against a step's edge may touch it and the level below at
+  // once: fz_N is then the magnitude of their summed normal forces, and `normal` their direction.
   double penetration_m = 0;
+  double spring_energy_J = 0;  // sum of K depth^2 / 2 over its contacts
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
   double fz_N = 0, fx_N = 0, fy_N = 0;
   double slip_x_m_s = 0, slip_y_m_s = 0;  // sx, sy: contact point velocity on the wheel axes
   double slip_angle_rad = 0;              // alpha, eq (9)

@@ -90,10 +90,18 @@ struct BodyContactPoint {
   Eigen::Vector3d point_m = Eigen::Vector3d::Zero();  // chassis frame / from the mast pivot / from the fork heel
   std::string name;
 };
+// A box of the body (the chassis' belly, a fork) that the ground steps' top edges press on where
+// an edge passes between the fixed points: a truck sliding over a dock's edge on its belly.
+struct BodyEdgeBox {
+  TruckBody body = TruckBody::kChassis;
+  Eigen::Vector3d min_m = Eigen::Vector3d::Zero(), max_m = Eigen::Vector3d::Zero();  // frame as the points'
+  std::string name;
+};
 struct BodyGroundContact {
   double stiffness_N_m = 0, damping_N_s_m = 0, mu = 0;
   double friction_speed_m_s = 0.01;  // the friction's smoothing through zero slip
   std::vector<BodyContactPoint> points;
+  std::vector<BodyEdgeBox> edge_boxes;
 };
 
 // How fixed scene objects (racks, walls, docks, lorries) push back on the truck where it is inside

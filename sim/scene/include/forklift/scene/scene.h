@@ -192,15 +192,16 @@ struct Scene {
   std::string file, name, description;
   std::optional<ExamCourse> exam_course;  // set: the scenario is an exam course
   Scenario scenario;  // truck file, start pose, initial load (scenario.h)
-  Ground ground;      // ramps and dock plates
+  Ground ground;      // ramps, and steps: docks, kerbs, lorry beds, the yard below a dock
   std::vector<SceneObject> objects;
   std::vector<Zone> zones;
   Route route;
   Task task;
   double time_limit_s = 0;  // zero: none
   Eigen::AlignedBox2d floor;  // the warehouse floor drawn (world x, y)
-  // Added: the ramps `ground` is built from, for drawing (Ground does not expose them).
+  // Added: the ramps and steps `ground` is built from, for drawing.
   std::vector<Ramp> ramps;
+  std::vector<GroundStep> ground_steps;
 
   const SceneObject* find(const std::string& id) const;  // nullptr if absent
   // The lowest speed limit of the zones containing p, or nullopt outside every zone.
