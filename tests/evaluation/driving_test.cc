@@ -1,6 +1,8 @@
 // The rules on the truck's own state, each committed by one scripted run and not by another,
 // on tests/evaluation/scenes/zones.json: a straight route along y = 0 with a 2.8 m/s yard, a
 // 1.4 m/s walkway across it at x = 60 and a 1.4 m/s corner zone at x = 90.
+#include <cstring>
+
 #include "evaluation/harness.h"
 #include "forklift/dynamics/manoeuvre.h"  // lift_for_load_height
 
@@ -251,6 +253,36 @@ TEST(Braking, HardWithTheMastTiltedForwardSlidesTheLoad) {
     EXPECT_EQ(s.count("load_slid"), tilt_deg > 0 ? 1 : 0) << s.summary();
     EXPECT_EQ(s.count("load_dropped"), 0) << s.summary();
   }
+}
+
+// The load's slide is part of the session's state: a copy taken mid-slide, stepped in a fresh
+// workspace and in the live one, gives the same state to the bit, and the live slide to within the
+// integrator's tolerance (a rewind restarts CVODE's history, nothing else).
+TEST(Braking, ASlidingLoadIsPartOfARewindPoint) {
+  Session s(laden(600, 0.75));
+  Driver d{s};
+  d.lift_to = s.heel_z();
+  d.tilt_to_deg = 6;
+  d.settle_levers();
+  straight(s, d, 2.7, 25);
+  const LoadOnForks& on = s.state.load_on_forks;
+  ASSERT_TRUE(s.run(3.0, [&] { Controls c = d.levers(); c.brake = 1.0; return c; },
+                    [&] { return on.phase == LoadPhase::kSliding && on.slide_m > 0.05; }));
+  const SessionState rewind = s.state;
+  const SessionInputs held{s.u, false};
+  std::vector<SessionEvent> found;
+  for (int i = 0; i < 400; ++i) step(s.model, s.state, *s.ws, held, found);  // the live session goes on
+  SessionState a = rewind, b = rewind;
+  SessionWorkspace fresh(s.model);
+  for (int i = 0; i < 400; ++i) {
+    step(s.model, a, fresh, held, found);
+    step(s.model, b, *s.ws, held, found);
+  }
+  EXPECT_EQ(std::memcmp(a.x.data(), b.x.data(), sizeof(double) * a.x.size()), 0);
+  EXPECT_EQ(a.load_on_forks.slide_m, b.load_on_forks.slide_m);
+  EXPECT_EQ(a.load_on_forks.phase, b.load_on_forks.phase);
+  EXPECT_GT(a.load_on_forks.slide_m, rewind.load_on_forks.slide_m + 0.05) << "it slid on";
+  EXPECT_NEAR(a.load_on_forks.slide_m, s.state.load_on_forks.slide_m, 0.005);
 }
 
 TEST(Braking, HardWithTheLoadRaisedLiftsTheRearWheelAfterAWarning) {
