@@ -19,6 +19,16 @@ Scene laden(double mass_kg, double cog_height_m) {
   return sc;
 }
 
+// A driver holding the forks where the scenario put them, the mast tilted `tilt_deg` (+ forward),
+// the levers settled there.
+Driver holding_the_load(Session& s, double tilt_deg) {
+  Driver d{s};
+  d.lift_to = s.heel_z();
+  d.tilt_to_deg = tilt_deg;
+  d.settle_levers();
+  return d;
+}
+
 // Straight along y = 0 at `v` until x passes `x_end`, then stops. Forks held by the driver.
 // Along y = 0 at `v` until x reaches `x_end`; a drive that never gets there fails the test.
 void straight(Session& s, Driver& d, double v, double x_end, double max_s = 120) {
@@ -147,10 +157,7 @@ TEST(Forks, TravellingWithTheForksOnTheFloor) {
 
 TEST(Mast, TravellingLadenWithTheMastTiltedForward) {
   Session s(laden(500, 0.6));
-  Driver d{s};
-  d.lift_to = s.heel_z();
-  d.tilt_to_deg = 3;
-  d.settle_levers();
+  Driver d = holding_the_load(s, 3);
   straight(s, d, 1.0, 15);
   d.stop();
   EXPECT_EQ(s.count("travel_tilted_forward_laden"), 1) << s.summary();
@@ -160,10 +167,7 @@ TEST(Mast, TravellingLadenWithTheMastTiltedForward) {
 TEST(Mast, TravellingLadenTiltedBackOrUnladenTiltedForwardIsClean) {
   {
     Session s(laden(500, 0.6));
-    Driver d{s};
-    d.lift_to = s.heel_z();
-    d.tilt_to_deg = -3;
-    d.settle_levers();
+    Driver d = holding_the_load(s, -3);
     straight(s, d, 1.0, 15);
     d.stop();
     EXPECT_TRUE(s.events.empty()) << s.summary();
@@ -245,10 +249,7 @@ TEST(Braking, HardWithTheMastTiltedForwardSlidesTheLoad) {
   for (const double tilt_deg : {6.0, -5.0}) {
     SCOPED_TRACE("mast at " + std::to_string(tilt_deg) + " deg");
     Session s(laden(600, 0.75));  // the forks 0.25 m up: tilted forward, their tips clear the floor
-    Driver d{s};
-    d.lift_to = s.heel_z();
-    d.tilt_to_deg = tilt_deg;
-    d.settle_levers();
+    Driver d = holding_the_load(s, tilt_deg);
     brake_from(s, d, 2.7, 1.0);
     EXPECT_EQ(s.count("load_slid"), tilt_deg > 0 ? 1 : 0) << s.summary();
     EXPECT_EQ(s.count("load_dropped"), 0) << s.summary();
@@ -260,10 +261,7 @@ TEST(Braking, HardWithTheMastTiltedForwardSlidesTheLoad) {
 // integrator's tolerance (a rewind restarts CVODE's history, nothing else).
 TEST(Braking, ASlidingLoadIsPartOfARewindPoint) {
   Session s(laden(600, 0.75));
-  Driver d{s};
-  d.lift_to = s.heel_z();
-  d.tilt_to_deg = 6;
-  d.settle_levers();
+  Driver d = holding_the_load(s, 6);
   straight(s, d, 2.7, 25);
   const LoadOnForks& on = s.state.load_on_forks;
   ASSERT_TRUE(s.run(3.0, [&] { Controls c = d.levers(); c.brake = 1.0; return c; },
