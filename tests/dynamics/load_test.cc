@@ -120,7 +120,6 @@ TEST(LoadOnForks, ModelTakesTheLoadsFrictionOrTheTrucks) {
   LoadOnForksModel m = load_on_forks_model(t, l);
   EXPECT_DOUBLE_EQ(m.mu_static, 0.35);
   EXPECT_DOUBLE_EQ(m.min_slide_m, 0.0);  // its back against the fork face
-  EXPECT_DOUBLE_EQ(m.base_front_m, 1.2);
   l.friction_static = 0.5;
   l.friction_kinetic = 0.4;
   l.cog_m.x() = 0.7;  // 10 cm clear of the face

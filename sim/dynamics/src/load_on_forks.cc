@@ -33,10 +33,8 @@ LoadOnForksModel load_on_forks_model(const TruckParams& truck, const Load& load)
   m.mu_kinetic = std::isnan(load.friction_kinetic) ? lc.friction_kinetic : load.friction_kinetic;
   m.mu_kinetic = std::min(m.mu_kinetic, m.mu_static);
   // A base of unknown length reaches back to the fork face; a shorter one may slide back to it.
-  const double half = 0.5 * load.base_length_m;
-  const double back = load.base_length_m > 0 ? load.cog_m.x() - half : 0.0;
+  const double back = load.base_length_m > 0 ? load.cog_m.x() - 0.5 * load.base_length_m : 0.0;
   m.min_slide_m = -std::max(0.0, back);
-  m.base_front_m = load.base_length_m > 0 ? load.cog_m.x() + half : INFINITY;
   m.fork_tip_m = lc.fork_tip_m;
   m.tipped_over_rad = truck.tipped_over_rad;
   return m;

@@ -21,8 +21,9 @@
 //            drops it.
 // Sliding starts and stops at zero relative speed, so nothing jumps; sliding friction only takes
 // energy out. The load does not topple on the forks before its centre of gravity leaves them:
-// braking hard enough to tip a load about the fork tips (a / g > its CoG's distance behind them
-// over its height) would slide it first for any pallet whose CoG is lower than it is long.
+// tipping about the front of its base takes a / g > d / h (d: its CoG's distance behind that edge,
+// h: its height above the forks), and friction lets go first, at mu_static (0.35), for any load
+// whose CoG sits lower than about three times d: every pallet carried as the rules ask.
 #pragma once
 
 #include <Eigen/Core>
@@ -39,7 +40,6 @@ struct LoadOnForksModel {
   Load load;                        // as put on the forks (slide 0), carriage frame
   double mu_static = 0, mu_kinetic = 0;
   double min_slide_m = 0;           // <= 0: its base's back against the fork face
-  double base_front_m = 0;          // the front of its base at slide 0, carriage x
   double fork_tip_m = 0;            // carriage x
   double tipped_over_rad = 0;       // the truck's roll or pitch beyond which it falls
 };
