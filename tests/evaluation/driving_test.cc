@@ -1,6 +1,8 @@
 // The rules on the truck's own state, each committed by one scripted run and not by another,
 // on tests/evaluation/scenes/zones.json: a straight route along y = 0 with a 2.8 m/s yard, a
 // 1.4 m/s walkway across it at x = 60 and a 1.4 m/s corner zone at x = 90.
+#include <cstring>
+
 #include "evaluation/harness.h"
 #include "forklift/dynamics/manoeuvre.h"  // lift_for_load_height
 
@@ -15,6 +17,16 @@ Scene laden(double mass_kg, double cog_height_m) {
   sc.scenario.load = box_load(mass_kg, 1.0, 1.0, 1.0, t.rated_load_centre_m, 0);
   sc.scenario.lift_m = std::clamp(lift_for_load_height(t, *sc.scenario.load, cog_height_m), 0.0, t.limits.lift_max_m);
   return sc;
+}
+
+// A driver holding the forks where the scenario put them, the mast tilted `tilt_deg` (+ forward),
+// the levers settled there.
+Driver holding_the_load(Session& s, double tilt_deg) {
+  Driver d{s};
+  d.lift_to = s.heel_z();
+  d.tilt_to_deg = tilt_deg;
+  d.settle_levers();
+  return d;
 }
 
 // Straight along y = 0 at `v` until x passes `x_end`, then stops. Forks held by the driver.
@@ -145,10 +157,7 @@ TEST(Forks, TravellingWithTheForksOnTheFloor) {
 
 TEST(Mast, TravellingLadenWithTheMastTiltedForward) {
   Session s(laden(500, 0.6));
-  Driver d{s};
-  d.lift_to = s.heel_z();
-  d.tilt_to_deg = 3;
-  d.settle_levers();
+  Driver d = holding_the_load(s, 3);
   straight(s, d, 1.0, 15);
   d.stop();
   EXPECT_EQ(s.count("travel_tilted_forward_laden"), 1) << s.summary();
@@ -158,10 +167,7 @@ TEST(Mast, TravellingLadenWithTheMastTiltedForward) {
 TEST(Mast, TravellingLadenTiltedBackOrUnladenTiltedForwardIsClean) {
   {
     Session s(laden(500, 0.6));
-    Driver d{s};
-    d.lift_to = s.heel_z();
-    d.tilt_to_deg = -3;
-    d.settle_levers();
+    Driver d = holding_the_load(s, -3);
     straight(s, d, 1.0, 15);
     d.stop();
     EXPECT_TRUE(s.events.empty()) << s.summary();
@@ -234,6 +240,47 @@ void brake_from(Session& s, Driver& d, double v, double brake) {
   straight(s, d, v, 25);
   s.run(8.0, [&] { Controls c = d.levers(); c.brake = brake; return c; }, [&] { return std::abs(s.v()) < 0.01; });
   s.run(1.0, [&] { Controls c = d.levers(); c.brake = brake; return c; });
+}
+
+// The load's slide is the truck model's friction contact, for a scenario's load as for a pallet:
+// full brake from 2.7 m/s with 600 kg carried low and the mast 6 deg forward slides it (0.25 g of braking
+// beats 0.35 of static friction on a fork sloping 6 deg down), and it stops short of the tips.
+TEST(Braking, HardWithTheMastTiltedForwardSlidesTheLoad) {
+  for (const double tilt_deg : {6.0, -5.0}) {
+    SCOPED_TRACE("mast at " + std::to_string(tilt_deg) + " deg");
+    Session s(laden(600, 0.75));  // the forks 0.25 m up: tilted forward, their tips clear the floor
+    Driver d = holding_the_load(s, tilt_deg);
+    brake_from(s, d, 2.7, 1.0);
+    EXPECT_EQ(s.count("load_slid"), tilt_deg > 0 ? 1 : 0) << s.summary();
+    EXPECT_EQ(s.count("load_dropped"), 0) << s.summary();
+  }
+}
+
+// The load's slide is part of the session's state: a copy taken mid-slide, stepped in a fresh
+// workspace and in the live one, gives the same state to the bit, and the live slide to within the
+// integrator's tolerance (a rewind restarts CVODE's history, nothing else).
+TEST(Braking, ASlidingLoadIsPartOfARewindPoint) {
+  Session s(laden(600, 0.75));
+  Driver d = holding_the_load(s, 6);
+  straight(s, d, 2.7, 25);
+  const LoadOnForks& on = s.state.load_on_forks;
+  ASSERT_TRUE(s.run(3.0, [&] { Controls c = d.levers(); c.brake = 1.0; return c; },
+                    [&] { return on.phase == LoadPhase::kSliding && on.slide_m > 0.05; }));
+  const SessionState rewind = s.state;
+  const SessionInputs held{s.u, false};
+  std::vector<SessionEvent> found;
+  for (int i = 0; i < 400; ++i) step(s.model, s.state, *s.ws, held, found);  // the live session goes on
+  SessionState a = rewind, b = rewind;
+  SessionWorkspace fresh(s.model);
+  for (int i = 0; i < 400; ++i) {
+    step(s.model, a, fresh, held, found);
+    step(s.model, b, *s.ws, held, found);
+  }
+  EXPECT_EQ(std::memcmp(a.x.data(), b.x.data(), sizeof(double) * a.x.size()), 0);
+  EXPECT_EQ(a.load_on_forks.slide_m, b.load_on_forks.slide_m);
+  EXPECT_EQ(a.load_on_forks.phase, b.load_on_forks.phase);
+  EXPECT_GT(a.load_on_forks.slide_m, rewind.load_on_forks.slide_m + 0.05) << "it slid on";
+  EXPECT_NEAR(a.load_on_forks.slide_m, s.state.load_on_forks.slide_m, 0.005);
 }
 
 TEST(Braking, HardWithTheLoadRaisedLiftsTheRearWheelAfterAWarning) {

@@ -1,5 +1,4 @@
-// Engagement of the forks in a pallet's pockets, the pallet's mass properties on the forks, and
-// its slide along them.
+// Engagement of the forks in a pallet's pockets, and the pallet's mass properties on the forks.
 #include "pallet_handling.h"
 
 #include <algorithm>
@@ -121,40 +120,11 @@ Load pallet_load(const PalletSpec& spec, const Isometry3d& carriage_from_pallet)
   const Matrix3d R = carriage_from_pallet.linear();
   load.cog_m = carriage_from_pallet * c;
   load.inertia_kg_m2 = R * I * R.transpose();
+  // Engaged, its x axis lies along the forks (either way): its length is its base's.
+  load.base_length_m = spec.length_m;
+  load.friction_static = spec.friction_static;
+  load.friction_kinetic = spec.friction_kinetic;
   return load;
-}
-
-bool slide_step(Slide& s, double demand, double normal, double mu_static, double mu_kinetic, double dt,
-                double min_slide_m) {
-  bool started = false;
-  const double n = std::max(0.0, normal);  // lifted off the forks: no friction at all
-  if (!s.sliding && std::abs(demand) > mu_static * n) {
-    // Against the carriage face the pallet cannot start sliding backwards.
-    if (!(demand < 0 && s.slide_m <= min_slide_m)) {
-      s.sliding = true;
-      s.rate_m_s = 0;
-      started = true;
-    }
-  }
-  if (s.sliding && dt > 0) {
-    const double dir = s.rate_m_s != 0 ? (s.rate_m_s > 0 ? 1.0 : -1.0) : (demand > 0 ? 1.0 : -1.0);
-    const double acc = demand - dir * mu_kinetic * n;
-    const double rate = s.rate_m_s + acc * dt;
-    if (rate * dir <= 0) {
-      // Kinetic friction has stopped it within this tick: it sticks (and may start again next
-      // tick if the demand still beats static friction).
-      s.rate_m_s = 0;
-      s.sliding = false;
-    } else {
-      s.slide_m += 0.5 * (s.rate_m_s + rate) * dt;
-      s.rate_m_s = rate;
-    }
-  }
-  if (s.slide_m < min_slide_m) {
-    s.slide_m = min_slide_m;
-    if (s.rate_m_s < 0) { s.rate_m_s = 0; s.sliding = false; }
-  }
-  return started;
 }
 
 }  // namespace forklift::handling

@@ -22,7 +22,6 @@ inline constexpr double kLiftedClearM = 0.01;       // carried pallet this far a
 inline constexpr double kSinkM = 0.015;             // lowered this far below its pick-up support: set down anyway
 inline constexpr double kSupportWindowM = 0.02;     // underside this far below a support still lands on it
 inline constexpr double kTouchM = 0.001;            // underside this close above a support touches it
-inline constexpr double kReattachM = 0.01;          // CoG moved this far on the forks: tell the model
 // A carried load this deep into a surface below it rests on it (just picked up, the truck
 // settling under the new weight) or is being set down there: not a strike.
 inline constexpr double kRestingTouchDepthM = kSinkM;
@@ -38,24 +37,11 @@ Engagement engagement(const PalletSpec& spec, const Eigen::Isometry3d& pallet_fr
                       const std::array<collision::LocalBox, 2>& forks);
 
 // The pallet and its load as one rigid load on the forks: mass, CoG and inertia (about the CoG)
-// in the carriage frame, for Simulation::attach_load. `carriage_from_pallet`: the pallet's pose
+// in the carriage frame, its base's length along the forks and its friction on them, for
+// Simulation::attach_load (which slides it and lets it fall as friction says). `carriage_from_pallet`: the pallet's pose
 // on the forks.
 Load pallet_load(const PalletSpec& spec, const Eigen::Isometry3d& carriage_from_pallet);
 // The combined CoG in the pallet's local frame.
 Eigen::Vector3d pallet_cog(const PalletSpec& spec);
-
-// Sliding along the fork axis: Coulomb friction between pallet and forks, per unit mass.
-struct Slide {
-  double slide_m = 0;    // + towards the fork tips
-  double rate_m_s = 0;
-  bool sliding = false;
-};
-// One tick of the slide. `demand`: (g - a) . fork_x, the acceleration along the forks the
-// pallet would have with no friction (a: the fork point's acceleration under the pallet);
-// `normal`: (a - g) . fork_z, the normal force per unit mass (> 0 pressing on the forks).
-// The slide may not go below `min_slide_m` (the pallet's back against the carriage face).
-// Returns true when a slide starts.
-bool slide_step(Slide& s, double demand, double normal, double mu_static, double mu_kinetic, double dt,
-                double min_slide_m);
 
 }  // namespace forklift::handling

@@ -81,19 +81,14 @@ struct HandlingState::Data {
   std::vector<bool> pick_armed, engaged;
   std::vector<handling::Engagement> engagement;
 
-  // The carried pallet.
+  // The carried pallet. How it slides and whether it falls is the truck model's (the load on the
+  // forks, Simulation::load_on_forks): read here each tick.
   int carried = -1;
   Isometry3d rel = Isometry3d::Identity();  // carriage from pallet, before sliding
-  handling::Slide slide;
-  double min_slide_m = 0;
-  Vector3d attached_cog = Vector3d::Zero();  // Load.cog_m last given to the model
+  double slide_m = 0, slide_rate_m_s = 0;
+  int slips_seen = 0;  // the model's slips already told as `sliding` events
   double pickup_underside_z = 0;
   bool lifted_clear = false;
-  bool have_prev_v = false;
-  Vector3d prev_v = Vector3d::Zero();
-
-  bool have_time = false;
-  double last_time = 0;
 };
 
 HandlingState::HandlingState() : d_(std::make_unique<Data>()) {}
@@ -181,7 +176,7 @@ struct Warehouse::Impl : HandlingState::Data {
     }
   }
 
-  Isometry3d load_pose(const Isometry3d& carriage) const { return carriage * along_x(slide.slide_m) * rel; }
+  Isometry3d load_pose(const Isometry3d& carriage) const { return carriage * along_x(slide_m) * rel; }
 
   // Truck placed at q: engagement of the nearby pallets, then the contacts.
   void place_and_collide(const BodyPoses& poses) {
@@ -211,7 +206,7 @@ struct Warehouse::Impl : HandlingState::Data {
       if (motion) {
         const int b = r.body == Body::kChassis ? 0 : r.body == Body::kMast ? 1 : 2;
         Vector3d v = (*motion)[b].at(r.point);
-        if (r.body == Body::kLoad) v += slide.rate_m_s * fork_x;
+        if (r.body == Body::kLoad) v += slide_rate_m_s * fork_x;
         c.relative_speed_m_s = std::max(0.0, -v.dot(r.normal));
       }
       out.push_back(std::move(c));
@@ -225,7 +220,6 @@ struct Warehouse::Impl : HandlingState::Data {
   void attach(const Load& load) {
     report.load_change = LoadChange::kAttached;
     report.load = load;
-    attached_cog = load.cog_m;
   }
 
   void pick_up(int p, const Isometry3d& carriage) {
@@ -236,14 +230,10 @@ struct Warehouse::Impl : HandlingState::Data {
     // would push one end into its support when the truck leans or the mast is tilted; the
     // small relative tilt it keeps instead is undone when it is set down level.)
     rel = carriage.inverse() * st.pose;
-    slide = {};
-    double min_x = 1e9;
-    for (double sx : {-0.5, 0.5})
-      for (double sy : {-0.5, 0.5}) min_x = std::min(min_x, (rel * Vector3d(sx * s.length_m, sy * s.width_m, 0)).x());
-    min_slide_m = std::min(0.0, -min_x);
+    slide_m = slide_rate_m_s = 0;
+    slips_seen = 0;
     pickup_underside_z = underside(st.pose, s);
     lifted_clear = false;
-    have_prev_v = false;
     attach(handling::pallet_load(s, rel));
     carried = p;
     world->set_carried(p);
@@ -273,46 +263,31 @@ struct Warehouse::Impl : HandlingState::Data {
     event(dropped ? HandlingEvent::Kind::kDropped : HandlingEvent::Kind::kSetDown, p, on, level);
   }
 
-  void handle_carried(const Simulation& sim, double dt, const CoordVector& q, const BodyPoses& poses,
-                      const std::array<Twist, 3>& motion) {
+  void handle_carried(const Simulation& sim, const BodyPoses& poses, const std::array<Twist, 3>& motion) {
     PalletState& st = states[carried];
     const PalletSpec& s = spec(carried);
     const Isometry3d& C = poses.carriage;
-    const Vector3d fork_x = C.linear().col(0), fork_z = C.linear().col(2);
-    const Vector3d cog_local = handling::pallet_cog(s);
+    const Vector3d fork_x = C.linear().col(0);
+    const LoadOnForks& held = sim.load_on_forks();
 
-    // Slide: the fork point under the pallet's CoG, its acceleration differenced over ticks.
-    const Vector3d cog_w = load_pose(C) * cog_local;
-    const Vector3d v = motion[2].at(cog_w);
-    if (dt > 0) {
-      if (have_prev_v) {
-        const Vector3d a = (v - prev_v) / dt;
-        const Vector3d g = sim.dynamics().environment().gravity_m_s2;
-        if (handling::slide_step(slide, (g - a).dot(fork_x), (a - g).dot(fork_z), s.friction_static,
-                                 s.friction_kinetic, dt, min_slide_m))
-          event(HandlingEvent::Kind::kSliding, carried);
-      }
-      prev_v = v;
-      have_prev_v = true;
-    }
-    const Isometry3d on_forks = along_x(slide.slide_m) * rel;
-    st.pose = C * on_forks;
-    st.slide_m = slide.slide_m;
-
-    // Dropped: its CoG past the fork tips, or the truck gone over.
-    const Vector3d cog_c = on_forks * cog_local;
-    if (cog_c.x() > fork_tip_x || std::abs(q[kAuc]) > truck.tipped_over_rad || std::abs(q[kAvc]) > truck.tipped_over_rad) {
-      const Vector3d c = st.pose * cog_local;
-      put_down(yaw_pose(Vector3d(c.x(), c.y(), scene.ground.height(c.x(), c.y())), yaw_of(st.pose.linear())),
+    // Fallen off the forks (past the tips, or with the truck gone over): on the floor below where
+    // its centre of gravity left them.
+    if (held.phase == LoadPhase::kFallen) {
+      const Vector3d& c = held.fell_at_m;
+      put_down(yaw_pose(Vector3d(c.x(), c.y(), scene.ground.height(c.x(), c.y())), yaw_of(load_pose(C).linear())),
                true, "", 0);
       return;
     }
+    if (held.slips > slips_seen) event(HandlingEvent::Kind::kSliding, carried);
+    slips_seen = held.slips;
+    st.pose = load_pose(C);
+    st.slide_m = slide_m;
 
     // Set down: lowered onto a support under its centre, or onto the floor.
     const double low = underside(st.pose, s);
     if (low >= pickup_underside_z + handling::kLiftedClearM) lifted_clear = true;
     const Vector3d centre = st.pose.translation();
-    const bool descending = motion[2].at(centre).z() + slide.rate_m_s * fork_x.z() < 0;
+    const bool descending = motion[2].at(centre).z() + slide_rate_m_s * fork_x.z() < 0;
     const bool may_land = descending && (lifted_clear || low <= pickup_underside_z - handling::kSinkM);
     if (may_land) {
       double best = -1e9;
@@ -340,9 +315,6 @@ struct Warehouse::Impl : HandlingState::Data {
         return;
       }
     }
-
-    // Still on the forks: tell the model when the CoG has moved.
-    if ((cog_c - attached_cog).norm() > handling::kReattachM) attach(handling::pallet_load(s, on_forks));
   }
 
   void handle_free(const Simulation& sim, const Isometry3d& carriage) {
@@ -352,7 +324,7 @@ struct Warehouse::Impl : HandlingState::Data {
       if (!e.engaged) { pick_armed[p] = false; continue; }
       if (e.fork_top_m <= s.pocket_top_m - handling::kPickArmClearanceM) pick_armed[p] = true;
       // One load at a time: not while the truck carries one (a scenario's load included).
-      if (pick_armed[p] && e.fork_top_m > s.pocket_top_m && carried < 0 && !sim.dynamics().load()) {
+      if (pick_armed[p] && e.fork_top_m > s.pocket_top_m && carried < 0 && !sim.load()) {
         pick_up(p, carriage);
         return;
       }
@@ -383,14 +355,10 @@ struct Warehouse::Impl : HandlingState::Data {
     report.handling.clear();
     report.scene_push.clear();
     report.load_change = LoadChange::kNone;
-    const double t = sim.time();
-    double dt = have_time ? t - last_time : 0.0;
-    if (dt < 0) {  // a simulation rewound: no acceleration across the jump
-      dt = 0;
-      have_prev_v = false;
+    if (carried >= 0) {
+      slide_m = sim.load_on_forks().slide_m;
+      slide_rate_m_s = sim.load_on_forks().slide_rate_m_s;
     }
-    have_time = true;
-    last_time = t;
 
     const StateVector& x = sim.state();
     const CoordVector q = coordinates(x);
@@ -409,7 +377,7 @@ struct Warehouse::Impl : HandlingState::Data {
     to_contacts(moving ? &motion : nullptr, poses.carriage.linear().col(0), report.contacts);
     push_back();
 
-    if (carried >= 0) handle_carried(sim, dt, q, poses, motion);
+    if (carried >= 0) handle_carried(sim, poses, motion);
     else handle_free(sim, poses.carriage);
     return report;
   }

@@ -692,6 +692,24 @@ bool TruckDynamics::derivative(const StateVector& x, const DriverInputs& u, Stat
     out->driven_force = e.M.bottomLeftCorner<kNumDriven, kNumDynamic>() * qdd +
                         e.M.bottomRightCorner<kNumDriven, kNumDriven>() * zdd - e.Q.tail<kNumDriven>();
     out->applied_power_W += out->driven_force.dot(out->qdot.tail<kNumDriven>());
+    // The carriage's acceleration: its velocity-product part plus each joint on its path's
+    // acceleration, now known.
+    const Tree tree = build_tree(truck_);
+    const FrameState& C = e.kin.f[kCarriageFrame];
+    FrameMotion& m = out->carriage;
+    m = FrameMotion{C.R, C.p, C.v, C.a0, C.w, C.alpha0};
+    for (int j = 0; j < kNumFrames; ++j) {
+      if (!(tree.path[kCarriageFrame] & (1u << j))) continue;
+      const Joint& jt = tree.joints[j];
+      const FrameState& F = e.kin.f[j];
+      const double acc = out->qddot[jt.coord];
+      if (jt.type == JointType::kRevolute) {
+        m.alpha += F.u * acc;
+        m.a += F.u.cross(C.p - F.p) * acc;
+      } else {
+        m.a += F.u * acc;
+      }
+    }
   }
   return all_finite(dx);
 }

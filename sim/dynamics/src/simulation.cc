@@ -6,10 +6,13 @@
 #include <nvector/nvector_serial.h>
 
 #include <Eigen/LU>
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <optional>
 
 #include "fixed_size_vector.h"
+#include "forklift/dynamics/load_on_forks.h"
 
 namespace forklift {
 
@@ -261,9 +264,23 @@ struct Simulation::Impl {
   SUNMatrix A = nullptr;
   SUNLinearSolver LS = nullptr;
 
+  // The load on the forks as a body of its own (load_on_forks.h): what it is while it is there,
+  // how it sits now, and the forces on the truck besides its push (the scene's).
+  std::optional<LoadOnForksModel> load_model;
+  LoadOnForks load_state;
+  double load_t;
+  std::vector<ExternalForce> scene_forces;
+  // The outputs the load's step evaluated, while state, inputs, forces and load are still theirs:
+  // outputs() then costs nothing more (a session asks for them every tick).
+  Outputs cached_out;
+  bool cached = false;
+
   Impl(const TruckDynamics& d, const StateVector& x0, IntegratorOptions o, double t0)
-      : dynamics(d), options(o), t(t0), x(x0) {
+      : dynamics(d), options(o), t(t0), x(x0), load_t(t0) {
     if (!x0.allFinite()) throw std::invalid_argument("initial state is not finite");
+    scene_forces = dynamics.environment().external_forces;
+    dynamics.environment().external_forces.reserve(scene_forces.size() + 8);
+    if (dynamics.load()) put_on(*dynamics.load());
     if (options.kind == IntegratorKind::kRk4) {
       if (!(options.rk4_step_s > 0)) throw std::invalid_argument("rk4 step must be positive");
       return;
@@ -445,6 +462,41 @@ struct Simulation::Impl {
     x = Eigen::Map<const StateVector>(N_VGetArrayPointer(y));
   }
 
+  void put_on(const Load& load) {
+    load_model = load_on_forks_model(dynamics.truck(), load);
+    load_state = LoadOnForks{};
+    load_state.phase = LoadPhase::kStuck;
+    load_t = t;
+  }
+
+  // The truck's external forces: the scene's, and a sliding load's push on the forks.
+  void gather_forces() {
+    std::vector<ExternalForce>& f = dynamics.environment().external_forces;
+    f.assign(scene_forces.begin(), scene_forces.end());
+    if (load_state.phase == LoadPhase::kSliding) f.push_back(load_state.push);
+  }
+
+  // The load's step after the truck's, at the tick's end: it sticks, slips or falls, and the truck's
+  // model takes it into its mass matrix or out of it (a restart, as any load change).
+  void step_the_load() {
+    const double dt = t - load_t;
+    load_t = t;
+    if (!load_model || dt <= 0) return;
+    if (load_state.phase != LoadPhase::kStuck && load_state.phase != LoadPhase::kSliding) return;
+    // Welded (the paper's model): it only leaves the forks when the truck goes over.
+    if (dynamics.truck().load_contact.welded() && !truck_gone_over(coordinates(x), load_model->tipped_over_rad)) return;
+    StateVector dx;
+    if (!dynamics.derivative(x, inputs_at(t), dx, &cached_out)) return;  // the integrator reports it
+    const LoadChangeInModel change = step_load(*load_model, load_state, cached_out, dynamics.environment().gravity_m_s2, dt);
+    // A sliding load's push changes the forces, and a load moved or gone the mass matrix.
+    cached = change == LoadChangeInModel::kNone && load_state.phase == LoadPhase::kStuck;
+    if (load_state.phase == LoadPhase::kFallen) load_model.reset();
+    if (change == LoadChangeInModel::kAttach) dynamics.attach_load(load_at(*load_model, load_state));
+    if (change == LoadChangeInModel::kRelease) dynamics.release_load();
+    gather_forces();
+    if (change != LoadChangeInModel::kNone) restart();
+  }
+
   // After a change the integrator's history no longer describes (load attached or released).
   void restart() {
     if (options.kind == IntegratorKind::kRk4) return;
@@ -478,13 +530,22 @@ Simulation::~Simulation() = default;
 void Simulation::set_inputs(const DriverInputs& u) {
   impl_->schedule = nullptr;
   impl_->held = u;
+  impl_->cached = false;
 }
-void Simulation::set_input_schedule(InputSchedule schedule) { impl_->schedule = std::move(schedule); }
-void Simulation::advance_to(double t, double horizon) { impl_->advance_to(t, horizon); }
+void Simulation::set_input_schedule(InputSchedule schedule) {
+  impl_->schedule = std::move(schedule);
+  impl_->cached = false;
+}
+void Simulation::advance_to(double t, double horizon) {
+  if (t != impl_->t) impl_->cached = false;
+  impl_->advance_to(t, horizon);
+  impl_->step_the_load();
+}
 double Simulation::time() const { return impl_->t; }
 const StateVector& Simulation::state() const { return impl_->x; }
 
 Outputs Simulation::outputs() const {
+  if (impl_->cached) return impl_->cached_out;
   Outputs out;
   StateVector dx;
   impl_->dynamics.derivative(impl_->x, impl_->inputs_at(impl_->t), dx, &out);
@@ -492,15 +553,46 @@ Outputs Simulation::outputs() const {
 }
 
 void Simulation::set_external_forces(const std::vector<ExternalForce>& forces) {
-  impl_->dynamics.environment().external_forces = forces;
+  const std::vector<ExternalForce>& held = impl_->scene_forces;
+  const bool same = forces.size() == held.size() &&
+                    std::equal(forces.begin(), forces.end(), held.begin(), [](const ExternalForce& a, const ExternalForce& b) {
+                      return a.body == b.body && a.point_m == b.point_m && a.force_N == b.force_N;
+                    });
+  if (same) return;
+  impl_->cached = false;
+  impl_->scene_forces.assign(forces.begin(), forces.end());
+  impl_->gather_forces();
 }
 void Simulation::attach_load(const Load& load) {
+  impl_->cached = false;
   impl_->dynamics.attach_load(load);
+  impl_->put_on(load);
+  impl_->gather_forces();
   impl_->restart();
 }
 void Simulation::release_load() {
+  impl_->cached = false;
   impl_->dynamics.release_load();
+  impl_->load_model.reset();
+  impl_->load_state = LoadOnForks{};
+  impl_->gather_forces();
   impl_->restart();
+}
+const Load* Simulation::load() const { return impl_->load_model ? &impl_->load_model->load : nullptr; }
+const LoadOnForks& Simulation::load_on_forks() const { return impl_->load_state; }
+void Simulation::set_load_on_forks(const LoadOnForks& state) {
+  Impl& s = *impl_;
+  s.cached = false;
+  s.load_state = state;
+  s.load_t = s.t;
+  if (!s.load_model || (state.phase != LoadPhase::kStuck && state.phase != LoadPhase::kSliding)) {
+    s.load_model.reset();
+    s.dynamics.release_load();
+  } else {
+    s.dynamics.attach_load(load_at(*s.load_model, state));
+  }
+  s.gather_forces();
+  s.restart();
 }
 const TruckDynamics& Simulation::dynamics() const { return impl_->dynamics; }
 IntegratorStats Simulation::stats() const { return impl_->stats(); }

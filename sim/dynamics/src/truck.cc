@@ -260,6 +260,15 @@ TruckParams load_truck(const std::string& path) {
         bc.edge_boxes.push_back(b);
       });
   }
+  // The load's friction on the forks (load_on_forks.h); the fork tips are the drawing's fork
+  // length, one number for the picture, the collision boxes and the load's base.
+  if (r.has("load_contact")) {
+    LoadContactParams& lc = t.load_contact;
+    lc.friction_static = r.non_negative("load_contact.friction_static");
+    lc.friction_kinetic = r.non_negative("load_contact.friction_kinetic");
+    if (lc.friction_kinetic > lc.friction_static) r.fail("load_contact.friction_kinetic", "must not exceed friction_static");
+    lc.fork_tip_m = r.positive("shape.fork_length_m");
+  }
   return t;
 }
 
@@ -273,6 +282,7 @@ Load box_load(double mass_kg, double length_m, double width_m, double height_m,
                                     k * (length_m * length_m + height_m * height_m),
                                     k * (length_m * length_m + width_m * width_m)).asDiagonal();
   l.size_m = Eigen::Vector3d(length_m, width_m, height_m);
+  l.base_length_m = length_m;
   return l;
 }
 

@@ -107,13 +107,14 @@ struct EvaluationMemory::Data {
 
   bool laden = false;
   Debounce overload;
-  // Per Warehouse pallet, while on the forks: one slide occurrence runs from the slide passing
-  // slide_min_m beyond `ref` until it has stood still for clear_time_s.
+  // The load on the forks (the truck model's): one slide occurrence runs from the slide passing
+  // slide_min_m beyond `ref` until it has stood still for clear_time_s; a fall is one event.
   struct Slide {
     double ref = 0, last = 0, last_moved_t = 0;
     bool active = false;
   };
-  std::vector<Slide> slides;
+  Slide slide;
+  bool load_fallen = false;
 
   size_t step = 0;
   Eigen::Vector2d prev_pos = Eigen::Vector2d::Zero();
@@ -565,35 +566,50 @@ struct Evaluator::Impl : EvaluationMemory::Data {
                      scene.task.steps[step].pallet == h.pallet) {
             ++step;  // de-stacked: the pallet the current step names is on the forks
           }
-          for (size_t p = 0; p < in.pallets.size() && p < slides.size(); ++p)
-            if (in.pallets[p].id == h.pallet) slides[p] = Slide{};
           break;
         }
-        case HandlingEvent::Kind::kDropped:
-          emit(ev::kLoadDropped, in.t_s, at, {{"pallet", h.pallet}}, out);
-          break;
+        case HandlingEvent::Kind::kDropped:  // judged from the truck's model, below
         case HandlingEvent::Kind::kSliding:
-          break;  // judged by how far it slid, below
+          break;
       }
     }
-    if (slides.size() != in.pallets.size()) slides.assign(in.pallets.size(), Slide{});  // first tick only
+  }
+
+  // What happened to the load on the forks, as the truck's model has it (load_on_forks.h): it
+  // fell off them, or slid along them (a pallet's or a scenario's load alike).
+  void load_on_forks(const TickInput& in, std::vector<EvaluationEvent>& out) {
+    const LoadOnForks& l = in.load_on_forks;
+    // The pallet it is, if it is one: the one on the forks, or the one handling dropped.
+    auto pallet = [&] {
+      for (const HandlingEvent& h : in.report.handling)
+        if (h.kind == HandlingEvent::Kind::kDropped) return h.pallet;
+      for (const PalletState& p : in.pallets)
+        if (p.on_forks) return p.id;
+      return std::string();
+    };
+    const bool fallen = l.phase == LoadPhase::kFallen;
+    if (fallen && !load_fallen)
+      emit(ev::kLoadDropped, in.t_s, l.fell_at_m.head<2>(),
+           {{"pallet", pallet()}, {"measured", {{"slide_m", round6(l.slide_m)}}}}, out);
+    load_fallen = fallen;
+    if (l.phase != LoadPhase::kStuck && l.phase != LoadPhase::kSliding) {
+      slide = Slide{};  // none on the forks: the next one starts afresh
+      return;
+    }
     const RuleKey k = ev::kLoadSlid;
-    for (size_t p = 0; p < in.pallets.size(); ++p) {
-      const PalletState& st = in.pallets[p];
-      Slide& sl = slides[p];
-      if (!st.on_forks) continue;
-      if (st.slide_m != sl.last) sl.last_moved_t = in.t_s;
-      sl.last = st.slide_m;
-      if (!sl.active && std::abs(st.slide_m - sl.ref) >= th(k, "slide_min_m")) {
-        sl.active = true;
-        emit(k, in.t_s, st.pose.translation().head<2>(),
-             {{"pallet", st.id}, {"measured", {{"slide_m", round6(st.slide_m)}, {"from_m", round6(sl.ref)}}},
-              {"thresholds", {{"slide_min_m", th(k, "slide_min_m")}}}},
-             out);
-      } else if (sl.active && in.t_s - sl.last_moved_t >= th(k, "clear_time_s")) {
-        sl.active = false;
-        sl.ref = st.slide_m;
-      }
+    Slide& sl = slide;
+    if (l.slide_m != sl.last) sl.last_moved_t = in.t_s;
+    sl.last = l.slide_m;
+    if (!sl.active && std::abs(l.slide_m - sl.ref) >= th(k, "slide_min_m")) {
+      sl.active = true;
+      const Eigen::Vector3d at = in.poses.carriage * (in.load ? in.load->cog_m : Eigen::Vector3d::Zero());
+      emit(k, in.t_s, at.head<2>(),
+           {{"pallet", pallet()}, {"measured", {{"slide_m", round6(l.slide_m)}, {"from_m", round6(sl.ref)}}},
+            {"thresholds", {{"slide_min_m", th(k, "slide_min_m")}}}},
+           out);
+    } else if (sl.active && in.t_s - sl.last_moved_t >= th(k, "clear_time_s")) {
+      sl.active = false;
+      sl.ref = l.slide_m;
     }
   }
 
@@ -667,6 +683,9 @@ struct Evaluator::Impl : EvaluationMemory::Data {
     const double heel_height = heel.z() - scene.ground.height(heel.x(), heel.y());
 
     capacity(in, out);
+    // Before the tip-over rule: a load that falls as the truck goes over is marked, and the tip,
+    // after which nothing is, comes last.
+    load_on_forks(in, out);
     collisions(in, out);
     speeding(in, ground_speed, out);
     forks_and_mast(in, v, heel_height, out);

@@ -82,6 +82,7 @@ SessionState initial_state(const SessionModel& m) {
   const std::string where = m.scenario_file.empty() ? m.scene.scenario.truck_file : m.scenario_file;
   if (!dyn.settle_static(s.x)) throw std::runtime_error(where + ": the truck does not stand at the start pose");
   s.load = sc.load;
+  if (s.load) s.load_on_forks.phase = LoadPhase::kStuck;
   return s;
 }
 
@@ -89,6 +90,7 @@ SessionState initial_state(const SessionModel&, const LogHeader& h) {
   SessionState s;
   s.x = h.initial;
   s.load = h.load;
+  if (s.load) s.load_on_forks.phase = LoadPhase::kStuck;
   return s;
 }
 
@@ -124,6 +126,9 @@ struct SessionWorkspace::Impl {
     TruckDynamics dyn(model.truck, environment_of(model, &s));
     if (s.load) dyn.attach_load(*s.load);
     sim = std::make_unique<Simulation>(dyn, s.x, model.integrator, s.t_s);
+    // Slid along the forks, or fallen off them, in the state it starts from.
+    const LoadOnForks& l = s.load_on_forks;
+    if (l.phase != LoadPhase::kStuck || l.slide_m != 0 || l.slips != 0) sim->set_load_on_forks(l);
   }
 
   void remember(const SessionState& s) {
@@ -169,6 +174,9 @@ void step(const SessionModel& model, SessionState& state, SessionWorkspace& work
   ++state.tick;
   state.x = sim.state();
   state.t_s = sim.time();
+  // The load as the dynamics left it (slid, fallen) is what the evaluation judges; handling may
+  // then set it down or clear a fallen one away.
+  const LoadOnForks load_after_dynamics = sim.load_on_forks();
   {  // collision and pallet handling; the load they attach or release and the scene's push-back
      // are held from now on, in the state and in the simulation
     StageScope scope(observer, Stage::kCollision);
@@ -177,6 +185,8 @@ void step(const SessionModel& model, SessionState& state, SessionWorkspace& work
     if (r.load_change == LoadChange::kReleased) state.load.reset();
     state.scene_push = r.scene_push;
     apply(r, sim);
+    state.load_on_forks = sim.load_on_forks();
+    if (!sim.load()) state.load.reset();
   }
   w.remember(state);
 
@@ -193,7 +203,7 @@ void step(const SessionModel& model, SessionState& state, SessionWorkspace& work
   // evaluation: every rule, every tick, on the state, the contacts and the task
   StageScope scope(observer, Stage::kEvaluation);
   const TickInput in{state.t_s, w.out, w.poses, inputs.driver, *w.report, state.handling.pallets(), state.load,
-                     inputs.deadman, sim.dynamics().environment().gravity_m_s2};
+                     inputs.deadman, sim.dynamics().environment().gravity_m_s2, load_after_dynamics};
   w.found.clear();
   w.evaluator.tick(state.evaluation, in, w.found);
   w.forward(events);

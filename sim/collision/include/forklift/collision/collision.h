@@ -1,7 +1,7 @@
 // The paper's Collision module, with pallet handling: every physics tick the truck's parts
 // (chassis, overhead guard, mast, carriage, forks and the pallet it carries) are checked with
-// FCL against every scene object through a broad phase, and the pallets are picked up, set
-// down, slid along the forks or dropped as the truck moves them.
+// FCL against every scene object through a broad phase, and the pallets are picked up and set
+// down as the truck moves them (sliding and falling off the forks are the truck model's).
 #pragma once
 
 #include <Eigen/Core>
@@ -40,7 +40,7 @@ const char* handling_event_name(HandlingEvent::Kind kind);  // "picked_up", "set
 // What a tick's handling does to the load on the forks.
 enum class LoadChange {
   kNone,      // as it was
-  kAttached,  // StepReport::load is on the forks now (picked up, or its CoG moved as it slid)
+  kAttached,  // StepReport::load is on the forks now (picked up)
   kReleased,  // set down or dropped: the forks are empty
 };
 
@@ -118,9 +118,10 @@ class Warehouse {
   // back on the truck for the next tick (StepReport::scene_push, TruckParams::scene_contact), then
   // handles pallets: forks inside a pallet's pockets that lift it make it the attached load
   // (LoadChange::kAttached: the model's runtime mass change); lowered onto a rack level, a lorry
-  // bed or the floor, it is released there (kReleased); while carried it slides along the forks
-  // when inertia and fork tilt overcome friction, and drops when its centre of gravity passes the
-  // fork tips. A fork tip striking a pallet outside its pockets is a contact, not a pick-up.
+  // bed or the floor, it is released there (kReleased); while carried it is drawn and collided
+  // where the truck's model has slid it along the forks (Simulation::load_on_forks), and when the
+  // model lets it fall it is dropped on the floor below (kReleased, a `dropped` event). A fork tip
+  // striking a pallet outside its pockets is a contact, not a pick-up.
   // The simulation is only read: the caller applies the report (apply()) before the next tick.
   const StepReport& step(const Simulation& sim, HandlingState& state);
 

@@ -116,6 +116,20 @@ struct WheelContact {
   double friction_use = 0;  // |(Fx, Fy)| / (mu Fz): 1 sliding (bristle tyre; 0 off the ground)
 };
 
+// A rigid frame's motion, world axes: orientation, origin, and the origin's velocity and
+// acceleration, the frame's angular velocity and acceleration.
+struct FrameMotion {
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d p = Eigen::Vector3d::Zero(), v = Eigen::Vector3d::Zero(), a = Eigen::Vector3d::Zero();
+  Eigen::Vector3d w = Eigen::Vector3d::Zero(), alpha = Eigen::Vector3d::Zero();
+  // Acceleration of the frame's point at `local` (frame axes, from the origin), world.
+  Eigen::Vector3d acceleration_at(const Eigen::Vector3d& local) const {
+    const Eigen::Vector3d r = R * local;
+    return a + alpha.cross(r) + w.cross(w.cross(r));
+  }
+  Eigen::Vector3d velocity_at(const Eigen::Vector3d& local) const { return v + w.cross(R * local); }
+};
+
 // Everything the evaluator computes beside the derivative, for output and tests.
 struct Outputs {
   CoordVector q = CoordVector::Zero(), qdot = CoordVector::Zero(), qddot = CoordVector::Zero();
@@ -133,6 +147,9 @@ struct Outputs {
   // Power of every force but gravity (ground, tyres, brakes, drive, scene, actuators), W: the
   // rate of change of kinetic plus gravitational energy (a work-energy balance closes on it).
   double applied_power_W = 0;
+  // The fork carriage (BodyPoses::carriage: origin at the fork heel, forks along x, their top at
+  // z = 0): what a load on the forks rides on.
+  FrameMotion carriage;
 };
 
 // World poses of the truck's rigid parts at coordinates q, for the scene, collision and renderer.

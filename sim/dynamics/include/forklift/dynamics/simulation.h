@@ -10,6 +10,7 @@
 #include <string>
 
 #include "forklift/dynamics/dynamics.h"
+#include "forklift/dynamics/load_on_forks.h"
 
 namespace forklift {
 
@@ -72,8 +73,16 @@ class Simulation {
   void set_external_forces(const std::vector<ExternalForce>& forces);
 
   // Section 5, at run time: change the carriage's mass and restart the integrator's history.
+  // A load put on the forks is a body of its own there (load_on_forks.h): after each advance_to
+  // it sticks, slides along the forks or falls off them, as friction and the truck's motion say
+  // (welded where the truck file gives no load_contact); the truck's model follows.
   void attach_load(const Load& load);
   void release_load();
+  // The load as put on the forks (nullptr: none, or it has fallen), and how it sits there now.
+  const Load* load() const;
+  const LoadOnForks& load_on_forks() const;
+  // Back to a copied state of the load on the attached load (a rewind); restarts the integrator.
+  void set_load_on_forks(const LoadOnForks& state);
   const TruckDynamics& dynamics() const;
   IntegratorStats stats() const;
   const IntegratorOptions& options() const;

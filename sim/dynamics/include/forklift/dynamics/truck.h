@@ -142,6 +142,16 @@ struct SteerParams {
   double bandwidth_rad_s = 0;
 };
 
+// The load on the forks as a body of its own (load_on_forks.h): friction between a load's base and
+// the forks' top faces, and where the forks end. Absent from a truck file (friction infinite): the
+// load is welded to the carriage, as the paper's model has it (section 5).
+struct LoadContactParams {
+  double friction_static = INFINITY;   // default for a load that gives none (Load::friction_*)
+  double friction_kinetic = INFINITY;
+  double fork_tip_m = INFINITY;        // the fork tips, carriage frame x (from the fork face)
+  bool welded() const { return !std::isfinite(friction_static); }
+};
+
 struct MastLimits {
   double tilt_forward_max_rad = 0, tilt_backward_max_rad = 0;
   double lift_max_m = 0, side_shift_max_m = 0;
@@ -171,6 +181,7 @@ struct TruckParams {
   DriveParams drive;
   SteerParams steer;
   BodyGroundContact body_contact;
+  LoadContactParams load_contact;
   double lever_bandwidth_rad_s = 0;
   // The seated driver's reference point (geometry frame) where ISO 22915's 98 kg operator sits.
   Eigen::Vector3d operator_seat_m = Eigen::Vector3d::Zero();
@@ -192,6 +203,10 @@ struct Load {
   Eigen::Matrix3d inertia_kg_m2 = Eigen::Matrix3d::Zero();  // about its CoG
   // Its bounding box about the CoG, carriage axes (0: unknown): its corners meet the ground in a tip.
   Eigen::Vector3d size_m = Eigen::Vector3d::Zero();
+  // Its base on the forks: its length along them (0: unknown, taken as reaching back to the fork
+  // face), and its own friction against them (NaN: the truck's load_contact friction).
+  double base_length_m = 0;
+  double friction_static = NAN, friction_kinetic = NAN;
 };
 
 // A uniform box load: mass, size (l along the forks, w, h), CoG at its centre, resting on the

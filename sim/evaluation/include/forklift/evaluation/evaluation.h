@@ -24,6 +24,7 @@
 
 #include "forklift/collision/collision.h"  // StepReport, Contact, HandlingEvent
 #include "forklift/dynamics/dynamics.h"   // Outputs, BodyPoses, DriverInputs, Load
+#include "forklift/dynamics/load_on_forks.h"  // LoadOnForks
 #include "forklift/scene/scene.h"      // Scene, PalletState, TruckShape
 #include "forklift/session/vocabulary.h"  // Mode
 #include "forklift/units/units.h"
@@ -92,9 +93,12 @@ struct TickInput {
   const DriverInputs& inputs;              // what the truck was driven with during the tick
   const StepReport& report;                // Warehouse::step's contacts and pallet handling
   const std::vector<PalletState>& pallets; // HandlingState::pallets() after the step
-  const std::optional<Load>& load;         // the load on the forks now (Simulation::dynamics().load())
+  const std::optional<Load>& load;         // the load on the forks now, as put there (Simulation::load())
   bool deadman = false;                    // the worker substituted the dead-man inputs
   Eigen::Vector3d gravity_m_s2 = Eigen::Vector3d(0, 0, -kGravity_m_s2);  // the environment's gravity
+  // The load on the forks as the truck's model left it after the tick's dynamics (slid along
+  // them, fallen off them): what the load rules judge (Simulation::load_on_forks()).
+  LoadOnForks load_on_forks{};
 };
 
 struct EvaluationEvent {

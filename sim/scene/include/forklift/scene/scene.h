@@ -71,7 +71,8 @@ struct PalletSpec {
   double pallet_mass_kg = 25;
   double load_mass_kg = 0;
   Eigen::Vector3d load_size_m = Eigen::Vector3d::Zero();  // box on the deck, centred; zero: none
-  double friction_static = 0.35, friction_kinetic = 0.3;  // pallet wood on the forks' steel
+  // On the forks' steel; NaN: the truck's load_contact (wooden pallets, data/trucks/*.json).
+  double friction_static = NAN, friction_kinetic = NAN;
 };
 
 struct SceneObject {

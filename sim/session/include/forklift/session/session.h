@@ -66,7 +66,8 @@ struct SessionState {
   double t_s = 0;
   StateVector x = StateVector::Zero();
   SessionInputs inputs;
-  std::optional<Load> load;                  // on the forks
+  std::optional<Load> load;                  // on the forks, as it was put there
+  LoadOnForks load_on_forks;                 // how it sits there: stuck, sliding, fallen
   std::vector<ExternalForce> scene_push;     // the scene's push-back, held to the next tick
   HandlingState handling;                    // every pallet, and the one on the forks
   EvaluationMemory evaluation;
