@@ -229,7 +229,10 @@ int main(int argc, char** argv) {
     char x = 0;
     std::istringstream(frame_size) >> frame_w >> x >> frame_h;  // checked with the flags
     cfg.local_workers = !no_local_workers;
-    cfg.password_cost = *forklift::server::parse_password_cost(password_cost);  // checked with the flags
+    // The flag is checked with the others; FORKLIFT_PASSWORD_COST, its default, only here.
+    const auto cost = forklift::server::parse_password_cost(password_cost);
+    if (!cost) throw std::runtime_error("FORKLIFT_PASSWORD_COST=" + password_cost + ": give interactive, moderate, sensitive or test");
+    cfg.password_cost = *cost;
     cfg.frames = forklift::host::WorkerFrames{frame_fps, frame_w, frame_h, frame_jpeg};
     if (web_dir.empty()) web_dir = (self.parent_path().parent_path() / "web").string();
 
