@@ -68,7 +68,7 @@ struct Drive {
   double energy_lost_J = 0;  // start + drive work - energy, at the end
   // That balance's largest rise above its lowest yet (zero for contact that only dissipates).
   double largest_rise_J = 0;
-  bool load_fell = false;  // a load on the forks fell off (the balance stops there)
+  bool load_fell = false;  // a load on the forks fell off (the balance is the truck's alone from then)
   Outputs end;
   StateVector x_end;
 };
