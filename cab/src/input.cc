@@ -76,6 +76,7 @@ InputSettings input_settings(const nlohmann::json& j) {
   s.self_centring = k["self_centring"].get<bool>();
   s.lever_start = settings_number(k, "lever_start", where + " keyboard");
   s.lever_ramp_s = settings_number(k, "lever_ramp_s", where + " keyboard");
+  s.tap_s = settings_number(k, "tap_s", where + " keyboard");
   const nlohmann::json& m = settings_at(j, "mouse", where);
   if (!m.contains("steer") || !m["steer"].is_string()) throw std::runtime_error(where + " mouse: steer must be off, motion or wheel");
   try {
@@ -91,7 +92,8 @@ InputSettings input_settings(const nlohmann::json& j) {
   s.look_rate_rad_s = settings_number(l, "rate_deg_s", where + " look") * kDeg;
   s.mouse_rad_per_pixel = settings_number(l, "mouse_deg_per_pixel", where + " look") * kDeg;
   if (s.accelerator_rise_s <= 0 || s.brake_rise_s <= 0 || s.steer_start_per_s <= 0 || s.steer_full_per_s <= 0 ||
-      s.steer_ramp_s <= 0 || s.steer_centring_per_s <= 0 || s.lever_ramp_s <= 0 || s.look_rate_rad_s <= 0)
+      s.steer_ramp_s <= 0 || s.steer_centring_per_s <= 0 || s.lever_ramp_s <= 0 || s.look_rate_rad_s <= 0 ||
+      s.tap_s <= 0)
     throw std::runtime_error(where + ": rates and rise times must be positive");
   if (!(s.lever_start > 0 && s.lever_start <= 1)) throw std::runtime_error(where + " keyboard: lever_start must be in (0, 1]");
   return s;
@@ -264,7 +266,7 @@ bool CabInput::handle(const SDL_Event& e) {
       return true;
     case SDL_WINDOWEVENT:
       // Keys released elsewhere never come back as key-ups: let go of everything.
-      if (e.window.event == SDL_WINDOWEVENT_FOCUS_LOST) held_.clear();
+      if (e.window.event == SDL_WINDOWEVENT_FOCUS_LOST) held_.clear(), pressed_.clear(), tap_left_s_.clear();
       return false;
     case SDL_MOUSEBUTTONDOWN:
       if (e.button.button != SDL_BUTTON_LEFT) return false;
@@ -325,7 +327,13 @@ bool CabInput::handle(const SDL_Event& e) {
   }
 }
 
-bool CabInput::held(SDL_Scancode k) const { return held_.count(k) > 0 || pressed_.count(k) > 0; }
+bool CabInput::held(SDL_Scancode k) const { return held_.count(k) > 0 || tap_left_s_.count(k) > 0; }
+
+double CabInput::down_s(SDL_Scancode k, double dt_s) const {
+  if (held_.count(k)) return dt_s;
+  const auto tap = tap_left_s_.find(k);
+  return tap == tap_left_s_.end() ? 0 : std::min(dt_s, tap->second);
+}
 
 void CabInput::take_wheel() {
   if (pad_steers_) kb_steer_ = cmd_.steer;
@@ -396,6 +404,12 @@ void CabInput::read_controller() {
 
 const CabCommand& CabInput::update(double dt_s) {
   dt_s = std::clamp(dt_s, 0.0, 0.1);
+  // A key down and up again since the last pass is a tap: it counts as held for tap_s from now,
+  // spread over as many passes as that takes.
+  for (const SDL_Scancode k : pressed_)
+    if (!held_.count(k)) tap_left_s_[k] = s_.tap_s;
+  // The share of this pass a ramped control's key counts as down (a held key all of it).
+  auto share = [&](int d, SDL_Scancode minus, SDL_Scancode plus) { return dt_s > 0 ? down_s(d > 0 ? plus : minus, dt_s) / dt_s : 1.0; };
   // Pedals: held keys press them smoothly, released keys let go at once.
   kb_accel_ = held(keys::kAccelerator) ? std::min(1.0, kb_accel_ + dt_s / s_.accelerator_rise_s) : 0;
   kb_brake_ = held(keys::kBrake) || held(keys::kBrakeToo) ? std::min(1.0, kb_brake_ + dt_s / s_.brake_rise_s) : 0;
@@ -403,10 +417,11 @@ const CabCommand& CabInput::update(double dt_s) {
   // or two; let go, it stays where it is (hydrostatic steering has no self-centring).
   if (const int d = hold(held(keys::kSteerLeft), held(keys::kSteerRight), steer_dir_, steer_held_s_); d != 0) {
     take_wheel();
-    const double by = ramp_travel(steer_held_s_ + dt_s, s_.steer_start_per_s, s_.steer_full_per_s, s_.steer_ramp_s) -
+    const double down = down_s(d > 0 ? keys::kSteerRight : keys::kSteerLeft, dt_s);
+    const double by = ramp_travel(steer_held_s_ + down, s_.steer_start_per_s, s_.steer_full_per_s, s_.steer_ramp_s) -
                       ramp_travel(steer_held_s_, s_.steer_start_per_s, s_.steer_full_per_s, s_.steer_ramp_s);
     kb_steer_ = std::clamp(kb_steer_ + d * by, -1.0, 1.0);
-    steer_held_s_ += dt_s;
+    steer_held_s_ += down;
   } else if (centring_ || s_.self_centring) {
     kb_steer_ = approach(kb_steer_, 0, s_.steer_centring_per_s * dt_s);
     centring_ = centring_ && kb_steer_ != 0;
@@ -415,15 +430,18 @@ const CabCommand& CabInput::update(double dt_s) {
   cmd_.accelerator = kb_accel_;
   cmd_.brake = kb_brake_;
   // Lift and tilt: a tap moves the forks about a centimetre, a held key opens the lever fully.
+  // The lever goes out for the next pass: a tap's last share of a pass opens it that much less.
   auto lever = [&](SDL_Scancode minus, SDL_Scancode plus, int& dir, double& held_s) {
     const int d = hold(held(minus), held(plus), dir, held_s);
-    const double v = d * ramp_lever(held_s, s_.lever_start, s_.lever_ramp_s);
-    if (d != 0) held_s += dt_s;
+    if (d == 0) return 0.0;
+    const double v = d * ramp_lever(held_s, s_.lever_start, s_.lever_ramp_s) * share(d, minus, plus);
+    held_s += down_s(d > 0 ? plus : minus, dt_s);
     return v;
   };
   cmd_.lift = lever(keys::kLower, keys::kLift, lift_dir_, lift_held_s_);
   cmd_.tilt = lever(keys::kTiltBack, keys::kTiltForward, tilt_dir_, tilt_held_s_);
-  cmd_.side_shift = held(SDL_SCANCODE_Q) ? 1 : held(SDL_SCANCODE_E) ? -1 : 0;
+  const int shift = held(SDL_SCANCODE_Q) ? 1 : held(SDL_SCANCODE_E) ? -1 : 0;
+  cmd_.side_shift = shift == 0 ? 0 : shift * share(shift, SDL_SCANCODE_E, SDL_SCANCODE_Q);
   cmd_.horn = held(keys::kHorn);
   read_controller();
 
@@ -441,6 +459,9 @@ const CabCommand& CabInput::update(double dt_s) {
     cmd_.look_pitch_rad = approach(cmd_.look_pitch_rad, pitch_dir * s_.look_max_pitch_rad, step);
   }
   pressed_.clear();
+  for (auto tap = tap_left_s_.begin(); tap != tap_left_s_.end();)
+    if ((tap->second -= std::min(dt_s, tap->second)) <= 0) tap = tap_left_s_.erase(tap);
+    else ++tap;
   return cmd_;
 }
 

@@ -77,6 +77,9 @@ struct InputSettings {
   // Lift and tilt levers under a held key: `lever_start` of full when the key goes down, rising
   // evenly to full over `lever_ramp_s` held.
   double lever_start = 0.45, lever_ramp_s = 1.0;
+  // A key that went down and came up again between two of the cab's passes counts as held for
+  // `tap_s`, however long the pass: a busy machine's slow pass must not make a tap coarser.
+  double tap_s = 0.05;
   MouseSteer mouse_steer = MouseSteer::kOff;
   double mouse_steer_per_pixel = 0.004, mouse_steer_per_notch = 0.02;  // of the end stops
   double look_max_yaw_rad = 150 * kDeg, look_max_pitch_rad = 30 * kDeg;
@@ -138,7 +141,8 @@ class CabInput {
   void close(SDL_JoystickID id);
   double axis_value(const Controller& c, const ControllerMap::Axis& a, bool pedal, bool centred) const;
   void read_controller();
-  bool held(SDL_Scancode k) const;  // held, or tapped since the last update
+  bool held(SDL_Scancode k) const;  // held, or a tap still counting
+  double down_s(SDL_Scancode k, double dt_s) const;  // how long `k` counts as down in a pass of `dt_s`
   void mouse_steer(double by);       // the wheel turned by the mouse, of the end stops
   void take_wheel();                 // keys or the mouse turn it now, from where the controller left it
   bool button_held(const char* function) const;  // the active controller's button for it is down
@@ -153,6 +157,7 @@ class CabInput {
   // all (a key released in another window never comes back as a key-up).
   std::set<SDL_Scancode> held_;
   std::set<SDL_Scancode> pressed_;  // went down since the last update (a tap shorter than a pass still counts)
+  std::map<SDL_Scancode, double> tap_left_s_;  // taps seen, and how much of their tap_s is still to count
   double kb_accel_ = 0, kb_brake_ = 0, kb_steer_ = 0;
   // How long the steering, lift and tilt keys have been held in their present direction, s.
   double steer_held_s_ = 0, lift_held_s_ = 0, tilt_held_s_ = 0;

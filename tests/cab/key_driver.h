@@ -2,7 +2,7 @@
 // cab receives in TruckState (pose, speed, the rear wheel's angle on the dial, the forks' lift,
 // tilt and side-shift, whether a load is on the forks, the task's step) and answers with keys,
 // held or tapped, as X keysym names ("Up", "Left", "w"). The same driver types into a real cab's
-// window under Xvfb (window_test.cc) and into CabInput in-process (keyboard_test.cc), where the
+// window under Xvfb (key_drive_test.cc) and into CabInput in-process (keyboard_test.cc), where the
 // steering law can be the one the cab had before (the wheel springing back when let go).
 //
 // What it knows besides TruckState is what a pupil sees and is told: where the pallet to take
@@ -98,9 +98,11 @@ class Pick {
         // A look 2 m on (past the stand-off along the pallet's axis, at the end), so that the
         // truck comes in square rather than cutting in; slower on the last leg.
         // Within 2 m of the stand-off and near the axis, square to the pallet first: the
-        // side-shift takes up what is left sideways.
+        // side-shift takes up what is left sideways. Near the axis is the front axle's offset,
+        // where the fork tips come to once the truck turns square (it turns about that axle), the
+        // side-shift apart (it stays where the last try left it).
         const double square_up = std::atan(heading_err * kWheelbaseM / 0.8);
-        const bool squaring = last_leg && to_face < kStandOffM + 2.0 && std::abs(lateral) < 0.08;
+        const bool squaring = last_leg && to_face < kStandOffM + 2.0 && std::abs(t_.left().dot(front - t_.centre)) < 0.08;
         steer_to(f, s, squaring ? square_up : pursue(front, s.yaw_rad, 2.0));
         speed(f, s, std::clamp(0.35 * remaining, 0.25, last_leg ? 0.35 : 1.0));
         if (remaining < 0.05 || (last_leg && to_face < kStandOffM)) phase_ = Phase::kSquare;

@@ -104,6 +104,31 @@ TEST_F(Keys, ATapShorterThanAPassStillCounts) {
   EXPECT_GT(run(kPass).steer, 0);
 }
 
+// A busy cab PC draws slowly: a tap that falls within one 0.1 s pass moves the wheel and the
+// side-shift as far as the same tap seen over quick 0.01 s passes (each tap_s held, not a pass).
+TEST_F(Keys, ATapWithinASlowPassMovesTheWheelAndTheLeversAsFarAsOverQuickOnes) {
+  const InputSettings set = input_settings(cab_json());
+  const double tap_s = set.tap_s;
+  // The side-shift as the truck gets it: each pass's lever applies until the next pass's.
+  auto tap_in_passes = [&](SDL_Scancode k, double pass_s) {
+    make(input_settings(cab_json()));
+    key(k, true);
+    key(k, false);
+    double travel = 0;
+    for (int i = 0; i < int(std::lround(1.0 / pass_s)); ++i) travel += input_->update(pass_s).side_shift * pass_s;
+    return std::make_pair(input_->command().steer, travel);
+  };
+  const double steer_slow = tap_in_passes(SDL_SCANCODE_RIGHT, 0.1).first;
+  const double steer_quick = tap_in_passes(SDL_SCANCODE_RIGHT, 0.01).first;
+  const double shift_slow = tap_in_passes(SDL_SCANCODE_Q, 0.1).second;
+  const double shift_quick = tap_in_passes(SDL_SCANCODE_Q, 0.01).second;
+  EXPECT_NEAR(steer_slow, steer_quick, 1e-12);
+  // tap_s on the wheel's ramp from steer_start_per_s: 0.0165 of the stops, 1.45 deg on 88.
+  EXPECT_NEAR(steer_quick, set.steer_start_per_s * tap_s + 0.5 * (set.steer_full_per_s - set.steer_start_per_s) * tap_s * tap_s / set.steer_ramp_s, 1e-12);
+  EXPECT_NEAR(shift_slow, tap_s, 1e-12);  // the full lever for tap_s: 5 mm at the truck's 0.1 m/s
+  EXPECT_NEAR(shift_quick, tap_s, 1e-12);
+}
+
 TEST_F(Keys, SelfCentringBringsTheWheelBackWhenLetGo) {
   InputSettings s = input_settings(cab_json());
   s.self_centring = true;
