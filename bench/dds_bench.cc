@@ -89,7 +89,7 @@ std::unique_ptr<Process> spawn_worker(int domain, const std::string& cab, double
                                       const std::vector<std::string>& extra = {}) {
   const std::string tag = g_dir + "/" + cab;
   std::vector<std::string> args = {g_bin + "/forklift-worker", "--cab", cab, "--session", "bench-" + cab, "--dds-domain",
-                                   std::to_string(domain), "--log", tag + ".ctl", "--duration", std::to_string(seconds)};
+                                   std::to_string(domain), "--log", tag + ".ctl", "--duration", std::to_string(seconds), "--json"};
   args.insert(args.end(), extra.begin(), extra.end());
   if (g_realtime) args.push_back("--realtime");
   for (const std::string& a : worker_security()) args.push_back(a);

@@ -72,11 +72,51 @@ nlohmann::json score_json(const Score& score) {
           {"end_reason", score.end_reason}, {"mode", score.mode}};
 }
 
-int replay_main(const std::string& path) {
+// A number as a person reads it: `digits` decimals, never a hex float.
+std::string num(double v, int digits = 1) {
+  std::ostringstream out;
+  out.precision(digits);
+  out << std::fixed << v;
+  return out.str();
+}
+
+std::string pose_text(const StateVector& x) {
+  return "the truck at x " + num(x[kX], 2) + " m, y " + num(x[kY], 2) + " m, heading " + num(x[kAwc] * 180 / M_PI) + " deg";
+}
+
+// The mark as a person reads it, with each fault in the rules file's words.
+std::string score_text(const Score& score, const Rules& rules) {
+  std::string text = "mark " + num(score.mark, 0) + " of 100, " + (score.passed ? "passed" : "not passed") + " (" + score.mode +
+                     "), " + std::to_string(score.points) + " points off, task " +
+                     (score.task_completed ? "completed" : "not completed") + "\n";
+  if (score.counts.empty()) return text + "no faults or warnings\n";
+  for (const auto& [id, count] : score.counts) {
+    const Rule* rule = rules.find(id);
+    text += "  " + std::to_string(count) + " x " + (rule ? rule->description : id) + "\n";
+  }
+  for (const std::string& why : score.automatic_failures) {
+    const Rule* rule = rules.find(why.rfind("repeated:", 0) == 0 ? why.substr(9) : why);
+    text += "  fails by itself: " + (rule ? rule->description : why) + (why.rfind("repeated:", 0) == 0 ? " (repeated)" : "") + "\n";
+  }
+  return text;
+}
+
+int replay_main(const std::string& path, bool as_json) {
   const ControlLog log = read_control_log(path);
-  const ReplayResult r = replay_session(log, FORKLIFT_DATA_DIR);
+  const SessionModel model = load_session_model(log.header, FORKLIFT_DATA_DIR);
+  const ReplayResult r = replay_session(log, model);
   const bool state_ok = !log.final_state || *log.final_state == r.final_state;  // bit for bit
   const bool events_ok = log.event_lines == r.event_lines && log.score_line.value_or("") == r.score_line;
+  if (!as_json) {
+    std::cout << "replay of session " << log.header.session_id << " (cab " << log.header.cab_id << "): " << r.ticks << " ticks, "
+              << num(r.ticks * log.header.tick_s) << " s of sim time, " << r.event_lines.size() << " events\n"
+              << pose_text(r.final_state) << "\n"
+              << (r.score_line.empty() ? std::string("the log has no end, so no mark\n") : score_text(r.score, model.rules))
+              << "final state against the log: "
+              << (!log.final_state ? "the log records none" : state_ok ? "the same, bit for bit" : "DIFFERENT") << "\n"
+              << "events and mark against the log: " << (events_ok ? "the same" : "DIFFERENT") << std::endl;
+    return state_ok && events_ok ? 0 : 4;
+  }
   nlohmann::json out = {{"session", log.header.session_id}, {"cab", log.header.cab_id}, {"ticks", r.ticks},
                         {"sim_time_s", r.ticks * log.header.tick_s}, {"final_pose", pose_json(r.final_state)},
                         {"state_hex", state_hex(r.final_state)}, {"events", r.event_lines.size()},
@@ -158,7 +198,9 @@ int main(int argc, char** argv) {
   app.add_flag("--realtime", realtime,
                "run the tick at real-time priority (SCHED_FIFO 10) if permitted (CAP_SYS_NICE or an rtprio limit): on a "
                "simulation PC shared by many cabs, it keeps each tick on time; frames still take only what is left");
-  app.add_option("--replay", replay_file, "re-simulate a control log with no cab and print its final state")->check(CLI::ExistingFile);
+  app.add_option("--replay", replay_file, "re-simulate a control log with no cab and print its final state and mark")->check(CLI::ExistingFile);
+  bool as_json = false;
+  app.add_flag("--json", as_json, "print the session's summary (or the replay's) as JSON, for scripts, instead of words");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -166,7 +208,7 @@ int main(int argc, char** argv) {
   }
 
   try {
-    if (!replay_file.empty()) return replay_main(replay_file);
+    if (!replay_file.empty()) return replay_main(replay_file, as_json);
     if (cab.empty() || session.empty()) throw CLI::RequiredError("--cab and --session (or --replay)");
     if (std::sscanf(frame_size.c_str(), "%dx%d", &frames.width, &frames.height) != 2 || frames.width < 16 ||
         frames.height < 16 || frames.width > 4096 || frames.height > 4096)
@@ -513,7 +555,20 @@ int main(int argc, char** argv) {
         {"realtime", realtime_refused.empty()},
         {"events", event_seq}, {"frames", frame_publisher.frames()},
         {"score", score_json(score)}};
-    std::cout << out.dump(2) << std::endl;
+    if (as_json) {
+      std::cout << out.dump(2) << std::endl;
+    } else {
+      std::cout << "session " << session << " on cab " << cab << " ended (" << name(*end_reason) << ") at " << num(state.t_s)
+                << " s of sim time\n"
+                << pose_text(state.x) << "\n"
+                << score_text(score, model.rules) << "controls taken: " << sequence.accepted << "; refused: "
+                << intake.rejected_non_finite() << " not numbers, " << intake.rejected_range() << " out of range, "
+                << intake.rejected_cab() << " for another cab, " << sequence.duplicate << " repeated, " << sequence.old
+                << " older than the last\n"
+                << "states sent: " << states_published << " (" << late_states << " late); frames: " << frame_publisher.frames()
+                << "; dead-man stops: " << deadman_count << "; furthest behind the wall clock: " << num(max_lag_s * 1e3)
+                << " ms at " << num(max_lag_at_s) << " s" << std::endl;
+    }
     dds_sleepfor(DDS_MSECS(200));  // let the final reliable status reach its readers
     return 0;
   } catch (const std::exception& e) {

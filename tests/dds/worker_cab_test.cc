@@ -440,7 +440,7 @@ TEST(CabControls, AWorkerRefusesBadViewRequestsStaysUpAndEndsAsAbortedOnTheInstr
   // The log ends as aborted too, and replays to the same mark.
   const ControlLog log = read_control_log(tmp("abort.ctl"));
   EXPECT_EQ(log.end_reason().value_or(""), "aborted");
-  Process rp({kBin + "/forklift-worker", "--replay", tmp("abort.ctl")}, tmp("abort.replay"));
+  Process rp({kBin + "/forklift-worker", "--replay", tmp("abort.ctl"), "--json"}, tmp("abort.replay"));
   ASSERT_EQ(rp.wait(30), 0) << rp.err();
   EXPECT_EQ(output_json(rp)["matches_log"], true);
 }

@@ -121,7 +121,7 @@ TEST(WorkerLoop, ScriptedCabDrivesManoeuvre17LikeTheOfflineModelAndReplaysExactl
     ASSERT_EQ(live_log.entries[i].tick, offline_log.entries[i].tick) << "input " << i;
     ASSERT_TRUE(identical(live_log.entries[i].inputs, offline_log.entries[i].inputs)) << "input " << i;
   }
-  Process orp({kBin + "/forklift-worker", "--replay", tmp("m17.offline.ctl")}, tmp("m17.offline.replay"));
+  Process orp({kBin + "/forklift-worker", "--replay", tmp("m17.offline.ctl"), "--json"}, tmp("m17.offline.replay"));
   ASSERT_EQ(orp.wait(30), 0) << orp.err();
   EXPECT_EQ(output_json(orp)["state_hex"], live["state_hex"]);  // the offline drive's final state, bit for bit
 
@@ -133,7 +133,7 @@ TEST(WorkerLoop, ScriptedCabDrivesManoeuvre17LikeTheOfflineModelAndReplaysExactl
   EXPECT_LT(std::hypot(dx, dy), 0.25);
   EXPECT_LT(std::abs(live["final_pose"]["yaw"].get<double>() - offline.final_pose.z() * 180 / M_PI), 3.0);
 
-  Process rp({kBin + "/forklift-worker", "--replay", tmp("m17.ctl")}, tmp("m17.replay"));
+  Process rp({kBin + "/forklift-worker", "--replay", tmp("m17.ctl"), "--json"}, tmp("m17.replay"));
   ASSERT_EQ(rp.wait(30), 0) << rp.err();
   const json again = output_json(rp);
   EXPECT_EQ(again["matches_log"], true);
@@ -157,9 +157,18 @@ TEST(WorkerLoop, TheCabSetsTheParkingBrakeAndTheLogKeepsIt) {
   const StateVector& x = *log.final_state;
   EXPECT_GT(x[kX], 0.3);                                                               // it drove off
   EXPECT_LT(std::hypot(x[StateIndex::kQdot + kX], x[StateIndex::kQdot + kY]), 1e-3);  // and is held
-  Process rp({kBin + "/forklift-worker", "--replay", tmp("park.ctl")}, tmp("park.replay"));
+  Process rp({kBin + "/forklift-worker", "--replay", tmp("park.ctl"), "--json"}, tmp("park.replay"));
   ASSERT_EQ(rp.wait(30), 0) << rp.err();
   EXPECT_EQ(output_json(rp)["matches_log"], true);
+  // Without --json the replay speaks to a person: words and units, no JSON, no hex floats.
+  Process words({kBin + "/forklift-worker", "--replay", tmp("park.ctl")}, tmp("park.replay-words"));
+  ASSERT_EQ(words.wait(30), 0) << words.err();
+  const std::string text = words.out();
+  EXPECT_NE(text.find("replay of session park (cab c49)"), std::string::npos) << text;
+  EXPECT_NE(text.find("s of sim time"), std::string::npos) << text;
+  EXPECT_NE(text.find("final state against the log: the same, bit for bit"), std::string::npos) << text;
+  EXPECT_NE(text.find("mark "), std::string::npos) << text;
+  for (const char* code : {"{", "0x", "state_hex", "_"}) EXPECT_EQ(text.find(code), std::string::npos) << code << " in:\n" << text;
 }
 
 // A scripted cab's rows sent ahead are its word until their time: a cab held up for less than its
@@ -536,7 +545,7 @@ TEST(WorkerLoop, RealtimeTickRunsFifoFramesRunLowAndARefusalRunsOn) {
     const int domain = forklift::test::free_domain();
     std::vector<std::string> cmd = {"/usr/bin/prlimit", "--rtprio=0", "/usr/bin/setpriv", "--bounding-set=-sys_nice",
                                     "--inh-caps=-sys_nice", kBin + "/forklift-worker", "--cab", "rt2", "--session", "realtime_off",
-                                    "--dds-domain", std::to_string(domain), "--log", tmp("realtime_off.ctl")};
+                                    "--dds-domain", std::to_string(domain), "--log", tmp("realtime_off.ctl"), "--json"};
     cmd.insert(cmd.end(), args.begin(), args.end());
     cmd.insert(cmd.end(), {"--duration", "3"});
     Process w(cmd, tmp("realtime_off.worker"));
@@ -559,7 +568,7 @@ TEST(WorkerLoop, RealtimeTickRunsFifoFramesRunLowAndARefusalRunsOn) {
 TEST(ControlLog, BrokenLogsAreRefusedClearly) {
   const std::string path = tmp("broken.ctl");
   std::ofstream(path) << "forklift-control-log 1\ninit 1 2 3\n";
-  Process rp({kBin + "/forklift-worker", "--replay", path}, tmp("broken.replay"));
+  Process rp({kBin + "/forklift-worker", "--replay", path, "--json"}, tmp("broken.replay"));
   EXPECT_EQ(rp.wait(10), 2);
   EXPECT_NE(rp.err().find("broken.ctl:2: a state needs 40 numbers"), std::string::npos) << rp.err();
 }
@@ -778,7 +787,7 @@ TEST(WorkerLoop, ReplayedAndDuplicateControlsAreRefusedCountedAndARestartedCabDr
                                                              {"non_finite", 0},
                                                              {"out_of_range", 0},
                                                              {"wrong_cab", 0}}));
-  Process rp({kBin + "/forklift-worker", "--replay", tmp("stale.ctl")}, tmp("stale.replay"));
+  Process rp({kBin + "/forklift-worker", "--replay", tmp("stale.ctl"), "--json"}, tmp("stale.replay"));
   ASSERT_EQ(rp.wait(30), 0) << rp.err();
   EXPECT_EQ(output_json(rp)["matches_log"], true);
 }
@@ -850,7 +859,7 @@ TEST(WorkerLoop, AControlFloodLeavesTheStateRateAndTheLogBounded) {
     }
   EXPECT_LE(longest, 185u);
   EXPECT_LE(input_bytes, static_cast<size_t>(*log.ticks) * 185);
-  Process rp({kBin + "/forklift-worker", "--replay", path}, tmp("flood.replay"));
+  Process rp({kBin + "/forklift-worker", "--replay", path, "--json"}, tmp("flood.replay"));
   ASSERT_EQ(rp.wait(60), 0) << rp.err();
   EXPECT_EQ(output_json(rp)["matches_log"], true);
 }

@@ -128,7 +128,7 @@ TEST_P(ShippedScript, ReplaysGiveTheLiveMarks) {
   EXPECT_EQ(again["score"], live["score"]);
   EXPECT_EQ(again["events"], live["events"]);
   EXPECT_EQ(again["ticks"], live["ticks"]);
-  const json worker = run_json({bin + "/forklift-worker", "--replay", log}, s.name + "_worker");
+  const json worker = run_json({bin + "/forklift-worker", "--replay", log, "--json"}, s.name + "_worker");
   EXPECT_EQ(worker["matches_log"], true) << "final state bit for bit";
   EXPECT_EQ(worker["events_match_log"], true) << "the same events and the same mark";
   EXPECT_EQ(worker["score"]["mark"], live["score"]["mark"]) << "a number, never the log's hex float";

@@ -15,11 +15,12 @@
 namespace forklift_test {
 
 // forklift-worker (from `bin`) for `cab` and `session` on DDS domain `domain`, its log at
-// <prefix><session>.ctl and its output at <prefix><session>.worker.{out,err}; `extra` args after.
+// <prefix><session>.ctl and its output at <prefix><session>.worker.{out,err} (its summary as JSON,
+// for output_json); `extra` args after.
 inline Process start_worker(const std::string& bin, const std::string& prefix, int domain, const std::string& cab,
                             const std::string& session, const std::vector<std::string>& extra = {}) {
   std::vector<std::string> args = {bin + "/forklift-worker", "--cab", cab, "--session", session,
-                                   "--dds-domain", std::to_string(domain), "--log", prefix + session + ".ctl"};
+                                   "--dds-domain", std::to_string(domain), "--log", prefix + session + ".ctl", "--json"};
   args.insert(args.end(), extra.begin(), extra.end());
   return Process(args, prefix + session + ".worker");
 }
