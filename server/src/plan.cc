@@ -52,7 +52,7 @@ json make_plan(const std::string& file, const std::string& data_dir) {
   j["route"] = {{"width_m", scene.route.width_m}, {"points", route}};
   json steps = json::array();
   for (const TaskStep& s : scene.task.steps) {
-    json step = {{"kind", s.kind}, {"description", s.description}};
+    json step = {{"kind", s.kind}, {"description", step_words(s.description)}};
     if (s.kind == "pass") { step["gate_a"] = xy(s.gate_a); step["gate_b"] = xy(s.gate_b); }
     else { step["point"] = xy(s.point); step["radius_m"] = s.radius_m > 0 ? s.radius_m : s.tolerance_m; }
     steps.push_back(step);

@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "evaluation/harness.h"
+#include "forklift/scene/scene.h"
 #include "input.h"
 #include "key_driver.h"
 
@@ -301,6 +302,9 @@ TEST(KeyMap, ALessonsStepNamesItsKeysFromTheCabsOwnBindings) {
             "Press F, hold Up, lift with W; Home straightens; {unknown} stays");
   EXPECT_EQ(name_keys("no keys {unclosed"), "no keys {unclosed");
   for (const auto& [control, key] : key_bindings()) EXPECT_STRNE(SDL_GetScancodeName(key), "") << control;
+  // Every control a scenario's step may name (the scene's list) has a key in the cab.
+  for (const auto& [control, words] : step_controls())
+    EXPECT_NE(name_keys("{" + control + "}"), "{" + control + "}") << control << " has no key in the cab";
 }
 
 TEST(KeyMap, NamesTheCentringAndTheHideKeys) {

@@ -1,6 +1,8 @@
 // The first lesson (data/scenarios/first_drive.json): its control steps are judged where every
 // step is, in the evaluation, one at a time: an action done before its turn does not count, and
 // the step in hand advances only once its own action is done.
+#include <nlohmann/json.hpp>
+
 #include "evaluation/harness.h"
 
 namespace {
@@ -24,6 +26,22 @@ TEST(Lesson, TheShippedLessonTeachesTheControlsInOrderAndEndsWithAPalletPick) {
   EXPECT_EQ(kinds, (std::vector<std::string>{"forward", "stop", "reverse", "stop", "steer_left", "steer_right",
                                              "steer_straight", "lift", "lower", "tilt_back", "tilt_level", "take"}));
   for (const TaskStep& st : sc.task.steps) EXPECT_NE(st.description.find('{'), std::string::npos) << st.description;
+}
+
+// A lesson left undone: the steps left, as the debrief shows them, name controls in words any
+// pupil reads, never a brace.
+TEST(Lesson, TheStepsLeftOfALessonLeftUndoneNameTheControlsInWords) {
+  EXPECT_EQ(step_words("Lift the forks 30 cm with {lift}, then {unknown}"), "Lift the forks 30 cm with the lift lever, then {unknown}");
+  Lesson l;
+  l.s.finish();
+  ASSERT_EQ(l.s.count("task_incomplete"), 1) << l.s.summary();
+  for (const EvaluationEvent& e : l.s.events) {
+    if (e.rule != "task_incomplete") continue;
+    const nlohmann::json left = nlohmann::json::parse(e.details)["steps_left"];
+    ASSERT_EQ(left.size(), 12u) << e.details;
+    EXPECT_EQ(left[0], "Press forward (direction lever forward), then hold the accelerator gently until you roll at 2 km/h");
+    for (const auto& step : left) EXPECT_EQ(step.get<std::string>().find('{'), std::string::npos) << step;
+  }
 }
 
 TEST(Lesson, EachStepAdvancesOnlyWhenItsOwnActionIsDone) {

@@ -619,6 +619,9 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"control_with_another_measure",
                 R"({"task": {"steps": [{"kind": "control", "action": "lift", "height_m": 0.3, "speed_m_s": 1}]}})",
                 {"'task.steps[0].speed_m_s'", "lift", "height_m"}},
+        BadCase{"step_naming_no_control",
+                R"({"task": {"steps": [{"kind": "control", "action": "lift", "height_m": 0.3, "description": "Lift with {lfit}"}]}})",
+                {"'task.steps[0].description'", "{lfit}", "no control"}},
         BadCase{"missing_target",
                 R"({"objects": [{"id": "P1", "kind": "pallet", "x_m": 0, "y_m": 0}], "task": {"steps": [
                    {"kind": "move", "pallet": "P1", "to_object": "R9"}]}})",

@@ -740,7 +740,7 @@ struct Evaluator::Impl : EvaluationMemory::Data {
     const bool complete = int(step) >= total;
     if (!complete) {
       json left = json::array();
-      for (size_t i = step; i < scene.task.steps.size(); ++i) left.push_back(scene.task.steps[i].description);
+      for (size_t i = step; i < scene.task.steps.size(); ++i) left.push_back(step_words(scene.task.steps[i].description));
       emit(ev::kTaskIncomplete, last_t, pos, {{"steps_done", step}, {"steps_total", total}, {"steps_left", left}}, out);
     }
 
