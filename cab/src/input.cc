@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "settings.h"
+#include "forklift/session/vocabulary.h"
 #include "forklift/units/units.h"
 
 namespace forklift::cab {
@@ -512,19 +513,12 @@ const std::vector<std::pair<std::string, SDL_Scancode>>& key_bindings() {
 }
 
 std::string name_keys(const std::string& text) {
-  std::string out;
-  size_t at = 0;
-  for (size_t open; (open = text.find('{', at)) != std::string::npos;) {
-    const size_t close = text.find('}', open);
-    if (close == std::string::npos) break;
-    const std::string control = text.substr(open + 1, close - open - 1);
+  return fill_braces(text, [](const std::string& control) -> std::optional<std::string> {
     const auto& b = key_bindings();
     const auto it = std::find_if(b.begin(), b.end(), [&](const auto& k) { return k.first == control; });
-    out += text.substr(at, open - at);
-    out += it == b.end() ? text.substr(open, close - open + 1) : std::string(SDL_GetScancodeName(it->second));
-    at = close + 1;
-  }
-  return out + text.substr(at);
+    if (it == b.end()) return std::nullopt;
+    return std::string(SDL_GetScancodeName(it->second));
+  });
 }
 
 std::vector<std::pair<std::string, std::string>> controller_help(const ControllerMap& m) {

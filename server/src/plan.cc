@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "forklift/scene/scene.h"
+#include "forklift/session/vocabulary.h"
 
 namespace forklift::server {
 namespace {

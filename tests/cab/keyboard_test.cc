@@ -10,6 +10,7 @@
 #include "forklift/scene/scene.h"
 #include "input.h"
 #include "key_driver.h"
+#include "forklift/session/vocabulary.h"
 
 using namespace forklift;
 using namespace forklift::cab;

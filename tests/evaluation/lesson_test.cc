@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "evaluation/harness.h"
+#include "forklift/session/vocabulary.h"
 
 namespace {
 

@@ -12,6 +12,7 @@
 #include "geometry.h"
 #include "rule_table.h"
 #include "forklift/units/units.h"
+#include "forklift/session/vocabulary.h"
 
 namespace forklift {
 

@@ -1,7 +1,6 @@
 // The scene's small queries; loading lives in scene_file.cc and mesh.cc.
 #include "forklift/scene/scene.h"
 
-#include <algorithm>
 #include <array>
 #include <utility>
 
@@ -80,35 +79,6 @@ const ControlAction* find_control_action(const std::string& name) {
 std::string not_an_exam_course(const std::string& what) {
   return what + " is not an exam course: an exam runs only on a scenario laid out as a practical test and "
                 "marked \"exam_course\" (the paper's manoeuvres and the training scenarios are for practice)";
-}
-
-const std::vector<std::pair<std::string, std::string>>& step_controls() {
-  static const std::vector<std::pair<std::string, std::string>> controls = {
-      {"accelerator", "the accelerator"},      {"brake", "the brake"},
-      {"steer_left", "the steering"},          {"steer_right", "the steering"},
-      {"centre", "the steering's centring"},   {"forward", "forward"},
-      {"neutral", "neutral"},                  {"reverse", "reverse"},
-      {"lift", "the lift lever"},              {"lower", "the lift lever"},
-      {"tilt_back", "the tilt lever"},         {"tilt_forward", "the tilt lever"},
-      {"parking_brake", "the parking brake"},  {"horn", "the horn"},
-  };
-  return controls;
-}
-
-std::string step_words(const std::string& description) {
-  std::string out;
-  size_t at = 0;
-  for (size_t open; (open = description.find('{', at)) != std::string::npos;) {
-    const size_t close = description.find('}', open);
-    if (close == std::string::npos) break;
-    const std::string name = description.substr(open + 1, close - open - 1);
-    const auto& c = step_controls();
-    const auto it = std::find_if(c.begin(), c.end(), [&](const auto& k) { return k.first == name; });
-    out += description.substr(at, open - at);
-    out += it == c.end() ? description.substr(open, close - open + 1) : it->second;
-    at = close + 1;
-  }
-  return out + description.substr(at);
 }
 
 }  // namespace forklift

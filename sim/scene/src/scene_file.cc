@@ -13,6 +13,7 @@
 #include "mesh_builder.h"
 #include "mesh_internal.h"
 #include "forklift/units/units.h"
+#include "forklift/session/vocabulary.h"
 
 namespace forklift {
 namespace {

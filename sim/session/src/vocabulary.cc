@@ -89,4 +89,39 @@ EventOrigin event_origin(std::string_view kind) {
   return EventOrigin::kEvaluation;
 }
 
+const std::vector<std::pair<std::string, std::string>>& step_controls() {
+  static const std::vector<std::pair<std::string, std::string>> controls = {
+      {"accelerator", "the accelerator"},      {"brake", "the brake"},
+      {"steer_left", "the steering"},          {"steer_right", "the steering"},
+      {"centre", "the steering's centring"},   {"forward", "forward"},
+      {"neutral", "neutral"},                  {"reverse", "reverse"},
+      {"lift", "the lift lever"},              {"lower", "the lift lever"},
+      {"tilt_back", "the tilt lever"},         {"tilt_forward", "the tilt lever"},
+      {"parking_brake", "the parking brake"},  {"horn", "the horn"},
+  };
+  return controls;
+}
+
+std::string fill_braces(const std::string& text, const std::function<std::optional<std::string>(const std::string&)>& word) {
+  std::string out;
+  size_t at = 0;
+  for (size_t open; (open = text.find('{', at)) != std::string::npos;) {
+    const size_t close = text.find('}', open);
+    if (close == std::string::npos) break;
+    const std::optional<std::string> w = word(text.substr(open + 1, close - open - 1));
+    out += text.substr(at, open - at);
+    out += w ? *w : text.substr(open, close - open + 1);
+    at = close + 1;
+  }
+  return out + text.substr(at);
+}
+
+std::string step_words(const std::string& description) {
+  return fill_braces(description, [](const std::string& name) -> std::optional<std::string> {
+    for (const auto& [control, words] : step_controls())
+      if (control == name) return words;
+    return std::nullopt;
+  });
+}
+
 }  // namespace forklift

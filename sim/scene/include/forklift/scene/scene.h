@@ -143,15 +143,6 @@ struct TaskStep {
   double amount = 0;
 };
 
-// The controls a step's description may name in braces ("{lift}"): each with its words for a
-// person away from a cab (the debrief, the plan, the evaluation's events). A cab's display
-// writes the key bound to it instead.
-const std::vector<std::pair<std::string, std::string>>& step_controls();
-// A step's description with each {control} in those words ("with {lift}" -> "with the lift
-// lever"); a brace naming no control is left as it is.
-std::string step_words(const std::string& description);
-
-
 // A lesson's control steps: the action, the scenario key that gives its amount, and whether the
 // truck must reach at least that amount (speed forward or back, the rear wheel turned, the forks
 // lifted, the mast tilted) or come within it (stopped, the wheel straight, the forks down, the

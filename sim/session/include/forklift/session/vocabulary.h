@@ -6,8 +6,12 @@
 // No dependency: the store and the cab link it without the simulation.
 #pragma once
 
+#include <functional>
 #include <optional>
+#include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 namespace forklift {
 
@@ -81,5 +85,15 @@ EventOrigin event_origin(std::string_view kind);
 // The worker's own events (EventOrigin::kWorker).
 inline constexpr const char* kControlsResumedEvent = "controls_resumed";
 inline constexpr const char* kNoControlsEvent = "no_controls_from_cab";  // a "w" line at tick 0: no cab spoke
+
+// The controls a scenario's step may name in braces ("{lift}"), each with its words for a person
+// away from a cab (the debrief, the plan, the evaluation's events); a cab's display writes the
+// key bound to it instead.
+const std::vector<std::pair<std::string, std::string>>& step_controls();
+// `text` with each "{name}" replaced by what `word` gives for the name; a brace it gives nothing
+// for, or left open, stays as it is.
+std::string fill_braces(const std::string& text, const std::function<std::optional<std::string>(const std::string&)>& word);
+// A step's description in those words ("with {lift}" -> "with the lift lever").
+std::string step_words(const std::string& description);
 
 }  // namespace forklift
