@@ -72,13 +72,13 @@ try {
   const group = await api('POST', '/groups', admin, { name: 'Morning course', instructor_id: ines });
   for (const id of ids.slice(0, 5)) await api('PUT', `/pupils/${id}/group`, admin, { group_id: group.id });
 
-  // Today's sessions (12, on two cabs, half of them passed), yesterday's one, and a theory exam,
-  // as the server would have written them.
+  // Today's sessions (12, on two cabs, half of them passed, the last stopped by its time limit),
+  // yesterday's one, and a theory exam, as the server would have written them.
   const school = execFileSync('sqlite3', [db, `SELECT school_id FROM pupils WHERE id = ${ids[0]};`], { encoding: 'utf8' }).trim();
   const rows = [];
   for (let i = 0; i < 12; i++) {
     const at = `${today}T${String(7 + i).padStart(2, '0')}:00:00Z`;
-    rows.push(`(${ids[i]}, 'cab${1 + (i % 2)}', 'manoeuvre_4', 'training', 'ended', 'task_complete', '${at}', '${at}', ${60 + i}.25, ${i % 4 < 2 ? 1 : 0}, ${ines}, ${school})`);
+    rows.push(`(${ids[i]}, 'cab${1 + (i % 2)}', 'manoeuvre_4', 'training', 'ended', '${i === 11 ? 'time_limit' : 'task_complete'}', '${at}', '${at}', ${60 + i}.25, ${i % 4 < 2 ? 1 : 0}, ${ines}, ${school})`);
   }
   rows.push(`(${ids[20]}, 'cab1', 'manoeuvre_4', 'training', 'ended', 'task_complete', '${yesterday}T09:00:00Z', '${yesterday}T09:10:00Z', 70, 1, ${ines}, ${school})`);
   execFileSync('sqlite3', [db, `.timeout 5000`,
@@ -228,15 +228,43 @@ try {
     await page.fill('#minutes', '60');
     await page.click('#book button[type=submit]');
     await page.waitForSelector('#message .ok');
-    await page.waitForSelector('#grid tr[data-cab="cab1"] .booking');
-    check((await page.textContent('#grid tr[data-cab="cab1"] .booking')).includes('Pupil 007'), 'the booking is on the grid');
+    await page.waitForSelector('#grid td[data-cab="cab1"] .booking');
+    check((await page.textContent('#grid td[data-cab="cab1"] .booking')).includes('Pupil 007'), 'the booking is on the grid');
     allowed = [409];
     await page.fill('#start', '15:30');
     await page.click('#book button[type=submit]');
     await page.waitForSelector('#message .error');
     check((await page.textContent('#message')).includes('already booked'), `the clash said in words: ${await page.textContent('#message')}`);
     allowed = [];
-    check(await page.locator('#grid tr[data-cab="cab2"] .ran').count() === 6, 'the sessions run on cab2');
+    check(await page.locator('#grid td[data-cab="cab2"] .ran').count() === 6, 'the sessions run on cab2');
+  });
+
+  await step('the day fits 1280x800: no cell cut, names in full, outcomes in words, open at the current hour', async () => {
+    await page.setViewportSize({ width: 1280, height: 800 });
+    await page.reload();
+    await page.waitForFunction(() => document.getElementById('summary').textContent.includes('12 sessions run'));
+    const seen = await page.evaluate(() => {
+      const width = document.documentElement.clientWidth;
+      const cut = [];
+      for (const c of document.querySelectorAll('#grid th, #grid td, #grid .booking, #grid .ran')) {
+        const r = c.getBoundingClientRect();
+        if (r.left < 0 || r.right > width + 0.5 || c.scrollWidth > c.clientWidth + 1) cut.push(`${c.tagName} ${c.textContent.slice(0, 40)} ${JSON.stringify(r)}`);
+      }
+      const box = document.querySelector('.day').getBoundingClientRect(), now = document.querySelector('#grid tr.now');
+      const row = now && now.getBoundingClientRect();
+      return { cut, pageWidth: document.documentElement.scrollWidth, width, now: now && now.textContent,
+               nowShown: !!row && row.top >= box.top - 1 && row.top < box.bottom && row.top < window.innerHeight,
+               ran: [...document.querySelectorAll('#grid .ran')].map((r) => ({ text: r.textContent, title: r.title, outcome: r.dataset.outcome })) };
+    });
+    check(seen.cut.length === 0, `no cell cut or past the page's edge: ${seen.cut.join('\n')}`);
+    check(seen.pageWidth <= seen.width, `no sideways scroll: ${seen.pageWidth} px of ${seen.width}`);
+    check(seen.nowShown, `the current hour's row is on screen: ${seen.now}`);
+    check(seen.ran.length === 12 && seen.ran.every((r) => /Pupil \d{3}/.test(r.text) && r.title.includes(r.text.match(/Pupil \d{3}/)[0])),
+          `names in full, and in the tooltip: ${JSON.stringify(seen.ran.slice(0, 2))}`);
+    check(seen.ran.every((r) => !/timed_out|\bopen\b|_out/.test(r.text)), `no outcome codes: ${seen.ran.map((r) => r.text)}`);
+    const late = seen.ran.find((r) => r.outcome === 'timed_out');
+    check(late && late.text.endsWith(': out of time'), `the time limit's end in words: ${late && late.text}`);
+    await page.setViewportSize({ width: 1280, height: 860 });
   });
 } catch (e) {
   failed = true;
