@@ -185,6 +185,10 @@ const FL = (() => {
   function num(x, digits = 1) { return x === null || x === undefined ? '' : Number(x).toFixed(digits); }
 
   const WORRY = { 0: 'information', 1: 'minor', 3: 'medium', 5: 'serious' };
+  // A session's outcome (the API's word) as the pages say it.
+  const OUTCOME = { open: 'under way', completed: 'completed', timed_out: 'out of time', aborted: 'aborted by the instructor',
+                    stopped: 'stopped', failed: 'failed' };
+  function outcomeText(o) { return OUTCOME[o] || String(o).replace(/_/g, ' '); }
   function worryName(level) { return WORRY[level] || `level ${level}`; }
 
   // A message in a live region: errors are announced, and never built from HTML.
@@ -212,5 +216,5 @@ const FL = (() => {
   }
 
   return { api, ApiError, login, setLogin, clearLogin, el, svg, clear, requireLogin, topBar, homeOf, isStaff, param,
-           dateTime, day, pct, num, worryName, say, describeError, poll, STAFF };
+           dateTime, day, pct, num, worryName, outcomeText, say, describeError, poll, STAFF };
 })();

@@ -1,9 +1,10 @@
-// The day view: GET /api/day, the school's cabs by the hour (UTC), each with its bookings and the
-// sessions that ran; a cab booked (POST /api/bookings, 409 when it is taken then), a booking
-// started (POST /api/bookings/{id}/start) or cancelled (DELETE /api/bookings/{id}).
+// The day view: GET /api/day, the school's day hour by hour (UTC) down the page and its cabs
+// across it, each cell with the bookings and the sessions that ran, names in full and outcomes in
+// words; today opens at the current hour. A cab booked (POST /api/bookings, 409 when it is taken
+// then), a booking started (POST /api/bookings/{id}/start) or cancelled (DELETE /api/bookings/{id}).
 'use strict';
 (() => {
-  const { api, el, clear, requireLogin, say, describeError, param } = FL;
+  const { api, el, clear, requireLogin, say, describeError, param, outcomeText } = FL;
   requireLogin(FL.STAFF);
   const $ = (id) => document.getElementById(id);
   const message = $('message');
@@ -12,13 +13,10 @@
   const hm = (iso) => iso.slice(11, 16);
   const hour = (iso) => Number(iso.slice(11, 13));
 
-  function cell(items) {
-    return el('td', {}, items);
-  }
-
   function bookingItem(b) {
-    const item = el('div', { class: 'booking', 'data-booking': b.id },
-      `${hm(b.starts_at)}–${hm(b.ends_at)} `, el('strong', {}, b.pupil.name), ` ${b.scenario}${b.mode === 'exam' ? ' (exam)' : ''}`);
+    const what = `${b.scenario}${b.mode === 'exam' ? ' (practical exam)' : ''}`;
+    const item = el('div', { class: 'booking', 'data-booking': b.id, title: `${hm(b.starts_at)}–${hm(b.ends_at)} ${b.pupil.name}, ${what}, booked` },
+      `${hm(b.starts_at)}–${hm(b.ends_at)} `, el('strong', {}, b.pupil.name), ` ${what}`);
     if (b.session) {
       item.append(' ', el('a', { href: `session.html?id=${encodeURIComponent(b.session)}` }, b.session));
     } else {
@@ -29,30 +27,37 @@
   }
 
   function ranItem(s) {
-    return el('div', { class: 'ran', 'data-session': s.id }, `${hm(s.created_at)} `,
-      el('a', { href: `session.html?id=${encodeURIComponent(s.id)}` }, s.pupil_name), ` ${s.scenario}: ${s.outcome}`);
+    const outcome = outcomeText(s.outcome);
+    return el('div', { class: 'ran', 'data-session': s.id, 'data-outcome': s.outcome, title: `${hm(s.created_at)} ${s.pupil_name}, ${s.scenario}: ${outcome}` },
+      `${hm(s.created_at)} `, el('a', { href: `session.html?id=${encodeURIComponent(s.id)}` }, s.pupil_name), ` ${s.scenario}: ${outcome}`);
   }
 
   async function load() {
     try {
       const d = await api('GET', `/day?date=${encodeURIComponent($('date').value)}`);
-      const hours = [];
-      for (let h = FIRST_HOUR; h < LAST_HOUR; ++h) hours.push(h);
-      const head = $('grid').querySelector('thead tr');
-      clear(head).append(el('th', { scope: 'col' }, 'Cab'),
-        el('th', { scope: 'col' }, `before ${FIRST_HOUR}:00`),
-        ...hours.map((h) => el('th', { scope: 'col' }, `${String(h).padStart(2, '0')}:00`)),
-        el('th', { scope: 'col' }, `from ${LAST_HOUR}:00`));
+      // The day's slots down the page (before the first hour, each hour, from the last), the
+      // cabs across: a school has a few cabs and many hours, so the grid fits the page's width.
+      const labels = [`before ${FIRST_HOUR}:00`];
+      for (let h = FIRST_HOUR; h < LAST_HOUR; ++h) labels.push(`${String(h).padStart(2, '0')}:00`);
+      labels.push(`from ${LAST_HOUR}:00`);
       const slot = (iso) => Math.min(Math.max(hour(iso), FIRST_HOUR - 1), LAST_HOUR) - (FIRST_HOUR - 1);
-      clear($('grid').querySelector('tbody')).append(...d.cabs.map((cab) => {
-        const cells = [];
-        for (let i = 0; i < hours.length + 2; ++i) cells.push([]);
-        for (const b of d.bookings.filter((x) => x.cab_id === cab)) cells[slot(b.starts_at)].push(bookingItem(b));
-        for (const s of d.sessions.filter((x) => x.cab_id === cab)) cells[slot(s.created_at)].push(ranItem(s));
-        return el('tr', { 'data-cab': cab }, el('th', { scope: 'row' }, cab), ...cells.map(cell));
-      }));
+      clear($('grid').querySelector('thead tr')).append(el('th', { scope: 'col', class: 'hour' }, 'Time'),
+        ...d.cabs.map((cab) => el('th', { scope: 'col', 'data-cab': cab }, cab)));
+      const cells = labels.map(() => d.cabs.map(() => []));
+      for (const b of d.bookings) cells[slot(b.starts_at)][d.cabs.indexOf(b.cab_id)]?.push(bookingItem(b));
+      for (const s of d.sessions) cells[slot(s.created_at)][d.cabs.indexOf(s.cab_id)]?.push(ranItem(s));
+      const now = new Date().toISOString();
+      const current = d.date === now.slice(0, 10) ? slot(now) : -1;
+      clear($('grid').querySelector('tbody')).append(...labels.map((label, i) => el('tr', { 'data-slot': i, class: i === current ? 'now' : '' },
+        el('th', { scope: 'row', class: 'hour' }, label, i === current ? el('span', { class: 'small' }, ' (now)') : ''),
+        ...cells[i].map((items, c) => el('td', { 'data-cab': d.cabs[c] }, items)))));
       $('summary').textContent = `${d.date}: ${d.bookings.length} booking${d.bookings.length === 1 ? '' : 's'}, ` +
         `${d.sessions_total} session${d.sessions_total === 1 ? '' : 's'} run, on ${d.cabs.length} cab${d.cabs.length === 1 ? '' : 's'}`;
+      // Today opens at the current hour: the grid scrolls it to its top (the page stays put).
+      const row = $('grid').querySelector('tr.now');
+      const box = $('grid').parentElement;
+      box.scrollTop = 0;
+      if (row) box.scrollTop = row.getBoundingClientRect().top - $('grid').querySelector('thead').getBoundingClientRect().bottom;
       clear($('cab-list')).append(...d.cabs.map((c) => el('option', { value: c })));
     } catch (e) {
       say(message, describeError(e));

@@ -1,6 +1,6 @@
 // What the school's list pages share (pupils, sessions, exams): a table a page at a time with the
 // total, column headers that sort (on the server, whose order the CSV keeps), and the CSV of
-// exactly what is shown. Loaded after app.js.
+// the whole filtered list, every page of it, as the server streams it. Loaded after app.js.
 'use strict';
 
 const FL_LIST = (() => {
@@ -15,7 +15,8 @@ const FL_LIST = (() => {
     const tbody = opts.table.querySelector('tbody');
 
     function query(extra = {}) {
-      const q = new URLSearchParams({ limit: size, offset: state.offset, sort: state.sort, order: state.order });
+      const q = new URLSearchParams({ sort: state.sort, order: state.order });
+      if (!extra.format) { q.set('limit', size); q.set('offset', state.offset); }  // the CSV is every page
       for (const [k, v] of Object.entries(opts.filters())) if (v !== '' && v !== null && v !== undefined) q.set(k, v);
       for (const [k, v] of Object.entries(extra)) q.set(k, v);
       return q.toString();

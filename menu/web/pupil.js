@@ -5,14 +5,11 @@
 // drawn. Training marks and exam marks are two series.
 'use strict';
 (() => {
-  const { api, el, clear, requireLogin, say, describeError, dateTime, day, num, pct, param, isStaff } = FL;
+  const { api, el, clear, requireLogin, say, describeError, dateTime, day, num, pct, param, isStaff, outcomeText } = FL;
   const me = requireLogin();
   const id = param('id') || (me.role === 'pupil' ? String(me.pupil_id) : null);
   const message = document.getElementById('message');
   const charts = {};
-  const OUTCOME = { open: 'under way', completed: 'completed', timed_out: 'timed out', aborted: 'aborted', stopped: 'stopped',
-                    failed: 'failed' };
-  const outcomeText = (o) => OUTCOME[o] || o;
 
   function badge(cls, text) { return el('span', { class: `badge ${cls}` }, text); }
   function passBadge(passed) {
@@ -122,6 +119,13 @@
     box.hidden = false;
   }
 
+  // A session's debrief notes, as its session page keeps them: who, when, and the text as typed.
+  function notesList(notes) {
+    if (!notes || notes.length === 0) return el('span', { class: 'muted' }, 'none');
+    return el('ul', { class: 'notes' }, ...notes.map((n) => el('li', { 'data-note': n.id },
+      el('div', { class: 'small muted' }, `${n.author?.name || n.author?.username || 'someone'}, ${dateTime(n.at)}`), n.text)));
+  }
+
   // A correction, by an examiner or an administrator: a new record beside the exam, with its reason.
   function correctionForm(e) {
     const reason = el('input', { type: 'text', name: 'reason', required: true, maxlength: 1000, 'aria-label': 'Reason' });
@@ -207,8 +211,8 @@
       el('td', {}, dateTime(s.created_at)), el('td', {}, s.scenario), el('td', {}, s.cab_id),
       el('td', {}, outcomeBadge(s.outcome), s.reason ? el('div', { class: 'small muted' }, s.reason) : ''),
       el('td', { class: 'num' }, s.mark === null ? el('span', { class: 'muted' }, 'no mark') : num(s.mark)),
-      el('td', {}, passBadge(s.passed)))));
-    if (training.length === 0) tbody.append(el('tr', {}, el('td', { colspan: 7, class: 'muted' }, 'No training sessions yet.')));
+      el('td', {}, passBadge(s.passed)), el('td', { class: 'notes' }, notesList(s.notes)))));
+    if (training.length === 0) tbody.append(el('tr', {}, el('td', { colspan: 8, class: 'muted' }, 'No training sessions yet.')));
 
     const exams = clear(document.querySelector('#exams tbody'));
     exams.append(...[...h.exams].reverse().map(examRow));

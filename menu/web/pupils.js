@@ -1,5 +1,5 @@
 // The pupils page: GET /api/pupils a page at a time with the total, searched by name or email,
-// filtered by group, sorted by a column, and the same list as CSV; the add form above the list
+// filtered by group, sorted by a column, and the whole filtered list as CSV; the add form above the list
 // (POST /api/pupils, then PUT /api/pupils/{id}/group); the school's groups (GET/POST /api/groups).
 'use strict';
 (() => {

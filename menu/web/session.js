@@ -327,6 +327,11 @@
   // Live follow for staff (the remote examiner): the truck's state and the cab's view, twice a
   // second while the session runs. The frame comes as a blob (the token never goes in a URL).
   let liveUrl = null, liveBusy = false;
+  // 95.4 s as "1 min 35 s"; under a minute as "35 s".
+  const minutesSeconds = (s) => {
+    const whole = Math.max(0, Math.floor(s));
+    return whole >= 60 ? `${Math.floor(whole / 60)} min ${whole % 60} s` : `${whole} s`;
+  };
   async function live(s) {
     const box = document.getElementById('live');
     const running = isStaff(me) && (s.state === 'waiting' || s.state === 'running');
@@ -338,6 +343,13 @@
       const dl = clear(document.getElementById('live-state'));
       if (v.state) {
         fact(dl, 'Time', `${num(v.state.sim_time_s)} s`);
+        fact(dl, 'Time left', v.state.time_left_s === null || v.state.time_left_s === undefined ? el('span', { class: 'muted' }, 'no time limit')
+          : el('span', { id: 'live-time-left' }, minutesSeconds(v.state.time_left_s)));
+        const task = v.state.task;
+        if (task && task.steps_total > 0) {
+          fact(dl, 'Task', el('span', { id: 'live-task' }, `${task.steps_done} of ${task.steps_total} steps done`,
+            task.step ? el('span', {}, `; now: ${task.step}`) : '; all done'));
+        }
         fact(dl, 'Speed', `${num(v.state.speed_m_s, 2)} m/s`);
         fact(dl, 'Forks', `${num(v.state.lift_m, 2)} m`);
         fact(dl, 'Load', v.state.load_attached ? `${num(v.state.load_mass_kg, 0)} kg` : 'none');

@@ -1,15 +1,14 @@
 // The sessions page: GET /api/sessions, today's by default (the server's days are UTC), filtered
 // by cab, instructor, day, scenario, mode, result and pupil, sorted by a column, a page at a time
-// with the total, and the same list as CSV.
+// with the total, and the whole filtered list as CSV.
 'use strict';
 (() => {
-  const { api, el, requireLogin, dateTime, num, param } = FL;
+  const { api, el, requireLogin, dateTime, num, param, outcomeText } = FL;
   const me = requireLogin(FL.STAFF);
   const $ = (id) => document.getElementById(id);
   $('date').value = param('date') || FL_LIST.today();
   $('cab').value = param('cab') || '';
 
-  const OUTCOME = { open: 'running', completed: 'completed', timed_out: 'out of time', aborted: 'aborted', stopped: 'stopped', failed: 'failed' };
   const list = FL_LIST.pagedList({
     path: '/sessions', key: 'sessions', noun: 'session', table: $('sessions'), count: $('count'), previous: $('previous'),
     next: $('next'), message: $('message'), csv: $('csv'), sort: 'created_at', order: 'desc',
@@ -21,7 +20,7 @@
       el('td', {}, s.cab_id), el('td', {}, s.scenario), el('td', {}, s.mode),
       el('td', {}, s.started_by ? s.started_by.name || s.started_by.username : ''),
       el('td', {}, el('span', { class: `badge ${s.outcome === 'completed' ? (s.passed === false ? 'not-passed' : 'passed') : s.outcome}` },
-        OUTCOME[s.outcome] || s.outcome, s.passed === true ? ', passed' : s.passed === false ? ', not passed' : '')),
+        outcomeText(s.outcome), s.passed === true ? ', passed' : s.passed === false ? ', not passed' : '')),
       el('td', { class: 'num' }, num(s.mark, 1))),
   });
 

@@ -112,10 +112,13 @@
     }
     $('scenario').addEventListener('change', () => { aboutScenario(); aboutTruck(); });
     // An exam has no learning aids and runs only on an exam course as it is laid out (its truck
-    // and loads): the other choices are greyed out rather than refused after the click.
+    // and loads): the aids are hidden (ticked and greyed, they read as if the exam had them), the
+    // other choices greyed out rather than refused after the click.
     const aids = () => {
       const exam = $('mode').value === 'exam';
       $('aids-set').disabled = exam;
+      $('aids-set').hidden = exam;
+      $('aids-exam').hidden = !exam;
       for (const o of $('scenario').querySelectorAll('option')) {
         const s = scenarios.find((x) => x.name === o.value);
         o.disabled = exam && !(s && s.exam_course);

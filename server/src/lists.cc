@@ -1,10 +1,14 @@
 // The plumbing of the school's lists: paging, sorting, dates, CSV (lists.h).
 #include "lists.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
+#include <memory>
 #include <regex>
+
+#include <spdlog/spdlog.h>
 
 #include "api.h"
 
@@ -122,23 +126,57 @@ std::string csv_number(std::optional<double> v, int decimals) {
   return buf;
 }
 
+namespace {
+void csv_line(std::string& out, const std::vector<std::string>& cells) {
+  for (size_t i = 0; i < cells.size(); ++i) {
+    if (i) out += ',';
+    out += csv_cell(cells[i]);
+  }
+  out += "\r\n";
+}
+}  // namespace
+
 std::string csv_table(const std::vector<std::string>& header, const std::vector<std::vector<std::string>>& rows) {
   std::string out;
-  const auto line = [&](const std::vector<std::string>& cells) {
-    for (size_t i = 0; i < cells.size(); ++i) {
-      if (i) out += ',';
-      out += csv_cell(cells[i]);
-    }
-    out += "\r\n";
-  };
-  line(header);
-  for (const auto& r : rows) line(r);
+  csv_line(out, header);
+  for (const auto& r : rows) csv_line(out, r);
   return out;
 }
 
 void send_csv(httplib::Response& res, const std::string& filename, const std::string& csv) {
   res.set_header("Content-Disposition", "attachment; filename=\"" + filename + "\"");
   res.set_content(csv, "text/csv; charset=utf-8");
+}
+
+void stream_csv(httplib::Response& res, const std::string& filename, std::vector<std::string> header, CsvRows rows) {
+  res.set_header("Content-Disposition", "attachment; filename=\"" + filename + "\"");
+  auto sent = std::make_shared<int>(-1);  // the rows sent; -1: not even the header
+  res.set_chunked_content_provider(
+      "text/csv; charset=utf-8", [filename, header = std::move(header), rows = std::move(rows), sent](size_t, httplib::DataSink& sink) {
+        try {
+          std::string out;
+          if (*sent < 0) {
+            csv_line(out, header);
+            *sent = 0;
+          }
+          const std::vector<std::vector<std::string>> batch = rows(*sent, kCsvBatchRows);
+          for (const auto& r : batch) csv_line(out, r);
+          *sent += int(batch.size());
+          if (!sink.write(out.data(), out.size())) return false;
+          if (int(batch.size()) < kCsvBatchRows) sink.done();
+          return true;
+        } catch (const std::exception& e) {
+          spdlog::error("{}: the download stopped after {} rows: {}", filename, std::max(0, *sent), e.what());
+          return false;
+        }
+      });
+}
+
+nlohmann::json session_notes_json(store::Store& db, People& people, const std::string& session_public_id) {
+  nlohmann::json notes = nlohmann::json::array();
+  for (const auto& n : db.list_session_notes(session_public_id))
+    notes.push_back({{"id", n.id}, {"at", n.at}, {"text", n.text}, {"author", people.json(n.author_id)}});
+  return notes;
 }
 
 const std::optional<store::User>& People::user(int64_t id) {

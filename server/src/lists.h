@@ -1,11 +1,12 @@
 // What the school's lists share: a page of a list from the request's limit
 // and offset, its sort key and order, a date or a range of dates, an id in the query, and the
-// list as CSV, exactly as shown, safe to open in a spreadsheet.
+// whole filtered list as CSV, in the order shown, streamed, safe to open in a spreadsheet.
 #pragma once
 
 #include <httplib.h>
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -62,6 +63,17 @@ std::string csv_table(const std::vector<std::string>& header, const std::vector<
 // Sends `csv` as a download named `filename`.
 void send_csv(httplib::Response& res, const std::string& filename, const std::string& csv);
 
+// The rows of a list from `offset`, at most `limit` of them (fewer: the list ends there), as
+// CSV cells. Called on the request's own thread (its ctx.db() is the request's), as the client
+// reads, after the handler has returned: it may hold nothing of the handler's by reference.
+using CsvRows = std::function<std::vector<std::vector<std::string>>(int offset, int limit)>;
+// How many rows a CSV download reads from the store at a time.
+constexpr int kCsvBatchRows = 500;
+// Sends the whole list `rows` gives as a CSV download named `filename`: the header, then
+// kCsvBatchRows rows at a time, chunked as the client reads them, so that a list of any length
+// never sits whole in memory. A failure mid-way (the store) ends the download short, logged.
+void stream_csv(httplib::Response& res, const std::string& filename, std::vector<std::string> header, CsvRows rows);
+
 // `find()` (a store's list call), its kInvalid (an unknown sort key, outcome or result) a 400 in
 // words without the store's call name.
 template <class F>
@@ -89,5 +101,8 @@ class People {
   store::AccountStore& db_;
   std::map<int64_t, std::optional<store::User>> seen_;
 };
+
+// A session's debrief notes, oldest first: [{"id", "at", "text", "author": people.json}].
+nlohmann::json session_notes_json(store::Store& db, People& people, const std::string& session_public_id);
 
 }  // namespace forklift::server

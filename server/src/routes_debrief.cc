@@ -19,9 +19,7 @@ constexpr size_t kMaxCommentChars = 1000;
 
 json debrief_json(Context& ctx, const store::Session& s) {
   People people(ctx.db());  // each author read once
-  json notes = json::array();
-  for (const auto& n : ctx.db().list_session_notes(s.public_id))
-    notes.push_back({{"id", n.id}, {"at", n.at}, {"text", n.text}, {"author", people.json(n.author_id)}});
+  const json notes = session_notes_json(ctx.db(), people, s.public_id);
   json sign_off = nullptr;
   if (const auto o = ctx.db().get_session_sign_off(s.public_id))
     sign_off = {{"at", o->at}, {"comment", o->comment}, {"by", people.json(o->signed_by)}};

@@ -3,6 +3,7 @@
 // a session at a time, the day's bookings and sessions by cab, and a booked session started.
 #include <ctime>
 #include <map>
+#include <memory>
 #include <regex>
 #include <set>
 #include <tuple>
@@ -122,22 +123,24 @@ void list_routes(Routes& svr, Context& ctx) {
     f.group_id = query_id(req, "group");
     std::tie(f.sort, f.descending) = sort_request(req, "created_at", true);
     const bool csv = wants_csv(req);
-    const store::SessionPage found = listed([&] { return ctx.db().find_sessions(f, page.limit, page.offset); });
-    People people(ctx.db());
-    if (csv) {
-      std::vector<std::vector<std::string>> rows;
-      for (const auto& r : found.sessions) {
-        const json j = session_json(r.session);
-        rows.push_back({r.session.public_id, r.session.created_at, r.pupil_name, r.session.cab_id, r.session.scenario,
-                        name(r.session.mode), people.name(r.session.started_by), j["outcome"].get<std::string>(),
-                        csv_number(store::mark_of(r.session)),
-                        j["passed"].is_boolean() ? (j["passed"].get<bool>() ? "yes" : "no") : "", r.session.ended_at});
-      }
-      return send_csv(res, "sessions.csv",
-                      csv_table({"session", "started", "pupil", "cab", "scenario", "mode", "instructor", "outcome", "mark",
-                                 "passed", "ended"},
-                                rows));
+    const store::SessionPage found = listed([&] { return ctx.db().find_sessions(f, csv ? 1 : page.limit, csv ? 0 : page.offset); });
+    if (csv) {  // every session of the filter, read as the client takes them
+      auto people = std::make_shared<People>(ctx.db());
+      return stream_csv(res, "sessions.csv",
+                        {"session", "started", "pupil", "cab", "scenario", "mode", "instructor", "outcome", "mark", "passed", "ended"},
+                        [&ctx, f, people](int offset, int limit) {
+                          std::vector<std::vector<std::string>> rows;
+                          for (const auto& r : ctx.db().find_sessions(f, limit, offset).sessions) {
+                            const json j = session_json(r.session);
+                            rows.push_back({r.session.public_id, r.session.created_at, r.pupil_name, r.session.cab_id, r.session.scenario,
+                                            name(r.session.mode), people->name(r.session.started_by), j["outcome"].get<std::string>(),
+                                            csv_number(store::mark_of(r.session)),
+                                            j["passed"].is_boolean() ? (j["passed"].get<bool>() ? "yes" : "no") : "", r.session.ended_at});
+                          }
+                          return rows;
+                        });
     }
+    People people(ctx.db());
     json out = json::array();
     for (const auto& r : found.sessions) {
       json j = session_json(r.session);
@@ -168,22 +171,24 @@ void list_routes(Routes& svr, Context& ctx) {
     f.group_id = query_id(req, "group");
     std::tie(f.sort, f.descending) = sort_request(req, "taken_at", true);
     const bool csv = wants_csv(req);
-    const store::ExamPage found = listed([&] { return ctx.db().find_exams(f, page.limit, page.offset); });
-    People people(ctx.db());
-    if (csv) {
-      std::vector<std::vector<std::string>> rows;
-      for (const auto& r : found.exams) {
-        const bool theory = r.exam.kind == "theory";
-        rows.push_back({std::to_string(r.exam.id), r.exam.taken_at, r.pupil_name, r.exam.kind,
-                        r.exam.session_public_id.value_or(""), theory ? "" : csv_number(r.exam.score),
-                        theory ? csv_number(r.exam.score * 100) : "", r.exam.passed ? "yes" : "no",
-                        people.name(r.exam.examiner_id), r.corrections ? std::to_string(r.corrections) : ""});
-      }
-      return send_csv(res, "exams.csv",
-                      csv_table({"exam", "taken", "pupil", "kind", "session", "practical_mark", "theory_percent", "passed",
-                                 "examiner", "corrections"},
-                                rows));
+    const store::ExamPage found = listed([&] { return ctx.db().find_exams(f, csv ? 1 : page.limit, csv ? 0 : page.offset); });
+    if (csv) {  // every exam of the filter, read as the client takes them
+      auto people = std::make_shared<People>(ctx.db());
+      return stream_csv(res, "exams.csv",
+                        {"exam", "taken", "pupil", "kind", "session", "practical_mark", "theory_percent", "passed", "examiner", "corrections"},
+                        [&ctx, f, people](int offset, int limit) {
+                          std::vector<std::vector<std::string>> rows;
+                          for (const auto& r : ctx.db().find_exams(f, limit, offset).exams) {
+                            const bool theory = r.exam.kind == "theory";
+                            rows.push_back({std::to_string(r.exam.id), r.exam.taken_at, r.pupil_name, r.exam.kind,
+                                            r.exam.session_public_id.value_or(""), theory ? "" : csv_number(r.exam.score),
+                                            theory ? csv_number(r.exam.score * 100) : "", r.exam.passed ? "yes" : "no",
+                                            people->name(r.exam.examiner_id), r.corrections ? std::to_string(r.corrections) : ""});
+                          }
+                          return rows;
+                        });
     }
+    People people(ctx.db());
     json out = json::array();
     for (const auto& r : found.exams) {
       out.push_back({{"id", r.exam.id}, {"pupil_id", r.exam.pupil_id}, {"pupil_name", r.pupil_name}, {"kind", r.exam.kind},

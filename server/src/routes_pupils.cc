@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <tuple>
 #include <map>
+#include <memory>
 #include <optional>
 
 #include "api.h"
@@ -27,16 +28,19 @@ void check_pupil_name(const std::string& name) {
 
 // The history as the API gives it: sessions with their outcome (a mark only when completed), the
 // marks of completed sessions by mode (training and exams apart), the sessions over without a
-// mark (not plotted: their outcome says why), the exams as the school counts them. Written as a
-// stream: the most read answer of the API, with a row per session (JsonStream).
+// mark (not plotted: their outcome says why), the exams as the school counts them; each session
+// with its debrief's notes. Written as a stream: the most read answer of the API, with a row per
+// session (JsonStream).
 std::string history_text(Context& ctx, const store::PupilHistory& h, const std::vector<ExamResult>& results) {
   std::map<std::string, const ExamResult*> exam_of;
   for (const auto& r : results)
     if (r.session) exam_of[r.session->public_id] = &r;
   JsonStream out;
+  People people(ctx.db());  // the notes' authors, each read once
   out.begin_object().key("pupil").raw(pupil_json(h.pupil));
   out.key("sessions").begin_array();
   for (const auto& s : h.sessions) {
+    json notes = session_notes_json(ctx.db(), people, s.public_id);
     if (const auto it = exam_of.find(s.public_id); it != exam_of.end()) {  // an exam session, with its result
       json j = session_json(s);
       const ExamResult& r = *it->second;
@@ -44,10 +48,12 @@ std::string history_text(Context& ctx, const store::PupilHistory& h, const std::
         j["evidence"] = {{"verified", r.evidence->verified}, {"problem", r.evidence->verified ? json(nullptr) : json(r.evidence->why)}};
       j["passed"] = r.passed;
       j["reasons"] = reasons_json(r.reasons);
+      j["notes"] = std::move(notes);
       out.raw(j);
     } else {
       out.begin_object();
       session_fields(s, [&](const char* key, const auto& value) { out.field(key, value); });
+      out.key("notes").raw(notes);
       out.end_object();
     }
   }
@@ -79,7 +85,7 @@ std::string history_text(Context& ctx, const store::PupilHistory& h, const std::
 void pupil_routes(Routes& svr, Context& ctx) {
   // The school's pupils a page at a time with the total: searched by name or email, filtered by
   // group or instructor, sorted; an instructor's own pupils (their groups') first unless they ask
-  // otherwise (mine_first=false); as CSV with format=csv, exactly as listed.
+  // otherwise (mine_first=false); as CSV with format=csv: every pupil of the filter, in its order.
   svr.Get("/api/pupils", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
     require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
@@ -92,29 +98,31 @@ void pupil_routes(Routes& svr, Context& ctx) {
     std::tie(f.sort, f.descending) = sort_request(req, "name", false);
     if (p.role == Role::kInstructor && req.get_param_value("mine_first") != "false") f.first_for = p.user_id;
     const bool csv = wants_csv(req);
-    const store::PupilPage found = listed([&] { return ctx.db().find_pupils(f, page.limit, page.offset); });
-    People people(ctx.db());
-    std::map<int64_t, store::Group> groups;
-    for (const auto& g : ctx.db().list_groups(p.school_id)) groups[g.id] = g;
-    const auto group_of = [&](const store::Pupil& pupil) -> const store::Group* {
-      const auto it = pupil.group_id ? groups.find(*pupil.group_id) : groups.end();
-      return it == groups.end() ? nullptr : &it->second;
+    const store::PupilPage found = listed([&] { return ctx.db().find_pupils(f, csv ? 1 : page.limit, csv ? 0 : page.offset); });
+    auto people = std::make_shared<People>(ctx.db());
+    auto groups = std::make_shared<std::map<int64_t, store::Group>>();
+    for (const auto& g : ctx.db().list_groups(p.school_id)) (*groups)[g.id] = g;
+    const auto group_of = [groups](const store::Pupil& pupil) -> const store::Group* {
+      const auto it = pupil.group_id ? groups->find(*pupil.group_id) : groups->end();
+      return it == groups->end() ? nullptr : &it->second;
     };
-    if (csv) {
-      std::vector<std::vector<std::string>> rows;
-      for (const auto& pupil : found.pupils) {
-        const store::Group* g = group_of(pupil);
-        rows.push_back({std::to_string(pupil.id), pupil.name, pupil.email, g ? g->name : "",
-                        g ? people.name(g->instructor_id) : "", pupil.created_at});
-      }
-      return send_csv(res, "pupils.csv", csv_table({"id", "name", "email", "group", "instructor", "added"}, rows));
+    if (csv) {  // the filter checked above; the rows read as the client takes them
+      return stream_csv(res, "pupils.csv", {"id", "name", "email", "group", "instructor", "added"}, [&ctx, f, people, group_of](int offset, int limit) {
+        std::vector<std::vector<std::string>> rows;
+        for (const auto& pupil : ctx.db().find_pupils(f, limit, offset).pupils) {
+          const store::Group* g = group_of(pupil);
+          rows.push_back({std::to_string(pupil.id), pupil.name, pupil.email, g ? g->name : "", g ? people->name(g->instructor_id) : "",
+                          pupil.created_at});
+        }
+        return rows;
+      });
     }
     json out = json::array();
     for (const auto& pupil : found.pupils) {
       json j = pupil_json(pupil);
       const store::Group* g = group_of(pupil);
       j["group"] = g ? json(g->name) : json(nullptr);
-      j["instructor"] = g ? people.json(g->instructor_id) : json(nullptr);
+      j["instructor"] = g ? people->json(g->instructor_id) : json(nullptr);
       out.push_back(std::move(j));
     }
     send_json(res, 200, {{"pupils", out}, {"total", found.total}, {"limit", page.limit}, {"offset", page.offset}});

@@ -270,7 +270,10 @@ void session_routes(Routes& svr, Context& ctx) {
       state = {{"sim_time_s", t.sim_time_s}, {"x_m", t.x_m}, {"y_m", t.y_m}, {"yaw_deg", t.yaw_rad * 180 / M_PI},
                {"speed_m_s", t.speed_m_s}, {"lift_m", t.lift_m}, {"tilt_deg", t.tilt_rad * 180 / M_PI},
                {"load_attached", t.load_attached}, {"load_mass_kg", t.load_mass_kg}, {"stability_margin", t.stability_margin},
-               {"deadman", t.deadman}, {"applied_control_sequence", t.applied_control_sequence}};
+               {"deadman", t.deadman}, {"applied_control_sequence", t.applied_control_sequence},
+               // what the pupil is at: the steps of the task done, and the current one in words
+               {"task", {{"steps_done", t.task_steps_done}, {"steps_total", t.task_steps_total}, {"step", std::string(t.task_step)}}},
+               {"time_left_s", t.time_left_s < 0 ? json(nullptr) : json(t.time_left_s)}};
     }
     send_json(res, 200, {{"session", s.public_id}, {"state", state}, {"frame_available", !v.jpeg.empty()},
                          {"frame_seq", v.frame_seq}, {"frame_sim_time_s", v.frame_sim_time_s}});

@@ -430,6 +430,44 @@ TEST(Parking, NotCheckedWhenTheSessionWasCutOff) {
   EXPECT_TRUE(s.events.empty()) << s.summary();
 }
 
+// The parking rules judge the truck as the pupil left it, never as a session was stopped: only
+// after an end the pupil makes (rules.json's parking_checked_on_end) with the task done (a scene
+// without a task has none left). The truck is stopped moving, forks raised and levers held.
+struct StoppedAs {
+  const char* scene;
+  const char* reason;
+  bool charged;
+};
+void PrintTo(const StoppedAs& c, std::ostream* os) { *os << c.scene << ", " << c.reason; }  // its name in test lists
+class ParkingAtTheEnd : public testing::TestWithParam<StoppedAs> {};
+
+TEST_P(ParkingAtTheEnd, IsChargedOnlyWhenThePupilEndedTheTask) {
+  const StoppedAs& c = GetParam();
+  Session s(scene(c.scene));
+  Driver d{s};
+  d.lift_to = 0.25;  // under the travelling limit, over the parked one
+  d.settle_levers();
+  s.run(1.0, [&] { Controls k; k.accelerator = 0.3; k.lift = 0.2; return k; });
+  const Score score = s.finish(c.reason);
+  EXPECT_EQ(s.count("parked_forks_raised"), c.charged ? 1 : 0) << c.scene << ", " << c.reason << "\n" << s.summary();
+  EXPECT_EQ(s.count("parked_controls_not_neutral"), c.charged ? 1 : 0) << c.scene << ", " << c.reason << "\n" << s.summary();
+  EXPECT_EQ(score.end_reason, c.reason);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Ends, ParkingAtTheEnd,
+    testing::Values(StoppedAs{"zones.json", "task_complete", true},   // the pupil ended it
+                    StoppedAs{"zones.json", "duration", true},        // no task: its time is its course
+                    StoppedAs{"pallets.json", "duration", false},     // the instructor's time limit, mid-task
+                    StoppedAs{"pallets.json", "time_limit", false},   // the scenario's time limit, mid-task
+                    StoppedAs{"zones.json", "time_limit", false},     // the time limit stops it, task or not
+                    StoppedAs{"zones.json", "aborted", false},        // the instructor's abort, task or not
+                    StoppedAs{"pallets.json", "aborted", false}),
+    [](const testing::TestParamInfo<StoppedAs>& i) {
+      std::string n = std::string(i.param.scene).substr(0, std::string(i.param.scene).find('.')) + "_" + i.param.reason;
+      return n;
+    });
+
 TEST(Deadman, ADeadManStopIsInformationOnly) {
   Session s(scene("zones.json"));
   Driver d{s};

@@ -87,7 +87,7 @@ struct CourseDriver {
   void park() {
     d.approach([&] { return s.pos().x() - 6.0; }, -1.2, kLaneC);
     lift(0.0);
-    d.park(1.0);
+    d.park(3.0);  // longer than data/session.json's task_end_hold_s: a live session ends in it
   }
   void whole_course() {
     chicane();

@@ -28,12 +28,12 @@ void clean_yard_drive(Session& s) {
   d.follow(Path(s.scene.route.points), 1.4, 0.5, 0.7);
   d.lift_to = 0.0;
   d.settle_levers();
-  d.park(1.0);
+  d.park(3.0);  // longer than data/session.json's task_end_hold_s: a live session ends in it
 }
 
 // A drive with faults: off with the forks on the floor and 3 m left of the marked route (so
 // missing the first marker), forks up too high, too fast, then leaving the truck with the forks
-// up and the brake off.
+// up and the brake off, mid-task.
 void faulty_yard_drive(Session& s) {
   s.control_period_ticks = 50;
   Driver d{s};
@@ -97,13 +97,15 @@ TEST(Exam, AFaultyDriveIsMarkedAlikeInProcessByForkliftSimAndFromItsLog) {
   Session s(load_scene(kYard, FORKLIFT_DATA_DIR), Mode::kTraining);
   faulty_yard_drive(s);
   const Score score = s.finish("duration");
-  for (const char* rule : {"travel_forks_low", "travel_forks_high", "speed_open_aisle", "off_route", "parked_forks_raised",
-                           "parked_controls_not_neutral", "task_incomplete"})
+  for (const char* rule : {"travel_forks_low", "travel_forks_high", "speed_open_aisle", "off_route", "task_incomplete"})
     EXPECT_GE(s.count(rule), 1) << rule << "\n" << s.summary();
+  // It stops with the forks up and the brake off, but mid-task: the time it was given ran out
+  // on it, so the parking rules do not judge the truck.
+  for (const char* rule : {"parked_forks_raised", "parked_controls_not_neutral"}) EXPECT_EQ(s.count(rule), 0) << rule << "\n" << s.summary();
   int points = 0;
   for (const EvaluationEvent& e : s.events) points += e.points;
   EXPECT_EQ(score.points, points);
-  EXPECT_GE(points, 1 + 3 + 3 + 3 + 5 + 3);
+  EXPECT_GE(points, 1 + 3 + 3 + 3);
   EXPECT_LE(points, 40) << s.summary();
   EXPECT_EQ(score.mark, 100 - score.points);
   EXPECT_FALSE(score.passed) << "within the points, but the task was left undone";

@@ -4,14 +4,19 @@
 // and give the same mark.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <limits>
+#include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 
 #include "forklift/session/controls.h"
 #include "forklift/session/session.h"
 #include "forklift/session/session_run.h"
+#include "forklift/session/vocabulary.h"
 
 namespace {
 
@@ -158,5 +163,80 @@ TEST(SessionRun, ItEndsWhenItsTimeIsUpOrItsTaskIsDone) {
   EXPECT_EQ(end, EndReason::kDuration);
   EXPECT_NEAR(run.state().t_s, 0.05, 1e-9);
 }
+
+// The shipped cab scripts (data/evaluation/scripts/drives.json), each driven through a SessionRun
+// as the worker drives it: its rows applied at their ticks, the session ended when its task is
+// done and the truck let be ("task_complete"), else at the script's end. A clean drive does every
+// step with no fault and is marked 100; a faulty one gives exactly the faults it names.
+struct ShippedDrive {
+  std::string script, scenario, mode;
+  std::set<std::string> faults;
+};
+
+void PrintTo(const ShippedDrive& d, std::ostream* os) { *os << d.script; }  // its name in test lists
+
+std::vector<ShippedDrive> shipped_drives() {
+  const std::string dir = kData + "/evaluation/scripts";
+  const nlohmann::json listed = nlohmann::json::parse(text_of(dir + "/drives.json"));
+  std::vector<ShippedDrive> out;
+  for (const auto& d : listed.at("drives"))
+    out.push_back({d.at("script"), d.at("scenario"), d.at("mode"), d.at("faults").get<std::set<std::string>>()});
+  return out;
+}
+
+TEST(ShippedDrives, EveryScriptIsListedWithWhatItGives) {
+  std::set<std::string> listed;
+  for (const ShippedDrive& d : shipped_drives()) listed.insert(d.script);
+  for (const auto& f : std::filesystem::directory_iterator(kData + "/evaluation/scripts")) {
+    if (f.path().extension() != ".csv") continue;
+    EXPECT_EQ(listed.count(f.path().filename().string()), 1u) << f.path() << " is not in drives.json";
+  }
+}
+
+class ShippedDriveTest : public testing::TestWithParam<ShippedDrive> {};
+
+TEST_P(ShippedDriveTest, GivesTheFaultsItNamesAndNoOther) {
+  const ShippedDrive& d = GetParam();
+  SessionSpec spec;
+  spec.scenario_file = kData + "/" + d.scenario;
+  spec.mode = d.mode;
+  const SessionModel model = load_session_model(spec, kData);
+  const std::vector<InputChange> changes = script_changes(kData + "/evaluation/scripts/" + d.script, model);
+  ASSERT_FALSE(changes.empty());
+  // The script's last row acts for one tick, as forklift-sim evaluate runs it.
+  const double script_end_s = double(changes.back().tick + 1) * model.tick_s;
+  SessionRun run(model, initial_state(model), nullptr, {script_end_s, true});
+  std::vector<SessionEvent> events;
+  std::optional<EndReason> end;
+  for (size_t next = 0; !end;) {
+    for (; next < changes.size() && changes[next].tick <= run.state().tick; ++next) feed(run, changes[next]);
+    const SessionRun::Tick t = run.tick();
+    events.insert(events.end(), t.events.begin(), t.events.end());
+    end = t.end;
+  }
+  const Score score = run.end(*end);
+  events.insert(events.end(), run.end_events().begin(), run.end_events().end());
+  std::set<std::string> faults;
+  std::string said;
+  for (const SessionEvent& e : events)
+    if (event_origin(e.kind) == EventOrigin::kEvaluation) {
+      faults.insert(e.kind);
+      said += "  " + e.kind + " " + e.details.substr(0, 400) + "\n";
+    }
+  EXPECT_EQ(faults, d.faults) << d.script << " ended (" << name(*end) << ") at " << run.state().t_s << " s with:\n" << said;
+  if (d.faults.empty()) {
+    EXPECT_EQ(*end, EndReason::kTaskComplete) << "its task done and the truck let be, before its script ran out";
+    EXPECT_EQ(score.mark, 100);
+    EXPECT_TRUE(score.passed);
+    EXPECT_TRUE(score.task_completed);
+  } else {
+    EXPECT_EQ(score.mark, 100 - score.points);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Shipped, ShippedDriveTest, testing::ValuesIn(shipped_drives()),
+                         [](const testing::TestParamInfo<ShippedDrive>& i) {
+                           return i.param.script.substr(0, i.param.script.find('.'));
+                         });
 
 }  // namespace

@@ -153,6 +153,12 @@ class Certificates : public testing::Test {
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
     ASSERT_EQ(at(practical, "/passed"), true) << history;
+    // The shipped clean drive is clean live, as it is offline: mark 100, no fault, its end the
+    // pupil's (the task done and the truck let be), not the instant the truck came to rest.
+    const json marked = s.call("GET", "/api/sessions/" + session, p.examiner).second;
+    EXPECT_EQ(marked["reason"], "task_complete") << marked;
+    EXPECT_EQ(marked["mark"], 100.0) << marked["events"].dump(1);
+    for (const json& e : marked["events"]) EXPECT_EQ(e["worry_level"], 0) << "a fault in the clean drive: " << e.dump();
     ASSERT_EQ(s.stop(), 0) << s.proc->err();
     for (const char* part : Server::kSchoolParts) fs::copy(s.dir + "/" + part, folder + "/" + part, fs::copy_options::recursive);
     std::ofstream(folder + "/school.json") << json{{"school", kSchool}, {"pupil", p.pupil}, {"examiner_id", p.examiner_id}, {"session", session},

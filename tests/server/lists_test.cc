@@ -70,13 +70,14 @@ TEST(Lists, PupilsArePagedSearchedSortedAndExportedAsShown) {
   EXPECT_EQ(yard["pupils"][0]["email"], "p127@yard.example");
   EXPECT_EQ(yard["pupils"][9]["email"], "p100@yard.example");
 
-  // The CSV is the list as shown: same filter, same order, same page.
-  auto [cst, csv] = get_text(s, "/api/pupils?search=YARD.example&sort=email&order=desc&limit=3&format=csv", admin);
+  // The CSV is the whole filtered list in its order, every page of it: a page's limit and offset
+  // do not cut it.
+  auto [cst, csv] = get_text(s, "/api/pupils?search=YARD.example&sort=email&order=desc&limit=3&offset=3&format=csv", admin);
   ASSERT_EQ(cst, 200) << csv;
   const auto rows = csv_rows(csv);
-  ASSERT_EQ(rows.size(), 4u) << csv;
+  ASSERT_EQ(rows.size(), 11u) << csv;
   EXPECT_EQ(rows[0], (std::vector<std::string>{"id", "name", "email", "group", "instructor", "added"}));
-  for (int i = 0; i < 3; ++i) {
+  for (int i = 0; i < 10; ++i) {
     EXPECT_EQ(rows[i + 1][1], yard["pupils"][i]["name"]) << csv;
     EXPECT_EQ(rows[i + 1][2], yard["pupils"][i]["email"]) << csv;
   }
@@ -226,6 +227,7 @@ TEST(Lists, SessionsAndExamsAreFilteredSortedAndExportedAsShown) {
   EXPECT_EQ(rows[2][6], "Ines Instructor");
   EXPECT_EQ(rows[2][8], "82.5");
   EXPECT_EQ(rows[2][9], "yes");
+  EXPECT_EQ(s.call("GET", "/api/sessions?sort=secret&format=csv", admin).first, 400) << "a CSV's filter is checked before it streams";
 
   // Exams: theory scores as a percentage in their own column, apart from practical marks.
   auto [est, exams] = s.call("GET", "/api/exams?kind=theory&sort=score&order=desc", admin);

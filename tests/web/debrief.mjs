@@ -2,7 +2,7 @@
 // a pupil drives the yard with faults; the instructor opens the finished session, whose replay is
 // re-simulated from its control log; at three events the replay shows the truck where and when
 // the event happened; the events read in words and units; the plan zooms; a note and the
-// sign-off are kept and audited.
+// sign-off are kept and audited, and the note is on the pupil's record.
 //
 //   BUILD/tests/forklift-test-alloc node debrief.mjs --bin BUILD/bin --data data [--out DIR] [--headed]
 import path from 'node:path';
@@ -148,6 +148,14 @@ try {
     const audit = await api('GET', `/pupils/${pupil.id}/audit`, admin);
     const actions = audit.map((r) => r.action);
     check(actions.includes('session_note_added') && actions.includes('session_signed_off'), `audited: ${actions}`);
+  });
+
+  await step("the note is on the pupil's record, beside its session", async () => {
+    await page.goto(`${base}/pupil.html?id=${pupil.id}`);
+    const note = `#sessions tr[data-session="${session.id}"] td.notes li[data-note]`;
+    await page.waitForSelector(note);
+    const text = await page.textContent(note);
+    check(text.includes('Look over your shoulder <b>before</b> reversing.') && text.includes('Ines Instructor'), `the note, by whom: ${text}`);
   });
   console.log(`debrief: all steps passed`);
 } catch (e) {

@@ -179,7 +179,9 @@ try {
     await page.selectOption('#mode', 'exam');
     check(await page.$eval('#scenario option[value="first_drive_yard"]', (o) => o.disabled), 'a training scenario cannot start an exam');
     check(await page.isDisabled('#truck'), 'an exam drives the course\'s own truck');
+    check(await page.isHidden('#aids-set') && await page.isVisible('#aids-exam'), 'an exam\'s forbidden aids are hidden, not shown ticked');
     await page.selectOption('#mode', 'training');
+    check(await page.isVisible('#aids-set') && await page.isHidden('#aids-exam'), 'training offers the aids');
     await page.selectOption('#scenario', 'first_drive_yard');
     await page.selectOption('#truck', 'linde_e16c');
     await page.fill('#cab', 'webcab1');
@@ -200,6 +202,11 @@ try {
     await page.waitForFunction(() => { const i = document.getElementById('live-frame'); return !i.hidden && i.complete && i.naturalWidth === 480; },
                                null, { timeout: 30000 });
     check(/Abort/.test(await page.textContent('#actions')), 'the examiner can abort it');
+    // The time the course leaves (10 minutes) and the pupil's place in its task, in words.
+    const left = await page.textContent('#live-time-left');
+    check(/^(\d+ min )?\d+ s$/.test(left) && !left.startsWith('10 min 1'), `the time left: ${left}`);
+    const task = await page.textContent('#live-task');
+    check(/^\d of 8 steps done; now: [A-Z]/.test(task), `the task's steps, done of total, and the current one in words: ${task}`);
     await shot('session-live');
   });
 

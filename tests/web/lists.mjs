@@ -2,10 +2,12 @@
 // loopback with 600 pupils added through its API, and a day of sessions and an exam written
 // straight into its SQLite file (no truck is driven: that is web_e2e's work):
 //   the pupils page a page at a time with the total, paged, sorted, searched by email, the CSV of
-//   the filtered list downloaded and read back, the add form on screen without scrolling -> the
-//   start page's type-ahead pupil picker and its word on an unknown cab -> the sessions page
-//   (today's by default, filtered by cab and result, its CSV) -> the exams list -> the day view:
-//   a cab booked, a double booking refused, the day's grid with the booking and the sessions run.
+//   the whole filtered list (every page of it) downloaded and read back, the add form on screen
+//   without scrolling -> the start page's type-ahead pupil picker and its word on an unknown cab
+//   -> the sessions page (today's by default, filtered by cab and result, its CSV) -> the exams
+//   list -> the day view: a cab booked, a double booking refused, the day's grid with the booking
+//   and the sessions run, every cell whole at 1280x800, names in full, outcomes in words, open at
+//   the current hour.
 //
 //   BUILD/tests/forklift-test-alloc node lists.mjs --bin BUILD/bin --data data
 //                [--chromium /usr/bin/chromium] [--out DIR] [--headed]
@@ -70,13 +72,13 @@ try {
   const group = await api('POST', '/groups', admin, { name: 'Morning course', instructor_id: ines });
   for (const id of ids.slice(0, 5)) await api('PUT', `/pupils/${id}/group`, admin, { group_id: group.id });
 
-  // Today's sessions (12, on two cabs, half of them passed), yesterday's one, and a theory exam,
-  // as the server would have written them.
+  // Today's sessions (12, on two cabs, half of them passed, the last stopped by its time limit),
+  // yesterday's one, and a theory exam, as the server would have written them.
   const school = execFileSync('sqlite3', [db, `SELECT school_id FROM pupils WHERE id = ${ids[0]};`], { encoding: 'utf8' }).trim();
   const rows = [];
   for (let i = 0; i < 12; i++) {
     const at = `${today}T${String(7 + i).padStart(2, '0')}:00:00Z`;
-    rows.push(`(${ids[i]}, 'cab${1 + (i % 2)}', 'manoeuvre_4', 'training', 'ended', 'task_complete', '${at}', '${at}', ${60 + i}.25, ${i % 4 < 2 ? 1 : 0}, ${ines}, ${school})`);
+    rows.push(`(${ids[i]}, 'cab${1 + (i % 2)}', 'manoeuvre_4', 'training', 'ended', '${i === 11 ? 'time_limit' : 'task_complete'}', '${at}', '${at}', ${60 + i}.25, ${i % 4 < 2 ? 1 : 0}, ${ines}, ${school})`);
   }
   rows.push(`(${ids[20]}, 'cab1', 'manoeuvre_4', 'training', 'ended', 'task_complete', '${yesterday}T09:00:00Z', '${yesterday}T09:10:00Z', 70, 1, ${ines}, ${school})`);
   execFileSync('sqlite3', [db, `.timeout 5000`,
@@ -137,7 +139,7 @@ try {
     check(await page.getAttribute('#pupils thead th[data-sort="name"]', 'aria-sort') === 'descending', 'the header says the order');
   });
 
-  await step('search by email, and the CSV of exactly that list', async () => {
+  await step('search by email, and the CSV of that whole list, every page of it', async () => {
     await page.fill('#search', 'depot.example');
     await waitCount('of 60 pupils');
     await page.click('#pupils thead th[data-sort="email"] button');
@@ -147,14 +149,17 @@ try {
     const shown = await page.$$eval('#pupils tbody tr', (trs) => trs.map((tr) => [tr.querySelector('th').textContent, tr.querySelector('td').textContent]));
     const csv = await download('#csv');
     check(csv[0].join(',') === 'id,name,email,group,instructor,added', `the CSV's header: ${csv[0]}`);
-    check(csv.length === 1 + shown.length && shown.length === 10, `the CSV has the page's ${shown.length} rows: ${csv.length - 1}`);
-    shown.forEach(([name, mail], i) => check(csv[i + 1][1] === name && csv[i + 1][2] === mail, `CSV row ${i + 1} is ${name}: ${csv[i + 1]}`));
+    check(csv.length === 1 + 60 && shown.length === 10, `the CSV has the filter's 60 rows, not the page's ${shown.length}: ${csv.length - 1}`);
+    shown.forEach(([name, mail], i) => check(csv[i + 51][1] === name && csv[i + 51][2] === mail, `CSV row ${i + 51} is ${name}: ${csv[i + 51]}`));
     check(csv.slice(1).every((r) => r[2].endsWith('@depot.example')), 'only the filtered pupils');
   });
 
   await step('add a pupil with the form at the top, into a group', async () => {
     await page.fill('#search', '');
     await waitCount('of 600 pupils');
+    const all = await download('#csv');
+    check(all.length === 1 + 600 && new Set(all.slice(1).map((r) => r[0])).size === 600,
+          `the whole list's CSV has its 600 pupils once each, streamed past the server's batches: ${all.length - 1}`);
     await page.fill('#name', 'Zed Newcomer');
     await page.fill('#email', 'zed@depot.example');
     await page.selectOption('#new-group', String(group.id));
@@ -223,15 +228,43 @@ try {
     await page.fill('#minutes', '60');
     await page.click('#book button[type=submit]');
     await page.waitForSelector('#message .ok');
-    await page.waitForSelector('#grid tr[data-cab="cab1"] .booking');
-    check((await page.textContent('#grid tr[data-cab="cab1"] .booking')).includes('Pupil 007'), 'the booking is on the grid');
+    await page.waitForSelector('#grid td[data-cab="cab1"] .booking');
+    check((await page.textContent('#grid td[data-cab="cab1"] .booking')).includes('Pupil 007'), 'the booking is on the grid');
     allowed = [409];
     await page.fill('#start', '15:30');
     await page.click('#book button[type=submit]');
     await page.waitForSelector('#message .error');
     check((await page.textContent('#message')).includes('already booked'), `the clash said in words: ${await page.textContent('#message')}`);
     allowed = [];
-    check(await page.locator('#grid tr[data-cab="cab2"] .ran').count() === 6, 'the sessions run on cab2');
+    check(await page.locator('#grid td[data-cab="cab2"] .ran').count() === 6, 'the sessions run on cab2');
+  });
+
+  await step('the day fits 1280x800: no cell cut, names in full, outcomes in words, open at the current hour', async () => {
+    await page.setViewportSize({ width: 1280, height: 800 });
+    await page.reload();
+    await page.waitForFunction(() => document.getElementById('summary').textContent.includes('12 sessions run'));
+    const seen = await page.evaluate(() => {
+      const width = document.documentElement.clientWidth;
+      const cut = [];
+      for (const c of document.querySelectorAll('#grid th, #grid td, #grid .booking, #grid .ran')) {
+        const r = c.getBoundingClientRect();
+        if (r.left < 0 || r.right > width + 0.5 || c.scrollWidth > c.clientWidth + 1) cut.push(`${c.tagName} ${c.textContent.slice(0, 40)} ${JSON.stringify(r)}`);
+      }
+      const box = document.querySelector('.day').getBoundingClientRect(), now = document.querySelector('#grid tr.now');
+      const row = now && now.getBoundingClientRect();
+      return { cut, pageWidth: document.documentElement.scrollWidth, width, now: now && now.textContent,
+               nowShown: !!row && row.top >= box.top - 1 && row.top < box.bottom && row.top < window.innerHeight,
+               ran: [...document.querySelectorAll('#grid .ran')].map((r) => ({ text: r.textContent, title: r.title, outcome: r.dataset.outcome })) };
+    });
+    check(seen.cut.length === 0, `no cell cut or past the page's edge: ${seen.cut.join('\n')}`);
+    check(seen.pageWidth <= seen.width, `no sideways scroll: ${seen.pageWidth} px of ${seen.width}`);
+    check(seen.nowShown, `the current hour's row is on screen: ${seen.now}`);
+    check(seen.ran.length === 12 && seen.ran.every((r) => /Pupil \d{3}/.test(r.text) && r.title.includes(r.text.match(/Pupil \d{3}/)[0])),
+          `names in full, and in the tooltip: ${JSON.stringify(seen.ran.slice(0, 2))}`);
+    check(seen.ran.every((r) => !/timed_out|\bopen\b|_out/.test(r.text)), `no outcome codes: ${seen.ran.map((r) => r.text)}`);
+    const late = seen.ran.find((r) => r.outcome === 'timed_out');
+    check(late && late.text.endsWith(': out of time'), `the time limit's end in words: ${late && late.text}`);
+    await page.setViewportSize({ width: 1280, height: 860 });
   });
 } catch (e) {
   failed = true;

@@ -711,8 +711,13 @@ struct Evaluator::Impl : EvaluationMemory::Data {
     if (finished) bug("Evaluator::finish called twice");
     finished = true;
     const Scheme& sc = rules.scheme;
-    const bool parking = std::find(sc.parking_checked_on_end.begin(), sc.parking_checked_on_end.end(), reason) !=
-                         sc.parking_checked_on_end.end();
+    const int total = int(scene.task.steps.size());
+    const bool complete = int(step) >= total;
+    // The truck is judged as left only when the pupil left it: after an end the pupil can make,
+    // with the task done. A session stopped mid-task (by the time it was given, the time limit,
+    // the instructor's abort) is not charged for the state it was stopped in.
+    const bool parking = complete && std::find(sc.parking_checked_on_end.begin(), sc.parking_checked_on_end.end(), reason) !=
+                                         sc.parking_checked_on_end.end();
     if (parking && have_tick && !tipped) {
       if (lift_s > th(ev::kParkedForksRaised, "lift_max_m"))
         emit(ev::kParkedForksRaised, last_t, pos,
@@ -737,8 +742,6 @@ struct Evaluator::Impl : EvaluationMemory::Data {
               {"thresholds", {{"speed_max_m_s", th(k, "speed_max_m_s")}, {"control_max_fraction", frac}}}},
              out);
     }
-    const int total = int(scene.task.steps.size());
-    const bool complete = int(step) >= total;
     if (!complete) {
       json left = json::array();
       for (size_t i = step; i < scene.task.steps.size(); ++i) left.push_back(step_words(scene.task.steps[i].description));

@@ -64,6 +64,8 @@ SessionSettings load_session_settings(const std::string& data_dir) {
     SessionSettings s;
     s.tick_s = j.at("tick_s").get<double>();
     if (!(s.tick_s >= 1e-4 && s.tick_s <= 0.01)) throw std::runtime_error("tick_s must be in [0.0001, 0.01] s");
+    s.task_end_hold_s = j.at("task_end_hold_s").get<double>();
+    if (!(s.task_end_hold_s >= 0 && s.task_end_hold_s <= 60)) throw std::runtime_error("task_end_hold_s must be in [0, 60] s");
     const nlohmann::json& l = j.at("load");
     s.load_mass_max_kg = l.at("mass_max_kg").get<double>();
     s.load_cog_height_max_m = l.at("cog_height_max_m").get<double>();

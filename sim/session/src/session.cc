@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -59,7 +60,9 @@ SessionModel finish_model(SessionModel m, const std::string& rules_file, const s
 SessionModel load_session_model(const SessionSpec& spec, const std::string& data_dir) {
   SessionModel m = with_scene(spec.scenario_file, data_dir);
   if (!spec.truck_file.empty()) m.scene.scenario.truck_file = spec.truck_file;
-  m.tick_s = load_session_settings(data_dir).tick_s;
+  const SessionSettings settings = load_session_settings(data_dir);
+  m.tick_s = settings.tick_s;
+  m.task_end_hold_s = settings.task_end_hold_s;
   m.integrator = spec.integrator;
   return finish_model(std::move(m), spec.rules_file, spec.mode);
 }
@@ -224,9 +227,20 @@ std::string score_line(const Score& s) {
   return buf + s.end_reason;
 }
 
-bool task_done_and_stopped(const SessionModel& model, const SessionState& s) {
+bool task_done_and_let_be(const SessionModel& model, const SessionState& s) {
   if (model.scene.task.steps.empty() || s.evaluation.steps_done() < int(model.scene.task.steps.size())) return false;
-  return std::hypot(s.x[StateIndex::kQdot + kX], s.x[StateIndex::kQdot + kY]) < 0.05;
+  const Rule* parked = model.rules.find("parked_controls_not_neutral");
+  if (!parked) {  // load_rules requires the rule: its absence is our bug
+    std::fprintf(stderr, "forklift session: internal error: the rules have no parked_controls_not_neutral\n");
+    std::abort();
+  }
+  const double speed_max = parked->thresholds.at("speed_max_m_s"), frac = parked->thresholds.at("control_max_fraction");
+  if (std::hypot(s.x[StateIndex::kQdot + kX], s.x[StateIndex::kQdot + kY]) >= speed_max) return false;
+  const DriverInputs& u = s.inputs.driver;
+  const MastLimits& lim = model.truck.limits;
+  return std::abs(u.drive_torque_N_m) <= frac * model.truck.drive.drive_torque_max_N_m &&
+         std::abs(u.lift_rate_m_s) <= frac * lim.lift_rate_max_m_s && std::abs(u.tilt_rate_rad_s) <= frac * lim.tilt_rate_max_rad_s &&
+         std::abs(u.shift_rate_m_s) <= frac * lim.side_shift_rate_max_m_s;
 }
 
 CoordVector coordinates_of(const SessionState& s) { return coordinates(s.x); }

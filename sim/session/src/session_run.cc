@@ -68,7 +68,8 @@ SessionRun::Tick SessionRun::tick() {
     if (e.kind == name(EndReason::kTimeLimit)) end = EndReason::kTimeLimit;  // the evaluation's fault ends it
   }
   if (!end && ends_.duration_s > 0 && state_.t_s >= ends_.duration_s - 1e-12) end = EndReason::kDuration;
-  if (!end && ends_.task_complete && task_done_and_stopped(model_, state_)) end = EndReason::kTaskComplete;
+  let_be_ticks_ = ends_.task_complete && task_done_and_let_be(model_, state_) ? let_be_ticks_ + 1 : 0;
+  if (!end && let_be_ticks_ && double(let_be_ticks_) * model_.tick_s >= model_.task_end_hold_s - 1e-9) end = EndReason::kTaskComplete;
   return {events_, end};
 }
 

@@ -59,7 +59,7 @@ struct Scheme {
   int max_same_serious_fault = 3;            // ... when one such rule occurs more often than this
   double mark_start = 100;                   // mark = max(0, mark_start - points)
   bool task_required = true;                 // a session (training or exam) is failed unless its task is complete
-  std::vector<std::string> parking_checked_on_end;  // end reasons after which the truck was left
+  std::vector<std::string> parking_checked_on_end;  // end reasons after which the truck was left, if its task is done
 };
 
 struct Rules {

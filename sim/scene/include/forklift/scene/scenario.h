@@ -35,6 +35,7 @@ struct LoadRequest {
 // std::runtime_error naming the file and the key.
 struct SessionSettings {
   double tick_s = 0;  // the physics tick
+  double task_end_hold_s = 0;  // how long a pupil lets the truck be, its task done, before the session ends
   double load_mass_max_kg = 0, load_cog_height_max_m = 0, load_lateral_max_m = 0;  // a requested load's bounds
 };
 SessionSettings load_session_settings(const std::string& data_dir);

@@ -45,6 +45,7 @@ struct SessionModel {
   Rules rules;
   Mode mode = Mode::kTraining;
   double tick_s = 1e-3;       // the physics tick: data/session.json
+  double task_end_hold_s = 1.5;  // its task done, the truck let be this long ends it: data/session.json
   IntegratorOptions integrator;
   std::string data_dir;
 };
@@ -132,8 +133,12 @@ void step(const SessionModel& model, SessionState& state, SessionWorkspace& work
 Score finish(const SessionModel& model, SessionState& state, SessionWorkspace& workspace, const std::string& end_reason,
              std::vector<SessionEvent>& events);
 
-// Whether the session's task is done and the truck has come to rest (the session may end).
-bool task_done_and_stopped(const SessionModel& model, const SessionState& state);
+// Whether the session's task is done and the pupil lets the truck be: at rest, the accelerator
+// and the lift, tilt and side-shift levers let go, as the parking rule parked_controls_not_neutral
+// reads them (its speed_max_m_s and control_max_fraction). The brake and the forks are as the
+// pupil leaves them: the parking rules judge them. Held for model.task_end_hold_s, the session
+// ends (SessionRun: "task_complete").
+bool task_done_and_let_be(const SessionModel& model, const SessionState& state);
 
 // The "score" line of a session log: "score <mark> <passed> <points> <end reason>".
 std::string score_line(const Score& s);

@@ -21,7 +21,7 @@ namespace forklift {
 // The ends a run watches for besides the time limit and a numerical failure (always).
 struct SessionEnds {
   double duration_s = 0;      // > 0: "duration" once the sim time reaches it
-  bool task_complete = true;  // "task_complete" once the task is done and the truck at rest
+  bool task_complete = true;  // "task_complete" once the task is done and the truck let be (task_done_and_let_be)
 };
 
 class SessionRun {
@@ -93,6 +93,7 @@ class SessionRun {
   bool input_owed_ = false;             // held_.driver is to be logged when the tick is stepped
   std::vector<SessionEvent> events_;
   std::string failure_;
+  int64_t let_be_ticks_ = 0;  // the ticks in a row the truck has been let be with its task done
 };
 
 // The inputs and dead-man switches of a log as input changes, merged by tick in the order the
