@@ -42,6 +42,8 @@ enum RuleKey : int {
   kTimeLimit,
   kTaskIncomplete,
   kDeadmanStop,
+  kPedestrianStruck,
+  kSpeedNearPedestrian,
   kNumRules
 };
 
@@ -90,6 +92,8 @@ inline const std::array<RuleSpec, kNumRules>& rule_specs() {
       {"time_limit", AppliesTo::kNothing, {}},
       {"task_incomplete", AppliesTo::kNothing, {}},
       {"deadman_stop", AppliesTo::kNothing, {}},
+      {"pedestrian_struck", AppliesTo::kNothing, {"clear_time_s"}},
+      {"speed_near_pedestrian", AppliesTo::kNothing, {"near_distance_m", "speed_max_m_s", "min_duration_s", "clear_time_s"}},
   }};
   return specs;
 }
