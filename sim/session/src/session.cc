@@ -181,14 +181,14 @@ void step(const SessionModel& model, SessionState& state, SessionWorkspace& work
   // The load as the dynamics left it (slid, fallen) is what the evaluation judges; handling may
   // then set it down or clear a fallen one away.
   const LoadOnForks load_after_dynamics = sim.load_on_forks();
-  const std::vector<PedestrianSpec>& people = model.scene.pedestrians;
-  if (!people.empty()) {  // the people see the truck where the dynamics left it
-    if (state.pedestrians.size() != people.size()) state.pedestrians = initial_pedestrians(people);
-    walk(people, state.pedestrians, w.outline, body_poses(model.truck, coordinates(state.x)), state.t_s, model.tick_s);
-  }
-  {  // collision and pallet handling; the load they attach or release and the scene's push-back
-     // are held from now on, in the state and in the simulation
+  {  // the people's walk, collision and pallet handling; the load they attach or release and the
+     // scene's push-back are held from now on, in the state and in the simulation
     StageScope scope(observer, Stage::kCollision);
+    const std::vector<PedestrianSpec>& people = model.scene.pedestrians;
+    if (!people.empty()) {  // the people see the truck where the dynamics left it
+      if (state.pedestrians.size() != people.size()) state.pedestrians = initial_pedestrians(people);
+      walk(people, state.pedestrians, w.outline, body_poses(model.truck, coordinates(state.x)), state.t_s, model.tick_s);
+    }
     const StepReport& r = *(w.report = &w.warehouse.step(sim, state.handling, state.pedestrians));
     for (const Contact& c : r.contacts)
       if (c.pedestrian >= 0) state.pedestrians[c.pedestrian].struck = true;
