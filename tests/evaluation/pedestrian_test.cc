@@ -1,7 +1,8 @@
 // People walking in the warehouse, through the session's own pipeline: a person struck fails an
-// exam and is a serious fault in training; the speed rule near a person on the shipped
-// pedestrian_awareness drives (clean and faulty, in process and through forklift-sim); the walk
-// reproduced bit for bit from a session's log and from a copy of its state.
+// exam and is a serious fault in training; the rules of speed near a person and of driving on
+// towards one in the path, on the shipped pedestrian_awareness drives (clean and faulty, in
+// process and through forklift-sim); the walk reproduced bit for bit from a session's log and
+// from a copy of its state.
 //
 // FORKLIFT_EVAL_SCRIPT_DIR=data/evaluation/scripts build/tests/evaluation_test --gtest_filter='Pedestrians.*Script*'
 // rewrites the shipped pedestrian_awareness scripts (data/evaluation/scripts/) from these drives.
@@ -89,7 +90,7 @@ void strike_at_walking_pace(Session& s) {
   Driver d{s};
   d.lift_to = 0.2;
   d.settle_levers();
-  drive(s, d, 1.0, 0.0, [&] { return !s.events.empty(); }, 20);
+  drive(s, d, 1.0, 0.0, [&] { return s.count("pedestrian_struck") > 0; }, 20);
   hold(s, d, [&] { return std::abs(s.v()) < 0.005; }, 5);
   s.run(1.0, [&] { Controls c = d.levers(); c.brake = 0.5; return c; });  // still touching him: one event
 }
@@ -97,8 +98,10 @@ void strike_at_walking_pace(Session& s) {
 TEST(Pedestrians, OneStruckAtOneMetrePerSecondFailsAnExam) {
   Session s(scene("pedestrians.json"), Mode::kExam);
   strike_at_walking_pace(s);
-  ASSERT_EQ(s.events.size(), 1u) << s.summary();
-  const EvaluationEvent& e = s.events[0];
+  // Driving on at him was marked before he was struck.
+  ASSERT_EQ(s.events.size(), 2u) << s.summary();
+  EXPECT_EQ(s.events[0].rule, "pedestrian_in_path");
+  const EvaluationEvent& e = s.events[1];
   EXPECT_EQ(e.rule, "pedestrian_struck");
   EXPECT_EQ(e.worry_level, 5);
   EXPECT_TRUE(e.automatic_fail);
@@ -121,7 +124,8 @@ TEST(Pedestrians, OneStruckIsASeriousFaultInTraining) {
   EXPECT_EQ(s.first("pedestrian_struck")->points, 5);
   EXPECT_EQ(s.count("violent_collision"), 0) << "a person is his own rule";
   EXPECT_EQ(s.count("collision_pedestrian"), 0) << "that is the standing figure's";
-  EXPECT_EQ(s.points(), 5);
+  EXPECT_EQ(s.count("pedestrian_in_path"), 1) << s.summary();
+  EXPECT_EQ(s.points(), 5 + 5);
 }
 
 TEST(Pedestrians, ACopyOfTheStateIsARewindPointForThePeopleToo) {
@@ -162,6 +166,7 @@ TEST(Pedestrians, TheCleanScriptKeepsToWalkingPaceAndTheFaultyOneDoesNot) {
   faulty.finish("duration");
   EXPECT_EQ(faulty.count("speed_near_pedestrian"), 1) << faulty.summary();
   EXPECT_EQ(faulty.count("pedestrian_struck"), 0) << faulty.summary();
+  EXPECT_EQ(faulty.count("pedestrian_in_path"), 1) << faulty.summary();
   const EvaluationEvent* e = faulty.first("speed_near_pedestrian");
   ASSERT_NE(e, nullptr);
   EXPECT_EQ(e->worry_level, 5);
@@ -186,7 +191,8 @@ TEST(Pedestrians, TheShippedScriptsAreMarkedAlikeByForkliftSimAndTheLogReplaysTh
   const std::string script = data("evaluation/scripts/" + kFaultyScript);
   const json faulty = evaluate({"--scenario", kAwareness, "--script", script, "--out-log", log}, "ped_faults");
   const std::vector<std::string> rules = rules_of(faulty["events"]);
-  EXPECT_NE(std::find(rules.begin(), rules.end(), "speed_near_pedestrian"), rules.end()) << faulty["events"].dump(1);
+  for (const char* rule : {"speed_near_pedestrian", "pedestrian_in_path"})
+    EXPECT_NE(std::find(rules.begin(), rules.end(), rule), rules.end()) << rule << "\n" << faulty["events"].dump(1);
 
   // The walk as the script drives it, and as the log replays it: the same positions, bit for bit.
   const SessionModel model = load_session_model(SessionSpec{kAwareness}, FORKLIFT_DATA_DIR);

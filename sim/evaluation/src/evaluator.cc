@@ -102,7 +102,7 @@ struct EvaluationMemory::Data {
   std::vector<Episode> episodes;  // per scene object
   std::vector<int> active_episodes;
   std::vector<Episode> people_episodes;  // per walking pedestrian
-  Debounce near_pedestrian;
+  Debounce near_pedestrian, pedestrian_in_path;
 
   std::array<Debounce, 3> speed;  // by kSpeedRules order
   Debounce forks_high, forks_low, tilt_forward, turn, turn_raised, brake_raised, stability_warn, wheel_lift, off_route;
@@ -364,6 +364,46 @@ struct Evaluator::Impl : EvaluationMemory::Data {
            {{"pedestrian", scene.pedestrians[who].id},
             {"measured", {{"speed_m_s", round6(ground_speed)}, {"distance_m", round6(nearest)}}},
             {"thresholds", {{"speed_max_m_s", th(k, "speed_max_m_s")}, {"near_distance_m", near}}}},
+           out);
+  }
+
+  // Driving on towards a person in the truck's path nearer than it could stop: a person ahead of
+  // its front (the fork tips; reversing: behind its counterweight), within its width and
+  // lateral_margin_m either side, closer than the distance it needs to stop from its speed
+  // (reaction_time_s at that speed, then braking at braking_deceleration_m_s2, plus margin_m).
+  void people_in_path(const TickInput& in, double v, std::vector<EvaluationEvent>& out) {
+    if (!in.pedestrians || in.pedestrians->empty()) return;
+    const RuleKey k = ev::kPedestrianInPath;
+    const double speed = std::abs(v);
+    const double need = speed * th(k, "reaction_time_s") + speed * speed / (2 * th(k, "braking_deceleration_m_s2")) +
+                        th(k, "margin_m");
+    double gap = std::numeric_limits<double>::infinity();
+    int who = -1;
+    if (speed >= th(k, "travel_speed_min_m_s")) {
+      const Eigen::Isometry3d to_chassis = in.poses.chassis.inverse();
+      const Eigen::Vector3d tips = to_chassis * (in.poses.carriage * Eigen::Vector3d(outline.forks_m.max().x(), 0, 0));
+      const double front = std::max(outline.chassis_m.max().x(), tips.x()), rear = outline.chassis_m.min().x();
+      const double half_width = std::max(-outline.chassis_m.min().y(), outline.chassis_m.max().y()) + th(k, "lateral_margin_m");
+      const double z = in.poses.chassis.translation().z();
+      for (size_t i = 0; i < in.pedestrians->size(); ++i) {
+        const Eigen::Vector2d at = (*in.pedestrians)[i].at_m;
+        const Eigen::Vector3d p = to_chassis * Eigen::Vector3d(at.x(), at.y(), z);
+        if (std::abs(p.y()) > half_width) continue;
+        const double d = v > 0 ? p.x() - front : rear - p.x();
+        if (d >= 0 && d < gap) {
+          gap = d;
+          who = int(i);
+        }
+      }
+    }
+    if (pedestrian_in_path.update(gap < need, in.t_s, th(k, "min_duration_s"), th(k, "clear_time_s")))
+      emit(k, in.t_s, in.out.q.head<2>(),
+           {{"pedestrian", scene.pedestrians[who].id},
+            {"direction", v > 0 ? "forward" : "reverse"},
+            {"measured", {{"speed_m_s", round6(speed)}, {"distance_m", round6(gap)}, {"stopping_distance_m", round6(need)}}},
+            {"thresholds", {{"reaction_time_s", th(k, "reaction_time_s")},
+                            {"braking_deceleration_m_s2", th(k, "braking_deceleration_m_s2")},
+                            {"margin_m", th(k, "margin_m")}}}},
            out);
   }
 
@@ -741,6 +781,7 @@ struct Evaluator::Impl : EvaluationMemory::Data {
     collisions(in, out);
     speeding(in, ground_speed, out);
     speed_near_people(in, ground_speed, out);
+    people_in_path(in, v, out);
     forks_and_mast(in, v, heel_height, out);
     dynamics(in, v, heel_height, out);
     handling(in, out);

@@ -44,6 +44,7 @@ enum RuleKey : int {
   kDeadmanStop,
   kPedestrianStruck,
   kSpeedNearPedestrian,
+  kPedestrianInPath,
   kNumRules
 };
 
@@ -94,6 +95,8 @@ inline const std::array<RuleSpec, kNumRules>& rule_specs() {
       {"deadman_stop", AppliesTo::kNothing, {}},
       {"pedestrian_struck", AppliesTo::kNothing, {"clear_time_s"}},
       {"speed_near_pedestrian", AppliesTo::kNothing, {"near_distance_m", "speed_max_m_s", "min_duration_s", "clear_time_s"}},
+      {"pedestrian_in_path", AppliesTo::kNothing, {"travel_speed_min_m_s", "reaction_time_s", "braking_deceleration_m_s2",
+                                                   "margin_m", "lateral_margin_m", "min_duration_s", "clear_time_s"}},
   }};
   return specs;
 }
