@@ -9,6 +9,9 @@
 //   warehouse  practical_exam (the full warehouse: 13 zones, a 3 m route, about 70 objects)
 //              with the first 60 s of the same script (the truck drives into the warehouse's
 //              walls and racks, so contacts, collision events and their JSON are included)
+//   yard_people_10  the yard with 10 pedestrians added (every other one looks; each walks 40 m
+//              to and fro past the start, 6 m and more beside it): the walk, their bodies in
+//              the collision world and the speed rule near people, against the yard's 0
 // Rows:
 //   pipeline/<scene>   manual time = the whole tick; counters: per-tick microseconds of each
 //                      stage (dynamics_us, collision_us, outputs_us, evaluation_us) and the ratios
@@ -52,15 +55,31 @@ struct Run {
   std::vector<SessionEvent> found;
   size_t events = 0;
 
-  Run(const std::string& scenario, const std::string& script, double max_s) {
+  Run(const std::string& scenario, const std::string& script, double max_s, int people = 0) {
     SessionSpec spec;
     spec.scenario_file = scenario;
     spec.mode = "exam";
     model = load_session_model(spec, kData);
+    add_people(people);
     changes = script_changes(script, model);
     end = std::min<int64_t>(changes.back().tick + 1, int64_t(max_s / model.tick_s));
     first = initial_state(model);
     restart();
+  }
+
+  // `n` people walking to and fro along lines across x, from 6 m beside the start outwards.
+  void add_people(int n) {
+    const Eigen::Vector2d at(model.scene.scenario.x_m, model.scene.scenario.y_m);
+    for (int i = 0; i < n; ++i) {
+      PedestrianSpec p;
+      p.id = "bench_person_" + std::to_string(i);
+      const Eigen::Vector2d a = at + Eigen::Vector2d(-20, 6 + 1.5 * i), b = at + Eigen::Vector2d(20, 6 + 1.5 * i);
+      p.path = {a, b, a, b, a};
+      p.speed_m_s = 1.2;
+      p.looks = i % 2 == 0;
+      p.stop_within_m = p.looks ? 3.0 : 0.0;
+      model.scene.pedestrians.push_back(p);
+    }
   }
 
   void restart() {
@@ -79,9 +98,11 @@ struct Scenes {
   const char* name;
   std::string scenario;
   double max_s;
+  int people = 0;
 };
 const Scenes kYard{"yard", kData + "/scenarios/first_drive_yard.json", 1e9};
 const Scenes kWarehouse{"warehouse", kData + "/scenarios/practical_exam.json", 60};
+const Scenes kYardPeople{"yard_people_10", kYard.scenario, 1e9, 10};
 const std::string kScript = kData + "/evaluation/scripts/first_drive_yard_exam.csv";
 
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
@@ -103,7 +124,7 @@ struct StageTimes : StageObserver {
 std::map<std::string, std::vector<double>> g_tick_s;
 
 void BM_Pipeline(benchmark::State& state, Scenes sc) {
-  Run run(sc.scenario, kScript, sc.max_s);
+  Run run(sc.scenario, kScript, sc.max_s, sc.people);
   std::vector<double>& ticks = g_tick_s[sc.name];
   StageTimes times;
   for (auto _ : state) {
@@ -174,6 +195,7 @@ void BM_EvaluatorTick(benchmark::State& state, Scenes sc) {
 
 BENCHMARK_CAPTURE(BM_Pipeline, yard, kYard)->Name("pipeline/yard")->UseManualTime()->Iterations(150000)->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_Pipeline, warehouse, kWarehouse)->Name("pipeline/warehouse")->UseManualTime()->Iterations(60000)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_Pipeline, yard_people_10, kYardPeople)->Name("pipeline/yard_people_10")->UseManualTime()->Iterations(150000)->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_EvaluatorTick, yard, kYard)->Name("evaluator/yard")->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_EvaluatorTick, warehouse, kWarehouse)->Name("evaluator/warehouse")->Unit(benchmark::kMicrosecond);
 

@@ -33,6 +33,9 @@ constexpr int kMaxSize = 8192;
 const Vector3f kSky{0.66f, 0.77f, 0.88f};
 const Vector3f kForkColour{0.17f, 0.17f, 0.18f};
 const Vector3f kLoadColour{0.74f, 0.56f, 0.34f};  // cardboard
+// A walking person: fluorescent yellow-orange vest and sleeves (EN ISO 20471 hi-vis), dark
+// trousers, skin.
+const Vector3f kHiVisColour{1.0f, 0.72f, 0.0f}, kTrousersColour{0.12f, 0.14f, 0.22f}, kSkinColour{0.85f, 0.66f, 0.52f};
 // The last 10 cm of each fork, painted as a training truck's are, so the tips read at 3 m
 // against the floor and a pallet's dark openings.
 const Vector3f kForkTipColour{0.98f, 0.62f, 0.05f};
@@ -409,6 +412,7 @@ struct Renderer::Impl {
   std::vector<std::unique_ptr<GpuMesh>> meshes;  // pallets and loads, each mesh drawn once a frame
   std::map<const Mesh*, GpuMesh*> by_mesh;
   GpuMesh* load_box = nullptr;
+  GpuMesh* person = nullptr;  // the walking people's figure, when the scene has any
   // The truck; the guard, the mast and the carriage's frame can be drawn see-through.
   TruckBatch truck_batch;
 
@@ -501,6 +505,22 @@ struct Renderer::Impl {
     return load_box;
   }
 
+  // A person 1.75 m tall in the frame pedestrian_body_pose gives, but standing on z = 0: x chest
+  // to back (0.3 m), y across the shoulders (0.5 m); scaled to each one's size when drawn.
+  GpuMesh* person_figure() {
+    Geometry g;
+    const auto part = [&](double x0, double y0, double z0, double x1, double y1, double z1, const Vector3f& colour) {
+      g.add_box(Eigen::AlignedBox3d(Vector3d(x0, y0, z0), Vector3d(x1, y1, z1)), Isometry3d::Identity(), colour);
+    };
+    part(-0.08, 0.02, 0, 0.08, 0.17, 0.85, kTrousersColour);
+    part(-0.08, -0.17, 0, 0.08, -0.02, 0.85, kTrousersColour);
+    part(-0.15, -0.21, 0.85, 0.15, 0.21, 1.45, kHiVisColour);
+    part(-0.06, 0.21, 0.80, 0.06, 0.25, 1.42, kHiVisColour);
+    part(-0.06, -0.25, 0.80, 0.06, -0.21, 1.42, kHiVisColour);
+    part(-0.10, -0.09, 1.45, 0.10, 0.09, 1.75, kSkinColour);
+    return add_mesh(g);
+  }
+
   // One GPU mesh per scene mesh, painted with `pattern` (the first asked for it).
   GpuMesh* mesh_for(const std::shared_ptr<const Mesh>& mesh, render::Pattern pattern = render::Pattern::kPlain) {
     if (!mesh) return nullptr;
@@ -576,6 +596,7 @@ struct Renderer::Impl {
         add_object(o);
       }
     }
+    if (!scene.pedestrians.empty()) person = person_figure();
     plain_from = static_batch.parts.size();
     if (quality.textures)
       for (const SceneObject& o : scene.objects)
@@ -724,6 +745,22 @@ struct Renderer::Impl {
     }
   }
 
+  // The walking people where the state has them (at their paths' starts when it has none),
+  // each figure scaled to his body's size.
+  void place_people(const RenderState& state) {
+    if (!person) return;
+    const std::vector<PedestrianSpec>& specs = scene.pedestrians;
+    const std::vector<PedestrianState> start = state.pedestrians.size() == specs.size() ? std::vector<PedestrianState>{}
+                                                                                         : initial_pedestrians(specs);
+    const std::vector<PedestrianState>& now = start.empty() ? state.pedestrians : start;
+    for (size_t i = 0; i < specs.size(); ++i) {
+      Eigen::Affine3d m(Eigen::Translation3d(now[i].at_m.x(), now[i].at_m.y(), 0));
+      m.rotate(Eigen::AngleAxisd(now[i].heading_rad, Vector3d::UnitZ()));
+      m.scale(Vector3d(specs[i].size_m.y() / 0.3, specs[i].size_m.x() / 0.5, specs[i].size_m.z() / 1.75));
+      person->add(m);
+    }
+  }
+
   // `hazed`: a view from in the warehouse (driver, chase), where far things fade towards the sky.
   RgbxPixels draw(const RenderState& state, const BodyPoses& poses, const Camera& camera, bool hazed,
                   const ViewOptions& options = {}) {
@@ -744,6 +781,7 @@ struct Renderer::Impl {
         p.load->add(m);
       }
     }
+    place_people(state);
 
     // Depth range from what is in the scene this frame.
     Eigen::AlignedBox3d extent;

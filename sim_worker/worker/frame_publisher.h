@@ -89,6 +89,7 @@ class FramePublisher {
     std::lock_guard<std::mutex> lock(m_);
     state_.q = coordinates_of(s);
     state_.pallets = s.handling.pallets();
+    state_.pedestrians = s.pedestrians;
     t_ = s.t_s;
   }
   // The cab's wish: frames as `r` asks, or none (nullopt). Aids not granted are ignored.

@@ -86,6 +86,47 @@ TEST(Collision, WallAtOneMetrePerSecond) {
   EXPECT_LE(run.contacts.size(), 2u);
 }
 
+// A person standing 4 m ahead, then one whose state has him walking towards the truck at 1 m/s:
+// struck by the forks, each a contact naming him, at the speed they close at; neither pushes back.
+TEST(Collision, PeopleAreStruckAndGiveWay) {
+  for (const double walking : {0.0, 1.0}) {
+    SCOPED_TRACE(walking);
+    Scene scene = scene_of({});
+    PedestrianSpec p;
+    p.id = "W1";
+    p.path = {Eigen::Vector2d(4.15, 0), Eigen::Vector2d(-10, 0)};
+    p.speed_m_s = 1.0;
+    p.looks = false;
+    scene.pedestrians.push_back(p);
+    TruckDynamics d(truck());
+    Driven run(scene, truck_shape(), settled(d, 0, 0, 0, 0.1));
+    run.people = initial_pedestrians(scene.pedestrians);  // at x = 4.15, his chest at 4.0, facing -x
+    run.people[0].speed_m_s = walking;
+    ASSERT_TRUE(run.run(10.0, [&] { return hold_speed(1.0, run.v()); }, [&] { return !run.contacts.empty(); }));
+    const Contact& c = run.contacts.front().second;
+    EXPECT_EQ(c.object_id, "W1");
+    EXPECT_EQ(c.object_kind, ObjectKind::kPedestrian);
+    EXPECT_EQ(c.pedestrian, 0);
+    EXPECT_TRUE(c.truck_part == "fork_left" || c.truck_part == "fork_right") << c.truck_part;
+    EXPECT_NEAR(c.point_m.x(), 4.0, 0.002);
+    EXPECT_NEAR(c.relative_speed_m_s, run.v() + walking, 0.05);
+    // Driven on into him for 0.2 s: nothing holds the truck back.
+    const double v = run.v();
+    run.run(0.2, [&] { return hold_speed(1.0, run.v()); });
+    EXPECT_NEAR(run.v(), v, 0.05);
+  }
+  // With no states given, nobody stands there.
+  Scene scene = scene_of({});
+  PedestrianSpec p;
+  p.id = "W1";
+  p.path = {Eigen::Vector2d(4.15, 0), Eigen::Vector2d(-10, 0)};
+  p.speed_m_s = 1.0;
+  scene.pedestrians.push_back(p);
+  TruckDynamics d(truck());
+  Driven run(scene, truck_shape(), settled(d, 0, 0, 0, 0.1));
+  EXPECT_FALSE(run.run(4.0, [&] { return hold_speed(1.0, run.v()); }, [&] { return !run.contacts.empty(); }));
+}
+
 // Backing away from a wall the forks are in: once the truck moves back, no speed into it.
 TEST(Collision, RelativeSpeedIsZeroMovingAway) {
   const Scene scene = scene_of({wall("W", box(1.37, -3, 0, 1.6, 3, 3))});  // the fork tips (x 1.4) 3 cm in

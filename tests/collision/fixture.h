@@ -182,6 +182,7 @@ struct Driven {
   std::unique_ptr<Simulation> sim;
   std::unique_ptr<Warehouse> warehouse;
   HandlingState handling;  // every pallet, as the warehouse steps them
+  std::vector<PedestrianState> people;  // where the scene's pedestrians stand (empty: none placed)
   std::vector<std::pair<double, Contact>> contacts;  // every contact of every tick, with its time
   std::vector<HandlingEvent> events;
   std::vector<double> event_times;
@@ -206,7 +207,7 @@ struct Driven {
     while (t() < end - 1e-9) {
       sim->set_inputs(control());
       sim->advance_to(t() + kTick);
-      const StepReport& r = warehouse->step(*sim, handling);
+      const StepReport& r = warehouse->step(*sim, handling, people);
       apply(r, *sim);
       for (const Contact& c : r.contacts) contacts.emplace_back(t(), c);
       for (const HandlingEvent& e : r.handling) {

@@ -375,6 +375,14 @@ struct Driver {
   void park(double hold_s = 0.5) {
     s.run(hold_s, [&] { Controls c; c.brake = 0.5; c.steer_rad = 0; return c; });
   }
+  // The end of a clean drive: forks lowered with the truck braked, then parked for a second.
+  // Forks down, then parked for longer than data/session.json's task_end_hold_s: a live session
+  // ends within it.
+  void park_forks_down() {
+    lift_to = 0.0;
+    settle_levers();
+    park(3.0);
+  }
 };
 
 }  // namespace evt

@@ -636,6 +636,39 @@ TEST(Renderer, PalletsAreDrawnWhereTheStatePutsThem) {
   EXPECT_LT(centroid_x(b, bluish), 0.35);
 }
 
+TEST(Renderer, WalkingPeopleAreHiVisFiguresWhereTheStatePutsThem) {
+  Scene scene = floor_scene();
+  PedestrianSpec walker;
+  walker.id = "W1";
+  walker.path = {Vector2d(6, 0), Vector2d(6, 10)};
+  walker.speed_m_s = 1.2;
+  walker.looks = false;
+  scene.pedestrians.push_back(walker);
+  Renderer r(scene, test_truck_shape(), truck());
+  // Yellow-orange, lit or in shade: red strong, green well above blue (grey floor, blue sky, the
+  // dark mast, skin and trousers are none of these).
+  auto hi_vis = [](const uint8_t* p) { return p[0] > 120 && p[0] > p[1] + 20 && p[1] > p[2] + 60; };
+
+  // Looked for above the truck's own paint (its yellow body and fork tips, at the bottom).
+  const auto ahead = [&](const Image& im) { return fraction(im, 0.4, 0.3, 0.6, 0.8, hi_vis); };
+  const auto left = [&](const Image& im) { return fraction(im, 0.0, 0.3, 0.4, 0.8, hi_vis); };
+
+  // No states: at his path's start, straight ahead.
+  RenderState state = truck_at(0, 0, 0);
+  const Image& a = r.render(state, View::kDriver);
+  dump("pedestrian_at_start", a);
+  EXPECT_GT(ahead(a), 0.005);
+  EXPECT_EQ(left(a), 0.0);
+
+  // Walked 3 m to the left.
+  state.pedestrians = initial_pedestrians(scene.pedestrians);
+  state.pedestrians[0].at_m = Vector2d(6, 3);
+  const Image& b = r.render(state, View::kDriver);
+  dump("pedestrian_walked", b);
+  EXPECT_GT(left(b), 0.002);
+  EXPECT_EQ(ahead(b), 0.0) << "gone from where he stood";
+}
+
 // ---- the plan view and the floor's paint ----------------------------------------------------
 
 TEST(Renderer, PlanViewShowsConcaveWalkwayStriped) {

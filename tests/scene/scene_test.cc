@@ -178,7 +178,8 @@ TEST(Scenarios, EveryShippedScenarioLoadsWithATask) {
     // The start stands in a zone with a speed limit.
     EXPECT_TRUE(s.speed_limit(Eigen::Vector2d(s.scenario.x_m, s.scenario.y_m)).has_value());
   }
-  for (const char* n : {"first_drive", "first_drive_yard", "slalom", "rack_pick", "load_lorry", "practical_exam", "counterbalance_exam"})
+  for (const char* n : {"first_drive", "first_drive_yard", "slalom", "rack_pick", "load_lorry", "practical_exam", "counterbalance_exam",
+                        "pedestrian_awareness"})
     EXPECT_TRUE(names.count(n)) << n;
 }
 

@@ -72,6 +72,7 @@ class FclWorld final : public CollisionWorld {
   void set_pallet_pose(int pallet, const Isometry3d& pose) override;
   void set_carried(int pallet) override;
   void place_truck(const BodyPoses& poses, const Isometry3d& load_pose) override;
+  void place_people(const std::vector<LocalBox>& bodies) override;
   const std::vector<int>& nearby_pallets() const override { return nearby_pallets_; }
   void contacts(const std::vector<bool>& fork_excluded, std::vector<RawContact>& out) override;
 
@@ -91,12 +92,14 @@ class FclWorld final : public CollisionWorld {
     Eigen::AlignedBox3d aabb;  // world
   };
 
-  void test_pair(fcl::CollisionObjectd* truck_obj, int part, Body body, const SceneBox& s, std::vector<RawContact>& out);
+  void test_pair(fcl::CollisionObjectd* truck_obj, int part, Body body, const SceneBox& s, std::vector<RawContact>& out,
+                 int person = -1);
   void add_contact(std::vector<RawContact>& out, const RawContact& c);
 
   std::vector<TruckBox> truck_;
   std::vector<std::unique_ptr<SceneBox>> static_;
   std::vector<std::vector<std::unique_ptr<SceneBox>>> pallet_;  // per pallet
+  std::vector<std::unique_ptr<SceneBox>> people_;  // per pedestrian, moved every tick; few, so no broad phase
   std::unique_ptr<fcl::DynamicAABBTreeCollisionManagerd> static_manager_, pallet_manager_;
   int carried_ = -1;
 
@@ -243,9 +246,28 @@ void FclWorld::place_truck(const BodyPoses& poses, const Isometry3d& load_pose) 
   }
 }
 
+void FclWorld::place_people(const std::vector<LocalBox>& bodies) {
+  for (size_t i = people_.size(); i < bodies.size(); ++i) {
+    auto sb = std::make_unique<SceneBox>();
+    sb->object = 0;
+    sb->pallet = -1;
+    sb->box = bodies[i];
+    sb->obj = make_object(LocalBox{Isometry3d::Identity(), bodies[i].half}, Isometry3d::Identity());
+    people_.push_back(std::move(sb));
+  }
+  people_.resize(bodies.size());
+  for (size_t i = 0; i < bodies.size(); ++i) {
+    SceneBox& sb = *people_[i];
+    sb.box = bodies[i];
+    sb.obj->setTransform(to_fcl(bodies[i].centre));
+    sb.obj->computeAABB();
+    sb.aabb = world_aabb(bodies[i].centre, bodies[i].half);
+  }
+}
+
 void FclWorld::add_contact(std::vector<RawContact>& out, const RawContact& c) {
   for (RawContact& r : out) {
-    if (r.part == c.part && r.object == c.object) {
+    if (r.part == c.part && r.object == c.object && r.person == c.person) {
       if (c.depth > r.depth) r = c;
       return;
     }
@@ -254,7 +276,7 @@ void FclWorld::add_contact(std::vector<RawContact>& out, const RawContact& c) {
 }
 
 void FclWorld::test_pair(fcl::CollisionObjectd* truck_obj, int part, Body body, const SceneBox& s,
-                         std::vector<RawContact>& out) {
+                         std::vector<RawContact>& out, int person) {
   result_.clear();
   fcl::collide(truck_obj, s.obj.get(), request_, result_);
   const size_t n = result_.numContacts();
@@ -269,7 +291,7 @@ void FclWorld::test_pair(fcl::CollisionObjectd* truck_obj, int part, Body body, 
     point += k.pos;
   }
   // FCL's normal points from o1 (the truck) to o2.
-  add_contact(out, RawContact{part, body, s.object, point / double(n), -normal.normalized(), std::max(0.0, depth)});
+  add_contact(out, RawContact{part, body, s.object, person, point / double(n), -normal.normalized(), std::max(0.0, depth)});
 }
 
 void FclWorld::contacts(const std::vector<bool>& fork_excluded, std::vector<RawContact>& out) {
@@ -283,6 +305,15 @@ void FclWorld::contacts(const std::vector<bool>& fork_excluded, std::vector<RawC
     if (carried_ >= 0)
       for (auto& lb : pallet_[carried_])
         if (lb->aabb.intersects(s->aabb)) test_pair(lb->obj.get(), kPartLoad, Body::kLoad, *s, out);
+  }
+  for (size_t i = 0; i < people_.size(); ++i) {
+    const SceneBox& s = *people_[i];
+    if (!truck_aabb_.intersects(s.aabb)) continue;
+    for (TruckBox& t : truck_)
+      if (t.aabb.intersects(s.aabb)) test_pair(t.obj.get(), t.part, t.body, s, out, int(i));
+    if (carried_ >= 0)
+      for (auto& lb : pallet_[carried_])
+        if (lb->aabb.intersects(s.aabb)) test_pair(lb->obj.get(), kPartLoad, Body::kLoad, s, out, int(i));
   }
 }
 

@@ -127,6 +127,8 @@ struct Warehouse::Impl : HandlingState::Data {
 
   StepReport report;
   std::vector<collision::RawContact> raw;
+  std::vector<collision::LocalBox> people_boxes;       // scratch, per pedestrian
+  const std::vector<PedestrianState>* people = nullptr;  // this step's, when the scene has any
 
   Impl(const Scene& s, const TruckShape& shape, const TruckParams& t) : scene(s), truck(t) {
     forks = collision::fork_boxes(shape);
@@ -178,9 +180,23 @@ struct Warehouse::Impl : HandlingState::Data {
 
   Isometry3d load_pose(const Isometry3d& carriage) const { return carriage * along_x(slide_m) * rel; }
 
+  // The people's bodies where this step's states stand them (none without states: nobody to
+  // strike, as in contacts_at).
+  void place_people() {
+    if (scene.pedestrians.empty()) return;
+    people_boxes.resize(people ? scene.pedestrians.size() : 0);
+    for (size_t i = 0; i < people_boxes.size(); ++i) {
+      const PedestrianSpec& spec = scene.pedestrians[i];
+      // Local x chest to back, y across the shoulders (pedestrian_body_pose).
+      people_boxes[i] = {pedestrian_body_pose(spec, (*people)[i]), 0.5 * Vector3d(spec.size_m.y(), spec.size_m.x(), spec.size_m.z())};
+    }
+    world->place_people(people_boxes);
+  }
+
   // Truck placed at q: engagement of the nearby pallets, then the contacts.
   void place_and_collide(const BodyPoses& poses) {
     world->place_truck(poses, carried >= 0 ? load_pose(poses.carriage) : Isometry3d::Identity());
+    place_people();
     std::fill(engaged.begin(), engaged.end(), false);
     for (int p : world->nearby_pallets()) {
       engagement[p] = handling::engagement(spec(p), states[p].pose.inverse() * poses.carriage, forks);
@@ -197,9 +213,18 @@ struct Warehouse::Impl : HandlingState::Data {
       if (r.body == Body::kLoad && r.normal.z() > 0.9 && r.depth <= handling::kRestingTouchDepthM) continue;
       Contact c;
       c.truck_part = collision::part_name(r.part);
-      const SceneObject& o = scene.objects[r.object];
-      c.object_id = o.id;
-      c.object_kind = o.kind;
+      Vector3d person_v = Vector3d::Zero();
+      if (r.person >= 0) {
+        c.object_id = scene.pedestrians[r.person].id;
+        c.object_kind = ObjectKind::kPedestrian;
+        c.pedestrian = r.person;
+        const PedestrianState& p = (*people)[r.person];
+        person_v = p.speed_m_s * Vector3d(std::cos(p.heading_rad), std::sin(p.heading_rad), 0);
+      } else {
+        const SceneObject& o = scene.objects[r.object];
+        c.object_id = o.id;
+        c.object_kind = o.kind;
+      }
       c.point_m = r.point;
       c.normal = r.normal;
       c.depth_m = r.depth;
@@ -207,7 +232,7 @@ struct Warehouse::Impl : HandlingState::Data {
         const int b = r.body == Body::kChassis ? 0 : r.body == Body::kMast ? 1 : 2;
         Vector3d v = (*motion)[b].at(r.point);
         if (r.body == Body::kLoad) v += slide_rate_m_s * fork_x;
-        c.relative_speed_m_s = std::max(0.0, -v.dot(r.normal));
+        c.relative_speed_m_s = std::max(0.0, -(v - person_v).dot(r.normal));
       }
       out.push_back(std::move(c));
     }
@@ -398,7 +423,15 @@ Warehouse::Warehouse(const Scene& scene, const TruckShape& shape, const TruckPar
 }
 Warehouse::~Warehouse() = default;
 
-const StepReport& Warehouse::step(const Simulation& sim, HandlingState& state) {
+const StepReport& Warehouse::step(const Simulation& sim, HandlingState& state, const std::vector<PedestrianState>& people) {
+  if (people.size() != impl_->scene.pedestrians.size() && !people.empty())
+    throw std::logic_error("Warehouse::step: one pedestrian state per scene pedestrian");
+  // Read during this step only.
+  struct People {
+    const std::vector<PedestrianState>*& p;
+    ~People() { p = nullptr; }
+  } hold{impl_->people};
+  impl_->people = people.empty() ? nullptr : &people;
   // The session's state in the warehouse for the step, and back afterwards (an exception too).
   struct Borrow {
     HandlingState::Data& mine;

@@ -9,6 +9,7 @@
 
 #include "forklift/evaluation/evaluation.h"
 #include "forklift/dynamics/stability.h"
+#include "forklift/scene/pedestrians.h"
 #include "geometry.h"
 #include "rule_table.h"
 #include "forklift/units/units.h"
@@ -101,6 +102,8 @@ struct EvaluationMemory::Data {
   };
   std::vector<Episode> episodes;  // per scene object
   std::vector<int> active_episodes;
+  std::vector<Episode> people_episodes;  // per walking pedestrian
+  Debounce near_pedestrian, pedestrian_in_path;
 
   std::array<Debounce, 3> speed;  // by kSpeedRules order
   Debounce forks_high, forks_low, tilt_forward, turn, turn_raised, brake_raised, stability_warn, wheel_lift, off_route;
@@ -161,6 +164,7 @@ struct Evaluator::Impl : EvaluationMemory::Data {
     bool walkway;      // a collision here is collision_in_walkway
   };
   std::vector<ZoneInfo> zones;
+  TruckOutline outline;  // for distances to people
 
   Impl(const Rules& r, const Scene& s, const TruckParams& t, const TruckShape& shape, Mode m)
       : rules(r), scene(s), truck(t), fork_length_m(shape.fork_length_m), fork_thickness_m(shape.fork_thickness_m), mode(m) {
@@ -186,6 +190,8 @@ struct Evaluator::Impl : EvaluationMemory::Data {
     }
     for (size_t i = 0; i < scene.objects.size(); ++i) object_index.emplace(scene.objects[i].id, int(i));
     episodes.resize(scene.objects.size());
+    people_episodes.resize(scene.pedestrians.size());
+    outline = truck_outline(shape);
     active_episodes.reserve(scene.objects.size());
     for (const Zone& z : scene.zones) {
       ZoneInfo info{&z, ev::kSpeedOpenAisle, false, false};
@@ -252,6 +258,10 @@ struct Evaluator::Impl : EvaluationMemory::Data {
   void collisions(const TickInput& in, std::vector<EvaluationEvent>& out) {
     const double violent = th(ev::kViolentCollision, "impact_speed_m_s");
     for (const Contact& c : in.report.contacts) {
+      if (c.pedestrian >= 0) {
+        struck(in, c, out);
+        continue;
+      }
       const auto it = object_index.find(c.object_id);
       if (it == object_index.end()) continue;  // not a scene object (cannot happen with the Warehouse)
       Episode& ep = episodes[it->second];
@@ -314,6 +324,88 @@ struct Evaluator::Impl : EvaluationMemory::Data {
         ++i;
       }
     }
+  }
+
+  // A walking person struck: one event per person per contact episode (an episode ends after
+  // clear_time_s without a contact with that person); never graded down to a touch.
+  void struck(const TickInput& in, const Contact& c, std::vector<EvaluationEvent>& out) {
+    const RuleKey k = ev::kPedestrianStruck;
+    Episode& ep = people_episodes[c.pedestrian];
+    const bool was_active = ep.active && in.t_s - ep.last_contact_t < th(k, "clear_time_s");
+    ep.active = true;
+    ep.last_contact_t = in.t_s;
+    if (was_active) return;
+    const PedestrianSpec& p = scene.pedestrians[c.pedestrian];
+    emit(k, in.t_s, c.point_m.head<2>(),
+         {{"pedestrian", p.id},
+          {"looks", p.looks},
+          {"truck_part", c.truck_part},
+          {"measured", {{"impact_speed_m_s", round6(c.relative_speed_m_s)}, {"depth_m", round6(c.depth_m)}}}},
+         out);
+  }
+
+  // Speed near a person: faster than speed_max_m_s with the truck's outline within
+  // near_distance_m of any pedestrian, for min_duration_s.
+  void speed_near_people(const TickInput& in, double ground_speed, std::vector<EvaluationEvent>& out) {
+    if (!in.pedestrians || in.pedestrians->empty()) return;
+    const RuleKey k = ev::kSpeedNearPedestrian;
+    const double near = th(k, "near_distance_m");
+    double nearest = std::numeric_limits<double>::infinity();
+    int who = -1;
+    for (size_t i = 0; i < in.pedestrians->size(); ++i) {
+      const double d = distance_to_truck(outline, in.poses, (*in.pedestrians)[i].at_m);
+      if (d < nearest) {
+        nearest = d;
+        who = int(i);
+      }
+    }
+    const bool on = nearest <= near && ground_speed > th(k, "speed_max_m_s");
+    if (near_pedestrian.update(on, in.t_s, th(k, "min_duration_s"), th(k, "clear_time_s")))
+      emit(k, in.t_s, in.out.q.head<2>(),
+           {{"pedestrian", scene.pedestrians[who].id},
+            {"measured", {{"speed_m_s", round6(ground_speed)}, {"distance_m", round6(nearest)}}},
+            {"thresholds", {{"speed_max_m_s", th(k, "speed_max_m_s")}, {"near_distance_m", near}}}},
+           out);
+  }
+
+  // Driving on towards a person in the truck's path nearer than it could stop: a person ahead of
+  // its front (the fork tips; reversing: behind its counterweight), within its width and
+  // lateral_margin_m either side, closer than the distance it needs to stop from its speed
+  // (reaction_time_s at that speed, then braking at braking_deceleration_m_s2, plus margin_m).
+  void people_in_path(const TickInput& in, double v, std::vector<EvaluationEvent>& out) {
+    if (!in.pedestrians || in.pedestrians->empty()) return;
+    const RuleKey k = ev::kPedestrianInPath;
+    const double speed = std::abs(v);
+    const double need = speed * th(k, "reaction_time_s") + speed * speed / (2 * th(k, "braking_deceleration_m_s2")) +
+                        th(k, "margin_m");
+    double gap = std::numeric_limits<double>::infinity();
+    int who = -1;
+    if (speed >= th(k, "travel_speed_min_m_s")) {
+      const Eigen::Isometry3d to_chassis = in.poses.chassis.inverse();
+      const Eigen::Vector3d tips = to_chassis * (in.poses.carriage * Eigen::Vector3d(outline.forks_m.max().x(), 0, 0));
+      const double front = std::max(outline.chassis_m.max().x(), tips.x()), rear = outline.chassis_m.min().x();
+      const double half_width = std::max(-outline.chassis_m.min().y(), outline.chassis_m.max().y()) + th(k, "lateral_margin_m");
+      const double z = in.poses.chassis.translation().z();
+      for (size_t i = 0; i < in.pedestrians->size(); ++i) {
+        const Eigen::Vector2d at = (*in.pedestrians)[i].at_m;
+        const Eigen::Vector3d p = to_chassis * Eigen::Vector3d(at.x(), at.y(), z);
+        if (std::abs(p.y()) > half_width) continue;
+        const double d = v > 0 ? p.x() - front : rear - p.x();
+        if (d >= 0 && d < gap) {
+          gap = d;
+          who = int(i);
+        }
+      }
+    }
+    if (pedestrian_in_path.update(gap < need, in.t_s, th(k, "min_duration_s"), th(k, "clear_time_s")))
+      emit(k, in.t_s, in.out.q.head<2>(),
+           {{"pedestrian", scene.pedestrians[who].id},
+            {"direction", v > 0 ? "forward" : "reverse"},
+            {"measured", {{"speed_m_s", round6(speed)}, {"distance_m", round6(gap)}, {"stopping_distance_m", round6(need)}}},
+            {"thresholds", {{"reaction_time_s", th(k, "reaction_time_s")},
+                            {"braking_deceleration_m_s2", th(k, "braking_deceleration_m_s2")},
+                            {"margin_m", th(k, "margin_m")}}}},
+           out);
   }
 
   void speeding(const TickInput& in, double v, std::vector<EvaluationEvent>& out) {
@@ -689,6 +781,8 @@ struct Evaluator::Impl : EvaluationMemory::Data {
     load_on_forks(in, out);
     collisions(in, out);
     speeding(in, ground_speed, out);
+    speed_near_people(in, ground_speed, out);
+    people_in_path(in, v, out);
     forks_and_mast(in, v, heel_height, out);
     dynamics(in, v, heel_height, out);
     handling(in, out);

@@ -42,6 +42,9 @@ enum RuleKey : int {
   kTimeLimit,
   kTaskIncomplete,
   kDeadmanStop,
+  kPedestrianStruck,
+  kSpeedNearPedestrian,
+  kPedestrianInPath,
   kNumRules
 };
 
@@ -90,6 +93,10 @@ inline const std::array<RuleSpec, kNumRules>& rule_specs() {
       {"time_limit", AppliesTo::kNothing, {}},
       {"task_incomplete", AppliesTo::kNothing, {}},
       {"deadman_stop", AppliesTo::kNothing, {}},
+      {"pedestrian_struck", AppliesTo::kNothing, {"clear_time_s"}},
+      {"speed_near_pedestrian", AppliesTo::kNothing, {"near_distance_m", "speed_max_m_s", "min_duration_s", "clear_time_s"}},
+      {"pedestrian_in_path", AppliesTo::kNothing, {"travel_speed_min_m_s", "reaction_time_s", "braking_deceleration_m_s2",
+                                                   "margin_m", "lateral_margin_m", "min_duration_s", "clear_time_s"}},
   }};
   return specs;
 }

@@ -143,13 +143,13 @@ struct Merged {
     std::string file, key;
   };
   std::map<std::string, Item> keys;
-  std::vector<Item> objects, zones, ramps, ground_steps;
+  std::vector<Item> objects, zones, ramps, ground_steps, pedestrians;
 };
 
 const std::set<std::string> kTopKeys = {"name",   "description", "truck",        "start",  "exam_course",
                                         "load",   "include",     "objects",      "zones",
                                         "ramps",  "ground_steps", "route",     "task",         "time_limit_s",
-                                        "floor_m", "zone_speed_limits_m_s", "exclude_objects",
+                                        "floor_m", "zone_speed_limits_m_s", "exclude_objects", "pedestrians",
                                         "manoeuvre", "duration_s"};
 
 // Read by load_scenario (scenario.h) from the scenario file itself.
@@ -172,10 +172,11 @@ void merge(const std::string& path, const std::string& data_dir, Merged& m, int 
     if (k == "include" || (!k.empty() && k[0] == '_')) continue;
     if (!kTopKeys.count(k)) fail(path, k, "is not a known key");
     if (depth > 0 && kOwnKeys.count(k)) fail(path, k, "belongs in the scenario file itself, not in an included layout");
-    if (k == "objects" || k == "zones" || k == "ramps" || k == "ground_steps") {
+    if (k == "objects" || k == "zones" || k == "ramps" || k == "ground_steps" || k == "pedestrians") {
       const Node list(it.value(), path, k);
       list.array();
-      auto& out = k == "objects" ? m.objects : k == "zones" ? m.zones : k == "ramps" ? m.ramps : m.ground_steps;
+      auto& out = k == "objects" ? m.objects : k == "zones" ? m.zones : k == "ramps" ? m.ramps
+                  : k == "ground_steps" ? m.ground_steps : m.pedestrians;
       for (size_t i = 0; i < list.size(); ++i) out.push_back({it.value()[i], path, k + "[" + std::to_string(i) + "]"});
     } else if (k == "exclude_objects") {
       const Node list(it.value(), path, k);
@@ -368,6 +369,51 @@ void place_on_support(SceneObject& pallet, const Node& n, const Scene& scene) {
   pallet.pose.translation().z() = z;
   pallet.rests_on = on;
   pallet.rest_level = support->level;
+}
+
+// One pedestrian: a path walked once at a speed, waits at its points, what starts the walk, and
+// whether the person looks out for the truck.
+PedestrianSpec read_pedestrian(const Node& n) {
+  n.only({"id", "path", "speed_m_s", "waits", "trigger", "looks", "stop_within_m", "size_m"});
+  PedestrianSpec p;
+  p.id = n.at("id").string();
+  const Node path = n.at("path");
+  path.array(2);
+  for (size_t i = 0; i < path.size(); ++i) {
+    p.path.push_back(path.at(i).vec2());
+    if (i > 0 && p.path[i] == p.path[i - 1]) path.at(i).fail("repeats the point before it");
+  }
+  p.speed_m_s = n.at("speed_m_s").positive();
+  if (n.has("waits")) {
+    const Node waits = n.at("waits");
+    waits.array();
+    for (size_t i = 0; i < waits.size(); ++i) {
+      const Node w = waits.at(i);
+      w.only({"at_point", "duration_s"});
+      PedestrianWait pw{w.at("at_point").integer(), w.at("duration_s").non_negative()};
+      if (pw.at_point < 0 || pw.at_point >= int(p.path.size()))
+        w.at("at_point").fail("must name a point of the path, 0 to " + std::to_string(p.path.size() - 1));
+      for (const PedestrianWait& o : p.waits)
+        if (o.at_point == pw.at_point) w.at("at_point").fail("repeats a wait at point " + std::to_string(pw.at_point));
+      p.waits.push_back(pw);
+    }
+  }
+  if (n.has("trigger")) {
+    const Node t = n.at("trigger");
+    t.only({"truck_within_m", "at_s"});
+    if (t.has("truck_within_m") == t.has("at_s")) t.fail("must give one of truck_within_m and at_s");
+    if (t.has("truck_within_m")) p.start_truck_within_m = t.at("truck_within_m").positive();
+    else p.start_at_s = t.at("at_s").non_negative();
+  }
+  p.looks = n.has("looks") ? n.at("looks").boolean() : true;
+  if (p.looks) p.stop_within_m = n.at("stop_within_m").positive();
+  else if (n.has("stop_within_m")) n.at("stop_within_m").fail("is for one who looks (looks: true)");
+  if (n.has("size_m")) {
+    p.size_m = n.at("size_m").vec3();
+    for (int i = 0; i < 3; ++i)
+      if (!(p.size_m[i] > 0)) n.at("size_m").at(size_t(i)).fail("must be positive");
+  }
+  return p;
 }
 
 Zone read_zone(const Node& n, const Node* speed_limits) {
@@ -777,6 +823,13 @@ Scene load_scene(const std::string& path, const std::string& data_dir) {
     Zone z = read_zone(n, limits ? &*limits : nullptr);
     if (!zone_ids.insert(z.id).second) n.at("id").fail("repeats the zone id '" + z.id + "'");
     scene.zones.push_back(std::move(z));
+  }
+
+  for (const Merged::Item& item : m.pedestrians) {
+    const Node n = node(item);
+    PedestrianSpec p = read_pedestrian(n);
+    if (!ids.insert(p.id).second) n.at("id").fail("repeats the id '" + p.id + "'");
+    scene.pedestrians.push_back(std::move(p));
   }
 
   if (key("route")) {

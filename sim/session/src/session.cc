@@ -86,11 +86,13 @@ SessionState initial_state(const SessionModel& m) {
   if (!dyn.settle_static(s.x)) throw std::runtime_error(where + ": the truck does not stand at the start pose");
   s.load = sc.load;
   if (s.load) s.load_on_forks.phase = LoadPhase::kStuck;
+  s.pedestrians = initial_pedestrians(m.scene.pedestrians);
   return s;
 }
 
-SessionState initial_state(const SessionModel&, const LogHeader& h) {
+SessionState initial_state(const SessionModel& m, const LogHeader& h) {
   SessionState s;
+  s.pedestrians = initial_pedestrians(m.scene.pedestrians);
   s.x = h.initial;
   s.load = h.load;
   if (s.load) s.load_on_forks.phase = LoadPhase::kStuck;
@@ -102,6 +104,7 @@ struct SessionWorkspace::Impl {
   std::unique_ptr<Simulation> sim;
   Warehouse warehouse;
   Evaluator evaluator;
+  TruckOutline outline;  // for the pedestrians' distances to the truck
   // The state this workspace's integrator last produced: stepping it continues the integrator's
   // history; any other state (a copy stepped elsewhere, a rewind) restarts it from that state.
   bool have_last = false;
@@ -116,7 +119,8 @@ struct SessionWorkspace::Impl {
   std::vector<EvaluationEvent> found;
 
   explicit Impl(const SessionModel& m)
-      : model(m), warehouse(m.scene, m.shape, m.truck), evaluator(m.rules, m.scene, m.truck, m.shape, m.mode) {
+      : model(m), warehouse(m.scene, m.shape, m.truck), evaluator(m.rules, m.scene, m.truck, m.shape, m.mode),
+        outline(truck_outline(m.shape)) {
     found.reserve(16);
   }
 
@@ -180,10 +184,17 @@ void step(const SessionModel& model, SessionState& state, SessionWorkspace& work
   // The load as the dynamics left it (slid, fallen) is what the evaluation judges; handling may
   // then set it down or clear a fallen one away.
   const LoadOnForks load_after_dynamics = sim.load_on_forks();
-  {  // collision and pallet handling; the load they attach or release and the scene's push-back
-     // are held from now on, in the state and in the simulation
+  {  // the people's walk, collision and pallet handling; the load they attach or release and the
+     // scene's push-back are held from now on, in the state and in the simulation
     StageScope scope(observer, Stage::kCollision);
-    const StepReport& r = *(w.report = &w.warehouse.step(sim, state.handling));
+    const std::vector<PedestrianSpec>& people = model.scene.pedestrians;
+    if (!people.empty()) {  // the people see the truck where the dynamics left it
+      if (state.pedestrians.size() != people.size()) state.pedestrians = initial_pedestrians(people);
+      walk(people, state.pedestrians, w.outline, body_poses(model.truck, coordinates(state.x)), state.t_s, model.tick_s);
+    }
+    const StepReport& r = *(w.report = &w.warehouse.step(sim, state.handling, state.pedestrians));
+    for (const Contact& c : r.contacts)
+      if (c.pedestrian >= 0) state.pedestrians[c.pedestrian].struck = true;
     if (r.load_change == LoadChange::kAttached) state.load = r.load;
     if (r.load_change == LoadChange::kReleased) state.load.reset();
     state.scene_push = r.scene_push;
@@ -206,7 +217,8 @@ void step(const SessionModel& model, SessionState& state, SessionWorkspace& work
   // evaluation: every rule, every tick, on the state, the contacts and the task
   StageScope scope(observer, Stage::kEvaluation);
   const TickInput in{state.t_s, w.out, w.poses, inputs.driver, *w.report, state.handling.pallets(), state.load,
-                     inputs.deadman, sim.dynamics().environment().gravity_m_s2, load_after_dynamics};
+                     inputs.deadman, sim.dynamics().environment().gravity_m_s2, load_after_dynamics,
+                     &state.pedestrians};
   w.found.clear();
   w.evaluator.tick(state.evaluation, in, w.found);
   w.forward(events);

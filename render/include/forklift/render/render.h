@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "forklift/image/image.h"
+#include "forklift/scene/pedestrians.h"
 #include "forklift/scene/scene.h"
 
 namespace forklift {
@@ -50,6 +51,8 @@ Camera fork_camera(const BodyPoses& poses);
 struct RenderState {
   CoordVector q = CoordVector::Zero();  // the truck's 13 coordinates
   std::vector<PalletState> pallets;     // empty: every pallet where the scene puts it
+  // One per Scene::pedestrians, drawn as hi-vis figures; empty: each at his path's start.
+  std::vector<PedestrianState> pedestrians;
 };
 
 // What a picture may cost beyond the plain shaded scene.

@@ -11,6 +11,7 @@
 #include <optional>
 #include <vector>
 
+#include "forklift/scene/pedestrians.h"
 #include "forklift/scene/scene.h"
 #include "forklift/dynamics/simulation.h"
 
@@ -19,12 +20,14 @@ namespace forklift {
 // One touching pair. Feeds the driver evaluation.
 struct Contact {
   std::string truck_part;   // "chassis", "guard", "mast", "carriage", "fork_left", "fork_right", "load"
-  std::string object_id;    // the scene object struck (a pallet's id for pallets)
-  ObjectKind object_kind = ObjectKind::kObstacle;
+  std::string object_id;    // the scene object struck (a pallet's id for pallets), or the pedestrian
+  ObjectKind object_kind = ObjectKind::kObstacle;  // kPedestrian for a standing figure and a walking one
+  int pedestrian = -1;      // >= 0: a walking person struck, index into Scene::pedestrians
   Eigen::Vector3d point_m = Eigen::Vector3d::Zero();   // world
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();   // world, unit, from the object towards the truck
   double depth_m = 0;                                  // penetration, >= 0
   double relative_speed_m_s = 0;  // speed of the truck part's point into the object (along -normal), >= 0
+                                  // (into a walking person: less the person's own walking velocity)
 };
 
 struct HandlingEvent {
@@ -122,8 +125,12 @@ class Warehouse {
   // where the truck's model has slid it along the forks (Simulation::load_on_forks), and when the
   // model lets it fall it is dropped on the floor below (kReleased, a `dropped` event). A fork tip
   // striking a pallet outside its pockets is a contact, not a pick-up.
+  // The scene's pedestrians stand as `people` says (one state per Scene::pedestrians, walked to
+  // this tick; empty when the scene has none): their bodies are struck like objects, but they
+  // push nothing back (a person gives way) and are never handled.
   // The simulation is only read: the caller applies the report (apply()) before the next tick.
-  const StepReport& step(const Simulation& sim, HandlingState& state);
+  const StepReport& step(const Simulation& sim, HandlingState& state,
+                         const std::vector<PedestrianState>& people = {});
 
   // The pallets as the scene stands them, before any step.
   const HandlingState& initial_handling() const { return initial_; }

@@ -99,6 +99,9 @@ struct TickInput {
   // The load on the forks as the truck's model left it after the tick's dynamics (slid along
   // them, fallen off them): what the load rules judge (Simulation::load_on_forks()).
   LoadOnForks load_on_forks{};
+  // The scene's walking people after the tick's walk (one per Scene::pedestrians); null or empty
+  // when it has none.
+  const std::vector<PedestrianState>* pedestrians = nullptr;
 };
 
 struct EvaluationEvent {

@@ -189,6 +189,27 @@ struct ExamCourse {
 // exam course does. The worker and the server both say this.
 std::string not_an_exam_course(const std::string& what);
 
+// A person who walks a path through the warehouse (a scenario's `pedestrians`): how one walks,
+// and the state that changes, are pedestrians.h's.
+struct PedestrianWait {
+  int at_point = 0;        // index into the path
+  double duration_s = 0;   // stands this long on reaching it
+};
+struct PedestrianSpec {
+  std::string id;                     // unique among the scene's objects and pedestrians
+  std::vector<Eigen::Vector2d> path;  // world, at least 2 points: walked once, first to last, then stands
+  double speed_m_s = 0;               // walking speed, > 0
+  std::vector<PedestrianWait> waits;  // at most one per path point
+  // Starts walking when the truck's outline comes within this distance (set), or at start_at_s.
+  std::optional<double> start_truck_within_m;
+  double start_at_s = 0;
+  // Looks: stands still while the truck's outline is within stop_within_m; one who does not
+  // look walks on whatever the truck does.
+  bool looks = true;
+  double stop_within_m = 0;
+  Eigen::Vector3d size_m{0.5, 0.3, 1.75};  // shoulders across, chest to back, height: an upright box
+};
+
 struct Scene {
   std::string file, name, description;
   std::optional<ExamCourse> exam_course;  // set: the scenario is an exam course
@@ -203,6 +224,7 @@ struct Scene {
   // Added: the ramps and steps `ground` is built from, for drawing.
   std::vector<Ramp> ramps;
   std::vector<GroundStep> ground_steps;
+  std::vector<PedestrianSpec> pedestrians;  // people who move (pedestrians.h walks them)
 
   const SceneObject* find(const std::string& id) const;  // nullptr if absent
   // The lowest speed limit of the zones containing p, or nullopt outside every zone.

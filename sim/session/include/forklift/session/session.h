@@ -21,6 +21,7 @@
 #include "forklift/collision/collision.h"
 #include "forklift/dynamics/simulation.h"
 #include "forklift/evaluation/evaluation.h"
+#include "forklift/scene/pedestrians.h"
 #include "forklift/scene/scene.h"
 #include "forklift/session/session_log.h"
 #include "forklift/session/vocabulary.h"
@@ -71,6 +72,7 @@ struct SessionState {
   LoadOnForks load_on_forks;                 // how it sits there: stuck, sliding, fallen
   std::vector<ExternalForce> scene_push;     // the scene's push-back, held to the next tick
   HandlingState handling;                    // every pallet, and the one on the forks
+  std::vector<PedestrianState> pedestrians;  // one per Scene::pedestrians (pedestrians.h)
   EvaluationMemory evaluation;
 };
 
@@ -120,8 +122,9 @@ class SessionWorkspace {
   std::unique_ptr<Impl> impl_;
 };
 
-// One physics tick: the inputs held from now on, dynamics to the next tick boundary, collision
-// and pallet handling (which may attach or release the load), then the evaluation. New events are
+// One physics tick: the inputs held from now on, dynamics to the next tick boundary, the
+// pedestrians' walk (seeing the truck where the dynamics left it), collision and pallet handling
+// (which may attach or release the load; a person struck stands from then on), then the evaluation. New events are
 // appended to `events`. A state the workspace did not produce itself (a copy, a rewind) restarts
 // the integrator from that state, so stepping equal states gives equal states, bit for bit.
 // Throws IntegratorError on numerical failure (the state is then the last good one).
