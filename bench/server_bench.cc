@@ -428,7 +428,13 @@ int main(int argc, char** argv) {
     f.store_rate = store_history_rate(location, first_id, pupils, seconds);
     std::printf("store history() from one thread, no HTTP: %.0f calls/s\n", f.store_rate);
     table.push_back(f);
-    for (const auto& [name, path] : lists) row(name, hammer(port, token, clients, seconds, path));
+    for (const auto& [name, path] : lists) {
+      const Load l = hammer(port, token, clients, seconds, path);
+      row(name, l);
+      // Goal: every list's p99 under 50 ms.
+      bench::figure("server: " + std::string(name) + " (" + size + ", " + f.name + "): p99", "< 50 ms",
+                    bench::fmt("%.1f ms (%.0f/s)", l.pct(0.99), l.rps()), l.errors == 0 && l.pct(0.99) < 50);
+    }
     const auto [pupil_rate, session_rate] = store_list_rates(location, pupils, seconds);
     std::printf("store from one thread, no HTTP: find_pupils (a page of 50 and the total) %.0f calls/s, "
                 "find_sessions (a day's first 50 and the total) %.0f calls/s\n", pupil_rate, session_rate);
@@ -454,6 +460,12 @@ int main(int argc, char** argv) {
     for (const Figures& f : table)
       std::printf("%-12s %14.0f %10.2f %10.2f %12.0f %16.0f %13.2fx\n", f.name.c_str(), f.history.rps(), f.history.pct(0.5),
                   f.history.pct(0.99), f.health.rps(), f.store_rate, f.history.rps() / table.front().history.rps());
+    // Goal: PostgreSQL's history at 70 % or more of SQLite's rate, measured in the same run.
+    for (const Figures& f : table)
+      if (&f != &table.front())
+        bench::figure("server: a pupil's history on " + f.name + " against " + table.front().name + " (" + size + ")",
+                      ">= 70 %", bench::fmt("%.0f %%", 100 * f.history.rps() / table.front().history.rps()),
+                      f.history.rps() >= 0.7 * table.front().history.rps());
   }
   return 0;
 }

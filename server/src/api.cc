@@ -208,12 +208,25 @@ void require_role(const Principal& p, std::initializer_list<Role> roles) {
 
 bool is_staff(const Principal& p) { return p.role != Role::kPupil; }
 
-store::Pupil visible_pupil(Context& ctx, const Principal& p, int64_t id) {
-  const auto pupil = ctx.db().get_pupil(id);
+namespace {
+// Refuses `pupil` (none: there is no such pupil) unless `p` may see it.
+void check_visible(const Principal& p, int64_t id, const store::Pupil* pupil) {
   if (!pupil) throw ApiError(404, "not_found", "no pupil " + std::to_string(id));
   if (p.role == Role::kPupil && p.pupil_id != id) throw ApiError(403, "forbidden", "a pupil may see only their own records");
   if (p.role != Role::kPupil && pupil->school_id != p.school_id) throw ApiError(404, "not_found", "no pupil " + std::to_string(id));
+}
+}  // namespace
+
+store::Pupil visible_pupil(Context& ctx, const Principal& p, int64_t id) {
+  const auto pupil = ctx.db().get_pupil(id);
+  check_visible(p, id, pupil ? &*pupil : nullptr);
   return *pupil;
+}
+
+store::PupilHistory visible_history(Context& ctx, const Principal& p, int64_t id) {
+  auto h = ctx.db().history(id, store::now_iso8601());
+  check_visible(p, id, h ? &h->pupil : nullptr);
+  return std::move(*h);
 }
 
 store::Session visible_session(Context& ctx, const Principal& p, const std::string& public_id) {

@@ -119,6 +119,9 @@ void require_role(const Principal& p, std::initializer_list<store::Role> roles);
 bool is_staff(const Principal& p);
 // A pupil sees only their own records; staff only their school's.
 store::Pupil visible_pupil(Context& ctx, const Principal& p, int64_t id);
+// A visible pupil's history (else 404 or 403 as visible_pupil), in one read of the store: the
+// pupil comes with it.
+store::PupilHistory visible_history(Context& ctx, const Principal& p, int64_t id);
 // The session `public_id`, if its pupil is visible to `p` (else 404 or 403 as visible_pupil).
 store::Session visible_session(Context& ctx, const Principal& p, const std::string& public_id);
 

@@ -192,8 +192,7 @@ void pupil_routes(Routes& svr, Context& ctx) {
 
   svr.Get(R"(/api/pupils/(\d+)/history)", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
-    const store::Pupil pupil = visible_pupil(ctx, p, path_id(req));
-    const store::PupilHistory h = *ctx.db().history(pupil.id, store::now_iso8601());
+    const store::PupilHistory h = visible_history(ctx, p, path_id(req));
     send_json_text(res, 200, history_text(ctx, h, exam_results(ctx, h)));
   }));
 

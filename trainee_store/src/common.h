@@ -84,6 +84,19 @@ inline std::string order_by(const char* op, const std::vector<std::pair<std::str
   "WHEN sessions.reason = 'time_limit' THEN 'timed_out' WHEN sessions.reason = 'aborted' THEN 'aborted' "             \
   "WHEN sessions.reason = 'signal' THEN 'stopped' ELSE 'failed' END)"
 
+// The terms that a session "completed and passed" (the lists' result "passed") meets, of its own
+// row: over as it should be, passed, and an end that completes (SESSION_OUTCOME_SQL's
+// 'completed'). `s` prefixes each column ("sessions." or ""). Spelled the same in the lists and
+// in the partial indexes of migration 13, so that both planners match them to the indexes.
+#define SESSION_PASSED_TERMS(s) \
+  s "state = 'ended' AND " s "passed = TRUE AND " s "reason IN ('task_complete', 'parked', 'duration')"
+// A session (FROM sessions, unaliased) completed and passed: SESSION_OUTCOME_SQL = 'completed'
+// AND passed, unrolled, so that the lists find those sessions by their own index rather than
+// working the outcome out for every session of the day.
+#define SESSION_PASSED_SQL                                                                                   \
+  SESSION_PASSED_TERMS("sessions.") " AND (sessions.reason <> 'duration' OR NOT EXISTS (SELECT 1 FROM "      \
+  "score_counts c WHERE c.session_id = sessions.id AND c.kind = 'task_incomplete'))"
+
 // LIKE pattern for "contains `text`", with '\' escaping so that % and _ in it match literally.
 inline std::string contains_pattern(const std::string& text) {
   std::string p = "%";

@@ -10,9 +10,11 @@
 #pragma once
 
 #include <cstdint>
+#include <initializer_list>
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "forklift/store/store.h"
 
@@ -71,12 +73,20 @@ class Driver {
   virtual void commit(const char* op, TxState& tx) = 0;
   // Rolls back what `tx` still holds open; never throws.
   virtual void end(TxState& tx) noexcept = 0;
+  // Runs `statements` (bound, not run yet) now, the last of transaction `tx`, in one round trip
+  // where the database is a network away: with the transaction's BEGIN ahead of them and its
+  // COMMIT behind them (tx then closed), their rows read afterwards as usual. SQLite, in the
+  // process, runs each on its first step as always, and commits at commit().
+  virtual void run_together(const char* /*op*/, const std::vector<Statement*>& /*statements*/, TxState& /*tx*/) {}
   // Commits made until durable_end() reach the disk before they return (an exam result must
   // survive a power cut); whether the driver changed anything, to undo. Outside a transaction only.
   virtual bool durable_begin(const char* op) = 0;
   virtual void durable_end() noexcept = 0;
   // Store::storage_problem().
   virtual std::optional<std::string> storage_problem() = 0;
+  // From now on, before each statement runs, its SQL and plan go to `plans` (Store::query_plans);
+  // null: no more.
+  virtual void explain_into(std::vector<std::string>* plans) = 0;
 };
 
 // One use of a prepared statement: binds parameters in order, steps, reads columns. Resets the
@@ -120,6 +130,7 @@ class Query {
   double real(int col) const { return s_.real(col); }
   std::string text(int col) const { return s_.text(col); }
   bool is_null(int col) const { return s_.is_null(col); }
+  Statement& statement() { return s_; }
   std::optional<int64_t> opt_int64(int col) const { return is_null(col) ? std::nullopt : std::optional(int64(col)); }
   std::optional<double> opt_real(int col) const { return is_null(col) ? std::nullopt : std::optional(real(col)); }
 
@@ -135,6 +146,13 @@ class Transaction {
   Transaction(const Transaction&) = delete;
   Transaction& operator=(const Transaction&) = delete;
   void commit() { d_.commit(op_, state_); }
+  // Runs `queries`, bound, as the transaction's last statements (Driver::run_together); their rows
+  // are read after, and commit() still ends the transaction.
+  void run_last(std::initializer_list<Query*> queries) {
+    std::vector<Statement*> statements;
+    for (Query* q : queries) statements.push_back(&q->statement());
+    d_.run_together(op_, statements, state_);
+  }
 
  private:
   Driver& d_;

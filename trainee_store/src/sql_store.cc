@@ -64,6 +64,19 @@ class SqlStore final : public Store {
 
   std::optional<std::string> storage_problem() override { return d_.storage_problem(); }
 
+  std::vector<std::string> query_plans(const std::function<void()>& calls) override {
+    std::vector<std::string> plans;
+    d_.explain_into(&plans);
+    try {
+      calls();
+    } catch (...) {
+      d_.explain_into(nullptr);
+      throw;
+    }
+    d_.explain_into(nullptr);
+    return plans;
+  }
+
   void batch(const std::function<void()>& writes) override {
     require(!d_.in_transaction(), StoreError::kInvalid, __func__, "batches do not nest");
     Durable durable(d_, __func__);  // the batch may hold exam results
@@ -268,10 +281,9 @@ class SqlStore final : public Store {
     if (f.instructor_id) where.add("sessions.started_by = ?", {*f.instructor_id});
     if (f.group_id) where.add("p.group_id = ?", {*f.group_id});
     if (f.outcome) where.add(SESSION_OUTCOME_SQL " = ?", {std::string(name(*f.outcome))});
-    if (f.result == "passed") where.add(SESSION_OUTCOME_SQL " = 'completed' AND sessions.passed = TRUE");
+    if (f.result == "passed") where.add(SESSION_PASSED_SQL);
     if (f.result == "not_passed")
-      where.add("sessions.state IN ('ended', 'failed', 'aborted') AND NOT (" SESSION_OUTCOME_SQL
-                " = 'completed' AND COALESCE(sessions.passed, FALSE) = TRUE)");
+      where.add("sessions.state IN ('ended', 'failed', 'aborted') AND NOT (" SESSION_PASSED_SQL ")");
     const std::string from = " FROM sessions JOIN pupils p ON p.id = sessions.pupil_id" + where.sql();
     Transaction tx(d_, __func__, TxKind::kRead);
     SessionPage page;
@@ -314,12 +326,13 @@ class SqlStore final : public Store {
     if (f.passed) where.add(*f.passed ? "e.passed = TRUE" : "e.passed = FALSE");
     if (f.examiner_id) where.add("e.examiner_id = ?", {*f.examiner_id});
     if (f.group_id) where.add("p.group_id = ?", {*f.group_id});
-    const std::string from =
-        " FROM exams e JOIN pupils p ON p.id = e.pupil_id LEFT JOIN sessions s ON s.id = e.session_id" + where.sql();
+    const std::string from = " FROM exams e JOIN pupils p ON p.id = e.pupil_id" + where.sql();
     Transaction tx(d_, __func__, TxKind::kRead);
     ExamPage page;
     page.total = count(__func__, "SELECT COUNT(*)" + from, where);
-    Query q(d_, __func__, ("SELECT e.id, e.pupil_id, e.kind, s.public_id, e.score, e.passed, e.examiner_id, e.taken_at, "
+    // A practical exam's session looked up for the page's rows alone: joined, PostgreSQL's planner
+    // hashed every session of the store to find the few the exams have.
+    Query q(d_, __func__, ("SELECT e.id, e.pupil_id, e.kind, (SELECT s.public_id FROM sessions s WHERE s.id = e.session_id), e.score, e.passed, e.examiner_id, e.taken_at, "
                                "e.details, p.name, (SELECT COUNT(*) FROM exam_corrections c WHERE c.exam_id = e.id)" +
                                from + " ORDER BY " + order + " LIMIT ? OFFSET ?")
                                   .c_str());
@@ -999,36 +1012,30 @@ class SqlStore final : public Store {
   }
 
   std::optional<PupilHistory> history(int64_t pupil_id, const std::string& now) override {
-    Transaction tx(d_, __func__, TxKind::kRead);  // one consistent snapshot
-    std::optional<Pupil> p = pupil(__func__, pupil_id);
-    if (!p) return std::nullopt;
+    // One consistent snapshot, and one round trip to a database a network away: every statement
+    // is sent at once, the pupil's own among them, and its rows read after.
+    Transaction tx(d_, __func__, TxKind::kRead);
+    Query pupil_q(d_, __func__, "SELECT " PUPIL_COLUMNS " FROM pupils WHERE id = ?1");
+    Query sessions_q(d_, __func__, sessions_of_sql());
+    Query exams_q(d_, __func__, "SELECT " EXAM_ROWS " WHERE e.pupil_id = ?1 ORDER BY e.taken_at, e.id");
+    Query faults_q(d_, __func__, dialect_.fault_counts);
+    Query licence_q(d_, __func__,
+                    "SELECT id, issued_at, reevaluation_due, issued_by FROM licences "
+                    "WHERE pupil_id = ?1 ORDER BY issued_at DESC, id DESC LIMIT 1");
+    Query corrections_q(d_, __func__,
+                        "SELECT " CORRECTION_COLUMNS " FROM exam_corrections "
+                        "WHERE exam_id IN (SELECT id FROM exams WHERE pupil_id = ?1) ORDER BY id");
+    for (Query* q : {&pupil_q, &sessions_q, &exams_q, &faults_q, &licence_q, &corrections_q}) q->bind(pupil_id);
+    tx.run_last({&pupil_q, &sessions_q, &exams_q, &faults_q, &licence_q, &corrections_q});
+    if (!pupil_q.step()) return std::nullopt;
     PupilHistory h;
-    h.pupil = std::move(*p);
-    h.sessions = sessions_of(__func__, pupil_id);
-    {
-      Query q(d_, __func__, "SELECT " EXAM_ROWS " WHERE e.pupil_id = ?1 ORDER BY e.taken_at, e.id");
-      q.bind(pupil_id);
-      while (q.step()) h.exams.push_back(read_exam(q));
-    }
-    {
-      Query q(d_, __func__, dialect_.fault_counts);
-      q.bind(pupil_id);
-      while (q.step()) h.faults_by_kind[q.text(0)] += static_cast<int>(q.int64(1));
-    }
-    {
-      Query q(d_, __func__,
-              "SELECT id, issued_at, reevaluation_due, issued_by FROM licences "
-              "WHERE pupil_id = ?1 ORDER BY issued_at DESC, id DESC LIMIT 1");
-      q.bind(pupil_id);
-      if (q.step()) h.licence = LicenceRecord{q.int64(0), pupil_id, q.text(1), q.text(2), q.text(3)};
-    }
-    {
-      Query q(d_, __func__,
-              "SELECT " CORRECTION_COLUMNS " FROM exam_corrections "
-              "WHERE exam_id IN (SELECT id FROM exams WHERE pupil_id = ?1) ORDER BY id");
-      q.bind(pupil_id);
-      while (q.step()) h.corrections.push_back(read_correction(q));
-    }
+    h.pupil = read_pupil(pupil_q);
+    while (sessions_q.step()) h.sessions.push_back(read_session(sessions_q));
+    while (exams_q.step()) h.exams.push_back(read_exam(exams_q));
+    while (faults_q.step()) h.faults_by_kind[faults_q.text(0)] += static_cast<int>(faults_q.int64(1));
+    if (licence_q.step())
+      h.licence = LicenceRecord{licence_q.int64(0), pupil_id, licence_q.text(1), licence_q.text(2), licence_q.text(3)};
+    while (corrections_q.step()) h.corrections.push_back(read_correction(corrections_q));
     h.trend = mark_trend(h.sessions);
     h.reevaluation_overdue = h.licence && h.licence->reevaluation_due < now;  // same form: string order is time order
     tx.commit();
@@ -1142,9 +1149,14 @@ class SqlStore final : public Store {
     return std::move(*s);
   }
 
+  // A pupil's (?1) sessions in the order they were made.
+  std::string sessions_of_sql() const {
+    return std::string("SELECT ") + dialect_.session_columns + " FROM " + dialect_.sessions_from +
+           " WHERE pupil_id = ?1 ORDER BY created_at, id";
+  }
+
   std::vector<Session> sessions_of(const char* op, int64_t pupil_id) {
-    Query q(d_, op, std::string("SELECT ") + dialect_.session_columns + " FROM " + dialect_.sessions_from +
-                        " WHERE pupil_id = ? ORDER BY created_at, id");
+    Query q(d_, op, sessions_of_sql());
     q.bind(pupil_id);
     std::vector<Session> sessions;
     while (q.step()) sessions.push_back(read_session(q));

@@ -495,6 +495,13 @@ CREATE TABLE login_lockouts (
   until_ms INTEGER NOT NULL
 ) WITHOUT ROWID;
 )sql",
+    // 13: the sessions that completed and passed, apart, by cab and by school in time order: the
+    // lists filtered by that result read them alone (SESSION_PASSED_TERMS), where they worked
+    // out the outcome of every session of the day (a cab's day of 10,000 sessions: 1.2 s).
+    R"sql(
+CREATE INDEX sessions_passed_by_cab ON sessions(cab_id, created_at) WHERE )sql" SESSION_PASSED_TERMS("") R"sql(;
+CREATE INDEX sessions_passed_by_school ON sessions(school_id, created_at) WHERE )sql" SESSION_PASSED_TERMS("") R"sql(;
+)sql",
 };
 
 // Read FROM kSessions. The second column is NULL: read_session derives the public id from the id,
@@ -580,7 +587,9 @@ struct StmtFinalizer {
 
 class SqliteStatement final : public Statement {
  public:
-  SqliteStatement(sqlite3* db, sqlite3_stmt* stmt) : db_(db), stmt_(stmt) {}
+  // `plans`: the driver's Driver::explain_into, read when the statement first steps.
+  SqliteStatement(sqlite3* db, sqlite3_stmt* stmt, std::vector<std::string>* const& plans)
+      : db_(db), stmt_(stmt), plans_(plans) {}
 
   // For one use by `op`.
   SqliteStatement& use(const char* op) {
@@ -597,6 +606,7 @@ class SqliteStatement final : public Statement {
   }
 
   bool step() override {
+    if (plans_ && !sqlite3_stmt_busy(stmt())) explain();
     const int rc = sqlite3_step(stmt());
     if (rc == SQLITE_ROW) return true;
     if (rc != SQLITE_DONE) throw_db_error(db_, op_);
@@ -627,9 +637,23 @@ class SqliteStatement final : public Statement {
   void check(int rc) {
     if (rc != SQLITE_OK) throw_db_error(db_, op_);
   }
+  // The statement and its plan, the values bound written in (EXPLAIN QUERY PLAN: one line per
+  // step, "SCAN t" or "SEARCH t USING INDEX i (...)").
+  void explain() {
+    std::unique_ptr<char, decltype(&sqlite3_free)> sql(sqlite3_expanded_sql(stmt()), &sqlite3_free);
+    if (!sql) return;
+    const std::string query = std::string("EXPLAIN QUERY PLAN ") + sql.get();
+    sqlite3_stmt* e = nullptr;
+    if (sqlite3_prepare_v2(db_, query.c_str(), -1, &e, nullptr) != SQLITE_OK) throw_db_error(db_, op_);
+    std::unique_ptr<sqlite3_stmt, StmtFinalizer> plan(e);
+    std::string text = sqlite3_sql(stmt());
+    while (sqlite3_step(e) == SQLITE_ROW) text += std::string("\n") + reinterpret_cast<const char*>(sqlite3_column_text(e, 3));
+    plans_->push_back(text);
+  }
 
   sqlite3* db_;
   std::unique_ptr<sqlite3_stmt, StmtFinalizer> stmt_;
+  std::vector<std::string>* const& plans_;
   const char* op_ = "";
   int param_ = 0;
 };
@@ -684,12 +708,14 @@ class SqliteDriver final : public Driver {
                              nullptr) != SQLITE_OK) {
         throw_db_error(db(), op);
       }
-      it = statements_.emplace(sql, std::make_unique<SqliteStatement>(db(), stmt)).first;
+      it = statements_.emplace(sql, std::make_unique<SqliteStatement>(db(), stmt, plans_)).first;
     }
     return it->second->use(op);
   }
 
   void exec(const char* op, const std::string& sql) override { run_sql(db(), op, sql.c_str()); }
+
+  void explain_into(std::vector<std::string>* plans) override { plans_ = plans; }
 
   bool in_transaction() override { return !sqlite3_get_autocommit(db()); }
 
@@ -740,6 +766,7 @@ class SqliteDriver final : public Driver {
 
   // Declared before the statements so that they are finalized before the connection closes.
   std::unique_ptr<sqlite3, DbCloser> db_;
+  std::vector<std::string>* plans_ = nullptr;  // explain_into's; the statements read it
   std::unordered_map<std::string, std::unique_ptr<SqliteStatement>> statements_;
 };
 

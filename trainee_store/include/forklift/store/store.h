@@ -776,6 +776,12 @@ class Store : public AccountStore,
   // on the PostgreSQL server shows only when a write fails.
   virtual std::optional<std::string> storage_problem() = 0;
 
+  // The plans of the statements that `calls` run on this store, which run as usual: one text each,
+  // the statement's SQL and, after a line break, its plan as the database gives it (EXPLAIN on
+  // PostgreSQL, EXPLAIN QUERY PLAN on SQLite, with the values bound). For the tests that keep every
+  // list on an index, and for an administrator asking why a page is slow.
+  virtual std::vector<std::string> query_plans(const std::function<void()>& calls) = 0;
+
   // Runs `writes` (calls on this Store) as one transaction: all of them or, if it throws, none
   // (the exception propagates). For imports and bulk loads: one commit instead of one per row.
   // Batches do not nest (kInvalid).
