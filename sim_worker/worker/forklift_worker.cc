@@ -567,7 +567,11 @@ int main(int argc, char** argv) {
                 << " older than the last\n"
                 << "states sent: " << states_published << " (" << late_states << " late); frames: " << frame_publisher.frames()
                 << "; dead-man stops: " << deadman_count << "; furthest behind the wall clock: " << num(max_lag_s * 1e3)
-                << " ms at " << num(max_lag_at_s) << " s" << std::endl;
+                << " ms at " << num(max_lag_at_s) << " s\n"
+                << "the tick ran at "
+                << (realtime_refused.empty() ? std::string("real-time priority")
+                                             : "normal priority (real-time priority " + realtime_refused + ")")
+                << std::endl;
     }
     dds_sleepfor(DDS_MSECS(200));  // let the final reliable status reach its readers
     return 0;

@@ -344,9 +344,8 @@ TEST(Server, AnAbortedSessionEndsAsAbortedAndTheCabIsToldWhy) {
   std::ifstream out(s.db + ".logs/" + id + ".out");
   std::stringstream text;
   text << out.rdbuf();
-  const json worker_out = json::parse(text.str(), nullptr, false);
-  ASSERT_TRUE(worker_out.is_object()) << text.str();
-  EXPECT_EQ(worker_out["score"]["end_reason"], "aborted");
+  // The worker's summary, in words for whoever opens the file.
+  EXPECT_NE(text.str().find("ended (aborted)"), std::string::npos) << text.str();
 }
 
 // Only a session that ran its course has a mark. An aborted session and one
