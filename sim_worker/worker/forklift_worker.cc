@@ -570,7 +570,8 @@ int main(int argc, char** argv) {
                 << " ms at " << num(max_lag_at_s) << " s\n"
                 << "the tick ran at "
                 << (realtime_refused.empty() ? std::string("real-time priority")
-                                             : "normal priority (real-time priority " + realtime_refused + ")")
+                    : realtime ? "normal priority (real-time priority refused: " + realtime_refused + ")"
+                               : std::string("normal priority"))
                 << std::endl;
     }
     dds_sleepfor(DDS_MSECS(200));  // let the final reliable status reach its readers

@@ -53,7 +53,9 @@ drive() {
   accepted=$(sed -n 's/^controls accepted=\([0-9]*\).*/\1/p' "$out/$cfg.ctl")
   [ "${accepted:-0}" -gt 100 ] || fail "$cfg" "the worker applied ${accepted:-no} controls from the other machine"
   grep -q "session $session ended: duration" "$out/$cfg-cab.log" || fail "$cfg" "the cab never heard the session end"
-  grep -q "^t= *2\.0 s" "$out/$cfg-cab.log" || fail "$cfg" "the cab never showed the truck's state at 2 s"
+  # The cab's line comes about once a second of its own clock: any line from 1 s of sim time on shows that
+  # states came from the other machine, however busy this one is.
+  grep -Eq "^t= *[1-9][0-9]*\.[0-9] s" "$out/$cfg-cab.log" || fail "$cfg" "the cab never showed the truck's state after 1 s"
   [ "$failed" -eq 0 ] && echo "$cfg: the worker applied $accepted controls sent from the other machine; the cab heard its states and the end"
 }
 
