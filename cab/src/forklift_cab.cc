@@ -354,7 +354,9 @@ bool same_switches(const fk_Controls& a, const fk_Controls& b) {
   return a.horn == b.horn && a.parking_brake == b.parking_brake && a.frames_wanted == b.frames_wanted &&
          a.camera == b.camera && a.rear_view == b.rear_view && a.see_through_mast == b.see_through_mast &&
          a.fork_camera == b.fork_camera &&
-         (a.accelerator == 0) == (b.accelerator == 0) && (a.brake == 0) == (b.brake == 0);
+         (a.accelerator == 0) == (b.accelerator == 0) && (a.brake == 0) == (b.brake == 0) &&
+         // A lever let go (a tap's end comes with no key event) goes out at once, not at the 50 Hz pace.
+         (a.lift == 0) == (b.lift == 0) && (a.tilt == 0) == (b.tilt == 0) && (a.side_shift == 0) == (b.side_shift == 0);
 }
 
 void CabProgram::send(const fk_Controls& in) {
