@@ -409,8 +409,8 @@ const CabCommand& CabInput::update(double dt_s) {
   // spread over as many passes as that takes.
   for (const SDL_Scancode k : pressed_)
     if (!held_.count(k)) tap_left_s_[k] = s_.tap_s;
-  // The share of this pass a ramped control's key counts as down (a held key all of it).
-  auto share = [&](int d, SDL_Scancode minus, SDL_Scancode plus) { return dt_s > 0 ? down_s(d > 0 ? plus : minus, dt_s) / dt_s : 1.0; };
+  // The share of this pass a key counts as down (a held key all of it).
+  auto share = [&](double down) { return dt_s > 0 ? down / dt_s : 1.0; };
   // Pedals: held keys press them smoothly, released keys let go at once.
   kb_accel_ = held(keys::kAccelerator) ? std::min(1.0, kb_accel_ + dt_s / s_.accelerator_rise_s) : 0;
   kb_brake_ = held(keys::kBrake) || held(keys::kBrakeToo) ? std::min(1.0, kb_brake_ + dt_s / s_.brake_rise_s) : 0;
@@ -435,14 +435,15 @@ const CabCommand& CabInput::update(double dt_s) {
   auto lever = [&](SDL_Scancode minus, SDL_Scancode plus, int& dir, double& held_s) {
     const int d = hold(held(minus), held(plus), dir, held_s);
     if (d == 0) return 0.0;
-    const double v = d * ramp_lever(held_s, s_.lever_start, s_.lever_ramp_s) * share(d, minus, plus);
-    held_s += down_s(d > 0 ? plus : minus, dt_s);
+    const double down = down_s(d > 0 ? plus : minus, dt_s);
+    const double v = d * ramp_lever(held_s, s_.lever_start, s_.lever_ramp_s) * share(down);
+    held_s += down;
     return v;
   };
   cmd_.lift = lever(keys::kLower, keys::kLift, lift_dir_, lift_held_s_);
   cmd_.tilt = lever(keys::kTiltBack, keys::kTiltForward, tilt_dir_, tilt_held_s_);
   const int shift = held(SDL_SCANCODE_Q) ? 1 : held(SDL_SCANCODE_E) ? -1 : 0;
-  cmd_.side_shift = shift == 0 ? 0 : shift * share(shift, SDL_SCANCODE_E, SDL_SCANCODE_Q);
+  cmd_.side_shift = shift * share(down_s(shift > 0 ? SDL_SCANCODE_Q : SDL_SCANCODE_E, dt_s));
   cmd_.horn = held(keys::kHorn);
   read_controller();
 

@@ -144,8 +144,10 @@ class KeyDriveInTheWindow : public forklift_test::WindowTest {
 // the window. The whole route to it, corners included, is keyboard_test's in-process drive, where
 // the fingers' delay does not depend on the machine.
 TEST_F(KeyDriveInTheWindow, AKeyboardOnlyDrivePicksAPallet) {
+  const Eigen::Vector2d start(31.25, 18.5);
+  const double start_yaw_deg = 87;
   nlohmann::json scenario = nlohmann::json::parse(std::ifstream(kData + "/scenarios/rack_pick.json"));
-  scenario["start"] = {{"x_m", 31.25}, {"y_m", 18.5}, {"yaw_deg", 87}};
+  scenario["start"] = {{"x_m", start.x()}, {"y_m", start.y()}, {"yaw_deg", start_yaw_deg}};
   scenario["name"] = "rack_pick_lined_up";
   std::ofstream(tmp("rack_pick_lined_up.json")) << scenario.dump(2);
   // The pupil's 90 s of sim time for the whole route is KeyDrive's bound (cab_test). Here each key
@@ -154,8 +156,8 @@ TEST_F(KeyDriveInTheWindow, AKeyboardOnlyDrivePicksAPallet) {
   // the first went astray.
   Drive r;
   for (int attempt = 1; attempt <= 2; ++attempt) {
-    const double yaw = 87 * M_PI / 180;
-    const Eigen::Vector2d front = Eigen::Vector2d(31.25, 18.5) + key_driver::kFrontAxleM * Eigen::Vector2d(std::cos(yaw), std::sin(yaw));
+    const double yaw = start_yaw_deg * M_PI / 180;
+    const Eigen::Vector2d front = start + key_driver::kFrontAxleM * Eigen::Vector2d(std::cos(yaw), std::sin(yaw));
     key_driver::Pick pick({{31.0, 26.0}, M_PI / 2}, {front});
     r = run("kd1-" + std::to_string(attempt), tmp("rack_pick_lined_up.json"), pick, 90);
     std::printf("key-only drive in the window, session %d: %s at %.1f s of sim time (%s phase), %d fork strikes, %d pallet "

@@ -536,16 +536,13 @@ TaskStep read_step(const Node& n, const Scene& scene) {
     n.at("kind").fail("is an unknown step kind '" + s.kind + "' (reach, pass, take, move, control)");
   }
   s.description = n.string_or("description", "");
-  // Each brace names a control, so that no cab's display and no debrief shows "{lfit}".
-  for (size_t open = s.description.find('{'); open != std::string::npos; open = s.description.find('{', open + 1)) {
-    const size_t close = s.description.find('}', open);
-    const std::string name = close == std::string::npos ? "" : s.description.substr(open + 1, close - open - 1);
-    const auto& c = step_controls();
-    if (std::none_of(c.begin(), c.end(), [&](const auto& k) { return k.first == name; }))
-      n.at("description").fail("names '{" + name + (close == std::string::npos ? "" : "}") +
-                               "', which is no control (accelerator, brake, steer_left, steer_right, centre, forward, "
-                               "neutral, reverse, lift, lower, tilt_back, tilt_forward, parking_brake, horn)");
-  }
+  // Each brace names a control, so that no cab's display and no debrief shows "{lfit}": the
+  // controls' words hold no brace, so one left in the words is unknown or never closed.
+  const std::string words = step_words(s.description);
+  if (const size_t open = words.find('{'); open != std::string::npos)
+    n.at("description").fail("names '" + words.substr(open, words.find('}', open) + 1 - open) +
+                             "', which is no control (accelerator, brake, steer_left, steer_right, centre, forward, "
+                             "neutral, reverse, lift, lower, tilt_back, tilt_forward, parking_brake, horn)");
   return s;
 }
 
