@@ -99,7 +99,7 @@ std::string canonical_certificate_number(const std::string& typed) {
 }
 
 std::string exam_row_sha256(const store::ExamRecord& e) {
-  const json row = {{"id", e.id}, {"pupil_id", e.pupil_id}, {"kind", e.kind},
+  const json row = {{"id", e.id}, {"pupil_id", e.pupil_id}, {"kind", name(e.kind)},
                     {"session", e.session_public_id ? json(*e.session_public_id) : json(nullptr)}, {"score", e.score},
                     {"passed", e.passed}, {"examiner_id", e.examiner_id ? json(*e.examiner_id) : json(nullptr)},
                     {"taken_at", e.taken_at}, {"details", e.details}};
@@ -128,8 +128,8 @@ LicenceBasis licence_basis(Context& ctx, const store::Pupil& pupil, const store:
   std::map<std::string, const ExamResult*> by_course;  // the latest counted exam of each course (results are oldest first)
   std::vector<std::string> not_counted;
   for (const auto& r : results) {
-    if (r.kind == "theory" && r.counts) b.theory = &r;
-    if (r.kind != "practical") continue;
+    if (r.kind == ExamKind::kTheory && r.counts) b.theory = &r;
+    if (r.kind != ExamKind::kPractical) continue;
     if (r.counts) by_course[r.session ? r.session->scenario : std::string()] = &r;
     else if (r.record && r.record->passed) {
       std::string why = r.not_counted;
@@ -179,7 +179,7 @@ json certificate_record(Context& ctx, const store::Pupil& pupil, const LicenceBa
   store::Store& db = ctx.db();
   const ExamResult& t = *basis.theory;
   const json td = t.details.is_object() ? t.details : json::object();
-  json theory = {{"exam_id", t.record->id}, {"kind", "theory"}, {"taken_at", t.taken_at}, {"score", t.record->score},
+  json theory = {{"exam_id", t.record->id}, {"kind", name(ExamKind::kTheory)}, {"taken_at", t.taken_at}, {"score", t.record->score},
                  {"passed", true}, {"correct", td.value("correct", json(nullptr))}, {"total", td.value("total", json(nullptr))},
                  {"pass_mark", td.value("pass_mark", json(nullptr))},
                  {"examiner", named_person(ctx, t.record->examiner_id, "supervisor of the theory exam")},
@@ -190,7 +190,7 @@ json certificate_record(Context& ctx, const store::Pupil& pupil, const LicenceBa
     const auto entry = db.get_chain_entry(p->session->public_id);
     const json e = entry ? parsed(entry->entry) : json();
     const json truck = scenario_setup(scenario_as_run(db, ctx.data_dir, *p->session)).first;
-    practical.push_back({{"exam_id", p->record->id}, {"kind", "practical"}, {"taken_at", p->taken_at}, {"score", p->record->score},
+    practical.push_back({{"exam_id", p->record->id}, {"kind", name(ExamKind::kPractical)}, {"taken_at", p->taken_at}, {"score", p->record->score},
                          {"passed", true}, {"session", p->session->public_id}, {"scenario", p->session->scenario},
                          {"course", course_title(p->course, p->session->scenario)},
                          {"truck", truck.is_null() ? json(nullptr) : truck_json(ctx.data_dir, truck.get<std::string>())},
@@ -261,7 +261,7 @@ CertificateCheck check_certificate(Context& ctx, const store::CertificateRecord&
       const std::string label = x.value("kind", "?") + " exam " + x.value("exam_id", json()).dump();
       const auto e = x.value("exam_id", json()).is_number_integer() ? db.get_exam(x["exam_id"].get<int64_t>()) : std::nullopt;
       if (!e) { problem(label + " is not in the school's records"); continue; }
-      if (e->pupil_id != c.pupil_id || e->kind != x.value("kind", "")) { problem(label + " is another pupil's or another kind"); continue; }
+      if (e->pupil_id != c.pupil_id || name(e->kind) != x.value("kind", "")) { problem(label + " is another pupil's or another kind"); continue; }
       if (exam_row_sha256(*e) != x.value("record_sha256", "")) {
         problem(label + " was changed since the certificate was issued: its record is not the one cited");
         continue;
@@ -273,7 +273,7 @@ CertificateCheck check_certificate(Context& ctx, const store::CertificateRecord&
         if (j.is_object() && j.contains("passed") && j["passed"].is_boolean()) withdrawn_pass = !j["passed"].get<bool>();
       }
       if (withdrawn_pass) { problem(label + "'s pass was withdrawn by a correction"); continue; }
-      if (e->kind == "practical") {
+      if (e->kind == ExamKind::kPractical) {
         const auto s = e->session_public_id ? db.get_session(*e->session_public_id) : std::nullopt;
         if (!s) { problem(label + " has no exam session"); continue; }
         if (exam_course(scenario_as_run(db, ctx.data_dir, *s)).is_null()) { problem(label + " was not taken on an exam course"); continue; }
@@ -288,7 +288,7 @@ CertificateCheck check_certificate(Context& ctx, const store::CertificateRecord&
         }
       }
       out.checks.push_back(label + " is the exam recorded, passed, " +
-                           (e->kind == "practical" ? "with its evidence verified" : "as cited"));
+                           (e->kind == ExamKind::kPractical ? "with its evidence verified" : "as cited"));
     }
   }
   out.status = out.revocation ? "revoked" : out.problems.empty() ? "valid" : "does_not_verify";

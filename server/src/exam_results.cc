@@ -71,9 +71,9 @@ std::vector<ExamResult> exam_results(Context& ctx, const store::PupilHistory& h)
     r.taken_at = e.taken_at;
     r.details = parsed_object(e.details);
     r.corrections = corrections[e.id];
-    if (e.kind == "theory") {
+    if (e.kind == ExamKind::kTheory) {
       // The paper's own outcome, as the theory attempt keeps it ("marked" or "timed_out").
-      const bool timed_out = r.details.is_object() && r.details.value("outcome", "") == "timed_out";
+      const bool timed_out = r.details.is_object() && r.details.value("outcome", "") == name(PaperOutcome::kTimedOut);
       r.outcome = timed_out ? Outcome::kTimedOut : Outcome::kCompleted;
       r.mark = e.score;
       if (timed_out) r.reasons.push_back({name(Outcome::kTimedOut), "the paper's time ran out before it was handed in"});
@@ -117,7 +117,7 @@ std::vector<ExamResult> exam_results(Context& ctx, const store::PupilHistory& h)
                                             (last ? last->at : std::string()) + ": " + (last ? last->reason : std::string())});
     }
     r.passed = e.passed && r.reasons.empty();
-    if (r.passed && r.kind == "practical" && r.course.is_null())
+    if (r.passed && r.kind == ExamKind::kPractical && r.course.is_null())
       r.not_counted = "it was not taken on an exam course (scenario " + (r.session ? r.session->scenario : std::string("?")) +
                       "): only an exam course's result counts toward a licence";
     r.counts = r.passed && r.not_counted.empty();
@@ -129,7 +129,7 @@ std::vector<ExamResult> exam_results(Context& ctx, const store::PupilHistory& h)
     if (s.mode != Mode::kExam || !is_terminal(s.state) || recorded.count(s.public_id)) continue;
     ExamResult r;
     r.session = s;
-    r.kind = "practical";
+    r.kind = ExamKind::kPractical;
     r.taken_at = s.ended_at.empty() ? s.created_at : s.ended_at;
     r.outcome = store::session_outcome(s);
     r.course = exam_course(scenario_as_run(db, ctx.data_dir, s));
@@ -150,7 +150,7 @@ json exam_result_json(Context& ctx, const ExamResult& r) {
   const store::ExamRecord* e = r.record ? &*r.record : nullptr;
   const json& d = r.details;
   const auto detail = [&](const char* key) { return d.is_object() ? d.value(key, json(nullptr)) : json(nullptr); };
-  json x = {{"id", e ? json(e->id) : json(nullptr)}, {"kind", r.kind}, {"taken_at", r.taken_at}, {"outcome", name(r.outcome)},
+  json x = {{"id", e ? json(e->id) : json(nullptr)}, {"kind", name(r.kind)}, {"taken_at", r.taken_at}, {"outcome", name(r.outcome)},
             {"score", r.mark ? json(*r.mark) : json(nullptr)}, {"passed", r.passed}, {"reasons", reasons_json(r.reasons)},
             {"counts_toward_licence", r.counts}, {"not_counted", r.not_counted.empty() ? json(nullptr) : json(r.not_counted)},
             {"session", r.session ? json(r.session->public_id) : json(nullptr)},
@@ -161,7 +161,7 @@ json exam_result_json(Context& ctx, const ExamResult& r) {
     x["examiner"] = who["username"];
     x["examiner_name"] = who["name"];
   }
-  if (r.kind == "practical") {
+  if (r.kind == ExamKind::kPractical) {
     x["scenario"] = r.session ? json(r.session->scenario) : json(nullptr);
     x["exam_course"] = r.course.is_object() ? json(r.course.value("title", r.session ? r.session->scenario : "")) : json(nullptr);
     x["evidence"] = r.evidence ? json{{"verified", r.evidence->verified}, {"problem", r.evidence->verified ? json(nullptr) : json(r.evidence->why)}}

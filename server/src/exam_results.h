@@ -18,7 +18,7 @@ namespace forklift::server {
 struct ExamResult {
   std::optional<store::ExamRecord> record;  // none: an exam session that ended with no score
   std::optional<store::Session> session;    // a practical exam's session
-  std::string kind;                         // "theory" or "practical"
+  ExamKind kind = ExamKind::kPractical;
   std::string taken_at;
   Outcome outcome = Outcome::kFailed;  // practical: the session's (store::session_outcome); theory: completed or timed out
   // Practical: the evaluator's mark of a completed exam (store::mark_of), else none; theory: the

@@ -68,9 +68,9 @@ void exam_routes(Routes& svr, Context& ctx) {
     if (b.contains("passed")) correction["passed"] = b["passed"];
     if (b.contains("score")) {
       const double score = number_field<double>(b["score"], "score");
-      const double top = e.kind == "theory" ? 1.0 : 100.0;
+      const double top = e.kind == ExamKind::kTheory ? 1.0 : 100.0;
       if (!(score >= 0 && score <= top))
-        throw ApiError(400, "bad_request", "'score' must be in [0, " + std::string(e.kind == "theory" ? "1]" : "100]"));
+        throw ApiError(400, "bad_request", "'score' must be in [0, " + std::string(e.kind == ExamKind::kTheory ? "1]" : "100]"));
       correction["score"] = score;
     }
     if (b.contains("note")) {
@@ -86,7 +86,7 @@ void exam_routes(Routes& svr, Context& ctx) {
       const int64_t id = ctx.db().add_exam_correction(c);
       audit(ctx.db(), p, pupil.id, "exam_corrected",
             {{"exam_id", e.id}, {"correction_id", id}, {"reason", reason}, {"correction", correction},
-             {"original", {{"kind", e.kind}, {"score", e.score}, {"passed", e.passed}, {"taken_at", e.taken_at}}}});
+             {"original", {{"kind", name(e.kind)}, {"score", e.score}, {"passed", e.passed}, {"taken_at", e.taken_at}}}});
     });
     res.set_header("Location", "/api/exams/" + std::to_string(e.id));  // the exam, which lists its corrections
     send_json(res, 201, exam_now(ctx, pupil, e.id));

@@ -161,7 +161,7 @@ void list_routes(Routes& svr, Context& ctx) {
     f.school_id = p.school_id;
     std::tie(f.from, f.to) = date_range(req);
     f.search = text_param(req, "search");
-    f.kind = text_param(req, "kind");
+    f.kind = vocabulary_param<ExamKind>(req, "kind");
     const std::string result = text_param(req, "result");
     if (result == "passed") f.passed = true;
     else if (result == "not_passed") f.passed = false;
@@ -179,8 +179,8 @@ void list_routes(Routes& svr, Context& ctx) {
                         [&ctx, f, people](int offset, int limit) {
                           std::vector<std::vector<std::string>> rows;
                           for (const auto& r : ctx.db().find_exams(f, limit, offset).exams) {
-                            const bool theory = r.exam.kind == "theory";
-                            rows.push_back({std::to_string(r.exam.id), r.exam.taken_at, r.pupil_name, r.exam.kind,
+                            const bool theory = r.exam.kind == ExamKind::kTheory;
+                            rows.push_back({std::to_string(r.exam.id), r.exam.taken_at, r.pupil_name, name(r.exam.kind),
                                             r.exam.session_public_id.value_or(""), theory ? "" : csv_number(r.exam.score),
                                             theory ? csv_number(r.exam.score * 100) : "", r.exam.passed ? "yes" : "no",
                                             people->name(r.exam.examiner_id), r.corrections ? std::to_string(r.corrections) : ""});
@@ -191,7 +191,7 @@ void list_routes(Routes& svr, Context& ctx) {
     People people(ctx.db());
     json out = json::array();
     for (const auto& r : found.exams) {
-      out.push_back({{"id", r.exam.id}, {"pupil_id", r.exam.pupil_id}, {"pupil_name", r.pupil_name}, {"kind", r.exam.kind},
+      out.push_back({{"id", r.exam.id}, {"pupil_id", r.exam.pupil_id}, {"pupil_name", r.pupil_name}, {"kind", name(r.exam.kind)},
                      {"session", r.exam.session_public_id ? json(*r.exam.session_public_id) : json(nullptr)},
                      {"score", r.exam.score}, {"passed", r.exam.passed}, {"examiner", people.json(r.exam.examiner_id)},
                      {"taken_at", r.exam.taken_at}, {"corrections", r.corrections}});

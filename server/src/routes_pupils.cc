@@ -224,8 +224,8 @@ void pupil_routes(Routes& svr, Context& ctx) {
     }
     for (const auto& r : results) {
       if (!r.record) continue;  // its session's row says it
-      const bool theory = r.kind == "theory";
-      rows.push_back({pupil.name, "exam", std::to_string(r.record->id), r.taken_at, r.kind, "", "",
+      const bool theory = r.kind == ExamKind::kTheory;
+      rows.push_back({pupil.name, "exam", std::to_string(r.record->id), r.taken_at, name(r.kind), "", "",
                       theory ? "" : csv_number(r.mark), theory && r.mark ? csv_number(*r.mark * 100) : "",
                       r.passed ? "yes" : "no", name(r.outcome), why(r.reasons)});
     }

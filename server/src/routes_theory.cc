@@ -25,8 +25,6 @@ using store::Role;
 
 namespace {
 
-constexpr const char* kExam = "exam";
-constexpr const char* kPractice = "practice";
 
 std::string topic_title(const QuestionBank& bank, const std::string& topic) {
   const TheoryTopic* t = bank.topic(topic);
@@ -131,13 +129,13 @@ json attempt_json(Context& ctx, const store::TheoryAttempt& a, int64_t now) {
   const Paper paper = read_paper(bank, a.questions);
   const json stored = json::parse(a.questions, nullptr, false);
   const bool finished = !a.finished_at.empty();
-  json j = {{"id", a.id}, {"pupil_id", a.pupil_id}, {"kind", a.kind}, {"counts", a.kind == kExam},
+  json j = {{"id", a.id}, {"pupil_id", a.pupil_id}, {"kind", name(a.kind)}, {"counts", a.kind == PaperKind::kExam},
             {"seed", a.seed}, {"started_at", a.started_at}, {"handed_out_by", or_null(username_of(ctx, a.started_by))},
-            {"supervised_by", a.kind == kExam ? or_null(username_of(ctx, a.started_by)) : json(nullptr)},
+            {"supervised_by", a.kind == PaperKind::kExam ? or_null(username_of(ctx, a.started_by)) : json(nullptr)},
             {"bank_version", stored.is_object() ? stored.value("bank_version", json(nullptr)) : json(nullptr)},
             {"pass_mark", bank.pass_mark}, {"pass_mark_why", bank.pass_mark_why},
             {"deadline", a.deadline.empty() ? json(nullptr) : json(a.deadline)}, {"time_limit_s", nullptr}, {"time_left_s", nullptr},
-            {"finished", finished}, {"marked", finished}, {"outcome", finished ? json(a.outcome) : json(nullptr)},
+            {"finished", finished}, {"marked", finished}, {"outcome", finished ? json(a.outcome ? name(*a.outcome) : "") : json(nullptr)},
             {"questions", json::array()}, {"result", nullptr}};
   if (!a.deadline.empty()) {
     const int64_t deadline = ms_of(a.deadline);
@@ -179,20 +177,20 @@ store::TheoryAttempt visible_attempt(Context& ctx, const Principal& p, const std
 bool end_timed_out(Context& ctx, const store::TheoryAttempt& a, const store::Actor& actor, std::optional<double> late_by_s) {
   const QuestionBank& bank = *ctx.bank;
   const Paper paper = read_paper(bank, a.questions);
-  json d = {{"attempt", a.id}, {"kind", a.kind}, {"outcome", "timed_out"}, {"seed", a.seed}, {"bank_version", bank.version},
+  json d = {{"attempt", a.id}, {"kind", name(a.kind)}, {"outcome", name(PaperOutcome::kTimedOut)}, {"seed", a.seed}, {"bank_version", bank.version},
             {"pass_mark", bank.pass_mark}, {"score", 0.0}, {"passed", false}, {"correct", 0},
             {"total", static_cast<int>(paper.ids.size())}, {"by_topic", json::object()}, {"answers", json::array()},
-            {"deadline", a.deadline}, {"supervised_by", a.kind == kExam ? or_null(username_of(ctx, a.started_by)) : json(nullptr)},
+            {"deadline", a.deadline}, {"supervised_by", a.kind == PaperKind::kExam ? or_null(username_of(ctx, a.started_by)) : json(nullptr)},
             {"handed_in_by", nullptr}, {"late_by_s", late_by_s ? json(*late_by_s) : json(nullptr)}};
   const std::string now = store::now_iso8601();
   try {
     ctx.db().batch([&] {
-      json audit_details = {{"attempt", a.id}, {"kind", a.kind}, {"deadline", a.deadline},
+      json audit_details = {{"attempt", a.id}, {"kind", name(a.kind)}, {"deadline", a.deadline},
                             {"late_by_s", late_by_s ? json(*late_by_s) : json(nullptr)}};
-      if (a.kind == kExam) {
+      if (a.kind == PaperKind::kExam) {
         store::ExamRecord r;
         r.pupil_id = a.pupil_id;
-        r.kind = "theory";
+        r.kind = ExamKind::kTheory;
         r.score = 0;
         r.passed = false;
         r.examiner_id = a.started_by;
@@ -200,9 +198,9 @@ bool end_timed_out(Context& ctx, const store::TheoryAttempt& a, const store::Act
         json kept = d;
         kept.update(names_then(ctx, a));
         r.details = kept.dump();
-        audit_details["exam_id"] = ctx.db().finish_theory_attempt(a.id, r, "timed_out");
+        audit_details["exam_id"] = ctx.db().finish_theory_attempt(a.id, r, PaperOutcome::kTimedOut);
       } else {
-        ctx.db().finish_practice_attempt(a.id, "timed_out", d.dump(), now);
+        ctx.db().finish_practice_attempt(a.id, PaperOutcome::kTimedOut, d.dump(), now);
       }
       store::AuditRecord row;
       row.actor = actor;
@@ -251,18 +249,18 @@ std::string duration_words(double s) {
   return o.str();
 }
 
-Standing standing(Context& ctx, const store::Pupil& pupil, const std::string& kind, int64_t now) {
+Standing standing(Context& ctx, const store::Pupil& pupil, PaperKind kind, int64_t now) {
   const TheoryPolicy& policy = *ctx.theory_policy;
   const auto attempts = ctx.db().list_theory_attempts(pupil.id);
   Standing s;
   // One paper at a time: a practice quiz waits for any open paper, an exam for an open exam. A
   // paper from before time limits (no deadline) never ends by itself, so it holds nothing back.
   for (const auto& a : attempts)
-    if (a.finished_at.empty() && !a.deadline.empty() && (kind == kPractice || a.kind == kExam)) {
+    if (a.finished_at.empty() && !a.deadline.empty() && (kind == PaperKind::kPractice || a.kind == PaperKind::kExam)) {
       s.allowed = false;
       s.code = "paper_open";
       s.open_paper = a.id;
-      s.message = pupil.name + " has " + (a.kind == kExam ? "exam" : "practice") + " paper " + std::to_string(a.id) + " open" +
+      s.message = pupil.name + " has " + (a.kind == PaperKind::kExam ? "exam" : "practice") + " paper " + std::to_string(a.id) + " open" +
                   (a.deadline.empty() ? std::string() : " until " + a.deadline) + ": hand it in first" +
                   (a.deadline.empty() ? std::string() : ", or it ends by itself then");
     }
@@ -277,7 +275,7 @@ Standing standing(Context& ctx, const store::Pupil& pupil, const std::string& ki
   const store::TheoryAttempt* last = nullptr;
   bool last_passed = false;
   for (const auto& a : attempts) {
-    if (a.kind != kExam || a.finished_at.empty()) continue;
+    if (a.kind != PaperKind::kExam || a.finished_at.empty()) continue;
     bool passed = false;
     if (a.exam_id)
       if (const auto e = ctx.db().get_exam(*a.exam_id)) passed = e->passed;
@@ -289,8 +287,8 @@ Standing standing(Context& ctx, const store::Pupil& pupil, const std::string& ki
     last_passed = passed;
   }
   for (const auto& a : attempts)
-    if (a.kind == kExam && ms_of(a.started_at) > reset) ++s.attempts;
-  if (kind != kExam || !s.allowed) return s;
+    if (a.kind == PaperKind::kExam && ms_of(a.started_at) > reset) ++s.attempts;
+  if (kind != PaperKind::kExam || !s.allowed) return s;
   if (policy.max_attempts > 0 && s.attempts >= policy.max_attempts) {
     s.allowed = false;
     s.code = "retake_locked";
@@ -323,10 +321,10 @@ json pupil_theory_json(Context& ctx, const store::Pupil& pupil) {
   const int64_t now = now_ms();
   json papers = json::array();
   for (const auto& a : ctx.db().list_theory_attempts(pupil.id)) {
-    json j = {{"id", a.id}, {"kind", a.kind}, {"counts", a.kind == kExam}, {"started_at", a.started_at},
+    json j = {{"id", a.id}, {"kind", name(a.kind)}, {"counts", a.kind == PaperKind::kExam}, {"started_at", a.started_at},
               {"deadline", a.deadline.empty() ? json(nullptr) : json(a.deadline)}, {"finished_at", a.finished_at.empty() ? json(nullptr) : json(a.finished_at)},
-              {"outcome", a.finished_at.empty() ? json(nullptr) : json(a.outcome)},
-              {"supervised_by", a.kind == kExam ? or_null(username_of(ctx, a.started_by)) : json(nullptr)},
+              {"outcome", a.finished_at.empty() ? json(nullptr) : json(a.outcome ? name(*a.outcome) : "")},
+              {"supervised_by", a.kind == PaperKind::kExam ? or_null(username_of(ctx, a.started_by)) : json(nullptr)},
               {"score", nullptr}, {"passed", nullptr}, {"correct", nullptr}, {"total", nullptr}};
     if (!a.finished_at.empty()) {
       const json d = stored_marking(ctx, a).first;
@@ -337,11 +335,11 @@ json pupil_theory_json(Context& ctx, const store::Pupil& pupil) {
   json unlocks = json::array();
   for (const auto& u : ctx.db().list_theory_unlocks(pupil.id))
     unlocks.push_back({{"at", u.at}, {"by", or_null(username_of(ctx, u.unlocked_by))}, {"reason", u.reason}});
-  const Standing exam = standing(ctx, pupil, kExam, now);
+  const Standing exam = standing(ctx, pupil, PaperKind::kExam, now);
   json exam_j = exam.to_json();
   exam_j["attempts_since_reset"] = exam.attempts;
   return {{"pupil_id", pupil.id}, {"policy", policy_json(*ctx.theory_policy)}, {"exam", exam_j},
-          {"practice", standing(ctx, pupil, kPractice, now).to_json()}, {"papers", papers}, {"unlocks", unlocks}};
+          {"practice", standing(ctx, pupil, PaperKind::kPractice, now).to_json()}, {"papers", papers}, {"unlocks", unlocks}};
 }
 
 void refuse(const Standing& s, httplib::Response& res, int64_t now) {
@@ -360,7 +358,7 @@ PaperHistory history_of(Context& ctx, int64_t pupil_id) {
     } catch (const std::runtime_error&) {
       continue;  // a paper of questions the bank no longer has repeats nothing
     }
-    if (a.kind == kExam) last_exam = &a;
+    if (a.kind == PaperKind::kExam) last_exam = &a;
     last_any = &a;
   }
   for (const auto* a : {last_exam, last_any})
@@ -376,7 +374,7 @@ void end_overdue_papers(Context& ctx) {
     const int64_t now = now_ms();
     for (const auto& a : ctx.db().open_theory_attempts())
       if (overdue(ctx, a, now) && end_timed_out(ctx, a, kServerActor, std::nullopt))
-        spdlog::info("theory paper {} ({}) timed out at {}", a.id, a.kind, a.deadline);
+        spdlog::info("theory paper {} ({}) timed out at {}", a.id, name(a.kind), a.deadline);
   } catch (const std::exception& e) {
     spdlog::error("ending overdue theory papers: {}", e.what());
   }
@@ -440,10 +438,12 @@ void theory_routes(Routes& svr, Context& ctx) {
     } else {
       pupil_id = field<int64_t>(b, "pupil_id");
     }
-    const std::string kind = field<std::string>(b, "kind", std::string(is_staff(p) ? kExam : kPractice));
-    if (kind != kExam && kind != kPractice) throw ApiError(400, "bad_request", "'kind' must be \"exam\" or \"practice\"");
+    const std::optional<PaperKind> kind_given =
+        parse<PaperKind>(field<std::string>(b, "kind", name(is_staff(p) ? PaperKind::kExam : PaperKind::kPractice)));
+    if (!kind_given) throw ApiError(400, "bad_request", "'kind' must be \"exam\" or \"practice\"");
+    const PaperKind kind = *kind_given;
     const store::Pupil pupil = visible_pupil(ctx, p, pupil_id);
-    if (kind == kExam && !is_staff(p))
+    if (kind == PaperKind::kExam && !is_staff(p))
       throw ApiError(403, "forbidden", "a theory exam is sat under supervision: an examiner or instructor hands out the paper "
                                        "(a pupil may take a practice quiz, which does not count)");
     end_overdue(ctx, pupil.id);
@@ -454,8 +454,8 @@ void theory_routes(Routes& svr, Context& ctx) {
     randombytes_buf(&seed, sizeof seed);
     seed &= (int64_t{1} << 53) - 1;  // exact as a JSON number
     const TheoryPolicy& policy = *ctx.theory_policy;
-    const int count = kind == kExam ? ctx.bank->questions_per_exam : policy.practice_questions;
-    const double limit_s = kind == kExam ? policy.exam_time_limit_s : policy.practice_time_limit_s;
+    const int count = kind == PaperKind::kExam ? ctx.bank->questions_per_exam : policy.practice_questions;
+    const double limit_s = kind == PaperKind::kExam ? policy.exam_time_limit_s : policy.practice_time_limit_s;
     const Paper paper = draw_paper(*ctx.bank, static_cast<uint64_t>(seed), count, history_of(ctx, pupil.id));
     store::TheoryAttempt a;
     a.pupil_id = pupil.id;
@@ -468,8 +468,8 @@ void theory_routes(Routes& svr, Context& ctx) {
     ctx.db().batch([&] {
       a.id = ctx.db().create_theory_attempt(a);
       audit(ctx.db(), p, a.pupil_id, "theory_paper_handed_out",
-            {{"attempt", a.id}, {"kind", kind}, {"seed", a.seed}, {"bank_version", ctx.bank->version}, {"questions", count},
-             {"time_limit_s", limit_s}, {"deadline", a.deadline}, {"supervised_by", kind == kExam ? json(p.username) : json(nullptr)}});
+            {{"attempt", a.id}, {"kind", name(kind)}, {"seed", a.seed}, {"bank_version", ctx.bank->version}, {"questions", count},
+             {"time_limit_s", limit_s}, {"deadline", a.deadline}, {"supervised_by", kind == PaperKind::kExam ? json(p.username) : json(nullptr)}});
     });
     res.set_header("Location", "/api/theory/attempts/" + std::to_string(a.id));
     send_json(res, 201, attempt_json(ctx, a, now));
@@ -542,7 +542,7 @@ void theory_routes(Routes& svr, Context& ctx) {
                                             ": answers handed in after it are not marked, and the paper is recorded as timed out");
     };
     if (!a.finished_at.empty()) {
-      if (a.outcome == "timed_out") throw late(a);
+      if (a.outcome == PaperOutcome::kTimedOut) throw late(a);
       throw ApiError(409, "already_marked", "theory attempt " + std::to_string(a.id) + " has been marked already");
     }
     const Paper paper = read_paper(*ctx.bank, a.questions);
@@ -561,20 +561,20 @@ void theory_routes(Routes& svr, Context& ctx) {
       items.push_back({{"id", it.question->id}, {"shown", it.shown ? json(*it.shown) : json(nullptr)},
                        {"chosen", it.chosen ? json(*it.chosen) : json(nullptr)}, {"answer", it.question->answer}, {"right", it.right}});
     for (const auto& [topic, ct] : m.by_topic) by_topic[topic] = {{"correct", ct.first}, {"total", ct.second}};
-    const json d = {{"attempt", a.id}, {"kind", a.kind}, {"outcome", "marked"}, {"seed", a.seed}, {"bank_version", ctx.bank->version},
+    const json d = {{"attempt", a.id}, {"kind", name(a.kind)}, {"outcome", name(PaperOutcome::kMarked)}, {"seed", a.seed}, {"bank_version", ctx.bank->version},
                     {"pass_mark", ctx.bank->pass_mark}, {"score", m.score}, {"passed", m.passed}, {"correct", m.correct},
                     {"total", m.total}, {"by_topic", by_topic}, {"answers", items}, {"deadline", a.deadline},
-                    {"supervised_by", a.kind == kExam ? or_null(username_of(ctx, a.started_by)) : json(nullptr)},
+                    {"supervised_by", a.kind == PaperKind::kExam ? or_null(username_of(ctx, a.started_by)) : json(nullptr)},
                     {"handed_in_by", p.username}, {"marked_by", p.username}, {"late_by_s", nullptr}};
     const std::string taken_at = store::now_iso8601();
     try {
       ctx.db().batch([&] {
-        json audit_details = {{"attempt", a.id}, {"kind", a.kind}, {"score", m.score}, {"passed", m.passed},
+        json audit_details = {{"attempt", a.id}, {"kind", name(a.kind)}, {"score", m.score}, {"passed", m.passed},
                               {"correct", m.correct}, {"total", m.total}};
-        if (a.kind == kExam) {
+        if (a.kind == PaperKind::kExam) {
           store::ExamRecord r;
           r.pupil_id = a.pupil_id;
-          r.kind = "theory";
+          r.kind = ExamKind::kTheory;
           r.score = m.score;
           r.passed = m.passed;
           r.examiner_id = a.started_by;  // the supervisor who handed it out
@@ -582,9 +582,9 @@ void theory_routes(Routes& svr, Context& ctx) {
           json kept = d;
           kept.update(names_then(ctx, a));
           r.details = kept.dump();
-          audit_details["exam_id"] = ctx.db().finish_theory_attempt(a.id, r, "marked");
+          audit_details["exam_id"] = ctx.db().finish_theory_attempt(a.id, r, PaperOutcome::kMarked);
         } else {
-          ctx.db().finish_practice_attempt(a.id, "marked", d.dump(), taken_at);
+          ctx.db().finish_practice_attempt(a.id, PaperOutcome::kMarked, d.dump(), taken_at);
           audit_details["exam_id"] = nullptr;
         }
         audit(ctx.db(), p, a.pupil_id, "theory_marked", audit_details);
@@ -592,7 +592,7 @@ void theory_routes(Routes& svr, Context& ctx) {
     } catch (const store::StoreError& e) {
       if (e.kind() != store::StoreError::kConflict) throw;
       const auto now_a = ctx.db().get_theory_attempt(a.id);  // finished meanwhile: by the clock, or another hand-in
-      if (now_a && now_a->outcome == "timed_out") throw late(*now_a);
+      if (now_a && now_a->outcome == PaperOutcome::kTimedOut) throw late(*now_a);
       throw ApiError(409, "already_marked", "theory attempt " + std::to_string(a.id) + " has been marked already");
     }
     send_json(res, 200, attempt_json(ctx, *ctx.db().get_theory_attempt(a.id), now_ms()));
@@ -617,7 +617,7 @@ void theory_routes(Routes& svr, Context& ctx) {
     const std::string reason = field<std::string>(b, "reason", std::string());
     if (reason.size() > 1000) throw ApiError(400, "bad_request", "'reason' is longer than 1000 characters");
     end_overdue(ctx, pupil.id);
-    const Standing before = standing(ctx, pupil, kExam, now_ms());
+    const Standing before = standing(ctx, pupil, PaperKind::kExam, now_ms());
     ctx.db().batch([&] {
       store::TheoryUnlock u;
       u.pupil_id = pupil.id;

@@ -35,6 +35,9 @@ TEST(Vocabulary, EveryNameParsesBackAndNothingElseParses) {
   round_trips({EventOrigin::kEvaluation, EventOrigin::kHandling, EventOrigin::kWorker});
   round_trips({Outcome::kOpen, Outcome::kCompleted, Outcome::kTimedOut, Outcome::kAborted, Outcome::kStopped,
                Outcome::kFailed});
+  round_trips({ExamKind::kTheory, ExamKind::kPractical});
+  round_trips({PaperKind::kExam, PaperKind::kPractice});
+  round_trips({PaperOutcome::kMarked, PaperOutcome::kTimedOut});
   round_trips({HostState::kReady, HostState::kStopping});
   round_trips({WorkerAction::kStart, WorkerAction::kAbort, WorkerAction::kKill});
   round_trips({WorkerReportState::kStarting, WorkerReportState::kRunning, WorkerReportState::kExited,
@@ -48,6 +51,9 @@ TEST(Vocabulary, TheNamesAreTheWireAndLogWords) {
   EXPECT_STREQ(name(SessionPhase::kEnded), "ended");
   EXPECT_STREQ(name(Mode::kExam), "exam");
   EXPECT_STREQ(name(Outcome::kTimedOut), "timed_out");
+  EXPECT_STREQ(name(ExamKind::kPractical), "practical");  // the exams table's CHECK
+  EXPECT_STREQ(name(PaperKind::kPractice), "practice");   // the theory_attempts table's CHECK
+  EXPECT_STREQ(name(PaperOutcome::kTimedOut), "timed_out");
   EXPECT_STREQ(name(HostState::kStopping), "stopping");
   EXPECT_STREQ(name(WorkerAction::kAbort), "abort");
   EXPECT_STREQ(name(WorkerReportState::kExited), "exited");

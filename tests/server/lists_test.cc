@@ -181,7 +181,7 @@ TEST(Lists, SessionsAndExamsAreFilteredSortedAndExportedAsShown) {
     ended(ann, "cab1", "2026-11-24T08:00:00Z", ines, "task_complete", 90);
     fs::ExamRecord theory;
     theory.pupil_id = ann;
-    theory.kind = "theory";
+    theory.kind = forklift::ExamKind::kTheory;
     theory.score = 0.875;
     theory.passed = true;
     theory.taken_at = "2026-11-23T11:00:00Z";

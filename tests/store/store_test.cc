@@ -170,7 +170,7 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
   fs::ExamRecord TheoryRecord(int64_t pupil, double score, bool passed, const std::string& taken_at = "") {
     fs::ExamRecord r;
     r.pupil_id = pupil;
-    r.kind = "theory";
+    r.kind = forklift::ExamKind::kTheory;
     r.score = score;
     r.passed = passed;
     r.taken_at = taken_at;
@@ -414,7 +414,7 @@ TEST_P(StoreTest, ExamsAreFoundByKindDateAndResultWithTheirCorrections) {
   const int64_t t2 = store_->add_exam(TheoryRecord(bob, 0.5, false, "2026-11-24T08:00:00Z"));
   fs::ExamRecord practical;
   practical.pupil_id = bob;
-  practical.kind = "practical";
+  practical.kind = forklift::ExamKind::kPractical;
   practical.score = 71.25;
   practical.passed = true;
   practical.examiner_id = erin;
@@ -431,7 +431,7 @@ TEST_P(StoreTest, ExamsAreFoundByKindDateAndResultWithTheirCorrections) {
   using V = std::vector<int64_t>;
   EXPECT_EQ(ids({}), (V{p1, t2, t1}));
   fs::ExamFilter f;
-  f.kind = "theory";
+  f.kind = forklift::ExamKind::kTheory;
   EXPECT_EQ(ids(f), (V{t2, t1}));
   f.passed = false;
   EXPECT_EQ(ids(f), V{t2});
@@ -450,8 +450,6 @@ TEST_P(StoreTest, ExamsAreFoundByKindDateAndResultWithTheirCorrections) {
   ASSERT_EQ(page.exams.size(), 1u);
   EXPECT_EQ(page.exams[0].pupil_name, "Bob");
   EXPECT_EQ(page.exams[0].corrections, 1);
-  all.kind = "oral";
-  EXPECT_EQ(ErrorKind([&] { store_->find_exams(all, 10, 0); }), fs::StoreError::kInvalid);
 }
 
 TEST_P(StoreTest, ACabIsNeverBookedTwiceAtOnce) {
@@ -671,7 +669,7 @@ TEST_P(StoreTest, ExamSessionScoreAddsPracticalExam) {
   ASSERT_FALSE(store_->set_score(fs::ScoreRecord{s, 20, false, {}}, "2026-01-01T10:40:00Z"));
   const auto exams = store_->history(pupil, "2026-01-02T00:00:00Z")->exams;
   ASSERT_EQ(exams.size(), 1u);
-  EXPECT_EQ(exams[0].kind, "practical");
+  EXPECT_EQ(exams[0].kind, forklift::ExamKind::kPractical);
   EXPECT_EQ(exams[0].session_public_id, s);
   EXPECT_DOUBLE_EQ(exams[0].score, 81);
   EXPECT_TRUE(exams[0].passed);
@@ -683,7 +681,7 @@ TEST_P(StoreTest, TheoryExamsAreValidated) {
   const int64_t pupil = NewPupil("Ann");
   fs::ExamRecord r;
   r.pupil_id = pupil;
-  r.kind = "theory";
+  r.kind = forklift::ExamKind::kTheory;
   r.score = 0.9;
   r.passed = true;
   r.taken_at = "2026-02-01T09:00:00Z";
@@ -695,9 +693,6 @@ TEST_P(StoreTest, TheoryExamsAreValidated) {
   EXPECT_EQ(exams[0].details, r.details);
   EXPECT_FALSE(exams[0].session_public_id.has_value());
 
-  r.kind = "oral";
-  EXPECT_EQ(ErrorKind([&] { store_->add_exam(r); }), fs::StoreError::kInvalid);
-  r.kind = "theory";
   r.pupil_id = pupil + 999;
   EXPECT_EQ(ErrorKind([&] { store_->add_exam(r); }), fs::StoreError::kNotFound);
 }
@@ -1248,22 +1243,22 @@ TEST_P(StoreTest, TheoryAttemptIsMarkedExactlyOnce) {
 
   fs::ExamRecord r;
   r.pupil_id = other;  // not the attempt's pupil
-  r.kind = "theory";
+  r.kind = forklift::ExamKind::kTheory;
   r.score = 0.8;
   r.passed = true;
   r.taken_at = "2026-02-01T09:20:00Z";
   r.details = R"({"attempt":1})";
   EXPECT_EQ(ErrorKind([&] { store_->finish_theory_attempt(id, r); }), fs::StoreError::kInvalid);
   r.pupil_id = pupil;
-  r.kind = "practical";
+  r.kind = forklift::ExamKind::kPractical;
   EXPECT_EQ(ErrorKind([&] { store_->finish_theory_attempt(id, r); }), fs::StoreError::kInvalid);
-  r.kind = "theory";
+  r.kind = forklift::ExamKind::kTheory;
   EXPECT_EQ(ErrorKind([&] { store_->finish_theory_attempt(id + 99, r); }), fs::StoreError::kNotFound);
   const int64_t exam = store_->finish_theory_attempt(id, r);
   EXPECT_EQ(store_->get_theory_attempt(id)->exam_id, exam);
   const auto e = store_->get_exam(exam);
   ASSERT_TRUE(e.has_value());
-  EXPECT_EQ(e->kind, "theory");
+  EXPECT_EQ(e->kind, forklift::ExamKind::kTheory);
   EXPECT_EQ(e->pupil_id, pupil);
   EXPECT_DOUBLE_EQ(e->score, 0.8);
   EXPECT_EQ(e->details, r.details);
@@ -1293,7 +1288,7 @@ TEST_P(StoreTest, TheoryPapersAreExamsOrPracticeAndEndOnce) {
   exam.deadline = "2026-02-01T09:45:00.250Z";
   const int64_t exam_id = store_->create_theory_attempt(exam);
   fs::TheoryAttempt practice = exam;
-  practice.kind = "practice";
+  practice.kind = forklift::PaperKind::kPractice;
   practice.started_by.reset();
   practice.deadline = "2026-02-01T09:15:00Z";
   const int64_t practice_id = store_->create_theory_attempt(practice);
@@ -1304,47 +1299,43 @@ TEST_P(StoreTest, TheoryPapersAreExamsOrPracticeAndEndOnce) {
 
   const auto got = store_->get_theory_attempt(exam_id);
   ASSERT_TRUE(got.has_value());
-  EXPECT_EQ(got->kind, "exam");
+  EXPECT_EQ(got->kind, forklift::PaperKind::kExam);
   EXPECT_EQ(got->deadline, exam.deadline);  // milliseconds kept
   EXPECT_EQ(got->started_by, examiner);
   EXPECT_TRUE(got->finished_at.empty());
-  EXPECT_TRUE(got->outcome.empty());
-  EXPECT_EQ(store_->get_theory_attempt(practice_id)->kind, "practice");
+  EXPECT_FALSE(got->outcome.has_value());
+  EXPECT_EQ(store_->get_theory_attempt(practice_id)->kind, forklift::PaperKind::kPractice);
   // Open papers with a deadline, oldest first; the undated one never times out.
   std::vector<int64_t> open;
   for (const auto& a : store_->open_theory_attempts()) open.push_back(a.id);
   EXPECT_EQ(open, (std::vector<int64_t>{exam_id, practice_id}));
 
-  // Refused: a kind that is neither, a paper that claims to be finished already.
+  // Refused: a paper that claims to be finished already.
   fs::TheoryAttempt bad = exam;
-  bad.kind = "quiz";
-  EXPECT_EQ(ErrorKind([&] { store_->create_theory_attempt(bad); }), fs::StoreError::kInvalid);
-  bad = exam;
-  bad.outcome = "marked";
+  bad.outcome = forklift::PaperOutcome::kMarked;
   EXPECT_EQ(ErrorKind([&] { store_->create_theory_attempt(bad); }), fs::StoreError::kInvalid);
 
   // An exam times out into its exam record; a practice paper keeps its marking and has none.
   fs::ExamRecord r;
   r.pupil_id = pupil;
-  r.kind = "theory";
+  r.kind = forklift::ExamKind::kTheory;
   r.score = 0;
   r.passed = false;
   r.taken_at = "2026-02-01T09:45:01Z";
   r.details = R"({"outcome":"timed_out"})";
   EXPECT_EQ(ErrorKind([&] { store_->finish_theory_attempt(practice_id, r); }), fs::StoreError::kInvalid);
-  EXPECT_EQ(ErrorKind([&] { store_->finish_theory_attempt(exam_id, r, "late"); }), fs::StoreError::kInvalid);
-  const int64_t record = store_->finish_theory_attempt(exam_id, r, "timed_out");
+  const int64_t record = store_->finish_theory_attempt(exam_id, r, forklift::PaperOutcome::kTimedOut);
   const auto timed_out = store_->get_theory_attempt(exam_id);
   EXPECT_EQ(timed_out->exam_id, record);
-  EXPECT_EQ(timed_out->outcome, "timed_out");
+  EXPECT_EQ(timed_out->outcome, forklift::PaperOutcome::kTimedOut);
   EXPECT_EQ(timed_out->finished_at, r.taken_at);
-  EXPECT_EQ(ErrorKind([&] { store_->finish_practice_attempt(exam_id, "marked", "{}", ""); }), fs::StoreError::kInvalid);
-  EXPECT_EQ(ErrorKind([&] { store_->finish_practice_attempt(practice_id, "late", "{}", ""); }), fs::StoreError::kInvalid);
-  EXPECT_EQ(ErrorKind([&] { store_->finish_practice_attempt(practice_id + 99, "marked", "{}", ""); }), fs::StoreError::kNotFound);
-  store_->finish_practice_attempt(practice_id, "marked", R"({"correct":3})", "2026-02-01T09:10:00Z");
-  EXPECT_EQ(ErrorKind([&] { store_->finish_practice_attempt(practice_id, "marked", "{}", ""); }), fs::StoreError::kConflict);
+  const forklift::PaperOutcome marked = forklift::PaperOutcome::kMarked;
+  EXPECT_EQ(ErrorKind([&] { store_->finish_practice_attempt(exam_id, marked, "{}", ""); }), fs::StoreError::kInvalid);
+  EXPECT_EQ(ErrorKind([&] { store_->finish_practice_attempt(practice_id + 99, marked, "{}", ""); }), fs::StoreError::kNotFound);
+  store_->finish_practice_attempt(practice_id, marked, R"({"correct":3})", "2026-02-01T09:10:00Z");
+  EXPECT_EQ(ErrorKind([&] { store_->finish_practice_attempt(practice_id, marked, "{}", ""); }), fs::StoreError::kConflict);
   const auto done = store_->get_theory_attempt(practice_id);
-  EXPECT_EQ(done->outcome, "marked");
+  EXPECT_EQ(done->outcome, forklift::PaperOutcome::kMarked);
   EXPECT_EQ(done->result, R"({"correct":3})");
   EXPECT_FALSE(done->exam_id.has_value());
   // Practice never reaches the pupil's exam records.
@@ -1390,7 +1381,7 @@ TEST_P(StoreTest, TheoryPapersFromBeforeTheirKindAreMarkedExams) {
   const int64_t open = store_->create_theory_attempt(a);
   fs::ExamRecord r;
   r.pupil_id = pupil;
-  r.kind = "theory";
+  r.kind = forklift::ExamKind::kTheory;
   r.score = 1;
   r.passed = true;
   r.taken_at = "2026-02-01T09:20:00Z";
@@ -1405,11 +1396,11 @@ TEST_P(StoreTest, TheoryPapersFromBeforeTheirKindAreMarkedExams) {
   store_ = Open();
   EXPECT_GE(store_->schema_version(), 5);
   const auto m = store_->get_theory_attempt(marked), o = store_->get_theory_attempt(open);
-  EXPECT_EQ(m->kind, "exam");
-  EXPECT_EQ(m->outcome, "marked");
+  EXPECT_EQ(m->kind, forklift::PaperKind::kExam);
+  EXPECT_EQ(m->outcome, forklift::PaperOutcome::kMarked);
   EXPECT_EQ(m->finished_at, "2026-02-01T09:20:00Z");
-  EXPECT_EQ(o->kind, "exam");
-  EXPECT_TRUE(o->outcome.empty());
+  EXPECT_EQ(o->kind, forklift::PaperKind::kExam);
+  EXPECT_FALSE(o->outcome.has_value());
   EXPECT_TRUE(o->deadline.empty());
   EXPECT_TRUE(store_->open_theory_attempts().empty());  // no deadline: the server never times it out
 }

@@ -197,10 +197,10 @@ TheoryAttempt read_theory_attempt(const Row& q) {
   a.started_at = q.text(4);
   a.started_by = q.opt_int64(5);
   a.exam_id = q.opt_int64(6);
-  a.kind = q.text(7);
+  a.kind = stored<PaperKind>(q.text(7), "theory paper kind");
   a.deadline = q.text(8);
   a.finished_at = q.text(9);
-  a.outcome = q.text(10);
+  if (const std::string outcome = q.text(10); !outcome.empty()) a.outcome = stored<PaperOutcome>(outcome, "theory paper outcome");
   a.result = q.text(11);
   return a;
 }
@@ -230,7 +230,7 @@ ExamRecord read_exam(const Row& q) {
   ExamRecord r;
   r.id = q.int64(0);
   r.pupil_id = q.int64(1);
-  r.kind = q.text(2);
+  r.kind = stored<ExamKind>(q.text(2), "exam kind");
   if (!q.is_null(3)) r.session_public_id = q.text(3);
   r.score = q.real(4);
   r.passed = q.int64(5) != 0;

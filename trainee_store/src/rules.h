@@ -14,8 +14,6 @@
 
 namespace forklift::store::detail {
 
-inline bool is_theory_outcome(const std::string& outcome) { return outcome == "marked" || outcome == "timed_out"; }
-
 inline void require(bool ok, StoreError::Kind kind, const char* op, const std::string& what) {
   if (!ok) throw StoreError(kind, std::string(op) + ": " + what);
 }
@@ -28,25 +26,19 @@ inline void check_new_session(const char* op, const std::string& cab_id, const s
 }
 
 inline void check_new_theory_attempt(const char* op, const TheoryAttempt& a) {
-  require(!a.exam_id && a.finished_at.empty() && a.outcome.empty() && a.result.empty(), StoreError::kInvalid, op,
+  require(!a.exam_id && a.finished_at.empty() && !a.outcome && a.result.empty(), StoreError::kInvalid, op,
           "a new attempt is not finished yet");
-  require(a.kind == "exam" || a.kind == "practice", StoreError::kInvalid, op,
-          "attempt kind '" + a.kind + "' is neither exam nor practice");
   require(a.seed >= 0 && a.seed < (int64_t{1} << 53), StoreError::kInvalid, op, "seed out of [0, 2^53)");
   require(!a.questions.empty(), StoreError::kInvalid, op, "no questions");
-}
-
-inline void check_theory_outcome(const char* op, const std::string& outcome) {
-  require(is_theory_outcome(outcome), StoreError::kInvalid, op, "outcome '" + outcome + "' is neither marked nor timed_out");
 }
 
 // An exam paper `a` (as read, inside the transaction) finished with the record `r`.
 inline void check_theory_finish(const char* op, int64_t attempt_id, const std::optional<TheoryAttempt>& a,
                                 const ExamRecord& r) {
   require(a.has_value(), StoreError::kNotFound, op, "no theory attempt " + std::to_string(attempt_id));
-  require(a->kind == "exam", StoreError::kInvalid, op,
+  require(a->kind == PaperKind::kExam, StoreError::kInvalid, op,
           "attempt " + std::to_string(attempt_id) + " is a practice paper: it has no exam record");
-  require(r.kind == "theory" && !r.session_public_id, StoreError::kInvalid, op,
+  require(r.kind == ExamKind::kTheory && !r.session_public_id, StoreError::kInvalid, op,
           "a theory attempt is marked with a theory record without a session");
   require(r.pupil_id == a->pupil_id, StoreError::kInvalid, op,
           "attempt " + std::to_string(attempt_id) + " is not pupil " + std::to_string(r.pupil_id) + "'s");
@@ -57,7 +49,7 @@ inline void check_theory_finish(const char* op, int64_t attempt_id, const std::o
 // A practice paper `a` (as read, inside the transaction) about to be finished.
 inline void check_practice_finish(const char* op, int64_t attempt_id, const std::optional<TheoryAttempt>& a) {
   require(a.has_value(), StoreError::kNotFound, op, "no theory attempt " + std::to_string(attempt_id));
-  require(a->kind == "practice", StoreError::kInvalid, op,
+  require(a->kind == PaperKind::kPractice, StoreError::kInvalid, op,
           "attempt " + std::to_string(attempt_id) + " is an exam paper: it is finished with its exam record");
 }
 
@@ -101,7 +93,7 @@ inline void check_new_revocation(const char* op, const CertificateRevocation& r)
 inline ExamRecord practical_exam(const Session& session, const ScoreRecord& s, const std::string& now) {
   ExamRecord exam;
   exam.pupil_id = session.pupil_id;
-  exam.kind = "practical";
+  exam.kind = ExamKind::kPractical;
   exam.session_public_id = session.public_id;
   exam.score = s.mark;
   exam.passed = s.passed;

@@ -305,8 +305,6 @@ class SqlStore final : public Store {
 
   ExamPage find_exams(const ExamFilter& f, int limit, int offset) override {
     check_page(__func__, limit, offset);
-    require(f.kind.empty() || f.kind == "theory" || f.kind == "practical", StoreError::kInvalid, __func__,
-            "exam kind '" + f.kind + "' is neither theory nor practical");
     const std::string order = order_by(__func__,
                                        {{"taken_at", "e.taken_at"},
                                         {"pupil", dialect_.folded("p.name")},
@@ -320,7 +318,7 @@ class SqlStore final : public Store {
       const std::string like = contains_pattern(f.search);
       where.add("(" + dialect_.like_folded("p.name") + " OR " + dialect_.like_folded("p.email") + ")", {like, like});
     }
-    if (!f.kind.empty()) where.add("e.kind = ?", {f.kind});
+    if (f.kind) where.add("e.kind = ?", {std::string(name(*f.kind))});
     if (!f.from.empty()) where.add("e.taken_at >= ?", {f.from});
     if (!f.to.empty()) where.add("e.taken_at < ?", {f.to});
     if (f.passed) where.add(*f.passed ? "e.passed = TRUE" : "e.passed = FALSE");
@@ -598,8 +596,6 @@ class SqlStore final : public Store {
   }
 
   int64_t add_exam(const ExamRecord& r) override {
-    require(r.kind == "theory" || r.kind == "practical", StoreError::kInvalid, __func__,
-            "exam kind '" + r.kind + "' is neither theory nor practical");
     Durable durable(d_, __func__);
     Transaction tx(d_, __func__, TxKind::kWrite);
     std::optional<int64_t> session_id;
@@ -640,7 +636,7 @@ class SqlStore final : public Store {
             "INSERT INTO theory_attempts(pupil_id, seed, questions, started_at, started_by, kind, deadline) "
             "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7) RETURNING id");
     q.bind(a.pupil_id).bind(a.seed).bind(a.questions).bind(a.started_at.empty() ? now_iso8601() : a.started_at);
-    return inserted(__func__, q.bind(a.started_by).bind(a.kind).bind(a.deadline));
+    return inserted(__func__, q.bind(a.started_by).bind(std::string(name(a.kind))).bind(a.deadline));
   }
 
   std::optional<TheoryAttempt> get_theory_attempt(int64_t id) override {
@@ -650,8 +646,7 @@ class SqlStore final : public Store {
     return a;
   }
 
-  int64_t finish_theory_attempt(int64_t attempt_id, const ExamRecord& r, const std::string& outcome) override {
-    check_theory_outcome(__func__, outcome);
+  int64_t finish_theory_attempt(int64_t attempt_id, const ExamRecord& r, PaperOutcome outcome) override {
     Durable durable(d_, __func__);
     Transaction tx(d_, __func__, TxKind::kWrite);
     const std::optional<TheoryAttempt> a = attempt(__func__, attempt_id);
@@ -663,21 +658,20 @@ class SqlStore final : public Store {
     Query q(d_, __func__,
             "UPDATE theory_attempts SET exam_id = ?1, outcome = ?2, finished_at = ?3 "
             "WHERE id = ?4 AND exam_id IS NULL AND finished_at = ''");
-    require(q.bind(exam).bind(outcome).bind(record.taken_at).bind(attempt_id).changes() > 0, StoreError::kConflict,
+    require(q.bind(exam).bind(std::string(name(outcome))).bind(record.taken_at).bind(attempt_id).changes() > 0, StoreError::kConflict,
             __func__, "attempt " + std::to_string(attempt_id) + " was already finished");
     tx.commit();
     return exam;
   }
 
-  void finish_practice_attempt(int64_t attempt_id, const std::string& outcome, const std::string& result,
+  void finish_practice_attempt(int64_t attempt_id, PaperOutcome outcome, const std::string& result,
                                const std::string& finished_at) override {
-    check_theory_outcome(__func__, outcome);
     Transaction tx(d_, __func__, TxKind::kWrite);
     const std::optional<TheoryAttempt> a = attempt(__func__, attempt_id);
     check_practice_finish(__func__, attempt_id, a);
     Query q(d_, __func__,
             "UPDATE theory_attempts SET outcome = ?1, result = ?2, finished_at = ?3 WHERE id = ?4 AND finished_at = ''");
-    q.bind(outcome).bind(result).bind(finished_at.empty() ? now_iso8601() : finished_at).bind(attempt_id);
+    q.bind(std::string(name(outcome))).bind(result).bind(finished_at.empty() ? now_iso8601() : finished_at).bind(attempt_id);
     require(q.changes() > 0, StoreError::kConflict, __func__, "attempt " + std::to_string(attempt_id) + " was already finished");
     tx.commit();
   }
@@ -1167,7 +1161,7 @@ class SqlStore final : public Store {
     Query q(d_, op,
             "INSERT INTO exams(pupil_id, kind, session_id, score, passed, examiner_id, taken_at, details) "
             "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8) RETURNING id");
-    q.bind(r.pupil_id).bind(r.kind).bind(session_id).bind(r.score).bind(r.passed).bind(r.examiner_id);
+    q.bind(r.pupil_id).bind(std::string(name(r.kind))).bind(session_id).bind(r.score).bind(r.passed).bind(r.examiner_id);
     return q.bind(r.taken_at.empty() ? now_iso8601() : r.taken_at).bind(r.details).returned_id();
   }
 

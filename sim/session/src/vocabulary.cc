@@ -32,6 +32,9 @@ constexpr Names<Outcome, 6> kOutcomes{{{Outcome::kOpen, "open"},
                                        {Outcome::kAborted, "aborted"},
                                        {Outcome::kStopped, "stopped"},
                                        {Outcome::kFailed, "failed"}}};
+constexpr Names<ExamKind, 2> kExamKinds{{{ExamKind::kTheory, "theory"}, {ExamKind::kPractical, "practical"}}};
+constexpr Names<PaperKind, 2> kPaperKinds{{{PaperKind::kExam, "exam"}, {PaperKind::kPractice, "practice"}}};
+constexpr Names<PaperOutcome, 2> kPaperOutcomes{{{PaperOutcome::kMarked, "marked"}, {PaperOutcome::kTimedOut, "timed_out"}}};
 constexpr Names<HostState, 2> kHostStates{{{HostState::kReady, "ready"}, {HostState::kStopping, "stopping"}}};
 constexpr Names<WorkerAction, 3> kWorkerActions{
     {{WorkerAction::kStart, "start"}, {WorkerAction::kAbort, "abort"}, {WorkerAction::kKill, "kill"}}};
@@ -65,6 +68,9 @@ const char* name(SessionPhase p) { return name_in(kPhases, p); }
 const char* name(Mode m) { return name_in(kModes, m); }
 const char* name(EventOrigin o) { return name_in(kOrigins, o); }
 const char* name(Outcome o) { return name_in(kOutcomes, o); }
+const char* name(ExamKind k) { return name_in(kExamKinds, k); }
+const char* name(PaperKind k) { return name_in(kPaperKinds, k); }
+const char* name(PaperOutcome o) { return name_in(kPaperOutcomes, o); }
 const char* name(HostState s) { return name_in(kHostStates, s); }
 const char* name(WorkerAction a) { return name_in(kWorkerActions, a); }
 const char* name(WorkerReportState s) { return name_in(kReportStates, s); }
@@ -74,6 +80,9 @@ template <> std::optional<SessionPhase> parse<SessionPhase>(std::string_view s) 
 template <> std::optional<Mode> parse<Mode>(std::string_view s) { return parse_in(kModes, s); }
 template <> std::optional<EventOrigin> parse<EventOrigin>(std::string_view s) { return parse_in(kOrigins, s); }
 template <> std::optional<Outcome> parse<Outcome>(std::string_view s) { return parse_in(kOutcomes, s); }
+template <> std::optional<ExamKind> parse<ExamKind>(std::string_view s) { return parse_in(kExamKinds, s); }
+template <> std::optional<PaperKind> parse<PaperKind>(std::string_view s) { return parse_in(kPaperKinds, s); }
+template <> std::optional<PaperOutcome> parse<PaperOutcome>(std::string_view s) { return parse_in(kPaperOutcomes, s); }
 template <> std::optional<HostState> parse<HostState>(std::string_view s) { return parse_in(kHostStates, s); }
 template <> std::optional<WorkerAction> parse<WorkerAction>(std::string_view s) { return parse_in(kWorkerActions, s); }
 template <> std::optional<WorkerReportState> parse<WorkerReportState>(std::string_view s) { return parse_in(kReportStates, s); }

@@ -197,7 +197,7 @@ struct ExamFilter {
   int64_t school_id = 0;
   std::optional<int64_t> pupil_id;
   std::string search;                   // in the pupil's name or email
-  std::string kind;                     // "theory" or "practical"; empty: both
+  std::optional<ExamKind> kind;         // none: both
   std::string from, to;                 // taken_at in [from, to)
   std::optional<bool> passed;           // as recorded (a correction may say otherwise: the record's page shows it)
   std::optional<int64_t> examiner_id;
@@ -245,7 +245,7 @@ struct ScoreRecord {
 struct ExamRecord {
   int64_t id = 0;
   int64_t pupil_id = 0;
-  std::string kind;  // "theory" or "practical"
+  ExamKind kind = ExamKind::kPractical;
   std::optional<std::string> session_public_id;  // practical exams
   double score = 0;  // theory: fraction correct in [0, 1]; practical: the mark
   bool passed = false;
@@ -344,10 +344,10 @@ struct TheoryAttempt {
   std::string started_at;
   std::optional<int64_t> started_by;  // the user who handed the paper out: for an exam, its supervisor
   std::optional<int64_t> exam_id;     // an exam paper's record, once finished
-  std::string kind = "exam";          // "exam" (supervised, counts) or "practice" (self-service, never counts)
+  PaperKind kind = PaperKind::kExam;
   std::string deadline;               // ISO-8601 UTC, perhaps with milliseconds; empty: no time limit
   std::string finished_at;            // empty while open
-  std::string outcome;                // empty while open; "marked" or "timed_out"
+  std::optional<PaperOutcome> outcome;  // none while open
   std::string result;                 // a practice paper's marking, JSON text opaque to the store
 };
 
@@ -677,20 +677,19 @@ class TheoryStore {
   virtual ~TheoryStore() = default;
 
   // A theory paper handed out (id ignored; exam_id, finished_at, outcome and result must be empty;
-  // kind "exam" or "practice"; kNotFound for an unknown pupil or user). Returns its id.
+  // kNotFound for an unknown pupil or user). Returns its id.
   virtual int64_t create_theory_attempt(const TheoryAttempt& a) = 0;
   virtual std::optional<TheoryAttempt> get_theory_attempt(int64_t id) = 0;
-  // Finishes an exam paper exactly once: adds `r` (kind "theory", the attempt's pupil) as its exam
-  // record and links it, with `outcome` ("marked" or "timed_out") and finished_at = r.taken_at, in
-  // one transaction written with synchronous=FULL. kNotFound for an unknown attempt, kInvalid if
-  // the attempt is a practice paper, `r` is not a theory record of its pupil or `outcome` is
-  // neither, kConflict if it was finished already. Returns the exam record's id.
+  // Finishes an exam paper exactly once: adds `r` (a theory record of the attempt's pupil) as its
+  // exam record and links it, with `outcome` and finished_at = r.taken_at, in one transaction
+  // written with synchronous=FULL. kNotFound for an unknown attempt, kInvalid if the attempt is a
+  // practice paper or `r` is not a theory record of its pupil, kConflict if it was finished
+  // already. Returns the exam record's id.
   virtual int64_t finish_theory_attempt(int64_t attempt_id, const ExamRecord& r,
-                                        const std::string& outcome = "marked") = 0;
+                                        PaperOutcome outcome = PaperOutcome::kMarked) = 0;
   // Finishes a practice paper exactly once, keeping its marking (`result`, JSON text). kNotFound
-  // for an unknown attempt, kInvalid for an exam paper or an unknown outcome, kConflict if it was
-  // finished already.
-  virtual void finish_practice_attempt(int64_t attempt_id, const std::string& outcome, const std::string& result,
+  // for an unknown attempt, kInvalid for an exam paper, kConflict if it was finished already.
+  virtual void finish_practice_attempt(int64_t attempt_id, PaperOutcome outcome, const std::string& result,
                                        const std::string& finished_at) = 0;
   // A pupil's papers, exams and practice alike, oldest first.
   virtual std::vector<TheoryAttempt> list_theory_attempts(int64_t pupil_id) = 0;

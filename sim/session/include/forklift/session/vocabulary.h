@@ -1,6 +1,7 @@
 // The words a session is told by, once: how it ended, what phase it is in, how it is marked, what
-// its end means for its mark, and who raised an event. Every program that reads or writes these
-// names (the worker, the session log, the store, the server, the menu, the cab's head-up display)
+// its end means for its mark, and who raised an event; and the kinds of exam record and theory
+// paper and how a paper ended. Every program that reads or writes these names (the worker, the
+// session log, the store, the server, the menu, the cab's head-up display)
 // goes through name() and parse() here; the IDL, the SQL and the API carry them as strings,
 // produced and parsed with these functions only.
 // No dependency: the store and the cab link it without the simulation.
@@ -53,6 +54,24 @@ enum class Outcome {
   kFailed,     // "failed": it could not run or ended for any other reason
 };
 
+// What an exam record records (the store's exam kind; the exams list's and the certificate's).
+enum class ExamKind {
+  kTheory,     // "theory": a theory paper sat as an exam; its score the fraction right in [0, 1]
+  kPractical,  // "practical": an exam session on the simulator; its score the mark
+};
+
+// Whose a theory paper is.
+enum class PaperKind {
+  kExam,      // "exam": handed out by a supervisor; it counts, and its end makes a theory exam record
+  kPractice,  // "practice": taken by the pupil alone; never counts
+};
+
+// How a theory paper was finished.
+enum class PaperOutcome {
+  kMarked,    // "marked": handed in and marked
+  kTimedOut,  // "timed_out": its time ran out first (marked on what was answered)
+};
+
 // Who raised an event of a session, by its kind.
 enum class EventOrigin {
   kEvaluation,  // a rule of the evaluation (counted in the mark, by its worry level)
@@ -65,6 +84,9 @@ const char* name(SessionPhase phase);
 const char* name(Mode mode);
 const char* name(EventOrigin origin);
 const char* name(Outcome outcome);
+const char* name(ExamKind kind);
+const char* name(PaperKind kind);
+const char* name(PaperOutcome outcome);
 
 // The value a name stands for; nullopt for a name that is not one of them (exact, case and all).
 template <class E>
@@ -74,6 +96,9 @@ template <> std::optional<SessionPhase> parse<SessionPhase>(std::string_view nam
 template <> std::optional<Mode> parse<Mode>(std::string_view name);
 template <> std::optional<EventOrigin> parse<EventOrigin>(std::string_view name);
 template <> std::optional<Outcome> parse<Outcome>(std::string_view name);
+template <> std::optional<ExamKind> parse<ExamKind>(std::string_view name);
+template <> std::optional<PaperKind> parse<PaperKind>(std::string_view name);
+template <> std::optional<PaperOutcome> parse<PaperOutcome>(std::string_view name);
 
 // Ended, aborted or failed: the session will not change again.
 bool is_terminal(SessionPhase phase);
