@@ -144,10 +144,10 @@ rules_for() {  # KIND ID
   case "$1" in
     cab)
       rule publish "$p" fk_Controls fk_CabAnnounce
-      rule subscribe "$p" fk_TruckState fk_Frame fk_SessionStatus fk_Event ;;
+      rule subscribe "$p" fk_TruckState fk_SceneMotion fk_Frame fk_SessionStatus fk_Event ;;
     worker)
       rule subscribe "$p" fk_Controls
-      rule publish "$p" fk_TruckState fk_Frame fk_SessionStatus fk_Event
+      rule publish "$p" fk_TruckState fk_SceneMotion fk_Frame fk_SessionStatus fk_Event
       rule publish "worker.$2" fk_Event fk_Score fk_SessionStatus ;;
     host)
       rule publish "host.$2" fk_HostStatus fk_WorkerReport

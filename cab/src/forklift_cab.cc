@@ -25,6 +25,7 @@
 #include "forklift/script/script.h"
 #include "forklift/session/vocabulary.h"
 #include "frame_view.h"
+#include "local_view.h"
 #include "hud.h"
 #include "input.h"
 #include "settings.h"
@@ -207,6 +208,8 @@ struct Options {
   std::string calibration_file = default_calibration_file();
   bool keyboard = false, controller = false, no_window = false, no_sound = false, calibrate = false, list = false;
   bool latency_report = false;
+  std::string render = "worker";  // where the picture is drawn: the worker's frames, or here
+  std::string scenario;           // --render local: the scenario the session runs
   double wait_s = 10;
   std::optional<int> domain;
   FrameView::Options frames;
@@ -275,6 +278,7 @@ class CabProgram {
   std::unique_ptr<dds::Reader<fk_SessionStatus>> statuses_;
   double steer_lock_rad_ = 0;  // the worker's truck's end stops, from its status (0: not heard yet)
   std::unique_ptr<dds::Reader<fk_Event>> events_;
+  std::unique_ptr<LocalView> local_;  // --render local: the picture drawn here
   std::unique_ptr<FrameView> frames_;
   std::unique_ptr<CabWindow> window_;
   std::unique_ptr<CabSound> sound_;
@@ -324,6 +328,13 @@ void CabProgram::open_devices(bool want_window) {
       int w = 960, h = 720;
       if (std::sscanf(o_.window_size.c_str(), "%dx%d", &w, &h) != 2 || w < 320 || h < 240 || w > 7680 || h > 4320)
         throw std::invalid_argument("--window-size must be WxH, at least 320x240");
+      // A cab drawing its own picture draws it with Mesa in this thread; SDL's GL renderer would
+      // share Mesa's current context with it (SDL's next draw crashed in Mesa), so the window is
+      // filled without GL.
+      if (o_.render == "local") {
+        SDL_SetHint(SDL_HINT_RENDER_DRIVER, "software");
+        SDL_SetHint(SDL_HINT_FRAMEBUFFER_ACCELERATION, "0");
+      }
       window_ = std::make_unique<CabWindow>("Forklift cab " + o_.cab_id, w, h, font_, font_bold_);
     }
   }
@@ -342,7 +353,8 @@ void CabProgram::open_devices(bool want_window) {
 
 fk_Controls CabProgram::controls_from(const CabCommand& c) const {
   fk_Controls s = c.sample();
-  s.frames_wanted = window_ || !o_.frames.save_last.empty() || !o_.frames.save_dir.empty();
+  // A cab drawing its own picture asks the worker for none.
+  s.frames_wanted = !local_ && (window_ || !o_.frames.save_last.empty() || !o_.frames.save_dir.empty());
   // The mirror comes on by itself while reversing, as a pupil looks back.
   const bool reversing = c.direction < 0 || (hud_.has_state() && hud_.state().speed_m_s < rear_view_below_m_s_);
   s.rear_view = c.rear_view || reversing;
@@ -610,7 +622,13 @@ int CabProgram::run() {
   announce_ = std::make_unique<dds::Writer<fk_CabAnnounce>>(*participant_, own);
   statuses_ = std::make_unique<dds::Reader<fk_SessionStatus>>(*participant_, own);
   events_ = std::make_unique<dds::Reader<fk_Event>>(*participant_, own);
-  frames_ = std::make_unique<FrameView>(*participant_, o_.cab_id, o_.frames);
+  if (o_.render == "local") {
+    local_ = std::make_unique<LocalView>(*participant_, o_.cab_id, o_.scenario, kDataDir, window_ ? window_->width() : 640,
+                                         window_ ? window_->height() : 480);
+    frames_ = std::make_unique<FrameView>([this](Image& p, double& t) { return local_->draw(p, t); }, o_.frames);
+  } else {
+    frames_ = std::make_unique<FrameView>(FrameView::worker_frames(*participant_, o_.cab_id), o_.frames);
+  }
 
   // Wait for the worker's reader, so that the script's first row is not lost.
   const double give_up = now() + o_.wait_s;
@@ -675,6 +693,9 @@ int CabProgram::run() {
     }
     last_t = t;
     take_dds();
+    if (local_)
+      local_->ask(c.camera, {c.look_yaw_rad, c.look_pitch_rad, c.see_through_mast, c.rear_view, c.fork_camera},
+                  hud_.has_state() ? hud_.state().aids : 0);
     const bool fresh = frames_->poll();
     if (fresh) frame_received_t_ = now();
     draw(fresh);
@@ -705,7 +726,8 @@ int CabProgram::run() {
   if (!window_ && isatty(STDOUT_FILENO) && hud_.has_state()) std::printf("\n");
   save_window();
   frames_->finish();
-  if (frames_->frames() > 0) std::printf("frames received: %ld\n", frames_->frames());
+  if (frames_->frames() > 0)
+    std::printf(local_ ? "pictures drawn here: %ld\n" : "frames received: %ld\n", frames_->frames());
   if (o_.latency_report) std::printf("%s\n", latency_.report().c_str());
   std::fflush(stdout);
   dds_sleepfor(DDS_MSECS(100));  // let the last reliable sample out
@@ -775,9 +797,18 @@ int main(int argc, char** argv) {
   app.add_option("--save-window", o.save_window, "write a picture of the window (frame and display) to this PNG at exit; F12 saves one any time");
   app.add_option("--trace", o.trace, "write what the cab sent, received and displayed to this file (JSON lines)");
   app.add_flag("--latency-report", o.latency_report, "print input-to-photon latency (key press to the first frame showing it) at exit");
+  app.add_option("--render", o.render, "where the picture is drawn: worker (its frames, for thin cabs) or local (here, "
+                                       "from what moves in the scene; for a cab with a graphics card; needs --scenario)")
+      ->check(CLI::IsMember({"worker", "local"}))
+      ->capture_default_str();
+  app.add_option("--scenario", o.scenario, "with --render local: the scenario file the session runs (its scene and truck are drawn)")
+      ->check(CLI::ExistingFile);
   try {
     app.parse(argc, argv);
     if (o.cab_id.empty() && !o.list) throw CLI::RequiredError("--cab");
+    if (o.render == "local" && o.scenario.empty())
+      throw CLI::ValidationError("--render local", "needs --scenario, the scenario the session runs, to draw its scene");
+    if (o.render != "local" && !o.scenario.empty()) throw CLI::ValidationError("--scenario", "is for --render local");
     if (!mouse_steer.empty()) input.mouse_steer = parse_mouse_steer(mouse_steer);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;  // --help and --version: 0; bad usage: 2, as every program

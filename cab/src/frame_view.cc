@@ -6,28 +6,22 @@
 #include <iostream>
 
 namespace forklift {
-
-FrameView::FrameView(dds::Participant& participant, const std::string& cab, Options opt)
-    : reader_(participant, dds::cab_partition(cab)), cab_(cab), opt_(std::move(opt)) {
-  if (!opt_.save_dir.empty()) std::filesystem::create_directories(opt_.save_dir);
-}
-
-FrameView::~FrameView() = default;
+namespace {
 
 // A frame whose size or encoding does not add up is counted and dropped, never shown.
-bool FrameView::decode(const fk_Frame& f) {
+bool decode(const fk_Frame& f, Image& out) {
   const std::string enc = f.encoding;
   try {
     if (enc == "rgb8") {
       const size_t n = size_t(f.width) * f.height * 3;
       if (f.width == 0 || f.height == 0 || f.pixels._length != n) return false;
-      last_.width = f.width;
-      last_.height = f.height;
-      last_.rgb.assign(f.pixels._buffer, f.pixels._buffer + n);
+      out.width = f.width;
+      out.height = f.height;
+      out.rgb.assign(f.pixels._buffer, f.pixels._buffer + n);
       return true;
     }
     if (enc == "jpeg") {
-      last_ = decode_jpeg(f.pixels._buffer, f.pixels._length);
+      out = decode_jpeg(f.pixels._buffer, f.pixels._length);
       return true;
     }
   } catch (const std::exception& e) {
@@ -36,16 +30,32 @@ bool FrameView::decode(const fk_Frame& f) {
   return false;
 }
 
+}  // namespace
+
+FrameView::Source FrameView::worker_frames(dds::Participant& participant, const std::string& cab) {
+  auto reader = std::make_shared<dds::Reader<fk_Frame>>(participant, dds::cab_partition(cab));
+  return [reader, cab](Image& picture, double& sim_time_s) {
+    bool fresh = false;
+    reader->take_each([&](const fk_Frame& f) {
+      if (cab != f.cab_id || !decode(f, picture)) return;
+      fresh = true;
+      sim_time_s = f.sim_time_s;
+    });
+    return fresh;
+  };
+}
+
+FrameView::FrameView(Source source, Options opt) : source_(std::move(source)), opt_(std::move(opt)) {
+  if (!opt_.save_dir.empty()) std::filesystem::create_directories(opt_.save_dir);
+}
+
+FrameView::~FrameView() = default;
+
 bool FrameView::poll() {
-  bool fresh = false;
-  reader_.take_each([&](const fk_Frame& f) {
-    if (cab_ != f.cab_id) return;
-    if (!decode(f)) {
-      ++bad_;
-      return;
-    }
-    fresh = true;
-    last_sim_time_s_ = f.sim_time_s;
+  double t = last_sim_time_s_;
+  const bool fresh = source_(last_, t);
+  if (fresh) {
+    last_sim_time_s_ = t;
     ++frames_;
     ++window_frames_;
     if (!opt_.save_dir.empty() && frames_ % opt_.save_every == 1 % opt_.save_every) {
@@ -53,7 +63,7 @@ bool FrameView::poll() {
       std::snprintf(name, sizeof name, "/frame_%06ld.png", frames_);
       write_png(opt_.save_dir + name, last_);
     }
-  });
+  }
   const auto now = std::chrono::steady_clock::now();
   const double span = std::chrono::duration<double>(now - window_start_).count();
   if (span >= 1.0) {

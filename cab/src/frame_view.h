@@ -1,8 +1,9 @@
-// The cab's picture: Frames from its worker, decoded (the window shows them) and saved as PNG
-// when asked.
+// The cab's picture: the newest one shown in the window, from the worker's Frames (decoded) or
+// drawn in the cab itself (--render local, local_view.h), and saved as PNG when asked.
 #pragma once
 
 #include <chrono>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -18,7 +19,12 @@ class FrameView {
     std::string save_dir;           // every `save_every`-th frame as DIR/frame_NNNNNN.png
     int save_every = 30;
   };
-  FrameView(dds::Participant& participant, const std::string& cab, Options opt);
+  // Where pictures come from: true with a new one in `picture` (and its sim time) when there is one.
+  using Source = std::function<bool(Image& picture, double& sim_time_s)>;
+  // The worker's frames for this cab (a frame whose size or encoding does not add up is dropped).
+  static Source worker_frames(dds::Participant& participant, const std::string& cab);
+
+  FrameView(Source source, Options opt);
   ~FrameView();
   // Takes what arrived and saves it; true when a new frame was decoded (last()).
   bool poll();
@@ -29,13 +35,10 @@ class FrameView {
   void finish();       // writes save_last
 
  private:
-  bool decode(const fk_Frame& f);
-
-  dds::Reader<fk_Frame> reader_;
-  std::string cab_;
+  Source source_;
   Options opt_;
   Image last_;
-  long frames_ = 0, bad_ = 0;
+  long frames_ = 0;
   long window_frames_ = 0;
   std::chrono::steady_clock::time_point window_start_ = std::chrono::steady_clock::now();
   double fps_ = 0;

@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+
+#include "forklift/protocol/aids.h"
 #include "forklift/units/units.h"
 
 namespace forklift {
@@ -90,6 +92,14 @@ Camera view_camera(View view, const BodyPoses& poses, const TruckShape& shape, c
     }
   }
   return c;
+}
+
+std::pair<View, ViewOptions> granted_view(int camera, ViewOptions asked, View camera0, uint8_t aids) {
+  asked.rear_view = asked.rear_view && (aids & aids::kRearView);
+  asked.see_through_mast = asked.see_through_mast && (aids & aids::kSeeThroughMast);
+  asked.fork_camera = asked.fork_camera && (aids & aids::kForkCamera);
+  const View view = camera == 1 && (aids & aids::kChaseCamera) ? View::kChase : camera0;
+  return {view, asked};
 }
 
 Camera driver_camera(const BodyPoses& poses, const TruckShape& shape, double look_yaw_rad, double look_pitch_rad) {

@@ -294,6 +294,7 @@ int main(int argc, char** argv) {
     status_writer = std::make_unique<dds::Writer<fk_SessionStatus>>(*participant, dds::worker_partition(cab));
     cab_status_writer = std::make_unique<dds::Writer<fk_SessionStatus>>(*participant, dds::cab_partition(cab));
     dds::Writer<fk_TruckState> state_writer(*participant, dds::cab_partition(cab));
+    dds::Writer<fk_SceneMotion> motion_writer(*participant, dds::cab_partition(cab));
     dds::Writer<fk_Event> event_writer(*participant, dds::worker_partition(cab)), cab_event_writer(*participant, dds::cab_partition(cab));
     dds::Writer<fk_Score> score_writer(*participant, dds::worker_partition(cab));
 
@@ -353,8 +354,12 @@ int main(int argc, char** argv) {
       publish_at(kind, worry, run.state().x[kX], run.state().x[kY], details);
     };
     long states_published = 0;
+    std::vector<fk_PalletPose> motion_pallets;
+    std::vector<fk_PedestrianPose> motion_people;
     auto publish_state = [&] {
       state_writer.write(truck_state(run, cab, session, time_limit_s, frames.aids));
+      // What moves, for a cab that draws its own picture: sent only while one listens.
+      if (motion_writer.matched() > 0) motion_writer.write(scene_motion(run.state(), cab, motion_pallets, motion_people));
       ++states_published;
     };
 

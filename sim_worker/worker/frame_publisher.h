@@ -113,12 +113,7 @@ class FramePublisher {
 
   // The picture a request gets with these aids granted: an aid not granted is not drawn.
   static std::pair<View, ViewOptions> granted(const Request& r, View camera0, uint8_t aids) {
-    ViewOptions v = r.view;
-    v.rear_view = v.rear_view && (aids & aids::kRearView);
-    v.see_through_mast = v.see_through_mast && (aids & aids::kSeeThroughMast);
-    v.fork_camera = v.fork_camera && (aids & aids::kForkCamera);
-    const View view = r.camera == 1 && (aids & aids::kChaseCamera) ? View::kChase : camera0;
-    return {view, v};
+    return granted_view(r.camera, r.view, camera0, aids);
   }
 
  private:

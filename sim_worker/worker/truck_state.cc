@@ -94,4 +94,36 @@ fk_Score score_sample(const std::string& session, const Score& score, std::vecto
   return sc;
 }
 
+fk_SceneMotion scene_motion(const SessionState& state, const std::string& cab, std::vector<fk_PalletPose>& pallets,
+                            std::vector<fk_PedestrianPose>& people) {
+  fk_SceneMotion m{};
+  dds::set_string(m.cab_id, cab);
+  m.sim_time_s = state.t_s;
+  const CoordVector q = coordinates_of(state);
+  for (int i = 0; i < kNumCoords; ++i) m.q[i] = q[i];
+  pallets.clear();
+  for (const PalletState& p : state.handling.pallets()) {
+    if (pallets.size() == 1024) break;
+    fk_PalletPose pose{};
+    dds::set_string(pose.id, p.id);
+    const Eigen::Vector3d at = p.pose.translation();
+    const Eigen::Quaterniond r(p.pose.rotation());
+    pose.x_m = at.x(); pose.y_m = at.y(); pose.z_m = at.z();
+    pose.qw = r.w(); pose.qx = r.x(); pose.qy = r.y(); pose.qz = r.z();
+    pallets.push_back(pose);
+  }
+  people.clear();
+  for (const PedestrianState& p : state.pedestrians) {
+    if (people.size() == 64) break;
+    people.push_back({p.at_m.x(), p.at_m.y(), p.heading_rad});
+  }
+  m.pallets._buffer = pallets.data();
+  m.pallets._length = m.pallets._maximum = static_cast<uint32_t>(pallets.size());
+  m.pallets._release = false;
+  m.pedestrians._buffer = people.data();
+  m.pedestrians._length = m.pedestrians._maximum = static_cast<uint32_t>(people.size());
+  m.pedestrians._release = false;
+  return m;
+}
+
 }  // namespace forklift::worker

@@ -23,4 +23,10 @@ fk_TruckState truck_state(const SessionRun& run, const std::string& cab, const s
 // `counts`, which must outlive the sample.
 fk_Score score_sample(const std::string& session, const Score& score, std::vector<fk_FaultCount>& counts);
 
+// What moves in the scene after the run's last tick, for a cab that draws its own picture: the
+// truck's coordinates, every pallet's pose (at most the IDL's 1,024) and each pedestrian's place
+// (at most 64). The sample's sequences point into `pallets` and `people`, which must outlive it.
+fk_SceneMotion scene_motion(const SessionState& state, const std::string& cab, std::vector<fk_PalletPose>& pallets,
+                            std::vector<fk_PedestrianPose>& people);
+
 }  // namespace forklift::worker

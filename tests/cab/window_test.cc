@@ -3,7 +3,10 @@
 // what its head-up display showed) read afterwards.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -261,3 +264,50 @@ TEST_F(CabWindow, ACollisionsWarningIsOnTheDisplayWithinHalfASecond) {
 }
 
 }  // namespace
+
+// A cab with a graphics card draws its own picture (--render local) from what moves in the scene:
+// the worker draws it no frame, and the picture the pupil sees follows the truck as it drives.
+TEST_F(CabWindow, ACabDrawingItsOwnPictureGetsNoFrameFromTheWorkerAndSeesTheTruckMove) {
+  const int domain = forklift::test::free_domain();
+  Process w = worker("kc5", domain, "first_drive_yard", 40);
+  const std::string trace = tmp("kc5.trace"), pictures = tmp("kc5.pictures");
+  std::filesystem::remove_all(pictures);
+  Process cab({kBin + "/forklift-cab", "--cab", "kc5", "--keyboard", "--no-sound", "--dds-domain", std::to_string(domain),
+               "--wait-worker", "30", "--trace", trace, "--render", "local", "--scenario",
+               kData + "/scenarios/first_drive_yard.json", "--save-frames", pictures, "--save-every", "1", "--latency-report"},
+              tmp("kc5.cab"));
+  // Standing still, then the accelerator held 2 s and let go, then Esc.
+  xdotool("kc5", {"sleep", "2", "keydown", "Up", "sleep", "2", "keyup", "Up", "sleep", "1", "key", "Escape"});
+  EXPECT_EQ(cab.wait(30), 0) << cab.err();
+  w.signal(SIGTERM);
+  ASSERT_EQ(w.wait(30), 0) << w.err();
+  EXPECT_EQ(forklift_test::output_json(w)["frames"], 0) << "the worker drew frames for a cab that draws its own";
+
+  const std::string out = cab.out();
+  long drawn = 0;
+  const size_t at = out.find("pictures drawn here: ");
+  ASSERT_NE(at, std::string::npos) << out;
+  drawn = std::stol(out.substr(at + 21));
+  EXPECT_GE(drawn, 10) << out;
+  EXPECT_NE(out.find("input to photon: "), std::string::npos) << out;
+  EXPECT_EQ(out.find("no key presses measured"), std::string::npos) << "no picture showed a key's effect: " << out;
+
+  // The first picture (the truck at its start) against the last (after about 2 m): the view moved.
+  std::vector<std::filesystem::path> files;
+  for (const auto& f : std::filesystem::directory_iterator(pictures)) files.push_back(f.path());
+  std::sort(files.begin(), files.end());
+  ASSERT_GE(files.size(), 2u);
+  const forklift::Image first = forklift::read_png(files.front().string()), last = forklift::read_png(files.back().string());
+  ASSERT_EQ(first.rgb.size(), last.rgb.size());
+  ASSERT_GT(first.width, 0);
+  size_t changed = 0;
+  for (size_t i = 0; i < first.rgb.size(); i += 3)
+    changed += std::abs(int(first.rgb[i]) - int(last.rgb[i])) + std::abs(int(first.rgb[i + 1]) - int(last.rgb[i + 1])) > 30;
+  EXPECT_GT(double(changed) / (first.width * first.height), 0.01) << "the picture did not follow the truck";
+  const std::vector<json> t = read_trace(trace);
+  const json* moved = last_before(t, "state", 1e9);
+  ASSERT_TRUE(moved);
+  EXPECT_GT(std::hypot((*moved)["x_m"].get<double>() - (*first_after(t, "state", 0))["x_m"].get<double>(),
+                       (*moved)["y_m"].get<double>() - (*first_after(t, "state", 0))["y_m"].get<double>()),
+            0.5);
+}

@@ -72,7 +72,7 @@ const std::multimap<std::string, std::string> kNoDefault = {
     {"forklift-bench-collision", "--benchmark_out"}, {"forklift-bench-evaluation", "--benchmark_out"},
     {"forklift-bench-render", "--benchmark_out"},
     {"forklift-cab", "--cab"}, {"forklift-cab", "--site"}, {"forklift-cab", "--save-frame"}, {"forklift-cab", "--save-frames"},
-    {"forklift-cab", "--save-window"}, {"forklift-cab", "--trace"}, {"forklift-cab", "--script"}, {"forklift-cab", "--joystick"},
+    {"forklift-cab", "--save-window"}, {"forklift-cab", "--scenario"}, {"forklift-cab", "--trace"}, {"forklift-cab", "--script"}, {"forklift-cab", "--joystick"},
     {"forklift-host", "--site"},
     {"forklift-menu", "login --password"}, {"forklift-menu", "pupil-add --email"}, {"forklift-menu", "pupil-add --user"},
     {"forklift-menu", "pupil-add --password"}, {"forklift-menu", "pupils --search"}, {"forklift-menu", "start --drive"},

@@ -49,6 +49,11 @@ template <> struct Topic<fk_Frame> {
   static constexpr QosKind qos = QosKind::kLatestBestEffort;
   static const dds_topic_descriptor_t* descriptor() { return &fk_Frame_desc; }
 };
+template <> struct Topic<fk_SceneMotion> {
+  static constexpr const char* name = "fk_SceneMotion";
+  static constexpr QosKind qos = QosKind::kLatestBestEffort;
+  static const dds_topic_descriptor_t* descriptor() { return &fk_SceneMotion_desc; }
+};
 template <> struct Topic<fk_Event> {
   static constexpr const char* name = "fk_Event";
   static constexpr QosKind qos = QosKind::kDurableReliable;

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "forklift/image/image.h"
@@ -36,6 +37,11 @@ struct ViewOptions {
   bool rear_view = false;         // a mirror inset at the top centre: from the eye, looking back, mirrored
   bool fork_camera = false;       // an inset at the right edge: from the carriage between the forks, looking ahead
 };
+
+// What a cab that asks for `camera` (0 its own camera0, 1 the chase camera) seen as `asked` gets
+// with these training aids granted (aids::Bit): an aid not granted is not drawn, and the chase
+// camera not granted is camera0. The worker's frames and a cab's own picture alike.
+std::pair<View, ViewOptions> granted_view(int camera, ViewOptions asked, View camera0, uint8_t aids);
 
 // The driver's eye (the truck file's shape.eye_m) with the head turned: yaw about the chassis's
 // up axis, pitch about its left axis, from the plain driver view's slight downward look; the head
