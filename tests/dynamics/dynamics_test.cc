@@ -382,6 +382,27 @@ TEST(DrivenCoordinates, SteerFollowsWithoutJumpInReactionForce) {
   EXPECT_NEAR(sim.state()[StateIndex::kDriven], 0.5, 0.01);
 }
 
+TEST(DrivenCoordinates, SteerKeepsItsRateLimitAndEndStopsWhateverTheCabAsks) {
+  // Past full left to past full right, then a cab jerking between them every 50 ms: the servo never turns
+  // the wheel faster than the truck file's rate limit nor past its end stops.
+  const TruckParams& t = shipped_truck();
+  TruckDynamics d(t);
+  Simulation sim(d, settled(d), {});
+  double rate = 0, angle = 0;
+  for (int k = 1; k <= 400; ++k) {
+    DriverInputs u;
+    u.steer_rad = k <= 150 ? 2.0 : k <= 300 ? -2.0 : ((k / 5) % 2 ? 2.0 : -2.0);  // beyond the end stops
+    sim.set_inputs(u);
+    sim.advance_to(k * 0.01);
+    rate = std::max(rate, std::abs(sim.outputs().qdot[kAwr3]));
+    angle = std::max(angle, std::abs(sim.outputs().q[kAwr3]));
+  }
+  EXPECT_LE(rate, t.steer.rate_max_rad_s * 1.001);
+  EXPECT_GT(rate, t.steer.rate_max_rad_s * 0.9) << "a full-lock step reaches the rate limit";
+  EXPECT_LE(angle, t.steer.max_rad + 1e-4);
+  EXPECT_GT(angle, t.steer.max_rad - 0.01) << "full lock reached";
+}
+
 TEST(DrivenCoordinates, LiftStopsAtItsLimit) {
   TruckDynamics d(shipped_truck());
   Simulation sim(d, settled(d), {});

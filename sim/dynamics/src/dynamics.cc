@@ -439,11 +439,13 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
         c.fx_N = -c.fz_N * (cp.bristle_stiffness_x_per_m * z.x() + damping * zd.x());
         c.fy_N = -c.fz_N * (cp.bristle_stiffness_y_per_m * z.y() + damping * zd.y());
         c.friction_use = std::hypot(c.fx_N, c.fy_N) / (mu * c.fz_N);
+        c.grip_share = std::hypot(c.fx_N, c.fy_N) / (cp.mu_static * c.fz_N);
       } else {
         c.fx_N = std::clamp(-c.fz_N * cp.fx_slip_gain_s_m * c.slip_x_m_s, -cp.fx_max_N, cp.fx_max_N);  // eq (8)
         const double a0 = cp.fy_alpha0_rad;  // eq (10)
         c.fy_N = std::abs(c.slip_angle_rad) <= a0 ? -cp.fy_mu * c.fz_N * std::sin(M_PI * c.slip_angle_rad / (2 * a0))
                                                   : -cp.fy_mu * c.fz_N * sign(c.slip_angle_rad);
+        c.grip_share = std::max(std::abs(c.fx_N) / cp.fx_max_N, std::abs(c.fy_N) / (cp.fy_mu * c.fz_N));
       }
       force += c.fx_N * xw + c.fy_N * yw;
     }

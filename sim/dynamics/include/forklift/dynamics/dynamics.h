@@ -113,7 +113,11 @@ struct WheelContact {
   double slip_x_m_s = 0, slip_y_m_s = 0;  // sx, sy: contact point velocity on the wheel axes
   double slip_angle_rad = 0;              // alpha, eq (9)
   double drive_torque_N_m = 0, brake_torque_N_m = 0, rolling_torque_N_m = 0;
-  double friction_use = 0;  // |(Fx, Fy)| / (mu Fz): 1 sliding (bristle tyre; 0 off the ground)
+  double friction_use = 0;  // |(Fx, Fy)| / (mu Fz), mu the grip at this slip: 1 sliding (bristle tyre; 0 off the ground)
+  // How much of the tyre's grip peak the force uses: |(Fx, Fy)| / (peak mu Fz) (the brush's
+  // mu_static, the grip-peak tyre's mu_peak; the paper's tyre: the larger of |Fx| / Fx_max and
+  // |Fy| / (mu Fz)). 0 off the ground. It reaches 1 only at the peak, whatever the tyre rolls at.
+  double grip_share = 0;
 };
 
 // A rigid frame's motion, world axes: orientation, origin, and the origin's velocity and
