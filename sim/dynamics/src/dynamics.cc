@@ -449,6 +449,20 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
       }
       force += c.fx_N * xw + c.fy_N * yw;
     }
+    if (bristle) {
+      // The brush's force is its load times its deflection, so a load rising on a deflected tyre
+      // would raise the force, and the energy Fz sigma0 z^2 / 2 it holds, out of nothing. Where the
+      // patch grows, new tread enters it undeflected: the mean deflection falls as Fz' / Fz (Fz'
+      // taken as the spring's K pen', which keeps the rate below K / C), and the force holds. Off
+      // the ground there is no patch: the tread springs back, in the vertical contact's C / K.
+      const Eigen::Vector2d z = x.segment<2>(StateIndex::kTyre + 2 * w);
+      if (!env.chock_anchors_m && c.on_ground && upright)  // where the tread's force acts
+        c.tread_energy_J = 0.5 * c.fz_N * (cp.bristle_stiffness_x_per_m * sq(z.x()) + cp.bristle_stiffness_y_per_m * sq(z.y()));
+      if (c.on_ground)
+        e.tyre_rate[w] -= cp.stiffness_N_m * std::max(0.0, -F.v.dot(n)) / c.fz_N * z;
+      else if (cp.damping_N_s_m > 0)
+        e.tyre_rate[w] = -cp.stiffness_N_m / cp.damping_N_s_m * z;
+    }
     add_force(applied, kWheelFrame[w], o, c.contact_point_m, force);
     // eq (6), rolling resistance, a torque from the ground on the wheel; the viscous part fades in
     // with the first 1000 N of load so that it vanishes, continuously, as the wheel leaves the
@@ -742,7 +756,7 @@ double TruckDynamics::energy(const StateVector& x, bool with_ground_springs) con
     energy -= b.mass * env_.gravity_m_s2.dot(F.p + F.R * b.cog);
   }
   if (with_ground_springs)
-    for (const WheelContact& c : out.wheels) energy += c.spring_energy_J;
+    for (const WheelContact& c : out.wheels) energy += c.spring_energy_J + c.tread_energy_J;
   return energy;
 }
 

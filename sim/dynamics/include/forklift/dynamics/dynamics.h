@@ -108,6 +108,7 @@ struct WheelContact {
   // once: fz_N is then the magnitude of their summed normal forces, and `normal` their direction.
   double penetration_m = 0;
   double spring_energy_J = 0;  // sum of K depth^2 / 2 over its contacts
+  double tread_energy_J = 0;   // the brush's deflected tread: Fz (sigma0x zx^2 + sigma0y zy^2) / 2
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
   double fz_N = 0, fx_N = 0, fy_N = 0;
   double slip_x_m_s = 0, slip_y_m_s = 0;  // sx, sy: contact point velocity on the wheel axes
@@ -200,8 +201,8 @@ class TruckDynamics {
   // False if x is not finite or M_ii not positive definite.
   bool driven_coupling(const StateVector& x, Eigen::Matrix<double, kNumDynamic, kNumDriven>& dqdd_dzdd) const;
 
-  // Kinetic + gravitational + ground-spring energy (J): conserved when there is no friction,
-  // damping or torque and the driven coordinates are still.
+  // Kinetic + gravitational + ground-spring energy (J), the tyres' deflected tread included:
+  // conserved when there is no friction, damping or torque and the driven coordinates are still.
   // Without the ground springs: kinetic + gravitational only, whose rate is Outputs::applied_power_W.
   double energy(const StateVector& x, bool with_ground_springs = true) const;
 
