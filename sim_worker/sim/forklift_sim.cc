@@ -140,6 +140,9 @@ int main(int argc, char** argv) {
   auto* val = app.add_subcommand("validate", "run every closed-form and ISO 22915 check on a truck file: a table, or JSON");
   bool val_json = false;
   val->add_flag("--json", val_json, "print JSON instead of the table");
+  std::string val_references = std::string(FORKLIFT_DATA_DIR) + "/validation/counterbalance_1600kg.json";
+  val->add_option("--references", val_references,
+                  "the numbers from outside the truck file (data sheet, tyre data) that the checks measure against, each with its source");
 
   // meshes: the warehouse's meshes (data/meshes/ holds this output) and, with --truck, the
   // truck's as its file builds them (an export: the truck's meshes are built at load time)
@@ -193,19 +196,20 @@ int main(int argc, char** argv) {
     opts.kind = parse_integrator(integrator);
 
     if (*val) {
-      const std::vector<ValidationCheck> checks = validate_truck(truck);
+      const std::vector<ValidationCheck> checks = validate_truck(truck, load_validation_references(val_references));
       const long failed = std::count_if(checks.begin(), checks.end(), [](const ValidationCheck& c) { return !c.pass; });
       if (val_json) {
         json list = json::array();
         for (const ValidationCheck& c : checks)
-          list.push_back({{"check", c.name}, {"measured", c.measured}, {"unit", c.unit}, {"required", c.required}, {"pass", c.pass}});
+          list.push_back({{"check", c.name}, {"measured", c.measured}, {"unit", c.unit}, {"required", c.required},
+                          {"source", c.source}, {"pass", c.pass}});
         std::cout << json{{"truck", truck.name}, {"file", truck_file}, {"checks", list}, {"failed", failed}}.dump(2) << std::endl;
       } else {
         std::printf("%s (%s)\n", truck.name.c_str(), truck_file.c_str());
         std::printf("%-4s  %-100s  %12s %-9s  %s\n", "pass", "check", "measured", "", "required");
         for (const ValidationCheck& c : checks)
-          std::printf("%-4s  %-100s  %12.3f %-9s  %s\n", c.pass ? "yes" : "NO", c.name.c_str(), c.measured, c.unit.c_str(),
-                      c.required.c_str());
+          std::printf("%-4s  %-100s  %12.3f %-9s  %s\n%4s  %-100s\n", c.pass ? "yes" : "NO", c.name.c_str(), c.measured,
+                      c.unit.c_str(), c.required.c_str(), "", ("source: " + c.source).c_str());
         std::printf("%zu checks, %ld failed\n", checks.size(), failed);
       }
       return failed == 0 ? 0 : 3;

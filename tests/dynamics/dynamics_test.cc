@@ -158,13 +158,17 @@ TEST(Energy, DampingDissipatesIt) {
 
 namespace {
 // The training truck rolled about its right front wheel's contact, so its left front wheel is
-// `lift_m` up (and the rear wheel half that), released at rest or rolling forward at `speed`: the
-// energy (kinetic, gravity and the tyres' vertical springs) from the last instant the left wheel is
-// in the air, and the largest and last values in the 2 s after it lands, every millisecond.
+// `lift_m` up (and the rear wheel half that), released at rest or rolling forward at `speed` with
+// the rear wheel steered `steer` (its tyres then slip sideways, their tread deflected, while the
+// load comes onto them): the energy (kinetic, gravity, the tyres' vertical springs and deflected
+// tread) from the last instant the left wheel is in the air, and the largest and last values in
+// the 2 s after it lands, every millisecond. Nothing drives or brakes the truck, so the energy may
+// only fall.
 struct Landing { double before = NAN, largest_after = -INFINITY, last = NAN; };
-Landing drop_a_wheel(double lift_m, double speed) {
+Landing drop_a_wheel(double lift_m, double speed, double steer = 0) {
   const TruckDynamics d(shipped_truck());
   StateVector x = settled(d);
+  x[StateIndex::kDriven] = steer;
   const double roll = std::asin(lift_m / shipped_truck().front_track_m());
   const double h = x[StateIndex::kQ + kZ], half = 0.5 * shipped_truck().front_track_m();
   x[StateIndex::kQ + kAuc] = roll;  // about the chassis' x axis through the right wheel's contact
@@ -191,17 +195,20 @@ Landing drop_a_wheel(double lift_m, double speed) {
 }  // namespace
 
 TEST(Energy, AWheelLandingDissipatesItNeverCreatesIt) {
-  for (double speed : {0.0, 3.0})
-    for (double lift : {0.02, 0.05}) {
-      SCOPED_TRACE("left front wheel dropped from " + std::to_string(std::lround(lift * 100)) + " cm at " +
-                   std::to_string(std::lround(speed)) + " m/s");
-      const Landing l = drop_a_wheel(lift, speed);
-      ASSERT_FALSE(std::isnan(l.before)) << "the wheel was in the air, then landed";
-      RecordProperty("energy_change_J_" + std::to_string(std::lround(lift * 100)) + "cm_" + std::to_string(std::lround(speed)) + "m_s",
-                     std::to_string(l.largest_after - l.before) + " largest, " + std::to_string(l.last - l.before) + " after 2 s");
-      EXPECT_LE(l.largest_after, l.before);
-      EXPECT_LT(l.last, l.before - 1.0);  // the tyres' damping and friction took some
-    }
+  for (double steer : {0.0, 0.3})
+    for (double speed : {0.0, 3.0})
+      for (double lift : {0.02, 0.05}) {
+        if (steer != 0 && speed == 0) continue;
+        const std::string name = std::to_string(std::lround(lift * 100)) + "cm_" + std::to_string(std::lround(speed)) + "m_s_steer_" +
+                                 std::to_string(std::lround(steer / kDeg)) + "deg";
+        SCOPED_TRACE("left front wheel dropped: " + name);
+        const Landing l = drop_a_wheel(lift, speed, steer);
+        ASSERT_FALSE(std::isnan(l.before)) << "the wheel was in the air, then landed";
+        RecordProperty("energy_change_J_" + name,
+                       std::to_string(l.largest_after - l.before) + " largest, " + std::to_string(l.last - l.before) + " after 2 s");
+        EXPECT_LE(l.largest_after, l.before + 1e-3);  // the integrator's error at rtol 1e-8, no more
+        EXPECT_LT(l.last, l.before - 1.0);  // the tyres' damping and friction took some
+      }
 }
 
 TEST(GroundForces, NoForceOffTheGroundAndFreeFall) {
@@ -380,6 +387,27 @@ TEST(DrivenCoordinates, SteerFollowsWithoutJumpInReactionForce) {
   EXPECT_NEAR(after.driven_force[0], before.driven_force[0], 1e-9);
   sim.advance_to(0.6);
   EXPECT_NEAR(sim.state()[StateIndex::kDriven], 0.5, 0.01);
+}
+
+TEST(DrivenCoordinates, SteerKeepsItsRateLimitAndEndStopsWhateverTheCabAsks) {
+  // Past full left to past full right, then a cab jerking between them every 50 ms: the servo never turns
+  // the wheel faster than the truck file's rate limit nor past its end stops.
+  const TruckParams& t = shipped_truck();
+  TruckDynamics d(t);
+  Simulation sim(d, settled(d), {});
+  double rate = 0, angle = 0;
+  for (int k = 1; k <= 400; ++k) {
+    DriverInputs u;
+    u.steer_rad = k <= 150 ? 2.0 : k <= 300 ? -2.0 : ((k / 5) % 2 ? 2.0 : -2.0);  // beyond the end stops
+    sim.set_inputs(u);
+    sim.advance_to(k * 0.01);
+    rate = std::max(rate, std::abs(sim.outputs().qdot[kAwr3]));
+    angle = std::max(angle, std::abs(sim.outputs().q[kAwr3]));
+  }
+  EXPECT_LE(rate, t.steer.rate_max_rad_s * 1.001);
+  EXPECT_GT(rate, t.steer.rate_max_rad_s * 0.9) << "a full-lock step reaches the rate limit";
+  EXPECT_LE(angle, t.steer.max_rad + 1e-4);
+  EXPECT_GT(angle, t.steer.max_rad - 0.01) << "full lock reached";
 }
 
 TEST(DrivenCoordinates, LiftStopsAtItsLimit) {

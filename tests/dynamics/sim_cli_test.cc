@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "support/process.h"
@@ -42,6 +43,31 @@ TEST(SimCli, ValidateTellsAGoodTruckFileFromOneThatCannotHoldOnARamp) {
   EXPECT_EQ(paper.status, 3);
   EXPECT_NE(paper.out.find("NO    unladen, 15 % grade"), std::string::npos) << paper.out;
   EXPECT_NE(paper.out.find(" failed"), std::string::npos);
+}
+
+TEST(SimCli, ValidateFailsATruckFileWhoseCoGIsNotWhereItsPartsPutItAndSaysWhy) {
+  // The training truck's file with its chassis' CoG put 0.3 m above where its parts put it.
+  std::ifstream in(kData + "/trucks/linde_e16c.json");
+  json truck = json::parse(in);
+  truck["chassis"]["cog_m"] = {-0.8, 0.0, 0.83};
+  const std::string path = testing::TempDir() + "/sim_cli_high_cog.json";
+  std::ofstream(path) << truck.dump();
+  const SimRun high = sim({"--truck", path, "validate", "--json"}, "validate_high_cog");
+  EXPECT_EQ(high.status, 3) << high.err;
+  const json h = json::parse(high.out);
+  std::vector<std::string> failed;
+  for (const json& c : h["checks"])
+    if (!c["pass"].get<bool>()) failed.push_back(c["check"].get<std::string>());
+  auto failed_one = [&](const std::string& part) {
+    return std::any_of(failed.begin(), failed.end(), [&](const std::string& f) { return f.find(part) != std::string::npos; });
+  };
+  EXPECT_TRUE(failed_one("statics, unladen: CoG height weighed"));
+  EXPECT_TRUE(failed_one("ISO 22915-2 test 4 (lateral travelling): tilt angle"));
+  EXPECT_TRUE(failed_one("against the stability triangle's g d / h"));
+  // Every check says where its bound comes from, in the table too.
+  for (const json& c : h["checks"]) EXPECT_FALSE(c["source"].get<std::string>().empty()) << c.dump();
+  const SimRun table = sim({"--truck", path, "validate"}, "validate_high_cog_table");
+  EXPECT_NE(table.out.find("source: ISO 22915-2"), std::string::npos) << table.out;
 }
 
 TEST(SimCli, TiltIsoPrintsTheFourTestsWithTheirMargins) {

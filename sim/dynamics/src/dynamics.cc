@@ -439,13 +439,29 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
         c.fx_N = -c.fz_N * (cp.bristle_stiffness_x_per_m * z.x() + damping * zd.x());
         c.fy_N = -c.fz_N * (cp.bristle_stiffness_y_per_m * z.y() + damping * zd.y());
         c.friction_use = std::hypot(c.fx_N, c.fy_N) / (mu * c.fz_N);
+        c.grip_share = std::hypot(c.fx_N, c.fy_N) / (cp.mu_static * c.fz_N);
       } else {
         c.fx_N = std::clamp(-c.fz_N * cp.fx_slip_gain_s_m * c.slip_x_m_s, -cp.fx_max_N, cp.fx_max_N);  // eq (8)
         const double a0 = cp.fy_alpha0_rad;  // eq (10)
         c.fy_N = std::abs(c.slip_angle_rad) <= a0 ? -cp.fy_mu * c.fz_N * std::sin(M_PI * c.slip_angle_rad / (2 * a0))
                                                   : -cp.fy_mu * c.fz_N * sign(c.slip_angle_rad);
+        c.grip_share = std::max(std::abs(c.fx_N) / cp.fx_max_N, std::abs(c.fy_N) / (cp.fy_mu * c.fz_N));
       }
       force += c.fx_N * xw + c.fy_N * yw;
+    }
+    if (bristle) {
+      // The brush's force is its load times its deflection, so a load rising on a deflected tyre
+      // would raise the force, and the energy Fz sigma0 z^2 / 2 it holds, out of nothing. Where the
+      // patch grows, new tread enters it undeflected: the mean deflection falls as Fz' / Fz (Fz'
+      // taken as the spring's K pen', which keeps the rate below K / C), and the force holds. Off
+      // the ground there is no patch: the tread springs back, in the vertical contact's C / K.
+      const Eigen::Vector2d z = x.segment<2>(StateIndex::kTyre + 2 * w);
+      if (!env.chock_anchors_m && c.on_ground && upright)  // where the tread's force acts
+        c.tread_energy_J = 0.5 * c.fz_N * (cp.bristle_stiffness_x_per_m * sq(z.x()) + cp.bristle_stiffness_y_per_m * sq(z.y()));
+      if (c.on_ground)
+        e.tyre_rate[w] -= cp.stiffness_N_m * std::max(0.0, -F.v.dot(n)) / c.fz_N * z;
+      else if (cp.damping_N_s_m > 0)
+        e.tyre_rate[w] = -cp.stiffness_N_m / cp.damping_N_s_m * z;
     }
     add_force(applied, kWheelFrame[w], o, c.contact_point_m, force);
     // eq (6), rolling resistance, a torque from the ground on the wheel; the viscous part fades in
@@ -740,7 +756,7 @@ double TruckDynamics::energy(const StateVector& x, bool with_ground_springs) con
     energy -= b.mass * env_.gravity_m_s2.dot(F.p + F.R * b.cog);
   }
   if (with_ground_springs)
-    for (const WheelContact& c : out.wheels) energy += c.spring_energy_J;
+    for (const WheelContact& c : out.wheels) energy += c.spring_energy_J + c.tread_energy_J;
   return energy;
 }
 

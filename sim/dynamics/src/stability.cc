@@ -66,51 +66,85 @@ StaticReport static_report(const TruckParams& truck, const std::optional<Load>& 
   return r;
 }
 
+namespace {
+
+// The truck on the virtual tilt table: wheels locked and tyres chocked where they stood on it level;
+// the table's tilt is gravity's in its frame, towards `down` (horizontal, table axes).
+class Table {
+ public:
+  Table(const TruckParams& truck, const std::optional<Load>& load, double lift_m, TiltAxis axis, double tilt_rad)
+      : dyn_(truck) {
+    if (load) dyn_.attach_load(*load);
+    level_ = dyn_.rest_state(0, 0, 0, 0, tilt_rad, lift_m, 0);
+    if (!dyn_.settle_static(level_)) throw std::runtime_error("tilt table: the truck does not stand on the level table");
+    at_rest_ = outputs_at(dyn_, level_);
+    std::array<Eigen::Vector2d, kNumWheels> anchors;
+    for (int w = 0; w < kNumWheels; ++w) anchors[w] = at_rest_.wheels[w].contact_point_m.head<2>();
+    dyn_.environment().chock_anchors_m = anchors;
+    // The tipping line and the horizontal direction away from the CoG across it (downhill).
+    if (axis == TiltAxis::kLongitudinal) {
+      a_ = anchors[kFrontLeft];
+      b_ = anchors[kFrontRight];
+    } else {
+      a_ = anchors[kFrontRight];
+      b_ = anchors[kRear];
+    }
+    const Eigen::Vector2d along = (b_ - a_).normalized();
+    down_ = Eigen::Vector2d(-along.y(), along.x());
+    if (down_.dot(a_ - at_rest_.cog_m.head<2>()) < 0) down_ = -down_;
+  }
+  const StateVector& level() const { return level_; }
+  const Outputs& at_rest() const { return at_rest_; }
+  // The CoG's horizontal distance d from the tipping line, level.
+  double distance_m() const { return down_.dot(a_ - at_rest_.cog_m.head<2>()); }
+
+  // Stands at `a_deg`: an equilibrium exists with every wheel loaded (warm-started from `s`, left
+  // there); `lowest` the least-loaded wheel, `out` the outputs there.
+  bool stands(double a_deg, StateVector& s, int* lowest = nullptr, Outputs* out = nullptr) {
+    const double ang = a_deg * M_PI / 180;
+    dyn_.environment().gravity_m_s2 = Eigen::Vector3d(kGravity_m_s2 * std::sin(ang) * down_.x(),
+                                                      kGravity_m_s2 * std::sin(ang) * down_.y(), -kGravity_m_s2 * std::cos(ang));
+    const bool ok = dyn_.settle_static(s);
+    const Outputs o = outputs_at(dyn_, s);
+    int least = 0;
+    for (int w = 1; w < kNumWheels; ++w) if (o.wheels[w].fz_N < o.wheels[least].fz_N) least = w;
+    if (lowest) *lowest = least;
+    if (out) *out = o;
+    return ok && o.wheels[least].fz_N > 0;
+  }
+
+ private:
+  TruckDynamics dyn_;
+  StateVector level_;
+  Outputs at_rest_;
+  Eigen::Vector2d a_, b_, down_;
+};
+
+}  // namespace
+
+std::optional<Outputs> on_tilted_table(const TruckParams& truck, const std::optional<Load>& load, double lift_m,
+                                       TiltAxis axis, double angle_deg, double tilt_rad) {
+  Table table(truck, load, lift_m, axis, tilt_rad);
+  StateVector x = table.level();
+  Outputs out = table.at_rest();
+  // Tilted in half-degree steps, each settled from the last, as a table is raised.
+  for (double ang = 0.5; ang < angle_deg; ang += 0.5)
+    if (!table.stands(ang, x)) return std::nullopt;
+  if (angle_deg > 0 && !table.stands(angle_deg, x, nullptr, &out)) return std::nullopt;
+  return out;
+}
+
 TiltResult tilt_table(const TruckParams& truck, const std::optional<Load>& load, double lift_m, TiltAxis axis,
                       double tilt_rad) {
-  TruckDynamics dyn(truck);
-  if (load) dyn.attach_load(*load);
-  StateVector level = dyn.rest_state(0, 0, 0, 0, tilt_rad, lift_m, 0);
-  if (!dyn.settle_static(level)) throw std::runtime_error("tilt table: the truck does not stand on the level table");
-  std::array<Eigen::Vector2d, kNumWheels> anchors;
-  const Outputs at_rest = outputs_at(dyn, level);
-  for (int w = 0; w < kNumWheels; ++w) anchors[w] = at_rest.wheels[w].contact_point_m.head<2>();
-  dyn.environment().chock_anchors_m = anchors;
-
-  // The tipping line and the horizontal direction away from the CoG across it (downhill).
-  const Eigen::Vector2d cog = at_rest.cog_m.head<2>();
-  Eigen::Vector2d a, b;
-  if (axis == TiltAxis::kLongitudinal) {
-    a = anchors[kFrontLeft];
-    b = anchors[kFrontRight];
-  } else {
-    a = anchors[kFrontRight];
-    b = anchors[kRear];
-  }
-  const Eigen::Vector2d along = (b - a).normalized();
-  Eigen::Vector2d down(-along.y(), along.x());
-  if (down.dot(a - cog) < 0) down = -down;
+  Table table(truck, load, lift_m, axis, tilt_rad);
   TiltResult r;
-  r.rigid_angle_deg = std::atan2(down.dot(a - cog), at_rest.cog_m.z()) * 180 / M_PI;
+  r.rigid_angle_deg = std::atan2(table.distance_m(), table.at_rest().cog_m.z()) * 180 / M_PI;
 
-  StateVector x = level;
-  // Stands at angle a: an equilibrium exists with every wheel loaded. Warm-started from `x`.
-  auto stands = [&](double a_deg, StateVector& s, int* lifted) {
-    const double ang = a_deg * M_PI / 180;
-    dyn.environment().gravity_m_s2 =
-        Eigen::Vector3d(kGravity_m_s2 * std::sin(ang) * down.x(), kGravity_m_s2 * std::sin(ang) * down.y(), -kGravity_m_s2 * std::cos(ang));
-    const bool ok = dyn.settle_static(s);
-    const Outputs out = outputs_at(dyn, s);
-    int lowest = 0;
-    for (int w = 1; w < kNumWheels; ++w) if (out.wheels[w].fz_N < out.wheels[lowest].fz_N) lowest = w;
-    if (lifted) *lifted = lowest;
-    return ok && out.wheels[lowest].fz_N > 0;
-  };
-
+  StateVector x = table.level();
   double good = 0, bad = -1;
   for (double ang = 0.5; ang <= 60.0; ang += 0.5) {
     StateVector trial = x;
-    if (!stands(ang, trial, &r.lifted_wheel)) { bad = ang; break; }
+    if (!table.stands(ang, trial, &r.lifted_wheel)) { bad = ang; break; }
     x = trial;
     good = ang;
   }
@@ -119,7 +153,7 @@ TiltResult tilt_table(const TruckParams& truck, const std::optional<Load>& load,
     const double mid = 0.5 * (good + bad);
     StateVector trial = x;
     int lifted;
-    if (stands(mid, trial, &lifted)) { good = mid; x = trial; } else { bad = mid; r.lifted_wheel = lifted; }
+    if (table.stands(mid, trial, &lifted)) { good = mid; x = trial; } else { bad = mid; r.lifted_wheel = lifted; }
   }
   r.critical_angle_deg = 0.5 * (good + bad);
   return r;
@@ -131,8 +165,7 @@ double lift_for_fork_height(const TruckParams& truck, double height_m) {
 
 std::vector<IsoTiltTest> iso_22915_2(const TruckParams& truck) {
   // ISO 22915-1: a seated operator is represented by 98 kg on the seat.
-  constexpr double kOperatorKg = 98;
-  const TruckParams t = with_chassis_mass(truck, kOperatorKg, truck.operator_seat_m);
+  const TruckParams t = with_chassis_mass(truck, kIsoOperatorKg, truck.operator_seat_m);
   const double back = -truck.limits.tilt_backward_max_rad;
   // Test 4's slope depends on the top speed unladen; a truck file without one (the paper's)
   // is taken at the class's 16 km/h.
@@ -150,6 +183,7 @@ std::vector<IsoTiltTest> iso_22915_2(const TruckParams& truck) {
     // Stacking tests lift to the maximum height; travelling ones put the forks' top 300 mm up.
     const double lift = test.fork_height_m < 0 ? truck.limits.lift_max_m : lift_for_fork_height(t, test.fork_height_m);
     if (test.fork_height_m < 0) test.fork_height_m = lift - lift_for_fork_height(t, 0);
+    test.lift_m = lift;
     test.required_deg = std::atan(test.required_slope_pct / 100) * 180 / M_PI;
     test.result = tilt_table(t, load, lift, test.axis, test.mast_tilt_rad);
     test.margin_deg = test.result.critical_angle_deg - test.required_deg;

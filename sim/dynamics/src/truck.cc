@@ -115,8 +115,22 @@ TruckParams load_truck(const std::string& path) {
   t.rated_capacity_kg = r.positive("rated_capacity_kg");
   t.rated_load_centre_m = r.positive("rated_load_centre_m");
 
+  // The chassis' parts, where the file lists them: their mean is its CoG unless cog_m says
+  // otherwise (validate then weighs the truck against the parts).
+  double parts_mass = 0;
+  Eigen::Vector3d parts_moment = Eigen::Vector3d::Zero();
+  if (r.has("chassis.parts"))
+    for (const auto& [name, part] : r.node("chassis.parts").items()) {
+      if (name.empty() || name[0] == '_') continue;
+      const std::string k = "chassis.parts." + name;
+      const MassPart p{name, r.positive(k + ".mass_kg"), r.vec3(k + ".cog_m")};
+      t.chassis_parts.push_back(p);
+      parts_mass += p.mass_kg;
+      parts_moment += p.mass_kg * p.cog_geometry_m;
+    }
+  if (!r.has("chassis.cog_m") && t.chassis_parts.empty()) r.fail("chassis", "needs cog_m or parts");
   // Everything is read in the geometry frame first, then shifted to the chassis CoG.
-  const Eigen::Vector3d chassis_cog = r.vec3("chassis.cog_m");
+  const Eigen::Vector3d chassis_cog = r.has("chassis.cog_m") ? r.vec3("chassis.cog_m") : Eigen::Vector3d(parts_moment / parts_mass);
   t.chassis_cog_geometry_m = chassis_cog;
   double other_mass = 0;
   for (int w = 0; w < kNumWheels; ++w) {
@@ -157,6 +171,9 @@ TruckParams load_truck(const std::string& path) {
 
   t.chassis.mass_kg = t.service_mass_kg - other_mass;
   if (t.chassis.mass_kg <= 0) r.fail("service_mass_kg", "is less than the wheels, mast and carriage together");
+  if (!t.chassis_parts.empty() && std::abs(parts_mass - t.chassis.mass_kg) > 0.5)
+    r.fail("chassis.parts", "weigh " + std::to_string(std::lround(parts_mass)) + " kg, but the service mass less the wheels, mast and carriage leaves " +
+                                std::to_string(std::lround(t.chassis.mass_kg)) + " kg for the chassis");
   t.chassis.cog_m = Eigen::Vector3d::Zero();
   t.chassis.inertia_kg_m2 = r.inertia("chassis.inertia_kg_m2");
 

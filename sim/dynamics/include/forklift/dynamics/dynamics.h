@@ -108,12 +108,17 @@ struct WheelContact {
   // once: fz_N is then the magnitude of their summed normal forces, and `normal` their direction.
   double penetration_m = 0;
   double spring_energy_J = 0;  // sum of K depth^2 / 2 over its contacts
+  double tread_energy_J = 0;   // the brush's deflected tread: Fz (sigma0x zx^2 + sigma0y zy^2) / 2
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
   double fz_N = 0, fx_N = 0, fy_N = 0;
   double slip_x_m_s = 0, slip_y_m_s = 0;  // sx, sy: contact point velocity on the wheel axes
   double slip_angle_rad = 0;              // alpha, eq (9)
   double drive_torque_N_m = 0, brake_torque_N_m = 0, rolling_torque_N_m = 0;
-  double friction_use = 0;  // |(Fx, Fy)| / (mu Fz): 1 sliding (bristle tyre; 0 off the ground)
+  double friction_use = 0;  // |(Fx, Fy)| / (mu Fz), mu the grip at this slip: 1 sliding (bristle tyre; 0 off the ground)
+  // How much of the tyre's grip peak the force uses: |(Fx, Fy)| / (peak mu Fz) (the brush's
+  // mu_static, the grip-peak tyre's mu_peak; the paper's tyre: the larger of |Fx| / Fx_max and
+  // |Fy| / (mu Fz)). 0 off the ground. It reaches 1 only at the peak, whatever the tyre rolls at.
+  double grip_share = 0;
 };
 
 // A rigid frame's motion, world axes: orientation, origin, and the origin's velocity and
@@ -196,8 +201,8 @@ class TruckDynamics {
   // False if x is not finite or M_ii not positive definite.
   bool driven_coupling(const StateVector& x, Eigen::Matrix<double, kNumDynamic, kNumDriven>& dqdd_dzdd) const;
 
-  // Kinetic + gravitational + ground-spring energy (J): conserved when there is no friction,
-  // damping or torque and the driven coordinates are still.
+  // Kinetic + gravitational + ground-spring energy (J), the tyres' deflected tread included:
+  // conserved when there is no friction, damping or torque and the driven coordinates are still.
   // Without the ground springs: kinetic + gravitational only, whose rate is Outputs::applied_power_W.
   double energy(const StateVector& x, bool with_ground_springs = true) const;
 

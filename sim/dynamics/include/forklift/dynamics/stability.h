@@ -38,6 +38,11 @@ struct TiltResult {
   double rigid_angle_deg = 0;     // atan(d / h): a rigid truck's angle, CoG d from the tipping line, h high
 };
 
+// The truck standing on that tilt table (below) tilted to `angle_deg`, settled: its outputs (wheel
+// loads, contact points in the table's frame), or nullopt if a wheel leaves the table on the way.
+std::optional<Outputs> on_tilted_table(const TruckParams& truck, const std::optional<Load>& load, double lift_m,
+                                       TiltAxis axis, double angle_deg, double tilt_rad = 0);
+
 // A virtual tilt table in the manner of ISO 22915-1: the truck stands on the table with its brakes
 // applied (wheels locked to the chassis) and its tyres chocked against sliding; the table tilts in
 // quasi-static steps (tilting the table is tilting gravity in its frame) until a wheel leaves it;
@@ -60,8 +65,10 @@ struct IsoTiltTest {
   TiltResult result;
   double margin_deg = 0;          // result - required
   bool pass = false;
+  double lift_m = 0;              // the fork lift s that puts the forks at fork_height_m
 };
 std::vector<IsoTiltTest> iso_22915_2(const TruckParams& truck);
+inline constexpr double kIsoOperatorKg = 98;  // ISO 22915-1: the seated operator's mass
 
 // The fork lift s that puts the top of the forks `height_m` above level ground (mast upright).
 double lift_for_fork_height(const TruckParams& truck, double height_m);

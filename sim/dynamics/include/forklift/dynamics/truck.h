@@ -158,6 +158,13 @@ struct MastLimits {
   double lift_rate_max_m_s = 0, tilt_rate_max_rad_s = 0, side_shift_rate_max_m_s = 0;
 };
 
+// A part of the chassis (battery, counterweight, frame, ...) as the truck file lists it.
+struct MassPart {
+  std::string name;
+  double mass_kg = 0;
+  Eigen::Vector3d cog_geometry_m = Eigen::Vector3d::Zero();  // geometry frame
+};
+
 // The constant model. Built by load_truck(); never changed during a run.
 struct TruckParams {
   std::string name;
@@ -168,6 +175,9 @@ struct TruckParams {
 
   RigidBodyParams chassis;                 // cog_m is zero by definition of the chassis frame
   Eigen::Vector3d chassis_cog_geometry_m;  // where the chassis frame sits in the geometry frame
+  // The chassis' parts where the file lists them (empty otherwise): the chassis CoG is their mean
+  // unless the file gives chassis.cog_m; `validate` weighs the truck against them either way.
+  std::vector<MassPart> chassis_parts;
   std::array<WheelParams, kNumWheels> wheels;
   Eigen::Vector3d mast_pivot_m;            // chassis frame
   RigidBodyParams mast;                    // cog_m from the pivot, mast frame
