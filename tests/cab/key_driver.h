@@ -104,7 +104,9 @@ class Pick {
         const double square_up = std::atan(heading_err * kWheelbaseM / 0.8);
         const bool squaring = last_leg && to_face < kStandOffM + 2.0 && std::abs(t_.left().dot(front - t_.centre)) < 0.08;
         steer_to(f, s, squaring ? square_up : pursue(front, s.yaw_rad, 2.0));
-        speed(f, s, std::clamp(0.35 * remaining, 0.25, last_leg ? 0.35 : 1.0));
+        // 0.3 m/s on the last leg: at 0.35 the truck reached the stand-off too fast to stop square
+        // (three back-offs with the training truck's CoG from its parts).
+        speed(f, s, std::clamp(0.35 * remaining, 0.25, last_leg ? 0.3 : 1.0));
         if (remaining < 0.05 || (last_leg && to_face < kStandOffM)) phase_ = Phase::kSquare;
         break;
       }

@@ -265,8 +265,8 @@ TEST_F(KeyDrive, KeysAloneTakeAFloorPalletWithTheWheelThatStaysAndMissWithTheOne
   evt::Session s = rack_pick();
   key_driver::Pick pick = p13_pick();
   const DriveResult now = drive(pick, s, 90);
-  std::printf("keys, today's wheel: %s in %.1f s of sim time, %d fork strikes, entered %.1f mm off and %.2f deg\n",
-              now.done ? "picked P13" : "no pick", now.t_s, now.fork_strikes, pick.entry_lateral_m * 1000,
+  std::printf("keys, today's wheel: %s in %.1f s of sim time (backed off %d times), %d fork strikes, entered %.1f mm off and %.2f deg\n",
+              now.done ? "picked P13" : "no pick", now.t_s, pick.tries, now.fork_strikes, pick.entry_lateral_m * 1000,
               pick.entry_angle_rad * 180 / M_PI);
   EXPECT_TRUE(now.done) << "stopped at the " << pick.phase() << " phase";
   EXPECT_EQ(now.fork_strikes, 0);
