@@ -9,17 +9,9 @@
 #include <vector>
 
 #include "child.h"
+#include "forklift/units/decimals.h"
 
 namespace forklift::server {
-namespace {
-
-std::string number(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.4f", v);
-  return buf;
-}
-
-}  // namespace
 
 Stills::Stills(std::string renderer_binary, std::string cache_dir, std::string data_dir)
     : binary_(std::move(renderer_binary)), cache_dir_(std::move(cache_dir)), data_dir_(std::move(data_dir)) {}
@@ -36,8 +28,8 @@ std::string Stills::png(const StillRequest& r, double timeout_s) {
   std::filesystem::create_directories(cache_dir_);
   const std::string tmp = out + ".tmp.png", err = out + ".err";
   std::vector<std::string> args = {binary_, "--scenario", r.scenario_file, "--pose",
-                                   number(r.x_m) + "," + number(r.y_m) + "," + number(r.yaw_deg),
-                                   "--fork-height", number(r.fork_height_m), "--view", "chase",
+                                   fixed_decimals(r.x_m, 4) + "," + fixed_decimals(r.y_m, 4) + "," + fixed_decimals(r.yaw_deg, 4),
+                                   "--fork-height", fixed_decimals(r.fork_height_m, 4), "--view", "chase",
                                    "--size", "640x400", "--data-dir", data_dir_, "--out", tmp};
   const int status = run_child(args, err, err, timeout_s, "the renderer");
   if (status != 0 || !std::filesystem::exists(tmp)) {

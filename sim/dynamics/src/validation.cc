@@ -10,13 +10,13 @@
 #include <functional>
 #include <memory>
 #include <optional>
-#include <sstream>
 #include <stdexcept>
 
 #include <nlohmann/json.hpp>
 
 #include "forklift/dynamics/simulation.h"
 #include "forklift/dynamics/stability.h"
+#include "forklift/units/decimals.h"
 #include "forklift/units/units.h"
 
 namespace forklift {
@@ -177,13 +177,6 @@ double weighed_cog_height(const Outputs& level, const Outputs& tilted, double an
 constexpr const char* kPartsSource =
     "physics: moments about the axles from the truck file's masses (the chassis as 'chassis.parts' where it lists them)";
 
-std::string fmt(double v, int digits = 2) {
-  std::ostringstream s;
-  s.precision(digits);
-  s << std::fixed << v;
-  return s.str();
-}
-
 class Checks {
  public:
   Checks(const TruckParams& t, const ValidationReferences& refs) : t_(t), refs_(refs) {}
@@ -195,7 +188,7 @@ class Checks {
   // |measured / expected - 1| within `tolerance`, reported in percent.
   void relative(const std::string& name, double measured, double expected, double tolerance, const std::string& source) {
     const double err = (measured / expected - 1) * 100;
-    add(name, err, "% off", "within +-" + fmt(tolerance * 100, 1) + " % of " + fmt(expected, 3), source, std::abs(err) <= tolerance * 100);
+    add(name, err, "% off", "within +-" + fixed_decimals(tolerance * 100, 1) + " % of " + fixed_decimals(expected, 3), source, std::abs(err) <= tolerance * 100);
   }
 
   DriverInputs full_throttle() const { DriverInputs u; u.drive_torque_N_m = t_.drive.drive_torque_max_N_m; return u; }
@@ -230,15 +223,15 @@ class Checks {
         if (std::abs(err) > std::abs(worst)) worst = err;
       }
       add(std::string("statics, ") + c.name + ": wheel loads level (the largest error of the three)", worst, "% off",
-          "within +-0.1 % of the parts' (rear " + fmt(expected[kRear] / kGravity_m_s2, 0) + " kg)", kPartsSource,
+          "within +-0.1 % of the parts' (rear " + fixed_decimals(expected[kRear] / kGravity_m_s2, 0) + " kg)", kPartsSource,
           r.settled && std::abs(worst) <= 0.1);
       if (c.table_deg <= 0) continue;
       // Weighed again on a table tilted nose down: the CoG's height, as a test lab measures it.
       const auto level = on_tilted_table(t_, load, lift, TiltAxis::kLongitudinal, 0);
       const auto tilted = on_tilted_table(t_, load, lift, TiltAxis::kLongitudinal, c.table_deg);
       const double h = level && tilted ? weighed_cog_height(*level, *tilted, c.table_deg * kDeg) : NAN;
-      add(std::string("statics, ") + c.name + ": CoG height weighed level and on a " + fmt(c.table_deg, 0) + " deg table", h, "m",
-          "the parts' " + fmt(parts.cog_m.z(), 3) + " m +- 0.02 m (tyre compression)",
+      add(std::string("statics, ") + c.name + ": CoG height weighed level and on a " + fixed_decimals(c.table_deg, 0) + " deg table", h, "m",
+          "the parts' " + fixed_decimals(parts.cog_m.z(), 3) + " m +- 0.02 m (tyre compression)",
           "ISO 10392's axle-lift weighing, against the truck file's masses and heights", std::abs(h - parts.cog_m.z()) <= 0.02);
     }
     const StaticReport grade = static_report(t_, std::nullopt, 0, 10.0);
@@ -250,7 +243,7 @@ class Checks {
     for (const IsoTiltTest& test : iso_22915_2(t_)) {
       const std::string name = "ISO 22915-2 test " + std::to_string(test.number) + " (" + test.name + ")";
       add(name + ": tilt angle", test.result.critical_angle_deg, "deg",
-          ">= " + fmt(test.required_deg) + " deg (" + fmt(test.required_slope_pct, 1) + " %)",
+          ">= " + fixed_decimals(test.required_deg, 2) + " deg (" + fixed_decimals(test.required_slope_pct, 1) + " %)",
           "ISO 22915-2, table 1 (counterbalanced trucks up to 5000 kg)", test.pass);
       // The rigid truck's angle from its parts: the CoG's distance d inside the tipping line (the
       // front axle's contacts, or a front contact to the rear's) over its height h.
@@ -263,7 +256,7 @@ class Checks {
       const double rigid = std::atan2(d, w.cog_m.z()) / kDeg;
       // Tyre compression lets the truck lean a little towards the tipping line, never away.
       const double ratio = (test.result.critical_angle_deg / rigid - 1) * 100;
-      add(name + ": against the rigid truck's atan(d / h) = " + fmt(rigid) + " deg", ratio, "%", "-8 % to 0 %",
+      add(name + ": against the rigid truck's atan(d / h) = " + fixed_decimals(rigid, 2) + " deg", ratio, "%", "-8 % to 0 %",
           kPartsSource, ratio >= -8 && ratio <= 0.1);
     }
   }
@@ -371,7 +364,7 @@ class Checks {
       r.run(6, [&](const Outputs&) { return full_brake(); },
             [&](const Outputs& s) { pitch = std::max(pitch, std::abs(s.q[kAvc])); });
       const std::string what = std::string(laden ? "rated load low, mast back" : "unladen") + ", full brake from " +
-                               fmt(v0 * 3.6, 1) + " km/h";
+                               fixed_decimals(v0 * 3.6, 1) + " km/h";
       relative(what + ": stopping distance against v^2 / 2a", (r.xy() - start).norm(), v0 * v0 / (2 * a), 0.15,
                "physics: the brakes' torque at the tyres and rolling resistance on the mass with its spinning parts");
       if (laden) add(what + ": largest pitch", pitch / kDeg, "deg", "< 5 deg (no tip)",
@@ -394,7 +387,7 @@ class Checks {
     coast.run(5, idle);
     const double c_rr = (v1 - coast.v()) / (coast.sim->time() - t1) / kGravity_m_s2;
     add("coast-down from 3 m/s: rolling resistance, deceleration over g", c_rr, "",
-        fmt(refs_.rolling_resistance_min, 3) + "-" + fmt(refs_.rolling_resistance_max, 3), refs_.rolling_resistance_source,
+        fixed_decimals(refs_.rolling_resistance_min, 3) + "-" + fixed_decimals(refs_.rolling_resistance_max, 3), refs_.rolling_resistance_source,
         c_rr >= refs_.rolling_resistance_min && c_rr <= refs_.rolling_resistance_max);
     coast.run(30, idle);
     add("coast-down: speed 35 s later", std::abs(coast.v()), "m/s", "< 0.001 (at rest)",
@@ -408,7 +401,7 @@ class Checks {
       r.run(25, [&](const Outputs&) { return full_throttle(); });
       const std::string what = laden ? "rated load" : "unladen";
       add(what + ": top speed at full throttle", r.v() * 3.6, "km/h",
-          fmt(refs_.top_speed_m_s * 3.6, 1) + " +- " + fmt(refs_.top_speed_tolerance_m_s * 3.6, 1) + " km/h", refs_.top_speed_source,
+          fixed_decimals(refs_.top_speed_m_s * 3.6, 1) + " +- " + fixed_decimals(refs_.top_speed_tolerance_m_s * 3.6, 1) + " km/h", refs_.top_speed_source,
           std::abs(r.v() - refs_.top_speed_m_s) <= refs_.top_speed_tolerance_m_s);
       r.kick_yaw(0.1);
       r.run(4, [&](const Outputs&) { return full_throttle(); });

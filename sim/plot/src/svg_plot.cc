@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "forklift/units/decimals.h"
+
 namespace forklift::plot {
 namespace {
 
@@ -33,12 +35,6 @@ constexpr const char* kDashes[] = {"",    "7,6",        "0.5,4.5",         "10,4
 constexpr size_t kDashCount = sizeof(kDashes) / sizeof(kDashes[0]);
 
 // Fixed, limited precision keeps files small (and locale-independent digits).
-std::string num(double v, int prec = 2) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", prec, v);
-  return buf;
-}
-
 std::string escape(const std::string& s) {
   std::string out;
   out.reserve(s.size());
@@ -92,7 +88,7 @@ void add_polylines(std::string& out, const std::vector<double>& x, const std::ve
     out += "<polyline points=\"";
     for (size_t k = 0; k < run.size(); ++k) {
       if (k) out += ' ';
-      out += num(run[k].x) + ',' + num(run[k].y);
+      out += fixed_decimals(run[k].x, 2) + ',' + fixed_decimals(run[k].y, 2);
     }
     out += "\"/>\n";
     run.clear();
@@ -136,7 +132,7 @@ void add_polylines(std::string& out, const std::vector<double>& x, const std::ve
 
 void text(std::string& out, double x, double y, const std::string& s, const char* anchor,
           int size, const char* extra = "") {
-  out += "<text x=\"" + num(x) + "\" y=\"" + num(y) + "\" text-anchor=\"" + anchor +
+  out += "<text x=\"" + fixed_decimals(x, 2) + "\" y=\"" + fixed_decimals(y, 2) + "\" text-anchor=\"" + anchor +
          "\" font-size=\"" + std::to_string(size) + "\"" + extra + ">" + escape(s) + "</text>\n";
 }
 
@@ -256,8 +252,8 @@ void write_svg(const std::string& path, const std::string& title, const std::str
   const Map mx{xlo, xhi, plot_l, plot_r};
 
   std::string out;
-  out += "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + num(W, 0) + "\" height=\"" +
-         num(H, 0) + "\" viewBox=\"0 0 " + num(W, 0) + ' ' + num(H, 0) +
+  out += "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + fixed_decimals(W, 0) + "\" height=\"" +
+         fixed_decimals(H, 0) + "\" viewBox=\"0 0 " + fixed_decimals(W, 0) + ' ' + fixed_decimals(H, 0) +
          "\" font-family=\"Helvetica, Arial, sans-serif\">\n";
   out += "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
   text(out, 10, 26, title_lines[0], "start", 15, " font-weight=\"bold\"");  // long titles stay on the page
@@ -288,17 +284,17 @@ void write_svg(const std::string& path, const std::string& title, const std::str
     // Grid first so curves draw over it.
     out += "<g stroke=\"#e0e0e0\" stroke-width=\"1\">\n";
     for (double t : yt)
-      out += "<line x1=\"" + num(plot_l) + "\" y1=\"" + num(my(t)) + "\" x2=\"" + num(plot_r) +
-             "\" y2=\"" + num(my(t)) + "\"/>\n";
+      out += "<line x1=\"" + fixed_decimals(plot_l, 2) + "\" y1=\"" + fixed_decimals(my(t), 2) + "\" x2=\"" + fixed_decimals(plot_r, 2) +
+             "\" y2=\"" + fixed_decimals(my(t), 2) + "\"/>\n";
     for (double t : xt)
-      out += "<line x1=\"" + num(mx(t)) + "\" y1=\"" + num(top) + "\" x2=\"" + num(mx(t)) +
-             "\" y2=\"" + num(bottom) + "\"/>\n";
+      out += "<line x1=\"" + fixed_decimals(mx(t), 2) + "\" y1=\"" + fixed_decimals(top, 2) + "\" x2=\"" + fixed_decimals(mx(t), 2) +
+             "\" y2=\"" + fixed_decimals(bottom, 2) + "\"/>\n";
     out += "</g>\n";
-    out += "<rect class=\"plot-area\" x=\"" + num(plot_l) + "\" y=\"" + num(top) + "\" width=\"" +
-           num(plot_w) + "\" height=\"" + num(bottom - top) +
+    out += "<rect class=\"plot-area\" x=\"" + fixed_decimals(plot_l, 2) + "\" y=\"" + fixed_decimals(top, 2) + "\" width=\"" +
+           fixed_decimals(plot_w, 2) + "\" height=\"" + fixed_decimals(bottom - top, 2) +
            "\" fill=\"none\" stroke=\"#444\" stroke-width=\"1\"/>\n";
     for (double t : yt) text(out, plot_l - 6, my(t) + 4, tick_label(t, ystep), "end", 11);
-    out += "<text transform=\"translate(16," + num((top + bottom) / 2) +
+    out += "<text transform=\"translate(16," + fixed_decimals((top + bottom) / 2, 2) +
            ") rotate(-90)\" text-anchor=\"middle\" font-size=\"12\">" + escape(panel.y_label) +
            "</text>\n";
     if (pi + 1 == panels.size())  // shared axis: label x only under the last panel
@@ -316,8 +312,8 @@ void write_svg(const std::string& path, const std::string& title, const std::str
       out += "</g>\n";
       // Legend entry in the right margin, long enough to show a whole dash cycle.
       const double ly = top + 10 + 16 * static_cast<double>(si);
-      out += "<line class=\"legend\" x1=\"" + num(plot_r + 10) + "\" y1=\"" + num(ly) +
-             "\" x2=\"" + num(plot_r + 44) + "\" y2=\"" + num(ly) + "\" stroke=\"" + colour +
+      out += "<line class=\"legend\" x1=\"" + fixed_decimals(plot_r + 10, 2) + "\" y1=\"" + fixed_decimals(ly, 2) +
+             "\" x2=\"" + fixed_decimals(plot_r + 44, 2) + "\" y2=\"" + fixed_decimals(ly, 2) + "\" stroke=\"" + colour +
              "\" stroke-width=\"1.5\" stroke-linecap=\"round\"" + dash + "/>\n";
       text(out, plot_r + 50, ly + 4, s.label, "start", 12);
     }

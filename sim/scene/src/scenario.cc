@@ -3,11 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <stdexcept>
 
 #include "forklift/dynamics/manoeuvre.h"
 #include "forklift/schema/data_file.h"
+#include "forklift/units/decimals.h"
 
 namespace forklift {
 
@@ -78,22 +78,14 @@ SessionSettings load_session_settings(const std::string& data_dir) {
   }
 }
 
-namespace {
-std::string num(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
-}  // namespace
-
 std::optional<std::string> load_request_problem(const LoadRequest& r, const std::string& data_dir) {
   const SessionSettings lim = load_session_settings(data_dir);
   if (!(std::isfinite(r.mass_kg) && r.mass_kg > 0 && r.mass_kg <= lim.load_mass_max_kg))
-    return "'load.mass_kg' must be in (0, " + num(lim.load_mass_max_kg) + "]";
+    return "'load.mass_kg' must be in (0, " + trimmed_decimals(lim.load_mass_max_kg, 6) + "]";
   if (!(std::isfinite(r.cog_height_m) && r.cog_height_m >= 0 && r.cog_height_m <= lim.load_cog_height_max_m))
-    return "'load.cog_height_m' must be in [0, " + num(lim.load_cog_height_max_m) + "]";
+    return "'load.cog_height_m' must be in [0, " + trimmed_decimals(lim.load_cog_height_max_m, 6) + "]";
   if (!(std::isfinite(r.lateral_m) && std::abs(r.lateral_m) <= lim.load_lateral_max_m))
-    return "'load.lateral_m' must be in [-" + num(lim.load_lateral_max_m) + ", " + num(lim.load_lateral_max_m) + "]";
+    return "'load.lateral_m' must be in [-" + trimmed_decimals(lim.load_lateral_max_m, 6) + ", " + trimmed_decimals(lim.load_lateral_max_m, 6) + "]";
   return std::nullopt;
 }
 
