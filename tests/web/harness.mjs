@@ -74,6 +74,14 @@ export class Processes {
   }
 }
 
+// A forklift-server of the test's own: a fresh database and logs in the output folder, on the
+// test's port and DDS domain, with `adminPassword` for its administrator.
+export function startServer(procs, { args, out, base, domain }, adminPassword) {
+  return procs.start('server', path.join(args.bin, 'forklift-server'),
+    ['--db', path.join(out, 'forklift.db'), '--listen', base.replace('http://', ''), '--dds-domain', String(domain),
+     '--admin-password', adminPassword, '--log-dir', path.join(out, 'logs')]);
+}
+
 // The JSON API: the body parsed, or an Error naming the call and the answer.
 export function apiOf(base) {
   return async function api(method, p, token, body) {
