@@ -12,17 +12,7 @@
 //
 //   BUILD/tests/forklift-test-alloc node a11y.mjs --bin BUILD/bin --data data [--out DIR] [--headed]
 import path from 'node:path';
-import { createRequire } from 'node:module';
-import { setup, startServer, check, sleep, supports, Processes, apiOf, waitForServer, browserPage, failed } from './harness.mjs';
-
-const require = createRequire(import.meta.url);
-let axeSource;
-try {
-  axeSource = require('axe-core').source;
-} catch (e) {
-  console.error('axe-core is missing: run `npm ci --prefix tests/web` (scripts/install-deps.sh does)');
-  process.exit(1);
-}
+import { setup, startServer, axeFindings, check, sleep, supports, Processes, apiOf, waitForServer, browserPage, failed } from './harness.mjs';
 
 const test = setup('a11y');
 const { args, domain, out, base } = test;
@@ -46,12 +36,9 @@ function reported() {
 // axe-core on the page as it stands: every serious or critical violation, named with where it is.
 const audited = [];
 async function audit(what) {
-  await page.evaluate(axeSource);
-  const r = await page.evaluate(async () => window.axe.run(document, { resultTypes: ['violations'] }));
-  const bad = r.violations.filter((v) => v.impact === 'serious' || v.impact === 'critical');
-  audited.push(`${what} (${r.violations.length ? r.violations.map((v) => `${v.id} ${v.impact}`).join(', ') : 'nothing'})`);
-  report(bad.length === 0, `${what} (${page.url()}): axe finds\n` + bad.map((v) =>
-    `  ${v.id} (${v.impact}): ${v.help}\n` + v.nodes.slice(0, 6).map((n) => `    at ${n.target.join(' ')}: ${n.failureSummary.replace(/\n/g, ' ')}`).join('\n')).join('\n'));
+  const axe = await axeFindings(page);
+  audited.push(`${what} (${axe.all.length ? axe.all.join(', ') : 'nothing'})`);
+  report(axe.serious.length === 0, `${what} (${page.url()}): axe finds\n` + axe.serious.join('\n'));
 }
 
 // Drops the problems seen that are answers the page expects and handles.
