@@ -324,8 +324,9 @@ int main(int argc, char** argv) {
     if (*paper) {
       std::filesystem::create_directories(out_dir);
       json all = json::array();
-      std::printf("%-4s %-8s %7s %8s %9s %9s %9s %11s %11s %9s %9s %7s %6s\n", "man", "integr", "steps", "rhs",
-                  "wall_ms", "pitch_deg", "roll_deg", "min_fz_rear", "rear_lifted", "stop<0.05", "stop<0.1", "yaw_deg",
+      // The columns in words and units: a person reads this table (summary.json is for scripts).
+      std::printf("%-4s %-8s %7s %8s %9s %9s %9s %12s %11s %9s %9s %7s %6s\n", "no.", "method", "steps", "evals",
+                  "wall ms", "pitch deg", "roll deg", "least rear N", "rear lifted", "stop 0.05", "stop 0.1", "yaw deg",
                   "tipped");
       // A run is kept only until the figure overlaying its group is written: each holds ~10k samples.
       std::map<int, std::pair<ManoeuvreResult, std::string>> done;
@@ -338,10 +339,10 @@ int main(int argc, char** argv) {
         write_csv(r, base + ".csv", 5);
         write_manoeuvre_figure(truck, r, spec.description, base + ".svg");
         auto stop = [](const std::optional<double>& t) { return t ? std::to_string(*t).substr(0, 5) : std::string("-"); };
-        std::printf("%-4d %-8s %7ld %8ld %9.1f %9.3f %9.3f %11.0f %11s %9s %9s %7.1f %6s\n", n, integrator_name(opts.kind),
+        std::printf("%-4d %-8s %7ld %8ld %9.1f %9.3f %9.3f %12.0f %11s %9s %9s %7s %6s\n", n, integrator_name(opts.kind),
                     r.stats.steps, r.stats.rhs_evals, r.wall_s * 1e3, r.max_pitch_deg, r.max_roll_deg,
                     r.min_fz_N[kRear], r.rear_wheel_lifted ? "yes" : "no", stop(r.stop_times[0].s).c_str(),
-                    stop(r.stop_times[1].s).c_str(), r.final_pose.z() * kRad, r.tipped_over ? "yes" : "no");
+                    stop(r.stop_times[1].s).c_str(), fixed(r.final_pose.z() * kRad, 1).c_str(), r.tipped_over ? "yes" : "no");
         all.push_back(result_json(r));
 
         const FigureGroup* group = figure_group_of(n);
@@ -361,6 +362,8 @@ int main(int argc, char** argv) {
       std::ofstream(out_dir + "/summary.json") << all.dump(2) << '\n';
       std::string names;
       for (const std::string& f : figure_files) names += (names.empty() ? "" : ", ") + f;
+      std::printf("(pitch and roll: the most over the run; evals: of the model; stop 0.05 and 0.1: seconds from the brake's "
+                  "onset until below 0.05 and 0.1 m/s; yaw: at the end)\n");
       std::printf("figures, CSV and summary.json written to %s/ (the paper's figures: %s)\n", out_dir.c_str(),
                   names.c_str());
       return 0;
