@@ -160,6 +160,10 @@ try {
     await page.keyboard.press('F5');
     await page.waitForSelector('#replay[data-ready=true]', { timeout: 240000 });
     await page.waitForSelector('#sign-off-form:not([hidden])');
+    // How it ended, in words: the state and the worker's end reason, never a code such as time_limit.
+    const facts = (await page.textContent('#facts')).replace(/first_drive_yard/g, '');
+    check(/ended \((the time limit was reached|its time was up)\)/.test(facts) && !/\b[a-z]+_[a-z_]+\b/.test(facts),
+          `the session's facts in words: ${facts}`);
     await audit('the debrief');
     reported();
   });
