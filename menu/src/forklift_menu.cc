@@ -266,11 +266,15 @@ int verify_exam(const Client& cl, const std::string& id, const std::string& ca_f
   for (const std::string& line : report.passed) std::printf("ok    %s\n", line.c_str());
   for (const std::string& line : report.problems) std::printf("FAIL  %s\n", line.c_str());
   switch (report.verdict) {
-    case Verdict::kVerified:
-      std::printf("verified: exam %s of pupil %s (%s), mark %s of 100, %s, examiner %s: record, log, chain and signatures intact\n", id.c_str(),
-                  fmt(r.value("pupil_id", json())).c_str(), fmt(r.value("pupil", json())).c_str(), fmt(r.value("mark", json())).c_str(),
-                  r.value("passed", json()) == true ? "passed" : "not passed", fmt(r.value("examiner", json())).c_str());
+    case Verdict::kVerified: {
+      // The mark as the session page gives it: an exam cut short by its time limit has none (the
+      // record's is the evaluator's count of a drive that was never finished).
+      const json session = cl.call("GET", "/api/sessions/" + id);
+      std::printf("verified: exam %s of pupil %s (%s), %s, examiner %s: record, log, chain and signatures intact\n", id.c_str(),
+                  fmt(r.value("pupil_id", json())).c_str(), fmt(r.value("pupil", json())).c_str(), mark_words(session).c_str(),
+                  fmt(r.value("examiner", json())).c_str());
       return 0;
+    }
     case Verdict::kNotChained: {
       std::printf("NOT CHAINED: exam %s has no entry in the exam chain (the chain and its anchor show no sign of tampering): %s. "
                   "Its result cannot be verified and does not count.\n",

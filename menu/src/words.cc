@@ -22,45 +22,6 @@ std::string spaced(std::string code) {
 
 std::string text(const json& v) { return v.is_string() ? v.get<std::string>() : v.is_null() ? "" : v.dump(); }
 
-// The words of the session vocabulary's values, one switch each (a new value does not compile
-// until it has its words).
-const char* words(SessionPhase phase) {
-  switch (phase) {
-    case SessionPhase::kStarting: return "starting";
-    case SessionPhase::kWaiting: return "waiting for the cab";
-    case SessionPhase::kRunning: return "running";
-    case SessionPhase::kEnded: return "ended";
-    case SessionPhase::kAborted: return "aborted";
-    case SessionPhase::kFailed: return "failed";
-  }
-  return "?";
-}
-
-const char* words(EndReason reason) {
-  switch (reason) {
-    case EndReason::kDuration: return "its time was up";
-    case EndReason::kTimeLimit: return "the time limit was reached";
-    case EndReason::kTaskComplete: return "the task was done";
-    case EndReason::kAborted: return "aborted by an instructor";
-    case EndReason::kSignal: return "stopped before its end";
-    case EndReason::kNumericalFailure: return "the simulation failed";
-    case EndReason::kCabGone: return "the cab stopped sending its controls";
-  }
-  return "?";
-}
-
-const char* words(Outcome outcome) {
-  switch (outcome) {
-    case Outcome::kOpen: return "under way";
-    case Outcome::kCompleted: return "completed";
-    case Outcome::kTimedOut: return "timed out";
-    case Outcome::kAborted: return "aborted";
-    case Outcome::kStopped: return "stopped";
-    case Outcome::kFailed: return "failed";
-  }
-  return "?";
-}
-
 // Why a session without a mark has none, as the session page says it.
 const char* unmarked_words(Outcome outcome) {
   switch (outcome) {
@@ -115,16 +76,6 @@ std::string reason_words(const std::string& reason) {
 }
 
 std::string outcome_words(const std::string& outcome) { return worded<Outcome>(outcome); }
-
-std::string worry_words(int level) {
-  switch (level) {
-    case 0: return "information";
-    case 1: return "minor";
-    case 3: return "medium";
-    case 5: return "serious";
-    default: return "level " + std::to_string(level);
-  }
-}
 
 std::string mark_words(const json& s) {
   const json mark = s.value("mark", json());

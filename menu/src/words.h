@@ -7,6 +7,8 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "forklift/evaluation/event_words.h"
+
 namespace forklift::menu {
 
 // A number as a person reads it: at most `decimals` places, no trailing ".0"; "-" for null.
@@ -18,8 +20,7 @@ std::string when(const nlohmann::json& iso);
 std::string state_words(const std::string& state);
 std::string reason_words(const std::string& reason);
 std::string outcome_words(const std::string& outcome);
-// A worry level (0, 1, 3, 5) as the marking sheet names it: information, minor, medium, serious.
-std::string worry_words(int level);
+// A worry level's words are the evaluation's (worry_words in forklift/evaluation/event_words.h).
 // A session's mark: "mark 92 of 100, passed"; without one, why ("no mark: the time ran out").
 // `s` is a session as the API gives it (mark, passed, outcome).
 std::string mark_words(const nlohmann::json& s);

@@ -189,6 +189,18 @@ const FL = (() => {
   const OUTCOME = { open: 'under way', completed: 'completed', timed_out: 'out of time', aborted: 'aborted by the instructor',
                     stopped: 'stopped', failed: 'failed' };
   function outcomeText(o) { return OUTCOME[o] || String(o).replace(/_/g, ' '); }
+  // A session's state and the worker's end reason as forklift-menu says them (the session
+  // vocabulary's words()); a reason the server wrote in words ("aborted by ines") stays as it is.
+  const STATE = { starting: 'starting', waiting: 'waiting for the cab', running: 'running', ended: 'ended', aborted: 'aborted',
+                  failed: 'failed' };
+  const REASON = { duration: 'its time was up', time_limit: 'the time limit was reached', task_complete: 'the task was done',
+                   aborted: 'aborted by an instructor', signal: 'stopped before its end', numerical_failure: 'the simulation failed',
+                   cab_gone: 'the cab stopped sending its controls', parked: 'parked at the end', tipped_over: 'the truck tipped over' };
+  function stateText(s) { return STATE[s] || String(s).replace(/_/g, ' '); }
+  function reasonText(r) {
+    if (REASON[r]) return REASON[r];
+    return /^[a-z]+(_[a-z]+)+$/.test(r) ? r.replace(/_/g, ' ') : String(r);  // a code no table knows yet, still as words
+  }
   function worryName(level) { return WORRY[level] || `level ${level}`; }
 
   // A message in a live region: errors are announced, and never built from HTML.
@@ -216,5 +228,5 @@ const FL = (() => {
   }
 
   return { api, ApiError, login, setLogin, clearLogin, el, svg, clear, requireLogin, topBar, homeOf, isStaff, param,
-           dateTime, day, pct, num, worryName, outcomeText, say, describeError, poll, STAFF };
+           dateTime, day, pct, num, worryName, outcomeText, stateText, reasonText, say, describeError, poll, STAFF };
 })();

@@ -25,6 +25,7 @@
     CertificateView.qr($('qr'), url);
     $('issued').textContent = `Issued on ${day(c.issued_at)}. Printed from the school's records on ${day(new Date().toISOString())}.`;
     $('certificate').hidden = false;
+    $('page-heading').hidden = true;  // the certificate's own heading names the page
     $('revoke-box').hidden = !(me.role === 'admin' || me.role === 'examiner') || v.status === 'revoked';
   }
 

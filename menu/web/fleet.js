@@ -2,7 +2,7 @@
 // more (GET /api/sessions/{id}) and listed with how it ended.
 'use strict';
 (() => {
-  const { api, el, clear, requireLogin, say, describeError, num, poll } = FL;
+  const { api, el, clear, requireLogin, say, describeError, num, poll, stateText, reasonText } = FL;
   requireLogin(FL.STAFF);
   const tbody = document.querySelector('#cabs tbody');
   const finishedBody = document.querySelector('#finished tbody');
@@ -75,7 +75,7 @@
       el('td', {}, seen.cab),
       el('td', {}, el('a', { href: `pupil.html?id=${encodeURIComponent(seen.pupil_id)}` }, seen.pupil_name)),
       el('td', {}, seen.scenario),
-      el('td', { class: 'state' }, el('span', { class: `badge ${s.state}` }, s.state), s.reason ? ` ${s.reason}` : ''),
+      el('td', { class: 'state' }, el('span', { class: `badge ${s.state}` }, stateText(s.state)), s.reason ? ` (${reasonText(s.reason)})` : ''),
       el('td', { class: 'num' }, s.mark === null || s.mark === undefined ? '–' : num(s.mark))));
   }
 

@@ -5,7 +5,7 @@
 // drawn. Training marks and exam marks are two series.
 'use strict';
 (() => {
-  const { api, el, clear, requireLogin, say, describeError, dateTime, day, num, pct, param, isStaff, outcomeText } = FL;
+  const { api, el, clear, requireLogin, say, describeError, dateTime, day, num, pct, param, isStaff, outcomeText, reasonText } = FL;
   const me = requireLogin();
   const id = param('id') || (me.role === 'pupil' ? String(me.pupil_id) : null);
   const message = document.getElementById('message');
@@ -58,7 +58,7 @@
     clear(document.querySelector('#unmarked tbody')).append(...h.unmarked.map((u) => el('tr', { 'data-session': u.session, 'data-outcome': u.outcome },
       el('td', {}, el('a', { href: `session.html?id=${encodeURIComponent(u.session)}` }, u.session)),
       el('td', {}, dateTime(u.at)), el('td', {}, u.mode === 'exam' ? 'practical exam' : 'training'),
-      el('td', {}, outcomeBadge(u.outcome), u.reason ? el('span', { class: 'small muted' }, ` ${u.reason}`) : ''))));
+      el('td', {}, outcomeBadge(u.outcome), u.reason ? el('span', { class: 'small muted' }, ` (${reasonText(u.reason)})`) : ''))));
 
     const title = (k) => (h.fault_titles || {})[k] || k.replace(/_/g, ' ');  // words, not the rule's code
     const faults = Object.entries(h.faults_by_kind).sort((a, b) => b[1] - a[1]);
@@ -209,7 +209,7 @@
     tbody.append(...[...training].reverse().map((s) => el('tr', { 'data-session': s.id, 'data-outcome': s.outcome },
       el('th', { scope: 'row' }, el('a', { href: `session.html?id=${encodeURIComponent(s.id)}` }, s.id)),
       el('td', {}, dateTime(s.created_at)), el('td', {}, s.scenario), el('td', {}, s.cab_id),
-      el('td', {}, outcomeBadge(s.outcome), s.reason ? el('div', { class: 'small muted' }, s.reason) : ''),
+      el('td', {}, outcomeBadge(s.outcome), s.reason ? el('div', { class: 'small muted' }, reasonText(s.reason)) : ''),
       el('td', { class: 'num' }, s.mark === null ? el('span', { class: 'muted' }, 'no mark') : num(s.mark)),
       el('td', {}, passBadge(s.passed)), el('td', { class: 'notes' }, notesList(s.notes)))));
     if (training.length === 0) tbody.append(el('tr', {}, el('td', { colspan: 8, class: 'muted' }, 'No training sessions yet.')));

@@ -5,7 +5,7 @@
 // plan with the events on the same timeline, and the instructor's notes and sign-off.
 'use strict';
 (() => {
-  const { api, el, clear, requireLogin, say, describeError, dateTime, num, param, isStaff, worryName, pct } = FL;
+  const { api, el, clear, requireLogin, say, describeError, dateTime, num, param, isStaff, worryName, pct, stateText, reasonText } = FL;
   const me = requireLogin();
   const id = param('id');
   const message = document.getElementById('message');
@@ -33,7 +33,7 @@
     fact(dl, 'Load', loadText(s.load));
     fact(dl, 'Cab', s.cab_id);
     fact(dl, 'Mode', s.mode);
-    fact(dl, 'State', badge(s.state, s.state), s.reason ? ` ${s.reason}` : '');
+    fact(dl, 'State', badge(s.state, stateText(s.state)), s.reason ? ` (${reasonText(s.reason)})` : '');
     fact(dl, 'Started', dateTime(s.created_at));
     if (s.ended_at) fact(dl, 'Ended', dateTime(s.ended_at));
     // Only a session that ran its course has a mark; the others say how they ended instead.

@@ -2,7 +2,7 @@
 // page follows the session until it ends, with an abort button.
 'use strict';
 (() => {
-  const { api, el, clear, requireLogin, say, describeError, num, param } = FL;
+  const { api, el, clear, requireLogin, say, describeError, num, param, stateText, reasonText } = FL;
   const me = requireLogin(FL.STAFF);
   const $ = (id) => document.getElementById(id);
   const message = $('message');
@@ -39,7 +39,7 @@
     try {
       const s = await api('GET', `/sessions/${encodeURIComponent(session)}`);
       const over = ['ended', 'failed', 'aborted'].includes(s.state);
-      $('started-status').textContent = `Session ${s.id} for pupil ${s.pupil_id} on cab ${s.cab_id}: ${s.state}${s.reason ? ` (${s.reason})` : ''}.`;
+      $('started-status').textContent = `Session ${s.id} for pupil ${s.pupil_id} on cab ${s.cab_id}: ${stateText(s.state)}${s.reason ? ` (${reasonText(s.reason)})` : ''}.`;
       $('abort').hidden = over;
       if (over) { session = null; $('start-button').disabled = false; return; }
     } catch (e) {

@@ -3,17 +3,20 @@
 //
 // A scripted session offline, with no cab: each tick applies the script's row due at that tick
 // (or the log's input), then runs the session's step, the one the worker runs (dynamics,
-// collision and pallet handling, evaluation), and at the end prints the events and the score as
-// JSON. This is how instructors and tests check a rule; `--out-log` writes the session's log, and
+// collision and pallet handling, evaluation), and at the end prints the events and the mark in
+// words (the debrief's: each event's title, what was measured against its limit, in units), or as
+// JSON with --json. This is how instructors and tests check a rule; `--out-log` writes the session's log, and
 // `--replay` re-derives the events and the mark from such a log, marked as the log says.
 #include "evaluate.h"
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "forklift/evaluation/event_words.h"
 #include "forklift/session/controls.h"
 #include "forklift/session/session.h"
 #include "forklift/session/session_run.h"
@@ -43,10 +46,31 @@ json score_json(const Score& s) {
           {"min_stability_fraction", s.min_stability_fraction}};
 }
 
+// The result as the debrief words it: each event's title and what was measured against its limit,
+// then the mark with each fault in the rules' words.
+void print_words(const SessionModel& model, const OfflineRun& run) {
+  std::printf("scenario %s (%s), marked as %s under %s\n", model.scene.name.c_str(), model.scenario_file.c_str(),
+              mode_name(model.mode), model.rules.scheme.name.c_str());
+  std::printf("ran %.1f s of sim time (%lld ticks); ended: %s\n", run.final_state.t_s, static_cast<long long>(run.ticks),
+              words(*run.end_reason));
+  std::printf(run.evaluation_events.empty() ? "no events\n" : "events:\n");
+  for (const EvaluationEvent& e : run.evaluation_events) {
+    const Rule* rule = model.rules.find(e.rule);
+    const nlohmann::json w = event_words(rule ? rule->title : "", e.rule, e.details);
+    std::string line = worry_words(e.worry_level) + ": " + w["title"].get<std::string>();
+    if (!w["summary"].get<std::string>().empty()) line += ". " + w["summary"].get<std::string>();
+    std::printf("  at %6.1f s  %s%s\n", e.t_s, line.c_str(), e.automatic_fail ? " (fails by itself)" : "");
+  }
+  const Score& s = *run.score;
+  std::printf("%s", score_words(s, model.rules).c_str());
+  std::printf("task steps done: %d of %d; lowest stability margin: %.0f %% of the unladen truck's\n", s.steps_done, s.steps_total,
+              100 * s.min_stability_fraction);
+}
+
 }  // namespace
 
 CLI::App* add_evaluate_command(CLI::App& app, EvaluateOptions& o) {
-  auto* sub = app.add_subcommand("evaluate", "run a scripted session offline (no cab) and print its events and mark as JSON");
+  auto* sub = app.add_subcommand("evaluate", "run a scripted session offline (no cab) and print its events and mark (as JSON with --json)");
   sub->add_option("--scenario", o.scenario, "scenario file (data/scenarios/*.json); not with --replay (the log names its own)")
       ->check(CLI::ExistingFile);
   auto* script = sub->add_option("--script", o.script, "cab control script, CSV t,steer,accelerator,brake,lift,tilt,shift")
@@ -61,6 +85,7 @@ CLI::App* add_evaluate_command(CLI::App& app, EvaluateOptions& o) {
   sub->add_option("--duration", o.duration_s, "end the session at this sim time, s (default: the script's last row)")
       ->check(CLI::Range(0.0, 86400.0));
   sub->add_option("--integrator", o.integrator, "cvode (default), dopri5 or rk4")->check(CLI::IsMember({"cvode", "dopri5", "rk4"}));
+  sub->add_flag("--json", o.json, "print the events and the score as JSON (for scripts) instead of words");
   return sub;
 }
 
@@ -120,6 +145,10 @@ int evaluate_main(const EvaluateOptions& o, const std::string& data_dir) {
   if (!run.failure.empty())
     std::cerr << "forklift-sim evaluate: numerical failure at t = " << run.final_state.t_s << " s: " << run.failure << '\n';
 
+  if (!o.json) {
+    print_words(*model, run);
+    return run.failure.empty() ? 0 : 3;
+  }
   json ev = json::array();
   for (const EvaluationEvent& e : run.evaluation_events) ev.push_back(event_json(e));
   const json result = {{"scenario", model->scene.name},

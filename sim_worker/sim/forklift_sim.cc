@@ -72,6 +72,68 @@ std::optional<Load> cli_load(const TruckParams& truck, double mass, double offse
   return requested_load(r, truck);
 }
 
+// A number as typed: no trailing zeros ("10", "12.5").
+std::string number_text(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+// `v` with `decimals` places, never "-0.0".
+std::string fixed(double v, int decimals) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  std::string t = buf;
+  if (t.find_first_not_of("-0.") == std::string::npos && t[0] == '-') t.erase(0, 1);
+  return t;
+}
+
+// A signed distance as a direction: "0.650 m behind" for -0.65 with ("forward", "behind").
+std::string offset(double v_m, const char* plus, const char* minus) {
+  const std::string t = fixed(std::abs(v_m), 3);
+  return t + " m " + (t.find_first_not_of("0.") == std::string::npos ? plus : v_m < 0 ? minus : plus);
+}
+
+// A point of the truck from the ground below the middle of its front axle.
+std::string point_words(const Eigen::Vector3d& p) {
+  return offset(p.x(), "forward", "behind") + ", " + offset(p.y(), "to the left", "to the right") + ", " + fixed(p.z(), 3) + " m up";
+}
+
+// A wheel as a person names it: "front left", not the JSON's key "front_left".
+std::string wheel_words(int w) {
+  std::string name = wheel_name(w);
+  std::replace(name.begin(), name.end(), '_', ' ');
+  return name;
+}
+
+std::string wheel_loads_words(const std::array<double, kNumWheels>& fz) {
+  std::string s;
+  char buf[64];
+  for (int w = 0; w < kNumWheels; ++w) {
+    if (std::isfinite(fz[w])) std::snprintf(buf, sizeof buf, "%.0f N", fz[w]);
+    else std::snprintf(buf, sizeof buf, "not known");
+    s += (w ? ", " : "") + wheel_words(w) + " " + buf;
+  }
+  return s;
+}
+
+// A manoeuvre's run as a person reads it: what ran, how the truck moved, where it ended.
+void print_manoeuvre_words(const ManoeuvreResult& r) {
+  std::printf("manoeuvre %d: %.1f s of sim time with %s", r.manoeuvre, r.sim_time_s, integrator_name(r.options.kind));
+  if (r.options.kind != IntegratorKind::kRk4) std::printf(" (relative tolerance %g)", r.options.rtol);
+  std::printf(", %ld steps and %ld model evaluations in %.3f s of wall time", static_cast<long>(r.stats.steps),
+              static_cast<long>(r.stats.rhs_evals), r.wall_s);
+  if (r.wall_s > 0) std::printf(" (%.0f times real time)", r.sim_time_s / r.wall_s);
+  std::printf("\nmost pitch %s deg, most roll %s deg; least wheel loads: %s; the rear wheel %s\n", fixed(r.max_pitch_deg, 2).c_str(),
+              fixed(r.max_roll_deg, 2).c_str(), wheel_loads_words(r.min_fz_N).c_str(), r.rear_wheel_lifted ? "lifted" : "stayed on the ground");
+  for (const ManoeuvreResult::StopTime& stop : r.stop_times) {
+    if (stop.s) std::printf("from the brake's onset, below %g m/s after %.2f s\n", stop.below_m_s, *stop.s);
+    else std::printf("from the brake's onset, never below %g m/s (or no braking)\n", stop.below_m_s);
+  }
+  std::printf("ended at x %s m, y %s m, heading %s deg; %s\n", fixed(r.final_pose.x(), 2).c_str(), fixed(r.final_pose.y(), 2).c_str(),
+              fixed(r.final_pose.z() * kRad, 1).c_str(), r.tipped_over ? "the truck tipped over (roll or pitch beyond 20 deg)" : "the truck stayed upright");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -101,6 +163,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1e-14, 0.1));
   man->add_option("--csv", csv, "write the time series here");
   man->add_option("--plot", plot, "write an SVG figure here");
+  bool as_json = false;  // each model command: JSON for scripts instead of words
+  man->add_flag("--json", as_json, "print the results as JSON (for scripts) instead of words");
 
   // paper: every manoeuvre, a table, figures
   auto* paper = app.add_subcommand("paper", "run every manoeuvre, print a summary table, write figures and CSV");
@@ -120,6 +184,7 @@ int main(int argc, char** argv) {
   double load_mass = 0, load_height = 0, load_offset = 0, grade = 0;
   stat->add_option("--grade", grade, "slope in percent, + rising ahead of the truck (parked on its brakes)")
       ->check(CLI::Range(-50.0, 50.0));
+  stat->add_flag("--json", as_json, "print the results as JSON (for scripts) instead of words");
   for (auto* sub : {stat}) {
     sub->add_option("--load-mass", load_mass, "load on the forks, kg (a 1 m cube at the rated load centre)");
     sub->add_option("--load-height", load_height, "height of the load's CoG above the floor, m");
@@ -135,6 +200,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"longitudinal", "lateral"}));
   tilt->add_option("--load-mass", load_mass, "load on the forks, kg");
   tilt->add_option("--load-height", load_height, "height of the load's CoG above the floor, m");
+  tilt->add_flag("--json", as_json, "print the results as JSON (for scripts) instead of words");
 
   // validate: every closed-form and ISO check on a truck file
   auto* val = app.add_subcommand("validate", "run every closed-form and ISO 22915 check on a truck file: a table, or JSON");
@@ -151,6 +217,7 @@ int main(int argc, char** argv) {
                 "the truck's meshes built from that file as well");
   std::string meshes_out;
   meshes->add_option("--out", meshes_out, "directory to write (created if missing)")->required();
+  meshes->add_flag("--json", as_json, "print the files written as JSON (for scripts) instead of words");
 
   // evaluate: a scripted session offline, its events and mark (evaluate.cc)
   EvaluateOptions evaluate_options;
@@ -182,7 +249,13 @@ int main(int argc, char** argv) {
       for (const std::string& f : write_meshes(meshes_out)) files.push_back(f);
       if (!truck_file.empty())
         for (const std::string& f : write_truck_meshes(truck_file, meshes_out)) files.push_back(f);
-      std::cout << json{{"out", meshes_out}, {"meshes", files}}.dump(2) << std::endl;
+      if (as_json) {
+        std::cout << json{{"out", meshes_out}, {"meshes", files}}.dump(2) << std::endl;
+      } else {
+        std::string names;
+        for (const json& f : files) names += (names.empty() ? "" : ", ") + f.get<std::string>();
+        std::printf("%zu meshes written to %s: %s\n", files.size(), meshes_out.c_str(), names.c_str());
+      }
       return 0;
     } catch (const std::exception& e) {
       std::cerr << "forklift-sim: " << e.what() << '\n';
@@ -222,7 +295,8 @@ int main(int argc, char** argv) {
       const ManoeuvreResult r = run_manoeuvre(truck, number, opts, 0.002, sampling);
       if (!csv.empty()) write_csv(r, csv);
       if (!plot.empty()) write_manoeuvre_figure(truck, r, spec.description, plot);
-      std::cout << result_json(r).dump(2) << std::endl;
+      if (as_json) std::cout << result_json(r).dump(2) << std::endl;
+      else print_manoeuvre_words(r);
       return 0;
     }
     if (*scr) {
@@ -254,8 +328,9 @@ int main(int argc, char** argv) {
     if (*paper) {
       std::filesystem::create_directories(out_dir);
       json all = json::array();
-      std::printf("%-4s %-8s %7s %8s %9s %9s %9s %11s %11s %9s %9s %7s %6s\n", "man", "integr", "steps", "rhs",
-                  "wall_ms", "pitch_deg", "roll_deg", "min_fz_rear", "rear_lifted", "stop<0.05", "stop<0.1", "yaw_deg",
+      // The columns in words and units: a person reads this table (summary.json is for scripts).
+      std::printf("%-4s %-8s %7s %8s %9s %9s %9s %12s %11s %9s %9s %7s %6s\n", "no.", "method", "steps", "evals",
+                  "wall ms", "pitch deg", "roll deg", "least rear N", "rear lifted", "stop 0.05", "stop 0.1", "yaw deg",
                   "tipped");
       // A run is kept only until the figure overlaying its group is written: each holds ~10k samples.
       std::map<int, std::pair<ManoeuvreResult, std::string>> done;
@@ -268,10 +343,10 @@ int main(int argc, char** argv) {
         write_csv(r, base + ".csv", 5);
         write_manoeuvre_figure(truck, r, spec.description, base + ".svg");
         auto stop = [](const std::optional<double>& t) { return t ? std::to_string(*t).substr(0, 5) : std::string("-"); };
-        std::printf("%-4d %-8s %7ld %8ld %9.1f %9.3f %9.3f %11.0f %11s %9s %9s %7.1f %6s\n", n, integrator_name(opts.kind),
+        std::printf("%-4d %-8s %7ld %8ld %9.1f %9.3f %9.3f %12.0f %11s %9s %9s %7s %6s\n", n, integrator_name(opts.kind),
                     r.stats.steps, r.stats.rhs_evals, r.wall_s * 1e3, r.max_pitch_deg, r.max_roll_deg,
                     r.min_fz_N[kRear], r.rear_wheel_lifted ? "yes" : "no", stop(r.stop_times[0].s).c_str(),
-                    stop(r.stop_times[1].s).c_str(), r.final_pose.z() * kRad, r.tipped_over ? "yes" : "no");
+                    stop(r.stop_times[1].s).c_str(), fixed(r.final_pose.z() * kRad, 1).c_str(), r.tipped_over ? "yes" : "no");
         all.push_back(result_json(r));
 
         const FigureGroup* group = figure_group_of(n);
@@ -291,6 +366,8 @@ int main(int argc, char** argv) {
       std::ofstream(out_dir + "/summary.json") << all.dump(2) << '\n';
       std::string names;
       for (const std::string& f : figure_files) names += (names.empty() ? "" : ", ") + f;
+      std::printf("(pitch and roll: the most over the run; evals: of the model; stop 0.05 and 0.1: seconds from the brake's "
+                  "onset until below 0.05 and 0.1 m/s; yaw: at the end)\n");
       std::printf("figures, CSV and summary.json written to %s/ (the paper's figures: %s)\n", out_dir.c_str(),
                   names.c_str());
       return 0;
@@ -311,7 +388,21 @@ int main(int argc, char** argv) {
            {"wheel_contact_m", contacts},
            {"fz_N", fz_json(s.fz_N)},
            {"rear_wheel_lifted", s.rear_wheel_lifted}};
-      std::cout << j.dump(2) << std::endl;
+      if (as_json) {
+        std::cout << j.dump(2) << std::endl;
+      } else {
+        std::printf("%s %s, %s (moved %.1f mm)\n", s.settled ? "at rest" : "NOT at rest",
+                    grade == 0 ? "on level ground" : ("on a " + number_text(grade) + " % grade").c_str(),
+                    grade == 0 ? "brakes off" : "its brakes applied", s.drift_m * 1e3);
+        std::printf("mass %.0f kg; centre of gravity %s (from the ground below the middle of the front axle)\n", s.total_mass_kg,
+                    point_words(s.cog_m).c_str());
+        if (s.load_cog_m)
+          std::printf("the load's centre of gravity %s; forks lifted %.3f m\n", point_words(*s.load_cog_m).c_str(), lift);
+        else
+          std::printf("no load\n");
+        std::printf("wheel loads: %s; the rear wheel %s\n", wheel_loads_words(s.fz_N).c_str(),
+                    s.rear_wheel_lifted ? "lifted" : "on the ground");
+      }
       if (!s.settled) {
         std::cerr << "forklift-sim static: the truck does not come to rest"
                   << (grade != 0 ? " on this grade with its brakes applied" : " with every wheel on the ground") << '\n';
@@ -322,7 +413,8 @@ int main(int argc, char** argv) {
     if (*tilt && iso) {
       json list = json::array();
       bool all = true;
-      for (const IsoTiltTest& t : iso_22915_2(truck)) {
+      const std::vector<IsoTiltTest> tests = iso_22915_2(truck);
+      for (const IsoTiltTest& t : tests) {
         list.push_back({{"test", t.number}, {"name", t.name}, {"axis", t.axis == TiltAxis::kLateral ? "lateral" : "longitudinal"},
                         {"load_kg", t.load_kg}, {"fork_height_m", t.fork_height_m}, {"mast_tilt_deg", t.mast_tilt_rad * kRad},
                         {"required_slope_pct", t.required_slope_pct}, {"required_deg", t.required_deg},
@@ -330,16 +422,33 @@ int main(int argc, char** argv) {
                         {"margin_deg", t.margin_deg}, {"lifted_wheel", wheel_name(t.result.lifted_wheel)}, {"pass", t.pass}});
         all = all && t.pass;
       }
-      std::cout << json{{"standard", "ISO 22915-2"}, {"operator_kg", 98}, {"tests", list}, {"pass", all}}.dump(2) << std::endl;
+      if (as_json) {
+        std::cout << json{{"standard", "ISO 22915-2"}, {"operator_kg", 98}, {"tests", list}, {"pass", all}}.dump(2) << std::endl;
+        return 0;
+      }
+      std::printf("ISO 22915-2 tilt-table tests, with a 98 kg operator: %s\n", all ? "all passed" : "NOT all passed");
+      for (const IsoTiltTest& t : tests)
+        std::printf("test %d, %s (%s, %.0f kg at %.2f m, mast tilted %.1f deg): a wheel lifts at %.2f deg (rigid truck %.2f deg), "
+                    "the %s first; %.2f deg required (%.1f %% slope), margin %.2f deg: %s\n",
+                    t.number, t.name.c_str(), t.axis == TiltAxis::kLateral ? "sideways" : "lengthways", t.load_kg, t.fork_height_m,
+                    t.mast_tilt_rad * kRad, t.result.critical_angle_deg, t.result.rigid_angle_deg,
+                    wheel_words(t.result.lifted_wheel).c_str(), t.required_deg, t.required_slope_pct, t.margin_deg,
+                    t.pass ? "passed" : "NOT passed");
       return 0;
     }
     if (*tilt) {
       const std::optional<Load> load = cli_load(truck, load_mass, 0, load_height);
       const double lift = load ? std::max(0.0, lift_for_load_height(truck, *load, load_height)) : 0.0;
       const TiltResult t = tilt_table(truck, load, lift, axis == "lateral" ? TiltAxis::kLateral : TiltAxis::kLongitudinal);
-      std::cout << json{{"axis", axis}, {"load_mass_kg", load_mass}, {"critical_angle_deg", t.critical_angle_deg},
-                        {"rigid_angle_deg", t.rigid_angle_deg}, {"lifted_wheel", wheel_name(t.lifted_wheel)}}.dump(2)
-                << std::endl;
+      if (as_json)
+        std::cout << json{{"axis", axis}, {"load_mass_kg", load_mass}, {"critical_angle_deg", t.critical_angle_deg},
+                          {"rigid_angle_deg", t.rigid_angle_deg}, {"lifted_wheel", wheel_name(t.lifted_wheel)}}.dump(2)
+                  << std::endl;
+      else
+        std::printf("tilted %s with %s: a wheel lifts at %.2f deg (rigid truck %.2f deg), the %s first\n",
+                    axis == "lateral" ? "sideways (right side down)" : "lengthways (front down)",
+                    load_mass > 0 ? (number_text(load_mass) + " kg on the forks").c_str() : "no load", t.critical_angle_deg,
+                    t.rigid_angle_deg, wheel_words(t.lifted_wheel).c_str());
       return 0;
     }
   } catch (const IntegratorError& e) {

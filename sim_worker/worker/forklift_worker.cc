@@ -84,23 +84,6 @@ std::string pose_text(const StateVector& x) {
   return "the truck at x " + num(x[kX], 2) + " m, y " + num(x[kY], 2) + " m, heading " + num(x[kAwc] * 180 / M_PI) + " deg";
 }
 
-// The mark as a person reads it, with each fault in the rules file's words.
-std::string score_text(const Score& score, const Rules& rules) {
-  std::string text = "mark " + num(score.mark, 0) + " of 100, " + (score.passed ? "passed" : "not passed") + " (" + score.mode +
-                     "), " + std::to_string(score.points) + " points off, task " +
-                     (score.task_completed ? "completed" : "not completed") + "\n";
-  if (score.counts.empty()) return text + "no faults or warnings\n";
-  for (const auto& [id, count] : score.counts) {
-    const Rule* rule = rules.find(id);
-    text += "  " + std::to_string(count) + " x " + (rule ? rule->description : id) + "\n";
-  }
-  for (const std::string& why : score.automatic_failures) {
-    const Rule* rule = rules.find(why.rfind("repeated:", 0) == 0 ? why.substr(9) : why);
-    text += "  fails by itself: " + (rule ? rule->description : why) + (why.rfind("repeated:", 0) == 0 ? " (repeated)" : "") + "\n";
-  }
-  return text;
-}
-
 int replay_main(const std::string& path, bool as_json) {
   const ControlLog log = read_control_log(path);
   const SessionModel model = load_session_model(log.header, FORKLIFT_DATA_DIR);
@@ -111,7 +94,7 @@ int replay_main(const std::string& path, bool as_json) {
     std::cout << "replay of session " << log.header.session_id << " (cab " << log.header.cab_id << "): " << r.ticks << " ticks, "
               << num(r.ticks * log.header.tick_s) << " s of sim time, " << r.event_lines.size() << " events\n"
               << pose_text(r.final_state) << "\n"
-              << (r.score_line.empty() ? std::string("the log has no end, so no mark\n") : score_text(r.score, model.rules))
+              << (r.score_line.empty() ? std::string("the log has no end, so no mark\n") : score_words(r.score, model.rules))
               << "final state against the log: "
               << (!log.final_state ? "the log records none" : state_ok ? "the same, bit for bit" : "DIFFERENT") << "\n"
               << "events and mark against the log: " << (events_ok ? "the same" : "DIFFERENT") << std::endl;
@@ -544,7 +527,7 @@ int main(int argc, char** argv) {
     score_writer.write(score_sample(session, score, counts));
     const SessionState& state = run.state();
     publish_status(SessionPhase::kEnded, state.t_s, name(*end_reason));
-    log_line(cab, "session " + session + " ended (" + name(*end_reason) + ") at t = " + std::to_string(state.t_s) + " s");
+    log_line(cab, "session " + session + " ended (" + words(*end_reason) + ") at " + num(state.t_s) + " s of sim time");
     const ControlSequence::Counts& sequence = intake.sequence_counts();
     nlohmann::json out = {
         {"session", session}, {"cab", cab}, {"sim_time_s", state.t_s}, {"ticks", state.tick},
@@ -563,10 +546,10 @@ int main(int argc, char** argv) {
     if (as_json) {
       std::cout << out.dump(2) << std::endl;
     } else {
-      std::cout << "session " << session << " on cab " << cab << " ended (" << name(*end_reason) << ") at " << num(state.t_s)
+      std::cout << "session " << session << " on cab " << cab << " ended (" << words(*end_reason) << ") at " << num(state.t_s)
                 << " s of sim time\n"
                 << pose_text(state.x) << "\n"
-                << score_text(score, model.rules) << "controls taken: " << sequence.accepted << "; refused: "
+                << score_words(score, model.rules) << "controls taken: " << sequence.accepted << "; refused: "
                 << intake.rejected_non_finite() << " not numbers, " << intake.rejected_range() << " out of range, "
                 << intake.rejected_cab() << " for another cab, " << sequence.duplicate << " repeated, " << sequence.old
                 << " older than the last\n"

@@ -295,7 +295,7 @@ TEST(WorkerLoop, EvaluateReplayOfAWorkerLogWithADeadManStopGivesTheWorkersMark) 
   const ControlLog log = read_control_log(tmp("dm.ctl"));
   ASSERT_GE(log.deadman.size(), 2u) << "a stop and a resume";
 
-  Process ev({kBin + "/forklift-sim", "evaluate", "--replay", tmp("dm.ctl")}, tmp("dm.evaluate"));
+  Process ev({kBin + "/forklift-sim", "evaluate", "--json", "--replay", tmp("dm.ctl")}, tmp("dm.evaluate"));
   ASSERT_EQ(ev.wait(60), 0) << ev.err();
   const json again = output_json(ev);
   EXPECT_EQ(again["ticks"], live["ticks"]);
@@ -343,7 +343,7 @@ TEST(WorkerLoop, AWorkerWhoseCabIsGoneLongerThanItsStartTimeoutEndsTheSession) {
                           [](const auto& e) { return e.second == kControlsResumedEvent; }),
             1);
 
-  Process ev({kBin + "/forklift-sim", "evaluate", "--replay", tmp("gone.ctl")}, tmp("gone.evaluate"));
+  Process ev({kBin + "/forklift-sim", "evaluate", "--json", "--replay", tmp("gone.ctl")}, tmp("gone.evaluate"));
   ASSERT_EQ(ev.wait(60), 0) << ev.err();
   const json again = output_json(ev);
   EXPECT_EQ(again["end_reason"], "cab_gone");

@@ -1,11 +1,12 @@
 // forklift-sim's model commands as a school or a vendor runs them: validate, tilt --iso,
-// static --grade, and --truck where it applies.
+// static --grade, and --truck where it applies; in words for a person, JSON with --json.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <regex>
 
 #include "support/process.h"
 
@@ -71,7 +72,7 @@ TEST(SimCli, ValidateFailsATruckFileWhoseCoGIsNotWhereItsPartsPutItAndSaysWhy) {
 }
 
 TEST(SimCli, TiltIsoPrintsTheFourTestsWithTheirMargins) {
-  const SimRun r = sim({"tilt", "--iso"}, "tilt_iso");
+  const SimRun r = sim({"tilt", "--iso", "--json"}, "tilt_iso");
   ASSERT_EQ(r.status, 0) << r.err;
   const json j = json::parse(r.out);
   ASSERT_EQ(j["tests"].size(), 4u);
@@ -83,19 +84,19 @@ TEST(SimCli, TiltIsoPrintsTheFourTestsWithTheirMargins) {
 }
 
 TEST(SimCli, StaticSettlesOnARampOnlyWithBrakesThatHold) {
-  const SimRun r = sim({"static", "--grade", "10"}, "static_grade");
+  const SimRun r = sim({"static", "--grade", "10", "--json"}, "static_grade");
   ASSERT_EQ(r.status, 0) << r.err;
   const json j = json::parse(r.out);
   EXPECT_TRUE(j["settled"].get<bool>());
   EXPECT_LT(j["drift_m"].get<double>(), 1e-3);
-  const SimRun paper = sim({"--truck", kPaper, "static", "--grade", "10"}, "static_paper");
+  const SimRun paper = sim({"--truck", kPaper, "static", "--grade", "10", "--json"}, "static_paper");
   EXPECT_EQ(paper.status, 3);
   EXPECT_NE(paper.err.find("does not come to rest on this grade"), std::string::npos) << paper.err;
   EXPECT_FALSE(json::parse(paper.out)["settled"].get<bool>());
 }
 
 TEST(SimCli, ManoeuvresRunOnThePaperTruckAndReportBothStopThresholds) {
-  const SimRun r = sim({"manoeuvre", "5"}, "manoeuvre5");
+  const SimRun r = sim({"manoeuvre", "5", "--json"}, "manoeuvre5");
   ASSERT_EQ(r.status, 0) << r.err;
   const json stop = json::parse(r.out)["stop_time_s"];
   EXPECT_NEAR(stop["below_0.1_m_s"].get<double>(), 2.0, 0.3);  // the paper's 2 s, on its truck
@@ -142,7 +143,7 @@ TEST(SimCli, BadUsageIsRefusedWithStatusTwo) {
 // The truck's meshes are built from its file at load time; `meshes --truck` exports them.
 TEST(SimCli, MeshesExportsTheTrucksMeshesBuiltFromItsFile) {
   const std::string out = testing::TempDir() + "/meshes_export";
-  const SimRun r = sim({"meshes", "--out", out, "--truck", kPaper}, "meshes_truck");
+  const SimRun r = sim({"meshes", "--out", out, "--truck", kPaper, "--json"}, "meshes_truck");
   ASSERT_EQ(r.status, 0) << r.err;
   const json files = json::parse(r.out)["meshes"];
   for (const char* f : {"rack.obj", "truck_chassis.obj", "truck_mast.obj", "truck_carriage.obj", "truck_wheel_front.obj",
@@ -154,4 +155,30 @@ TEST(SimCli, MeshesExportsTheTrucksMeshesBuiltFromItsFile) {
   const SimRun plain = sim({"meshes", "--out", out + "_plain"}, "meshes_plain");
   ASSERT_EQ(plain.status, 0) << plain.err;
   EXPECT_FALSE(std::filesystem::exists(out + "_plain/truck_chassis.obj"));
+}
+
+// Each model command speaks to a person by default: words and units, no JSON, no hex float, no
+// null, no key such as front_left or stop_time_s; the same run with --json is JSON.
+TEST(SimCli, TheModelCommandsPrintWordsAndJsonOnlyWhenAsked) {
+  const std::string out = testing::TempDir() + "/sim_cli_words_meshes";
+  const std::vector<std::vector<std::string>> commands = {
+      {"manoeuvre", "14"}, {"static", "--grade", "10"}, {"static", "--load-mass", "500", "--load-height", "1"},
+      {"tilt", "--iso"}, {"tilt", "--axis", "lateral", "--load-mass", "500", "--load-height", "2"}, {"meshes", "--out", out}};
+  int n = 0;
+  for (const std::vector<std::string>& args : commands) {
+    const SimRun r = sim(args, "words_" + std::to_string(++n));
+    SCOPED_TRACE(args[0] + ":\n" + r.out);
+    ASSERT_EQ(r.status, 0) << r.err;
+    for (const char* bad : {"{", "}", "0x", "\"", "null", "nan"}) EXPECT_EQ(r.out.find(bad), std::string::npos) << "has " << bad;
+    std::string text = r.out;  // the folder and the mesh files' names are files, not codes
+    for (size_t at; (at = text.find(out)) != std::string::npos;) text.erase(at, out.size());
+    text = std::regex_replace(text, std::regex("[a-z_]+\\.obj"), "");
+    std::smatch code;
+    EXPECT_FALSE(std::regex_search(text, code, std::regex("\\b[a-z]+_[a-z_]+\\b"))) << "has the code " << code.str();
+    EXPECT_EQ(text.find("-0.0"), std::string::npos) << "a negative zero";
+    std::vector<std::string> with_json = args;
+    with_json.push_back("--json");
+    EXPECT_NO_THROW((void)json::parse(sim(with_json, "words_json_" + std::to_string(n)).out));
+  }
+  EXPECT_NE(sim({"manoeuvre", "5"}, "words_stop").out.find("below 0.1 m/s after 2."), std::string::npos);
 }

@@ -25,9 +25,9 @@ inline std::string write_script(const Session& s, const std::string& name, const
   return path;
 }
 
-// forklift-sim evaluate with `args`; its JSON (and its raw output in `raw`).
+// forklift-sim evaluate --json with `args`; its JSON (and its raw output in `raw`).
 inline nlohmann::json evaluate(const std::vector<std::string>& args, const std::string& tag, std::string* raw = nullptr) {
-  std::vector<std::string> argv = {std::string(FORKLIFT_BIN_DIR) + "/forklift-sim", "evaluate"};
+  std::vector<std::string> argv = {std::string(FORKLIFT_BIN_DIR) + "/forklift-sim", "evaluate", "--json"};
   argv.insert(argv.end(), args.begin(), args.end());
   Process p(argv, testing::TempDir() + "/evaluate_" + tag);
   const int code = p.wait(300);

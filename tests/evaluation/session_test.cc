@@ -121,9 +121,9 @@ json run_json(const std::vector<std::string>& argv, const std::string& tag, int 
 TEST_P(ShippedScript, ReplaysGiveTheLiveMarks) {
   const Shipped& s = GetParam();
   const std::string bin = FORKLIFT_BIN_DIR, log = testing::TempDir() + "/session_" + s.name + ".ctl";
-  const json live = run_json({bin + "/forklift-sim", "evaluate", "--scenario", s.scenario, "--script", s.script, "--mode",
+  const json live = run_json({bin + "/forklift-sim", "evaluate", "--json", "--scenario", s.scenario, "--script", s.script, "--mode",
                               "exam", "--out-log", log}, s.name + "_live");
-  const json again = run_json({bin + "/forklift-sim", "evaluate", "--replay", log}, s.name + "_replay");
+  const json again = run_json({bin + "/forklift-sim", "evaluate", "--json", "--replay", log}, s.name + "_replay");
   EXPECT_EQ(again["mode"], "exam");  // marked as the log says
   EXPECT_EQ(again["score"], live["score"]);
   EXPECT_EQ(again["events"], live["events"]);
@@ -138,7 +138,7 @@ TEST_P(ShippedScript, ReplaysGiveTheLiveMarks) {
 // every 0.1 s of sim time, ending where the log's session ended; a broken log is refused.
 TEST(Trace, SamplesTheReplayedSessionEveryTenthOfASecond) {
   const std::string bin = FORKLIFT_BIN_DIR, d = FORKLIFT_DATA_DIR, log = testing::TempDir() + "/session_trace.ctl";
-  const json live = run_json({bin + "/forklift-sim", "evaluate", "--scenario", d + "/scenarios/first_drive_yard.json", "--script",
+  const json live = run_json({bin + "/forklift-sim", "evaluate", "--json", "--scenario", d + "/scenarios/first_drive_yard.json", "--script",
                               d + "/evaluation/scripts/first_drive_yard_faults.csv", "--out-log", log}, "trace_live");
   const json trace = run_json({bin + "/forklift-sim", "trace", log}, "trace");
   const int64_t ticks = live["ticks"];

@@ -345,7 +345,7 @@ TEST(Server, AnAbortedSessionEndsAsAbortedAndTheCabIsToldWhy) {
   std::stringstream text;
   text << out.rdbuf();
   // The worker's summary, in words for whoever opens the file.
-  EXPECT_NE(text.str().find("ended (aborted)"), std::string::npos) << text.str();
+  EXPECT_NE(text.str().find("ended (aborted by an instructor)"), std::string::npos) << text.str();
 }
 
 // Only a session that ran its course has a mark. An aborted session and one

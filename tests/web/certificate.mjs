@@ -13,7 +13,7 @@
 //                [--chromium /usr/bin/chromium] [--out DIR] [--screenshots DIR] [--headed]
 import fs from 'node:fs';
 import path from 'node:path';
-import { setup, check, sleep, Processes, apiOf, browserPage, shooter, logInAs, failed } from './harness.mjs';
+import { setup, check, sleep, Processes, apiOf, browserPage, shooter, logInAs, failed, axeFindings } from './harness.mjs';
 
 let jsQR;
 try {
@@ -143,6 +143,8 @@ try {
           `the QR code opens the verification page at the school's public address: ${verifyAt}`);
     check((await page.textContent('#verify-url')) === verifyAt, 'the printed link is the same address');
     await shot('certificate');
+    const axe = await axeFindings(page);
+    check(axe.serious.length === 0, `the certificate, usable by everyone: axe finds\n${axe.serious.join('\n')}`);
     await page.emulateMedia({ media: 'print' });
     await shot('certificate-print');
     await page.emulateMedia({ media: 'screen' });
@@ -157,6 +159,8 @@ try {
     check(await anyone.getAttribute('#verdict', 'data-status') === 'valid', 'valid, for anyone');
     check((await anyone.textContent('#cert-number')) === number && (await anyone.textContent('#cert-name')) === 'Ann Driver', 'the certificate it checked');
     await shot('verify', { of: anyone });
+    const axe = await axeFindings(anyone);
+    check(axe.serious.length === 0, `the verification page, valid, usable by everyone: axe finds\n${axe.serious.join('\n')}`);
     // A number nobody issued.
     await anyone.fill('#number', number.slice(0, -1) + (number.endsWith('A') ? 'B' : 'A'));
     await anyone.click('#lookup button[type=submit]');

@@ -6,15 +6,14 @@
 //
 //   BUILD/tests/forklift-test-alloc node debrief.mjs --bin BUILD/bin --data data [--out DIR] [--headed]
 import path from 'node:path';
-import { setup, check, sleep, supports, Processes, apiOf, waitForServer, browserPage } from './harness.mjs';
+import { setup, startServer, check, sleep, supports, Processes, apiOf, waitForServer, browserPage } from './harness.mjs';
 
-const { args, domain, out, base } = setup('debrief');
+const test = setup('debrief');
+const { args, domain, out, base } = test;
 const procs = new Processes(out);
 const api = apiOf(base);
 const adminPassword = 'web-admin-pass';
-const server = procs.start('server', path.join(args.bin, 'forklift-server'),
-  ['--db', path.join(out, 'forklift.db'), '--listen', base.replace('http://', ''), '--dds-domain', String(domain),
-   '--admin-password', adminPassword, '--log-dir', path.join(out, 'logs')]);
+const server = startServer(procs, test, adminPassword);
 const { browser, page, problems, step } = await browserPage(args);
 const shot = (name) => page.screenshot({ path: path.join(out, `${name}.png`), fullPage: true, animations: 'disabled' });
 

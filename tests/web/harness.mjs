@@ -14,6 +14,28 @@ try {
   process.exit(1);
 }
 
+// axe-core's source, put into a page to run there (the page's own policy allows no script from
+// elsewhere; playwright's evaluate is not bound by it).
+let axeSource = null;
+export async function axeFindings(page) {
+  if (!axeSource) {
+    try {
+      const { createRequire } = await import('node:module');
+      axeSource = createRequire(import.meta.url)('axe-core').source;
+    } catch (e) {
+      throw new Error('axe-core is missing: run `npm ci --prefix tests/web` (scripts/install-deps.sh does)');
+    }
+  }
+  await page.evaluate(axeSource);
+  const r = await page.evaluate(async () => window.axe.run(document, { resultTypes: ['violations'] }));
+  return {
+    // Every violation, by rule and impact; and the serious and critical ones in words, with where.
+    all: r.violations.map((v) => `${v.id} ${v.impact}`),
+    serious: r.violations.filter((v) => v.impact === 'serious' || v.impact === 'critical').map((v) =>
+      `  ${v.id} (${v.impact}): ${v.help}\n` + v.nodes.slice(0, 6).map((n) => `    at ${n.target.join(' ')}: ${n.failureSummary.replace(/\n/g, ' ')}`).join('\n')),
+  };
+}
+
 export const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 export function check(cond, what) { if (!cond) throw new Error(what); }
 
@@ -72,6 +94,14 @@ export class Processes {
       if (await Promise.race([done.then(() => true), sleep(5000).then(() => false)]) === false) c.kill('SIGKILL');
     }
   }
+}
+
+// A forklift-server of the test's own: a fresh database and logs in the output folder, on the
+// test's port and DDS domain, with `adminPassword` for its administrator.
+export function startServer(procs, { args, out, base, domain }, adminPassword) {
+  return procs.start('server', path.join(args.bin, 'forklift-server'),
+    ['--db', path.join(out, 'forklift.db'), '--listen', base.replace('http://', ''), '--dds-domain', String(domain),
+     '--admin-password', adminPassword, '--log-dir', path.join(out, 'logs')]);
 }
 
 // The JSON API: the body parsed, or an Error naming the call and the answer.

@@ -112,13 +112,14 @@ void check_level(const Scheme& s, const Node& n, int level) {
 }
 
 Rule read_rule(const Node& n, const Scheme& scheme) {
-  // "title": the rule's name in a few words, for the pages (the server reads it; optional).
+  // "title": the rule's name in a few words, for the pages and forklift-sim evaluate (optional).
   n.only({"id", "title", "description", "worry_level", "automatic_fail", "source", "applies_to", "thresholds"});
   Rule r;
   r.id = n.at("id").string();
   const auto& specs = rule_specs();
   const auto spec = std::find_if(specs.begin(), specs.end(), [&](const auto& s) { return r.id == s.id; });
   if (spec == specs.end()) fail(n.file, n.key + ".id", "'" + r.id + "' is not a rule the evaluator knows");
+  if (n.has("title")) r.title = n.at("title").string();
   r.description = n.at("description").string();
   if (r.description.empty()) fail(n.file, n.key + ".description", "must not be empty");
   r.worry_level = n.at("worry_level").integer();

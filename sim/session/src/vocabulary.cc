@@ -133,4 +133,42 @@ std::string step_words(const std::string& description) {
   });
 }
 
+// The words a person reads, one switch each: -Wswitch names a value left without its words.
+const char* words(SessionPhase phase) {
+  switch (phase) {
+    case SessionPhase::kStarting: return "starting";
+    case SessionPhase::kWaiting: return "waiting for the cab";
+    case SessionPhase::kRunning: return "running";
+    case SessionPhase::kEnded: return "ended";
+    case SessionPhase::kAborted: return "aborted";
+    case SessionPhase::kFailed: return "failed";
+  }
+  return "?";
+}
+
+const char* words(EndReason reason) {
+  switch (reason) {
+    case EndReason::kDuration: return "its time was up";
+    case EndReason::kTimeLimit: return "the time limit was reached";
+    case EndReason::kTaskComplete: return "the task was done";
+    case EndReason::kAborted: return "aborted by an instructor";
+    case EndReason::kSignal: return "stopped before its end";
+    case EndReason::kNumericalFailure: return "the simulation failed";
+    case EndReason::kCabGone: return "the cab stopped sending its controls";
+  }
+  return "?";
+}
+
+const char* words(Outcome outcome) {
+  switch (outcome) {
+    case Outcome::kOpen: return "under way";
+    case Outcome::kCompleted: return "completed";
+    case Outcome::kTimedOut: return "timed out";
+    case Outcome::kAborted: return "aborted";
+    case Outcome::kStopped: return "stopped";
+    case Outcome::kFailed: return "failed";
+  }
+  return "?";
+}
+
 }  // namespace forklift

@@ -40,6 +40,7 @@ class RulesError : public std::runtime_error {
 // One rule of the marking sheet.
 struct Rule {
   std::string id;           // the event kind: "speed_near_walkway", "tip_over", ...
+  std::string title;        // its name in a few words ("Violent collision"); "" when the file gives none
   std::string description;  // what the pupil did wrong, in words a pupil understands
   int worry_level = 0;      // 0 information or warning (no points), 1 minor, 3 medium, 5 serious
   bool automatic_fail = false;  // one occurrence fails an exam whatever the points
@@ -132,6 +133,12 @@ struct Score {
   std::string mode;
   double min_stability_fraction = 1;  // lowest stability margin fraction seen
 };
+
+// A score as a person reads it, a line each: "mark 92 of 100, passed (training), 8 points off,
+// task completed", then each fault counted in the rules' words ("  2 x <description>") and what
+// fails by itself; never the log's hex float or a rule's id (the worker's summary, its replay,
+// forklift-sim evaluate).
+std::string score_words(const Score& score, const Rules& rules);
 
 // The stability triangle (front wheels' and rear wheel's contact points) and the combined CoG
 // projected onto its plane along the apparent gravity g - a (a: the chassis's low-pass filtered

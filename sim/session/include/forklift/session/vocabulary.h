@@ -88,6 +88,13 @@ const char* name(ExamKind kind);
 const char* name(PaperKind kind);
 const char* name(PaperOutcome outcome);
 
+// The same values in the words a person reads (the menu, the worker's summary, forklift-sim
+// evaluate): "time_limit" is "the time limit was reached", "waiting" is "waiting for the cab",
+// "timed_out" is "timed out". One switch each, so a new value does not compile without its words.
+const char* words(EndReason reason);
+const char* words(SessionPhase phase);
+const char* words(Outcome outcome);
+
 // The value a name stands for; nullopt for a name that is not one of them (exact, case and all).
 template <class E>
 std::optional<E> parse(std::string_view name);
