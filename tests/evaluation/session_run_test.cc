@@ -47,8 +47,9 @@ DriverInputs drive(const SessionModel& m, double accelerator, double steer) {
 // What happens to the live run at a tick.
 struct Act {
   int64_t tick;
-  enum { kSample, kSilence, kResume, kAbort } what;
+  enum { kSample, kSilence, kResume, kAbort, kPause, kUnpause, kMessage } what;
   double accelerator = 0, steer = 0;
+  std::string text = "";  // kMessage's
 };
 
 // Drives a run as the worker does and ends it; returns the log's path.
@@ -68,8 +69,13 @@ std::string live(const std::string& name, const std::vector<Act>& acts, bool nan
       if (a.what == Act::kSilence) run.deadman();
       if (a.what == Act::kResume) run.resume();
       if (a.what == Act::kAbort) end = EndReason::kAborted;
+      if (a.what == Act::kPause) run.instruct({InstructorAction::kPause, ""});
+      if (a.what == Act::kUnpause) run.instruct({InstructorAction::kResume, ""});
+      if (a.what == Act::kMessage) run.instruct({InstructorAction::kMessage, a.text});
     }
     if (end) break;
+    // Paused, the worker steps no tick until the resume, which comes in the same tick here.
+    if (run.paused()) ADD_FAILURE() << "a tick stepped while paused at " << run.state().tick;
     if (next == acts.size() && nan_at_end) {
       DriverInputs broken = drive(model, 0.5, 0);
       broken.drive_torque_N_m = std::numeric_limits<double>::quiet_NaN();
@@ -240,3 +246,57 @@ INSTANTIATE_TEST_SUITE_P(Shipped, ShippedDriveTest, testing::ValuesIn(shipped_dr
                          });
 
 }  // namespace
+
+// The instructor's pause, message and resume, and an abort while paused: each on the log at its
+// tick, before that tick's input; the offline run from the log writes the same log byte for byte,
+// and the same inputs without the instructor give the same truck and mark (a pause holds the
+// session's clock, it does not change its physics).
+TEST(SessionRun, TheInstructorsPauseAndMessageAreLoggedAndReplayedByteForByte) {
+  const std::string said = "Slow down before the corner: brake gently, then steer \u00e9 \u2192 ok";
+  const std::vector<Act> driving = {{0, Act::kSample, 0.6, 0}, {500, Act::kSample, 0.2, 0.1}, {900, Act::kSample, 0.4, -0.1}};
+  std::vector<Act> acts = {driving[0],
+                           {500, Act::kPause},
+                           {500, Act::kMessage, 0, 0, said},
+                           driving[1],  // the cab's sample while paused: applied when the clock runs again
+                           {500, Act::kUnpause},
+                           driving[2],
+                           {1200, Act::kMessage, 0, 0, "Stop here"},
+                           {1200, Act::kPause},
+                           {1200, Act::kAbort}};
+  const std::string a = live("instructor", acts);
+  const ControlLog log = read_control_log(a);
+  ASSERT_EQ(log.instructions.size(), 5u);
+  EXPECT_EQ(log.instructions[0], (std::pair<int64_t, Instruction>{500, {InstructorAction::kPause, ""}}));
+  EXPECT_EQ(log.instructions[1], (std::pair<int64_t, Instruction>{500, {InstructorAction::kMessage, said}}));
+  EXPECT_EQ(log.instructions[2], (std::pair<int64_t, Instruction>{500, {InstructorAction::kResume, ""}}));
+  EXPECT_EQ(log.instructions[3], (std::pair<int64_t, Instruction>{1200, {InstructorAction::kMessage, "Stop here"}}));
+  EXPECT_EQ(log.instructions[4], (std::pair<int64_t, Instruction>{1200, {InstructorAction::kPause, ""}}));
+  const std::string text = text_of(a);
+  EXPECT_LT(text.find("instructor 500 resume\n"), text.find("i 500 ")) << "a tick's instructions before its input";
+  EXPECT_LT(text.find("instructor 1200 pause\n"), text.find("score ")) << "ended paused: the pause on record";
+  EXPECT_EQ(log.end_reason(), "aborted");
+
+  EXPECT_EQ(text_of(offline(a, "instructor")), text) << "the offline run's log, byte for byte";
+  const ReplayResult r = replay_session(log, kData);
+  EXPECT_EQ(r.final_state, *log.final_state);
+  EXPECT_EQ(r.score_line, *log.score_line);
+  EXPECT_EQ(r.event_lines, log.event_lines);
+
+  const ControlLog plain = read_control_log(live("no_instructor", {driving[0], driving[1], driving[2], {1200, Act::kAbort}}));
+  EXPECT_EQ(*plain.final_state, *log.final_state);
+  EXPECT_EQ(plain.score_line, log.score_line);
+  EXPECT_EQ(plain.event_lines, log.event_lines);
+}
+
+// A log's instructor lines are read as written, and a broken one is refused naming its line.
+TEST(SessionRun, ABrokenInstructorLineIsRefused) {
+  const std::string good = live("instructor_lines", {{0, Act::kSample, 0.3, 0}, {10, Act::kMessage, 0, 0, "two  spaces kept"}, {20, Act::kAbort}});
+  EXPECT_EQ(read_control_log(good).instructions.at(0).second.text, "two  spaces kept");
+  const std::string body = text_of(good);
+  for (const std::string& bad : {"instructor 10 jump\n", "instructor 10 pause now\n", "instructor 10 message\n",
+                                 "instructor 10 message \x01" "bell\n", "instructor 10 message \xc3\n"}) {
+    const std::string path = testing::TempDir() + "/session_run_bad_instructor.ctl";
+    std::ofstream(path, std::ios::binary) << body.substr(0, body.find("end ")) << bad << body.substr(body.find("end "));
+    EXPECT_THROW(read_control_log(path), std::runtime_error) << bad;
+  }
+}

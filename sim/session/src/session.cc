@@ -300,6 +300,9 @@ OfflineRun run_offline(const SessionModel& model, SessionState state, const std:
       break;
     }
   }
+  // What the instructor did at the last tick (a session aborted while paused) is on its record.
+  for (; next < changes.size() && changes[next].tick <= session.state().tick; ++next)
+    if (changes[next].instruction) feed(session, changes[next]);
   if (finish_reason) {
     run.score = session.end(*run.end_reason);
     for (const SessionEvent& e : session.end_events()) run.events.emplace_back(session.state().tick, e);

@@ -35,6 +35,23 @@ std::vector<std::string> split(const std::string& line) {
   return out;
 }
 
+// "instructor <tick> pause|resume" or "instructor <tick> message <text>": `rest` is the line after
+// "instructor ", as written (the text keeps its own spaces).
+Instruction instruction_of(const std::vector<std::string>& w, const std::string& rest) {
+  const auto action = w.size() >= 3 ? parse<InstructorAction>(w[2]) : std::nullopt;
+  if (!action) throw std::runtime_error("an instructor line is 'instructor <tick> pause|resume|message [text]'");
+  Instruction i{*action, ""};
+  if (*action != InstructorAction::kMessage) {
+    if (w.size() != 3) throw std::runtime_error("an instructor's " + w[2] + " takes no text");
+    return i;
+  }
+  const std::string head = w[1] + " " + w[2] + " ";
+  i.text = rest.rfind(head, 0) == 0 ? rest.substr(head.size()) : "";
+  // The log's own bound: the worker has checked the message against data/session.json's.
+  if (const auto problem = instructor_message_problem(i.text, kInstructorMessageCharsCeiling)) throw std::runtime_error(*problem);
+  return i;
+}
+
 }  // namespace
 
 std::optional<std::string> ControlLog::end_reason() const {
@@ -107,6 +124,11 @@ void ControlLogWriter::worker_event(int64_t tick, const std::string& kind) {
   std::fflush(f_);
 }
 
+void ControlLogWriter::instruction(int64_t tick, const Instruction& what) {
+  std::fprintf(f_, "instructor %" PRId64 " %s%s%s\n", tick, name(what.action), what.text.empty() ? "" : " ", what.text.c_str());
+  std::fflush(f_);
+}
+
 void ControlLogWriter::score(const std::string& line) {
   std::fprintf(f_, "%s\n", line.c_str());
   std::fflush(f_);
@@ -148,6 +170,7 @@ ControlLog read_control_log(const std::string& path) {
       else if (k == "e") log.event_lines.push_back(k + " " + rest);  // as written: one space between words
       else if (k == "score") log.score_line = k + " " + rest;
       else if (k == "w") log.worker_events.emplace_back(std::stoll(w.at(1)), w.at(2));
+      else if (k == "instructor") log.instructions.emplace_back(std::stoll(w.at(1)), instruction_of(w, rest));
       else if (k == "controls") {
         for (size_t i = 1; i < w.size(); ++i) {
           const size_t eq = w[i].find('=');

@@ -2,6 +2,9 @@
 
 #include "forklift/session/controls.h"
 
+#include <algorithm>
+#include <cstdint>
+
 namespace forklift {
 
 SessionRun::SessionRun(SessionModel model, SessionState first, std::unique_ptr<ControlLogWriter> log, SessionEnds ends)
@@ -47,6 +50,18 @@ void SessionRun::worker_event(const std::string& kind) {
   if (log_) log_->worker_event(state_.tick, kind);
 }
 
+void SessionRun::instruct(const Instruction& what) {
+  if (what.action == InstructorAction::kPause) paused_ = true;
+  if (what.action == InstructorAction::kResume) paused_ = false;
+  instructions_owed_.push_back(what);
+}
+
+void SessionRun::write_instructions() {
+  if (log_)
+    for (const Instruction& i : instructions_owed_) log_->instruction(state_.tick, i);
+  instructions_owed_.clear();
+}
+
 void SessionRun::write_input() {
   if (log_) log_->input(state_.tick, applied_seq_, held_.driver);
   logged_ = held_.driver;
@@ -55,6 +70,7 @@ void SessionRun::write_input() {
 
 SessionRun::Tick SessionRun::tick() {
   events_.clear();
+  write_instructions();
   if (input_owed_) write_input();
   try {
     step(model_, state_, workspace_, held_, events_);
@@ -74,6 +90,7 @@ SessionRun::Tick SessionRun::tick() {
 }
 
 Score SessionRun::end(EndReason reason, const std::optional<ControlCounts>& counts) {
+  write_instructions();  // a session that ends paused: its pause is on record
   events_.clear();
   const Score score = finish(model_, state_, workspace_, name(reason), events_);
   if (log_) {
@@ -85,6 +102,7 @@ Score SessionRun::end(EndReason reason, const std::optional<ControlCounts>& coun
 }
 
 void SessionRun::close(const std::optional<ControlCounts>& counts) {
+  write_instructions();
   if (!log_) return;
   if (counts) log_->control_counts(*counts);
   log_->finish(state_.tick, state_.x);
@@ -93,8 +111,16 @@ void SessionRun::close(const std::optional<ControlCounts>& counts) {
 std::vector<InputChange> logged_changes(const ControlLog& log) {
   std::vector<InputChange> changes;
   SessionInputs held;
-  size_t next = 0, next_dm = 0;
-  while (next < log.entries.size() || next_dm < log.deadman.size()) {
+  size_t next = 0, next_dm = 0, next_ins = 0;
+  while (next < log.entries.size() || next_dm < log.deadman.size() || next_ins < log.instructions.size()) {
+    // A tick's instructions go after its inputs and switches: that tick's, or an earlier one's.
+    const int64_t input_tick = std::min(next < log.entries.size() ? log.entries[next].tick : INT64_MAX,
+                                        next_dm < log.deadman.size() ? log.deadman[next_dm].first : INT64_MAX);
+    if (next_ins < log.instructions.size() && log.instructions[next_ins].first < input_tick) {
+      const auto& [tick, what] = log.instructions[next_ins++];
+      changes.push_back({tick, 0, held, what});
+      continue;
+    }
     const bool input_first = next_dm >= log.deadman.size() ||
                              (next < log.entries.size() && log.entries[next].tick <= log.deadman[next_dm].first);
     int64_t tick;
@@ -113,7 +139,9 @@ std::vector<InputChange> logged_changes(const ControlLog& log) {
 }
 
 void feed(SessionRun& run, const InputChange& c) {
-  if (c.inputs.deadman == run.deadman_on()) {
+  if (c.instruction) {
+    run.instruct(*c.instruction);
+  } else if (c.inputs.deadman == run.deadman_on()) {
     run.apply(c.seq, c.inputs.driver);
   } else if (c.inputs.deadman) {
     run.deadman(c.inputs.driver);

@@ -2,6 +2,7 @@
 #include "forklift/session/host_vocabulary.h"
 
 #include <array>
+#include <cstdint>
 #include <utility>
 
 namespace forklift {
@@ -32,6 +33,8 @@ constexpr Names<Outcome, 6> kOutcomes{{{Outcome::kOpen, "open"},
                                        {Outcome::kAborted, "aborted"},
                                        {Outcome::kStopped, "stopped"},
                                        {Outcome::kFailed, "failed"}}};
+constexpr Names<InstructorAction, 3> kInstructorActions{
+    {{InstructorAction::kPause, "pause"}, {InstructorAction::kResume, "resume"}, {InstructorAction::kMessage, "message"}}};
 constexpr Names<HostState, 2> kHostStates{{{HostState::kReady, "ready"}, {HostState::kStopping, "stopping"}}};
 constexpr Names<WorkerAction, 3> kWorkerActions{
     {{WorkerAction::kStart, "start"}, {WorkerAction::kAbort, "abort"}, {WorkerAction::kKill, "kill"}}};
@@ -65,6 +68,7 @@ const char* name(SessionPhase p) { return name_in(kPhases, p); }
 const char* name(Mode m) { return name_in(kModes, m); }
 const char* name(EventOrigin o) { return name_in(kOrigins, o); }
 const char* name(Outcome o) { return name_in(kOutcomes, o); }
+const char* name(InstructorAction a) { return name_in(kInstructorActions, a); }
 const char* name(HostState s) { return name_in(kHostStates, s); }
 const char* name(WorkerAction a) { return name_in(kWorkerActions, a); }
 const char* name(WorkerReportState s) { return name_in(kReportStates, s); }
@@ -74,6 +78,7 @@ template <> std::optional<SessionPhase> parse<SessionPhase>(std::string_view s) 
 template <> std::optional<Mode> parse<Mode>(std::string_view s) { return parse_in(kModes, s); }
 template <> std::optional<EventOrigin> parse<EventOrigin>(std::string_view s) { return parse_in(kOrigins, s); }
 template <> std::optional<Outcome> parse<Outcome>(std::string_view s) { return parse_in(kOutcomes, s); }
+template <> std::optional<InstructorAction> parse<InstructorAction>(std::string_view s) { return parse_in(kInstructorActions, s); }
 template <> std::optional<HostState> parse<HostState>(std::string_view s) { return parse_in(kHostStates, s); }
 template <> std::optional<WorkerAction> parse<WorkerAction>(std::string_view s) { return parse_in(kWorkerActions, s); }
 template <> std::optional<WorkerReportState> parse<WorkerReportState>(std::string_view s) { return parse_in(kReportStates, s); }
@@ -122,6 +127,38 @@ std::string step_words(const std::string& description) {
       if (control == name) return words;
     return std::nullopt;
   });
+}
+
+}  // namespace forklift
+
+namespace forklift {
+
+std::optional<std::string> instructor_message_problem(std::string_view text, size_t max_chars) {
+  size_t chars = 0;
+  bool visible = false;
+  for (size_t i = 0; i < text.size();) {
+    // One character: its lead byte says how many continuation bytes follow, and the smallest code
+    // point that length may carry (no overlong forms); no surrogates, nothing past U+10FFFF.
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    const int more = c < 0x80 ? 0 : (c & 0xE0) == 0xC0 ? 1 : (c & 0xF0) == 0xE0 ? 2 : (c & 0xF8) == 0xF0 ? 3 : -1;
+    if (more < 0 || i + more >= text.size()) return "the message is not UTF-8 text";
+    uint32_t cp = more == 0 ? c : c & (0x3F >> more);
+    for (int k = 1; k <= more; ++k) {
+      const unsigned char b = static_cast<unsigned char>(text[i + k]);
+      if ((b & 0xC0) != 0x80) return "the message is not UTF-8 text";
+      cp = (cp << 6) | (b & 0x3F);
+    }
+    static constexpr uint32_t kSmallest[] = {0, 0x80, 0x800, 0x10000};
+    if (cp < kSmallest[more] || (cp >= 0xD800 && cp <= 0xDFFF) || cp > 0x10FFFF) return "the message is not UTF-8 text";
+    i += 1 + more;
+    ++chars;
+    if (cp < 0x20 || (cp >= 0x7F && cp <= 0x9F)) return "the message holds a control character (a line break, a tab): it must be one line of text";
+    if (cp != ' ') visible = true;
+  }
+  if (!visible) return "the message is empty";
+  if (text.front() == ' ' || text.back() == ' ') return "the message starts or ends with a space";
+  if (chars > max_chars) return "the message is longer than " + std::to_string(max_chars) + " characters";
+  return std::nullopt;
 }
 
 }  // namespace forklift

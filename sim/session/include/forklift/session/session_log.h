@@ -29,6 +29,14 @@ struct LogHeader {
   std::optional<Load> load;
 };
 
+// What an instructor did to the session (the log's "instructor" line), at the tick it was done:
+// pause and resume, or a message with its text (one line; instructor_message_problem() holds).
+struct Instruction {
+  InstructorAction action = InstructorAction::kPause;
+  std::string text;  // a message's; empty otherwise
+  bool operator==(const Instruction&) const = default;
+};
+
 class ControlLogWriter {
  public:
   ControlLogWriter(const std::string& path, const LogHeader& header);  // throws on I/O error
@@ -40,6 +48,7 @@ class ControlLogWriter {
   void deadman(int64_t tick, bool on);                                // "dm": the worker's dead-man switch
   void event(int64_t tick, const std::string& kind, int worry_level); // "e": one the session derived
   void worker_event(int64_t tick, const std::string& kind);          // "w": the worker's own (not marked)
+  void instruction(int64_t tick, const Instruction& what);           // "instructor": the instructor's act
   void score(const std::string& line);                                // "score": score_line() of the mark
   // "controls": the worker's tally of the cab's samples (name=count words, in this order), once,
   // before "end"; names are single words without '='.
@@ -57,6 +66,7 @@ struct ControlLog {
   std::vector<std::pair<int64_t, bool>> deadman;          // switches, by tick
   std::vector<std::string> event_lines;                   // "e" lines, as written
   std::vector<std::pair<int64_t, std::string>> worker_events;  // "w" lines: tick, kind
+  std::vector<std::pair<int64_t, Instruction>> instructions;   // "instructor" lines, in order
   std::optional<std::string> score_line;                  // "score" line, as written
   std::map<std::string, long> control_counts;             // "controls" line: the worker's tally
   std::optional<int64_t> ticks;              // absent if the worker died before finishing

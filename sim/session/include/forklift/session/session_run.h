@@ -60,6 +60,12 @@ class SessionRun {
   void resume();
   // A worker's own event at the current tick ("w": not marked).
   void worker_event(const std::string& kind);
+  // What the instructor did at the current tick: pause stops the session's clock (the caller steps
+  // no tick while paused()), resume lets it run on, a message changes nothing here. Logged as an
+  // "instructor" line when the tick is stepped (or the session ends), before its input line, so
+  // that a replay fed the log's changes writes the same log.
+  void instruct(const Instruction& what);
+  bool paused() const { return paused_; }
 
   // One physics tick with the held inputs: the tick's input line, step(), an "e" line per event
   // the session found. `end`: why the session must end after it, if it must: the time limit (the
@@ -81,6 +87,7 @@ class SessionRun {
 
  private:
   void write_input();
+  void write_instructions();
 
   const SessionModel model_;
   SessionState state_;
@@ -91,17 +98,20 @@ class SessionRun {
   uint32_t applied_seq_ = 0;
   std::optional<DriverInputs> logged_;  // the inputs the log last recorded (none yet: the first is logged)
   bool input_owed_ = false;             // held_.driver is to be logged when the tick is stepped
+  std::vector<Instruction> instructions_owed_;  // to be logged when the tick is stepped
+  bool paused_ = false;
   std::vector<SessionEvent> events_;
   std::string failure_;
   int64_t let_be_ticks_ = 0;  // the ticks in a row the truck has been let be with its task done
 };
 
-// The inputs and dead-man switches of a log as input changes, merged by tick in the order the
-// worker applied them (a dead-man stop after the input it logged, a resume before its input).
+// The inputs, dead-man switches and instructions of a log as input changes, merged by tick in the
+// order the worker applied them (a dead-man stop after the input it logged, a resume before its
+// input; a tick's instructions after its inputs and switches, as SessionRun logs them).
 std::vector<InputChange> logged_changes(const ControlLog& log);
 
-// An input change onto a run: a change of the dead-man flag is a dead-man stop (with its logged
-// inputs) or a resume; any other is the cab's sample.
+// An input change onto a run: an instruction is the instructor's; a change of the dead-man flag is
+// a dead-man stop (with its logged inputs) or a resume; any other is the cab's sample.
 void feed(SessionRun& run, const InputChange& change);
 
 }  // namespace forklift

@@ -53,6 +53,14 @@ enum class Outcome {
   kFailed,     // "failed": it could not run or ended for any other reason
 };
 
+// What an instructor does to a live training session (the API's action, the fk_InstructorAction
+// sample's, the session log's "instructor" line). An exam takes none of them: only its abort.
+enum class InstructorAction {
+  kPause,    // "pause": the sim clock stops (no ticks; the dead man and the time limit wait)
+  kResume,   // "resume": the clock runs on from where it stopped
+  kMessage,  // "message": a line of text on the cab's display for a few seconds
+};
+
 // Who raised an event of a session, by its kind.
 enum class EventOrigin {
   kEvaluation,  // a rule of the evaluation (counted in the mark, by its worry level)
@@ -65,6 +73,7 @@ const char* name(SessionPhase phase);
 const char* name(Mode mode);
 const char* name(EventOrigin origin);
 const char* name(Outcome outcome);
+const char* name(InstructorAction action);
 
 // The value a name stands for; nullopt for a name that is not one of them (exact, case and all).
 template <class E>
@@ -74,6 +83,16 @@ template <> std::optional<SessionPhase> parse<SessionPhase>(std::string_view nam
 template <> std::optional<Mode> parse<Mode>(std::string_view name);
 template <> std::optional<EventOrigin> parse<EventOrigin>(std::string_view name);
 template <> std::optional<Outcome> parse<Outcome>(std::string_view name);
+template <> std::optional<InstructorAction> parse<InstructorAction>(std::string_view name);
+
+// Why an instructor's message cannot go to the cab, or nullopt: it must be well-formed UTF-8 (it
+// comes from the wire, or from a log), hold a visible character, no control character (a line
+// break, a tab, an escape: the display and the log line keep one line), no space at either end,
+// and at most `max_chars` characters.
+std::optional<std::string> instructor_message_problem(std::string_view text, size_t max_chars);
+// The longest message data/session.json may allow (its instructor.message_max_chars): the wire's
+// string (2048 bytes) holds this many characters of four bytes, and a log line holds it.
+inline constexpr size_t kInstructorMessageCharsCeiling = 500;
 
 // Ended, aborted or failed: the session will not change again.
 bool is_terminal(SessionPhase phase);
