@@ -20,10 +20,12 @@
 #include "control_intake.h"
 #include "forklift/protocol/aids.h"
 #include "forklift/protocol/protocol.h"
+#include "forklift/scene/scenario.h"
 #include "forklift/security/evidence.h"
 #include "forklift/session/controls.h"
 #include "forklift/session/session_run.h"
 #include "frame_publisher.h"
+#include "instructor_intake.h"
 #include "realtime.h"
 #include "truck_state.h"
 
@@ -328,6 +330,8 @@ int main(int argc, char** argv) {
     // Only now, with the session built, does the cab's writer match: a sample sent on that
     // match is read, not overwritten while the scene loads.
     dds::Reader<fk_Controls> controls(*participant, dds::cab_partition(cab));
+    // The instructor's actions, from the server (under DDS Security no one else may write there).
+    dds::Reader<fk_InstructorAction> instructor_reader(*participant, dds::instructor_partition(cab));
     dds::WaitSet waitset(*participant);
     waitset.attach_reader(controls.handle());
 
@@ -352,14 +356,23 @@ int main(int argc, char** argv) {
     auto publish_event = [&](const char* kind, int worry, const std::string& details) {
       publish_at(kind, worry, run.state().x[kX], run.state().x[kY], details);
     };
+    // The instructor's message on the cab's display, for its time on the wall clock (a paused
+    // session shows it too).
+    std::string message;
+    Clock::time_point message_until{};
     long states_published = 0;
     auto publish_state = [&] {
-      state_writer.write(truck_state(run, cab, session, time_limit_s, frames.aids));
+      fk_TruckState s = truck_state(run, cab, session, time_limit_s, frames.aids);
+      s.paused = run.paused();
+      if (!message.empty() && Clock::now() < message_until) dds::set_string(s.instructor_message, message);
+      state_writer.write(s);
       ++states_published;
     };
 
     auto say = [&](const std::string& text) { log_line(cab, text); };
     ControlIntake intake(cab, model.truck, model.tick_s, deadman_s, say);
+    const SessionSettings settings = load_session_settings(FORKLIFT_DATA_DIR);
+    InstructorIntake instructor(cab, session, model.mode, settings.instructor_message_max_chars, say);
     auto take_controls = [&] {
       controls.take_each([&](const fk_Controls& c) {
         intake.offer(c.cab_id, control_sample(c, model.truck), run.state().tick, run.state().t_s, Clock::now());
@@ -385,6 +398,9 @@ int main(int argc, char** argv) {
       }
     }
     publish_status(SessionPhase::kRunning, 0, "");
+    // Only now: an action kept for the session wakes the running loop, which takes it, and no
+    // action sent while waiting keeps the wait above from sleeping.
+    waitset.attach_reader(instructor_reader.handle());
     log_line(cab, "session " + session + " running");
     FramePublisher frame_publisher(model, *participant, cab, frames, say);
     auto ask_frames = [&] { frame_publisher.ask(FramePublisher::request_of(intake.view_request())); };
@@ -395,14 +411,40 @@ int main(int argc, char** argv) {
     const std::string realtime_refused = realtime ? worker::enter_realtime() : "not asked";
     if (realtime && !realtime_refused.empty()) log_line(cab, realtime_refused + "; the tick runs at normal priority");
 
-    long deadman_count = 0;
+    long deadman_count = 0, pauses = 0;
     StatePacer pacer(rate);
     // Sim time 0 on the clock DDS stamps samples with (CLOCK_REALTIME), read just before the
     // loop's own clock starts: a reader can tell how far behind the wall clock each state was
     // written (forklift-bench-dds's tick lag), never less than it was.
     const int64_t start_wall_ns =
         std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
-    const Clock::time_point start = Clock::now();
+    Clock::time_point start = Clock::now();  // sim time 0 on the wall clock; a pause moves it on by its length
+    Clock::time_point paused_at{}, paused_state_at{};
+    // The instructor's actions taken at the current tick: a pause stops the clock here, a resume
+    // starts it again with the wall clock's origin moved on by the pause.
+    auto take_instructions = [&] {
+      instructor_reader.take_each([&](const fk_InstructorAction& a) {
+        const auto what = instructor.offer(a, run.paused());
+        if (!what) return;
+        run.instruct(*what);
+        const std::string who = dds::valid_utf8(a.by) && a.by[0] ? std::string(a.by) : "the instructor";
+        const std::string at = " at t = " + num(run.state().t_s, 3) + " s";
+        if (what->action == InstructorAction::kPause) {
+          paused_at = Clock::now();
+          ++pauses;
+          log_line(cab, who + " paused the session" + at);
+        } else if (what->action == InstructorAction::kResume) {
+          start += Clock::now() - paused_at;
+          log_line(cab, who + " resumed the session" + at);
+        } else {
+          message = what->text;
+          message_until = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                              std::chrono::duration<double>(settings.instructor_message_shown_s));
+          log_line(cab, who + " sent the pupil a message" + at);
+        }
+        publish_state();  // the cab shows it at once
+      });
+    };
 
     // Take inputs: once per physics tick, at its start: the dead man, then the newest good sample
     // (SessionRun::apply logs at most one input per tick). `changed`: the truck's inputs changed.
@@ -447,6 +489,7 @@ int main(int argc, char** argv) {
     double wake_at_s = 0;  // wall time, from `start`, the loop meant to wake at
     while (!g_stop && !end_reason) {
       take_controls();
+      take_instructions();
       const SessionState& state = run.state();
       // The cab is gone (the pupil closed it, or its link failed), not merely quiet: the dead man
       // has long stopped the truck; the session ends rather than wait for ever.
@@ -455,6 +498,16 @@ int main(int argc, char** argv) {
                           std::to_string(start_timeout) + " s: the cab is gone, ending the session");
         end_reason = EndReason::kCabGone;
         break;
+      }
+      if (run.paused()) {
+        // No tick: the truck, its time, the dead man and the time limit wait. The cab's newest
+        // sample is applied when the clock runs again; the cab sees the state at the state rate.
+        if (Clock::now() - paused_state_at >= std::chrono::duration<double>(1.0 / rate)) {
+          publish_state();
+          paused_state_at = Clock::now();
+        }
+        waitset.wait(1.0 / rate);
+        continue;
       }
       const double wall = std::chrono::duration<double>(Clock::now() - start).count();
       if (wall - std::max(wake_at_s, state.t_s) > max_lag_s) {
@@ -550,6 +603,7 @@ int main(int argc, char** argv) {
                               {"skipped", sequence.skipped}, {"restarts", sequence.restarts}}},
         {"states", states_published},
         {"deadman_stops", deadman_count}, {"integrator_steps", run.workspace().integrator_stats().steps},
+        {"instructor", {{"taken", instructor.taken()}, {"refused", instructor.refused()}, {"pauses", pauses}}},
         {"max_lag_ms", max_lag_s * 1e3}, {"max_lag_at_s", max_lag_at_s}, {"late_states", late_states},
         {"start_wall_ns", start_wall_ns},
         {"realtime", realtime_refused.empty()},
@@ -566,7 +620,8 @@ int main(int argc, char** argv) {
                 << intake.rejected_cab() << " for another cab, " << sequence.duplicate << " repeated, " << sequence.old
                 << " older than the last\n"
                 << "states sent: " << states_published << " (" << late_states << " late); frames: " << frame_publisher.frames()
-                << "; dead-man stops: " << deadman_count << "; furthest behind the wall clock: " << num(max_lag_s * 1e3)
+                << "; dead-man stops: " << deadman_count << "; the instructor's actions: " << instructor.taken() << " taken ("
+                << pauses << " pauses), " << instructor.refused() << " refused; furthest behind the wall clock: " << num(max_lag_s * 1e3)
                 << " ms at " << num(max_lag_at_s) << " s\n"
                 << "the tick ran at "
                 << (realtime_refused.empty() ? std::string("real-time priority")
