@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -47,9 +48,10 @@ DriverInputs drive(const SessionModel& m, double accelerator, double steer) {
 // What happens to the live run at a tick.
 struct Act {
   int64_t tick;
-  enum { kSample, kSilence, kResume, kAbort, kPause, kUnpause, kMessage } what;
+  enum { kSample, kSilence, kResume, kAbort, kPause, kUnpause, kMessage, kRewind } what;
   double accelerator = 0, steer = 0;
   std::string text = "";  // kMessage's
+  double seconds = 0;     // kRewind's
 };
 
 // Drives a run as the worker does and ends it; returns the log's path.
@@ -59,6 +61,7 @@ std::string live(const std::string& name, const std::vector<Act>& acts, bool nan
   const std::string path = testing::TempDir() + "/session_run_" + name + ".ctl";
   auto log = std::make_unique<ControlLogWriter>(path, log_header(model, first, name, "cab1"));
   SessionRun run(model, std::move(first), std::move(log), {0, false});
+  run.keep_rewind_points(500, 4);  // every half second, the newest four
   uint32_t seq = 0;
   std::optional<EndReason> end;
   for (size_t next = 0; !end;) {
@@ -72,6 +75,21 @@ std::string live(const std::string& name, const std::vector<Act>& acts, bool nan
       if (a.what == Act::kPause) run.instruct({InstructorAction::kPause, ""});
       if (a.what == Act::kUnpause) run.instruct({InstructorAction::kResume, ""});
       if (a.what == Act::kMessage) run.instruct({InstructorAction::kMessage, a.text});
+      if (a.what == Act::kRewind) {
+        const auto point = run.rewind_point(a.seconds);
+        if (!point) {
+          ADD_FAILURE() << "no rewind point " << a.seconds << " s back from tick " << run.state().tick;
+          continue;
+        }
+        const SessionState kept = run.rewind_points().at(*point);
+        run.instruct({InstructorAction::kRewind, "", *point, a.seconds});
+        // The state after the rewind is the point's, bit for bit.
+        EXPECT_EQ(run.state().tick, kept.tick);
+        EXPECT_EQ(std::memcmp(run.state().x.data(), kept.x.data(), sizeof(double) * StateIndex::kSize), 0);
+        EXPECT_EQ(run.state().handling.pallets().size(), kept.handling.pallets().size());
+        EXPECT_EQ(run.state().evaluation.steps_done(), kept.evaluation.steps_done());
+        EXPECT_TRUE(run.rewind_points().rbegin()->first == *point) << "the abandoned attempt's points are dropped";
+      }
     }
     if (end) break;
     // Paused, the worker steps no tick until the resume, which comes in the same tick here.
@@ -299,4 +317,46 @@ TEST(SessionRun, ABrokenInstructorLineIsRefused) {
     std::ofstream(path, std::ios::binary) << body.substr(0, body.find("end ")) << bad << body.substr(body.find("end "));
     EXPECT_THROW(read_control_log(path), std::runtime_error) << bad;
   }
+}
+
+// "Try that again": the instructor takes the session back to a kept point (at least the seconds
+// asked), its state exactly the point's; the log records where it went, its ticks count again from
+// there, and the offline run from the log, which keeps the states its log goes back to, writes the
+// same log byte for byte, twice rewound, paused and all; a rewind to where nothing is kept is
+// refused with the tick named.
+TEST(SessionRun, ARewindGoesBackToAKeptPointAndTheLogReplaysItByteForByte) {
+  const std::vector<Act> acts = {{0, Act::kSample, 0.6, 0},
+                                 {1300, Act::kSample, 0.5, 0.3},
+                                 {2300, Act::kPause},
+                                 {2300, Act::kRewind, 0, 0, "", 0.6},  // back to 1500: the newest point at least 600 ticks back
+                                 {1500, Act::kSample, 0.2, -0.2},      // the pupil tries again, from the point's tick on
+                                 {1500, Act::kUnpause},
+                                 {2600, Act::kRewind, 0, 0, "", 0.2},  // back to 2000
+                                 {2400, Act::kSample, 0.3, 0},
+                                 {3000, Act::kAbort}};
+  const std::string a = live("rewind", acts);
+  const ControlLog log = read_control_log(a);
+  std::vector<std::pair<int64_t, int64_t>> rewinds;
+  for (const auto& [tick, what] : log.instructions)
+    if (what.action == InstructorAction::kRewind) rewinds.emplace_back(tick, what.to_tick);
+  EXPECT_EQ(rewinds, (std::vector<std::pair<int64_t, int64_t>>{{2300, 1500}, {2600, 2000}}));
+  EXPECT_EQ(*log.ticks, 3000);
+  ASSERT_GE(log.entries.size(), 4u);
+  EXPECT_EQ(log.entries.back().segment, 2) << "two rewinds before the last input";
+  const std::string text = text_of(a);
+  EXPECT_LT(text.find("instructor 2300 pause\n"), text.find("instructor 2300 rewind 1500\n"));
+
+  EXPECT_EQ(text_of(offline(a, "rewind")), text) << "the offline run's log, byte for byte";
+  const ReplayResult r = replay_session(log, kData);
+  EXPECT_EQ(r.final_state, *log.final_state);
+  EXPECT_EQ(r.score_line, *log.score_line);
+  EXPECT_EQ(r.event_lines, log.event_lines);
+
+  const SessionModel model = yard_model();
+  SessionRun run(model, initial_state(model));
+  run.keep_rewind_points(500, 2);
+  for (int i = 0; i < 1600; ++i) run.tick();
+  EXPECT_EQ(run.rewind_point(0.5), 1000);
+  EXPECT_EQ(run.rewind_point(1.0), std::nullopt) << "tick 0 has gone: the newest two are 1000 and 1500";
+  EXPECT_THROW(run.instruct({InstructorAction::kRewind, "", 700, 0}), std::runtime_error);
 }

@@ -75,6 +75,12 @@ SessionSettings load_session_settings(const std::string& data_dir) {
     s.instructor_message_shown_s = ins.at("message_shown_s").get<double>();
     if (!(s.instructor_message_shown_s >= 1 && s.instructor_message_shown_s <= 120))
       throw std::runtime_error("instructor.message_shown_s must be in [1, 120] s");
+    s.instructor_rewind_every_s = ins.at("rewind_point_every_s").get<double>();
+    if (!(s.instructor_rewind_every_s >= 0.1 && s.instructor_rewind_every_s <= 60))
+      throw std::runtime_error("instructor.rewind_point_every_s must be in [0.1, 60] s");
+    const int points = ins.at("rewind_points_kept").get<int>();
+    if (points < 1 || points > 1000) throw std::runtime_error("instructor.rewind_points_kept must be in [1, 1000]");
+    s.instructor_rewind_points = size_t(points);
     const nlohmann::json& l = j.at("load");
     s.load_mass_max_kg = l.at("mass_max_kg").get<double>();
     s.load_cog_height_max_m = l.at("cog_height_max_m").get<double>();

@@ -280,10 +280,20 @@ OfflineRun run_offline(const SessionModel& model, SessionState state, const std:
   OfflineRun run;
   run.end_reason = finish_reason;
   size_t next = 0;
+  // The instructor's rewinds: the run keeps the states they go back to, and runs on past end_tick
+  // until the last of them (the session may have been further on before it went back).
+  std::vector<int64_t> rewound_to;
+  size_t rewinds_end = 0;
+  for (size_t i = 0; i < changes.size(); ++i)
+    if (changes[i].instruction && changes[i].instruction->action == InstructorAction::kRewind) {
+      rewound_to.push_back(changes[i].instruction->to_tick);
+      rewinds_end = i + 1;
+    }
+  if (!rewound_to.empty()) session.keep_rewind_points_at(rewound_to);
   // A session whose integrator failed ended at the tick it could not step: that tick is tried
   // again, with its inputs, to the same failure.
   const int64_t last_tried = finish_reason == EndReason::kNumericalFailure ? end_tick + 1 : end_tick;
-  while (session.state().tick < last_tried) {
+  while (session.state().tick < last_tried || next < rewinds_end) {
     for (; next < changes.size() && changes[next].tick <= session.state().tick; ++next) feed(session, changes[next]);
     const SessionRun::Tick t = session.tick();
     if (t.end == EndReason::kNumericalFailure) {

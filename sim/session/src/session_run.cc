@@ -3,7 +3,11 @@
 #include "forklift/session/controls.h"
 
 #include <algorithm>
+#include <climits>
+#include <cmath>
 #include <cstdint>
+#include <iterator>
+#include <stdexcept>
 
 namespace forklift {
 
@@ -51,9 +55,48 @@ void SessionRun::worker_event(const std::string& kind) {
 }
 
 void SessionRun::instruct(const Instruction& what) {
+  if (what.action == InstructorAction::kRewind) {
+    const auto point = points_.find(what.to_tick);
+    if (point == points_.end()) throw std::runtime_error("no rewind point is kept at tick " + std::to_string(what.to_tick));
+    write_instructions();
+    if (log_) log_->instruction(state_.tick, what);
+    state_ = point->second;                                 // the integrator restarts from it (step())
+    points_.erase(std::next(point), points_.end());         // the abandoned attempt's
+    let_be_ticks_ = 0;
+    return;
+  }
   if (what.action == InstructorAction::kPause) paused_ = true;
   if (what.action == InstructorAction::kResume) paused_ = false;
   instructions_owed_.push_back(what);
+}
+
+void SessionRun::keep_rewind_points(int64_t every_ticks, size_t kept) {
+  point_every_ = std::max<int64_t>(1, every_ticks);
+  points_kept_ = std::max<size_t>(1, kept);
+  keep_point();
+}
+
+void SessionRun::keep_rewind_points_at(const std::vector<int64_t>& ticks) {
+  point_at_ = ticks;
+  std::sort(point_at_.begin(), point_at_.end());
+  keep_point();
+}
+
+void SessionRun::keep_point() {
+  const bool due = (point_every_ > 0 && state_.tick % point_every_ == 0) ||
+                   std::binary_search(point_at_.begin(), point_at_.end(), state_.tick);
+  if (!due) return;
+  points_.insert_or_assign(state_.tick, state_);
+  while (points_kept_ > 0 && points_.size() > points_kept_) points_.erase(points_.begin());
+}
+
+std::optional<int64_t> SessionRun::rewind_point(double seconds) const {
+  if (!(seconds > 0) || points_.empty()) return std::nullopt;
+  const double back_ticks = std::ceil(seconds / model_.tick_s - 1e-9);
+  if (back_ticks > double(state_.tick)) return std::nullopt;
+  auto it = points_.upper_bound(state_.tick - int64_t(back_ticks));
+  if (it == points_.begin()) return std::nullopt;
+  return std::prev(it)->first;
 }
 
 void SessionRun::write_instructions() {
@@ -78,6 +121,7 @@ SessionRun::Tick SessionRun::tick() {
     failure_ = e.what();
     return {events_, EndReason::kNumericalFailure};
   }
+  keep_point();
   std::optional<EndReason> end;
   for (const SessionEvent& e : events_) {
     if (log_) log_->event(state_.tick, e.kind, e.worry_level);
@@ -112,17 +156,22 @@ std::vector<InputChange> logged_changes(const ControlLog& log) {
   std::vector<InputChange> changes;
   SessionInputs held;
   size_t next = 0, next_dm = 0, next_ins = 0;
+  // Each line's place: (the rewinds before it, its tick); none left: after every other.
+  using Place = std::pair<int, int64_t>;
+  constexpr Place kNone{INT_MAX, INT64_MAX};
+  auto segment = [](const std::vector<int>& segments, size_t i) { return i < segments.size() ? segments[i] : 0; };
   while (next < log.entries.size() || next_dm < log.deadman.size() || next_ins < log.instructions.size()) {
+    const Place input = next < log.entries.size() ? Place{log.entries[next].segment, log.entries[next].tick} : kNone;
+    const Place dm = next_dm < log.deadman.size() ? Place{segment(log.deadman_segments, next_dm), log.deadman[next_dm].first} : kNone;
+    const Place ins =
+        next_ins < log.instructions.size() ? Place{segment(log.instruction_segments, next_ins), log.instructions[next_ins].first} : kNone;
     // A tick's instructions go after its inputs and switches: that tick's, or an earlier one's.
-    const int64_t input_tick = std::min(next < log.entries.size() ? log.entries[next].tick : INT64_MAX,
-                                        next_dm < log.deadman.size() ? log.deadman[next_dm].first : INT64_MAX);
-    if (next_ins < log.instructions.size() && log.instructions[next_ins].first < input_tick) {
+    if (ins < std::min(input, dm)) {
       const auto& [tick, what] = log.instructions[next_ins++];
       changes.push_back({tick, 0, held, what});
       continue;
     }
-    const bool input_first = next_dm >= log.deadman.size() ||
-                             (next < log.entries.size() && log.entries[next].tick <= log.deadman[next_dm].first);
+    const bool input_first = input <= dm;
     int64_t tick;
     uint32_t seq = 0;
     if (input_first) {

@@ -33,8 +33,10 @@ constexpr Names<Outcome, 6> kOutcomes{{{Outcome::kOpen, "open"},
                                        {Outcome::kAborted, "aborted"},
                                        {Outcome::kStopped, "stopped"},
                                        {Outcome::kFailed, "failed"}}};
-constexpr Names<InstructorAction, 3> kInstructorActions{
-    {{InstructorAction::kPause, "pause"}, {InstructorAction::kResume, "resume"}, {InstructorAction::kMessage, "message"}}};
+constexpr Names<InstructorAction, 4> kInstructorActions{{{InstructorAction::kPause, "pause"},
+                                                         {InstructorAction::kResume, "resume"},
+                                                         {InstructorAction::kMessage, "message"},
+                                                         {InstructorAction::kRewind, "rewind"}}};
 constexpr Names<HostState, 2> kHostStates{{{HostState::kReady, "ready"}, {HostState::kStopping, "stopping"}}};
 constexpr Names<WorkerAction, 3> kWorkerActions{
     {{WorkerAction::kStart, "start"}, {WorkerAction::kAbort, "abort"}, {WorkerAction::kKill, "kill"}}};
@@ -90,7 +92,7 @@ bool is_terminal(SessionPhase p) {
 EventOrigin event_origin(std::string_view kind) {
   for (const char* k : kHandlingKinds)
     if (kind == k) return EventOrigin::kHandling;
-  if (kind == kControlsResumedEvent || kind == kNoControlsEvent) return EventOrigin::kWorker;
+  if (kind == kControlsResumedEvent || kind == kNoControlsEvent || kind == kRewoundEvent) return EventOrigin::kWorker;
   return EventOrigin::kEvaluation;
 }
 

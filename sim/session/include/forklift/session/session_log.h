@@ -30,10 +30,13 @@ struct LogHeader {
 };
 
 // What an instructor did to the session (the log's "instructor" line), at the tick it was done:
-// pause and resume, or a message with its text (one line; instructor_message_problem() holds).
+// pause and resume, a message with its text (one line; instructor_message_problem() holds), or a
+// rewind to the rewind point kept at a tick.
 struct Instruction {
   InstructorAction action = InstructorAction::kPause;
-  std::string text;  // a message's; empty otherwise
+  std::string text;      // a message's; empty otherwise
+  int64_t to_tick = 0;   // a rewind's: the tick of the point it went back to (logged)
+  double seconds = 0;    // a rewind's: how far back it was asked to go, s (the worker's; not logged)
   bool operator==(const Instruction&) const = default;
 };
 
@@ -61,12 +64,14 @@ class ControlLogWriter {
 
 struct ControlLog {
   LogHeader header;
-  struct Entry { int64_t tick; uint32_t seq; DriverInputs inputs; };
+  // `segment`: how many rewinds came before the line (ticks start again after each).
+  struct Entry { int64_t tick; uint32_t seq; DriverInputs inputs; int segment = 0; };
   std::vector<Entry> entries;
   std::vector<std::pair<int64_t, bool>> deadman;          // switches, by tick
   std::vector<std::string> event_lines;                   // "e" lines, as written
   std::vector<std::pair<int64_t, std::string>> worker_events;  // "w" lines: tick, kind
   std::vector<std::pair<int64_t, Instruction>> instructions;   // "instructor" lines, in order
+  std::vector<int> deadman_segments, instruction_segments;     // each "dm" and "instructor" line's segment
   std::optional<std::string> score_line;                  // "score" line, as written
   std::map<std::string, long> control_counts;             // "controls" line: the worker's tally
   std::optional<int64_t> ticks;              // absent if the worker died before finishing

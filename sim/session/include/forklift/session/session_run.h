@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -63,9 +64,24 @@ class SessionRun {
   // What the instructor did at the current tick: pause stops the session's clock (the caller steps
   // no tick while paused()), resume lets it run on, a message changes nothing here. Logged as an
   // "instructor" line when the tick is stepped (or the session ends), before its input line, so
-  // that a replay fed the log's changes writes the same log.
+  // that a replay fed the log's changes writes the same log. A rewind is logged at once (after
+  // this tick's other instructions) and puts the state back to the point kept at its to_tick,
+  // whose evaluation memory it is too: the faults found since are not in the mark, and stay on
+  // the record (the log's "e" lines, the events published); throws std::runtime_error if no
+  // point is kept there (a log that rewinds where its run kept nothing).
   void instruct(const Instruction& what);
   bool paused() const { return paused_; }
+
+  // Rewind points: copies of the state, kept as the session runs. The worker's: every
+  // `every_ticks` ticks (the current tick too, if it is one), the newest `kept`. A replay's: at
+  // the ticks its log rewinds to (the newest pass through each), so that it goes back to the
+  // very states the worker did.
+  void keep_rewind_points(int64_t every_ticks, size_t kept);
+  void keep_rewind_points_at(const std::vector<int64_t>& ticks);
+  // The point a rewind of `seconds` goes back to: the newest kept at least that far back from the
+  // current tick; nullopt when none is (asked further back than the oldest kept).
+  std::optional<int64_t> rewind_point(double seconds) const;
+  const std::map<int64_t, SessionState>& rewind_points() const { return points_; }  // by tick
 
   // One physics tick with the held inputs: the tick's input line, step(), an "e" line per event
   // the session found. `end`: why the session must end after it, if it must: the time limit (the
@@ -88,6 +104,7 @@ class SessionRun {
  private:
   void write_input();
   void write_instructions();
+  void keep_point();
 
   const SessionModel model_;
   SessionState state_;
@@ -100,6 +117,10 @@ class SessionRun {
   bool input_owed_ = false;             // held_.driver is to be logged when the tick is stepped
   std::vector<Instruction> instructions_owed_;  // to be logged when the tick is stepped
   bool paused_ = false;
+  int64_t point_every_ = 0;
+  size_t points_kept_ = 0;        // 0: no bound (a replay's points, one per tick its log goes back to)
+  std::vector<int64_t> point_at_;  // sorted
+  std::map<int64_t, SessionState> points_;  // by tick
   std::vector<SessionEvent> events_;
   std::string failure_;
   int64_t let_be_ticks_ = 0;  // the ticks in a row the truck has been let be with its task done

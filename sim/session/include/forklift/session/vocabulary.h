@@ -59,6 +59,7 @@ enum class InstructorAction {
   kPause,    // "pause": the sim clock stops (no ticks; the dead man and the time limit wait)
   kResume,   // "resume": the clock runs on from where it stopped
   kMessage,  // "message": a line of text on the cab's display for a few seconds
+  kRewind,   // "rewind": "try that again": the session goes back to a state it kept, some seconds back
 };
 
 // Who raised an event of a session, by its kind.
@@ -93,6 +94,8 @@ std::optional<std::string> instructor_message_problem(std::string_view text, siz
 // The longest message data/session.json may allow (its instructor.message_max_chars): the wire's
 // string (2048 bytes) holds this many characters of four bytes, and a log line holds it.
 inline constexpr size_t kInstructorMessageCharsCeiling = 500;
+// The furthest back a rewind may be asked to go, s: an hour, beyond any session's time limit.
+inline constexpr double kInstructorRewindMaxS = 3600;
 
 // Ended, aborted or failed: the session will not change again.
 bool is_terminal(SessionPhase phase);
@@ -104,6 +107,7 @@ EventOrigin event_origin(std::string_view kind);
 // The worker's own events (EventOrigin::kWorker).
 inline constexpr const char* kControlsResumedEvent = "controls_resumed";
 inline constexpr const char* kNoControlsEvent = "no_controls_from_cab";  // a "w" line at tick 0: no cab spoke
+inline constexpr const char* kRewoundEvent = "rewound";  // the instructor took the session back (its details: from when to when)
 
 // The controls a scenario's step may name in braces ("{lift}"), each with its words for a person
 // away from a cab (the debrief, the plan, the evaluation's events); a cab's display writes the
