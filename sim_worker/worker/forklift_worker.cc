@@ -74,6 +74,13 @@ nlohmann::json score_json(const Score& score) {
           {"end_reason", score.end_reason}, {"mode", score.mode}};
 }
 
+// A number exactly, as the session log writes it (a hex float): for a test to compare bit for bit.
+std::string exact(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%a", v);
+  return buf;
+}
+
 // A number as a person reads it: `digits` decimals, never a hex float.
 std::string num(double v, int digits = 1) {
   std::ostringstream out;
@@ -373,6 +380,9 @@ int main(int argc, char** argv) {
     ControlIntake intake(cab, model.truck, model.tick_s, deadman_s, say);
     const SessionSettings settings = load_session_settings(FORKLIFT_DATA_DIR);
     InstructorIntake instructor(cab, session, model.mode, settings.instructor_message_max_chars, say);
+    // Rewind points, for the instructor's "try that again" (training only: an exam takes none).
+    if (model.mode == Mode::kTraining)
+      run.keep_rewind_points(std::llround(settings.instructor_rewind_every_s / model.tick_s), settings.instructor_rewind_points);
     auto take_controls = [&] {
       controls.take_each([&](const fk_Controls& c) {
         intake.offer(c.cab_id, control_sample(c, model.truck), run.state().tick, run.state().t_s, Clock::now());
@@ -411,7 +421,7 @@ int main(int argc, char** argv) {
     const std::string realtime_refused = realtime ? worker::enter_realtime() : "not asked";
     if (realtime && !realtime_refused.empty()) log_line(cab, realtime_refused + "; the tick runs at normal priority");
 
-    long deadman_count = 0, pauses = 0;
+    long deadman_count = 0, pauses = 0, rewinds = 0;
     StatePacer pacer(rate);
     // Sim time 0 on the clock DDS stamps samples with (CLOCK_REALTIME), read just before the
     // loop's own clock starts: a reader can tell how far behind the wall clock each state was
@@ -424,11 +434,39 @@ int main(int argc, char** argv) {
     // starts it again with the wall clock's origin moved on by the pause.
     auto take_instructions = [&] {
       instructor_reader.take_each([&](const fk_InstructorAction& a) {
-        const auto what = instructor.offer(a, run.paused());
+        auto what = instructor.offer(a, run.paused());
         if (!what) return;
-        run.instruct(*what);
         const std::string who = dds::valid_utf8(a.by) && a.by[0] ? std::string(a.by) : "the instructor";
         const std::string at = " at t = " + num(run.state().t_s, 3) + " s";
+        if (what->action == InstructorAction::kRewind) {
+          const auto point = run.rewind_point(what->seconds);
+          if (!point) {
+            const double oldest_s = run.rewind_points().empty() ? 0 : run.rewind_points().begin()->first * model.tick_s;
+            instructor.refuse(a.seq, "no point is kept " + num(what->seconds) + " s back (the oldest is at t = " + num(oldest_s) + " s)");
+            return;
+          }
+          what->to_tick = *point;
+          const double from_s = run.state().t_s;
+          run.instruct(*what);
+          // The wall clock's origin moves on by the time gone back; the rows a script sent ahead
+          // and the state periods are for the time before; the picture shows the point at once.
+          const double to_s = run.state().t_s;
+          start += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(from_s - to_s));
+          intake.rewound();
+          pacer.restart(to_s);
+          frame_publisher.offer(run.state());
+          ++rewinds;
+          const StateVector& x = run.state().x;
+          publish_event(kRewoundEvent, 0,
+                        nlohmann::json{{"from_s", from_s}, {"to_s", to_s}, {"asked_s", what->seconds},
+                                       {"description", "the instructor took the session back to try again: the faults found "
+                                                       "after " + num(to_s) + " s stay on the record, and are not in the mark"},
+                                       {"state", {{"x_m", exact(x[kX])}, {"y_m", exact(x[kY])}, {"yaw_rad", exact(x[kAwc])}}}}
+                            .dump());
+          log_line(cab, who + " took the session back" + at + " to t = " + num(to_s, 3) + " s");
+          return;  // its state goes out after the next tick: the figures are the step's
+        }
+        run.instruct(*what);
         if (what->action == InstructorAction::kPause) {
           paused_at = Clock::now();
           ++pauses;
@@ -603,7 +641,7 @@ int main(int argc, char** argv) {
                               {"skipped", sequence.skipped}, {"restarts", sequence.restarts}}},
         {"states", states_published},
         {"deadman_stops", deadman_count}, {"integrator_steps", run.workspace().integrator_stats().steps},
-        {"instructor", {{"taken", instructor.taken()}, {"refused", instructor.refused()}, {"pauses", pauses}}},
+        {"instructor", {{"taken", instructor.taken()}, {"refused", instructor.refused()}, {"pauses", pauses}, {"rewinds", rewinds}}},
         {"max_lag_ms", max_lag_s * 1e3}, {"max_lag_at_s", max_lag_at_s}, {"late_states", late_states},
         {"start_wall_ns", start_wall_ns},
         {"realtime", realtime_refused.empty()},
@@ -621,7 +659,7 @@ int main(int argc, char** argv) {
                 << " older than the last\n"
                 << "states sent: " << states_published << " (" << late_states << " late); frames: " << frame_publisher.frames()
                 << "; dead-man stops: " << deadman_count << "; the instructor's actions: " << instructor.taken() << " taken ("
-                << pauses << " pauses), " << instructor.refused() << " refused; furthest behind the wall clock: " << num(max_lag_s * 1e3)
+                << pauses << " pauses, " << rewinds << " rewinds), " << instructor.refused() << " refused; furthest behind the wall clock: " << num(max_lag_s * 1e3)
                 << " ms at " << num(max_lag_at_s) << " s\n"
                 << "the tick ran at "
                 << (realtime_refused.empty() ? std::string("real-time priority")

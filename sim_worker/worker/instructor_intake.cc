@@ -18,6 +18,12 @@ std::optional<std::string> InstructorIntake::problem(const fk_InstructorAction& 
   if (*action == InstructorAction::kPause && paused) return "the session is paused already";
   if (*action == InstructorAction::kResume && !paused) return "the session is not paused";
   out = {*action, ""};
+  if (*action == InstructorAction::kRewind) {
+    if (!(a.seconds > 0 && a.seconds <= kInstructorRewindMaxS)) return "a rewind goes back between 0 and 3600 s";
+    out.seconds = a.seconds;
+  } else if (a.seconds != 0) {
+    return "a " + std::string(a.action) + " takes no seconds";
+  }
   if (*action == InstructorAction::kMessage) {
     out.text = a.text;
     if (const auto p = instructor_message_problem(out.text, message_max_chars_)) return *p;
@@ -34,14 +40,18 @@ std::optional<Instruction> InstructorIntake::offer(const fk_InstructorAction& a,
   }
   Instruction out;
   if (const auto why = problem(a, paused, out)) {
-    if (++refused_ <= kRefusalsSaid)
-      say_("refused the instructor's " + std::to_string(a.seq) + ": " + *why +
-           (refused_ == kRefusalsSaid ? " (further refusals are counted, not logged)" : ""));
+    refuse(a.seq, *why);
     return std::nullopt;
   }
   last_seq_ = a.seq;
   ++taken_;
   return out;
+}
+
+void InstructorIntake::refuse(uint64_t seq, const std::string& why) {
+  if (++refused_ <= kRefusalsSaid)
+    say_("refused the instructor's " + std::to_string(seq) + ": " + why +
+         (refused_ == kRefusalsSaid ? " (further refusals are counted, not logged)" : ""));
 }
 
 }  // namespace forklift::worker

@@ -2,8 +2,9 @@
 // cab's instructor partition): which are believed and acted on, once each and in order. A sample
 // for another session (an earlier one on this cab, kept by the topic's durability) is passed over;
 // one that is not well-formed text, not newer than the last taken, not for this cab, an action
-// this session cannot take (any, in an exam; a pause while paused, a resume while running), or a
-// message the display cannot show, is refused, counted and said. No DDS: the worker hands in each
+// this session cannot take (any, in an exam; a pause while paused, a resume while running), a
+// message the display cannot show, or a rewind by anything but a number of seconds in (0, 3600],
+// is refused, counted and said. No DDS: the worker hands in each
 // sample it takes, the tests hand in their own.
 #pragma once
 
@@ -29,6 +30,9 @@ class InstructorIntake {
   // The instruction `a` asks for, to act on now with the session `paused` as it is; nullopt when
   // it is passed over or refused.
   std::optional<Instruction> offer(const fk_InstructorAction& a, bool paused);
+  // An action taken, then found impossible by the worker (a rewind further back than it keeps):
+  // refused, counted and said as the others.
+  void refuse(uint64_t seq, const std::string& why);
 
   long taken() const { return taken_; }
   long refused() const { return refused_; }

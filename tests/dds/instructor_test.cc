@@ -1,19 +1,23 @@
 // The instructor's hand on a live session, between real processes over loopback DDS: a worker
-// driven by a cab (the test's own participant) takes the instructor's pause, message and resume
-// from its cab's instructor partition, as the server writes them. Paused, its truck's sim time
+// driven by a cab (the test's own participant) takes the instructor's pause, message, resume and
+// rewind from its cab's instructor partition, as the server writes them. Paused, its truck's sim time
 // stands still while the wall clock runs on, and the dead man does not fire however long the cab
 // is silent; the message is on the cab's state; the log replays bit for bit. Every test has its
 // own domain id from the allocator (support/ports.h).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cmath>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <thread>
+#include <tuple>
 
 #include "forklift/protocol/protocol.h"
-#include "forklift/session/session_log.h"
+#include "forklift/session/session.h"
+#include "forklift/session/session_run.h"
 #include "support/ports.h"
 #include "support/process.h"
 #include "support/speaking_cab.h"
@@ -54,28 +58,52 @@ bool states_until(dds::Reader<fk_TruckState>& states, double timeout_s, const st
   return false;
 }
 
+// A worker for `session` on cab c1 in the yard (its own domain), driven by a speaking cab, and the
+// instructor's writer as a server has it; the cab's states read.
+struct LiveSession {
+  LiveSession(const std::string& session, const std::string& duration_s, const std::string& deadman_s)
+      : id(session),
+        domain(forklift::test::free_domain()),
+        worker(forklift_test::start_worker(kBin, tmp(""), domain, "c1", session,
+                                           {"--duration", duration_s, "--deadman-timeout", deadman_s, "--start-timeout", "60",
+                                            "--scenario", kData + "/scenarios/first_drive_yard.json"})),
+        p(dds::DomainSettings::resolve(domain, "")),
+        instructor(p, dds::instructor_partition("c1")),
+        states(p, dds::cab_partition("c1")),
+        cab(p, "c1", 0.3) {}
+  // Drives until the truck's time passes `t_s`, pauses (`seq`) and returns the sim time it stands at
+  // (negative: it never did).
+  double drive_then_pause(double t_s, uint64_t seq) {
+    if (!states_until(states, 60, [&](const fk_TruckState& s) { return s.sim_time_s > t_s; })) return -1;
+    instructor.write(action(id, seq, "pause"));
+    double paused_at_s = -1;
+    states_until(states, 10, [&](const fk_TruckState& s) {
+      if (s.paused) paused_at_s = s.sim_time_s;
+      return s.paused;
+    });
+    return paused_at_s;
+  }
+
+  std::string id;
+  int domain;
+  Process worker;
+  dds::Participant p;
+  dds::Writer<fk_InstructorAction> instructor;
+  dds::Reader<fk_TruckState> states;
+  forklift_test::SpeakingCab cab;
+};
+
 }  // namespace
 
 TEST(Instructor, APauseHoldsTheClockAndTheDeadManAMessageReachesTheCabAndTheLogReplaysBitForBit) {
-  const int domain = forklift::test::free_domain();
-  const std::string session = "s-7";
-  Process w = forklift_test::start_worker(kBin, tmp(""), domain, "c1", session,
-                                          {"--duration", "3", "--deadman-timeout", "0.5", "--start-timeout", "60", "--scenario",
-                                           kData + "/scenarios/first_drive_yard.json"});
-  dds::Participant p(dds::DomainSettings::resolve(domain, ""));
-  dds::Writer<fk_InstructorAction> instructor(p, dds::instructor_partition("c1"));
-  dds::Reader<fk_TruckState> states(p, dds::cab_partition("c1"));
-  forklift_test::SpeakingCab cab(p, "c1", 0.3);
-
-  ASSERT_TRUE(states_until(states, 30, [](const fk_TruckState& s) { return s.sim_time_s > 0.5; })) << w.err();
+  LiveSession live_session("s-7", "3", "0.5");
+  const std::string& session = live_session.id;
+  Process& w = live_session.worker;
+  auto [instructor, states, cab] = std::tie(live_session.instructor, live_session.states, live_session.cab);
   // An earlier session's action on this cab, kept by the topic: passed over.
   instructor.write(action("s-6", 1, "pause"));
-  instructor.write(action(session, 10, "pause"));
-  double paused_at_s = -1;
-  ASSERT_TRUE(states_until(states, 10, [&](const fk_TruckState& s) {
-    if (s.paused) paused_at_s = s.sim_time_s;
-    return s.paused;
-  })) << w.err();
+  const double paused_at_s = live_session.drive_then_pause(0.5, 10);
+  ASSERT_GT(paused_at_s, 0) << w.err();
 
   // Paused: the cab falls silent for three dead-man intervals and more; every state the cab gets
   // shows the same sim time, paused, with no dead-man stop, however much wall time passes.
@@ -137,4 +165,73 @@ TEST(Instructor, APauseHoldsTheClockAndTheDeadManAMessageReachesTheCabAndTheLogR
   EXPECT_EQ(marked["ticks"], live["ticks"]);
   EXPECT_EQ(marked["score"]["mark"], live["score"]["mark"]);
   EXPECT_EQ(marked["score"]["counts"], live["score"]["counts"]);
+}
+
+// "Try that again": paused after five seconds of driving, the instructor takes the session back
+// three seconds; the worker goes back to the newest state it kept at least that far back (one every
+// 2 s, data/session.json), says where it went in a "rewound" event that the cab hears, and the
+// truck drives on from there when resumed. That state is the one the session had at the point's
+// tick, bit for bit (the log's inputs up to there, re-simulated here), and the whole log, rewind
+// and all, replays bit for bit.
+TEST(Instructor, ARewindGoesBackToTheKeptStateAndTheLogReplaysBitForBit) {
+  LiveSession live_session("s-8", "7", "2");
+  const std::string& session = live_session.id;
+  Process& w = live_session.worker;
+  auto [instructor, states] = std::tie(live_session.instructor, live_session.states);
+  dds::Reader<fk_Event> events(live_session.p, dds::cab_partition("c1"));
+  const double paused_at_s = live_session.drive_then_pause(5.3, 20);
+  ASSERT_GT(paused_at_s, 0) << w.err();
+  fk_InstructorAction back = action(session, 21, "rewind");
+  back.seconds = 3;
+  instructor.write(back);
+  json rewound;
+  for (int i = 0; i < 1000 && rewound.is_null(); ++i) {
+    events.take_each([&](const fk_Event& e) {
+      if (std::string(e.kind) == "rewound" && std::string(e.session_id) == session) rewound = json::parse(e.details);
+    });
+    if (rewound.is_null()) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(rewound.is_object()) << w.err();
+  const double expected_to_s = 2.0 * std::floor((paused_at_s - 3) / 2.0 + 1e-9);
+  EXPECT_NEAR(rewound["from_s"].get<double>(), paused_at_s, 1e-9);
+  EXPECT_NEAR(rewound["to_s"].get<double>(), expected_to_s, 1e-9);
+  instructor.write(action(session, 22, "resume"));
+  EXPECT_TRUE(states_until(states, 10, [&](const fk_TruckState& s) { return !s.paused && s.sim_time_s < paused_at_s - 1; }))
+      << "the clock runs on from the point, " << w.err();
+
+  ASSERT_EQ(w.wait(60), 0) << w.err();
+  const json live = forklift_test::output_json(w);
+  EXPECT_EQ(live["instructor"]["rewinds"], 1);
+  EXPECT_EQ(live["instructor"]["taken"], 3);
+  const ControlLog log = read_control_log(tmp(session + ".ctl"));
+  const std::vector<InputChange> changes = logged_changes(log);
+  const auto rewind = std::find_if(changes.begin(), changes.end(), [](const InputChange& c) {
+    return c.instruction && c.instruction->action == InstructorAction::kRewind;
+  });
+  ASSERT_NE(rewind, changes.end());
+  const int64_t to_tick = rewind->instruction->to_tick;
+  EXPECT_NEAR(to_tick * log.header.tick_s, expected_to_s, 1e-9);
+  // The session as it was at the point's tick, from the log's inputs up to the rewind.
+  const SessionModel model = load_session_model(log.header, kData);
+  const OfflineRun before = run_offline(model, initial_state(model, log.header), std::vector<InputChange>(changes.begin(), rewind),
+                                        to_tick, std::nullopt);
+  auto exact = [](double v) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%a", v);
+    return std::string(buf);
+  };
+  EXPECT_EQ(rewound["state"]["x_m"], exact(before.final_state.x[kX]));
+  EXPECT_EQ(rewound["state"]["y_m"], exact(before.final_state.x[kY]));
+  EXPECT_EQ(rewound["state"]["yaw_rad"], exact(before.final_state.x[kAwc]));
+
+  Process replay({kBin + "/forklift-worker", "--replay", tmp(session + ".ctl"), "--json"}, tmp(session + ".replay"));
+  ASSERT_EQ(replay.wait(60), 0) << replay.out() << replay.err();
+  const json again = forklift_test::output_json(replay);
+  EXPECT_EQ(again["matches_log"], true);
+  EXPECT_EQ(again["events_match_log"], true);
+  Process evaluate({kBin + "/forklift-sim", "evaluate", "--replay", tmp(session + ".ctl")}, tmp(session + ".evaluate"));
+  ASSERT_EQ(evaluate.wait(60), 0) << evaluate.err();
+  const json marked = forklift_test::output_json(evaluate);
+  EXPECT_EQ(marked["ticks"], live["ticks"]);
+  EXPECT_EQ(marked["score"]["mark"], live["score"]["mark"]);
 }
