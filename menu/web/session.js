@@ -333,7 +333,7 @@
     return whole >= 60 ? `${Math.floor(whole / 60)} min ${whole % 60} s` : `${whole} s`;
   };
   // The instructor's hand on a running training session (an exam is only watched, or aborted):
-  // pause and resume, and a line of text for the pupil's display.
+  // pause and resume, a line of text for the pupil's display, and a rewind to try again.
   let pausedNow = false;
   function instructorControls(s, state) {
     const box = document.getElementById('instructor');
@@ -353,6 +353,10 @@
   }
   document.getElementById('pause').addEventListener('click', () =>
     instruct({ action: pausedNow ? 'resume' : 'pause' }, pausedNow ? 'The session runs again.' : 'The session is paused: the truck and its clock wait.'));
+  document.getElementById('rewind').addEventListener('click', () => {
+    const seconds = Number(document.getElementById('rewind-s').value);
+    instruct({ action: 'rewind', seconds }, `The session goes back at least ${seconds} s: the faults since stay on the record and leave the mark.`);
+  });
   document.getElementById('say-form').addEventListener('submit', (ev) => {
     ev.preventDefault();
     const input = document.getElementById('say-text');

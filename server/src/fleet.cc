@@ -77,6 +77,7 @@ std::optional<std::string> Fleet::instruct(const std::string& session, const Ins
   a.seq = instructor_seq_;
   dds::set_string(a.action, name(what.action));
   dds::set_string(a.text, what.text);
+  a.seconds = what.seconds;
   dds::set_string(a.by, by);
   if (!writer->write(a)) return "the action could not be sent to the worker of session " + session;
   return std::nullopt;

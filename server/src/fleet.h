@@ -43,7 +43,7 @@ class Fleet : private GateWorld {
   // The instructor's abort: SIGUSR1 to the session's worker, which ends the session with reason
   // "aborted" (SIGTERM, the server stopping, ends it as "signal"); false if it has no worker here.
   bool abort(const std::string& session) { return supervisor_.abort(session); }
-  // The instructor's pause, resume or message, written to the session's worker (here or on a host)
+  // The instructor's pause, resume, message or rewind, written to the session's worker (here or on a host)
   // in its cab's instructor partition, `by` the instructor's username; the worker acts on it at
   // its next tick. Why it cannot go (no running worker here; paused already, or not paused, as the
   // worker's newest state says), or nullopt once it is written.

@@ -262,7 +262,8 @@ void session_routes(Routes& svr, Context& ctx) {
     send_json(res, 200, session_json(*ctx.db().get_session(s.public_id)));
   }));
 
-  // The instructor's hand on a live training session: pause, resume, a message to the pupil's cab.
+  // The instructor's hand on a live training session: pause, resume, a message to the pupil's cab,
+  // a rewind ("try that again": back to a state the worker kept at least that many seconds back).
   // Staff only; an exam takes none (only its abort): it runs as the examinee drives it.
   svr.Post(R"(/api/sessions/(s-\d+)/instructor)", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
@@ -271,8 +272,15 @@ void session_routes(Routes& svr, Context& ctx) {
     const json b = body_json(req);
     const std::string word = field<std::string>(b, "action");
     const auto action = parse<InstructorAction>(word);
-    if (!action) throw ApiError(400, "bad_request", "'action' must be pause, resume or message");
+    if (!action) throw ApiError(400, "bad_request", "'action' must be pause, resume, message or rewind");
     Instruction what{*action, ""};
+    if (*action == InstructorAction::kRewind) {
+      what.seconds = field<double>(b, "seconds");
+      if (!(what.seconds > 0 && what.seconds <= kInstructorRewindMaxS))
+        throw ApiError(400, "bad_request", "'seconds' must be more than 0 and at most " + std::to_string(int(kInstructorRewindMaxS)));
+    } else if (b.contains("seconds")) {
+      throw ApiError(400, "bad_request", "'seconds' goes with a rewind only");
+    }
     if (*action == InstructorAction::kMessage) {
       what.text = field<std::string>(b, "text");  // UTF-8: the JSON parser refuses anything else
       const size_t max_chars = load_session_settings(ctx.data_dir).instructor_message_max_chars;
@@ -285,12 +293,17 @@ void session_routes(Routes& svr, Context& ctx) {
     if (s.state != SessionPhase::kRunning)
       throw ApiError(409, "not_running", "session " + s.public_id + " is " + name(s.state) + ", not running");
     if (const auto problem = ctx.fleet->instruct(s.public_id, what, p.username)) throw ApiError(409, "not_running", *problem);
-    const char* audited = *action == InstructorAction::kPause ? "session_paused" : *action == InstructorAction::kResume ? "session_resumed"
-                                                                                                                          : "instructor_message_sent";
+    const char* audited = *action == InstructorAction::kPause    ? "session_paused"
+                          : *action == InstructorAction::kResume ? "session_resumed"
+                          : *action == InstructorAction::kRewind ? "session_rewound"
+                                                                 : "instructor_message_sent";
     json details = {{"session", s.public_id}};
     if (!what.text.empty()) details["text"] = what.text;
+    if (*action == InstructorAction::kRewind) details["seconds"] = what.seconds;
     ctx.db().batch([&] { audit(ctx.db(), p, s.pupil_id, audited, details); });
-    send_json(res, 200, {{"session", s.public_id}, {"action", word}, {"text", what.text}});
+    json sent = {{"session", s.public_id}, {"action", word}, {"text", what.text}};
+    if (*action == InstructorAction::kRewind) sent["seconds"] = what.seconds;
+    send_json(res, 200, sent);
   }));
 
   // Live follow (the remote examiner): the newest truck state, and whether a frame is there to

@@ -432,7 +432,7 @@ TEST_F(RemoteExam, UnchainedExamIsCheckedAgainstItsSignedLogAtStart) {
   EXPECT_EQ(code2, 0) << out2;
 }
 
-TEST_F(RemoteExam, ExaminerAbortsARunningExam) {
+TEST_F(RemoteExam, ExaminerAbortsARunningExamAndMayNotPauseMessageOrRewindIt) {
   const int port = forklift::test::free_port(), domain = forklift::test::free_domain();
   Server s(port, domain, "remote-abort-" + std::to_string(port), secure());
   const Exam e = start_exam(s, 60);
@@ -441,6 +441,12 @@ TEST_F(RemoteExam, ExaminerAbortsARunningExam) {
   for (int i = 0; i < 300; ++i) {
     if (s.call("GET", "/api/sessions/" + e.id, e.examiner).second.value("state", "") == "running") break;
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  // An exam runs as the examinee drives it: no pause, message or rewind, only the abort.
+  for (const char* body : {R"({"action":"pause"})", R"({"action":"message","text":"Good luck"})", R"({"action":"rewind","seconds":5})"}) {
+    const auto [code, answer] = s.call("POST", "/api/sessions/" + e.id + "/instructor", e.examiner, body);
+    EXPECT_EQ(code, 409) << body << " -> " << answer;
+    EXPECT_EQ(answer["error"]["code"], "exam") << answer;
   }
   auto [st, j] = s.call("POST", "/api/sessions/" + e.id + "/abort", e.examiner);
   ASSERT_EQ(st, 200) << j;

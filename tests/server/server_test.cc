@@ -467,8 +467,9 @@ TEST(Server, AbortedAndTimedOutSessionsHaveNoMarkAndStayOutOfTheChartAndTheTrend
 
 // The instructor's hand on a running training session through the API: only staff, only a good
 // body, each action audited on the pupil's record and reaching the worker over DDS (its state, as
-// the live page reads it, shows the pause and the message); a pause while paused is refused.
-TEST(Server, TheInstructorPausesMessagesAndResumesARunningSessionAndOnlyStaffMay) {
+// the live page reads it, shows the pause, the message and the time gone back); a pause while
+// paused is refused.
+TEST(Server, TheInstructorPausesMessagesRewindsAndResumesARunningSessionAndOnlyStaffMay) {
   Server s("instruct");
   const std::string admin = s.login("admin", kAdminPassword);
   ASSERT_EQ(s.call("POST", "/api/users", admin, R"({"username":"ines","password":"ines-pass-1","role":"instructor"})").first, 201);
@@ -493,7 +494,7 @@ TEST(Server, TheInstructorPausesMessagesAndResumesARunningSessionAndOnlyStaffMay
     }
     return false;
   };
-  ASSERT_TRUE(live_until([](const json& t) { return t["sim_time_s"].get<double>() > 0.2; }));
+  ASSERT_TRUE(live_until([](const json& t) { return t["sim_time_s"].get<double>() > 1.2; }));
 
   // Who may: staff; a pupil, even on her own session, may not, nor anyone without a login.
   EXPECT_EQ(s.call("POST", path, ana, R"({"action":"pause"})").first, 403);
@@ -508,6 +509,9 @@ TEST(Server, TheInstructorPausesMessagesAndResumesARunningSessionAndOnlyStaffMay
                                  std::string(R"({"action":"message","text":"bell\u0007"})"),
                                  json{{"action", "message"}, {"text", long_text}}.dump(), std::string(R"({"action":"message","text":42})"),
                                  std::string(R"({"action":"pause","text":"now"})"), std::string(R"({"action":"pause","by":"me"})"),
+                                 std::string(R"({"action":"rewind","seconds":0})"), std::string(R"({"action":"rewind","seconds":-2})"),
+                                 std::string(R"({"action":"rewind","seconds":4000})"), std::string(R"({"action":"rewind","seconds":"5"})"),
+                                 std::string(R"({"action":"pause","seconds":3})"),
                                  std::string(R"(["pause"])")}) {
     const auto [code, body] = s.call("POST", path, ines, bad);
     EXPECT_EQ(code, 400) << bad << " -> " << body;
@@ -523,8 +527,21 @@ TEST(Server, TheInstructorPausesMessagesAndResumesARunningSessionAndOnlyStaffMay
   const std::string said = "Look over your shoulder before reversing \u2014 every time";
   EXPECT_EQ(s.call("POST", path, ines, json{{"action", "message"}, {"text", said}}.dump()).first, 200);
   EXPECT_TRUE(live_until([&](const json& t) { return t["instructor_message"] == said; }));
+  // Try that again: paused, back at least a second, to a state the worker kept.
+  double paused_at_s = 0;
+  live_until([&](const json& t) { return (paused_at_s = t["sim_time_s"].get<double>()) > 0; });
+  EXPECT_EQ(s.call("POST", path, ines, R"({"action":"rewind","seconds":1})").first, 200);
+  EXPECT_TRUE(live_until([&](const json& t) { return t["sim_time_s"].get<double>() <= paused_at_s - 1; }));
   EXPECT_EQ(s.call("POST", path, admin, R"({"action":"resume"})").first, 200);
   EXPECT_TRUE(live_until([](const json& t) { return t["paused"] == false; }));
+  // The rewind is on the session's record, with from when to when.
+  bool rewound_event = false;
+  for (int i = 0; i < 500 && !rewound_event; ++i) {
+    const json record = s.call("GET", "/api/sessions/" + id, ines).second;
+    for (const json& e : record["events"]) rewound_event |= e["kind"] == "rewound";
+    if (!rewound_event) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  EXPECT_TRUE(rewound_event);
 
   // Each on the pupil's record: who and what.
   auto [ast, rows] = s.call("GET", "/api/pupils/" + std::to_string(pupil["id"].get<int64_t>()) + "/audit", ines);
@@ -535,5 +552,6 @@ TEST(Server, TheInstructorPausesMessagesAndResumesARunningSessionAndOnlyStaffMay
   EXPECT_EQ(by_action["session_paused"]["details"]["session"], id);
   EXPECT_EQ(by_action["instructor_message_sent"]["details"]["text"], said);
   EXPECT_EQ(by_action["session_resumed"]["actor"], "admin");
+  EXPECT_EQ(by_action["session_rewound"]["details"]["seconds"], 1);
   EXPECT_EQ(s.call("POST", "/api/sessions/" + id + "/abort", admin).first, 200);
 }
