@@ -311,7 +311,7 @@ TEST(SessionRun, ABrokenInstructorLineIsRefused) {
   const std::string good = live("instructor_lines", {{0, Act::kSample, 0.3, 0}, {10, Act::kMessage, 0, 0, "two  spaces kept"}, {20, Act::kAbort}});
   EXPECT_EQ(read_control_log(good).instructions.at(0).second.text, "two  spaces kept");
   const std::string body = text_of(good);
-  for (const std::string& bad : {"instructor 10 jump\n", "instructor 10 pause now\n", "instructor 10 message\n",
+  for (const char* bad : {"instructor 10 jump\n", "instructor 10 pause now\n", "instructor 10 message\n",
                                  "instructor 10 message \x01" "bell\n", "instructor 10 message \xc3\n"}) {
     const std::string path = testing::TempDir() + "/session_run_bad_instructor.ctl";
     std::ofstream(path, std::ios::binary) << body.substr(0, body.find("end ")) << bad << body.substr(body.find("end "));
@@ -359,4 +359,31 @@ TEST(SessionRun, ARewindGoesBackToAKeptPointAndTheLogReplaysItByteForByte) {
   EXPECT_EQ(run.rewind_point(0.5), 1000);
   EXPECT_EQ(run.rewind_point(1.0), std::nullopt) << "tick 0 has gone: the newest two are 1000 and 1500";
   EXPECT_THROW(run.instruct({InstructorAction::kRewind, "", 700, 0}), std::runtime_error);
+}
+
+// "Hazard now": the instructor sets a scenario's pedestrian walking before his trigger would
+// (the truck stands 10 m from him, beyond his 8 m); he walks at his speed from then on, the log
+// says when and who, and the offline run from the log writes the same log byte for byte.
+TEST(SessionRun, AHazardSetsAScenariosPedestrianWalkingNowAndReplaysByteForByte) {
+  SessionSpec spec;
+  spec.scenario_file = kData + "/scenarios/pedestrian_awareness.json";
+  const SessionModel model = load_session_model(spec, kData);
+  const SessionState first = initial_state(model);
+  const std::string path = testing::TempDir() + "/session_run_hazard.ctl";
+  SessionRun run(model, first, std::make_unique<ControlLogWriter>(path, log_header(model, first, "hazard", "cab1")), {0, false});
+  EXPECT_NE(run.hazard_problem("W9"), std::nullopt) << "no such pedestrian";
+  for (int i = 0; i < 100; ++i) run.tick();
+  ASSERT_EQ(run.state().pedestrians.size(), 1u);
+  const Eigen::Vector2d at_start = run.state().pedestrians[0].at_m;
+  EXPECT_FALSE(run.state().pedestrians[0].started) << "beyond his trigger";
+  EXPECT_EQ(run.hazard_problem("W1"), std::nullopt);
+  run.instruct({InstructorAction::kHazard, "W1"});
+  EXPECT_NE(run.hazard_problem("W1"), std::nullopt) << "walking already";
+  for (int i = 0; i < 1000; ++i) run.tick();
+  EXPECT_NEAR((run.state().pedestrians[0].at_m - at_start).norm(), 1.2, 0.01) << "a second at his 1.2 m/s";
+  run.end(EndReason::kAborted);
+  const ControlLog log = read_control_log(path);
+  ASSERT_EQ(log.instructions.size(), 1u);
+  EXPECT_EQ(log.instructions[0], (std::pair<int64_t, Instruction>{100, {InstructorAction::kHazard, "W1"}}));
+  EXPECT_EQ(text_of(offline(path, "hazard")), text_of(path)) << "the offline run's log, byte for byte";
 }

@@ -37,7 +37,8 @@ TEST(Vocabulary, EveryNameParsesBackAndNothingElseParses) {
                Outcome::kFailed});
   round_trips({HostState::kReady, HostState::kStopping});
   round_trips({WorkerAction::kStart, WorkerAction::kAbort, WorkerAction::kKill});
-  round_trips({InstructorAction::kPause, InstructorAction::kResume, InstructorAction::kMessage});
+  round_trips({InstructorAction::kPause, InstructorAction::kResume, InstructorAction::kMessage, InstructorAction::kRewind,
+               InstructorAction::kHazard});
   round_trips({WorkerReportState::kStarting, WorkerReportState::kRunning, WorkerReportState::kExited,
                WorkerReportState::kRefused});
 }

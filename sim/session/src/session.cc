@@ -337,7 +337,7 @@ std::vector<InputChange> script_changes(const std::string& path, const SessionMo
     const ControlSample c{uint32_t(i + 1), steer, r.accelerator, r.brake, r.lift, r.tilt, r.shift, false, r.parking_brake};
     if (const auto problem = control_problem(c, model.truck))
       throw std::runtime_error(path + ": row " + std::to_string(i + 1) + " (t = " + std::to_string(r.t) + " s): " + *problem);
-    out.push_back({first_tick_at(r.t, model.tick_s), c.seq, {driver_inputs(c, model.truck), false}});
+    out.push_back({first_tick_at(r.t, model.tick_s), c.seq, {driver_inputs(c, model.truck), false}, std::nullopt});
   }
   return out;
 }

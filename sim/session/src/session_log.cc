@@ -35,7 +35,8 @@ std::vector<std::string> split(const std::string& line) {
   return out;
 }
 
-// "instructor <tick> pause|resume" or "instructor <tick> message <text>": `rest` is the line after
+// "instructor <tick> pause|resume", "... message <text>", "... rewind <to tick>" or "... hazard
+// <pedestrian id>": `rest` is the line after
 // "instructor ", as written (the text keeps its own spaces).
 Instruction instruction_of(const std::vector<std::string>& w, const std::string& rest) {
   const auto action = w.size() >= 3 ? parse<InstructorAction>(w[2]) : std::nullopt;
@@ -47,13 +48,14 @@ Instruction instruction_of(const std::vector<std::string>& w, const std::string&
     if (i.to_tick < 0 || i.to_tick > std::stoll(w[1])) throw std::runtime_error("a rewind goes back, to a tick not before 0");
     return i;
   }
-  if (*action != InstructorAction::kMessage) {
+  if (*action != InstructorAction::kMessage && *action != InstructorAction::kHazard) {
     if (w.size() != 3) throw std::runtime_error("an instructor's " + w[2] + " takes no text");
     return i;
   }
   const std::string head = w[1] + " " + w[2] + " ";
   i.text = rest.rfind(head, 0) == 0 ? rest.substr(head.size()) : "";
-  // The log's own bound: the worker has checked the message against data/session.json's.
+  // The log's own bound: the worker has checked the message against data/session.json's, and the
+  // pedestrian against the scene's.
   if (const auto problem = instructor_message_problem(i.text, kInstructorMessageCharsCeiling)) throw std::runtime_error(*problem);
   return i;
 }

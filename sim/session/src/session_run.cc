@@ -65,9 +65,33 @@ void SessionRun::instruct(const Instruction& what) {
     let_be_ticks_ = 0;
     return;
   }
+  if (what.action == InstructorAction::kHazard) {
+    if (const auto problem = hazard_problem(what.text)) throw std::runtime_error(*problem);
+    const std::vector<PedestrianSpec>& people = model_.scene.pedestrians;
+    if (state_.pedestrians.size() != people.size()) state_.pedestrians = initial_pedestrians(people);
+    for (size_t i = 0; i < people.size(); ++i)
+      if (people[i].id == what.text) state_.pedestrians[i].started = true;
+  }
   if (what.action == InstructorAction::kPause) paused_ = true;
   if (what.action == InstructorAction::kResume) paused_ = false;
   instructions_owed_.push_back(what);
+}
+
+std::optional<std::string> SessionRun::hazard_problem(const std::string& id) const {
+  const std::vector<PedestrianSpec>& people = model_.scene.pedestrians;
+  std::string ids;
+  for (size_t i = 0; i < people.size(); ++i) {
+    if (people[i].id != id) {
+      ids += (ids.empty() ? "" : ", ") + people[i].id;
+      continue;
+    }
+    if (i >= state_.pedestrians.size()) return std::nullopt;  // not walked yet: all stand at their start
+    const PedestrianState& s = state_.pedestrians[i];
+    if (s.struck) return "pedestrian " + id + " has been struck";
+    if (s.started) return "pedestrian " + id + " is walking already";
+    return std::nullopt;
+  }
+  return "no pedestrian '" + id + "' in this scenario" + (ids.empty() ? std::string(" (it has none)") : " (it has " + ids + ")");
 }
 
 void SessionRun::keep_rewind_points(int64_t every_ticks, size_t kept) {
@@ -182,7 +206,7 @@ std::vector<InputChange> logged_changes(const ControlLog& log) {
       held.deadman = log.deadman[next_dm].second;
       tick = log.deadman[next_dm++].first;
     }
-    changes.push_back({tick, seq, held});
+    changes.push_back({tick, seq, held, std::nullopt});
   }
   return changes;
 }

@@ -33,10 +33,11 @@ constexpr Names<Outcome, 6> kOutcomes{{{Outcome::kOpen, "open"},
                                        {Outcome::kAborted, "aborted"},
                                        {Outcome::kStopped, "stopped"},
                                        {Outcome::kFailed, "failed"}}};
-constexpr Names<InstructorAction, 4> kInstructorActions{{{InstructorAction::kPause, "pause"},
+constexpr Names<InstructorAction, 5> kInstructorActions{{{InstructorAction::kPause, "pause"},
                                                          {InstructorAction::kResume, "resume"},
                                                          {InstructorAction::kMessage, "message"},
-                                                         {InstructorAction::kRewind, "rewind"}}};
+                                                         {InstructorAction::kRewind, "rewind"},
+                                                         {InstructorAction::kHazard, "hazard"}}};
 constexpr Names<HostState, 2> kHostStates{{{HostState::kReady, "ready"}, {HostState::kStopping, "stopping"}}};
 constexpr Names<WorkerAction, 3> kWorkerActions{
     {{WorkerAction::kStart, "start"}, {WorkerAction::kAbort, "abort"}, {WorkerAction::kKill, "kill"}}};

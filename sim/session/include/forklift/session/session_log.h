@@ -30,11 +30,11 @@ struct LogHeader {
 };
 
 // What an instructor did to the session (the log's "instructor" line), at the tick it was done:
-// pause and resume, a message with its text (one line; instructor_message_problem() holds), or a
-// rewind to the rewind point kept at a tick.
+// pause and resume, a message with its text (one line; instructor_message_problem() holds), a
+// rewind to the rewind point kept at a tick, or a hazard: a pedestrian of the scene set walking.
 struct Instruction {
   InstructorAction action = InstructorAction::kPause;
-  std::string text;      // a message's; empty otherwise
+  std::string text;      // a message's; a hazard's pedestrian id; empty otherwise
   int64_t to_tick = 0;   // a rewind's: the tick of the point it went back to (logged)
   double seconds = 0;    // a rewind's: how far back it was asked to go, s (the worker's; not logged)
   bool operator==(const Instruction&) const = default;

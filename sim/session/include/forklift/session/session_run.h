@@ -69,8 +69,13 @@ class SessionRun {
   // whose evaluation memory it is too: the faults found since are not in the mark, and stay on
   // the record (the log's "e" lines, the events published); throws std::runtime_error if no
   // point is kept there (a log that rewinds where its run kept nothing).
+  // A hazard sets the scene's pedestrian `text` walking at once (his trigger no longer waited
+  // for), logged when the tick is stepped as the others.
   void instruct(const Instruction& what);
   bool paused() const { return paused_; }
+  // Why the scene's pedestrian `id` cannot be set walking now (none of that id; walking, arrived
+  // or struck already), or nullopt.
+  std::optional<std::string> hazard_problem(const std::string& id) const;
 
   // Rewind points: copies of the state, kept as the session runs. The worker's: every
   // `every_ticks` ticks (the current tick too, if it is one), the newest `kept`. A replay's: at

@@ -60,6 +60,7 @@ enum class InstructorAction {
   kResume,   // "resume": the clock runs on from where it stopped
   kMessage,  // "message": a line of text on the cab's display for a few seconds
   kRewind,   // "rewind": "try that again": the session goes back to a state it kept, some seconds back
+  kHazard,   // "hazard": a scenario's pedestrian starts his walk now, whatever his trigger
 };
 
 // Who raised an event of a session, by its kind.
@@ -94,6 +95,8 @@ std::optional<std::string> instructor_message_problem(std::string_view text, siz
 // The longest message data/session.json may allow (its instructor.message_max_chars): the wire's
 // string (2048 bytes) holds this many characters of four bytes, and a log line holds it.
 inline constexpr size_t kInstructorMessageCharsCeiling = 500;
+// The longest id a scene's object or pedestrian has (data/schema/scenario.schema.json's "id").
+inline constexpr size_t kSceneIdMaxChars = 64;
 // The furthest back a rewind may be asked to go, s: an hour, beyond any session's time limit.
 inline constexpr double kInstructorRewindMaxS = 3600;
 
