@@ -272,7 +272,7 @@ void session_routes(Routes& svr, Context& ctx) {
     const json b = body_json(req);
     const std::string word = field<std::string>(b, "action");
     const auto action = parse<InstructorAction>(word);
-    if (!action) throw ApiError(400, "bad_request", "'action' must be pause, resume, message or rewind");
+    if (!action) throw ApiError(400, "bad_request", "'action' must be pause, resume, message, rewind or hazard");
     Instruction what{*action, ""};
     if (*action == InstructorAction::kRewind) {
       what.seconds = field<double>(b, "seconds");
@@ -288,6 +288,24 @@ void session_routes(Routes& svr, Context& ctx) {
     } else if (b.contains("text")) {
       throw ApiError(400, "bad_request", "'text' goes with a message only");
     }
+    if (*action == InstructorAction::kHazard) {
+      // One of the pedestrians of the scenario as this session runs it.
+      what.text = field<std::string>(b, "pedestrian");
+      const auto scenario = ctx.db().get_session_log(s.public_id, "scenario");
+      const json run = scenario ? json::parse(*scenario, nullptr, false) : json();
+      std::string ids;
+      bool known = false;
+      if (run.is_object() && run.contains("pedestrians") && run["pedestrians"].is_array())
+        for (const json& person : run["pedestrians"])
+          if (person.is_object() && person.contains("id") && person["id"].is_string()) {
+            known = known || person["id"] == what.text;
+            ids += (ids.empty() ? "" : ", ") + person["id"].get<std::string>();
+          }
+      if (!known)
+        throw ApiError(400, "bad_request", "'pedestrian': scenario " + s.scenario + (ids.empty() ? " has no pedestrian" : " has " + ids + ", not '" + what.text + "'"));
+    } else if (b.contains("pedestrian")) {
+      throw ApiError(400, "bad_request", "'pedestrian' goes with a hazard only");
+    }
     if (s.mode == Mode::kExam)
       throw ApiError(409, "exam", "session " + s.public_id + " is an exam: it runs as the examinee drives it, and may only be aborted");
     if (s.state != SessionPhase::kRunning)
@@ -296,9 +314,10 @@ void session_routes(Routes& svr, Context& ctx) {
     const char* audited = *action == InstructorAction::kPause    ? "session_paused"
                           : *action == InstructorAction::kResume ? "session_resumed"
                           : *action == InstructorAction::kRewind ? "session_rewound"
+                          : *action == InstructorAction::kHazard ? "hazard_started"
                                                                  : "instructor_message_sent";
     json details = {{"session", s.public_id}};
-    if (!what.text.empty()) details["text"] = what.text;
+    if (!what.text.empty()) details[*action == InstructorAction::kHazard ? "pedestrian" : "text"] = what.text;
     if (*action == InstructorAction::kRewind) details["seconds"] = what.seconds;
     ctx.db().batch([&] { audit(ctx.db(), p, s.pupil_id, audited, details); });
     json sent = {{"session", s.public_id}, {"action", word}, {"text", what.text}};

@@ -421,7 +421,7 @@ int main(int argc, char** argv) {
     const std::string realtime_refused = realtime ? worker::enter_realtime() : "not asked";
     if (realtime && !realtime_refused.empty()) log_line(cab, realtime_refused + "; the tick runs at normal priority");
 
-    long deadman_count = 0, pauses = 0, rewinds = 0;
+    long deadman_count = 0, pauses = 0, rewinds = 0, hazards = 0;
     StatePacer pacer(rate);
     // Sim time 0 on the clock DDS stamps samples with (CLOCK_REALTIME), read just before the
     // loop's own clock starts: a reader can tell how far behind the wall clock each state was
@@ -465,6 +465,16 @@ int main(int argc, char** argv) {
                             .dump());
           log_line(cab, who + " took the session back" + at + " to t = " + num(to_s, 3) + " s");
           return;  // its state goes out after the next tick: the figures are the step's
+        }
+        if (what->action == InstructorAction::kHazard) {
+          if (const auto problem = run.hazard_problem(what->text)) {
+            instructor.refuse(a.seq, *problem);
+            return;
+          }
+          run.instruct(*what);
+          ++hazards;
+          log_line(cab, who + " set pedestrian " + what->text + " walking" + at);
+          return;
         }
         run.instruct(*what);
         if (what->action == InstructorAction::kPause) {
@@ -641,7 +651,7 @@ int main(int argc, char** argv) {
                               {"skipped", sequence.skipped}, {"restarts", sequence.restarts}}},
         {"states", states_published},
         {"deadman_stops", deadman_count}, {"integrator_steps", run.workspace().integrator_stats().steps},
-        {"instructor", {{"taken", instructor.taken()}, {"refused", instructor.refused()}, {"pauses", pauses}, {"rewinds", rewinds}}},
+        {"instructor", {{"taken", instructor.taken()}, {"refused", instructor.refused()}, {"pauses", pauses}, {"rewinds", rewinds}, {"hazards", hazards}}},
         {"max_lag_ms", max_lag_s * 1e3}, {"max_lag_at_s", max_lag_at_s}, {"late_states", late_states},
         {"start_wall_ns", start_wall_ns},
         {"realtime", realtime_refused.empty()},
@@ -659,7 +669,7 @@ int main(int argc, char** argv) {
                 << " older than the last\n"
                 << "states sent: " << states_published << " (" << late_states << " late); frames: " << frame_publisher.frames()
                 << "; dead-man stops: " << deadman_count << "; the instructor's actions: " << instructor.taken() << " taken ("
-                << pauses << " pauses, " << rewinds << " rewinds), " << instructor.refused() << " refused; furthest behind the wall clock: " << num(max_lag_s * 1e3)
+                << pauses << " pauses, " << rewinds << " rewinds, " << hazards << " hazards), " << instructor.refused() << " refused; furthest behind the wall clock: " << num(max_lag_s * 1e3)
                 << " ms at " << num(max_lag_at_s) << " s\n"
                 << "the tick ran at "
                 << (realtime_refused.empty() ? std::string("real-time priority")

@@ -9,10 +9,10 @@ InstructorIntake::InstructorIntake(std::string cab, std::string session, Mode mo
 std::optional<std::string> InstructorIntake::problem(const fk_InstructorAction& a, bool paused, Instruction& out) const {
   for (const char* text : {a.cab_id, a.action, a.text, a.by})
     if (!dds::valid_utf8(text)) return "its text is not UTF-8";
-  if (cab_ != a.cab_id) return "it is for cab '" + std::string(a.cab_id) + "'";
+  if (cab_ != a.cab_id) return std::string("it is for cab '").append(a.cab_id).append("'");
   if (a.seq <= last_seq_) return "it is not newer than the last one taken (" + std::to_string(last_seq_) + ")";
   const auto action = parse<InstructorAction>(a.action);
-  if (!action) return "'" + std::string(a.action) + "' is not an action (pause, resume or message)";
+  if (!action) return std::string("'").append(a.action).append("' is not an action (pause, resume, message, rewind or hazard)");
   // An exam is the examiner's to watch and, at most, abort: nothing else may change it.
   if (mode_ == Mode::kExam) return "an exam takes no instructor's action but its abort";
   if (*action == InstructorAction::kPause && paused) return "the session is paused already";
@@ -27,6 +27,9 @@ std::optional<std::string> InstructorIntake::problem(const fk_InstructorAction& 
   if (*action == InstructorAction::kMessage) {
     out.text = a.text;
     if (const auto p = instructor_message_problem(out.text, message_max_chars_)) return *p;
+  } else if (*action == InstructorAction::kHazard) {
+    out.text = a.text;  // which pedestrian: the worker knows the scene's (SessionRun::hazard_problem)
+    if (instructor_message_problem(out.text, kSceneIdMaxChars)) return "a hazard names the scenario's pedestrian by his id";
   } else if (a.text[0]) {
     return "a " + std::string(a.action) + " takes no text";
   }

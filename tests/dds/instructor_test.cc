@@ -58,15 +58,16 @@ bool states_until(dds::Reader<fk_TruckState>& states, double timeout_s, const st
   return false;
 }
 
-// A worker for `session` on cab c1 in the yard (its own domain), driven by a speaking cab, and the
+// A worker for `session` on cab c1 in a scenario (the yard unless named; its own domain), driven by a speaking cab, and the
 // instructor's writer as a server has it; the cab's states read.
 struct LiveSession {
-  LiveSession(const std::string& session, const std::string& duration_s, const std::string& deadman_s)
+  LiveSession(const std::string& session, const std::string& duration_s, const std::string& deadman_s,
+              const std::string& scenario = "first_drive_yard")
       : id(session),
         domain(forklift::test::free_domain()),
         worker(forklift_test::start_worker(kBin, tmp(""), domain, "c1", session,
                                            {"--duration", duration_s, "--deadman-timeout", deadman_s, "--start-timeout", "60",
-                                            "--scenario", kData + "/scenarios/first_drive_yard.json"})),
+                                            "--scenario", kData + "/scenarios/" + scenario + ".json"})),
         p(dds::DomainSettings::resolve(domain, "")),
         instructor(p, dds::instructor_partition("c1")),
         states(p, dds::cab_partition("c1")),
@@ -234,4 +235,30 @@ TEST(Instructor, ARewindGoesBackToTheKeptStateAndTheLogReplaysBitForBit) {
   const json marked = forklift_test::output_json(evaluate);
   EXPECT_EQ(marked["ticks"], live["ticks"]);
   EXPECT_EQ(marked["score"]["mark"], live["score"]["mark"]);
+}
+
+// "Hazard now" over DDS: the instructor sets the walkway's pedestrian walking while the truck is
+// still beyond his trigger; a pedestrian the scenario does not have is refused. The log says when,
+// the pedestrian has walked in its replay, and the replay is bit for bit.
+TEST(Instructor, AHazardSetsThePedestrianWalkingAndTheLogReplaysBitForBit) {
+  LiveSession live_session("s-9", "2", "1", "pedestrian_awareness");
+  Process& w = live_session.worker;
+  ASSERT_TRUE(states_until(live_session.states, 60, [](const fk_TruckState& s) { return s.sim_time_s > 0.5; })) << w.err();
+  live_session.instructor.write(action(live_session.id, 30, "hazard", "W9"));
+  live_session.instructor.write(action(live_session.id, 31, "hazard", "W1"));
+  ASSERT_EQ(w.wait(60), 0) << w.err();
+  const json live = forklift_test::output_json(w);
+  EXPECT_EQ(live["instructor"]["hazards"], 1);
+  EXPECT_EQ(live["instructor"]["refused"], 1);
+  EXPECT_NE(w.err().find("no pedestrian 'W9' in this scenario (it has W1)"), std::string::npos) << w.err();
+  const ControlLog log = read_control_log(tmp("s-9.ctl"));
+  ASSERT_EQ(log.instructions.size(), 1u);
+  EXPECT_EQ(log.instructions[0].second, (Instruction{InstructorAction::kHazard, "W1"}));
+  EXPECT_GT(log.instructions[0].first * log.header.tick_s, 0.5);
+  PedestrianState last;
+  const ReplayResult r = replay_session(log, kData, [&](const SessionState& s, const SessionWorkspace&) { last = s.pedestrians.at(0); });
+  EXPECT_EQ(r.final_state, *log.final_state);
+  EXPECT_EQ(r.event_lines, log.event_lines);
+  EXPECT_TRUE(last.started);
+  EXPECT_GT(last.at_m.y(), 1.0 + 0.5) << "he has walked north from his start";
 }

@@ -511,7 +511,9 @@ TEST(Server, TheInstructorPausesMessagesRewindsAndResumesARunningSessionAndOnlyS
                                  std::string(R"({"action":"pause","text":"now"})"), std::string(R"({"action":"pause","by":"me"})"),
                                  std::string(R"({"action":"rewind","seconds":0})"), std::string(R"({"action":"rewind","seconds":-2})"),
                                  std::string(R"({"action":"rewind","seconds":4000})"), std::string(R"({"action":"rewind","seconds":"5"})"),
-                                 std::string(R"({"action":"pause","seconds":3})"),
+                                 std::string(R"({"action":"pause","seconds":3})"), std::string(R"({"action":"hazard"})"),
+                                 std::string(R"({"action":"hazard","pedestrian":"W1"})"),  // the yard has nobody walking
+                                 std::string(R"({"action":"pause","pedestrian":"W1"})"),
                                  std::string(R"(["pause"])")}) {
     const auto [code, body] = s.call("POST", path, ines, bad);
     EXPECT_EQ(code, 400) << bad << " -> " << body;
