@@ -66,7 +66,13 @@ std::optional<std::string> Fleet::instruct(const std::string& session, const Ins
   if (w->second.seen_state && what.action == InstructorAction::kResume && !w->second.last.paused)
     return "session " + session + " is not paused";
   auto& writer = instructor_writers_[w->second.cab];
-  if (!writer) writer = std::make_unique<dds::Writer<fk_InstructorAction>>(*participant_, dds::instructor_partition(w->second.cab));
+  try {
+    if (!writer) writer = std::make_unique<dds::Writer<fk_InstructorAction>>(*participant_, dds::instructor_partition(w->second.cab));
+  } catch (const std::runtime_error& e) {
+    // An identity issued before the instructor's partition existed may not write there.
+    spdlog::error("the instructor's action for session {} cannot be written: {}", session, e.what());
+    return "this server's DDS identity may not write the instructor's actions: re-issue it with scripts/forklift-pki.sh";
+  }
   // The wall clock's milliseconds, and never the same twice: a server restarted mid-session goes on
   // above the numbers it gave before, which its worker has taken.
   const auto now_ms = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch()).count();

@@ -338,7 +338,17 @@ int main(int argc, char** argv) {
     // match is read, not overwritten while the scene loads.
     dds::Reader<fk_Controls> controls(*participant, dds::cab_partition(cab));
     // The instructor's actions, from the server (under DDS Security no one else may write there).
-    dds::Reader<fk_InstructorAction> instructor_reader(*participant, dds::instructor_partition(cab));
+    // An exam takes none, so it reads none. An identity issued before the instructor's partition
+    // existed may not read it: the session runs without the instructor's hand, and says why.
+    std::unique_ptr<dds::Reader<fk_InstructorAction>> instructor_reader;
+    if (model.mode == Mode::kTraining) {
+      try {
+        instructor_reader = std::make_unique<dds::Reader<fk_InstructorAction>>(*participant, dds::instructor_partition(cab));
+      } catch (const std::runtime_error& e) {
+        log_line(cab, std::string("the instructor cannot pause, message or rewind this session: ") + e.what() +
+                          " (re-issue this worker's identity with scripts/forklift-pki.sh, whose permissions now let it read them)");
+      }
+    }
     dds::WaitSet waitset(*participant);
     waitset.attach_reader(controls.handle());
 
@@ -410,7 +420,7 @@ int main(int argc, char** argv) {
     publish_status(SessionPhase::kRunning, 0, "");
     // Only now: an action kept for the session wakes the running loop, which takes it, and no
     // action sent while waiting keeps the wait above from sleeping.
-    waitset.attach_reader(instructor_reader.handle());
+    if (instructor_reader) waitset.attach_reader(instructor_reader->handle());
     log_line(cab, "session " + session + " running");
     FramePublisher frame_publisher(model, *participant, cab, frames, say);
     auto ask_frames = [&] { frame_publisher.ask(FramePublisher::request_of(intake.view_request())); };
@@ -433,7 +443,8 @@ int main(int argc, char** argv) {
     // The instructor's actions taken at the current tick: a pause stops the clock here, a resume
     // starts it again with the wall clock's origin moved on by the pause.
     auto take_instructions = [&] {
-      instructor_reader.take_each([&](const fk_InstructorAction& a) {
+      if (!instructor_reader) return;
+      instructor_reader->take_each([&](const fk_InstructorAction& a) {
         auto what = instructor.offer(a, run.paused());
         if (!what) return;
         const std::string who = dds::valid_utf8(a.by) && a.by[0] ? std::string(a.by) : "the instructor";
