@@ -28,10 +28,8 @@ using nlohmann::json;
 
 namespace {
 
-const std::string kBin = FORKLIFT_BIN_DIR;
-const std::string kData = FORKLIFT_DATA_DIR;
-
-std::string tmp(const std::string& name) { return testing::TempDir() + "/" + name; }
+const std::string kBin = FORKLIFT_BIN_DIR, kData = FORKLIFT_DATA_DIR;
+using forklift_test::temp_file;
 
 // What a server writes for an instructor (Fleet::instruct).
 fk_InstructorAction action(const std::string& session, uint64_t seq, const std::string& what, const std::string& text = "") {
@@ -65,7 +63,7 @@ struct LiveSession {
               const std::string& scenario = "first_drive_yard")
       : id(session),
         domain(forklift::test::free_domain()),
-        worker(forklift_test::start_worker(kBin, tmp(""), domain, "c1", session,
+        worker(forklift_test::start_worker(kBin, temp_file(""), domain, "c1", session,
                                            {"--duration", duration_s, "--deadman-timeout", deadman_s, "--start-timeout", "60",
                                             "--scenario", kData + "/scenarios/" + scenario + ".json"})),
         p(dds::DomainSettings::resolve(domain, "")),
@@ -147,20 +145,20 @@ TEST(Instructor, APauseHoldsTheClockAndTheDeadManAMessageReachesTheCabAndTheLogR
 
   // The log has them at the tick the pause held, and replays bit for bit: the worker's own replay
   // and forklift-sim evaluate's.
-  const ControlLog log = read_control_log(tmp(session + ".ctl"));
+  const ControlLog log = read_control_log(temp_file(session + ".ctl"));
   ASSERT_EQ(log.instructions.size(), 3u);
   EXPECT_EQ(log.instructions[0].second.action, InstructorAction::kPause);
   EXPECT_EQ(log.instructions[1].second.text, said);
   EXPECT_EQ(log.instructions[2].second.action, InstructorAction::kResume);
   EXPECT_EQ(log.instructions[0].first, log.instructions[2].first) << "no tick between the pause and the resume";
   EXPECT_NEAR(log.instructions[0].first * log.header.tick_s, paused_at_s, 1e-9);
-  Process replay({kBin + "/forklift-worker", "--replay", tmp(session + ".ctl"), "--json"}, tmp(session + ".replay"));
+  Process replay({kBin + "/forklift-worker", "--replay", temp_file(session + ".ctl"), "--json"}, temp_file(session + ".replay"));
   ASSERT_EQ(replay.wait(60), 0) << replay.out() << replay.err();
   const json again = forklift_test::output_json(replay);
   EXPECT_EQ(again["matches_log"], true);
   EXPECT_EQ(again["events_match_log"], true);
   EXPECT_EQ(again["state_hex"], live["state_hex"]);
-  Process evaluate({kBin + "/forklift-sim", "evaluate", "--replay", tmp(session + ".ctl")}, tmp(session + ".evaluate"));
+  Process evaluate({kBin + "/forklift-sim", "evaluate", "--replay", temp_file(session + ".ctl")}, temp_file(session + ".evaluate"));
   ASSERT_EQ(evaluate.wait(60), 0) << evaluate.err();
   const json marked = forklift_test::output_json(evaluate);
   EXPECT_EQ(marked["ticks"], live["ticks"]);
@@ -204,7 +202,7 @@ TEST(Instructor, ARewindGoesBackToTheKeptStateAndTheLogReplaysBitForBit) {
   const json live = forklift_test::output_json(w);
   EXPECT_EQ(live["instructor"]["rewinds"], 1);
   EXPECT_EQ(live["instructor"]["taken"], 3);
-  const ControlLog log = read_control_log(tmp(session + ".ctl"));
+  const ControlLog log = read_control_log(temp_file(session + ".ctl"));
   const std::vector<InputChange> changes = logged_changes(log);
   const auto rewind = std::find_if(changes.begin(), changes.end(), [](const InputChange& c) {
     return c.instruction && c.instruction->action == InstructorAction::kRewind;
@@ -225,12 +223,12 @@ TEST(Instructor, ARewindGoesBackToTheKeptStateAndTheLogReplaysBitForBit) {
   EXPECT_EQ(rewound["state"]["y_m"], exact(before.final_state.x[kY]));
   EXPECT_EQ(rewound["state"]["yaw_rad"], exact(before.final_state.x[kAwc]));
 
-  Process replay({kBin + "/forklift-worker", "--replay", tmp(session + ".ctl"), "--json"}, tmp(session + ".replay"));
+  Process replay({kBin + "/forklift-worker", "--replay", temp_file(session + ".ctl"), "--json"}, temp_file(session + ".replay"));
   ASSERT_EQ(replay.wait(60), 0) << replay.out() << replay.err();
   const json again = forklift_test::output_json(replay);
   EXPECT_EQ(again["matches_log"], true);
   EXPECT_EQ(again["events_match_log"], true);
-  Process evaluate({kBin + "/forklift-sim", "evaluate", "--replay", tmp(session + ".ctl")}, tmp(session + ".evaluate"));
+  Process evaluate({kBin + "/forklift-sim", "evaluate", "--replay", temp_file(session + ".ctl")}, temp_file(session + ".evaluate"));
   ASSERT_EQ(evaluate.wait(60), 0) << evaluate.err();
   const json marked = forklift_test::output_json(evaluate);
   EXPECT_EQ(marked["ticks"], live["ticks"]);
@@ -251,7 +249,7 @@ TEST(Instructor, AHazardSetsThePedestrianWalkingAndTheLogReplaysBitForBit) {
   EXPECT_EQ(live["instructor"]["hazards"], 1);
   EXPECT_EQ(live["instructor"]["refused"], 1);
   EXPECT_NE(w.err().find("no pedestrian 'W9' in this scenario (it has W1)"), std::string::npos) << w.err();
-  const ControlLog log = read_control_log(tmp("s-9.ctl"));
+  const ControlLog log = read_control_log(temp_file("s-9.ctl"));
   ASSERT_EQ(log.instructions.size(), 1u);
   EXPECT_EQ(log.instructions[0].second, (Instruction{InstructorAction::kHazard, "W1"}));
   EXPECT_GT(log.instructions[0].first * log.header.tick_s, 0.5);
