@@ -486,14 +486,7 @@ TEST(Server, TheInstructorPausesMessagesRewindsAndResumesARunningSessionAndOnlyS
   forklift::dds::Participant p(forklift::dds::DomainSettings::resolve(s.domain, ""));
   forklift_test::SpeakingCab cab(p, "inscab");
   // Live, as the page polls it, until `done` says so (the bound only stops a test that would hang).
-  auto live_until = [&](const std::function<bool(const json&)>& done) {
-    for (int i = 0; i < 1000; ++i) {
-      const auto [code, v] = s.call("GET", "/api/sessions/" + id + "/live", ines);
-      if (code == 200 && v["state"].is_object() && done(v["state"])) return true;
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    return false;
-  };
+  auto live_until = [&](const std::function<bool(const json&)>& done) { return s.live_until(ines, id, done); };
   ASSERT_TRUE(live_until([](const json& t) { return t["sim_time_s"].get<double>() > 1.2; }));
 
   // Who may: staff; a pupil, even on her own session, may not, nor anyone without a login.
