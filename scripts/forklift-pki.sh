@@ -12,8 +12,8 @@
 #
 # A cab may write only its own controls and read only its own state, frames and session status;
 # its worker reads those controls and writes that state and those frames, plus the session's
-# events, score and status; the server reads everything and writes session status and requests to
-# worker hosts; a worker host (forklift-host) writes its own status and reports. Permissions
+# events, score and status, and reads the instructor's actions for its cab; the server reads
+# everything and writes session status, the instructor's actions and requests to worker hosts; a worker host (forklift-host) writes its own status and reports. Permissions
 # are per identity, so a cab holding another cab's identity is that other cab: keep keys on the
 # cab's disk only. DIR/private/ holds the CA key: on a real school network keep it offline.
 set -euo pipefail
@@ -148,7 +148,8 @@ rules_for() {  # KIND ID
     worker)
       rule subscribe "$p" fk_Controls
       rule publish "$p" fk_TruckState fk_SceneMotion fk_Frame fk_SessionStatus fk_Event
-      rule publish "worker.$2" fk_Event fk_Score fk_SessionStatus ;;
+      rule publish "worker.$2" fk_Event fk_Score fk_SessionStatus
+      rule subscribe "instructor.$2" fk_InstructorAction ;;
     host)
       rule publish "host.$2" fk_HostStatus fk_WorkerReport
       rule subscribe "host.$2" fk_WorkerRequest ;;
@@ -158,6 +159,7 @@ rules_for() {  # KIND ID
       rule subscribe "worker.*" fk_Event fk_Score fk_SessionStatus
       rule subscribe "host.*" fk_HostStatus fk_WorkerReport
       rule publish "host.*" fk_WorkerRequest
+      rule publish "instructor.*" fk_InstructorAction
       rule publish "" fk_SessionStatus ;;
   esac
 }

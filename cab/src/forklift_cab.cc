@@ -531,11 +531,13 @@ void CabProgram::terminal_line() {
   last_line_t_ = t;
   const fk_TruckState& s = hud_.state();
   std::string load = s.load_attached ? std::to_string(int(s.load_mass_kg)) + " kg" : std::string("none");
-  std::printf("%st=%6.1f s  %5.1f km/h%s  forks %4.2f m  load %s  %s%s%s", tty ? "\r" : "", s.sim_time_s,
+  const std::string said = s.instructor_message[0] && dds::valid_utf8(s.instructor_message)
+                               ? std::string("  Your instructor: ") + s.instructor_message : std::string();
+  std::printf("%st=%6.1f s  %5.1f km/h%s  forks %4.2f m  load %s  %s%s%s%s%s", tty ? "\r" : "", s.sim_time_s,
               std::abs(s.speed_m_s) * 3.6,
               s.speed_limit_m_s > 0 ? (" (limit " + std::to_string(int(std::lround(s.speed_limit_m_s * 3.6))) + ")").c_str() : "",
               s.fork_height_m, load.c_str(), hud_.stability_words().c_str(), s.deadman ? "  NO CONTROLS: braking" : "",
-              tty ? "    " : "\n");
+              s.paused ? "  PAUSED by your instructor" : "", said.c_str(), tty ? "    " : "\n");
   std::fflush(stdout);
 }
 

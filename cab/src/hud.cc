@@ -472,6 +472,21 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
     if (++shown == 3) break;
   }
 
+  // The instructor's hand: a line of text from the instructor above the middle, and a paused
+  // session said across it (an end or a start said there instead wins).
+  if (have_state_ && state_.instructor_message[0] && dds::valid_utf8(state_.instructor_message)) {
+    const std::string words = std::string("Your instructor: ") + state_.instructor_message;
+    const int h = line_count(words, width - 2 * line, 1, line) * line;
+    const int y = std::max(yl, height / 2 - 3 * line - h);
+    fill(0, y - 2, width, h + 4, kPanel, "panel");
+    text(line, y, words, kBlue, 1, "instructor_message", width - 2 * line);
+  }
+  if (have_state_ && state_.paused && session_line_.empty()) {
+    const std::string words = "Paused by your instructor: the truck waits, and so does the clock";
+    const int h = line_count(words, width - 2 * line, 2, line) * (2 * line);
+    fill(0, height / 2 - line, width, h + 4, kPanel, "panel");
+    text(line, height / 2 - line / 2, words, kAmber, 2, "paused", width - 2 * line);
+  }
   if (!session_line_.empty()) {
     const int h = line_count(session_line_, width - 2 * line, 2, line) * (2 * line);
     fill(0, height / 2 - line, width, h + 4, kPanel, "panel");

@@ -332,6 +332,38 @@
     const whole = Math.max(0, Math.floor(s));
     return whole >= 60 ? `${Math.floor(whole / 60)} min ${whole % 60} s` : `${whole} s`;
   };
+  // The instructor's hand on a running training session (an exam is only watched, or aborted):
+  // pause and resume, a line of text for the pupil's display, and a rewind to try again.
+  let pausedNow = false;
+  function instructorControls(s, state) {
+    const box = document.getElementById('instructor');
+    box.hidden = !(s.state === 'running' && s.mode === 'training' && state);
+    pausedNow = !!(state && state.paused);
+    const b = document.getElementById('pause');
+    b.textContent = pausedNow ? 'Resume the session' : 'Pause the session';
+    b.setAttribute('aria-pressed', pausedNow ? 'true' : 'false');
+  }
+  async function instruct(body, done) {
+    try {
+      await api('POST', `/sessions/${encodeURIComponent(id)}/instructor`, body);
+      say(message, done, 'status');
+      if (shown) await live(shown);
+      return true;
+    } catch (e) { say(message, describeError(e)); return false; }
+  }
+  document.getElementById('pause').addEventListener('click', () =>
+    instruct({ action: pausedNow ? 'resume' : 'pause' }, pausedNow ? 'The session runs again.' : 'The session is paused: the truck and its clock wait.'));
+  document.getElementById('rewind').addEventListener('click', () => {
+    const seconds = Number(document.getElementById('rewind-s').value);
+    instruct({ action: 'rewind', seconds }, `The session goes back at least ${seconds} s: the faults since stay on the record and leave the mark.`);
+  });
+  document.getElementById('say-form').addEventListener('submit', (ev) => {
+    ev.preventDefault();
+    const input = document.getElementById('say-text');
+    const text = input.value.trim();
+    if (!text) return;
+    instruct({ action: 'message', text }, 'The message is on the pupil\'s display.').then((sent) => { if (sent) input.value = ''; });
+  });
   async function live(s) {
     const box = document.getElementById('live');
     const running = isStaff(me) && (s.state === 'waiting' || s.state === 'running');
@@ -355,9 +387,12 @@
         fact(dl, 'Load', v.state.load_attached ? `${num(v.state.load_mass_kg, 0)} kg` : 'none');
         fact(dl, 'Stability', pct(v.state.stability_margin));
         if (v.state.deadman) fact(dl, 'Dead man', badge('failed', 'cab silent: truck stopped'));
+        if (v.state.paused) fact(dl, 'Paused', el('span', { id: 'live-paused' }, badge('waiting', 'paused by the instructor')));
+        if (v.state.instructor_message) fact(dl, 'The cab shows', el('span', { id: 'live-said' }, v.state.instructor_message));
       } else {
         fact(dl, 'Truck', 'waiting for the cab');
       }
+      instructorControls(s, v.state);
       if (!v.frame_available && !liveUrl) fact(dl, 'View', el('span', { class: 'muted' }, 'no frames from this cab\'s worker'));
       if (v.frame_available) {
         const blob = await api('GET', `/sessions/${encodeURIComponent(s.id)}/live/frame.jpg`);

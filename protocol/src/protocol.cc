@@ -12,6 +12,7 @@ namespace forklift::dds {
 std::string cab_partition(const std::string& cab_id) { return "cab." + cab_id; }
 std::string worker_partition(const std::string& cab_id) { return "worker." + cab_id; }
 std::string host_partition(const std::string& host_id) { return "host." + host_id; }
+std::string instructor_partition(const std::string& cab_id) { return "instructor." + cab_id; }
 
 bool valid_utf8(std::string_view text) {
   const auto* p = reinterpret_cast<const unsigned char*>(text.data());
@@ -182,6 +183,13 @@ dds_qos_t* make_qos(QosKind kind, const std::string& partition) {
     case QosKind::kRequest:
       dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
       dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 4);
+      break;
+    case QosKind::kInstructor:
+      // Transient local: a server's writer made on the first action, before discovery has matched
+      // the worker's reader, still reaches it; the worker acts on a session's samples once each.
+      dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+      dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 16);
+      dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
       break;
     case QosKind::kLatestDurable:
       dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));

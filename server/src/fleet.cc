@@ -4,6 +4,9 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <chrono>
+
 namespace forklift::server {
 
 void FleetState::refuse(RefusalCounter counter, const std::string& what) {
@@ -52,6 +55,38 @@ std::vector<WorkerInfo> Fleet::workers() {
 bool Fleet::cab_busy(const std::string& cab) {
   std::lock_guard<std::mutex> lock(state_.mu);
   return !state_.session_on(cab).empty();
+}
+
+std::optional<std::string> Fleet::instruct(const std::string& session, const Instruction& what, const std::string& by) {
+  std::lock_guard<std::mutex> lock(state_.mu);
+  const auto w = state_.workers.find(session);
+  if (w == state_.workers.end()) return "session " + session + " has no running worker";
+  if (w->second.seen_state && what.action == InstructorAction::kPause && w->second.last.paused)
+    return "session " + session + " is paused already";
+  if (w->second.seen_state && what.action == InstructorAction::kResume && !w->second.last.paused)
+    return "session " + session + " is not paused";
+  auto& writer = instructor_writers_[w->second.cab];
+  try {
+    if (!writer) writer = std::make_unique<dds::Writer<fk_InstructorAction>>(*participant_, dds::instructor_partition(w->second.cab));
+  } catch (const std::runtime_error& e) {
+    // An identity issued before the instructor's partition existed may not write there.
+    spdlog::error("the instructor's action for session {} cannot be written: {}", session, e.what());
+    return "this server's DDS identity may not write the instructor's actions: re-issue it with scripts/forklift-pki.sh";
+  }
+  // The wall clock's milliseconds, and never the same twice: a server restarted mid-session goes on
+  // above the numbers it gave before, which its worker has taken.
+  const auto now_ms = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+  instructor_seq_ = std::max(instructor_seq_ + 1, uint64_t(now_ms));
+  fk_InstructorAction a{};
+  dds::set_string(a.session_id, session);
+  dds::set_string(a.cab_id, w->second.cab);
+  a.seq = instructor_seq_;
+  dds::set_string(a.action, name(what.action));
+  dds::set_string(a.text, what.text);
+  a.seconds = what.seconds;
+  dds::set_string(a.by, by);
+  if (!writer->write(a)) return "the action could not be sent to the worker of session " + session;
+  return std::nullopt;
 }
 
 RefusedSamples Fleet::refused() {

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <atomic>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -21,6 +22,7 @@
 #include "session_recorder.h"
 #include "worker_supervisor.h"
 #include "forklift/protocol/protocol.h"
+#include "forklift/session/session_log.h"
 #include "forklift/store/store.h"
 
 namespace forklift::server {
@@ -41,6 +43,11 @@ class Fleet : private GateWorld {
   // The instructor's abort: SIGUSR1 to the session's worker, which ends the session with reason
   // "aborted" (SIGTERM, the server stopping, ends it as "signal"); false if it has no worker here.
   bool abort(const std::string& session) { return supervisor_.abort(session); }
+  // The instructor's pause, resume, message or rewind, written to the session's worker (here or on a host)
+  // in its cab's instructor partition, `by` the instructor's username; the worker acts on it at
+  // its next tick. Why it cannot go (no running worker here; paused already, or not paused, as the
+  // worker's newest state says), or nullopt once it is written.
+  std::optional<std::string> instruct(const std::string& session, const Instruction& what, const std::string& by);
 
   std::vector<WorkerInfo> workers();
   std::vector<HostInfo> hosts() { return placement_.hosts(); }  // the worker hosts heard from, alive or not
@@ -88,6 +95,10 @@ class Fleet : private GateWorld {
                                }};
   HostPlacement placement_{state_, *participant_, supervisor_};
   SampleGate gate_{*this};  // ingest thread
+  // The instructor's writers, one per cab (made on the first action; the topic keeps a few
+  // samples for a worker that matches late), and the last sequence number given, under state_.mu.
+  std::map<std::string, std::unique_ptr<dds::Writer<fk_InstructorAction>>> instructor_writers_;
+  uint64_t instructor_seq_ = 0;
   std::atomic<bool> stop_{false};
   std::thread supervisor_thread_, ingest_thread_;
 };

@@ -17,6 +17,8 @@
 #include "forklift/server/logs.h"
 #include "forklift/protocol/aids.h"
 #include "forklift/scene/scene.h"
+#include "forklift/scene/scenario.h"
+#include "forklift/session/session_log.h"
 
 namespace forklift::server {
 
@@ -260,6 +262,69 @@ void session_routes(Routes& svr, Context& ctx) {
     send_json(res, 200, session_json(*ctx.db().get_session(s.public_id)));
   }));
 
+  // The instructor's hand on a live training session: pause, resume, a message to the pupil's cab,
+  // a rewind ("try that again": back to a state the worker kept at least that many seconds back).
+  // Staff only; an exam takes none (only its abort): it runs as the examinee drives it.
+  svr.Post(R"(/api/sessions/(s-\d+)/instructor)", guarded([&](const httplib::Request& req, httplib::Response& res) {
+    const Principal p = authenticate(ctx, req);
+    require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
+    const store::Session s = session_for(ctx, req, p);
+    const json b = body_json(req);
+    const std::string word = field<std::string>(b, "action");
+    const auto action = parse<InstructorAction>(word);
+    if (!action) throw ApiError(400, "bad_request", "'action' must be pause, resume, message, rewind or hazard");
+    Instruction what{*action, ""};
+    if (*action == InstructorAction::kRewind) {
+      what.seconds = field<double>(b, "seconds");
+      if (!(what.seconds > 0 && what.seconds <= kInstructorRewindMaxS))
+        throw ApiError(400, "bad_request", "'seconds' must be more than 0 and at most " + std::to_string(int(kInstructorRewindMaxS)));
+    } else if (b.contains("seconds")) {
+      throw ApiError(400, "bad_request", "'seconds' goes with a rewind only");
+    }
+    if (*action == InstructorAction::kMessage) {
+      what.text = field<std::string>(b, "text");  // UTF-8: the JSON parser refuses anything else
+      const size_t max_chars = load_session_settings(ctx.data_dir).instructor_message_max_chars;
+      if (const auto problem = instructor_message_problem(what.text, max_chars)) throw ApiError(400, "bad_request", "'text': " + *problem);
+    } else if (b.contains("text")) {
+      throw ApiError(400, "bad_request", "'text' goes with a message only");
+    }
+    if (*action == InstructorAction::kHazard) {
+      // One of the pedestrians of the scenario as this session runs it.
+      what.text = field<std::string>(b, "pedestrian");
+      const auto scenario = ctx.db().get_session_log(s.public_id, "scenario");
+      const json run = scenario ? json::parse(*scenario, nullptr, false) : json();
+      std::string ids;
+      bool known = false;
+      if (run.is_object() && run.contains("pedestrians") && run["pedestrians"].is_array())
+        for (const json& person : run["pedestrians"])
+          if (person.is_object() && person.contains("id") && person["id"].is_string()) {
+            known = known || person["id"] == what.text;
+            ids += (ids.empty() ? "" : ", ") + person["id"].get<std::string>();
+          }
+      if (!known)
+        throw ApiError(400, "bad_request", "'pedestrian': scenario " + s.scenario + (ids.empty() ? " has no pedestrian" : " has " + ids + ", not '" + what.text + "'"));
+    } else if (b.contains("pedestrian")) {
+      throw ApiError(400, "bad_request", "'pedestrian' goes with a hazard only");
+    }
+    if (s.mode == Mode::kExam)
+      throw ApiError(409, "exam", "session " + s.public_id + " is an exam: it runs as the examinee drives it, and may only be aborted");
+    if (s.state != SessionPhase::kRunning)
+      throw ApiError(409, "not_running", "session " + s.public_id + " is " + name(s.state) + ", not running");
+    if (const auto problem = ctx.fleet->instruct(s.public_id, what, p.username)) throw ApiError(409, "not_running", *problem);
+    const char* audited = *action == InstructorAction::kPause    ? "session_paused"
+                          : *action == InstructorAction::kResume ? "session_resumed"
+                          : *action == InstructorAction::kRewind ? "session_rewound"
+                          : *action == InstructorAction::kHazard ? "hazard_started"
+                                                                 : "instructor_message_sent";
+    json details = {{"session", s.public_id}};
+    if (!what.text.empty()) details[*action == InstructorAction::kHazard ? "pedestrian" : "text"] = what.text;
+    if (*action == InstructorAction::kRewind) details["seconds"] = what.seconds;
+    ctx.db().batch([&] { audit(ctx.db(), p, s.pupil_id, audited, details); });
+    json sent = {{"session", s.public_id}, {"action", word}, {"text", what.text}};
+    if (*action == InstructorAction::kRewind) sent["seconds"] = what.seconds;
+    send_json(res, 200, sent);
+  }));
+
   // Live follow (the remote examiner): the newest truck state, and whether a frame is there to
   // fetch from /live/frame.jpg. Asking keeps the server subscribed to the cab's frames.
   svr.Get(R"(/api/sessions/(s-\d+)/live)", guarded([&](const httplib::Request& req, httplib::Response& res) {
@@ -271,6 +336,7 @@ void session_routes(Routes& svr, Context& ctx) {
                {"speed_m_s", t.speed_m_s}, {"lift_m", t.lift_m}, {"tilt_deg", t.tilt_rad * 180 / M_PI},
                {"load_attached", t.load_attached}, {"load_mass_kg", t.load_mass_kg}, {"stability_margin", t.stability_margin},
                {"deadman", t.deadman}, {"applied_control_sequence", t.applied_control_sequence},
+               {"paused", t.paused}, {"instructor_message", dds::valid_utf8(t.instructor_message) ? std::string(t.instructor_message) : ""},
                // what the pupil is at: the steps of the task done, and the current one in words
                {"task", {{"steps_done", t.task_steps_done}, {"steps_total", t.task_steps_total}, {"step", std::string(t.task_step)}}},
                {"time_left_s", t.time_left_s < 0 ? json(nullptr) : json(t.time_left_s)}};

@@ -86,6 +86,11 @@ bool ControlIntake::take_scheduled(int64_t tick) {
   return true;
 }
 
+void ControlIntake::rewound() {
+  scheduled_.clear();
+  last_scheduled_tick_ = -1;
+}
+
 void ControlIntake::forget() {
   pending_.reset();
   scheduled_.clear();

@@ -66,6 +66,9 @@ class ControlIntake {
   // The dead man stopped the truck: a silent cab's sample, its rows sent ahead and its wish for
   // frames are forgotten.
   void forget();
+  // The session went back in time (the instructor's rewind): the rows a scripted cab sent ahead
+  // were for the time before it, and are dropped.
+  void rewound();
 
   const std::optional<ViewRequest>& view_request() const { return view_; }
   // The tally of the cab's samples (the log's "controls" line and the worker's summary).

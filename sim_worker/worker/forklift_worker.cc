@@ -20,10 +20,12 @@
 #include "control_intake.h"
 #include "forklift/protocol/aids.h"
 #include "forklift/protocol/protocol.h"
+#include "forklift/scene/scenario.h"
 #include "forklift/security/evidence.h"
 #include "forklift/session/controls.h"
 #include "forklift/session/session_run.h"
 #include "frame_publisher.h"
+#include "instructor_intake.h"
 #include "realtime.h"
 #include "truck_state.h"
 
@@ -70,6 +72,13 @@ nlohmann::json score_json(const Score& score) {
   return {{"mark", score.mark}, {"passed", score.passed}, {"points", score.points}, {"counts", score.counts},
           {"automatic_failures", score.automatic_failures}, {"task_completed", score.task_completed},
           {"end_reason", score.end_reason}, {"mode", score.mode}};
+}
+
+// A number exactly, as the session log writes it (a hex float): for a test to compare bit for bit.
+std::string exact(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%a", v);
+  return buf;
 }
 
 // A number as a person reads it: `digits` decimals, never a hex float.
@@ -312,6 +321,18 @@ int main(int argc, char** argv) {
     // Only now, with the session built, does the cab's writer match: a sample sent on that
     // match is read, not overwritten while the scene loads.
     dds::Reader<fk_Controls> controls(*participant, dds::cab_partition(cab));
+    // The instructor's actions, from the server (under DDS Security no one else may write there).
+    // An exam takes none, so it reads none. An identity issued before the instructor's partition
+    // existed may not read it: the session runs without the instructor's hand, and says why.
+    std::unique_ptr<dds::Reader<fk_InstructorAction>> instructor_reader;
+    if (model.mode == Mode::kTraining) {
+      try {
+        instructor_reader = std::make_unique<dds::Reader<fk_InstructorAction>>(*participant, dds::instructor_partition(cab));
+      } catch (const std::runtime_error& e) {
+        log_line(cab, std::string("the instructor cannot pause, message or rewind this session: ") + e.what() +
+                          " (re-issue this worker's identity with scripts/forklift-pki.sh, whose permissions now let it read them)");
+      }
+    }
     dds::WaitSet waitset(*participant);
     waitset.attach_reader(controls.handle());
 
@@ -336,11 +357,18 @@ int main(int argc, char** argv) {
     auto publish_event = [&](const char* kind, int worry, const std::string& details) {
       publish_at(kind, worry, run.state().x[kX], run.state().x[kY], details);
     };
+    // The instructor's message on the cab's display, for its time on the wall clock (a paused
+    // session shows it too).
+    std::string message;
+    Clock::time_point message_until{};
     long states_published = 0;
     std::vector<fk_PalletPose> motion_pallets;
     std::vector<fk_PedestrianPose> motion_people;
     auto publish_state = [&] {
-      state_writer.write(truck_state(run, cab, session, time_limit_s, frames.aids));
+      fk_TruckState s = truck_state(run, cab, session, time_limit_s, frames.aids);
+      s.paused = run.paused();
+      if (!message.empty() && Clock::now() < message_until) dds::set_string(s.instructor_message, message);
+      state_writer.write(s);
       // What moves, for a cab that draws its own picture: sent only while one listens.
       if (motion_writer.matched() > 0) motion_writer.write(scene_motion(run.state(), cab, motion_pallets, motion_people));
       ++states_published;
@@ -348,6 +376,11 @@ int main(int argc, char** argv) {
 
     auto say = [&](const std::string& text) { log_line(cab, text); };
     ControlIntake intake(cab, model.truck, model.tick_s, deadman_s, say);
+    const SessionSettings settings = load_session_settings(FORKLIFT_DATA_DIR);
+    InstructorIntake instructor(cab, session, model.mode, settings.instructor_message_max_chars, say);
+    // Rewind points, for the instructor's "try that again" (training only: an exam takes none).
+    if (model.mode == Mode::kTraining)
+      run.keep_rewind_points(std::llround(settings.instructor_rewind_every_s / model.tick_s), settings.instructor_rewind_points);
     auto take_controls = [&] {
       controls.take_each([&](const fk_Controls& c) {
         intake.offer(c.cab_id, control_sample(c, model.truck), run.state().tick, run.state().t_s, Clock::now());
@@ -373,6 +406,9 @@ int main(int argc, char** argv) {
       }
     }
     publish_status(SessionPhase::kRunning, 0, "");
+    // Only now: an action kept for the session wakes the running loop, which takes it, and no
+    // action sent while waiting keeps the wait above from sleeping.
+    if (instructor_reader) waitset.attach_reader(instructor_reader->handle());
     log_line(cab, "session " + session + " running");
     FramePublisher frame_publisher(model, *participant, cab, frames, say);
     auto ask_frames = [&] { frame_publisher.ask(FramePublisher::request_of(intake.view_request())); };
@@ -383,14 +419,79 @@ int main(int argc, char** argv) {
     const std::string realtime_refused = realtime ? worker::enter_realtime() : "not asked";
     if (realtime && !realtime_refused.empty()) log_line(cab, realtime_refused + "; the tick runs at normal priority");
 
-    long deadman_count = 0;
+    long deadman_count = 0, pauses = 0, rewinds = 0, hazards = 0;
     StatePacer pacer(rate);
     // Sim time 0 on the clock DDS stamps samples with (CLOCK_REALTIME), read just before the
     // loop's own clock starts: a reader can tell how far behind the wall clock each state was
     // written (forklift-bench-dds's tick lag), never less than it was.
     const int64_t start_wall_ns =
         std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
-    const Clock::time_point start = Clock::now();
+    Clock::time_point start = Clock::now();  // sim time 0 on the wall clock; a pause moves it on by its length
+    Clock::time_point paused_at{}, paused_state_at{};
+    // The instructor's actions taken at the current tick: a pause stops the clock here, a resume
+    // starts it again with the wall clock's origin moved on by the pause.
+    auto take_instructions = [&] {
+      if (!instructor_reader) return;
+      instructor_reader->take_each([&](const fk_InstructorAction& a) {
+        auto what = instructor.offer(a, run.paused());
+        if (!what) return;
+        const std::string who = dds::valid_utf8(a.by) && a.by[0] ? std::string(a.by) : "the instructor";
+        const std::string at = " at t = " + num(run.state().t_s, 3) + " s";
+        if (what->action == InstructorAction::kRewind) {
+          const auto point = run.rewind_point(what->seconds);
+          if (!point) {
+            const double oldest_s = run.rewind_points().empty() ? 0 : run.rewind_points().begin()->first * model.tick_s;
+            instructor.refuse(a.seq, "no point is kept " + num(what->seconds) + " s back (the oldest is at t = " + num(oldest_s) + " s)");
+            return;
+          }
+          what->to_tick = *point;
+          const double from_s = run.state().t_s;
+          run.instruct(*what);
+          // The wall clock's origin moves on by the time gone back; the rows a script sent ahead
+          // and the state periods are for the time before; the picture shows the point at once.
+          const double to_s = run.state().t_s;
+          start += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(from_s - to_s));
+          intake.rewound();
+          pacer.restart(to_s);
+          frame_publisher.offer(run.state());
+          ++rewinds;
+          const StateVector& x = run.state().x;
+          publish_event(kRewoundEvent, 0,
+                        nlohmann::json{{"from_s", from_s}, {"to_s", to_s}, {"asked_s", what->seconds},
+                                       {"description", "the instructor took the session back to try again: the faults found "
+                                                       "after " + num(to_s) + " s stay on the record, and are not in the mark"},
+                                       {"state", {{"x_m", exact(x[kX])}, {"y_m", exact(x[kY])}, {"yaw_rad", exact(x[kAwc])}}}}
+                            .dump());
+          log_line(cab, who + " took the session back" + at + " to t = " + num(to_s, 3) + " s");
+          return;  // its state goes out after the next tick: the figures are the step's
+        }
+        if (what->action == InstructorAction::kHazard) {
+          if (const auto problem = run.hazard_problem(what->text)) {
+            instructor.refuse(a.seq, *problem);
+            return;
+          }
+          run.instruct(*what);
+          ++hazards;
+          log_line(cab, who + " set pedestrian " + what->text + " walking" + at);
+          return;
+        }
+        run.instruct(*what);
+        if (what->action == InstructorAction::kPause) {
+          paused_at = Clock::now();
+          ++pauses;
+          log_line(cab, who + " paused the session" + at);
+        } else if (what->action == InstructorAction::kResume) {
+          start += Clock::now() - paused_at;
+          log_line(cab, who + " resumed the session" + at);
+        } else {
+          message = what->text;
+          message_until = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                              std::chrono::duration<double>(settings.instructor_message_shown_s));
+          log_line(cab, who + " sent the pupil a message" + at);
+        }
+        publish_state();  // the cab shows it at once
+      });
+    };
 
     // Take inputs: once per physics tick, at its start: the dead man, then the newest good sample
     // (SessionRun::apply logs at most one input per tick). `changed`: the truck's inputs changed.
@@ -435,6 +536,7 @@ int main(int argc, char** argv) {
     double wake_at_s = 0;  // wall time, from `start`, the loop meant to wake at
     while (!g_stop && !end_reason) {
       take_controls();
+      take_instructions();
       const SessionState& state = run.state();
       // The cab is gone (the pupil closed it, or its link failed), not merely quiet: the dead man
       // has long stopped the truck; the session ends rather than wait for ever.
@@ -443,6 +545,16 @@ int main(int argc, char** argv) {
                           std::to_string(start_timeout) + " s: the cab is gone, ending the session");
         end_reason = EndReason::kCabGone;
         break;
+      }
+      if (run.paused()) {
+        // No tick: the truck, its time, the dead man and the time limit wait. The cab's newest
+        // sample is applied when the clock runs again; the cab sees the state at the state rate.
+        if (Clock::now() - paused_state_at >= std::chrono::duration<double>(1.0 / rate)) {
+          publish_state();
+          paused_state_at = Clock::now();
+        }
+        waitset.wait(1.0 / rate);
+        continue;
       }
       const double wall = std::chrono::duration<double>(Clock::now() - start).count();
       if (wall - std::max(wake_at_s, state.t_s) > max_lag_s) {
@@ -538,6 +650,7 @@ int main(int argc, char** argv) {
                               {"skipped", sequence.skipped}, {"restarts", sequence.restarts}}},
         {"states", states_published},
         {"deadman_stops", deadman_count}, {"integrator_steps", run.workspace().integrator_stats().steps},
+        {"instructor", {{"taken", instructor.taken()}, {"refused", instructor.refused()}, {"pauses", pauses}, {"rewinds", rewinds}, {"hazards", hazards}}},
         {"max_lag_ms", max_lag_s * 1e3}, {"max_lag_at_s", max_lag_at_s}, {"late_states", late_states},
         {"start_wall_ns", start_wall_ns},
         {"realtime", realtime_refused.empty()},
@@ -554,7 +667,8 @@ int main(int argc, char** argv) {
                 << intake.rejected_cab() << " for another cab, " << sequence.duplicate << " repeated, " << sequence.old
                 << " older than the last\n"
                 << "states sent: " << states_published << " (" << late_states << " late); frames: " << frame_publisher.frames()
-                << "; dead-man stops: " << deadman_count << "; furthest behind the wall clock: " << num(max_lag_s * 1e3)
+                << "; dead-man stops: " << deadman_count << "; the instructor's actions: " << instructor.taken() << " taken ("
+                << pauses << " pauses, " << rewinds << " rewinds, " << hazards << " hazards), " << instructor.refused() << " refused; furthest behind the wall clock: " << num(max_lag_s * 1e3)
                 << " ms at " << num(max_lag_at_s) << " s\n"
                 << "the tick ran at "
                 << (realtime_refused.empty() ? std::string("real-time priority")

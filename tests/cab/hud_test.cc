@@ -110,6 +110,29 @@ TEST(Hud, TheSessionsEndIsSaidInWordsAndAnAbortNamesTheInstructor) {
   EXPECT_EQ(end_words("ended", "cab_gone"), "Session over: this cab sent no controls for too long");
 }
 
+// The instructor's hand, as the worker's state carries it: a paused session is said across the
+// middle, a message above it while the state holds it; text that is not UTF-8 is not shown.
+TEST(Hud, APausedSessionAndTheInstructorsMessageAreSaid) {
+  Hud hud = make_hud();
+  hud.on_status("running", "", 0);
+  fk_TruckState s = moving();
+  s.paused = true;
+  dds::set_string(s.instructor_message, "Look over your shoulder");
+  hud.on_state(s);
+  auto items = hud.draw_list(960, 720, 5);
+  ASSERT_TRUE(find(items, "paused"));
+  EXPECT_EQ(find(items, "paused")->text, "Paused by your instructor: the truck waits, and so does the clock");
+  ASSERT_TRUE(find(items, "instructor_message"));
+  EXPECT_EQ(find(items, "instructor_message")->text, "Your instructor: Look over your shoulder");
+  EXPECT_LT(find(items, "instructor_message")->y, find(items, "paused")->y) << "the message above the pause";
+  s.paused = false;
+  dds::set_string(s.instructor_message, "\xff\xfe");
+  hud.on_state(s);
+  items = hud.draw_list(960, 720, 6);
+  EXPECT_FALSE(find(items, "paused"));
+  EXPECT_FALSE(find(items, "instructor_message"));
+}
+
 TEST(Hud, AnAidTheSessionDoesNotAllowIsSaidToBeNotAllowed) {
   Hud hud = make_hud();
   fk_TruckState s = moving();

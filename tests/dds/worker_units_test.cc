@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "control_intake.h"
+#include "instructor_intake.h"
 #include "forklift/session/session_run.h"
 #include "truck_state.h"
 
@@ -194,3 +195,55 @@ TEST(TruckState, TellsTheHudWhatTheRunHolds) {
 }
 
 }  // namespace
+
+namespace {
+
+fk_InstructorAction instructor_action(const std::string& session, uint64_t seq, const std::string& action, const std::string& text = "",
+                                      const std::string& cab = "c1") {
+  fk_InstructorAction a{};
+  dds::set_string(a.session_id, session);
+  dds::set_string(a.cab_id, cab);
+  a.seq = seq;
+  dds::set_string(a.action, action);
+  dds::set_string(a.text, text);
+  dds::set_string(a.by, "ivan");
+  return a;
+}
+
+}  // namespace
+
+// The instructor's actions as the worker takes them: once each and in order, for its own session
+// and cab; a pause only while running, a resume only while paused, a message the cab can show;
+// another session's passed over; nothing at all in an exam.
+TEST(InstructorIntakeTest, TakesEachGoodActionOnceAndRefusesTheRest) {
+  std::vector<std::string> said;
+  InstructorIntake in("c1", "s-1", Mode::kTraining, 20, [&](const std::string& s) { said.push_back(s); });
+  EXPECT_FALSE(in.offer(instructor_action("s-0", 5, "pause"), false)) << "an earlier session's, kept by the topic";
+  EXPECT_EQ(in.other_sessions(), 1);
+  const auto pause = in.offer(instructor_action("s-1", 10, "pause"), false);
+  ASSERT_TRUE(pause);
+  EXPECT_EQ(pause->action, InstructorAction::kPause);
+  EXPECT_FALSE(in.offer(instructor_action("s-1", 10, "resume"), true)) << "not newer";
+  EXPECT_FALSE(in.offer(instructor_action("s-1", 11, "pause"), true)) << "paused already";
+  EXPECT_FALSE(in.offer(instructor_action("s-1", 12, "resume", "now"), true)) << "a resume takes no text";
+  EXPECT_FALSE(in.offer(instructor_action("s-1", 13, "rewind"), true));
+  EXPECT_FALSE(in.offer(instructor_action("s-1", 14, "message", "far too long a line for this display"), true));
+  EXPECT_FALSE(in.offer(instructor_action("s-1", 15, "message", "two\nlines"), true));
+  EXPECT_FALSE(in.offer(instructor_action("s-1", 16, "message", "\xff\xfe"), true)) << "not UTF-8";
+  EXPECT_FALSE(in.offer(instructor_action("s-1", 17, "message", "", "c2"), true)) << "another cab's";
+  const auto message = in.offer(instructor_action("s-1", 18, "message", "Look left"), true);
+  ASSERT_TRUE(message);
+  EXPECT_EQ(message->text, "Look left");
+  EXPECT_TRUE(in.offer(instructor_action("s-1", 19, "resume"), true));
+  EXPECT_FALSE(in.offer(instructor_action("s-1", 20, "resume"), false)) << "not paused";
+  EXPECT_EQ(in.taken(), 3);
+  EXPECT_EQ(in.refused(), 9);
+  ASSERT_EQ(said.size(), size_t(InstructorIntake::kRefusalsSaid)) << "the first few said, the rest counted";
+  EXPECT_NE(said[0].find("not newer"), std::string::npos) << said[0];
+
+  InstructorIntake exam("c1", "s-2", Mode::kExam, 120, [](const std::string&) {});
+  EXPECT_FALSE(exam.offer(instructor_action("s-2", 1, "pause"), false));
+  EXPECT_FALSE(exam.offer(instructor_action("s-2", 2, "message", "Good luck"), false));
+  EXPECT_EQ(exam.taken(), 0);
+  EXPECT_EQ(exam.refused(), 2);
+}

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -47,8 +48,10 @@ DriverInputs drive(const SessionModel& m, double accelerator, double steer) {
 // What happens to the live run at a tick.
 struct Act {
   int64_t tick;
-  enum { kSample, kSilence, kResume, kAbort } what;
+  enum { kSample, kSilence, kResume, kAbort, kPause, kUnpause, kMessage, kRewind } what;
   double accelerator = 0, steer = 0;
+  std::string text = "";  // kMessage's
+  double seconds = 0;     // kRewind's
 };
 
 // Drives a run as the worker does and ends it; returns the log's path.
@@ -58,6 +61,7 @@ std::string live(const std::string& name, const std::vector<Act>& acts, bool nan
   const std::string path = testing::TempDir() + "/session_run_" + name + ".ctl";
   auto log = std::make_unique<ControlLogWriter>(path, log_header(model, first, name, "cab1"));
   SessionRun run(model, std::move(first), std::move(log), {0, false});
+  run.keep_rewind_points(500, 4);  // every half second, the newest four
   uint32_t seq = 0;
   std::optional<EndReason> end;
   for (size_t next = 0; !end;) {
@@ -68,8 +72,28 @@ std::string live(const std::string& name, const std::vector<Act>& acts, bool nan
       if (a.what == Act::kSilence) run.deadman();
       if (a.what == Act::kResume) run.resume();
       if (a.what == Act::kAbort) end = EndReason::kAborted;
+      if (a.what == Act::kPause) run.instruct({InstructorAction::kPause, ""});
+      if (a.what == Act::kUnpause) run.instruct({InstructorAction::kResume, ""});
+      if (a.what == Act::kMessage) run.instruct({InstructorAction::kMessage, a.text});
+      if (a.what == Act::kRewind) {
+        const auto point = run.rewind_point(a.seconds);
+        if (!point) {
+          ADD_FAILURE() << "no rewind point " << a.seconds << " s back from tick " << run.state().tick;
+          continue;
+        }
+        const SessionState kept = run.rewind_points().at(*point);
+        run.instruct({InstructorAction::kRewind, "", *point, a.seconds});
+        // The state after the rewind is the point's, bit for bit.
+        EXPECT_EQ(run.state().tick, kept.tick);
+        EXPECT_EQ(std::memcmp(run.state().x.data(), kept.x.data(), sizeof(double) * StateIndex::kSize), 0);
+        EXPECT_EQ(run.state().handling.pallets().size(), kept.handling.pallets().size());
+        EXPECT_EQ(run.state().evaluation.steps_done(), kept.evaluation.steps_done());
+        EXPECT_TRUE(run.rewind_points().rbegin()->first == *point) << "the abandoned attempt's points are dropped";
+      }
     }
     if (end) break;
+    // Paused, the worker steps no tick until the resume, which comes in the same tick here.
+    if (run.paused()) ADD_FAILURE() << "a tick stepped while paused at " << run.state().tick;
     if (next == acts.size() && nan_at_end) {
       DriverInputs broken = drive(model, 0.5, 0);
       broken.drive_torque_N_m = std::numeric_limits<double>::quiet_NaN();
@@ -240,3 +264,126 @@ INSTANTIATE_TEST_SUITE_P(Shipped, ShippedDriveTest, testing::ValuesIn(shipped_dr
                          });
 
 }  // namespace
+
+// The instructor's pause, message and resume, and an abort while paused: each on the log at its
+// tick, before that tick's input; the offline run from the log writes the same log byte for byte,
+// and the same inputs without the instructor give the same truck and mark (a pause holds the
+// session's clock, it does not change its physics).
+TEST(SessionRun, TheInstructorsPauseAndMessageAreLoggedAndReplayedByteForByte) {
+  const std::string said = "Slow down before the corner: brake gently, then steer \u00e9 \u2192 ok";
+  const std::vector<Act> driving = {{0, Act::kSample, 0.6, 0}, {500, Act::kSample, 0.2, 0.1}, {900, Act::kSample, 0.4, -0.1}};
+  std::vector<Act> acts = {driving[0],
+                           {500, Act::kPause},
+                           {500, Act::kMessage, 0, 0, said},
+                           driving[1],  // the cab's sample while paused: applied when the clock runs again
+                           {500, Act::kUnpause},
+                           driving[2],
+                           {1200, Act::kMessage, 0, 0, "Stop here"},
+                           {1200, Act::kPause},
+                           {1200, Act::kAbort}};
+  const std::string a = live("instructor", acts);
+  const ControlLog log = read_control_log(a);
+  ASSERT_EQ(log.instructions.size(), 5u);
+  EXPECT_EQ(log.instructions[0], (std::pair<int64_t, Instruction>{500, {InstructorAction::kPause, ""}}));
+  EXPECT_EQ(log.instructions[1], (std::pair<int64_t, Instruction>{500, {InstructorAction::kMessage, said}}));
+  EXPECT_EQ(log.instructions[2], (std::pair<int64_t, Instruction>{500, {InstructorAction::kResume, ""}}));
+  EXPECT_EQ(log.instructions[3], (std::pair<int64_t, Instruction>{1200, {InstructorAction::kMessage, "Stop here"}}));
+  EXPECT_EQ(log.instructions[4], (std::pair<int64_t, Instruction>{1200, {InstructorAction::kPause, ""}}));
+  const std::string text = text_of(a);
+  EXPECT_LT(text.find("instructor 500 resume\n"), text.find("i 500 ")) << "a tick's instructions before its input";
+  EXPECT_LT(text.find("instructor 1200 pause\n"), text.find("score ")) << "ended paused: the pause on record";
+  EXPECT_EQ(log.end_reason(), "aborted");
+
+  EXPECT_EQ(text_of(offline(a, "instructor")), text) << "the offline run's log, byte for byte";
+  const ReplayResult r = replay_session(log, kData);
+  EXPECT_EQ(r.final_state, *log.final_state);
+  EXPECT_EQ(r.score_line, *log.score_line);
+  EXPECT_EQ(r.event_lines, log.event_lines);
+
+  const ControlLog plain = read_control_log(live("no_instructor", {driving[0], driving[1], driving[2], {1200, Act::kAbort}}));
+  EXPECT_EQ(*plain.final_state, *log.final_state);
+  EXPECT_EQ(plain.score_line, log.score_line);
+  EXPECT_EQ(plain.event_lines, log.event_lines);
+}
+
+// A log's instructor lines are read as written, and a broken one is refused naming its line.
+TEST(SessionRun, ABrokenInstructorLineIsRefused) {
+  const std::string good = live("instructor_lines", {{0, Act::kSample, 0.3, 0}, {10, Act::kMessage, 0, 0, "two  spaces kept"}, {20, Act::kAbort}});
+  EXPECT_EQ(read_control_log(good).instructions.at(0).second.text, "two  spaces kept");
+  const std::string body = text_of(good);
+  for (const char* bad : {"instructor 10 jump\n", "instructor 10 pause now\n", "instructor 10 message\n",
+                                 "instructor 10 message \x01" "bell\n", "instructor 10 message \xc3\n"}) {
+    const std::string path = testing::TempDir() + "/session_run_bad_instructor.ctl";
+    std::ofstream(path, std::ios::binary) << body.substr(0, body.find("end ")) << bad << body.substr(body.find("end "));
+    EXPECT_THROW(read_control_log(path), std::runtime_error) << bad;
+  }
+}
+
+// "Try that again": the instructor takes the session back to a kept point (at least the seconds
+// asked), its state exactly the point's; the log records where it went, its ticks count again from
+// there, and the offline run from the log, which keeps the states its log goes back to, writes the
+// same log byte for byte, twice rewound, paused and all; a rewind to where nothing is kept is
+// refused with the tick named.
+TEST(SessionRun, ARewindGoesBackToAKeptPointAndTheLogReplaysItByteForByte) {
+  const std::vector<Act> acts = {{0, Act::kSample, 0.6, 0},
+                                 {1300, Act::kSample, 0.5, 0.3},
+                                 {2300, Act::kPause},
+                                 {2300, Act::kRewind, 0, 0, "", 0.6},  // back to 1500: the newest point at least 600 ticks back
+                                 {1500, Act::kSample, 0.2, -0.2},      // the pupil tries again, from the point's tick on
+                                 {1500, Act::kUnpause},
+                                 {2600, Act::kRewind, 0, 0, "", 0.2},  // back to 2000
+                                 {2400, Act::kSample, 0.3, 0},
+                                 {3000, Act::kAbort}};
+  const std::string a = live("rewind", acts);
+  const ControlLog log = read_control_log(a);
+  std::vector<std::pair<int64_t, int64_t>> rewinds;
+  for (const auto& [tick, what] : log.instructions)
+    if (what.action == InstructorAction::kRewind) rewinds.emplace_back(tick, what.to_tick);
+  EXPECT_EQ(rewinds, (std::vector<std::pair<int64_t, int64_t>>{{2300, 1500}, {2600, 2000}}));
+  EXPECT_EQ(*log.ticks, 3000);
+  ASSERT_GE(log.entries.size(), 4u);
+  EXPECT_EQ(log.entries.back().segment, 2) << "two rewinds before the last input";
+  const std::string text = text_of(a);
+  EXPECT_LT(text.find("instructor 2300 pause\n"), text.find("instructor 2300 rewind 1500\n"));
+
+  EXPECT_EQ(text_of(offline(a, "rewind")), text) << "the offline run's log, byte for byte";
+  const ReplayResult r = replay_session(log, kData);
+  EXPECT_EQ(r.final_state, *log.final_state);
+  EXPECT_EQ(r.score_line, *log.score_line);
+  EXPECT_EQ(r.event_lines, log.event_lines);
+
+  const SessionModel model = yard_model();
+  SessionRun run(model, initial_state(model));
+  run.keep_rewind_points(500, 2);
+  for (int i = 0; i < 1600; ++i) run.tick();
+  EXPECT_EQ(run.rewind_point(0.5), 1000);
+  EXPECT_EQ(run.rewind_point(1.0), std::nullopt) << "tick 0 has gone: the newest two are 1000 and 1500";
+  EXPECT_THROW(run.instruct({InstructorAction::kRewind, "", 700, 0}), std::runtime_error);
+}
+
+// "Hazard now": the instructor sets a scenario's pedestrian walking before his trigger would
+// (the truck stands 10 m from him, beyond his 8 m); he walks at his speed from then on, the log
+// says when and who, and the offline run from the log writes the same log byte for byte.
+TEST(SessionRun, AHazardSetsAScenariosPedestrianWalkingNowAndReplaysByteForByte) {
+  SessionSpec spec;
+  spec.scenario_file = kData + "/scenarios/pedestrian_awareness.json";
+  const SessionModel model = load_session_model(spec, kData);
+  const SessionState first = initial_state(model);
+  const std::string path = testing::TempDir() + "/session_run_hazard.ctl";
+  SessionRun run(model, first, std::make_unique<ControlLogWriter>(path, log_header(model, first, "hazard", "cab1")), {0, false});
+  EXPECT_NE(run.hazard_problem("W9"), std::nullopt) << "no such pedestrian";
+  for (int i = 0; i < 100; ++i) run.tick();
+  ASSERT_EQ(run.state().pedestrians.size(), 1u);
+  const Eigen::Vector2d at_start = run.state().pedestrians[0].at_m;
+  EXPECT_FALSE(run.state().pedestrians[0].started) << "beyond his trigger";
+  EXPECT_EQ(run.hazard_problem("W1"), std::nullopt);
+  run.instruct({InstructorAction::kHazard, "W1"});
+  EXPECT_NE(run.hazard_problem("W1"), std::nullopt) << "walking already";
+  for (int i = 0; i < 1000; ++i) run.tick();
+  EXPECT_NEAR((run.state().pedestrians[0].at_m - at_start).norm(), 1.2, 0.01) << "a second at his 1.2 m/s";
+  run.end(EndReason::kAborted);
+  const ControlLog log = read_control_log(path);
+  ASSERT_EQ(log.instructions.size(), 1u);
+  EXPECT_EQ(log.instructions[0], (std::pair<int64_t, Instruction>{100, {InstructorAction::kHazard, "W1"}}));
+  EXPECT_EQ(text_of(offline(path, "hazard")), text_of(path)) << "the offline run's log, byte for byte";
+}

@@ -40,6 +40,8 @@ TEST(Vocabulary, EveryNameParsesBackAndNothingElseParses) {
   round_trips({PaperOutcome::kMarked, PaperOutcome::kTimedOut});
   round_trips({HostState::kReady, HostState::kStopping});
   round_trips({WorkerAction::kStart, WorkerAction::kAbort, WorkerAction::kKill});
+  round_trips({InstructorAction::kPause, InstructorAction::kResume, InstructorAction::kMessage, InstructorAction::kRewind,
+               InstructorAction::kHazard});
   round_trips({WorkerReportState::kStarting, WorkerReportState::kRunning, WorkerReportState::kExited,
                WorkerReportState::kRefused});
 }
@@ -58,6 +60,16 @@ TEST(Vocabulary, TheNamesAreTheWireAndLogWords) {
   EXPECT_STREQ(name(WorkerAction::kAbort), "abort");
   EXPECT_STREQ(name(WorkerReportState::kExited), "exited");
   EXPECT_EQ(parse<EndReason>("parked"), std::nullopt);  // an evaluation's end word, not a session's end
+}
+
+// An instructor's message: one line of UTF-8 text the cab can show, counted in characters.
+TEST(Vocabulary, AnInstructorsMessageIsOneLineOfTextWithinItsLength) {
+  EXPECT_EQ(instructor_message_problem("Look left", 9), std::nullopt);
+  EXPECT_EQ(instructor_message_problem("\u00e9\u00e9\u2014\U0001F6A7", 4), std::nullopt) << "characters, not bytes";
+  EXPECT_NE(instructor_message_problem("Look left", 8), std::nullopt);
+  for (const char* bad : {"", " ", "  ", " lead", "trail ", "two\nlines", "a\ttab", "del\x7f", "c1 \xc2\x85 control",
+                          "\xc3", "\xc3(", "\xc0\xaf", "\xed\xa0\x80", "\xf4\x90\x80\x80", "\xff"})
+    EXPECT_NE(instructor_message_problem(bad, 100), std::nullopt) << bad;
 }
 
 TEST(Vocabulary, TerminalPhases) {

@@ -5,10 +5,12 @@
 // by the server's start-up and not counted by history or the certificate. Ports and DDS domains
 // come from tests/support/ports.h.
 #include <gtest/gtest.h>
+
 #include <signal.h>
 #include <sqlite3.h>
 
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <sstream>
 #include <thread>
@@ -436,7 +438,7 @@ TEST_F(RemoteExam, UnchainedExamIsCheckedAgainstItsSignedLogAtStart) {
   EXPECT_EQ(code2, 0) << out2;
 }
 
-TEST_F(RemoteExam, ExaminerAbortsARunningExam) {
+TEST_F(RemoteExam, ExaminerAbortsARunningExamAndMayNotPauseMessageOrRewindIt) {
   const int port = forklift::test::free_port(), domain = forklift::test::free_domain();
   Server s(port, domain, "remote-abort-" + std::to_string(port), secure());
   const Exam e = start_exam(s, 60);
@@ -446,11 +448,44 @@ TEST_F(RemoteExam, ExaminerAbortsARunningExam) {
     if (s.call("GET", "/api/sessions/" + e.id, e.examiner).second.value("state", "") == "running") break;
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
+  // An exam runs as the examinee drives it: no pause, message or rewind, only the abort.
+  for (const char* body : {R"({"action":"pause"})", R"({"action":"message","text":"Good luck"})", R"({"action":"rewind","seconds":5})"}) {
+    const auto [code, answer] = s.call("POST", "/api/sessions/" + e.id + "/instructor", e.examiner, body);
+    EXPECT_EQ(code, 409) << body << " -> " << answer;
+    EXPECT_EQ(answer["error"]["code"], "exam") << answer;
+  }
   auto [st, j] = s.call("POST", "/api/sessions/" + e.id + "/abort", e.examiner);
   ASSERT_EQ(st, 200) << j;
   EXPECT_EQ(j["state"], "aborted");
   EXPECT_NE(j["reason"].get<std::string>().find("examiner1"), std::string::npos) << j;
   EXPECT_EQ(c.wait(30), 0) << "the cab is told and stops: " << c.err();
+}
+
+// Under DDS Security the server's pause and message reach a training session's worker, which
+// believes them from the server's identity alone (the instructor partition's permissions): its
+// state, as the live view reads it, shows both.
+TEST_F(RemoteExam, UnderSecurityTheServersPauseAndMessageReachATrainingSessionsWorker) {
+  const int port = forklift::test::free_port(), domain = forklift::test::free_domain();
+  Server s(port, domain, "remote-pause-" + std::to_string(port), secure());
+  const std::string admin = s.login("admin", kAdminPassword);
+  auto [ps, p] = s.call("POST", "/api/pupils", admin, json{{"name", "Trained Pupil"}}.dump());
+  ASSERT_EQ(ps, 201) << p;
+  auto [st, sess] = s.call("POST", "/api/sessions", admin,
+                           json{{"pupil_id", p["id"]}, {"cab_id", "examcab"}, {"scenario", "counterbalance_exam"}}.dump());
+  ASSERT_EQ(st, 201) << sess;
+  const std::string id = sess["id"];
+  Process c = cab(domain, "pause-cab");
+  auto live_until = [&](const std::function<bool(const json&)>& done) { return s.live_until(admin, id, done); };
+  ASSERT_TRUE(live_until([](const json& t) { return t["sim_time_s"].get<double>() > 0.5; })) << c.err();
+  const std::string path = "/api/sessions/" + id + "/instructor";
+  ASSERT_EQ(s.call("POST", path, admin, R"({"action":"pause"})").first, 200);
+  EXPECT_TRUE(live_until([](const json& t) { return t["paused"] == true; }));
+  ASSERT_EQ(s.call("POST", path, admin, R"({"action":"message","text":"Secure and sound"})").first, 200);
+  EXPECT_TRUE(live_until([](const json& t) { return t["instructor_message"] == "Secure and sound"; }));
+  ASSERT_EQ(s.call("POST", path, admin, R"({"action":"resume"})").first, 200);
+  EXPECT_TRUE(live_until([](const json& t) { return t["paused"] == false; }));
+  EXPECT_EQ(s.call("POST", "/api/sessions/" + id + "/abort", admin).first, 200);
+  c.wait(30);
 }
 
 TEST_F(RemoteExam, ServerWithoutSecurityRefusesExamsButRunsTraining) {

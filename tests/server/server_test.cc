@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 #include <httplib.h>
 
+#include <atomic>
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <map>
@@ -18,6 +20,7 @@
 #include "support/ports.h"
 #include "support/process.h"
 #include "support/server.h"
+#include "support/speaking_cab.h"
 
 using nlohmann::json;
 using forklift_test::Server;
@@ -460,4 +463,90 @@ TEST(Server, AbortedAndTimedOutSessionsHaveNoMarkAndStayOutOfTheChartAndTheTrend
   }
   EXPECT_EQ(marked, 2) << csv->body;
   EXPECT_EQ(seen, 2) << csv->body;
+}
+
+// The instructor's hand on a running training session through the API: only staff, only a good
+// body, each action audited on the pupil's record and reaching the worker over DDS (its state, as
+// the live page reads it, shows the pause, the message and the time gone back); a pause while
+// paused is refused.
+TEST(Server, TheInstructorPausesMessagesRewindsAndResumesARunningSessionAndOnlyStaffMay) {
+  Server s("instruct");
+  const std::string admin = s.login("admin", kAdminPassword);
+  ASSERT_EQ(s.call("POST", "/api/users", admin, R"({"username":"ines","password":"ines-pass-1","role":"instructor"})").first, 201);
+  const json pupil = s.call("POST", "/api/pupils", admin, R"({"name":"Ana Pupil","username":"ana","password":"ana-pass-1"})").second;
+  const std::string ines = s.login("ines", "ines-pass-1"), ana = s.login("ana", "ana-pass-1");
+  auto [st, sess] = s.call("POST", "/api/sessions", admin,
+                           json{{"pupil_id", pupil["id"]}, {"cab_id", "inscab"}, {"scenario", "first_drive_yard"}}.dump());
+  ASSERT_EQ(st, 201) << sess;
+  const std::string id = sess["id"], path = "/api/sessions/" + id + "/instructor";
+
+  // Before it runs: refused as not running (the body is good).
+  EXPECT_EQ(error_code(s.call("POST", path, ines, R"({"action":"pause"})").second), "not_running");
+  // The cab: this test, speaking 50 times a second until the end.
+  forklift::dds::Participant p(forklift::dds::DomainSettings::resolve(s.domain, ""));
+  forklift_test::SpeakingCab cab(p, "inscab");
+  // Live, as the page polls it, until `done` says so (the bound only stops a test that would hang).
+  auto live_until = [&](const std::function<bool(const json&)>& done) { return s.live_until(ines, id, done); };
+  ASSERT_TRUE(live_until([](const json& t) { return t["sim_time_s"].get<double>() > 1.2; }));
+
+  // Who may: staff; a pupil, even on her own session, may not, nor anyone without a login.
+  EXPECT_EQ(s.call("POST", path, ana, R"({"action":"pause"})").first, 403);
+  EXPECT_EQ(s.call("POST", path, "", R"({"action":"pause"})").first, 401);
+  EXPECT_EQ(s.call("POST", "/api/sessions/s-999999/instructor", ines, R"({"action":"pause"})").first, 404);
+  // Bad bodies: 400 naming the field, and nothing reaches the worker.
+  const std::string long_text(121, 'a');
+  for (const std::string& bad : {std::string("not json"), std::string("{}"), std::string(R"({"action":"rewind"})"),
+                                 std::string(R"({"action":"message"})"), std::string(R"({"action":"message","text":""})"),
+                                 std::string(R"({"action":"message","text":"two\nlines"})"),
+                                 std::string(R"({"action":"message","text":" padded "})"),
+                                 std::string(R"({"action":"message","text":"bell\u0007"})"),
+                                 json{{"action", "message"}, {"text", long_text}}.dump(), std::string(R"({"action":"message","text":42})"),
+                                 std::string(R"({"action":"pause","text":"now"})"), std::string(R"({"action":"pause","by":"me"})"),
+                                 std::string(R"({"action":"rewind","seconds":0})"), std::string(R"({"action":"rewind","seconds":-2})"),
+                                 std::string(R"({"action":"rewind","seconds":4000})"), std::string(R"({"action":"rewind","seconds":"5"})"),
+                                 std::string(R"({"action":"pause","seconds":3})"), std::string(R"({"action":"hazard"})"),
+                                 std::string(R"({"action":"hazard","pedestrian":"W1"})"),  // the yard has nobody walking
+                                 std::string(R"({"action":"pause","pedestrian":"W1"})"),
+                                 std::string(R"(["pause"])")}) {
+    const auto [code, body] = s.call("POST", path, ines, bad);
+    EXPECT_EQ(code, 400) << bad << " -> " << body;
+    EXPECT_EQ(error_code(body), bad == "not json" ? "bad_json" : "bad_request") << bad;
+  }
+
+  // Pause: the worker's state says so, and a second pause is refused.
+  auto [pst, paused] = s.call("POST", path, ines, R"({"action":"pause"})");
+  ASSERT_EQ(pst, 200) << paused;
+  ASSERT_TRUE(live_until([](const json& t) { return t["paused"] == true; }));
+  EXPECT_EQ(s.call("POST", path, ines, R"({"action":"pause"})").first, 409);
+  // A message, non-ASCII and all: on the cab's display, as the live state shows.
+  const std::string said = "Look over your shoulder before reversing \u2014 every time";
+  EXPECT_EQ(s.call("POST", path, ines, json{{"action", "message"}, {"text", said}}.dump()).first, 200);
+  EXPECT_TRUE(live_until([&](const json& t) { return t["instructor_message"] == said; }));
+  // Try that again: paused, back at least a second, to a state the worker kept.
+  double paused_at_s = 0;
+  live_until([&](const json& t) { return (paused_at_s = t["sim_time_s"].get<double>()) > 0; });
+  EXPECT_EQ(s.call("POST", path, ines, R"({"action":"rewind","seconds":1})").first, 200);
+  EXPECT_TRUE(live_until([&](const json& t) { return t["sim_time_s"].get<double>() <= paused_at_s - 1; }));
+  EXPECT_EQ(s.call("POST", path, admin, R"({"action":"resume"})").first, 200);
+  EXPECT_TRUE(live_until([](const json& t) { return t["paused"] == false; }));
+  // The rewind is on the session's record, with from when to when.
+  bool rewound_event = false;
+  for (int i = 0; i < 500 && !rewound_event; ++i) {
+    const json record = s.call("GET", "/api/sessions/" + id, ines).second;
+    for (const json& e : record["events"]) rewound_event |= e["kind"] == "rewound";
+    if (!rewound_event) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  EXPECT_TRUE(rewound_event);
+
+  // Each on the pupil's record: who and what.
+  auto [ast, rows] = s.call("GET", "/api/pupils/" + std::to_string(pupil["id"].get<int64_t>()) + "/audit", ines);
+  ASSERT_EQ(ast, 200) << rows;
+  std::map<std::string, json> by_action;
+  for (const json& r : rows) by_action[r["action"]] = r;
+  EXPECT_EQ(by_action["session_paused"]["actor"], "ines");
+  EXPECT_EQ(by_action["session_paused"]["details"]["session"], id);
+  EXPECT_EQ(by_action["instructor_message_sent"]["details"]["text"], said);
+  EXPECT_EQ(by_action["session_resumed"]["actor"], "admin");
+  EXPECT_EQ(by_action["session_rewound"]["details"]["seconds"], 1);
+  EXPECT_EQ(s.call("POST", "/api/sessions/" + id + "/abort", admin).first, 200);
 }

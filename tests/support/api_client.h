@@ -6,6 +6,7 @@
 #include <httplib.h>
 
 #include <chrono>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
@@ -51,6 +52,17 @@ struct ApiClient {
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
     return s;
+  }
+  // Polls the session's live view (GET /api/sessions/{id}/live) until its truck state satisfies
+  // `done`; whether it did within `seconds` (a bound that only stops a test that would hang).
+  bool live_until(const std::string& token, const std::string& id, const std::function<bool(const json&)>& done,
+                  double seconds = 30) const {
+    for (int i = 0; i < seconds * 50; ++i) {
+      const auto [code, v] = call("GET", "/api/sessions/" + id + "/live", token);
+      if (code == 200 && v["state"].is_object() && done(v["state"])) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    return false;
   }
 };
 

@@ -25,6 +25,9 @@ inline Process start_worker(const std::string& bin, const std::string& prefix, i
   return Process(args, prefix + session + ".worker");
 }
 
+// A file in the test's temporary folder (the build tree's tests/tmp under ctest).
+inline std::string temp_file(const std::string& name) { return testing::TempDir() + "/" + name; }
+
 // The JSON summary a worker printed at its end; a test failure (and {}) when it printed none.
 inline nlohmann::json output_json(const Process& p) {
   const std::string out = p.out();

@@ -210,6 +210,36 @@ try {
     await shot('session-live');
   });
 
+  // The instructor's hand on the training drive, from its live page: pause it (the truck and its
+  // clock wait; the scripted cab's rows wait with it, as they follow the truck's time), put a line
+  // on the pupil's display, and resume. The exam's page offers none of it: an exam is only
+  // watched, or aborted.
+  await step('pause the training drive, message the pupil and resume it', async () => {
+    check(await page.isHidden('#instructor'), 'an exam offers no pause and no message');
+    await page.goto(`${base}/session.html?id=${sessionId}`);
+    await page.waitForSelector('#instructor', { state: 'visible' });
+    check(await page.getAttribute('#pause', 'aria-pressed') === 'false', 'the drive runs');
+    await page.click('#pause');
+    await page.waitForSelector('#live-paused');
+    check(await page.getAttribute('#pause', 'aria-pressed') === 'true' && /Resume/.test(await page.textContent('#pause')),
+          'the button now resumes');
+    const before = (await api('GET', `/sessions/${sessionId}/live`, adminToken)).state.sim_time_s;
+    await sleep(600);
+    const after = (await api('GET', `/sessions/${sessionId}/live`, adminToken)).state.sim_time_s;
+    check(before === after, `the truck's time stands while paused (${before} s, then ${after} s)`);
+    const said = 'Good so far: keep below the walkway limit';
+    await page.fill('#say-text', said);
+    await page.click('#say-form button[type="submit"]');
+    await page.waitForFunction((t) => { const s = document.getElementById('live-said'); return s && s.textContent === t; }, said);
+    await shot('session-paused');
+    await page.click('#pause');
+    await page.waitForFunction(() => document.getElementById('live-paused') === null
+                                     && document.getElementById('pause').getAttribute('aria-pressed') === 'false');
+    const audit = await api('GET', `/pupils/${pupilId}/audit`, adminToken);
+    for (const action of ['session_paused', 'instructor_message_sent', 'session_resumed'])
+      check(audit.some((r) => r.action === action && r.details.session === sessionId), `the pupil's record has ${action}`);
+  });
+
   await step('watch them run on the fleet page', async () => {
     await page.click('#top a[href="fleet.html"]');
     for (const id of [sessionId, examId]) {

@@ -7,6 +7,7 @@
 
 #include "forklift/dynamics/manoeuvre.h"
 #include "forklift/schema/data_file.h"
+#include "forklift/session/vocabulary.h"
 #include "forklift/units/decimals.h"
 
 namespace forklift {
@@ -66,6 +67,20 @@ SessionSettings load_session_settings(const std::string& data_dir) {
     if (!(s.tick_s >= 1e-4 && s.tick_s <= 0.01)) throw std::runtime_error("tick_s must be in [0.0001, 0.01] s");
     s.task_end_hold_s = j.at("task_end_hold_s").get<double>();
     if (!(s.task_end_hold_s >= 0 && s.task_end_hold_s <= 60)) throw std::runtime_error("task_end_hold_s must be in [0, 60] s");
+    const nlohmann::json& ins = j.at("instructor");
+    const int max_chars = ins.at("message_max_chars").get<int>();
+    if (max_chars < 1 || size_t(max_chars) > kInstructorMessageCharsCeiling)
+      throw std::runtime_error("instructor.message_max_chars must be in [1, " + std::to_string(kInstructorMessageCharsCeiling) + "]");
+    s.instructor_message_max_chars = size_t(max_chars);
+    s.instructor_message_shown_s = ins.at("message_shown_s").get<double>();
+    if (!(s.instructor_message_shown_s >= 1 && s.instructor_message_shown_s <= 120))
+      throw std::runtime_error("instructor.message_shown_s must be in [1, 120] s");
+    s.instructor_rewind_every_s = ins.at("rewind_point_every_s").get<double>();
+    if (!(s.instructor_rewind_every_s >= 0.1 && s.instructor_rewind_every_s <= 60))
+      throw std::runtime_error("instructor.rewind_point_every_s must be in [0.1, 60] s");
+    const int points = ins.at("rewind_points_kept").get<int>();
+    if (points < 1 || points > 1000) throw std::runtime_error("instructor.rewind_points_kept must be in [1, 1000]");
+    s.instructor_rewind_points = size_t(points);
     const nlohmann::json& l = j.at("load");
     s.load_mass_max_kg = l.at("mass_max_kg").get<double>();
     s.load_cog_height_max_m = l.at("cog_height_max_m").get<double>();

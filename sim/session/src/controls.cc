@@ -92,6 +92,12 @@ StatePacer::PeriodEnd StatePacer::period_ends(double t) {
   return end;
 }
 
+void StatePacer::restart(double t) {
+  period_end_s_ = (std::floor(t / period_s_ + 1e-9) + 1) * period_s_;
+  t_s_ = t;
+  sent_ = false;
+}
+
 bool StatePacer::early(double t) {
   refill(t);
   if (!sent_) return sent_ = true;  // the period's state, sent early

@@ -280,10 +280,20 @@ OfflineRun run_offline(const SessionModel& model, SessionState state, const std:
   OfflineRun run;
   run.end_reason = finish_reason;
   size_t next = 0;
+  // The instructor's rewinds: the run keeps the states they go back to, and runs on past end_tick
+  // until the last of them (the session may have been further on before it went back).
+  std::vector<int64_t> rewound_to;
+  size_t rewinds_end = 0;
+  for (size_t i = 0; i < changes.size(); ++i)
+    if (changes[i].instruction && changes[i].instruction->action == InstructorAction::kRewind) {
+      rewound_to.push_back(changes[i].instruction->to_tick);
+      rewinds_end = i + 1;
+    }
+  if (!rewound_to.empty()) session.keep_rewind_points_at(rewound_to);
   // A session whose integrator failed ended at the tick it could not step: that tick is tried
   // again, with its inputs, to the same failure.
   const int64_t last_tried = finish_reason == EndReason::kNumericalFailure ? end_tick + 1 : end_tick;
-  while (session.state().tick < last_tried) {
+  while (session.state().tick < last_tried || next < rewinds_end) {
     for (; next < changes.size() && changes[next].tick <= session.state().tick; ++next) feed(session, changes[next]);
     const SessionRun::Tick t = session.tick();
     if (t.end == EndReason::kNumericalFailure) {
@@ -300,6 +310,9 @@ OfflineRun run_offline(const SessionModel& model, SessionState state, const std:
       break;
     }
   }
+  // What the instructor did at the last tick (a session aborted while paused) is on its record.
+  for (; next < changes.size() && changes[next].tick <= session.state().tick; ++next)
+    if (changes[next].instruction) feed(session, changes[next]);
   if (finish_reason) {
     run.score = session.end(*run.end_reason);
     for (const SessionEvent& e : session.end_events()) run.events.emplace_back(session.state().tick, e);
@@ -324,7 +337,7 @@ std::vector<InputChange> script_changes(const std::string& path, const SessionMo
     const ControlSample c{uint32_t(i + 1), steer, r.accelerator, r.brake, r.lift, r.tilt, r.shift, false, r.parking_brake};
     if (const auto problem = control_problem(c, model.truck))
       throw std::runtime_error(path + ": row " + std::to_string(i + 1) + " (t = " + std::to_string(r.t) + " s): " + *problem);
-    out.push_back({first_tick_at(r.t, model.tick_s), c.seq, {driver_inputs(c, model.truck), false}});
+    out.push_back({first_tick_at(r.t, model.tick_s), c.seq, {driver_inputs(c, model.truck), false}, std::nullopt});
   }
   return out;
 }

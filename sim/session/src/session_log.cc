@@ -35,6 +35,31 @@ std::vector<std::string> split(const std::string& line) {
   return out;
 }
 
+// "instructor <tick> pause|resume", "... message <text>", "... rewind <to tick>" or "... hazard
+// <pedestrian id>": `rest` is the line after
+// "instructor ", as written (the text keeps its own spaces).
+Instruction instruction_of(const std::vector<std::string>& w, const std::string& rest) {
+  const auto action = w.size() >= 3 ? parse<InstructorAction>(w[2]) : std::nullopt;
+  if (!action) throw std::runtime_error("an instructor line is 'instructor <tick> pause|resume|message [text]'");
+  Instruction i{*action, ""};
+  if (*action == InstructorAction::kRewind) {
+    if (w.size() != 4) throw std::runtime_error("a rewind is 'instructor <tick> rewind <to tick>'");
+    i.to_tick = std::stoll(w[3]);
+    if (i.to_tick < 0 || i.to_tick > std::stoll(w[1])) throw std::runtime_error("a rewind goes back, to a tick not before 0");
+    return i;
+  }
+  if (*action != InstructorAction::kMessage && *action != InstructorAction::kHazard) {
+    if (w.size() != 3) throw std::runtime_error("an instructor's " + w[2] + " takes no text");
+    return i;
+  }
+  const std::string head = w[1] + " " + w[2] + " ";
+  i.text = rest.rfind(head, 0) == 0 ? rest.substr(head.size()) : "";
+  // The log's own bound: the worker has checked the message against data/session.json's, and the
+  // pedestrian against the scene's.
+  if (const auto problem = instructor_message_problem(i.text, kInstructorMessageCharsCeiling)) throw std::runtime_error(*problem);
+  return i;
+}
+
 }  // namespace
 
 std::optional<std::string> ControlLog::end_reason() const {
@@ -107,6 +132,12 @@ void ControlLogWriter::worker_event(int64_t tick, const std::string& kind) {
   std::fflush(f_);
 }
 
+void ControlLogWriter::instruction(int64_t tick, const Instruction& what) {
+  const std::string arg = what.action == InstructorAction::kRewind ? std::to_string(what.to_tick) : what.text;
+  std::fprintf(f_, "instructor %" PRId64 " %s%s%s\n", tick, name(what.action), arg.empty() ? "" : " ", arg.c_str());
+  std::fflush(f_);
+}
+
 void ControlLogWriter::score(const std::string& line) {
   std::fprintf(f_, "%s\n", line.c_str());
   std::fflush(f_);
@@ -131,6 +162,7 @@ ControlLog read_control_log(const std::string& path) {
   text << in.rdbuf();
   ControlLog log;
   bool has_init = false;
+  int segment = 0;  // rewinds so far
   const std::vector<LogRecord> records = scan_log_records(text.str());
   const size_t n = records.size();
   for (size_t index = 0; index < records.size(); ++index) {
@@ -148,6 +180,11 @@ ControlLog read_control_log(const std::string& path) {
       else if (k == "e") log.event_lines.push_back(k + " " + rest);  // as written: one space between words
       else if (k == "score") log.score_line = k + " " + rest;
       else if (k == "w") log.worker_events.emplace_back(std::stoll(w.at(1)), w.at(2));
+      else if (k == "instructor") {
+        log.instructions.emplace_back(std::stoll(w.at(1)), instruction_of(w, rest));
+        log.instruction_segments.push_back(segment);
+        if (log.instructions.back().second.action == InstructorAction::kRewind) ++segment;  // ticks start again from its point
+      }
       else if (k == "controls") {
         for (size_t i = 1; i < w.size(); ++i) {
           const size_t eq = w[i].find('=');
@@ -162,6 +199,7 @@ ControlLog read_control_log(const std::string& path) {
       else if (k == "dm") {
         if (w.size() != 3 || (w[2] != "0" && w[2] != "1")) throw std::runtime_error("a dead-man line is 'dm <tick> 0|1'");
         log.deadman.emplace_back(std::stoll(w[1]), w[2] == "1");
+        log.deadman_segments.push_back(segment);
       }
       else if (k == "tick") log.header.tick_s = from_hex(w.at(1));
       else if (k == "integrator") {
@@ -187,7 +225,9 @@ ControlLog read_control_log(const std::string& path) {
           if (w[9] != "0" && w[9] != "1") throw std::runtime_error("the parking brake is 0 or 1");
           e.inputs.parking_brake = w[9] == "1";
         }
-        if (!log.entries.empty() && e.tick < log.entries.back().tick) throw std::runtime_error("ticks go backwards");
+        e.segment = segment;
+        if (!log.entries.empty() && e.segment == log.entries.back().segment && e.tick < log.entries.back().tick)
+          throw std::runtime_error("ticks go backwards (other than after a rewind)");
         log.entries.push_back(e);
       } else if (k == "end") log.ticks = std::stoll(w.at(1));
       else if (k == "final") log.final_state = parse_state_hex(rest);

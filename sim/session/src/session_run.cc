@@ -2,6 +2,13 @@
 
 #include "forklift/session/controls.h"
 
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <cstdint>
+#include <iterator>
+#include <stdexcept>
+
 namespace forklift {
 
 SessionRun::SessionRun(SessionModel model, SessionState first, std::unique_ptr<ControlLogWriter> log, SessionEnds ends)
@@ -47,6 +54,81 @@ void SessionRun::worker_event(const std::string& kind) {
   if (log_) log_->worker_event(state_.tick, kind);
 }
 
+void SessionRun::instruct(const Instruction& what) {
+  if (what.action == InstructorAction::kRewind) {
+    const auto point = points_.find(what.to_tick);
+    if (point == points_.end()) throw std::runtime_error("no rewind point is kept at tick " + std::to_string(what.to_tick));
+    write_instructions();
+    if (log_) log_->instruction(state_.tick, what);
+    state_ = point->second;                                 // the integrator restarts from it (step())
+    points_.erase(std::next(point), points_.end());         // the abandoned attempt's
+    let_be_ticks_ = 0;
+    return;
+  }
+  if (what.action == InstructorAction::kHazard) {
+    if (const auto problem = hazard_problem(what.text)) throw std::runtime_error(*problem);
+    const std::vector<PedestrianSpec>& people = model_.scene.pedestrians;
+    if (state_.pedestrians.size() != people.size()) state_.pedestrians = initial_pedestrians(people);
+    for (size_t i = 0; i < people.size(); ++i)
+      if (people[i].id == what.text) state_.pedestrians[i].started = true;
+  }
+  if (what.action == InstructorAction::kPause) paused_ = true;
+  if (what.action == InstructorAction::kResume) paused_ = false;
+  instructions_owed_.push_back(what);
+}
+
+std::optional<std::string> SessionRun::hazard_problem(const std::string& id) const {
+  const std::vector<PedestrianSpec>& people = model_.scene.pedestrians;
+  std::string ids;
+  for (size_t i = 0; i < people.size(); ++i) {
+    if (people[i].id != id) {
+      ids += (ids.empty() ? "" : ", ") + people[i].id;
+      continue;
+    }
+    if (i >= state_.pedestrians.size()) return std::nullopt;  // not walked yet: all stand at their start
+    const PedestrianState& s = state_.pedestrians[i];
+    if (s.struck) return "pedestrian " + id + " has been struck";
+    if (s.started) return "pedestrian " + id + " is walking already";
+    return std::nullopt;
+  }
+  return "no pedestrian '" + id + "' in this scenario" + (ids.empty() ? std::string(" (it has none)") : " (it has " + ids + ")");
+}
+
+void SessionRun::keep_rewind_points(int64_t every_ticks, size_t kept) {
+  point_every_ = std::max<int64_t>(1, every_ticks);
+  points_kept_ = std::max<size_t>(1, kept);
+  keep_point();
+}
+
+void SessionRun::keep_rewind_points_at(const std::vector<int64_t>& ticks) {
+  point_at_ = ticks;
+  std::sort(point_at_.begin(), point_at_.end());
+  keep_point();
+}
+
+void SessionRun::keep_point() {
+  const bool due = (point_every_ > 0 && state_.tick % point_every_ == 0) ||
+                   std::binary_search(point_at_.begin(), point_at_.end(), state_.tick);
+  if (!due) return;
+  points_.insert_or_assign(state_.tick, state_);
+  while (points_kept_ > 0 && points_.size() > points_kept_) points_.erase(points_.begin());
+}
+
+std::optional<int64_t> SessionRun::rewind_point(double seconds) const {
+  if (!(seconds > 0) || points_.empty()) return std::nullopt;
+  const double back_ticks = std::ceil(seconds / model_.tick_s - 1e-9);
+  if (back_ticks > double(state_.tick)) return std::nullopt;
+  auto it = points_.upper_bound(state_.tick - int64_t(back_ticks));
+  if (it == points_.begin()) return std::nullopt;
+  return std::prev(it)->first;
+}
+
+void SessionRun::write_instructions() {
+  if (log_)
+    for (const Instruction& i : instructions_owed_) log_->instruction(state_.tick, i);
+  instructions_owed_.clear();
+}
+
 void SessionRun::write_input() {
   if (log_) log_->input(state_.tick, applied_seq_, held_.driver);
   logged_ = held_.driver;
@@ -55,6 +137,7 @@ void SessionRun::write_input() {
 
 SessionRun::Tick SessionRun::tick() {
   events_.clear();
+  write_instructions();
   if (input_owed_) write_input();
   try {
     step(model_, state_, workspace_, held_, events_);
@@ -62,6 +145,7 @@ SessionRun::Tick SessionRun::tick() {
     failure_ = e.what();
     return {events_, EndReason::kNumericalFailure};
   }
+  keep_point();
   std::optional<EndReason> end;
   for (const SessionEvent& e : events_) {
     if (log_) log_->event(state_.tick, e.kind, e.worry_level);
@@ -74,6 +158,7 @@ SessionRun::Tick SessionRun::tick() {
 }
 
 Score SessionRun::end(EndReason reason, const std::optional<ControlCounts>& counts) {
+  write_instructions();  // a session that ends paused: its pause is on record
   events_.clear();
   const Score score = finish(model_, state_, workspace_, name(reason), events_);
   if (log_) {
@@ -85,6 +170,7 @@ Score SessionRun::end(EndReason reason, const std::optional<ControlCounts>& coun
 }
 
 void SessionRun::close(const std::optional<ControlCounts>& counts) {
+  write_instructions();
   if (!log_) return;
   if (counts) log_->control_counts(*counts);
   log_->finish(state_.tick, state_.x);
@@ -93,10 +179,23 @@ void SessionRun::close(const std::optional<ControlCounts>& counts) {
 std::vector<InputChange> logged_changes(const ControlLog& log) {
   std::vector<InputChange> changes;
   SessionInputs held;
-  size_t next = 0, next_dm = 0;
-  while (next < log.entries.size() || next_dm < log.deadman.size()) {
-    const bool input_first = next_dm >= log.deadman.size() ||
-                             (next < log.entries.size() && log.entries[next].tick <= log.deadman[next_dm].first);
+  size_t next = 0, next_dm = 0, next_ins = 0;
+  // Each line's place: (the rewinds before it, its tick); none left: after every other.
+  using Place = std::pair<int, int64_t>;
+  constexpr Place kNone{INT_MAX, INT64_MAX};
+  auto segment = [](const std::vector<int>& segments, size_t i) { return i < segments.size() ? segments[i] : 0; };
+  while (next < log.entries.size() || next_dm < log.deadman.size() || next_ins < log.instructions.size()) {
+    const Place input = next < log.entries.size() ? Place{log.entries[next].segment, log.entries[next].tick} : kNone;
+    const Place dm = next_dm < log.deadman.size() ? Place{segment(log.deadman_segments, next_dm), log.deadman[next_dm].first} : kNone;
+    const Place ins =
+        next_ins < log.instructions.size() ? Place{segment(log.instruction_segments, next_ins), log.instructions[next_ins].first} : kNone;
+    // A tick's instructions go after its inputs and switches: that tick's, or an earlier one's.
+    if (ins < std::min(input, dm)) {
+      const auto& [tick, what] = log.instructions[next_ins++];
+      changes.push_back({tick, 0, held, what});
+      continue;
+    }
+    const bool input_first = input <= dm;
     int64_t tick;
     uint32_t seq = 0;
     if (input_first) {
@@ -107,13 +206,15 @@ std::vector<InputChange> logged_changes(const ControlLog& log) {
       held.deadman = log.deadman[next_dm].second;
       tick = log.deadman[next_dm++].first;
     }
-    changes.push_back({tick, seq, held});
+    changes.push_back({tick, seq, held, std::nullopt});
   }
   return changes;
 }
 
 void feed(SessionRun& run, const InputChange& c) {
-  if (c.inputs.deadman == run.deadman_on()) {
+  if (c.instruction) {
+    run.instruct(*c.instruction);
+  } else if (c.inputs.deadman == run.deadman_on()) {
     run.apply(c.seq, c.inputs.driver);
   } else if (c.inputs.deadman) {
     run.deadman(c.inputs.driver);

@@ -2,6 +2,7 @@
 #include "forklift/session/host_vocabulary.h"
 
 #include <array>
+#include <cstdint>
 #include <utility>
 
 namespace forklift {
@@ -35,6 +36,11 @@ constexpr Names<Outcome, 6> kOutcomes{{{Outcome::kOpen, "open"},
 constexpr Names<ExamKind, 2> kExamKinds{{{ExamKind::kTheory, "theory"}, {ExamKind::kPractical, "practical"}}};
 constexpr Names<PaperKind, 2> kPaperKinds{{{PaperKind::kExam, "exam"}, {PaperKind::kPractice, "practice"}}};
 constexpr Names<PaperOutcome, 2> kPaperOutcomes{{{PaperOutcome::kMarked, "marked"}, {PaperOutcome::kTimedOut, "timed_out"}}};
+constexpr Names<InstructorAction, 5> kInstructorActions{{{InstructorAction::kPause, "pause"},
+                                                         {InstructorAction::kResume, "resume"},
+                                                         {InstructorAction::kMessage, "message"},
+                                                         {InstructorAction::kRewind, "rewind"},
+                                                         {InstructorAction::kHazard, "hazard"}}};
 constexpr Names<HostState, 2> kHostStates{{{HostState::kReady, "ready"}, {HostState::kStopping, "stopping"}}};
 constexpr Names<WorkerAction, 3> kWorkerActions{
     {{WorkerAction::kStart, "start"}, {WorkerAction::kAbort, "abort"}, {WorkerAction::kKill, "kill"}}};
@@ -71,6 +77,7 @@ const char* name(Outcome o) { return name_in(kOutcomes, o); }
 const char* name(ExamKind k) { return name_in(kExamKinds, k); }
 const char* name(PaperKind k) { return name_in(kPaperKinds, k); }
 const char* name(PaperOutcome o) { return name_in(kPaperOutcomes, o); }
+const char* name(InstructorAction a) { return name_in(kInstructorActions, a); }
 const char* name(HostState s) { return name_in(kHostStates, s); }
 const char* name(WorkerAction a) { return name_in(kWorkerActions, a); }
 const char* name(WorkerReportState s) { return name_in(kReportStates, s); }
@@ -83,6 +90,7 @@ template <> std::optional<Outcome> parse<Outcome>(std::string_view s) { return p
 template <> std::optional<ExamKind> parse<ExamKind>(std::string_view s) { return parse_in(kExamKinds, s); }
 template <> std::optional<PaperKind> parse<PaperKind>(std::string_view s) { return parse_in(kPaperKinds, s); }
 template <> std::optional<PaperOutcome> parse<PaperOutcome>(std::string_view s) { return parse_in(kPaperOutcomes, s); }
+template <> std::optional<InstructorAction> parse<InstructorAction>(std::string_view s) { return parse_in(kInstructorActions, s); }
 template <> std::optional<HostState> parse<HostState>(std::string_view s) { return parse_in(kHostStates, s); }
 template <> std::optional<WorkerAction> parse<WorkerAction>(std::string_view s) { return parse_in(kWorkerActions, s); }
 template <> std::optional<WorkerReportState> parse<WorkerReportState>(std::string_view s) { return parse_in(kReportStates, s); }
@@ -94,7 +102,7 @@ bool is_terminal(SessionPhase p) {
 EventOrigin event_origin(std::string_view kind) {
   for (const char* k : kHandlingKinds)
     if (kind == k) return EventOrigin::kHandling;
-  if (kind == kControlsResumedEvent || kind == kNoControlsEvent) return EventOrigin::kWorker;
+  if (kind == kControlsResumedEvent || kind == kNoControlsEvent || kind == kRewoundEvent) return EventOrigin::kWorker;
   return EventOrigin::kEvaluation;
 }
 
@@ -169,6 +177,35 @@ const char* words(Outcome outcome) {
     case Outcome::kFailed: return "failed";
   }
   return "?";
+}
+
+
+std::optional<std::string> instructor_message_problem(std::string_view text, size_t max_chars) {
+  size_t chars = 0;
+  bool visible = false;
+  for (size_t i = 0; i < text.size();) {
+    // One character: its lead byte says how many continuation bytes follow, and the smallest code
+    // point that length may carry (no overlong forms); no surrogates, nothing past U+10FFFF.
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    const int more = c < 0x80 ? 0 : (c & 0xE0) == 0xC0 ? 1 : (c & 0xF0) == 0xE0 ? 2 : (c & 0xF8) == 0xF0 ? 3 : -1;
+    if (more < 0 || i + more >= text.size()) return "the message is not UTF-8 text";
+    uint32_t cp = more == 0 ? c : c & (0x3F >> more);
+    for (int k = 1; k <= more; ++k) {
+      const unsigned char b = static_cast<unsigned char>(text[i + k]);
+      if ((b & 0xC0) != 0x80) return "the message is not UTF-8 text";
+      cp = (cp << 6) | (b & 0x3F);
+    }
+    static constexpr uint32_t kSmallest[] = {0, 0x80, 0x800, 0x10000};
+    if (cp < kSmallest[more] || (cp >= 0xD800 && cp <= 0xDFFF) || cp > 0x10FFFF) return "the message is not UTF-8 text";
+    i += 1 + more;
+    ++chars;
+    if (cp < 0x20 || (cp >= 0x7F && cp <= 0x9F)) return "the message holds a control character (a line break, a tab): it must be one line of text";
+    if (cp != ' ') visible = true;
+  }
+  if (!visible) return "the message is empty";
+  if (text.front() == ' ' || text.back() == ' ') return "the message starts or ends with a space";
+  if (chars > max_chars) return "the message is longer than " + std::to_string(max_chars) + " characters";
+  return std::nullopt;
 }
 
 }  // namespace forklift

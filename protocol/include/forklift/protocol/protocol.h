@@ -23,6 +23,7 @@ enum class QosKind {
   kHostStatus,         // a worker host's status: the latest, reliable, with a liveliness lease
   kRequest,            // server -> host: reliable, to the hosts there are now (a host that starts later must not act on it)
   kLatestDurable,      // host -> servers: the latest per instance, kept for a server that starts later
+  kInstructor,         // server -> worker: reliable, the last few per session kept for a worker that matches late
 };
 
 // A worker host whose status writer has not asserted its liveliness for this long is gone.
@@ -70,6 +71,12 @@ template <> struct Topic<fk_SessionStatus> {
   static const dds_topic_descriptor_t* descriptor() { return &fk_SessionStatus_desc; }
 };
 
+template <> struct Topic<fk_InstructorAction> {
+  static constexpr const char* name = "fk_InstructorAction";
+  static constexpr QosKind qos = QosKind::kInstructor;
+  static const dds_topic_descriptor_t* descriptor() { return &fk_InstructorAction_desc; }
+};
+
 template <> struct Topic<fk_HostStatus> {
   static constexpr const char* name = "fk_HostStatus";
   static constexpr QosKind qos = QosKind::kHostStatus;
@@ -91,6 +98,9 @@ std::string cab_partition(const std::string& cab_id);
 // The partition in which the worker for a cab reports to the server: its events, score and
 // session status. Under DDS Security only the identity worker.<cab> may publish there.
 std::string worker_partition(const std::string& cab_id);
+// The partition in which a server tells a cab's worker what the instructor does (pause, resume, a
+// message). Under DDS Security only servers may publish there, and only worker.<cab> reads it.
+std::string instructor_partition(const std::string& cab_id);
 // A worker host's partition: its status and reports, and the requests to it. Under DDS Security
 // only the identity host.<id> may publish its status and reports there, and only servers requests.
 std::string host_partition(const std::string& host_id);

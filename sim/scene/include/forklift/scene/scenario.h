@@ -37,6 +37,10 @@ struct SessionSettings {
   double tick_s = 0;  // the physics tick
   double task_end_hold_s = 0;  // how long a pupil lets the truck be, its task done, before the session ends
   double load_mass_max_kg = 0, load_cog_height_max_m = 0, load_lateral_max_m = 0;  // a requested load's bounds
+  size_t instructor_message_max_chars = 0;  // an instructor's message to the cab, at most
+  double instructor_message_shown_s = 0;    // how long the cab shows it (wall time: a paused session shows it too)
+  double instructor_rewind_every_s = 0;     // a rewind point kept every so much sim time
+  size_t instructor_rewind_points = 0;      // the newest so many kept
 };
 SessionSettings load_session_settings(const std::string& data_dir);
 

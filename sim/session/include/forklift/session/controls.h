@@ -112,6 +112,8 @@ class StatePacer {
   // After a tick ending at t that applied a change of inputs no state has shown yet: true if its
   // state may go out now.
   bool early(double t);
+  // The session's time went back to t (the instructor's rewind): periods start again from there.
+  void restart(double t);
   // Sim time at which the current period ends: the next state owed (a loop may sleep till then).
   double period_end_s() const { return period_end_s_; }
 

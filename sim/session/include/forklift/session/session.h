@@ -160,6 +160,7 @@ struct InputChange {
   int64_t tick = 0;
   uint32_t seq = 0;
   SessionInputs inputs;
+  std::optional<Instruction> instruction;  // set: the instructor's act at this tick, not an input
 };
 struct OfflineRun {
   std::vector<std::pair<int64_t, SessionEvent>> events;  // with the tick after which each was found

@@ -29,6 +29,17 @@ struct LogHeader {
   std::optional<Load> load;
 };
 
+// What an instructor did to the session (the log's "instructor" line), at the tick it was done:
+// pause and resume, a message with its text (one line; instructor_message_problem() holds), a
+// rewind to the rewind point kept at a tick, or a hazard: a pedestrian of the scene set walking.
+struct Instruction {
+  InstructorAction action = InstructorAction::kPause;
+  std::string text;      // a message's; a hazard's pedestrian id; empty otherwise
+  int64_t to_tick = 0;   // a rewind's: the tick of the point it went back to (logged)
+  double seconds = 0;    // a rewind's: how far back it was asked to go, s (the worker's; not logged)
+  bool operator==(const Instruction&) const = default;
+};
+
 class ControlLogWriter {
  public:
   ControlLogWriter(const std::string& path, const LogHeader& header);  // throws on I/O error
@@ -40,6 +51,7 @@ class ControlLogWriter {
   void deadman(int64_t tick, bool on);                                // "dm": the worker's dead-man switch
   void event(int64_t tick, const std::string& kind, int worry_level); // "e": one the session derived
   void worker_event(int64_t tick, const std::string& kind);          // "w": the worker's own (not marked)
+  void instruction(int64_t tick, const Instruction& what);           // "instructor": the instructor's act
   void score(const std::string& line);                                // "score": score_line() of the mark
   // "controls": the worker's tally of the cab's samples (name=count words, in this order), once,
   // before "end"; names are single words without '='.
@@ -52,11 +64,14 @@ class ControlLogWriter {
 
 struct ControlLog {
   LogHeader header;
-  struct Entry { int64_t tick; uint32_t seq; DriverInputs inputs; };
+  // `segment`: how many rewinds came before the line (ticks start again after each).
+  struct Entry { int64_t tick; uint32_t seq; DriverInputs inputs; int segment = 0; };
   std::vector<Entry> entries;
   std::vector<std::pair<int64_t, bool>> deadman;          // switches, by tick
   std::vector<std::string> event_lines;                   // "e" lines, as written
   std::vector<std::pair<int64_t, std::string>> worker_events;  // "w" lines: tick, kind
+  std::vector<std::pair<int64_t, Instruction>> instructions;   // "instructor" lines, in order
+  std::vector<int> deadman_segments, instruction_segments;     // each "dm" and "instructor" line's segment
   std::optional<std::string> score_line;                  // "score" line, as written
   std::map<std::string, long> control_counts;             // "controls" line: the worker's tally
   std::optional<int64_t> ticks;              // absent if the worker died before finishing

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -60,6 +61,32 @@ class SessionRun {
   void resume();
   // A worker's own event at the current tick ("w": not marked).
   void worker_event(const std::string& kind);
+  // What the instructor did at the current tick: pause stops the session's clock (the caller steps
+  // no tick while paused()), resume lets it run on, a message changes nothing here. Logged as an
+  // "instructor" line when the tick is stepped (or the session ends), before its input line, so
+  // that a replay fed the log's changes writes the same log. A rewind is logged at once (after
+  // this tick's other instructions) and puts the state back to the point kept at its to_tick,
+  // whose evaluation memory it is too: the faults found since are not in the mark, and stay on
+  // the record (the log's "e" lines, the events published); throws std::runtime_error if no
+  // point is kept there (a log that rewinds where its run kept nothing).
+  // A hazard sets the scene's pedestrian `text` walking at once (his trigger no longer waited
+  // for), logged when the tick is stepped as the others.
+  void instruct(const Instruction& what);
+  bool paused() const { return paused_; }
+  // Why the scene's pedestrian `id` cannot be set walking now (none of that id; walking, arrived
+  // or struck already), or nullopt.
+  std::optional<std::string> hazard_problem(const std::string& id) const;
+
+  // Rewind points: copies of the state, kept as the session runs. The worker's: every
+  // `every_ticks` ticks (the current tick too, if it is one), the newest `kept`. A replay's: at
+  // the ticks its log rewinds to (the newest pass through each), so that it goes back to the
+  // very states the worker did.
+  void keep_rewind_points(int64_t every_ticks, size_t kept);
+  void keep_rewind_points_at(const std::vector<int64_t>& ticks);
+  // The point a rewind of `seconds` goes back to: the newest kept at least that far back from the
+  // current tick; nullopt when none is (asked further back than the oldest kept).
+  std::optional<int64_t> rewind_point(double seconds) const;
+  const std::map<int64_t, SessionState>& rewind_points() const { return points_; }  // by tick
 
   // One physics tick with the held inputs: the tick's input line, step(), an "e" line per event
   // the session found. `end`: why the session must end after it, if it must: the time limit (the
@@ -81,6 +108,8 @@ class SessionRun {
 
  private:
   void write_input();
+  void write_instructions();
+  void keep_point();
 
   const SessionModel model_;
   SessionState state_;
@@ -91,17 +120,24 @@ class SessionRun {
   uint32_t applied_seq_ = 0;
   std::optional<DriverInputs> logged_;  // the inputs the log last recorded (none yet: the first is logged)
   bool input_owed_ = false;             // held_.driver is to be logged when the tick is stepped
+  std::vector<Instruction> instructions_owed_;  // to be logged when the tick is stepped
+  bool paused_ = false;
+  int64_t point_every_ = 0;
+  size_t points_kept_ = 0;        // 0: no bound (a replay's points, one per tick its log goes back to)
+  std::vector<int64_t> point_at_;  // sorted
+  std::map<int64_t, SessionState> points_;  // by tick
   std::vector<SessionEvent> events_;
   std::string failure_;
   int64_t let_be_ticks_ = 0;  // the ticks in a row the truck has been let be with its task done
 };
 
-// The inputs and dead-man switches of a log as input changes, merged by tick in the order the
-// worker applied them (a dead-man stop after the input it logged, a resume before its input).
+// The inputs, dead-man switches and instructions of a log as input changes, merged by tick in the
+// order the worker applied them (a dead-man stop after the input it logged, a resume before its
+// input; a tick's instructions after its inputs and switches, as SessionRun logs them).
 std::vector<InputChange> logged_changes(const ControlLog& log);
 
-// An input change onto a run: a change of the dead-man flag is a dead-man stop (with its logged
-// inputs) or a resume; any other is the cab's sample.
+// An input change onto a run: an instruction is the instructor's; a change of the dead-man flag is
+// a dead-man stop (with its logged inputs) or a resume; any other is the cab's sample.
 void feed(SessionRun& run, const InputChange& change);
 
 }  // namespace forklift

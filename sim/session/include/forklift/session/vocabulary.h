@@ -70,6 +70,14 @@ enum class PaperKind {
 enum class PaperOutcome {
   kMarked,    // "marked": handed in and marked
   kTimedOut,  // "timed_out": its time ran out first (marked on what was answered)
+// What an instructor does to a live training session (the API's action, the fk_InstructorAction
+// sample's, the session log's "instructor" line). An exam takes none of them: only its abort.
+enum class InstructorAction {
+  kPause,    // "pause": the sim clock stops (no ticks; the dead man and the time limit wait)
+  kResume,   // "resume": the clock runs on from where it stopped
+  kMessage,  // "message": a line of text on the cab's display for a few seconds
+  kRewind,   // "rewind": "try that again": the session goes back to a state it kept, some seconds back
+  kHazard,   // "hazard": a scenario's pedestrian starts his walk now, whatever his trigger
 };
 
 // Who raised an event of a session, by its kind.
@@ -94,6 +102,7 @@ const char* name(PaperOutcome outcome);
 const char* words(EndReason reason);
 const char* words(SessionPhase phase);
 const char* words(Outcome outcome);
+const char* name(InstructorAction action);
 
 // The value a name stands for; nullopt for a name that is not one of them (exact, case and all).
 template <class E>
@@ -106,6 +115,20 @@ template <> std::optional<Outcome> parse<Outcome>(std::string_view name);
 template <> std::optional<ExamKind> parse<ExamKind>(std::string_view name);
 template <> std::optional<PaperKind> parse<PaperKind>(std::string_view name);
 template <> std::optional<PaperOutcome> parse<PaperOutcome>(std::string_view name);
+template <> std::optional<InstructorAction> parse<InstructorAction>(std::string_view name);
+
+// Why an instructor's message cannot go to the cab, or nullopt: it must be well-formed UTF-8 (it
+// comes from the wire, or from a log), hold a visible character, no control character (a line
+// break, a tab, an escape: the display and the log line keep one line), no space at either end,
+// and at most `max_chars` characters.
+std::optional<std::string> instructor_message_problem(std::string_view text, size_t max_chars);
+// The longest message data/session.json may allow (its instructor.message_max_chars): the wire's
+// string (2048 bytes) holds this many characters of four bytes, and a log line holds it.
+inline constexpr size_t kInstructorMessageCharsCeiling = 500;
+// The longest id a scene's object or pedestrian has (data/schema/scenario.schema.json's "id").
+inline constexpr size_t kSceneIdMaxChars = 64;
+// The furthest back a rewind may be asked to go, s: an hour, beyond any session's time limit.
+inline constexpr double kInstructorRewindMaxS = 3600;
 
 // Ended, aborted or failed: the session will not change again.
 bool is_terminal(SessionPhase phase);
@@ -117,6 +140,7 @@ EventOrigin event_origin(std::string_view kind);
 // The worker's own events (EventOrigin::kWorker).
 inline constexpr const char* kControlsResumedEvent = "controls_resumed";
 inline constexpr const char* kNoControlsEvent = "no_controls_from_cab";  // a "w" line at tick 0: no cab spoke
+inline constexpr const char* kRewoundEvent = "rewound";  // the instructor took the session back (its details: from when to when)
 
 // The controls a scenario's step may name in braces ("{lift}"), each with its words for a person
 // away from a cab (the debrief, the plan, the evaluation's events); a cab's display writes the
