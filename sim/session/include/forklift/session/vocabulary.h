@@ -70,6 +70,8 @@ enum class PaperKind {
 enum class PaperOutcome {
   kMarked,    // "marked": handed in and marked
   kTimedOut,  // "timed_out": its time ran out first (marked on what was answered)
+};
+
 // What an instructor does to a live training session (the API's action, the fk_InstructorAction
 // sample's, the session log's "instructor" line). An exam takes none of them: only its abort.
 enum class InstructorAction {
@@ -95,6 +97,7 @@ const char* name(Outcome outcome);
 const char* name(ExamKind kind);
 const char* name(PaperKind kind);
 const char* name(PaperOutcome outcome);
+const char* name(InstructorAction action);
 
 // The same values in the words a person reads (the menu, the worker's summary, forklift-sim
 // evaluate): "time_limit" is "the time limit was reached", "waiting" is "waiting for the cab",
@@ -102,7 +105,6 @@ const char* name(PaperOutcome outcome);
 const char* words(EndReason reason);
 const char* words(SessionPhase phase);
 const char* words(Outcome outcome);
-const char* name(InstructorAction action);
 
 // The value a name stands for; nullopt for a name that is not one of them (exact, case and all).
 template <class E>
