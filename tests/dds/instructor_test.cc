@@ -158,7 +158,7 @@ TEST(Instructor, APauseHoldsTheClockAndTheDeadManAMessageReachesTheCabAndTheLogR
   EXPECT_EQ(again["matches_log"], true);
   EXPECT_EQ(again["events_match_log"], true);
   EXPECT_EQ(again["state_hex"], live["state_hex"]);
-  Process evaluate({kBin + "/forklift-sim", "evaluate", "--replay", temp_file(session + ".ctl")}, temp_file(session + ".evaluate"));
+  Process evaluate({kBin + "/forklift-sim", "evaluate", "--replay", temp_file(session + ".ctl"), "--json"}, temp_file(session + ".evaluate"));
   ASSERT_EQ(evaluate.wait(60), 0) << evaluate.err();
   const json marked = forklift_test::output_json(evaluate);
   EXPECT_EQ(marked["ticks"], live["ticks"]);
@@ -228,7 +228,7 @@ TEST(Instructor, ARewindGoesBackToTheKeptStateAndTheLogReplaysBitForBit) {
   const json again = forklift_test::output_json(replay);
   EXPECT_EQ(again["matches_log"], true);
   EXPECT_EQ(again["events_match_log"], true);
-  Process evaluate({kBin + "/forklift-sim", "evaluate", "--replay", temp_file(session + ".ctl")}, temp_file(session + ".evaluate"));
+  Process evaluate({kBin + "/forklift-sim", "evaluate", "--replay", temp_file(session + ".ctl"), "--json"}, temp_file(session + ".evaluate"));
   ASSERT_EQ(evaluate.wait(60), 0) << evaluate.err();
   const json marked = forklift_test::output_json(evaluate);
   EXPECT_EQ(marked["ticks"], live["ticks"]);
