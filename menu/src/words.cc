@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "forklift/session/vocabulary.h"
+#include "forklift/units/decimals.h"
 
 namespace forklift::menu {
 
@@ -46,14 +47,7 @@ std::string worded(const std::string& code) {
 
 std::string number(const json& v, int decimals) {
   if (!v.is_number()) return v.is_null() ? "-" : text(v);
-  char buf[48];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v.get<double>());
-  std::string s = buf;
-  if (s.find('.') != std::string::npos) {
-    while (s.back() == '0') s.pop_back();
-    if (s.back() == '.') s.pop_back();
-  }
-  return s == "-0" ? "0" : s;
+  return trimmed_decimals(v.get<double>(), decimals);
 }
 
 std::string when(const json& iso) {

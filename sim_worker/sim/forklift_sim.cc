@@ -18,6 +18,7 @@
 #include "forklift/scene/scene.h"
 #include "forklift/dynamics/stability.h"
 #include "forklift/dynamics/validation.h"
+#include "forklift/units/decimals.h"
 #include "forklift/units/units.h"
 
 using namespace forklift;
@@ -79,24 +80,15 @@ std::string number_text(double v) {
   return buf;
 }
 
-// `v` with `decimals` places, never "-0.0".
-std::string fixed(double v, int decimals) {
-  char buf[48];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-  std::string t = buf;
-  if (t.find_first_not_of("-0.") == std::string::npos && t[0] == '-') t.erase(0, 1);
-  return t;
-}
-
 // A signed distance as a direction: "0.650 m behind" for -0.65 with ("forward", "behind").
 std::string offset(double v_m, const char* plus, const char* minus) {
-  const std::string t = fixed(std::abs(v_m), 3);
+  const std::string t = fixed_decimals(std::abs(v_m), 3);
   return t + " m " + (t.find_first_not_of("0.") == std::string::npos ? plus : v_m < 0 ? minus : plus);
 }
 
 // A point of the truck from the ground below the middle of its front axle.
 std::string point_words(const Eigen::Vector3d& p) {
-  return offset(p.x(), "forward", "behind") + ", " + offset(p.y(), "to the left", "to the right") + ", " + fixed(p.z(), 3) + " m up";
+  return offset(p.x(), "forward", "behind") + ", " + offset(p.y(), "to the left", "to the right") + ", " + fixed_decimals(p.z(), 3) + " m up";
 }
 
 // A wheel as a person names it: "front left", not the JSON's key "front_left".
@@ -124,14 +116,14 @@ void print_manoeuvre_words(const ManoeuvreResult& r) {
   std::printf(", %ld steps and %ld model evaluations in %.3f s of wall time", static_cast<long>(r.stats.steps),
               static_cast<long>(r.stats.rhs_evals), r.wall_s);
   if (r.wall_s > 0) std::printf(" (%.0f times real time)", r.sim_time_s / r.wall_s);
-  std::printf("\nmost pitch %s deg, most roll %s deg; least wheel loads: %s; the rear wheel %s\n", fixed(r.max_pitch_deg, 2).c_str(),
-              fixed(r.max_roll_deg, 2).c_str(), wheel_loads_words(r.min_fz_N).c_str(), r.rear_wheel_lifted ? "lifted" : "stayed on the ground");
+  std::printf("\nmost pitch %s deg, most roll %s deg; least wheel loads: %s; the rear wheel %s\n", fixed_decimals(r.max_pitch_deg, 2).c_str(),
+              fixed_decimals(r.max_roll_deg, 2).c_str(), wheel_loads_words(r.min_fz_N).c_str(), r.rear_wheel_lifted ? "lifted" : "stayed on the ground");
   for (const ManoeuvreResult::StopTime& stop : r.stop_times) {
     if (stop.s) std::printf("from the brake's onset, below %g m/s after %.2f s\n", stop.below_m_s, *stop.s);
     else std::printf("from the brake's onset, never below %g m/s (or no braking)\n", stop.below_m_s);
   }
-  std::printf("ended at x %s m, y %s m, heading %s deg; %s\n", fixed(r.final_pose.x(), 2).c_str(), fixed(r.final_pose.y(), 2).c_str(),
-              fixed(r.final_pose.z() * kRad, 1).c_str(), r.tipped_over ? "the truck tipped over (roll or pitch beyond 20 deg)" : "the truck stayed upright");
+  std::printf("ended at x %s m, y %s m, heading %s deg; %s\n", fixed_decimals(r.final_pose.x(), 2).c_str(), fixed_decimals(r.final_pose.y(), 2).c_str(),
+              fixed_decimals(r.final_pose.z() * kRad, 1).c_str(), r.tipped_over ? "the truck tipped over (roll or pitch beyond 20 deg)" : "the truck stayed upright");
 }
 
 }  // namespace
@@ -346,7 +338,7 @@ int main(int argc, char** argv) {
         std::printf("%-4d %-8s %7ld %8ld %9.1f %9.3f %9.3f %12.0f %11s %9s %9s %7s %6s\n", n, integrator_name(opts.kind),
                     r.stats.steps, r.stats.rhs_evals, r.wall_s * 1e3, r.max_pitch_deg, r.max_roll_deg,
                     r.min_fz_N[kRear], r.rear_wheel_lifted ? "yes" : "no", stop(r.stop_times[0].s).c_str(),
-                    stop(r.stop_times[1].s).c_str(), fixed(r.final_pose.z() * kRad, 1).c_str(), r.tipped_over ? "yes" : "no");
+                    stop(r.stop_times[1].s).c_str(), fixed_decimals(r.final_pose.z() * kRad, 1).c_str(), r.tipped_over ? "yes" : "no");
         all.push_back(result_json(r));
 
         const FigureGroup* group = figure_group_of(n);

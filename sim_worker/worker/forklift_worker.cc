@@ -24,6 +24,7 @@
 #include "forklift/security/evidence.h"
 #include "forklift/session/controls.h"
 #include "forklift/session/session_run.h"
+#include "forklift/units/decimals.h"
 #include "frame_publisher.h"
 #include "instructor_intake.h"
 #include "realtime.h"
@@ -81,16 +82,8 @@ std::string exact(double v) {
   return buf;
 }
 
-// A number as a person reads it: `digits` decimals, never a hex float.
-std::string num(double v, int digits = 1) {
-  std::ostringstream out;
-  out.precision(digits);
-  out << std::fixed << v;
-  return out.str();
-}
-
 std::string pose_text(const StateVector& x) {
-  return "the truck at x " + num(x[kX], 2) + " m, y " + num(x[kY], 2) + " m, heading " + num(x[kAwc] * 180 / M_PI) + " deg";
+  return "the truck at x " + fixed_decimals(x[kX], 2) + " m, y " + fixed_decimals(x[kY], 2) + " m, heading " + fixed_decimals(x[kAwc] * 180 / M_PI, 1) + " deg";
 }
 
 int replay_main(const std::string& path, bool as_json) {
@@ -101,7 +94,7 @@ int replay_main(const std::string& path, bool as_json) {
   const bool events_ok = log.event_lines == r.event_lines && log.score_line.value_or("") == r.score_line;
   if (!as_json) {
     std::cout << "replay of session " << log.header.session_id << " (cab " << log.header.cab_id << "): " << r.ticks << " ticks, "
-              << num(r.ticks * log.header.tick_s) << " s of sim time, " << r.event_lines.size() << " events\n"
+              << fixed_decimals(r.ticks * log.header.tick_s, 1) << " s of sim time, " << r.event_lines.size() << " events\n"
               << pose_text(r.final_state) << "\n"
               << (r.score_line.empty() ? std::string("the log has no end, so no mark\n") : score_words(r.score, model.rules))
               << "final state against the log: "
@@ -436,12 +429,12 @@ int main(int argc, char** argv) {
         auto what = instructor.offer(a, run.paused());
         if (!what) return;
         const std::string who = dds::valid_utf8(a.by) && a.by[0] ? std::string(a.by) : "the instructor";
-        const std::string at = " at t = " + num(run.state().t_s, 3) + " s";
+        const std::string at = " at t = " + fixed_decimals(run.state().t_s, 3) + " s";
         if (what->action == InstructorAction::kRewind) {
           const auto point = run.rewind_point(what->seconds);
           if (!point) {
             const double oldest_s = run.rewind_points().empty() ? 0 : run.rewind_points().begin()->first * model.tick_s;
-            instructor.refuse(a.seq, "no point is kept " + num(what->seconds) + " s back (the oldest is at t = " + num(oldest_s) + " s)");
+            instructor.refuse(a.seq, "no point is kept " + fixed_decimals(what->seconds, 1) + " s back (the oldest is at t = " + fixed_decimals(oldest_s, 1) + " s)");
             return;
           }
           what->to_tick = *point;
@@ -459,10 +452,10 @@ int main(int argc, char** argv) {
           publish_event(kRewoundEvent, 0,
                         nlohmann::json{{"from_s", from_s}, {"to_s", to_s}, {"asked_s", what->seconds},
                                        {"description", "the instructor took the session back to try again: the faults found "
-                                                       "after " + num(to_s) + " s stay on the record, and are not in the mark"},
+                                                       "after " + fixed_decimals(to_s, 1) + " s stay on the record, and are not in the mark"},
                                        {"state", {{"x_m", exact(x[kX])}, {"y_m", exact(x[kY])}, {"yaw_rad", exact(x[kAwc])}}}}
                             .dump());
-          log_line(cab, who + " took the session back" + at + " to t = " + num(to_s, 3) + " s");
+          log_line(cab, who + " took the session back" + at + " to t = " + fixed_decimals(to_s, 3) + " s");
           return;  // its state goes out after the next tick: the figures are the step's
         }
         if (what->action == InstructorAction::kHazard) {
@@ -639,7 +632,7 @@ int main(int argc, char** argv) {
     score_writer.write(score_sample(session, score, counts));
     const SessionState& state = run.state();
     publish_status(SessionPhase::kEnded, state.t_s, name(*end_reason));
-    log_line(cab, "session " + session + " ended (" + words(*end_reason) + ") at " + num(state.t_s) + " s of sim time");
+    log_line(cab, "session " + session + " ended (" + words(*end_reason) + ") at " + fixed_decimals(state.t_s, 1) + " s of sim time");
     const ControlSequence::Counts& sequence = intake.sequence_counts();
     nlohmann::json out = {
         {"session", session}, {"cab", cab}, {"sim_time_s", state.t_s}, {"ticks", state.tick},
@@ -659,7 +652,7 @@ int main(int argc, char** argv) {
     if (as_json) {
       std::cout << out.dump(2) << std::endl;
     } else {
-      std::cout << "session " << session << " on cab " << cab << " ended (" << words(*end_reason) << ") at " << num(state.t_s)
+      std::cout << "session " << session << " on cab " << cab << " ended (" << words(*end_reason) << ") at " << fixed_decimals(state.t_s, 1)
                 << " s of sim time\n"
                 << pose_text(state.x) << "\n"
                 << score_words(score, model.rules) << "controls taken: " << sequence.accepted << "; refused: "
@@ -668,8 +661,8 @@ int main(int argc, char** argv) {
                 << " older than the last\n"
                 << "states sent: " << states_published << " (" << late_states << " late); frames: " << frame_publisher.frames()
                 << "; dead-man stops: " << deadman_count << "; the instructor's actions: " << instructor.taken() << " taken ("
-                << pauses << " pauses, " << rewinds << " rewinds, " << hazards << " hazards), " << instructor.refused() << " refused; furthest behind the wall clock: " << num(max_lag_s * 1e3)
-                << " ms at " << num(max_lag_at_s) << " s\n"
+                << pauses << " pauses, " << rewinds << " rewinds, " << hazards << " hazards), " << instructor.refused() << " refused; furthest behind the wall clock: " << fixed_decimals(max_lag_s * 1e3, 1)
+                << " ms at " << fixed_decimals(max_lag_at_s, 1) << " s\n"
                 << "the tick ran at "
                 << (realtime_refused.empty() ? std::string("real-time priority")
                     : realtime ? "normal priority (real-time priority refused: " + realtime_refused + ")"

@@ -6,16 +6,12 @@
 #include <utility>
 #include <vector>
 
+#include "forklift/units/decimals.h"
+
 namespace forklift {
 namespace {
 
 using nlohmann::json;
-
-std::string fixed(double v, int decimals) {
-  char buf[48];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-  return buf;
-}
 
 bool ends_with(const std::string& s, const std::string& tail) {
   return s.size() > tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
@@ -91,15 +87,15 @@ std::string worry_words(int level) {
 }
 
 std::string quantity_words(const std::string& key, double v) {
-  if (ends_with(key, "_m_s2")) return fixed(v, 2) + " m/s²";
-  if (ends_with(key, "_m_s")) return fixed(v, 2) + " m/s (" + fixed(v * 3.6, 1) + " km/h)";
-  if (ends_with(key, "_fraction")) return fixed(v * 100, 0) + " %";
-  if (ends_with(key, "_deg")) return fixed(v, 1) + "°";
-  if (ends_with(key, "_kg")) return fixed(v, 0) + " kg";
-  if (ends_with(key, "_N")) return std::abs(v) >= 1000 ? fixed(v / 1000, 1) + " kN" : fixed(v, 0) + " N";
-  if (ends_with(key, "_s")) return fixed(v, 1) + " s";
-  if (ends_with(key, "_m")) return std::abs(v) < 1 ? fixed(v * 100, 0) + " cm" : fixed(v, 2) + " m";
-  return fixed(v, 2);  // a control's deflection, a count: no unit
+  if (ends_with(key, "_m_s2")) return fixed_decimals(v, 2) + " m/s²";
+  if (ends_with(key, "_m_s")) return fixed_decimals(v, 2) + " m/s (" + fixed_decimals(v * 3.6, 1) + " km/h)";
+  if (ends_with(key, "_fraction")) return fixed_decimals(v * 100, 0) + " %";
+  if (ends_with(key, "_deg")) return fixed_decimals(v, 1) + "°";
+  if (ends_with(key, "_kg")) return fixed_decimals(v, 0) + " kg";
+  if (ends_with(key, "_N")) return std::abs(v) >= 1000 ? fixed_decimals(v / 1000, 1) + " kN" : fixed_decimals(v, 0) + " N";
+  if (ends_with(key, "_s")) return fixed_decimals(v, 1) + " s";
+  if (ends_with(key, "_m")) return std::abs(v) < 1 ? fixed_decimals(v * 100, 0) + " cm" : fixed_decimals(v, 2) + " m";
+  return fixed_decimals(v, 2);  // a control's deflection, a count: no unit
 }
 
 json event_words(const std::string& rule_title, const std::string& kind, const std::string& details) {

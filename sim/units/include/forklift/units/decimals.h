@@ -6,11 +6,13 @@
 
 namespace forklift {
 
-// `v` with exactly `decimals` digits after the point ("1.50"): columns that line up.
+// `v` with exactly `decimals` digits after the point ("1.50"): columns that line up. Never "-0.0":
+// a value that rounds to zero has no sign.
 inline std::string fixed_decimals(double v, int decimals) {
   const int n = std::snprintf(nullptr, 0, "%.*f", decimals, v);
   std::string s(n > 0 ? size_t(n) : 0, '\0');
   if (n > 0) std::snprintf(s.data(), s.size() + 1, "%.*f", decimals, v);
+  if (!s.empty() && s[0] == '-' && s.find_first_not_of("-0.") == std::string::npos) s.erase(0, 1);
   return s;
 }
 
@@ -21,7 +23,7 @@ inline std::string trimmed_decimals(double v, int decimals) {
     while (s.back() == '0') s.pop_back();
     if (s.back() == '.') s.pop_back();
   }
-  return s == "-0" ? "0" : s;
+  return s;
 }
 
 }  // namespace forklift
