@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <iostream>
 
 namespace forklift {
 
@@ -94,8 +95,18 @@ bool LocalView::draw(Image& picture, double& sim_time_s) {
     sim_time_s_ = m.sim_time_s;
     moved_ = true;
   });
-  if (!state_ || (!moved_ && !view_changed_)) return false;
-  if (!renderer_) renderer_ = load_renderer(model_.scene, model_.shape, model_.truck, width_, height_);
+  if (!state_ || (!moved_ && !view_changed_) || failed_) return false;
+  if (!renderer_) {
+    // A renderer that cannot start costs the cab its picture, never the session (the display and
+    // the controls go on), as it does a worker's frames.
+    try {
+      renderer_ = load_renderer(model_.scene, model_.shape, model_.truck, width_, height_);
+    } catch (const std::exception& e) {
+      std::cerr << "forklift-cab: no picture: " << e.what() << '\n';
+      failed_ = true;
+      return false;
+    }
+  }
   const auto [view, options] = granted_view(camera_, view_, View::kDriver, aids_);
   picture = renderer_->render(*state_, view, options);
   sim_time_s = sim_time_s_;

@@ -46,6 +46,7 @@ class LocalView {
   ViewOptions view_;
   uint8_t aids_ = 0;
   bool view_changed_ = true;
+  bool failed_ = false;  // the renderer could not start: no picture, said once
   long motions_ = 0;
 };
 
