@@ -75,10 +75,7 @@ LocalView::LocalView(dds::Participant& participant, const std::string& cab, cons
 LocalView::~LocalView() = default;
 
 void LocalView::ask(int camera, const ViewOptions& view, uint8_t aids) {
-  const bool same = camera == camera_ && aids == aids_ && view.look_yaw_rad == view_.look_yaw_rad &&
-                    view.look_pitch_rad == view_.look_pitch_rad && view.see_through_mast == view_.see_through_mast &&
-                    view.rear_view == view_.rear_view && view.fork_camera == view_.fork_camera;
-  if (same) return;
+  if (camera == camera_ && aids == aids_ && view == view_) return;
   camera_ = camera;
   view_ = view;
   aids_ = aids;

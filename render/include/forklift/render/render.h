@@ -36,6 +36,7 @@ struct ViewOptions {
   bool see_through_mast = false;  // mast, carriage frame and overhead guard translucent; forks and load solid
   bool rear_view = false;         // a mirror inset at the top centre: from the eye, looking back, mirrored
   bool fork_camera = false;       // an inset at the right edge: from the carriage between the forks, looking ahead
+  bool operator==(const ViewOptions&) const = default;
 };
 
 // What a cab that asks for `camera` (0 its own camera0, 1 the chase camera) seen as `asked` gets
