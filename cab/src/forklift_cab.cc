@@ -480,8 +480,8 @@ void CabProgram::take_dds() {
     hud_.on_status(state, s.reason, t);
     trace_.write({{"type", "status"}, {"state", state}, {"reason", s.reason}}, t);
     if (phase != SessionPhase::kEnded && phase != SessionPhase::kFailed) return;
-    std::printf("%ssession %s %s%s%s\n%s\n", isatty(STDOUT_FILENO) && !window_ ? "\n" : "", s.session_id, state.c_str(),
-                s.reason[0] ? ": " : "", s.reason, end_words(state, s.reason).c_str());
+    std::printf("%ssession %s: %s\n", isatty(STDOUT_FILENO) && !window_ ? "\n" : "", s.session_id,
+                end_words(state, s.reason).c_str());
     std::fflush(stdout);
     if (!ended_at_) ended_at_ = t;  // over: the window shows it a moment, then the cab goes back to its menu
   });
