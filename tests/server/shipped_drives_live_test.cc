@@ -3,12 +3,15 @@
 // played by a real forklift-cab over DDS at real time, the mark and the events read back from the
 // server. A clean drive ends its task with no event and mark 100; a faulty one gives exactly the
 // faults it names. All at once, one cab each, so the test takes as long as the longest script.
-// The two long clean exams run live elsewhere, the exam course under DDS Security
-// (tests/security/exam_record_test.cc) and the yard exam on worker hosts (tests/hosts/worker_hosts.sh);
-// here every drive runs in training (an exam needs DDS Security), whose rules are the exam's.
+// Scripts longer than 150 s are left to FORKLIFT_LIVE_ALL=1 (the whole test then takes 280 s): the
+// exam course's runs live under DDS Security in tests/security/exam_record_test.cc, and the clean
+// practical exam and lorry loading (4 and 4.5 min) are driven in the suite through a SessionRun
+// (ShippedDrive). Here every drive runs in training (an exam needs DDS Security), whose rules
+// are the exam's.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -28,7 +31,7 @@ namespace {
 
 const std::string kBin = FORKLIFT_BIN_DIR;
 const std::string kData = FORKLIFT_DATA_DIR;
-constexpr double kLongestHere_s = 100;  // longer scripts run live in the tests named above
+constexpr double kLongestInTheSuite_s = 150;
 
 // The script's last row's time: how long it drives.
 double script_length_s(const std::string& path) {
@@ -56,7 +59,7 @@ TEST(ShippedDrivesLive, EachDrivesLiveToWhatItNames) {
     Drive drive;
     drive.script = d.at("script");
     drive.length_s = script_length_s(kData + "/evaluation/scripts/" + drive.script);
-    if (drive.length_s > kLongestHere_s) continue;
+    if (drive.length_s > kLongestInTheSuite_s && !std::getenv("FORKLIFT_LIVE_ALL")) continue;
     const std::string scenario = d.at("scenario");  // "scenarios/NAME.json"
     drive.scenario = scenario.substr(scenario.rfind('/') + 1, scenario.size() - scenario.rfind('/') - 6);
     drive.faults = d.at("faults").get<std::set<std::string>>();
@@ -70,7 +73,7 @@ TEST(ShippedDrivesLive, EachDrivesLiveToWhatItNames) {
   for (const json& r : rules_file.at("rules")) rule_ids.insert(r.at("id"));
   ASSERT_GT(rule_ids.count("collision_cone"), 0u);
 
-  Server s("shipped_live");
+  Server s("shipped_live", {"--max-workers", "16"});  // one per drive, more than a default machine runs
   const std::string admin = s.login("admin", kAdminPassword);
   const json pupil = s.call("POST", "/api/pupils", admin, R"({"name":"Lia Live"})").second;
   ASSERT_TRUE(pupil.contains("id")) << pupil;
