@@ -85,8 +85,11 @@ int trace_main(const TraceOptions& o, const std::string& data_dir) {
   }
   // A sample at every `every_ticks`-th tick: at 0.1 s, 0.2 s, ... of sim time.
   const int64_t every_ticks = std::max<int64_t>(1, std::llround(o.every_s / model->tick_s));
-  json samples = json::array(), pallet_ids = json::array(), pedestrian_ids = json::array();
+  json samples = json::array(), pallet_ids = json::array(), pedestrian_ids = json::array(), rewinds = json::array();
   for (const PedestrianSpec& p : model->scene.pedestrians) pedestrian_ids.push_back(p.id);
+  for (const auto& [tick, what] : log.instructions)
+    if (what.action == InstructorAction::kRewind)
+      rewinds.push_back({{"from_s", tick * model->tick_s}, {"to_s", what.to_tick * model->tick_s}});
   int status = 0;
   std::string failure;
   ReplayResult r;
@@ -95,6 +98,10 @@ int trace_main(const TraceOptions& o, const std::string& data_dir) {
       if (s.tick % every_ticks != 0) return;
       if (samples.empty())  // the order every sample lists the pallets in
         for (const PalletState& p : s.handling.pallets()) pallet_ids.push_back(p.id);
+      // After an instructor's rewind the ticks count again from its point: the replay shows the
+      // attempt that stands (its samples in time order; the log's rewinds say where others were).
+      const double t = mm(s.t_s);
+      while (!samples.empty() && samples.back()["t"].get<double>() >= t) samples.erase(samples.size() - 1);
       samples.push_back(sample_json(*model, s, ws));
     });
   } catch (const std::exception& e) {
@@ -119,6 +126,7 @@ int trace_main(const TraceOptions& o, const std::string& data_dir) {
         {"fork_width_m", model->shape.fork_width_m}}},
       {"pallet_ids", pallet_ids},
       {"pedestrian_ids", pedestrian_ids},
+      {"rewinds", rewinds},
       {"samples", samples}};
   std::cout << out.dump() << '\n';
   return status;
