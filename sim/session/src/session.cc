@@ -99,6 +99,12 @@ SessionState initial_state(const SessionModel& m, const LogHeader& h) {
   return s;
 }
 
+PedestrianActivity activity_of(const PedestrianState& p) {
+  if (p.struck) return PedestrianActivity::kStruck;
+  if (!p.started) return PedestrianActivity::kWaiting;
+  return p.speed_m_s > 0 ? PedestrianActivity::kWalking : PedestrianActivity::kStanding;
+}
+
 struct SessionWorkspace::Impl {
   const SessionModel& model;
   std::unique_ptr<Simulation> sim;
@@ -157,6 +163,14 @@ const BodyPoses& SessionWorkspace::poses() const { return impl_->poses; }
 const StepReport& SessionWorkspace::report() const { return *impl_->report; }
 const std::vector<EvaluationEvent>& SessionWorkspace::evaluation_events() const { return impl_->found; }
 IntegratorStats SessionWorkspace::integrator_stats() const { return impl_->sim ? impl_->sim->stats() : IntegratorStats{}; }
+void SessionWorkspace::show(const SessionState& state) {
+  Impl& w = *impl_;
+  w.start_from(state);
+  w.have_last = false;
+  w.sim->set_inputs(state.inputs.driver);
+  w.out = w.sim->outputs();
+  w.poses = body_poses(w.model.truck, w.out.q);
+}
 
 namespace {
 struct StageScope {

@@ -62,6 +62,7 @@ void SessionRun::instruct(const Instruction& what) {
     if (log_) log_->instruction(state_.tick, what);
     state_ = point->second;                                 // the integrator restarts from it (step())
     points_.erase(std::next(point), points_.end());         // the abandoned attempt's
+    workspace_.show(state_);                                // a paused session's states show the point
     let_be_ticks_ = 0;
     return;
   }

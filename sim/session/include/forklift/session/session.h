@@ -82,6 +82,9 @@ SessionState initial_state(const SessionModel& model);
 // A logged session's first state: its initial state and load come from the header.
 SessionState initial_state(const SessionModel& model, const LogHeader& header);
 
+// What a pedestrian is doing in a state, in the vocabulary's words (the live view, the replay).
+PedestrianActivity activity_of(const PedestrianState& person);
+
 // What one tick noticed that the cab, the server and the log must hear about.
 struct SessionEvent {
   std::string kind;   // an evaluation rule id ("speed_near_walkway", ...), or a pallet's
@@ -112,6 +115,10 @@ class SessionWorkspace {
   const StepReport& report() const;
   const std::vector<EvaluationEvent>& evaluation_events() const;  // the last step's, in full
   IntegratorStats integrator_stats() const;
+  // Sets the outputs and poses to those of a state this workspace did not step to (a rewind's
+  // point), so that what is published before the next step is that state's; the next step
+  // restarts the integrator from its state, as from any copy.
+  void show(const SessionState& state);
 
  private:
   friend void step(const SessionModel&, SessionState&, SessionWorkspace&, const SessionInputs&,
