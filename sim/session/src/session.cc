@@ -334,7 +334,7 @@ std::vector<InputChange> script_changes(const std::string& path, const SessionMo
     if (!std::isfinite(r.t) || r.t < 0) throw std::runtime_error(path + ": row " + std::to_string(i + 1) + ": bad time");
     // The row's steer as a scripted cab's sample brings it to the worker (script.h).
     const double steer = steer_from_fraction(steer_fraction(r.steer, model.truck.steer.max_rad), model.truck);
-    const ControlSample c{uint32_t(i + 1), steer, r.accelerator, r.brake, r.lift, r.tilt, r.shift, false, r.parking_brake};
+    const ControlSample c{uint32_t(i + 1), steer, r.accelerator, r.brake, r.lift, r.tilt, r.shift, r.horn, r.parking_brake};
     if (const auto problem = control_problem(c, model.truck))
       throw std::runtime_error(path + ": row " + std::to_string(i + 1) + " (t = " + std::to_string(r.t) + " s): " + *problem);
     out.push_back({first_tick_at(r.t, model.tick_s), c.seq, {driver_inputs(c, model.truck), false}, std::nullopt});
