@@ -237,6 +237,21 @@ struct Path {
   }
 };
 
+// A rewind point's test: `kept`, copied twice and each copy stepped `ticks` ticks from scratch (a
+// workspace of its own) with the session's inputs held: the two states it ends in.
+inline std::vector<SessionState> step_copies(const Session& s, const SessionState& kept, int ticks) {
+  const SessionInputs held{s.u, false};
+  std::vector<SessionState> again;
+  for (int k = 0; k < 2; ++k) {
+    SessionWorkspace w(s.model);
+    SessionState b = kept;
+    std::vector<SessionEvent> found;
+    for (int i = 0; i < ticks; ++i) step(s.model, b, w, held, found);
+    again.push_back(b);
+  }
+  return again;
+}
+
 // Whether a careful driver sounds the horn now: moving, with the CoG outside a marker (a blind
 // corner, a door, a cross aisle) and within `ahead_m` of its edge.
 inline bool horn_due(const Session& s, double ahead_m = 1.5) {

@@ -241,4 +241,111 @@ TEST(Hazards, TheHornGoesThroughACabScriptAndASessionLogBitForBit) {
   EXPECT_EQ(marker_faults(quiet["events"]), 2) << "at walking pace all the same";
 }
 
+// --- a pallet falling from its rack ---
+
+const PalletState& pf(const Session& s) { return *s.pallet("PF"); }
+
+// Lane y = 40 at 1 m/s, forks at travelling height, until `done`.
+void along_the_rack(Session& s, Driver& d, const std::function<bool()>& done) {
+  d.lift_to = 0.2;
+  d.settle_levers();
+  drive(s, d, 1.0, 40.0, done);
+}
+
+TEST(Hazards, APalletFallsFromItsRackAsTheTruckComesAndLiesWhereItLanded) {
+  Session s(scene("hazards.json"), Mode::kTraining, Vector3d(0, 40, 0));
+  Driver d{s};
+  const Eigen::Vector3d stood = s.scene.find("PF")->pose.translation();  // no step yet: as the scenario stands it
+  EXPECT_NEAR(stood.z(), 2.7, 1e-9) << "on the top beams";
+  along_the_rack(s, d, [&] { return s.state.falls.at(0).started; });
+  // Triggered with the truck's outline 4 m from the pallet's middle.
+  EXPECT_NEAR(distance_to_truck(truck_outline(s.shape), s.poses(), stood.head<2>()), 4.0, 0.01);
+  const double t0 = s.state.falls[0].started_t_s;
+  hold(s, d, [&] { return s.state.falls[0].landed; }, 5);  // braking
+  // Free fall from 2.7 m: sqrt(2 h / g) = 0.742 s, to the tick.
+  EXPECT_NEAR(s.t() - t0, std::sqrt(2 * 2.7 / kGravity_m_s2), 1.5e-3);
+  const PalletState& p = pf(s);
+  EXPECT_TRUE(p.dropped);
+  EXPECT_TRUE(p.resting_on.empty());
+  EXPECT_NEAR(p.pose.translation().z(), 0.0, 1e-12);
+  EXPECT_NEAR(p.pose.translation().x(), 10.0, 1e-9);
+  EXPECT_NEAR(p.pose.translation().y(), 42.0 - 1.2, 1e-9) << "thrown 1.2 m off the beams towards the lane";
+  const Eigen::Vector3d landed_at = p.pose.translation();
+  d.stop();
+  hold(s, d, [] { return false; }, 2);
+  EXPECT_EQ(pf(s).pose.translation(), landed_at) << "it lies there";
+  EXPECT_TRUE(s.events.empty()) << s.summary() << "stopped short of it";
+}
+
+TEST(Hazards, ATruckDrivingOnIntoTheFallenPalletStrikesIt) {
+  Session s(scene("hazards.json"), Mode::kTraining, Vector3d(0, 40, 0));
+  Driver d{s};
+  along_the_rack(s, d, [&] { return s.count("collision_pallet") + s.count("fork_strike_pallet") > 0 || s.pos().x() > 12; });
+  ASSERT_GE(s.count("collision_pallet") + s.count("fork_strike_pallet"), 1) << s.summary();
+  const EvaluationEvent& e = s.events.front();
+  EXPECT_EQ(json::parse(e.details)["object"], "PF") << s.summary();
+}
+
+TEST(Hazards, TheFallIsPartOfTheStateAndReplaysBitForBit) {
+  // A kept copy from just before the fall, stepped twice from scratch, drops it the same way.
+  Session a(scene("hazards.json"), Mode::kTraining, Vector3d(0, 40, 0));
+  Driver d{a};
+  along_the_rack(a, d, [&] { return distance_to_truck(truck_outline(a.shape), a.poses(), Vector2d(10, 42)) < 4.3; });
+  const SessionState kept = a.state;
+  ASSERT_FALSE(kept.falls.at(0).started);
+  const std::vector<SessionState> again = step_copies(a, kept, 700);
+  ASSERT_TRUE(again[0].falls[0].started);
+  const auto pose_of = [](const SessionState& st) { return st.handling.pallet("PF")->pose.matrix(); };
+  EXPECT_LT(pose_of(again[0])(2, 3), 2.6) << "it was falling";
+  EXPECT_EQ(std::memcmp(pose_of(again[0]).data(), pose_of(again[1]).data(), 16 * sizeof(double)), 0);
+  EXPECT_EQ(std::memcmp(again[0].x.data(), again[1].x.data(), sizeof(double) * StateIndex::kSize), 0);
+
+  // The drive as a cab script, its log replayed: the pallet where it was at every tick.
+  const std::string dir = testing::TempDir();
+  json j = json::parse(std::ifstream(kHazards));
+  j["start"]["y_m"] = 40.0;
+  const std::string scenario = dir + "/hazards_lane_rack.json";
+  std::ofstream(scenario) << j.dump(1);
+  Session s(scene("hazards.json"), Mode::kTraining, Vector3d(0, 40, 0));
+  Driver ds{s};
+  along_the_rack(s, ds, [&] { return s.state.falls.at(0).started; });
+  ds.stop();
+  hold(s, ds, [] { return false; }, 2);
+  const std::string script = dir + "/hazards_fall.csv";
+  s.write_script(script, (s.ticks - 1) * Session::kTick, "hazards: along the rack as PF falls, stopped short");
+  const std::string log = dir + "/hazards_fall.ctl";
+  const json run = evaluate({"--scenario", scenario, "--script", script, "--out-log", log}, "hazards_fall");
+  const SessionModel model = load_session_model(SessionSpec{scenario}, FORKLIFT_DATA_DIR);
+  std::vector<Eigen::Matrix4d> first, replayed;
+  const auto record = [](std::vector<Eigen::Matrix4d>& into) {
+    return [&into](const SessionState& st, const SessionWorkspace&) { into.push_back(st.handling.pallet("PF")->pose.matrix()); };
+  };
+  const std::vector<InputChange> changes = script_changes(script, model);
+  run_offline(model, initial_state(model), changes, changes.back().tick + 1, EndReason::kDuration, nullptr, record(first));
+  const ControlLog parsed = read_control_log(log);
+  const ReplayResult r = replay_session(parsed, model, record(replayed));
+  ASSERT_EQ(first.size(), replayed.size());
+  ASSERT_GT(first.size(), 1000u);
+  EXPECT_NE(first.front()(2, 3), first.back()(2, 3)) << "it fell";
+  EXPECT_EQ(std::memcmp(first.data(), replayed.data(), first.size() * sizeof(Eigen::Matrix4d)), 0);
+  ASSERT_TRUE(parsed.score_line.has_value());
+  EXPECT_EQ(r.score_line, *parsed.score_line);
+  EXPECT_EQ(r.score.points, run["score"]["points"].get<int>());
+}
+
+TEST(Hazards, TheInstructorDropsThePalletNowAndNotTwice) {
+  const SessionModel model = load_session_model(SessionSpec{kHazards}, FORKLIFT_DATA_DIR);
+  SessionRun run(model, initial_state(model));
+  EXPECT_EQ(run.hazard_problem("PF"), std::nullopt);
+  ASSERT_TRUE(run.hazard_problem("P9"));
+  EXPECT_NE(run.hazard_problem("P9")->find("no pedestrian or falling pallet 'P9'"), std::string::npos) << *run.hazard_problem("P9");
+  for (int i = 0; i < 100; ++i) run.tick();
+  run.instruct({InstructorAction::kHazard, "PF"});
+  for (int i = 0; i < 1000; ++i) run.tick();
+  EXPECT_TRUE(run.state().falls.at(0).landed) << "the truck at the start, 10 m off: the instructor's hand";
+  EXPECT_NEAR(run.state().handling.pallet("PF")->pose.translation().z(), 0.0, 1e-12);
+  ASSERT_TRUE(run.hazard_problem("PF"));
+  EXPECT_NE(run.hazard_problem("PF")->find("fallen already"), std::string::npos);
+}
+
 }  // namespace

@@ -141,15 +141,7 @@ TEST(Pedestrians, ACopyOfTheStateIsARewindPointForThePeopleToo) {
   drive(a, d, 1.2, 20.0, [&] { return a.state.pedestrians[1].started; });
   a.run(0.5, [&] { return a.c; });
   const SessionState kept = a.state;
-  const SessionInputs held{a.u, false};
-  std::vector<SessionState> again;
-  for (int k = 0; k < 2; ++k) {
-    SessionWorkspace w(a.model);
-    SessionState b = kept;
-    std::vector<SessionEvent> found;
-    for (int i = 0; i < 2000; ++i) step(a.model, b, w, held, found);
-    again.push_back(b);
-  }
+  const std::vector<SessionState> again = step_copies(a, kept, 2000);
   EXPECT_GT((again[0].pedestrians[1].at_m - kept.pedestrians[1].at_m).norm(), 2.0) << "he walked on";
   for (size_t i = 0; i < kept.pedestrians.size(); ++i)
     EXPECT_EQ(std::memcmp(again[0].pedestrians[i].at_m.data(), again[1].pedestrians[i].at_m.data(), 2 * sizeof(double)), 0) << i;

@@ -1,13 +1,16 @@
-// A scenario's fixed hazards: markers (blind corners, doors, cross aisles: where the driver sounds
-// the horn) and spills (floor patches where the tyres grip less), read by the loader into the
-// scene and its ground, joined across an include, and refused, naming the key, when malformed.
+// A scenario's hazards as the loader reads them: markers (blind corners, doors, cross aisles: where
+// the driver sounds the horn), spills (floor patches where the tyres grip less) and pallets that
+// fall from their racks, into the scene and its ground, joined across an include, and refused,
+// naming the key, when malformed; a falling pallet's free fall.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <optional>
 
+#include "forklift/scene/falling.h"
 #include "forklift/scene/scene.h"
 
 using namespace forklift;
@@ -104,6 +107,58 @@ TEST(SceneHazards, BadMarkersAndSpillsAreRefusedNamingTheKey) {
   refused("spills", R"({"id": "S", "rect": [2, 0, 1, 1], "friction_scale": 0.5})", "spills[0].rect");
   refused("spills", R"({"id": "S", "rect": [0, 0, 1, 1], "friction_scale": 0.5}, {"id": "S", "rect": [0, 0, 1, 1], "friction_scale": 0.5})",
           "repeats");
+}
+
+TEST(SceneHazards, AFallingPalletNamesAPalletOnASupportAboveTheFloor) {
+  const std::string rack = R"({"truck": "trucks/linde_e16c.json", "objects": [
+      {"id": "R", "kind": "rack", "x_m": 10, "y_m": 0, "levels_m": [0.9, 1.8, 2.7]},
+      {"id": "P", "kind": "pallet", "x_m": 10, "y_m": 0, "yaw_deg": 90, "on": "R", "level": 2},
+      {"id": "F", "kind": "pallet", "x_m": 20, "y_m": 0}],
+    "falling_pallets": [)";
+  const Loaded ok = load(rack + R"({"pallet": "P", "trigger": {"truck_within_m": 4}, "toward_deg": -90, "throw_m": 1.5}]})");
+  ASSERT_TRUE(ok.scene) << ok.error;
+  ASSERT_EQ(ok.scene->falling_pallets.size(), 1u);
+  const FallingPalletSpec& f = ok.scene->falling_pallets[0];
+  EXPECT_EQ(f.pallet, "P");
+  ASSERT_TRUE(f.start_truck_within_m);
+  EXPECT_EQ(*f.start_truck_within_m, 4.0);
+  EXPECT_NEAR(f.toward_rad, -M_PI / 2, 1e-15);
+  EXPECT_EQ(f.throw_m, 1.5);
+  const auto refused = [&](const std::string& entries, const std::string& named) {
+    const Loaded l = load(rack + entries + "]}");
+    EXPECT_FALSE(l.scene) << entries;
+    EXPECT_NE(l.error.find(named), std::string::npos) << entries << "\n" << l.error;
+  };
+  refused(R"({"pallet": "F", "trigger": {"at_s": 1}, "toward_deg": 0})", "stands on the floor");
+  refused(R"({"pallet": "R", "trigger": {"at_s": 1}, "toward_deg": 0})", "names no pallet 'R'");
+  refused(R"({"pallet": "Q", "trigger": {"at_s": 1}, "toward_deg": 0})", "names no pallet 'Q'");
+  refused(R"({"pallet": "P", "trigger": {}, "toward_deg": 0})", "falling_pallets[0].trigger");
+  refused(R"({"pallet": "P", "trigger": {"at_s": 1, "truck_within_m": 2}, "toward_deg": 0})", "falling_pallets[0].trigger");
+  refused(R"({"pallet": "P", "toward_deg": 0})", "trigger");
+  refused(R"({"pallet": "P", "trigger": {"at_s": 1}, "toward_deg": 0, "throw_m": -1})", "falling_pallets[0].throw_m");
+  refused(R"({"pallet": "P", "trigger": {"at_s": 1}, "toward_deg": 0, "throw_m": 1e9})", "falling_pallets[0].throw_m");
+  refused(R"({"pallet": "P", "trigger": {"at_s": 1}, "toward_deg": 0}, {"pallet": "P", "trigger": {"at_s": 2}, "toward_deg": 0})",
+          "repeats");
+}
+
+TEST(SceneHazards, APalletFallsFreelyToTheFloorAndSlidesItsThrowEvenly) {
+  FallingPalletSpec f;
+  f.toward_rad = M_PI / 2;
+  f.throw_m = 1.0;
+  const Eigen::Isometry3d start(Eigen::Translation3d(3, 4, 1.8));
+  bool landed = true;
+  const double g = 9.81, fall_s = std::sqrt(2 * 1.8 / g);
+  Eigen::Isometry3d p = falling_pose(f, start, 0.0, g, 0.0, landed);
+  EXPECT_FALSE(landed);
+  EXPECT_TRUE(p.isApprox(start));
+  p = falling_pose(f, start, 0.0, g, fall_s / 2, landed);
+  EXPECT_FALSE(landed);
+  EXPECT_NEAR(p.translation().z(), 1.8 - 0.5 * g * (fall_s / 2) * (fall_s / 2), 1e-12) << "a quarter of the drop at half the time";
+  EXPECT_NEAR(p.translation().y(), 4.5, 1e-12);
+  p = falling_pose(f, start, 0.0, g, fall_s + 1.0, landed);
+  EXPECT_TRUE(landed);
+  EXPECT_EQ(p.translation(), Eigen::Vector3d(3, 5, 0));
+  EXPECT_TRUE(p.linear().isApprox(start.linear())) << "level all the way";
 }
 
 }  // namespace

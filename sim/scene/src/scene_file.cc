@@ -143,14 +143,14 @@ struct Merged {
     std::string file, key;
   };
   std::map<std::string, Item> keys;
-  std::vector<Item> objects, zones, ramps, ground_steps, pedestrians, markers, spills;
+  std::vector<Item> objects, zones, ramps, ground_steps, pedestrians, markers, spills, falling_pallets;
 };
 
 const std::set<std::string> kTopKeys = {"name",   "description", "truck",        "start",  "exam_course",
                                         "load",   "include",     "objects",      "zones",
                                         "ramps",  "ground_steps", "route",     "task",         "time_limit_s",
                                         "floor_m", "zone_speed_limits_m_s", "exclude_objects", "pedestrians",
-                                        "markers", "spills", "manoeuvre", "duration_s"};
+                                        "markers", "spills", "falling_pallets", "manoeuvre", "duration_s"};
 
 // Read by load_scenario (scenario.h) from the scenario file itself.
 // An exam course is the scenario's own declaration: a layout may not make its includers exams.
@@ -173,11 +173,11 @@ void merge(const std::string& path, const std::string& data_dir, Merged& m, int 
     if (!kTopKeys.count(k)) fail(path, k, "is not a known key");
     if (depth > 0 && kOwnKeys.count(k)) fail(path, k, "belongs in the scenario file itself, not in an included layout");
     if (k == "objects" || k == "zones" || k == "ramps" || k == "ground_steps" || k == "pedestrians" || k == "markers" ||
-        k == "spills") {
+        k == "spills" || k == "falling_pallets") {
       const Node list(it.value(), path, k);
       list.array();
       auto& out = k == "objects" ? m.objects : k == "zones" ? m.zones : k == "ramps" ? m.ramps
-                  : k == "ground_steps" ? m.ground_steps : k == "markers" ? m.markers : k == "spills" ? m.spills : m.pedestrians;
+                  : k == "ground_steps" ? m.ground_steps : k == "markers" ? m.markers : k == "spills" ? m.spills : k == "falling_pallets" ? m.falling_pallets : m.pedestrians;
       for (size_t i = 0; i < list.size(); ++i) out.push_back({it.value()[i], path, k + "[" + std::to_string(i) + "]"});
     } else if (k == "exclude_objects") {
       const Node list(it.value(), path, k);
@@ -374,6 +374,7 @@ void place_on_support(SceneObject& pallet, const Node& n, const Scene& scene) {
 
 // One pedestrian: a path walked once at a speed, waits at its points, what starts the walk, and
 // whether the person looks out for the truck.
+void read_trigger(const Node& t, std::optional<double>& truck_within_m, double& at_s);
 PedestrianSpec read_pedestrian(const Node& n) {
   n.only({"id", "path", "speed_m_s", "waits", "trigger", "looks", "stop_within_m", "size_m"});
   PedestrianSpec p;
@@ -399,13 +400,7 @@ PedestrianSpec read_pedestrian(const Node& n) {
       p.waits.push_back(pw);
     }
   }
-  if (n.has("trigger")) {
-    const Node t = n.at("trigger");
-    t.only({"truck_within_m", "at_s"});
-    if (t.has("truck_within_m") == t.has("at_s")) t.fail("must give one of truck_within_m and at_s");
-    if (t.has("truck_within_m")) p.start_truck_within_m = t.at("truck_within_m").positive();
-    else p.start_at_s = t.at("at_s").non_negative();
-  }
+  if (n.has("trigger")) read_trigger(n.at("trigger"), p.start_truck_within_m, p.start_at_s);
   p.looks = n.has("looks") ? n.at("looks").boolean() : true;
   if (p.looks) p.stop_within_m = n.at("stop_within_m").positive();
   else if (n.has("stop_within_m")) n.at("stop_within_m").fail("is for one who looks (looks: true)");
@@ -452,6 +447,29 @@ Zone read_zone(const Node& n, const Node* speed_limits) {
     n.fail("has no speed_limit_m_s and zone_speed_limits_m_s has none for kind '" + z.kind + "'");
   }
   return z;
+}
+
+// A hazard's trigger: {truck_within_m} or {at_s}, exactly one.
+void read_trigger(const Node& t, std::optional<double>& truck_within_m, double& at_s) {
+  t.only({"truck_within_m", "at_s"});
+  if (t.has("truck_within_m") == t.has("at_s")) t.fail("must give one of truck_within_m and at_s");
+  if (t.has("truck_within_m")) truck_within_m = t.at("truck_within_m").positive();
+  else at_s = t.at("at_s").non_negative();
+}
+
+// A pallet that falls: it must stand on a support above the floor (a rack level, a bed).
+FallingPalletSpec read_falling_pallet(const Node& n, const Scene& scene) {
+  n.only({"pallet", "trigger", "toward_deg", "throw_m"});
+  FallingPalletSpec f;
+  f.pallet = n.at("pallet").string();
+  const SceneObject* o = scene.find(f.pallet);
+  if (!o || o->kind != ObjectKind::kPallet) n.at("pallet").fail("names no pallet '" + f.pallet + "'");
+  if (o->rests_on.empty() || !(o->pose.translation().z() > 0))
+    n.at("pallet").fail("names pallet '" + f.pallet + "', which stands on the floor: only one on a support above it can fall");
+  read_trigger(n.at("trigger"), f.start_truck_within_m, f.start_at_s);
+  f.toward_rad = n.at("toward_deg").number() * kDeg;
+  f.throw_m = n.non_negative_or("throw_m", f.throw_m);
+  return f;
 }
 
 Spill read_spill(const Node& n) {
@@ -874,6 +892,13 @@ Scene load_scene(const std::string& path, const std::string& data_dir) {
     PedestrianSpec p = read_pedestrian(n);
     if (!ids.insert(p.id).second) n.at("id").fail("repeats the id '" + p.id + "'");
     scene.pedestrians.push_back(std::move(p));
+  }
+  std::set<std::string> falling_ids;
+  for (const Merged::Item& item : m.falling_pallets) {
+    const Node n = node(item);
+    FallingPalletSpec f = read_falling_pallet(n, scene);
+    if (!falling_ids.insert(f.pallet).second) n.at("pallet").fail("repeats the falling pallet '" + f.pallet + "'");
+    scene.falling_pallets.push_back(std::move(f));
   }
 
   if (key("route")) {

@@ -229,6 +229,18 @@ struct PedestrianSpec {
   Eigen::Vector3d size_m{0.5, 0.3, 1.75};  // shoulders across, chest to back, height: an upright box
 };
 
+// A pallet that falls from the rack level it stands on when its trigger fires (a scenario's
+// `falling_pallets`; falling.h drops it): it slides throw_m off the beams along toward_rad as it
+// drops to the floor below, and lies there, fallen.
+struct FallingPalletSpec {
+  std::string pallet;  // a pallet object's id, standing on a support above the floor
+  // Falls when the truck's outline comes within this distance of the pallet's middle (set), or at start_at_s.
+  std::optional<double> start_truck_within_m;
+  double start_at_s = 0;
+  double toward_rad = 0;  // world heading of its slide off the beams
+  double throw_m = 0.8;   // how far it lands from under where it stood
+};
+
 struct Scene {
   std::string file, name, description;
   std::optional<ExamCourse> exam_course;  // set: the scenario is an exam course
@@ -238,6 +250,7 @@ struct Scene {
   std::vector<Zone> zones;
   std::vector<Marker> markers;  // blind corners, doors, cross aisles
   std::vector<Spill> spills;    // in `ground` too
+  std::vector<FallingPalletSpec> falling_pallets;
   Route route;
   Task task;
   double time_limit_s = 0;  // zero: none
