@@ -676,7 +676,7 @@ int CabProgram::run() {
         const ScriptRow& r = rows[next_row++];
         fk_Controls s = controls_from(CabCommand{});
         s.steer = steer_fraction(r.steer, steer_lock_rad_), s.accelerator = r.accelerator, s.brake = r.brake, s.lift = r.lift, s.tilt = r.tilt;
-        s.side_shift = r.shift, s.parking_brake = r.parking_brake;
+        s.side_shift = r.shift, s.parking_brake = r.parking_brake, s.horn = r.horn;
         s.apply_at_sim_s = r.t;
         held = s;
         send(s);

@@ -21,6 +21,7 @@
 #include "forklift/collision/collision.h"
 #include "forklift/dynamics/simulation.h"
 #include "forklift/evaluation/evaluation.h"
+#include "forklift/scene/falling.h"
 #include "forklift/scene/pedestrians.h"
 #include "forklift/scene/scene.h"
 #include "forklift/session/session_log.h"
@@ -73,6 +74,7 @@ struct SessionState {
   std::vector<ExternalForce> scene_push;     // the scene's push-back, held to the next tick
   HandlingState handling;                    // every pallet, and the one on the forks
   std::vector<PedestrianState> pedestrians;  // one per Scene::pedestrians (pedestrians.h)
+  std::vector<FallingPalletState> falls;     // one per Scene::falling_pallets (falling.h)
   EvaluationMemory evaluation;
 };
 
