@@ -136,6 +136,53 @@ TEST(Pedestrians, OneWhoLooksStandsForTheTruckAndOneWhoDoesNotWalksOn) {
   EXPECT_DOUBLE_EQ(st[0].speed_m_s, 1.0);
 }
 
+// One who does not look but heeds the horn: walks on while the truck is silent, stops once it
+// sounds within his hearing distance (and keeps standing while it is near, horn or not), and one
+// beyond that distance is not alerted.
+TEST(Pedestrians, OneWhoHeedsTheHornStandsOnceItSoundsNearHim) {
+  PedestrianSpec heeds = crosser(false);
+  heeds.id = "HEEDS";
+  heeds.heeds_horn_within_m = 4.0;
+  const std::vector<PedestrianSpec> specs{heeds, crosser(false)};
+  std::vector<PedestrianState> st = initial_pedestrians(specs);
+  double t = 0;
+  const auto parked = [](double) { return 10 - 2.0 - 1.7; };  // fork tips 2 m short of his line
+  // Silent: both walk on from 5 m to the side, far from the truck (4.4 m at 1 s).
+  for (int i = 0; i < 1000; ++i) {
+    t += kTick;
+    walk(specs, st, outline(), truck_at(parked(t), 0), t, kTick, /*horn=*/false);
+  }
+  EXPECT_FALSE(st[0].alerted);
+  EXPECT_DOUBLE_EQ(st[0].speed_m_s, 1.0);
+  // The horn from now on, a moment at a time: he hears it only once the truck is within his 4 m.
+  double alerted_at_y = NAN;
+  for (int i = 0; i < 3000; ++i) {
+    t += kTick;
+    const bool horn = i < 2000;
+    walk(specs, st, outline(), truck_at(parked(t), 0), t, kTick, horn);
+    if (st[0].alerted && std::isnan(alerted_at_y)) alerted_at_y = st[0].at_m.y();
+  }
+  ASSERT_TRUE(st[0].alerted);
+  // Alerted where the truck's outline (the tips, 2 m off his line) came within 4 m: sqrt(4^2 - 2^2)
+  // from the forks' side, and he stands there after the horn stops.
+  EXPECT_NEAR(alerted_at_y, -0.25 - std::sqrt(12.0), 2e-3);
+  EXPECT_TRUE(st[0].stopped_for_truck);
+  EXPECT_EQ(st[0].speed_m_s, 0.0);
+  EXPECT_NEAR(st[0].at_m.y(), alerted_at_y, 2e-3);
+  // The one who does not heed it walked on towards the truck's nose, 4 m in 4 s.
+  EXPECT_FALSE(st[1].alerted);
+  EXPECT_DOUBLE_EQ(st[1].speed_m_s, 1.0);
+  EXPECT_NEAR(st[1].at_m.y(), -1.0, 2e-3);
+  // A horn sounded with the truck farther than his distance does not alert him.
+  std::vector<PedestrianState> far = initial_pedestrians(specs);
+  double t2 = 0;
+  for (int i = 0; i < 1000; ++i) {
+    t2 += kTick;
+    walk(specs, far, outline(), truck_at(-20.0, 0), t2, kTick, /*horn=*/true);
+  }
+  EXPECT_FALSE(far[0].alerted);
+}
+
 TEST(Pedestrians, AStruckPersonStands) {
   const std::vector<PedestrianSpec> specs{crosser(false)};
   std::vector<PedestrianState> st = initial_pedestrians(specs);
@@ -208,7 +255,7 @@ TEST(Pedestrians, TheLoaderReadsEveryKey) {
   std::ofstream(path) << R"({"truck": "trucks/linde_e16c.json", "pedestrians": [
     {"id": "A", "path": [[1, 2], [3, 4], [5, 4]], "speed_m_s": 1.3, "waits": [{"at_point": 1, "duration_s": 2.5}],
      "trigger": {"truck_within_m": 7}, "looks": true, "stop_within_m": 4, "size_m": [0.6, 0.35, 1.8]},
-    {"id": "B", "path": [[0, 0], [0, 1]], "speed_m_s": 0.8, "looks": false, "trigger": {"at_s": 12}}]})";
+    {"id": "B", "path": [[0, 0], [0, 1]], "speed_m_s": 0.8, "looks": false, "heeds_horn_within_m": 6, "trigger": {"at_s": 12}}]})";
   const Scene s = load_scene(path, kData);
   fs::remove_all(dir);
   ASSERT_EQ(s.pedestrians.size(), 2u);
@@ -227,6 +274,9 @@ TEST(Pedestrians, TheLoaderReadsEveryKey) {
   EXPECT_EQ(a.size_m, Eigen::Vector3d(0.6, 0.35, 1.8));
   const PedestrianSpec& b = s.pedestrians[1];
   EXPECT_FALSE(b.looks);
+  ASSERT_TRUE(b.heeds_horn_within_m);
+  EXPECT_EQ(*b.heeds_horn_within_m, 6.0);
+  EXPECT_FALSE(a.heeds_horn_within_m);
   EXPECT_FALSE(b.start_truck_within_m);
   EXPECT_EQ(b.start_at_s, 12.0);
   EXPECT_EQ(b.size_m, Eigen::Vector3d(0.5, 0.3, 1.75)) << "the default body";
@@ -253,6 +303,8 @@ TEST(Pedestrians, BadEntriesAreRefusedNamingTheKey) {
   refused(R"({"id": "A", "path": [[0, 0], [0, 0]], "speed_m_s": 1, "looks": false})", "pedestrians[0].path[1]");
   refused(R"({"id": "A", "path": [[0, 0], [1, 0]], "speed_m_s": 1})", "pedestrians[0].stop_within_m");
   refused(R"({"id": "A", "path": [[0, 0], [1, 0]], "speed_m_s": 1, "looks": false, "stop_within_m": 2})", "stop_within_m");
+  refused(R"({"id": "A", "path": [[0, 0], [1, 0]], "speed_m_s": 1, "stop_within_m": 2, "heeds_horn_within_m": 5})", "heeds_horn_within_m");
+  refused(R"({"id": "A", "path": [[0, 0], [1, 0]], "speed_m_s": 1, "looks": false, "heeds_horn_within_m": 0})", "pedestrians[0].heeds_horn_within_m");
   refused(R"({"id": "A", "path": [[0, 0], [1, 0]], "speed_m_s": 1, "looks": false, "waits": [{"at_point": 2, "duration_s": 1}]})",
           "pedestrians[0].waits[0].at_point");
   refused(R"({"id": "A", "path": [[0, 0], [1, 0]], "speed_m_s": 1, "looks": false, "trigger": {}})", "pedestrians[0].trigger");

@@ -53,7 +53,7 @@ double distance_to_truck(const TruckOutline& outline, const BodyPoses& poses, co
 }
 
 void walk(const std::vector<PedestrianSpec>& specs, std::vector<PedestrianState>& states, const TruckOutline& outline,
-          const BodyPoses& poses, double t_s, double dt_s) {
+          const BodyPoses& poses, double t_s, double dt_s, bool horn) {
   for (size_t i = 0; i < specs.size(); ++i) {
     const PedestrianSpec& spec = specs[i];
     PedestrianState& s = states[i];
@@ -61,14 +61,16 @@ void walk(const std::vector<PedestrianSpec>& specs, std::vector<PedestrianState>
     if (s.struck || s.arrived) continue;
     // The truck's distance only where a rule of his reads it: a tick of people far away costs
     // little.
-    const bool needs_distance = (!s.started && spec.start_truck_within_m) || spec.looks;
+    const bool needs_distance = (!s.started && spec.start_truck_within_m) || spec.looks || spec.heeds_horn_within_m;
     const double d = needs_distance ? distance_to_truck(outline, poses, s.at_m) : 0.0;
     if (!s.started) {
       s.started = spec.start_truck_within_m ? d <= *spec.start_truck_within_m : t_s >= spec.start_at_s;
       if (!s.started) continue;
       s.wait_left_s = wait_at(spec, 0);
     }
-    s.stopped_for_truck = spec.looks && d <= spec.stop_within_m;
+    // The horn alerts one who heeds it only once he is about (walking or waiting on his path).
+    if (horn && spec.heeds_horn_within_m && d <= *spec.heeds_horn_within_m) s.alerted = true;
+    s.stopped_for_truck = (spec.looks && d <= spec.stop_within_m) || (s.alerted && d <= *spec.heeds_horn_within_m);
     if (s.stopped_for_truck) continue;
     if (s.wait_left_s > 0) {
       s.wait_left_s = std::max(0.0, s.wait_left_s - dt_s);

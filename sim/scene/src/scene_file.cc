@@ -376,7 +376,7 @@ void place_on_support(SceneObject& pallet, const Node& n, const Scene& scene) {
 // whether the person looks out for the truck.
 void read_trigger(const Node& t, std::optional<double>& truck_within_m, double& at_s);
 PedestrianSpec read_pedestrian(const Node& n) {
-  n.only({"id", "path", "speed_m_s", "waits", "trigger", "looks", "stop_within_m", "size_m"});
+  n.only({"id", "path", "speed_m_s", "waits", "trigger", "looks", "stop_within_m", "heeds_horn_within_m", "size_m"});
   PedestrianSpec p;
   p.id = n.at("id").string();
   const Node path = n.at("path");
@@ -404,6 +404,10 @@ PedestrianSpec read_pedestrian(const Node& n) {
   p.looks = n.has("looks") ? n.at("looks").boolean() : true;
   if (p.looks) p.stop_within_m = n.at("stop_within_m").positive();
   else if (n.has("stop_within_m")) n.at("stop_within_m").fail("is for one who looks (looks: true)");
+  if (n.has("heeds_horn_within_m")) {
+    if (p.looks) n.at("heeds_horn_within_m").fail("is for one who does not look (looks: false): one who looks stands anyway");
+    p.heeds_horn_within_m = n.at("heeds_horn_within_m").positive();
+  }
   if (n.has("size_m")) {
     p.size_m = n.at("size_m").vec3();
     for (int i = 0; i < 3; ++i)

@@ -236,7 +236,8 @@ void step(const SessionModel& model, SessionState& state, SessionWorkspace& work
     const std::vector<PedestrianSpec>& people = model.scene.pedestrians;
     if (!people.empty()) {  // the people see the truck where the dynamics left it
       if (state.pedestrians.size() != people.size()) state.pedestrians = initial_pedestrians(people);
-      walk(people, state.pedestrians, w.outline, body_poses(model.truck, coordinates(state.x)), state.t_s, model.tick_s);
+      walk(people, state.pedestrians, w.outline, body_poses(model.truck, coordinates(state.x)), state.t_s, model.tick_s,
+           inputs.driver.horn);
     }
     if (!model.scene.falling_pallets.empty()) drop_pallets(model, state, w.outline, w.falling, w.warehouse);
     const StepReport& r = *(w.report = &w.warehouse.step(sim, state.handling, state.pedestrians));

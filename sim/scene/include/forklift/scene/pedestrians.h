@@ -26,6 +26,7 @@ struct PedestrianState {
   bool started = false;     // his trigger has fired
   bool arrived = false;     // at the path's end: stands there
   bool stopped_for_truck = false;  // one who looks, standing while the truck is near
+  bool alerted = false;     // one who does not look heard the horn (heeds_horn_within_m): he looks now
   bool struck = false;      // the truck struck him: he stays where he fell (set by the session)
 };
 
@@ -42,11 +43,12 @@ TruckOutline truck_outline(const TruckShape& shape);
 double distance_to_truck(const TruckOutline& outline, const BodyPoses& poses, const Eigen::Vector2d& p);
 
 // One tick of `dt_s` ending at sim time `t_s`, with the truck at `poses` (its state at the tick's
-// end): each pedestrian starts when his trigger fires, walks his path at his speed, stands at
-// his waits and, if he looks, while the truck is within his stop distance; a struck one stands.
-// `states` has one entry per spec (initial_pedestrians).
+// end) and its horn sounding or not: each pedestrian starts when his trigger fires, walks his
+// path at his speed, stands at his waits and, if he looks (or heard the horn he heeds), while the
+// truck is within his stop distance; a struck one stands. `states` has one entry per spec
+// (initial_pedestrians).
 void walk(const std::vector<PedestrianSpec>& specs, std::vector<PedestrianState>& states, const TruckOutline& outline,
-          const BodyPoses& poses, double t_s, double dt_s);
+          const BodyPoses& poses, double t_s, double dt_s, bool horn = false);
 
 // The body's pose: an upright box of the spec's size standing on z = 0 at the state's place,
 // facing its heading (local x: chest to back, y: across the shoulders), its centre at half height.

@@ -226,6 +226,9 @@ struct PedestrianSpec {
   // look walks on whatever the truck does.
   bool looks = true;
   double stop_within_m = 0;
+  // One who does not look may still hear: the horn sounded with the truck's outline within this
+  // distance alerts him, and from then on he stands while the truck is that near (as one who looks).
+  std::optional<double> heeds_horn_within_m;
   Eigen::Vector3d size_m{0.5, 0.3, 1.75};  // shoulders across, chest to back, height: an upright box
 };
 
