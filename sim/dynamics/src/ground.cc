@@ -224,6 +224,13 @@ int box_edge_touches(const Ground& ground, const Eigen::Matrix3d& R, const Vecto
             push[axis] = -sign;
           }
         }
+      // Where the edge lies just inside a face it cannot leave through (a fork's top at the kerb's
+      // height), the points on that face take the contact over as the edge leaves the box: the
+      // edge's depth fades to zero there, so the force does not jump as it crosses.
+      const Vector3d along = (b - a).normalized();
+      for (int axis = 0; axis < 3; ++axis)
+        if (std::abs(along[axis]) < 0.5)  // a face the edge crosses, not one its clipped ends lie on
+          best = std::min({best, mid[axis] - lo[axis], hi[axis] - mid[axis]});
       if (best > 0 && std::isfinite(best) && count < kMaxGroundTouches) out[count++] = {best, R * push, at};
     }
   }
