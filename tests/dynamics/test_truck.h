@@ -19,23 +19,28 @@ inline const forklift::TruckParams& paper_truck() {
   return t;
 }
 
-// The training truck's data file with `edit` applied, written where the test may write; its path.
-inline std::string shipped_truck_variant(const std::string& name, const std::function<void(nlohmann::json&)>& edit) {
-  std::ifstream in(std::string(FORKLIFT_DATA_DIR) + "/trucks/linde_e16c.json");
+// The truck data file `file` (under data/trucks/) with `edit` applied, written where the test may
+// write; its path.
+inline std::string truck_variant(const std::string& file, const std::string& name,
+                                 const std::function<void(nlohmann::json&)>& edit) {
+  std::ifstream in(std::string(FORKLIFT_DATA_DIR) + "/trucks/" + file);
   nlohmann::json j = nlohmann::json::parse(in);
   edit(j);
   const std::string path = testing::TempDir() + "/" + name + ".json";
   std::ofstream(path) << j.dump();
   return path;
 }
+inline std::string shipped_truck_variant(const std::string& name, const std::function<void(nlohmann::json&)>& edit) {
+  return truck_variant("linde_e16c.json", name, edit);
+}
 
-// The training truck on tyres with a grip peak: data/tyres/linde_e16c_grip_peak.json's
-// ground_contact merged over its own (a JSON merge patch).
-inline void with_grip_peak_tyres(nlohmann::json& truck) {
-  std::ifstream in(std::string(FORKLIFT_DATA_DIR) + "/tyres/linde_e16c_grip_peak.json");
+// The training truck on the brush tyre without a grip peak, its tyre before the peak:
+// data/tyres/linde_e16c_brush.json's ground_contact merged over its own (a JSON merge patch).
+inline void with_brush_tyres(nlohmann::json& truck) {
+  std::ifstream in(std::string(FORKLIFT_DATA_DIR) + "/tyres/linde_e16c_brush.json");
   truck["ground_contact"].merge_patch(nlohmann::json::parse(in)["ground_contact"]);
 }
-inline const forklift::TruckParams& grip_peak_truck() {
-  static const forklift::TruckParams t = forklift::load_truck(shipped_truck_variant("grip_peak", with_grip_peak_tyres));
+inline const forklift::TruckParams& brush_truck() {
+  static const forklift::TruckParams t = forklift::load_truck(shipped_truck_variant("brush", with_brush_tyres));
   return t;
 }
