@@ -5,6 +5,8 @@
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
+#include "forklift/dynamics/load_on_forks.h"
+#include "forklift/dynamics/simulation.h"
 #include "forklift/dynamics/truck.h"
 
 // The calibrated training truck that pupils drive.
@@ -43,4 +45,19 @@ inline void with_brush_tyres(nlohmann::json& truck) {
 inline const forklift::TruckParams& brush_truck() {
   static const forklift::TruckParams t = forklift::load_truck(shipped_truck_variant("brush", with_brush_tyres));
   return t;
+}
+
+// What a sliding load adds to the truck model's energy: the model holds it where it was last
+// attached, moving with the carriage, while it is further along the forks and moving along them.
+inline double sliding_load_energy(const forklift::Simulation& sim) {
+  const forklift::TruckDynamics& dyn = sim.dynamics();
+  const forklift::LoadOnForks& l = sim.load_on_forks();
+  if (l.phase != forklift::LoadPhase::kSliding || !sim.load() || !dyn.load()) return 0;
+  const forklift::Outputs o = sim.outputs();
+  const Eigen::Vector3d held = dyn.load()->cog_m;
+  const Eigen::Vector3d cog = sim.load()->cog_m + l.slide_m * Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d v_held = o.carriage.velocity_at(held);
+  const Eigen::Vector3d v = o.carriage.velocity_at(cog) + l.slide_rate_m_s * o.carriage.R.col(0);
+  const Eigen::Vector3d g = dyn.environment().gravity_m_s2;
+  return sim.load()->mass_kg * (0.5 * (v.squaredNorm() - v_held.squaredNorm()) - g.dot(o.carriage.R * (cog - held)));
 }
