@@ -12,6 +12,9 @@
 //   yard_people_10  the yard with 10 pedestrians added (every other one looks; each walks 40 m
 //              to and fro past the start, 6 m and more beside it): the walk, their bodies in
 //              the collision world and the speed rule near people, against the yard's 0
+//   yard_hazards_50  the yard with 50 hazards: 40 pedestrians as above, 5 markers (blind
+//              corners on the drive's way: the horn and speed rules) and 5 spills (a tenth less
+//              grip, under the drive: the tyres' grip looked up at every wheel every tick)
 // Rows:
 //   pipeline/<scene>   manual time = the whole tick; counters: per-tick microseconds of each
 //                      stage (dynamics_us, collision_us, outputs_us, evaluation_us) and the ratios
@@ -55,12 +58,13 @@ struct Run {
   std::vector<SessionEvent> found;
   size_t events = 0;
 
-  Run(const std::string& scenario, const std::string& script, double max_s, int people = 0) {
+  Run(const std::string& scenario, const std::string& script, double max_s, int people = 0, int fixed = 0) {
     SessionSpec spec;
     spec.scenario_file = scenario;
     spec.mode = "exam";
     model = load_session_model(spec, kData);
     add_people(people);
+    add_fixed(fixed);
     changes = script_changes(script, model);
     end = std::min<int64_t>(changes.back().tick + 1, int64_t(max_s / model.tick_s));
     first = initial_state(model);
@@ -82,6 +86,25 @@ struct Run {
     }
   }
 
+  // `n` blind-corner markers and `n` spills, 3 m squares every 8 m ahead of the start (the yard
+  // drive's first leg runs through them).
+  void add_fixed(int n) {
+    const Eigen::Vector2d at(model.scene.scenario.x_m, model.scene.scenario.y_m);
+    std::vector<GripPatch> grip = model.scene.ground.grip_patches();
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector2d c = at + Eigen::Vector2d(4 + 8 * i, 0);
+      const Eigen::AlignedBox2d box(c - Eigen::Vector2d(1.5, 1.5), c + Eigen::Vector2d(1.5, 1.5));
+      Marker m;
+      m.id = "bench_marker_" + std::to_string(i);
+      m.kind = "blind_corner";
+      for (int k : {0, 1, 3, 2}) m.polygon.push_back(box.corner(Eigen::AlignedBox2d::CornerType(k)));
+      model.scene.markers.push_back(m);
+      model.scene.spills.push_back({"bench_spill_" + std::to_string(i), box.translated(Eigen::Vector2d(4, 0)), 0.9});
+      grip.push_back({model.scene.spills.back().rect, 0.9});
+    }
+    if (n > 0) model.scene.ground = Ground(model.scene.ground.ramps(), model.scene.ground.steps(), grip);
+  }
+
   void restart() {
     state = first;
     ws = std::make_unique<SessionWorkspace>(model);
@@ -99,10 +122,12 @@ struct Scenes {
   std::string scenario;
   double max_s;
   int people = 0;
+  int fixed = 0;  // markers, and as many spills
 };
 const Scenes kYard{"yard", kData + "/scenarios/first_drive_yard.json", 1e9};
 const Scenes kWarehouse{"warehouse", kData + "/scenarios/practical_exam.json", 60};
 const Scenes kYardPeople{"yard_people_10", kYard.scenario, 1e9, 10};
+const Scenes kYardHazards{"yard_hazards_50", kYard.scenario, 1e9, 40, 5};
 const std::string kScript = kData + "/evaluation/scripts/first_drive_yard_exam.csv";
 
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
@@ -124,7 +149,7 @@ struct StageTimes : StageObserver {
 std::map<std::string, std::vector<double>> g_tick_s;
 
 void BM_Pipeline(benchmark::State& state, Scenes sc) {
-  Run run(sc.scenario, kScript, sc.max_s, sc.people);
+  Run run(sc.scenario, kScript, sc.max_s, sc.people, sc.fixed);
   std::vector<double>& ticks = g_tick_s[sc.name];
   StageTimes times;
   for (auto _ : state) {
@@ -196,6 +221,7 @@ void BM_EvaluatorTick(benchmark::State& state, Scenes sc) {
 BENCHMARK_CAPTURE(BM_Pipeline, yard, kYard)->Name("pipeline/yard")->UseManualTime()->Iterations(150000)->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_Pipeline, warehouse, kWarehouse)->Name("pipeline/warehouse")->UseManualTime()->Iterations(60000)->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_Pipeline, yard_people_10, kYardPeople)->Name("pipeline/yard_people_10")->UseManualTime()->Iterations(150000)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_Pipeline, yard_hazards_50, kYardHazards)->Name("pipeline/yard_hazards_50")->UseManualTime()->Iterations(150000)->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_EvaluatorTick, yard, kYard)->Name("evaluator/yard")->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_EvaluatorTick, warehouse, kWarehouse)->Name("evaluator/warehouse")->Unit(benchmark::kMicrosecond);
 

@@ -480,8 +480,8 @@ void CabProgram::take_dds() {
     hud_.on_status(state, s.reason, t);
     trace_.write({{"type", "status"}, {"state", state}, {"reason", s.reason}}, t);
     if (phase != SessionPhase::kEnded && phase != SessionPhase::kFailed) return;
-    std::printf("%ssession %s %s%s%s\n%s\n", isatty(STDOUT_FILENO) && !window_ ? "\n" : "", s.session_id, state.c_str(),
-                s.reason[0] ? ": " : "", s.reason, end_words(state, s.reason).c_str());
+    std::printf("%ssession %s: %s\n", isatty(STDOUT_FILENO) && !window_ ? "\n" : "", s.session_id,
+                end_words(state, s.reason).c_str());
     std::fflush(stdout);
     if (!ended_at_) ended_at_ = t;  // over: the window shows it a moment, then the cab goes back to its menu
   });
@@ -676,7 +676,7 @@ int CabProgram::run() {
         const ScriptRow& r = rows[next_row++];
         fk_Controls s = controls_from(CabCommand{});
         s.steer = steer_fraction(r.steer, steer_lock_rad_), s.accelerator = r.accelerator, s.brake = r.brake, s.lift = r.lift, s.tilt = r.tilt;
-        s.side_shift = r.shift, s.parking_brake = r.parking_brake;
+        s.side_shift = r.shift, s.parking_brake = r.parking_brake, s.horn = r.horn;
         s.apply_at_sim_s = r.t;
         held = s;
         send(s);
@@ -708,6 +708,7 @@ int CabProgram::run() {
       if (hud_.has_state()) {
         si.speed_m_s = hud_.state().speed_m_s;
         si.stability_fraction = hud_.state().stability_fraction;
+        pedestrians_heard(hud_.state(), sound_settings_, si);
       }
       si.drive = c.accelerator;
       si.hydraulics = std::min(1.0, std::abs(c.lift) + std::abs(c.tilt) + std::abs(c.side_shift));

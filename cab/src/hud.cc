@@ -130,9 +130,9 @@ std::string end_words(const std::string& state, const std::string& reason) {
       case EndReason::kDuration: return "Session over: the session's time has run";
       case EndReason::kSignal: return "Session stopped by the school's system";
       case EndReason::kCabGone: return "Session over: this cab sent no controls for too long";
-      case EndReason::kNumericalFailure: break;  // said in the worker's own word, as any other
+      case EndReason::kNumericalFailure: return std::string("Session over: ") + words(*r);
     }
-  return "Session over (" + reason + ")";
+  return "Session over (" + reason + ")";  // a reason this cab is too old to know, as sent
 }
 
 Hud::Hud(HudSettings settings, std::map<std::string, FaultWords> words) : s_(settings), words_(std::move(words)) {}

@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <stdexcept>
 #include <string>
 
+#include "forklift/session/vocabulary.h"
 #include "hud.h"
 #include "settings.h"
 
@@ -23,12 +25,32 @@ SoundSettings sound_settings(const nlohmann::json& j) {
   s.horn_hz[0] = horn[0].get<double>();
   s.horn_hz[1] = horn[1].get<double>();
   s.warning_hz = settings_number(x, "warning_hz", where);
+  s.pedestrian_heard_within_m = settings_number(x, "pedestrian_heard_within_m", where);
+  s.footstep_hz = settings_number(x, "footstep_hz", where);
+  s.steps_per_s = settings_number(x, "steps_per_s", where);
+  s.voice_hz = settings_number(x, "voice_hz", where);
+  if (!(s.pedestrian_heard_within_m > 0 && s.steps_per_s > 0))
+    throw std::runtime_error(where + ": pedestrian_heard_within_m and steps_per_s must be more than 0");
   // The stability beat follows the display's bands.
   const HudSettings hud = hud_settings(j);
   s.stability_amber = hud.stability_amber;
   s.stability_red = hud.stability_red;
   if (!(s.volume >= 0 && s.volume <= 1)) throw std::runtime_error(where + ": volume must be within 0-1");
   return s;
+}
+
+void pedestrians_heard(const fk_TruckState& state, const SoundSettings& s, SoundInputs& in) {
+  in.pedestrian_m = -1;
+  in.pedestrian_walking = false;
+  for (size_t i = 0; i < state.pedestrian_count && i < std::size(state.pedestrians); ++i) {
+    const fk_PedestrianSeen& p = state.pedestrians[i];
+    // One waiting for his cue is not yet in the aisle: nobody to hear.
+    if (p.activity == static_cast<uint8_t>(forklift::PedestrianActivity::kWaiting)) continue;
+    const double d = std::hypot(p.x_m - state.x_m, p.y_m - state.y_m);
+    if (!(d <= s.pedestrian_heard_within_m) || (in.pedestrian_m >= 0 && d >= in.pedestrian_m)) continue;
+    in.pedestrian_m = d;
+    in.pedestrian_walking = p.activity == static_cast<uint8_t>(forklift::PedestrianActivity::kWalking);
+  }
 }
 
 CabSound::CabSound(SoundSettings s) : s_(s) {
@@ -77,6 +99,8 @@ void CabSound::synth(float* out, int n) {
   const double motor_amp = in_.running ? 0.12 * std::min(1.0, v / 1.5 + 0.6 * std::abs(in_.drive)) : 0;
   const double motor_hz = s_.motor_hz_idle + s_.motor_hz_per_m_s * v;
   const double beat_hz = in_.stability_fraction < s_.stability_red ? 6 : in_.stability_fraction < s_.stability_amber ? 2 : 0;
+  // A person near: louder the nearer, silent at the edge of hearing.
+  const double person_amp = in_.pedestrian_m >= 0 ? 0.25 * std::max(0.0, 1 - in_.pedestrian_m / s_.pedestrian_heard_within_m) : 0;
   for (int i = 0; i < n; ++i) {
     double x = 0;
     motor_phase_ = std::fmod(motor_phase_ + motor_hz * dt, 1.0);
@@ -90,6 +114,20 @@ void CabSound::synth(float* out, int n) {
         horn_phase_[k] = std::fmod(horn_phase_[k] + s_.horn_hz[k] * dt, 1.0);
         x += 0.15 * (horn_phase_[k] < 0.5 ? 1 : -1);
       }
+    if (person_amp > 0) {
+      person_phase_ = std::fmod(person_phase_ + (in_.pedestrian_walking ? s_.footstep_hz : s_.voice_hz) * dt, 1.0);
+      if (in_.pedestrian_walking) {
+        // footsteps: a low thump at each step, dying away in about 40 ms
+        step_phase_ = std::fmod(step_phase_ + s_.steps_per_s * dt, 1.0);
+        const double since_s = step_phase_ / s_.steps_per_s;
+        x += person_amp * std::exp(-since_s / 0.04) * std::sin(2 * M_PI * person_phase_);
+      } else {
+        // a voice: a murmur rising and falling about three syllables a second
+        step_phase_ = std::fmod(step_phase_ + 3.0 * dt, 1.0);
+        x += person_amp * 0.6 * (0.5 - 0.5 * std::cos(2 * M_PI * step_phase_)) *
+             (std::sin(2 * M_PI * person_phase_) + 0.4 * std::sin(6 * M_PI * person_phase_));
+      }
+    }
     if (impact_ > 1e-3) {
       x += impact_ * white;
       impact_ *= std::exp(-dt / 0.08);

@@ -1,17 +1,21 @@
 // The cab's sound through SDL audio, synthesised (no sound files): the traction motor's whine
 // rising with speed, the hydraulic pump while lifting or tilting, the horn, an impact, the
-// warning beeps for faults, and a beat that quickens as the stability margin falls.
+// warning beeps for faults, a beat that quickens as the stability margin falls, and the people
+// near the truck: footsteps of one walking, the voice of one standing, louder the nearer.
 #pragma once
 
 #include <SDL.h>
 
 #include <nlohmann/json.hpp>
 
+#include "forklift/protocol/protocol.h"
+
 namespace forklift::cab {
 
 struct SoundSettings {
   double volume = 0.5, motor_hz_idle = 90, motor_hz_per_m_s = 45, horn_hz[2] = {392, 494}, warning_hz = 880;
   double stability_amber = 0.5, stability_red = 0.25;
+  double pedestrian_heard_within_m = 6, footstep_hz = 110, steps_per_s = 1.9, voice_hz = 220;
 };
 SoundSettings sound_settings(const nlohmann::json& cab_json);  // throws std::runtime_error naming the key
 
@@ -23,7 +27,15 @@ struct SoundInputs {
   bool horn = false;
   double stability_fraction = 1;
   bool running = false;   // a session is being driven (no motor before or after it)
+  // The nearest pedestrian within hearing (pedestrians_heard): his distance from the truck, m
+  // (negative: nobody within hearing), and whether he is walking (else he stands, or lies struck).
+  double pedestrian_m = -1;
+  bool pedestrian_walking = false;
 };
+
+// The nearest of a state's pedestrians within `s.pedestrian_heard_within_m` of the truck's centre
+// of gravity (where the driver sits, near enough) into `in`; nobody within it: pedestrian_m < 0.
+void pedestrians_heard(const fk_TruckState& state, const SoundSettings& s, SoundInputs& in);
 
 class CabSound {
  public:
@@ -49,6 +61,7 @@ class CabSound {
   SoundInputs in_;
   double motor_phase_ = 0, horn_phase_[2] = {0, 0}, beep_phase_ = 0, beat_phase_ = 0;
   double impact_ = 0, noise_lp_ = 0;
+  double step_phase_ = 0, person_phase_ = 0;
   int beeps_left_ = 0;
   double beep_t_ = 0;
   unsigned noise_ = 12345;

@@ -208,8 +208,10 @@ const FL = (() => {
     clear(node).append(el('p', { class: kind, role: kind === 'error' ? 'alert' : 'status' }, text));
   }
 
+  // What went wrong in the server's words; its code is for scripts, not for the person reading.
   function describeError(e) {
-    return e instanceof ApiError && e.status ? `${e.message} (${e.code})` : String(e.message || e);
+    if (e instanceof ApiError && e.status && !e.message) return `the server refused it (HTTP ${e.status})`;
+    return String((e && e.message) || e);
   }
 
   // Runs `fn` now and every `ms` until `stop()` returns true; errors are shown, not fatal.

@@ -3,7 +3,8 @@
 // where they happened. World x to the right, y up (the SVG's y runs down, so it is flipped here);
 // one SVG unit is one metre. A manoeuvre has no layout: its path is drawn on a grid. The plan
 // zooms (wheel, buttons, drag to pan) with its event markers kept the same size on screen and
-// spread apart where several happened in one place; the replay draws the truck over it (its overlay).
+// spread apart where several happened in one place; the replay draws the truck over it (its overlay),
+// and the live page and the replay the people who move (hi-vis figures) where they are.
 'use strict';
 
 const FLPlan = (() => {
@@ -19,6 +20,10 @@ const FLPlan = (() => {
     const a = (o.yaw_deg || 0) * Math.PI / 180, c = Math.cos(a), s = Math.sin(a);
     return [[x0, y0], [x1, y0], [x1, y1], [x0, y1]].map(([x, y]) => [o.x_m + c * x - s * y, o.y_m + s * x + c * y]);
   }
+
+  // A person in a high-visibility vest, seen from above: yellow with an orange band; red once struck.
+  const PERSON = { vest: '#ffd400', band: '#e8590c', struck: '#b42318' };
+  const ACTIVITY_WORDS = { waiting: 'waiting for his cue', walking: 'walking', standing: 'standing', struck: 'struck by the truck' };
 
   function niceStep(span) {
     for (const s of [0.5, 1, 2, 5, 10, 20, 50, 100]) if (span / s <= 14) return s;
@@ -110,6 +115,15 @@ const FLPlan = (() => {
                       svg('title', {}, "The truck's path")));
     if (last) root.append(arrow(last.x_m, last.y_m, last.yaw_deg, '#0b5cad', `The truck at t = ${last.t.toFixed(1)} s`));
 
+    // the paths the scenario's people walk, first point to last (where each is comes with the
+    // live state and the replay)
+    for (const p of plan ? plan.pedestrians || [] : []) {
+      if (!p.path || p.path.length < 2) continue;
+      root.append(svg('polyline', { points: poly(p.path), fill: 'none', stroke: PERSON.band, 'stroke-width': u * 0.35,
+                                    'stroke-dasharray': `${u * 0.8} ${u * 0.6}`, 'data-walk': p.id },
+                      svg('title', {}, `Where pedestrian ${p.id} walks${p.looks ? '' : ' (he does not look out for the truck)'}`)));
+    }
+
     // the replay's truck and moving pallets, over the plan and under the event markers
     const overlay = svg('g', { class: 'overlay' });
     root.append(overlay);
@@ -197,6 +211,23 @@ const FLPlan = (() => {
       // What the replay draws with: the overlay group (above the plan, under the markers), world
       // to SVG coordinates, one marker unit, and the plan's objects by id (pallets move).
       overlay, X, Y, u, objectsById: new Map(objects.map((o) => [o.id, o])),
+      // The people who move, as hi-vis figures facing their heading: [{id, x_m, y_m, heading_deg,
+      // activity}]. A group for the overlay; each figure names him and what he is doing.
+      people(list) {
+        const g = svg('g', { class: 'people' });
+        for (const p of list) {
+          const a = p.heading_deg * Math.PI / 180, r = Math.max(0.3, u * 1.1), struck = p.activity === 'struck';
+          const cx = X(p.x_m), cy = Y(p.y_m);
+          g.append(svg('g', { class: 'person', 'data-pedestrian': p.id, 'data-activity': p.activity,
+                              'data-x': p.x_m.toFixed(3), 'data-y': p.y_m.toFixed(3) },
+            svg('circle', { cx, cy, r, fill: struck ? PERSON.struck : PERSON.vest, stroke: PERSON.band, 'stroke-width': r * 0.35 }),
+            svg('line', { x1: cx, y1: cy, x2: +(cx + Math.cos(a) * r * 1.6).toFixed(3), y2: +(cy - Math.sin(a) * r * 1.6).toFixed(3),
+                          stroke: '#222', 'stroke-width': r * 0.3, 'stroke-linecap': 'round' }),
+            svg('title', {}, `Pedestrian ${p.id}: ${ACTIVITY_WORDS[p.activity] || p.activity}, at x ${p.x_m.toFixed(1)} m, y ${p.y_m.toFixed(1)} m`)));
+        }
+        return g;
+      },
+      activityWords: (a) => ACTIVITY_WORDS[a] || a,
       shapeOf: (id) => root.querySelector(`[data-object="${CSS.escape(id)}"]`),
     };
   }

@@ -159,6 +159,7 @@
       shownEvents = s.events;
       timeline(s);
       if (replay) drawReplay();
+      else drawLive();
     }
     if (TERMINAL.includes(s.state)) {
       loadReplay(s);
@@ -228,7 +229,12 @@
              fork_height_m: mix(a.fork_height_m, b.fork_height_m), fork_heel_m: pair(a.fork_heel_m, b.fork_heel_m),
              fork_tip_m: pair(a.fork_tip_m, b.fork_tip_m),
              pallets: a.pallets.map((p, i) => [mix(p[0], b.pallets[i][0]), mix(p[1], b.pallets[i][1]), mix(p[2], b.pallets[i][2]),
-                                                angle(p[3], b.pallets[i][3])]) };
+                                                angle(p[3], b.pallets[i][3])]),
+             // a replay made before people were sampled has none
+             pedestrians: (a.pedestrians || []).map((p, i) => {
+               const q = (b.pedestrians || [])[i] || p;
+               return [mix(p[0], q[0]), mix(p[1], q[1]), angle(p[2], q[2]), p[3]];
+             }) };
   }
 
   function setTime(t) {
@@ -236,6 +242,10 @@
     rs.time.value = String(replayT);
     drawReplay();
   }
+
+  // The people of a replay's state, as the plan draws them.
+  const replayPeople = (st) => (st.pedestrians || []).map(([x_m, y_m, heading_deg, activity], i) =>
+    ({ id: replay.pedestrian_ids ? replay.pedestrian_ids[i] : String(i + 1), x_m, y_m, heading_deg, activity }));
 
   function drawReplay() {
     if (!replay || !drawn) return;
@@ -262,7 +272,8 @@
       fork(1), fork(-1),
       FL.svg('circle', { cx: X(st.x_m), cy: Y(st.y_m), r: u * 0.5, fill: '#222' }),
       FL.svg('title', {}, `The truck at t = ${num(st.t)} s`));
-    clear(overlay).append(g);
+    const people = replayPeople(st);
+    clear(overlay).append(g, drawn.people(people));
     drawn.keepInView(st.x_m, st.y_m);
     rs.clock.textContent = `t = ${num(st.t)} s`;
     const dl = clear(rs.state);
@@ -270,6 +281,7 @@
     fact(dl, 'Forks', st.fork_height_m < 1 ? `${num(st.fork_height_m * 100, 0)} cm up` : `${num(st.fork_height_m, 2)} m up`);
     fact(dl, 'Mast tilt', `${num(Math.abs(st.tilt_deg))}° ${st.tilt_deg > 0.05 ? 'back' : st.tilt_deg < -0.05 ? 'forward' : ''}`);
     fact(dl, 'Load', st.load ? `pallet ${st.load} on the forks` : 'none on the forks');
+    if (people.length) fact(dl, 'Pedestrians', peopleWords(people));
   }
 
   rs.time.addEventListener('input', () => { playing = false; rs.play.textContent = 'Play'; setTime(Number(rs.time.value)); });
@@ -332,6 +344,48 @@
     const whole = Math.max(0, Math.floor(s));
     return whole >= 60 ? `${Math.floor(whole / 60)} min ${whole % 60} s` : `${whole} s`;
   };
+  // The people who move, in words: "W1 walking, W2 waiting for his cue".
+  const peopleWords = (list) => list.map((p) => `${p.id} ${drawn ? drawn.activityWords(p.activity) : p.activity}`).join(', ');
+
+  // While the session runs, the truck and the people where they are now, over the plan (the
+  // replay's overlay once the session has ended).
+  let liveState = null;
+  function drawLive() {
+    if (!drawn || replay) return;
+    const { overlay, X, Y, u } = drawn;
+    if (!liveState) { clear(overlay); return; }
+    const truck = FL.svg('circle', { id: 'live-truck', cx: X(liveState.x_m), cy: Y(liveState.y_m), r: u * 1.2, fill: '#f2c230', stroke: '#222',
+                                     'stroke-width': u * 0.25, 'data-t': liveState.sim_time_s.toFixed(2) },
+                         FL.svg('title', {}, `The truck now, at t = ${num(liveState.sim_time_s)} s`));
+    clear(overlay).append(truck, drawn.people(liveState.pedestrians || []));
+  }
+
+  // "Hazard now": each of the scenario's people who move, with what he is doing, and a button that
+  // starts one waiting for his cue (the API refuses the others, and any in an exam). The items are
+  // kept from one poll to the next, so that the keyboard's focus stays where it is.
+  const hazardItems = new Map();
+  function hazardControls(s, state) {
+    const people = state && state.pedestrians ? state.pedestrians : [];
+    document.getElementById('hazards').hidden = !(s.state === 'running' && s.mode === 'training' && people.length > 0);
+    for (const p of people) {
+      let item = hazardItems.get(p.id);
+      if (!item) {
+        const status = el('span', { class: 'small' });
+        const button = el('button', { type: 'button', class: 'secondary', 'data-pedestrian': p.id }, `Start pedestrian ${p.id} now`);
+        button.addEventListener('click', () => {
+          if (button.getAttribute('aria-disabled') === 'true') return;
+          instruct({ action: 'hazard', pedestrian: p.id }, `Pedestrian ${p.id} steps out now.`);
+        });
+        item = { li: el('li', { 'data-pedestrian': p.id }, button, ' ', status), button, status };
+        hazardItems.set(p.id, item);
+        document.getElementById('hazard-list').append(item.li);
+      }
+      item.status.textContent = `${p.id}: ${drawn ? drawn.activityWords(p.activity) : p.activity}`;
+      item.li.dataset.activity = p.activity;
+      item.button.setAttribute('aria-disabled', p.activity === 'waiting' ? 'false' : 'true');
+    }
+  }
+
   // The instructor's hand on a running training session (an exam is only watched, or aborted):
   // pause and resume, a line of text for the pupil's display, and a rewind to try again.
   let pausedNow = false;
@@ -368,6 +422,7 @@
     const box = document.getElementById('live');
     const running = isStaff(me) && (s.state === 'waiting' || s.state === 'running');
     box.hidden = !running;
+    if (!running) liveState = null;
     if (!running || liveBusy) return;
     liveBusy = true;
     try {
@@ -389,10 +444,14 @@
         if (v.state.deadman) fact(dl, 'Dead man', badge('failed', 'cab silent: truck stopped'));
         if (v.state.paused) fact(dl, 'Paused', el('span', { id: 'live-paused' }, badge('waiting', 'paused by the instructor')));
         if (v.state.instructor_message) fact(dl, 'The cab shows', el('span', { id: 'live-said' }, v.state.instructor_message));
+        if (v.state.pedestrians && v.state.pedestrians.length) fact(dl, 'Pedestrians', el('span', { id: 'live-people' }, peopleWords(v.state.pedestrians)));
       } else {
         fact(dl, 'Truck', 'waiting for the cab');
       }
       instructorControls(s, v.state);
+      hazardControls(s, v.state);
+      liveState = v.state;
+      drawLive();
       if (!v.frame_available && !liveUrl) fact(dl, 'View', el('span', { class: 'muted' }, 'no frames from this cab\'s worker'));
       if (v.frame_available) {
         const blob = await api('GET', `/sessions/${encodeURIComponent(s.id)}/live/frame.jpg`);

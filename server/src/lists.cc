@@ -11,6 +11,7 @@
 #include <spdlog/spdlog.h>
 
 #include "api.h"
+#include "forklift/units/decimals.h"
 
 namespace forklift::server {
 
@@ -121,9 +122,7 @@ std::string csv_cell(const std::string& text) {
 
 std::string csv_number(std::optional<double> v, int decimals) {
   if (!v || !std::isfinite(*v)) return "";
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, *v);
-  return buf;
+  return fixed_decimals(*v, decimals);
 }
 
 namespace {

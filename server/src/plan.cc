@@ -59,6 +59,15 @@ json make_plan(const std::string& file, const std::string& data_dir) {
     steps.push_back(step);
   }
   j["task"] = {{"summary", scene.task.summary}, {"steps", steps}};
+  // The people who move: the paths they walk (where each is now comes with the live state and
+  // the replay's samples).
+  j["pedestrians"] = json::array();
+  for (const PedestrianSpec& p : scene.pedestrians) {
+    json path = json::array();
+    for (const auto& q : p.path) path.push_back(xy(q));
+    j["pedestrians"].push_back({{"id", p.id}, {"path", path}, {"speed_m_s", p.speed_m_s}, {"looks", p.looks},
+                                {"size_m", {mm(p.size_m.x()), mm(p.size_m.y()), mm(p.size_m.z())}}});
+  }
   return j;
 }
 

@@ -2,6 +2,7 @@
 // aborting it, following it live, its exam evidence, and the fleet that runs them.
 #include <cmath>
 #include <filesystem>
+#include <iterator>
 #include <fstream>
 #include <limits>
 
@@ -332,6 +333,13 @@ void session_routes(Routes& svr, Context& ctx) {
     json state = nullptr;
     if (v.have_state) {
       const fk_TruckState& t = v.state;
+      // The people who move: where each is and what he is doing (the sample gate checked them).
+      json people = json::array();
+      for (uint8_t i = 0; i < t.pedestrian_count && i < std::size(t.pedestrians); ++i) {
+        const fk_PedestrianSeen& q = t.pedestrians[i];
+        people.push_back({{"id", std::string(q.id)}, {"x_m", q.x_m}, {"y_m", q.y_m}, {"heading_deg", q.heading_rad * 180 / M_PI},
+                          {"activity", name(static_cast<PedestrianActivity>(q.activity))}});
+      }
       state = {{"sim_time_s", t.sim_time_s}, {"x_m", t.x_m}, {"y_m", t.y_m}, {"yaw_deg", t.yaw_rad * 180 / M_PI},
                {"speed_m_s", t.speed_m_s}, {"lift_m", t.lift_m}, {"tilt_deg", t.tilt_rad * 180 / M_PI},
                {"load_attached", t.load_attached}, {"load_mass_kg", t.load_mass_kg}, {"stability_margin", t.stability_margin},
@@ -339,7 +347,8 @@ void session_routes(Routes& svr, Context& ctx) {
                {"paused", t.paused}, {"instructor_message", dds::valid_utf8(t.instructor_message) ? std::string(t.instructor_message) : ""},
                // what the pupil is at: the steps of the task done, and the current one in words
                {"task", {{"steps_done", t.task_steps_done}, {"steps_total", t.task_steps_total}, {"step", std::string(t.task_step)}}},
-               {"time_left_s", t.time_left_s < 0 ? json(nullptr) : json(t.time_left_s)}};
+               {"time_left_s", t.time_left_s < 0 ? json(nullptr) : json(t.time_left_s)},
+               {"pedestrians", people}};
     }
     send_json(res, 200, {{"session", s.public_id}, {"state", state}, {"frame_available", !v.jpeg.empty()},
                          {"frame_seq", v.frame_seq}, {"frame_sim_time_s", v.frame_sim_time_s}});

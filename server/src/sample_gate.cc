@@ -1,7 +1,10 @@
 #include "sample_gate.h"
 
 #include <cmath>
+#include <iterator>
 #include <regex>
+
+#include "forklift/session/vocabulary.h"
 
 namespace forklift::server {
 
@@ -206,6 +209,19 @@ bool SampleGate::truck_state(const fk_TruckState& t, const dds_sample_info_t& in
   if (!finite({t.sim_time_s, t.x_m, t.y_m, t.yaw_rad, t.speed_m_s, t.lift_m})) {
     malformed("fk_TruckState", "a truck state that is not finite");
     return false;
+  }
+  // The pedestrians' list is shown on the live page as it comes: each one's every field checked.
+  if (t.pedestrian_count > std::size(t.pedestrians)) {
+    malformed("fk_TruckState", "a truck state with more pedestrians than it holds");
+    return false;
+  }
+  for (uint8_t i = 0; i < t.pedestrian_count; ++i) {
+    const fk_PedestrianSeen& p = t.pedestrians[i];
+    if (!finite({p.x_m, p.y_m, p.heading_rad}) || p.activity > static_cast<uint8_t>(PedestrianActivity::kStruck) ||
+        bad_text({{"a pedestrian's id", p.id}})) {
+      malformed("fk_TruckState", "a truck state with a pedestrian not finite, of no known activity or whose id is not UTF-8");
+      return false;
+    }
   }
   return true;
 }

@@ -73,7 +73,7 @@ CLI::App* add_evaluate_command(CLI::App& app, EvaluateOptions& o) {
   auto* sub = app.add_subcommand("evaluate", "run a scripted session offline (no cab) and print its events and mark (as JSON with --json)");
   sub->add_option("--scenario", o.scenario, "scenario file (data/scenarios/*.json); not with --replay (the log names its own)")
       ->check(CLI::ExistingFile);
-  auto* script = sub->add_option("--script", o.script, "cab control script, CSV t,steer,accelerator,brake,lift,tilt,shift")
+  auto* script = sub->add_option("--script", o.script, "cab control script, CSV t,steer,accelerator,brake,lift,tilt,shift[,parking[,horn]]")
                      ->check(CLI::ExistingFile);
   auto* replay = sub->add_option("--replay", o.replay, "session log to re-evaluate instead of a script (marked as it ran)")
                      ->check(CLI::ExistingFile);

@@ -113,8 +113,8 @@ std::string wheel_loads_words(const std::array<double, kNumWheels>& fz) {
 void print_manoeuvre_words(const ManoeuvreResult& r) {
   std::printf("manoeuvre %d: %.1f s of sim time with %s", r.manoeuvre, r.sim_time_s, integrator_name(r.options.kind));
   if (r.options.kind != IntegratorKind::kRk4) std::printf(" (relative tolerance %g)", r.options.rtol);
-  std::printf(", %ld steps and %ld model evaluations in %.3f s of wall time", static_cast<long>(r.stats.steps),
-              static_cast<long>(r.stats.rhs_evals), r.wall_s);
+  std::printf(", %ld steps and %ld model evaluations in %s ms of wall time", static_cast<long>(r.stats.steps),
+              static_cast<long>(r.stats.rhs_evals), fixed_decimals(r.wall_s * 1e3, 2).c_str());
   if (r.wall_s > 0) std::printf(" (%.0f times real time)", r.sim_time_s / r.wall_s);
   std::printf("\nmost pitch %s deg, most roll %s deg; least wheel loads: %s; the rear wheel %s\n", fixed_decimals(r.max_pitch_deg, 2).c_str(),
               fixed_decimals(r.max_roll_deg, 2).c_str(), wheel_loads_words(r.min_fz_N).c_str(), r.rear_wheel_lifted ? "lifted" : "stayed on the ground");

@@ -3,8 +3,8 @@
 // The debrief's replay: a finished session's control log re-simulated tick by
 // tick through the same step() the worker ran (replay_session, so bit for bit what the pupil
 // drove), and sampled every `--every` seconds of sim time: where the chassis stood and faced, the
-// forks' tips and height, the mast's tilt, the speed, which pallet was on the forks, and every
-// pallet's pose. The server runs it once per session and keeps the result; the session page
+// forks' tips and height, the mast's tilt, the speed, which pallet was on the forks, every
+// pallet's pose, and where each pedestrian was and what he was doing. The server runs it once per session and keeps the result; the session page
 // scrubs through it.
 #include "trace.h"
 
@@ -38,6 +38,10 @@ json sample_json(const SessionModel& model, const SessionState& state, const Ses
     pallets.push_back({mm(at.x()), mm(at.y()), mm(at.z()), deg(yaw_of(p.pose))});
     if (p.on_forks) on_forks = p.id;
   }
+  // The people as the re-run walked them (an instructor's hazard and rewinds included).
+  json people = json::array();
+  for (const PedestrianState& p : state.pedestrians)
+    people.push_back({mm(p.at_m.x()), mm(p.at_m.y()), deg(p.heading_rad), name(activity_of(p))});
   // x, y and yaw as the worker's truck state and the stored path give them (the chassis's centre
   // of gravity); body_m: the chassis frame's origin, which the footprint is drawn from.
   return {{"t", mm(state.t_s)},
@@ -54,7 +58,8 @@ json sample_json(const SessionModel& model, const SessionState& state, const Ses
           {"fork_heel_m", {mm(heel.x()), mm(heel.y())}},
           {"fork_tip_m", {mm(tip.x()), mm(tip.y())}},
           {"load", on_forks.empty() ? json(nullptr) : json(on_forks)},
-          {"pallets", pallets}};
+          {"pallets", pallets},
+          {"pedestrians", people}};
 }
 
 }  // namespace
@@ -80,7 +85,11 @@ int trace_main(const TraceOptions& o, const std::string& data_dir) {
   }
   // A sample at every `every_ticks`-th tick: at 0.1 s, 0.2 s, ... of sim time.
   const int64_t every_ticks = std::max<int64_t>(1, std::llround(o.every_s / model->tick_s));
-  json samples = json::array(), pallet_ids = json::array();
+  json samples = json::array(), pallet_ids = json::array(), pedestrian_ids = json::array(), rewinds = json::array();
+  for (const PedestrianSpec& p : model->scene.pedestrians) pedestrian_ids.push_back(p.id);
+  for (const auto& [tick, what] : log.instructions)
+    if (what.action == InstructorAction::kRewind)
+      rewinds.push_back({{"from_s", tick * model->tick_s}, {"to_s", what.to_tick * model->tick_s}});
   int status = 0;
   std::string failure;
   ReplayResult r;
@@ -89,6 +98,10 @@ int trace_main(const TraceOptions& o, const std::string& data_dir) {
       if (s.tick % every_ticks != 0) return;
       if (samples.empty())  // the order every sample lists the pallets in
         for (const PalletState& p : s.handling.pallets()) pallet_ids.push_back(p.id);
+      // After an instructor's rewind the ticks count again from its point: the replay shows the
+      // attempt that stands (its samples in time order; the log's rewinds say where others were).
+      const double t = mm(s.t_s);
+      while (!samples.empty() && samples.back()["t"].get<double>() >= t) samples.erase(samples.size() - 1);
       samples.push_back(sample_json(*model, s, ws));
     });
   } catch (const std::exception& e) {
@@ -112,6 +125,8 @@ int trace_main(const TraceOptions& o, const std::string& data_dir) {
         {"fork_centres_y_m", model->shape.fork_centres_y_m},
         {"fork_width_m", model->shape.fork_width_m}}},
       {"pallet_ids", pallet_ids},
+      {"pedestrian_ids", pedestrian_ids},
+      {"rewinds", rewinds},
       {"samples", samples}};
   std::cout << out.dump() << '\n';
   return status;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <iterator>
 
 #include "forklift/collision/collision.h"
 #include "forklift/dynamics/stability.h"
@@ -46,6 +47,18 @@ fk_TruckState truck_state(const SessionRun& run, const std::string& cab, const s
   dds::set_string(s.task_step, steps_done < steps_total ? model.scene.task.steps[steps_done].description : "");
   s.time_left_s = time_limit_s > 0 ? std::max(0.0, time_limit_s - state.t_s) : -1.0;
   s.aids = aids;
+  // The people who move, as the session walks them: the instructor's live view and the cab's
+  // sound (an exam's examiner sees them too: they are the scene, not an aid).
+  const std::vector<PedestrianSpec>& people = model.scene.pedestrians;
+  for (size_t i = 0; i < people.size() && i < state.pedestrians.size() && s.pedestrian_count < std::size(s.pedestrians); ++i) {
+    fk_PedestrianSeen& seen = s.pedestrians[s.pedestrian_count++];
+    const PedestrianState& p = state.pedestrians[i];
+    dds::set_string(seen.id, people[i].id);
+    seen.x_m = p.at_m.x();
+    seen.y_m = p.at_m.y();
+    seen.heading_rad = p.heading_rad;
+    seen.activity = static_cast<uint8_t>(activity_of(p));
+  }
   // Lining up with a pallet: a learning aid, never in an exam. It follows the task: the pallet
   // the current step is about, wherever it is (another nearer is not the one to take); with no
   // such step, the nearest ahead.

@@ -108,6 +108,12 @@ TEST(Hud, TheSessionsEndIsSaidInWordsAndAnAbortNamesTheInstructor) {
   EXPECT_TRUE(has_text(hud.draw_list(960, 720, 20.5), "Session aborted by your instructor"));
   EXPECT_EQ(end_words("ended", "task_complete"), "Session over: task complete");
   EXPECT_EQ(end_words("ended", "cab_gone"), "Session over: this cab sent no controls for too long");
+  // Every reason the vocabulary knows is said in words, never as its code.
+  for (const char* reason : {"duration", "time_limit", "task_complete", "aborted", "signal", "cab_gone", "numerical_failure"}) {
+    SCOPED_TRACE(reason);
+    EXPECT_EQ(end_words("ended", reason).find('_'), std::string::npos);
+    EXPECT_EQ(end_words("ended", reason).find('('), std::string::npos);
+  }
 }
 
 // The instructor's hand, as the worker's state carries it: a paused session is said across the

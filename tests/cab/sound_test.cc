@@ -1,13 +1,16 @@
 // The cab's sound through a real SDL audio device: SDL's "disk" driver writes what would reach
-// the loudspeaker into a file, so the test reads the samples.
+// the loudspeaker into a file, so the test reads the samples: silence before a session, the horn,
+// the motor, and a pedestrian near the truck (footsteps, a voice) but not one out of hearing.
 #include <SDL.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <thread>
 #include <vector>
 
+#include "forklift/session/vocabulary.h"
 #include "sound.h"
 #include "support/temp_dir.h"
 
@@ -57,6 +60,72 @@ TEST(Sound, SilentBeforeASessionAndTheHornSounds) {
   const auto loud = record(horn, "horn.raw");
   ASSERT_GT(loud.size(), 1000u);
   EXPECT_GT(rms(loud), 0.03);
+}
+
+// A truck state with the truck at the origin and one pedestrian at (x, 0) doing `activity`.
+fk_TruckState state_with_person(double x_m, forklift::PedestrianActivity activity) {
+  fk_TruckState s{};
+  s.pedestrian_count = 1;
+  forklift::dds::set_string(s.pedestrians[0].id, "W1");
+  s.pedestrians[0].x_m = x_m;
+  s.pedestrians[0].heading_rad = M_PI / 2;
+  s.pedestrians[0].activity = static_cast<uint8_t>(activity);
+  return s;
+}
+
+SoundSettings shipped_settings() {
+  std::ifstream j(std::string(FORKLIFT_DATA_DIR) + "/cab/cab.json");
+  return sound_settings(nlohmann::json::parse(j));
+}
+
+// What the cab plays for a state with a pedestrian (no session driven: no motor).
+std::vector<float> hear(double x_m, forklift::PedestrianActivity activity, const std::string& name) {
+  SoundInputs in;
+  pedestrians_heard(state_with_person(x_m, activity), shipped_settings(), in);
+  return record(in, name, 0.6);
+}
+
+// A person walking 2 m from the truck is heard (his footsteps), one standing there too (a voice),
+// louder than at 5 m; beyond hearing, or still waiting for his cue out of the aisle, silence.
+TEST(Sound, APedestrianNearTheTruckIsHeardAndSilenceOtherwise) {
+  using forklift::PedestrianActivity;
+  const double within = shipped_settings().pedestrian_heard_within_m;
+  const auto walking_near = hear(2.0, PedestrianActivity::kWalking, "walking_near.raw");
+  const auto walking_farther = hear(5.0, PedestrianActivity::kWalking, "walking_farther.raw");
+  const auto standing_near = hear(2.0, PedestrianActivity::kStanding, "standing_near.raw");
+  const auto beyond = hear(within + 4.0, PedestrianActivity::kWalking, "beyond.raw");
+  const auto waiting = hear(2.0, PedestrianActivity::kWaiting, "waiting.raw");
+  ASSERT_GT(walking_near.size(), 1000u);
+  EXPECT_GT(rms(walking_near), 0.005);
+  EXPECT_GT(rms(standing_near), 0.005);
+  EXPECT_GT(rms(walking_near), 1.5 * rms(walking_farther)) << "louder the nearer";
+  EXPECT_GT(rms(walking_farther), 1e-4) << "5 m is within hearing";
+  EXPECT_LT(rms(beyond), 1e-4);
+  EXPECT_LT(rms(waiting), 1e-4);
+  // Footsteps are thumps: the loudest 20 ms is many times the quietest.
+  std::vector<double> windows;
+  const size_t w = walking_near.size() * 20 / 600;
+  for (size_t i = 0; i + w <= walking_near.size(); i += w)
+    windows.push_back(rms(std::vector<float>(walking_near.begin() + i, walking_near.begin() + i + w)));
+  EXPECT_GT(*std::max_element(windows.begin(), windows.end()), 20 * *std::min_element(windows.begin(), windows.end()));
+}
+
+TEST(Sound, TheNearestPedestrianWithinHearingIsTheOneHeard) {
+  fk_TruckState s = state_with_person(4.0, forklift::PedestrianActivity::kStanding);
+  s.pedestrian_count = 3;
+  s.pedestrians[1] = s.pedestrians[0];
+  s.pedestrians[1].x_m = 3.0;
+  s.pedestrians[1].activity = static_cast<uint8_t>(forklift::PedestrianActivity::kWalking);
+  s.pedestrians[2] = s.pedestrians[0];
+  s.pedestrians[2].x_m = 1.0;
+  s.pedestrians[2].activity = static_cast<uint8_t>(forklift::PedestrianActivity::kWaiting);  // not yet out
+  SoundInputs in;
+  pedestrians_heard(s, shipped_settings(), in);
+  EXPECT_DOUBLE_EQ(in.pedestrian_m, 3.0);
+  EXPECT_TRUE(in.pedestrian_walking);
+  s.pedestrian_count = 0;
+  pedestrians_heard(s, shipped_settings(), in);
+  EXPECT_LT(in.pedestrian_m, 0);
 }
 
 TEST(Sound, TheMotorWhinesHigherWithSpeed) {

@@ -194,6 +194,19 @@ TEST(Instructor, ARewindGoesBackToTheKeptStateAndTheLogReplaysBitForBit) {
   const double expected_to_s = 2.0 * std::floor((paused_at_s - 3) / 2.0 + 1e-9);
   EXPECT_NEAR(rewound["from_s"].get<double>(), paused_at_s, 1e-9);
   EXPECT_NEAR(rewound["to_s"].get<double>(), expected_to_s, 1e-9);
+  // Still paused, the states the worker keeps sending are the point's: its time and its truck.
+  fk_TruckState at_point{};
+  EXPECT_TRUE(states_until(states, 10, [&](const fk_TruckState& s) {
+    at_point = s;
+    return s.paused && std::abs(s.sim_time_s - expected_to_s) < 1e-9;
+  })) << "no paused state at the point";
+  auto hex = [](double v) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%a", v);
+    return std::string(buf);
+  };
+  EXPECT_EQ(hex(at_point.x_m), rewound["state"]["x_m"]);
+  EXPECT_EQ(hex(at_point.y_m), rewound["state"]["y_m"]);
   instructor.write(action(session, 22, "resume"));
   EXPECT_TRUE(states_until(states, 10, [&](const fk_TruckState& s) { return !s.paused && s.sim_time_s < paused_at_s - 1; }))
       << "the clock runs on from the point, " << w.err();
@@ -214,14 +227,9 @@ TEST(Instructor, ARewindGoesBackToTheKeptStateAndTheLogReplaysBitForBit) {
   const SessionModel model = load_session_model(log.header, kData);
   const OfflineRun before = run_offline(model, initial_state(model, log.header), std::vector<InputChange>(changes.begin(), rewind),
                                         to_tick, std::nullopt);
-  auto exact = [](double v) {
-    char buf[40];
-    std::snprintf(buf, sizeof buf, "%a", v);
-    return std::string(buf);
-  };
-  EXPECT_EQ(rewound["state"]["x_m"], exact(before.final_state.x[kX]));
-  EXPECT_EQ(rewound["state"]["y_m"], exact(before.final_state.x[kY]));
-  EXPECT_EQ(rewound["state"]["yaw_rad"], exact(before.final_state.x[kAwc]));
+  EXPECT_EQ(rewound["state"]["x_m"], hex(before.final_state.x[kX]));
+  EXPECT_EQ(rewound["state"]["y_m"], hex(before.final_state.x[kY]));
+  EXPECT_EQ(rewound["state"]["yaw_rad"], hex(before.final_state.x[kAwc]));
 
   Process replay({kBin + "/forklift-worker", "--replay", temp_file(session + ".ctl"), "--json"}, temp_file(session + ".replay"));
   ASSERT_EQ(replay.wait(60), 0) << replay.out() << replay.err();
@@ -233,6 +241,15 @@ TEST(Instructor, ARewindGoesBackToTheKeptStateAndTheLogReplaysBitForBit) {
   const json marked = forklift_test::output_json(evaluate);
   EXPECT_EQ(marked["ticks"], live["ticks"]);
   EXPECT_EQ(marked["score"]["mark"], live["score"]["mark"]);
+  // The debrief's replay: the attempt that stands, its samples in time order, the rewind said.
+  Process trace({kBin + "/forklift-sim", "trace", temp_file(session + ".ctl")}, temp_file(session + ".trace"));
+  ASSERT_EQ(trace.wait(60), 0) << trace.err();
+  const json traced = forklift_test::output_json(trace);
+  ASSERT_EQ(traced["rewinds"].size(), 1u) << traced["rewinds"];
+  EXPECT_NEAR(traced["rewinds"][0]["to_s"].get<double>(), expected_to_s, 1e-9);
+  EXPECT_NEAR(traced["rewinds"][0]["from_s"].get<double>(), paused_at_s, 1e-9);
+  for (size_t i = 1; i < traced["samples"].size(); ++i)
+    ASSERT_LT(traced["samples"][i - 1]["t"].get<double>(), traced["samples"][i]["t"].get<double>()) << "sample " << i;
 }
 
 // "Hazard now" over DDS: the instructor sets the walkway's pedestrian walking while the truck is

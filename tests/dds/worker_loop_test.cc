@@ -140,16 +140,24 @@ TEST(WorkerLoop, ScriptedCabDrivesManoeuvre17LikeTheOfflineModelAndReplaysExactl
   EXPECT_EQ(again["state_hex"], live["state_hex"]);  // bit for bit
 }
 
+// A real worker (session `name`, for `duration` s) driven by a real cab without a window running
+// `script`; the session's log, once both have ended.
+static ControlLog scripted_session(const std::string& cab_id, const std::string& name, const std::string& script, const char* duration) {
+  const int domain = forklift::test::free_domain();
+  Process w = worker(domain, cab_id, name, {"--duration", duration});
+  Process cab({kBin + "/forklift-cab", "--cab", cab_id, "--script", script, "--dds-domain", std::to_string(domain), "--no-window"},
+              tmp(name + ".cab"));
+  EXPECT_EQ(cab.wait(30), 0) << cab.err();
+  EXPECT_EQ(w.wait(10), 0) << w.err();
+  return read_control_log(tmp(name + ".ctl"));
+}
+
 TEST(WorkerLoop, TheCabSetsTheParkingBrakeAndTheLogKeepsIt) {
   // A script's eighth column is the parking brake: the truck drives off, is parked, and stays.
   const std::string script = tmp("park.csv");
   std::ofstream(script) << "t,steer,accelerator,brake,lift,tilt,shift,parking\n0,0,0.3,0,0,0,0,0\n2,0,0,0,0,0,0,1\n5,0,0,0,0,0,0,1\n";
-  const int domain = forklift::test::free_domain();
-  Process w = worker(domain, "c49", "park", {"--duration", "5"});
-  Process cab({kBin + "/forklift-cab", "--cab", "c49", "--script", script, "--dds-domain", std::to_string(domain), "--no-window"}, tmp("park.cab"));
-  ASSERT_EQ(cab.wait(30), 0) << cab.err();
-  ASSERT_EQ(w.wait(10), 0) << w.err();
-  const ControlLog log = read_control_log(tmp("park.ctl"));
+  const ControlLog log = scripted_session("c49", "park", script, "5");
+  ASSERT_FALSE(HasFailure());
   ASSERT_FALSE(log.entries.empty());
   EXPECT_FALSE(log.entries.front().inputs.parking_brake);
   EXPECT_TRUE(log.entries.back().inputs.parking_brake);
@@ -169,6 +177,25 @@ TEST(WorkerLoop, TheCabSetsTheParkingBrakeAndTheLogKeepsIt) {
   EXPECT_NE(text.find("final state against the log: the same, bit for bit"), std::string::npos) << text;
   EXPECT_NE(text.find("mark "), std::string::npos) << text;
   for (const char* code : {"{", "0x", "state_hex", "_"}) EXPECT_EQ(text.find(code), std::string::npos) << code << " in:\n" << text;
+}
+
+TEST(WorkerLoop, TheCabSoundsTheHornAndTheLogKeepsIt) {
+  // A script's ninth column is the horn: sounded from 1 s to 2 s while the truck drives off. The
+  // worker hears it from the cab's sample, logs it on its input lines, and the replay agrees.
+  const std::string script = tmp("horn.csv");
+  std::ofstream(script) << "t,steer,accelerator,brake,lift,tilt,shift,parking,horn\n0,0,0.3,0,0,0,0,0,0\n1,0,0.3,0,0,0,0,0,1\n"
+                           "2,0,0,0.3,0,0,0,0,0\n4,0,0,0.3,0,0,0,0,0\n";
+  const ControlLog log = scripted_session("c50", "horn", script, "4");
+  ASSERT_FALSE(HasFailure());
+  std::vector<std::pair<int64_t, bool>> horn;  // each logged input's tick and horn
+  for (const ControlLog::Entry& e : log.entries) horn.emplace_back(e.tick, e.inputs.horn);
+  ASSERT_EQ(horn.size(), 3u) << "the three changes of the script";
+  EXPECT_EQ(horn[0], std::make_pair(int64_t(0), false));
+  EXPECT_EQ(horn[1], std::make_pair(int64_t(1000), true)) << "at the row's own tick";
+  EXPECT_EQ(horn[2], std::make_pair(int64_t(2000), false));
+  Process rp({kBin + "/forklift-worker", "--replay", tmp("horn.ctl"), "--json"}, tmp("horn.replay"));
+  ASSERT_EQ(rp.wait(30), 0) << rp.err();
+  EXPECT_EQ(output_json(rp)["matches_log"], true);
 }
 
 // A scripted cab's rows sent ahead are its word until their time: a cab held up for less than its

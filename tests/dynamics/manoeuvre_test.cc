@@ -230,5 +230,40 @@ TEST(Manoeuvre, DefaultToleranceHoldsManoeuvre4WithinACentimetreInAtMost500Steps
     EXPECT_LE(r.stats.steps, 500);
     EXPECT_LT((r.final_pose.head<2>() - ref.final_pose.head<2>()).norm(), 0.01);
     EXPECT_GT(ref.final_pose.x(), 1.0);  // it drove
+    // As `forklift-sim manoeuvre 4` runs it: sampled every 2 ms between the integrator's steps.
+    const ManoeuvreResult sampled = run_manoeuvre(*truck, 4, IntegratorOptions{}, 0.002, Sampling::kMetrics);
+    EXPECT_LE(sampled.stats.steps, 500);
+    EXPECT_DOUBLE_EQ(sampled.sim_time_s, 20.0);
+    EXPECT_LT((sampled.final_pose.head<2>() - ref.final_pose.head<2>()).norm(), 0.01);
   }
+}
+
+TEST(Manoeuvre, SamplesBetweenTheIntegratorsStepsAreTheStatesAdvanceToLandsOn) {
+  // A run timed by its steps alone samples between them by the integrator's interpolant: the
+  // states must be those a run landing on every sample reads, bit for bit (CVODE interpolates both).
+  const ManoeuvreSpec spec = manoeuvre(4, paper_truck());
+  TruckDynamics dynamics(paper_truck());
+  if (spec.load) dynamics.attach_load(*spec.load);
+  StateVector x0 = dynamics.rest_state(0, 0, 0, 0, 0, spec.lift_m, 0);
+  ASSERT_TRUE(dynamics.settle_static(x0));
+  Simulation landing(dynamics, x0, {}), stepping(dynamics, x0, {});
+  landing.set_input_schedule(spec.inputs);
+  stepping.set_input_schedule(spec.inputs);
+  const double dt = 0.002, horizon = spec.breakpoints_s.front();  // up to the brake's onset
+  int compared = 0, between = 0, k = 1;
+  while (stepping.time() < horizon - 1e-9) {
+    stepping.step_toward(horizon, dt);
+    const double reached = stepping.time();
+    for (; k * dt <= reached + 1e-9; ++k, ++compared) {
+      const double t = std::min(k * dt, reached);
+      landing.advance_to(t, horizon);
+      between += t < reached - 1e-9;
+      ASSERT_EQ((stepping.state_at(t) - landing.state()).cwiseAbs().maxCoeff(), 0.0) << "at t = " << t;
+    }
+  }
+  EXPECT_EQ(compared, std::lround(horizon / dt));
+  EXPECT_GT(between, 0.8 * compared);  // most samples fall inside a step, not on its end
+  EXPECT_LT(stepping.stats().steps, 200);
+  EXPECT_EQ(stepping.stats().steps, landing.stats().steps);
+  EXPECT_THROW(stepping.state_at(0.5 * horizon), std::invalid_argument);  // not in the last step
 }

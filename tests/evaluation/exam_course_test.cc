@@ -4,8 +4,12 @@
 // score. The clean drive is also a cab script (data/evaluation/scripts/counterbalance_exam_clean.csv)
 // that forklift-sim evaluate marks the same way.
 //
+// A worker crosses the hall once, through the chicane between its first and second gates, 36 s
+// into the test: the clean drive is at the racks by then; a drive that waits for him and then
+// comes at him fast is marked for it (counterbalance_exam_worker_faults.csv).
+//
 // FORKLIFT_EVAL_SCRIPT_DIR=data/evaluation/scripts build/tests/evaluation_test --gtest_filter='ExamCourse.*'
-// rewrites the shipped script from this drive.
+// rewrites the shipped scripts from these drives.
 #include "evaluation/forklift_sim.h"
 #include "evaluation/harness.h"
 
@@ -144,6 +148,43 @@ TEST(ExamCourse, ACleanDrivePassesWithNoEvent) {
   EXPECT_TRUE(out["events"].empty()) << out["events"].dump(2);
   EXPECT_EQ(out["score"]["passed"], true);
   EXPECT_EQ(out["score"]["task_completed"], true);
+}
+
+// Training on the course: waits at the start for the worker to set off, then at 2 m/s along lane A
+// straight at him as he crosses it, braking late, 2.5 m short of his line; on at walking pace once
+// he is across, stopping short of the second gate (the task left there).
+TEST(ExamCourse, DrivingFastAtTheWorkerCrossingTheChicaneIsMarked) {
+  Session s(load_scene(kCourse, FORKLIFT_DATA_DIR), Mode::kTraining);
+  s.control_period_ticks = 50;
+  CourseDriver c{s};
+  ASSERT_EQ(s.scene.pedestrians.size(), 1u);
+  const auto worker = [&]() -> const PedestrianState& { return s.state.pedestrians.at(0); };
+  const double line = s.scene.pedestrians[0].path[0].x();
+  c.lift(kTravel);
+  s.run(60, [&] { Controls k = c.d.levers(); c.d.speed(k, 0); return k; }, [&] { return worker().started; });
+  s.run(20, [&] { Controls k = c.d.levers(); c.d.speed(k, 2.0); k.steer_rad = c.d.steer_to_line(kLaneA); return k; },
+        [&] { return c.tips() >= line - 2.5; });
+  s.run(10, [&] { Controls k = c.d.levers(); k.brake = 0.6; k.steer_rad = s.c.steer_rad; return k; },
+        [&] { return std::abs(s.v()) < 0.003; });
+  s.run(30, [&] { Controls k = c.d.levers(); c.d.speed(k, 0); return k; }, [&] { return worker().at_m.y() > kLaneA + 3.0; });
+  c.to_tips(line + 1.0, kLaneA, 1.0);
+  c.d.stop();
+  const Score score = s.finish("duration");
+  EXPECT_EQ(s.count("pedestrian_struck"), 0) << s.summary();
+  EXPECT_EQ(s.count("speed_near_pedestrian"), 1) << s.summary();
+  EXPECT_EQ(s.count("pedestrian_in_path"), 1) << s.summary();
+  EXPECT_FALSE(score.passed);
+  const EvaluationEvent* e = s.first("speed_near_pedestrian");
+  ASSERT_NE(e, nullptr);
+  EXPECT_EQ(json::parse(e->details)["pedestrian"], "WORKER");
+
+  const std::string script = write_script(s, "counterbalance_exam_worker_faults.csv",
+                                          "counterbalance_exam, training: fast at the worker crossing the chicane",
+                                          "tests/evaluation/exam_course_test.cc");
+  const json out = evaluate({"--scenario", kCourse, "--script", script}, "course_worker");
+  std::set<std::string> rules;
+  for (const json& ev : out["events"]) rules.insert(ev["rule"]);
+  EXPECT_TRUE(rules.count("speed_near_pedestrian") && rules.count("pedestrian_in_path")) << out["events"].dump(1);
 }
 
 TEST(ExamCourse, TheShippedCleanScriptPasses) {

@@ -112,7 +112,7 @@ struct Session {
     for (double* v : {&next.steer_rad, &next.accelerator, &next.brake, &next.lift, &next.tilt, &next.side_shift}) *v = q3(*v);
     const auto same = [](const Controls& a, const Controls& b) {
       return a.steer_rad == b.steer_rad && a.accelerator == b.accelerator && a.brake == b.brake && a.lift == b.lift &&
-             a.tilt == b.tilt && a.side_shift == b.side_shift;
+             a.tilt == b.tilt && a.side_shift == b.side_shift && a.horn == b.horn;
     };
     if (!script.empty() && same(next, c)) return;
     if (auto p = control_problem(next, truck)) throw std::runtime_error("test driver produced a bad control: " + *p);
@@ -141,10 +141,17 @@ struct Session {
   // Ticks until `done` (checked after each tick) or `max_s`; the control function runs every
   // `control_period_ticks` (10 ms: a cab's rate). Returns whether `done` held.
   int control_period_ticks = 10;
+  // Set: whether the horn sounds, whatever the control function says (a driver who sounds it
+  // before every marker, horn_due below, whichever manoeuvre he is in).
+  std::function<bool()> horn;
   bool run(double max_s, const std::function<Controls()>& control, const std::function<bool()>& done = {}) {
     const int64_t end = ticks + int64_t(std::llround(max_s / kTick));
     while (ticks < end) {
-      if (ticks % control_period_ticks == 0) set(control());
+      if (ticks % control_period_ticks == 0) {
+        Controls next = control();
+        if (horn) next.horn = horn();
+        set(next);
+      }
       tick();
       if (done && done()) return true;
     }
@@ -181,13 +188,16 @@ struct Session {
     FILE* f = std::fopen(path.c_str(), "w");
     if (!f) throw std::runtime_error("cannot write " + path);
     if (!comment.empty()) std::fprintf(f, "# %s\n", comment.c_str());
-    std::fprintf(f, "t,steer,accelerator,brake,lift,tilt,shift\n");
-    for (const auto& [tick, k] : script)
-      std::fprintf(f, "%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f\n", tick * kTick, k.steer_rad, k.accelerator, k.brake, k.lift, k.tilt,
-                   k.side_shift);
-    const Controls& k = script.back().second;
-    std::fprintf(f, "%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f\n", end_s, k.steer_rad, k.accelerator, k.brake, k.lift, k.tilt,
-                 k.side_shift);
+    // The parking and horn columns only for a drive that sounds the horn: the others read as before.
+    const bool horn = std::any_of(script.begin(), script.end(), [](const auto& r) { return r.second.horn; });
+    std::fprintf(f, horn ? "t,steer,accelerator,brake,lift,tilt,shift,parking,horn\n" : "t,steer,accelerator,brake,lift,tilt,shift\n");
+    const auto row = [&](double t, const Controls& k) {
+      std::fprintf(f, "%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f", t, k.steer_rad, k.accelerator, k.brake, k.lift, k.tilt, k.side_shift);
+      if (horn) std::fprintf(f, ",%d,%d", k.parking_brake ? 1 : 0, k.horn ? 1 : 0);
+      std::fprintf(f, "\n");
+    };
+    for (const auto& [tick, k] : script) row(tick * kTick, k);
+    row(end_s, script.back().second);
     std::fclose(f);
   }
 };
@@ -226,6 +236,38 @@ struct Path {
     return std::abs(wrap(std::atan2(b.y(), b.x()) - std::atan2(a.y(), a.x())));
   }
 };
+
+// A rewind point's test: `kept`, copied twice and each copy stepped `ticks` ticks from scratch (a
+// workspace of its own) with the session's inputs held: the two states it ends in.
+inline std::vector<SessionState> step_copies(const Session& s, const SessionState& kept, int ticks) {
+  const SessionInputs held{s.u, false};
+  std::vector<SessionState> again;
+  for (int k = 0; k < 2; ++k) {
+    SessionWorkspace w(s.model);
+    SessionState b = kept;
+    std::vector<SessionEvent> found;
+    for (int i = 0; i < ticks; ++i) step(s.model, b, w, held, found);
+    again.push_back(b);
+  }
+  return again;
+}
+
+// Whether a careful driver sounds the horn now: moving, with the CoG outside a marker (a blind
+// corner, a door, a cross aisle) and within `ahead_m` of its edge.
+inline bool horn_due(const Session& s, double ahead_m = 1.5) {
+  if (std::abs(s.v()) < 0.05) return false;
+  const Vector2d p = s.pos();
+  for (const Marker& m : s.scene.markers) {
+    if (m.contains(p)) continue;
+    const size_t n = m.polygon.size();
+    for (size_t i = 0; i < n; ++i) {
+      const Vector2d a = m.polygon[i], b = m.polygon[(i + 1) % n];
+      const double f = std::clamp((p - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
+      if ((a + f * (b - a) - p).norm() <= ahead_m) return true;
+    }
+  }
+  return false;
+}
 
 // A driver: small controllers on the session's state, each returning the cab's controls.
 struct Driver {

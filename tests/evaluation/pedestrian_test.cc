@@ -50,9 +50,11 @@ void to_the_walkway(Session& s, Driver& d) {
   d.stop();
 }
 
-// The clean drive: stopped while the worker crosses the aisle and walks on to his path's end,
-// then on to the marker at walking pace, stop, forks down, parked.
+// The clean drive: the horn before the door and the blind corner, stopped while the worker
+// crosses the aisle and walks on to his path's end, then on to the marker at walking pace, stop,
+// forks down, parked.
 void clean_drive(Session& s) {
+  s.horn = [&s] { return horn_due(s); };
   Driver d{s};
   to_the_walkway(s, d);
   hold(s, d, [&] { return walker(s).arrived; });
@@ -60,8 +62,9 @@ void clean_drive(Session& s) {
   d.park_forks_down();
 }
 
-// The faulty drive: at twice walking pace up to the walkway as the worker steps out, braking
-// late, 2 m short of it; on again once he is across.
+// The faulty drive: at twice walking pace through the door and the blind corner without the
+// horn, up to the walkway as the worker steps out, braking late, 2 m short of it; on again once
+// he is across.
 void faulty_drive(Session& s) {
   Driver d{s};
   s.control_period_ticks = 50;
@@ -138,15 +141,7 @@ TEST(Pedestrians, ACopyOfTheStateIsARewindPointForThePeopleToo) {
   drive(a, d, 1.2, 20.0, [&] { return a.state.pedestrians[1].started; });
   a.run(0.5, [&] { return a.c; });
   const SessionState kept = a.state;
-  const SessionInputs held{a.u, false};
-  std::vector<SessionState> again;
-  for (int k = 0; k < 2; ++k) {
-    SessionWorkspace w(a.model);
-    SessionState b = kept;
-    std::vector<SessionEvent> found;
-    for (int i = 0; i < 2000; ++i) step(a.model, b, w, held, found);
-    again.push_back(b);
-  }
+  const std::vector<SessionState> again = step_copies(a, kept, 2000);
   EXPECT_GT((again[0].pedestrians[1].at_m - kept.pedestrians[1].at_m).norm(), 2.0) << "he walked on";
   for (size_t i = 0; i < kept.pedestrians.size(); ++i)
     EXPECT_EQ(std::memcmp(again[0].pedestrians[i].at_m.data(), again[1].pedestrians[i].at_m.data(), 2 * sizeof(double)), 0) << i;
@@ -164,6 +159,8 @@ TEST(Pedestrians, TheCleanScriptKeepsToWalkingPaceAndTheFaultyOneDoesNot) {
   Session faulty(load_scene(kAwareness, FORKLIFT_DATA_DIR), Mode::kTraining);
   faulty_drive(faulty);
   faulty.finish("duration");
+  EXPECT_EQ(faulty.count("horn_at_marker"), 2) << faulty.summary() << "the door and the blind corner";
+  EXPECT_GE(faulty.count("speed_at_marker"), 1) << faulty.summary();
   EXPECT_EQ(faulty.count("speed_near_pedestrian"), 1) << faulty.summary();
   EXPECT_EQ(faulty.count("pedestrian_struck"), 0) << faulty.summary();
   EXPECT_EQ(faulty.count("pedestrian_in_path"), 1) << faulty.summary();
@@ -191,7 +188,7 @@ TEST(Pedestrians, TheShippedScriptsAreMarkedAlikeByForkliftSimAndTheLogReplaysTh
   const std::string script = data("evaluation/scripts/" + kFaultyScript);
   const json faulty = evaluate({"--scenario", kAwareness, "--script", script, "--out-log", log}, "ped_faults");
   const std::vector<std::string> rules = rules_of(faulty["events"]);
-  for (const char* rule : {"speed_near_pedestrian", "pedestrian_in_path"})
+  for (const char* rule : {"speed_near_pedestrian", "pedestrian_in_path", "horn_at_marker", "speed_at_marker"})
     EXPECT_NE(std::find(rules.begin(), rules.end(), rule), rules.end()) << rule << "\n" << faulty["events"].dump(1);
 
   // The walk as the script drives it, and as the log replays it: the same positions, bit for bit.

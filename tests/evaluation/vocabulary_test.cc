@@ -42,6 +42,7 @@ TEST(Vocabulary, EveryNameParsesBackAndNothingElseParses) {
   round_trips({WorkerAction::kStart, WorkerAction::kAbort, WorkerAction::kKill});
   round_trips({InstructorAction::kPause, InstructorAction::kResume, InstructorAction::kMessage, InstructorAction::kRewind,
                InstructorAction::kHazard});
+  round_trips({PedestrianActivity::kWaiting, PedestrianActivity::kWalking, PedestrianActivity::kStanding, PedestrianActivity::kStruck});
   round_trips({WorkerReportState::kStarting, WorkerReportState::kRunning, WorkerReportState::kExited,
                WorkerReportState::kRefused});
 }

@@ -52,7 +52,7 @@ drive() {
   local accepted
   accepted=$(sed -n 's/^controls accepted=\([0-9]*\).*/\1/p' "$out/$cfg.ctl")
   [ "${accepted:-0}" -gt 100 ] || fail "$cfg" "the worker applied ${accepted:-no} controls from the other machine"
-  grep -q "session $session ended: duration" "$out/$cfg-cab.log" || fail "$cfg" "the cab never heard the session end"
+  grep -q "session $session: Session over: the session's time has run" "$out/$cfg-cab.log" || fail "$cfg" "the cab never heard the session end"
   # The cab's line comes about once a second of its own clock: any line from 1 s of sim time on shows that
   # states came from the other machine, however busy this one is.
   grep -Eq "^t= *[1-9][0-9]*\.[0-9] s" "$out/$cfg-cab.log" || fail "$cfg" "the cab never showed the truck's state after 1 s"

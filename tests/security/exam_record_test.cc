@@ -64,6 +64,15 @@ class RemoteExam : public testing::Test {
     e.id = sess.value("id", "");
     return e;
   }
+  // A training session on the exam course for a new pupil, started by `staff`: its id ("" if refused).
+  static std::string start_training(const Server& s, const std::string& staff, const std::string& pupil) {
+    auto [ps, p] = s.call("POST", "/api/pupils", staff, json{{"name", pupil}}.dump());
+    EXPECT_EQ(ps, 201) << p;
+    auto [st, sess] = s.call("POST", "/api/sessions", staff,
+                             json{{"pupil_id", p["id"]}, {"cab_id", "examcab"}, {"scenario", "counterbalance_exam"}}.dump());
+    EXPECT_EQ(st, 201) << sess;
+    return sess.value("id", "");
+  }
   // The cab saves its frames, so it asks the worker for them (frames_wanted), as a cab with a
   // window does: the examiner's live view has frames to show.
   Process cab(int domain, const std::string& name) {
@@ -468,12 +477,8 @@ TEST_F(RemoteExam, UnderSecurityTheServersPauseAndMessageReachATrainingSessionsW
   const int port = forklift::test::free_port(), domain = forklift::test::free_domain();
   Server s(port, domain, "remote-pause-" + std::to_string(port), secure());
   const std::string admin = s.login("admin", kAdminPassword);
-  auto [ps, p] = s.call("POST", "/api/pupils", admin, json{{"name", "Trained Pupil"}}.dump());
-  ASSERT_EQ(ps, 201) << p;
-  auto [st, sess] = s.call("POST", "/api/sessions", admin,
-                           json{{"pupil_id", p["id"]}, {"cab_id", "examcab"}, {"scenario", "counterbalance_exam"}}.dump());
-  ASSERT_EQ(st, 201) << sess;
-  const std::string id = sess["id"];
+  const std::string id = start_training(s, admin, "Trained Pupil");
+  ASSERT_FALSE(id.empty());
   Process c = cab(domain, "pause-cab");
   auto live_until = [&](const std::function<bool(const json&)>& done) { return s.live_until(admin, id, done); };
   ASSERT_TRUE(live_until([](const json& t) { return t["sim_time_s"].get<double>() > 0.5; })) << c.err();
@@ -484,6 +489,55 @@ TEST_F(RemoteExam, UnderSecurityTheServersPauseAndMessageReachATrainingSessionsW
   EXPECT_TRUE(live_until([](const json& t) { return t["instructor_message"] == "Secure and sound"; }));
   ASSERT_EQ(s.call("POST", path, admin, R"({"action":"resume"})").first, 200);
   EXPECT_TRUE(live_until([](const json& t) { return t["paused"] == false; }));
+  EXPECT_EQ(s.call("POST", "/api/sessions/" + id + "/abort", admin).first, 200);
+  c.wait(30);
+}
+
+// Under DDS Security the server's rewind reaches a training session's worker too: paused (so that
+// its time stands), taken back 2 s, the session's state is the kept point's: its time at least 2 s
+// earlier, on a kept point's 2 s step, and the truck where the worker's "rewound" event says the
+// point had it, metres back along its drive.
+TEST_F(RemoteExam, UnderSecurityTheServersRewindTakesATrainingSessionsStateBack) {
+  const int port = forklift::test::free_port(), domain = forklift::test::free_domain();
+  Server s(port, domain, "remote-rewind-" + std::to_string(port), secure());
+  const std::string admin = s.login("admin", kAdminPassword);
+  const std::string id = start_training(s, admin, "Rewound Pupil");
+  ASSERT_FALSE(id.empty());
+  Process c = cab(domain, "rewind-cab");
+  auto live_until = [&](const std::function<bool(const json&)>& done) { return s.live_until(admin, id, done); };
+  const std::string path = "/api/sessions/" + id + "/instructor";
+  // The script drives off at 1 s: by 6 s the truck is well on its way.
+  ASSERT_TRUE(live_until([](const json& t) { return t["sim_time_s"].get<double>() > 6.0; })) << c.err();
+  ASSERT_EQ(s.call("POST", path, admin, R"({"action":"pause"})").first, 200);
+  json paused;
+  ASSERT_TRUE(live_until([&](const json& t) { paused = t; return t["paused"] == true; }));
+  const double from_s = paused["sim_time_s"];
+  ASSERT_EQ(s.call("POST", path, admin, R"({"action":"rewind","seconds":2})").first, 200);
+  json back;
+  ASSERT_TRUE(live_until([&](const json& t) { back = t; return t["sim_time_s"].get<double>() <= from_s - 2; }))
+      << "the state never went back: " << paused;
+  const double to_s = back["sim_time_s"];
+  EXPECT_TRUE(back["paused"] == true) << "still paused: the clock stands at the point";
+  EXPECT_GE(to_s, from_s - 4) << "the newest point at least 2 s back (one is kept every 2 s)";
+  EXPECT_NEAR(std::remainder(to_s, 2.0), 0.0, 1e-6) << to_s;
+  // The worker's event says where the kept point had the truck; its state is there.
+  json rewound;
+  for (int i = 0; i < 200 && rewound.is_null(); ++i) {
+    const json now = s.call("GET", "/api/sessions/" + id, admin).second;
+    for (const json& e : now["events"])
+      if (e.value("kind", "") == "rewound") rewound = json::parse(e.value("details", "{}"), nullptr, false);
+    if (rewound.is_null()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_TRUE(rewound.is_object()) << "no rewound event reached the server";
+  EXPECT_DOUBLE_EQ(rewound["to_s"].get<double>(), to_s);
+  // (hex floats, as the session log writes them)
+  const auto exact = [](const json& v) { return std::strtod(v.get<std::string>().c_str(), nullptr); };
+  EXPECT_EQ(back["x_m"].get<double>(), exact(rewound["state"]["x_m"]));
+  EXPECT_EQ(back["y_m"].get<double>(), exact(rewound["state"]["y_m"]));
+  EXPECT_GT(std::hypot(back["x_m"].get<double>() - paused["x_m"].get<double>(), back["y_m"].get<double>() - paused["y_m"].get<double>()), 0.5)
+      << "the truck is back where it was 2 s earlier: " << paused << " then " << back;
+  ASSERT_EQ(s.call("POST", path, admin, R"({"action":"resume"})").first, 200);
+  EXPECT_TRUE(live_until([&](const json& t) { return t["paused"] == false && t["sim_time_s"].get<double>() > to_s; }));
   EXPECT_EQ(s.call("POST", "/api/sessions/" + id + "/abort", admin).first, 200);
   c.wait(30);
 }

@@ -339,6 +339,19 @@ TEST(SampleGate, TruckStates) {
       {"session not UTF-8", offer_state(kWorkerInCab, [](fk_TruckState& t) { dds::set_string(t.session_id, kNotUtf8); }), kMalformed,
        "whose session is not UTF-8"},
       {"another server's session", offer_state(kWorkerInCab, [](fk_TruckState& t) { dds::set_string(t.session_id, "s-9"); })},
+      {"good, with a pedestrian walking", offer_state(kWorkerInCab, [](fk_TruckState& t) { t.pedestrian_count = 1; t.pedestrians[0].activity = 1; }),
+       nullptr, "", true},
+      {"more pedestrians than the array holds", offer_state(kWorkerInCab, [](fk_TruckState& t) { t.pedestrian_count = 17; }), kMalformed,
+       "more pedestrians than it holds"},
+      {"a pedestrian not finite", offer_state(kWorkerInCab, [](fk_TruckState& t) { t.pedestrian_count = 2; t.pedestrians[1].y_m = kNaN; }),
+       kMalformed, "a pedestrian not finite"},
+      {"a pedestrian of no known activity", offer_state(kWorkerInCab, [](fk_TruckState& t) { t.pedestrian_count = 1; t.pedestrians[0].activity = 4; }),
+       kMalformed, "of no known activity"},
+      {"a pedestrian's id not UTF-8", offer_state(kWorkerInCab, [](fk_TruckState& t) {
+         t.pedestrian_count = 1;
+         dds::set_string(t.pedestrians[0].id, kNotUtf8);
+       }),
+       kMalformed, "whose id is not UTF-8"},
   });
 }
 

@@ -216,6 +216,7 @@ try {
   // watched, or aborted.
   await step('pause the training drive, message the pupil and resume it', async () => {
     check(await page.isHidden('#instructor'), 'an exam offers no pause and no message');
+    check(await page.isHidden('#hazards'), 'nor a hazard to start');
     await page.goto(`${base}/session.html?id=${sessionId}`);
     await page.waitForSelector('#instructor', { state: 'visible' });
     check(await page.getAttribute('#pause', 'aria-pressed') === 'false', 'the drive runs');

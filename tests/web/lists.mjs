@@ -235,6 +235,7 @@ try {
     await page.click('#book button[type=submit]');
     await page.waitForSelector('#message .error');
     check((await page.textContent('#message')).includes('already booked'), `the clash said in words: ${await page.textContent('#message')}`);
+    check(!/\([a-z]+(_[a-z]+)*\)\s*$/.test(await page.textContent('#message')), `no API code after the words: ${await page.textContent('#message')}`);
     allowed = [];
     check(await page.locator('#grid td[data-cab="cab2"] .ran').count() === 6, 'the sessions run on cab2');
   });

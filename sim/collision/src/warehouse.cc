@@ -122,6 +122,9 @@ struct Warehouse::Impl : HandlingState::Data {
   double fork_tip_x = 0;  // the forks' tips, carriage frame
 
   std::vector<int> pallet_objects;  // the scene objects that are handled pallets
+  // Where the collision world stands each pallet: a state's own poses (a rewind's, a fallen
+  // pallet's) are put there before each step.
+  std::vector<Isometry3d> world_poses;
 
   std::unique_ptr<collision::CollisionWorld> world;
 
@@ -154,6 +157,15 @@ struct Warehouse::Impl : HandlingState::Data {
     engaged.assign(states.size(), false);
     engagement.assign(states.size(), {});
     world = collision::make_collision_world(scene, shape, pallet_objects);
+    for (const PalletState& st : states) world_poses.push_back(st.pose);
+  }
+
+  void stand_pallets() {
+    for (size_t p = 0; p < states.size(); ++p)
+      if (int(p) != carried && !world_poses[p].isApprox(states[p].pose, 0.0)) {
+        world->set_pallet_pose(int(p), states[p].pose);
+        world_poses[p] = states[p].pose;
+      }
   }
 
   const PalletSpec& spec(int p) const { return *scene.objects[pallet_objects[p]].pallet; }
@@ -279,6 +291,7 @@ struct Warehouse::Impl : HandlingState::Data {
     carried = -1;
     world->set_carried(-1);
     world->set_pallet_pose(p, pose);
+    world_poses[p] = pose;
     st.pose = pose;
     st.on_forks = false;
     st.dropped = dropped;
@@ -388,6 +401,7 @@ struct Warehouse::Impl : HandlingState::Data {
     const StateVector& x = sim.state();
     const CoordVector q = coordinates(x);
     const BodyPoses poses = body_poses(truck, q);
+    stand_pallets();
     place_and_collide(poses);
 
     // Body velocities, only when something needs them.
@@ -443,5 +457,22 @@ const StepReport& Warehouse::step(const Simulation& sim, HandlingState& state, c
   return impl_->step(sim);
 }
 std::vector<Contact> Warehouse::contacts_at(const CoordVector& q) { return impl_->contacts_at(q); }
+
+bool Warehouse::move_pallet(HandlingState& state, const std::string& id, const Isometry3d& pose) const {
+  if (!state.d_->primed) *state.d_ = *initial_.d_;
+  HandlingState::Data& d = *state.d_;
+  for (size_t p = 0; p < d.states.size(); ++p) {
+    PalletState& st = d.states[p];
+    if (st.id != id) continue;
+    if (st.on_forks) return false;
+    st.pose = pose;
+    st.resting_on.clear();
+    st.level = 0;
+    st.dropped = true;
+    d.pick_armed[p] = false;
+    return true;
+  }
+  return false;
+}
 
 }  // namespace forklift

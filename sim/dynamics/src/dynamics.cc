@@ -397,6 +397,8 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
     const ContactFrame cf = wheel_on_ground(F, radius, env.ground, cp, c);
     const Vector3d &n = cf.n, &axle = cf.axle, &xw = cf.xw, &yw = cf.yw, &vs = cf.vs;
     const bool upright = cf.upright;
+    // A spill under the tyre scales its friction, whichever tyre law is in use.
+    const double grip = env.ground.grip(c.contact_point_m.x(), c.contact_point_m.y());
     e.tyre_rate[w].setZero();
     double stribeck = 0, mu = 0;
     if (bristle) {
@@ -414,7 +416,7 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
         // sigma0 L s below the grip and the grip above it, with a rounded corner between.
         const double s = v / (rolling + cp.slip_angle_speed_floor_m_s);
         const double u = std::clamp((s - cp.slip_peak) / (cp.slip_sliding - cp.slip_peak), 0.0, 1.0);
-        mu = cp.mu_static - (cp.mu_static - cp.mu_sliding) * u * u * (3 - 2 * u);
+        mu = grip * (cp.mu_static - (cp.mu_static - cp.mu_sliding) * u * u * (3 - 2 * u));
         auto rate = [&](double sigma0) {
           const double slide = sigma0 * v / mu;
           return std::sqrt(std::sqrt(sq(sq(slide)) + sq(sq(relax))));
@@ -422,7 +424,7 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
         e.tyre_rate[w] = Eigen::Vector2d(c.slip_x_m_s - rate(cp.bristle_stiffness_x_per_m) * z.x(),
                                          c.slip_y_m_s - rate(cp.bristle_stiffness_y_per_m) * z.y());
       } else {
-        mu = cp.mu_sliding + (cp.mu_static - cp.mu_sliding) * stribeck;
+        mu = grip * (cp.mu_sliding + (cp.mu_static - cp.mu_sliding) * stribeck);
         e.tyre_rate[w] = Eigen::Vector2d(c.slip_x_m_s - (cp.bristle_stiffness_x_per_m * v / mu + relax) * z.x(),
                                          c.slip_y_m_s - (cp.bristle_stiffness_y_per_m * v / mu + relax) * z.y());
       }
@@ -439,13 +441,14 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
         c.fx_N = -c.fz_N * (cp.bristle_stiffness_x_per_m * z.x() + damping * zd.x());
         c.fy_N = -c.fz_N * (cp.bristle_stiffness_y_per_m * z.y() + damping * zd.y());
         c.friction_use = std::hypot(c.fx_N, c.fy_N) / (mu * c.fz_N);
-        c.grip_share = std::hypot(c.fx_N, c.fy_N) / (cp.mu_static * c.fz_N);
+        c.grip_share = std::hypot(c.fx_N, c.fy_N) / (grip * cp.mu_static * c.fz_N);
       } else {
-        c.fx_N = std::clamp(-c.fz_N * cp.fx_slip_gain_s_m * c.slip_x_m_s, -cp.fx_max_N, cp.fx_max_N);  // eq (8)
+        const double fx_max = grip * cp.fx_max_N, fy_mu = grip * cp.fy_mu;
+        c.fx_N = std::clamp(-c.fz_N * cp.fx_slip_gain_s_m * c.slip_x_m_s, -fx_max, fx_max);  // eq (8)
         const double a0 = cp.fy_alpha0_rad;  // eq (10)
-        c.fy_N = std::abs(c.slip_angle_rad) <= a0 ? -cp.fy_mu * c.fz_N * std::sin(M_PI * c.slip_angle_rad / (2 * a0))
-                                                  : -cp.fy_mu * c.fz_N * sign(c.slip_angle_rad);
-        c.grip_share = std::max(std::abs(c.fx_N) / cp.fx_max_N, std::abs(c.fy_N) / (cp.fy_mu * c.fz_N));
+        c.fy_N = std::abs(c.slip_angle_rad) <= a0 ? -fy_mu * c.fz_N * std::sin(M_PI * c.slip_angle_rad / (2 * a0))
+                                                  : -fy_mu * c.fz_N * sign(c.slip_angle_rad);
+        c.grip_share = std::max(std::abs(c.fx_N) / fx_max, std::abs(c.fy_N) / (fy_mu * c.fz_N));
       }
       force += c.fx_N * xw + c.fy_N * yw;
     }

@@ -73,8 +73,15 @@ bool clip_line(const Vector2d& o, const Vector2d& d, const Vector2d& lo, const V
 
 }  // namespace
 
-Ground::Ground(std::vector<Ramp> ramps, std::vector<GroundStep> steps)
-    : ramps_(std::move(ramps)), steps_(std::move(steps)) {}
+Ground::Ground(std::vector<Ramp> ramps, std::vector<GroundStep> steps, std::vector<GripPatch> grip)
+    : ramps_(std::move(ramps)), steps_(std::move(steps)), grip_(std::move(grip)) {}
+
+double Ground::grip(double x, double y) const {
+  double scale = 1;
+  for (const GripPatch& g : grip_)
+    if (g.footprint_m.contains(Vector2d(x, y))) scale = std::min(scale, g.friction_scale);
+  return scale;
+}
 
 double Ground::height(double x, double y) const {
   double h = step_level(steps_, x, y);

@@ -259,7 +259,7 @@ struct Simulation::Impl {
   StateVector scale = tolerance_scale();
 
   SUNContext ctx = nullptr;
-  N_Vector y = nullptr, atol = nullptr;
+  N_Vector y = nullptr, atol = nullptr, dky = nullptr;
   void* mem = nullptr;
   SUNMatrix A = nullptr;
   SUNLinearSolver LS = nullptr;
@@ -323,6 +323,7 @@ struct Simulation::Impl {
     if (A) SUNMatDestroy(A);
     if (y) N_VDestroy(y);
     if (atol) N_VDestroy(atol);
+    if (dky) N_VDestroy(dky);
     if (ctx) SUNContext_Free(&ctx);
   }
 
@@ -462,6 +463,46 @@ struct Simulation::Impl {
     x = Eigen::Map<const StateVector>(N_VGetArrayPointer(y));
   }
 
+  // One step of the variable-step integrator toward `horizon`, never past it. `first_output` is
+  // where a caller would first have asked for the state: CVODE sizes its first step by it, as
+  // advance_to's first target would.
+  void step_toward(double horizon, double first_output) {
+    if (!(horizon > t)) throw std::invalid_argument("step_toward: horizon not after the current time");
+    double tret = t;
+    int flag;
+    if (options.kind == IntegratorKind::kCvodeBdf) {
+      if (jacobian_every_ != 51) {
+        CVodeSetJacEvalFrequency(mem, 51);
+        jacobian_every_ = 51;
+      }
+      CVodeSetStopTime(mem, horizon);
+      flag = CVode(mem, first_output, y, &tret, CV_ONE_STEP);
+    } else if (options.kind == IntegratorKind::kDopri5) {
+      ERKStepSetStopTime(mem, horizon);
+      flag = ERKStepEvolve(mem, first_output, y, &tret, ARK_ONE_STEP);
+    } else {
+      throw std::invalid_argument("step_toward: rk4 has no steps of its own to interpolate");
+    }
+    if (flag < 0)
+      throw IntegratorError(std::string(integrator_name(options.kind)) + " failed at t = " +
+                            std::to_string(tret) + " (flag " + std::to_string(flag) + ")");
+    t = tret;
+    x = Eigen::Map<const StateVector>(N_VGetArrayPointer(y));
+  }
+
+  // The state at `time` within the last step, by the integrator's own interpolation (what
+  // advance_to returns for a target it stepped past).
+  StateVector state_at(double time) {
+    if (!dky) {
+      dky = N_VNew_Serial(StateIndex::kSize, ctx);
+      if (!dky) throw std::runtime_error("N_VNew_Serial failed");
+    }
+    const int flag = options.kind == IntegratorKind::kCvodeBdf ? CVodeGetDky(mem, time, 0, dky)
+                                                               : ERKStepGetDky(mem, time, 0, dky);
+    if (flag < 0) throw std::invalid_argument("state_at: time " + std::to_string(time) + " is outside the last step");
+    return Eigen::Map<const StateVector>(N_VGetArrayPointer(dky));
+  }
+
   void put_on(const Load& load) {
     load_model = load_on_forks_model(dynamics.truck(), load);
     load_state = LoadOnForks{};
@@ -541,8 +582,21 @@ void Simulation::advance_to(double t, double horizon) {
   impl_->advance_to(t, horizon);
   impl_->step_the_load();
 }
+void Simulation::step_toward(double horizon, double first_output) {
+  impl_->cached = false;
+  impl_->step_toward(horizon, first_output);
+  impl_->step_the_load();
+}
+StateVector Simulation::state_at(double t) { return impl_->state_at(t); }
 double Simulation::time() const { return impl_->t; }
 const StateVector& Simulation::state() const { return impl_->x; }
+
+Outputs Simulation::outputs_at(double t, const StateVector& x) const {
+  Outputs out;
+  StateVector dx;
+  impl_->dynamics.derivative(x, impl_->inputs_at(t), dx, &out);
+  return out;
+}
 
 Outputs Simulation::outputs() const {
   if (impl_->cached) return impl_->cached_out;

@@ -103,7 +103,17 @@ struct EvaluationMemory::Data {
   std::vector<Episode> episodes;  // per scene object
   std::vector<int> active_episodes;
   std::vector<Episode> people_episodes;  // per walking pedestrian
-  Debounce near_pedestrian, pedestrian_in_path;
+  Debounce near_pedestrian, pedestrian_in_path, pedestrian_at_object, under_forks;
+  // One passage through a marker (blind corner, door, cross aisle) from the truck's CoG entering
+  // its area; leaving and entering again within the horn rule's clear_time_s is the same one.
+  struct Passage {
+    bool inside = false;
+    bool judged = true;  // the horn rule has had its say (heard, or the event)
+    double entered_t = 0, left_t = -std::numeric_limits<double>::infinity();
+  };
+  std::vector<Passage> passages;  // per scene marker
+  double last_horn_t = -std::numeric_limits<double>::infinity();  // the horn last sounded
+  Debounce marker_speed;
 
   std::array<Debounce, 3> speed;  // by kSpeedRules order
   Debounce forks_high, forks_low, tilt_forward, turn, turn_raised, brake_raised, stability_warn, wheel_lift, off_route;
@@ -165,6 +175,14 @@ struct Evaluator::Impl : EvaluationMemory::Data {
   };
   std::vector<ZoneInfo> zones;
   TruckOutline outline;  // for distances to people
+  struct MarkerInfo {
+    const Marker* marker;
+    bool horn, speed;  // the horn and speed rules list its kind
+  };
+  std::vector<MarkerInfo> markers;
+  // What a person can be pinned against: the floor footprints (world) of the collidable objects
+  // that do not move or give (not pallets, cones or the standing figures).
+  std::vector<std::pair<int, Eigen::AlignedBox2d>> fixed_footprints;
 
   Impl(const Rules& r, const Scene& s, const TruckParams& t, const TruckShape& shape, Mode m)
       : rules(r), scene(s), truck(t), fork_length_m(shape.fork_length_m), fork_thickness_m(shape.fork_thickness_m), mode(m) {
@@ -204,6 +222,21 @@ struct Evaluator::Impl : EvaluationMemory::Data {
       info.near_counts = info.speed_rule == ev::kSpeedNearWalkway;
       for (const std::string& a : rule[ev::kCollisionInWalkway]->applies_to) info.walkway = info.walkway || a == z.kind;
       zones.push_back(info);
+    }
+    const auto lists = [&](RuleKey k, const std::string& kind) {
+      const std::vector<std::string>& a = rule[k]->applies_to;
+      return std::find(a.begin(), a.end(), kind) != a.end();
+    };
+    for (const Marker& m : scene.markers) markers.push_back({&m, lists(ev::kHornAtMarker, m.kind), lists(ev::kSpeedAtMarker, m.kind)});
+    passages.resize(scene.markers.size());
+    for (size_t i = 0; i < scene.objects.size(); ++i) {
+      const SceneObject& o = scene.objects[i];
+      if (!o.collidable || !o.mesh || o.kind == ObjectKind::kPallet || o.kind == ObjectKind::kCone ||
+          o.kind == ObjectKind::kPedestrian)
+        continue;
+      Eigen::AlignedBox2d box;
+      for (int c = 0; c < 8; ++c) box.extend((o.pose * o.mesh->bounds.corner(Eigen::AlignedBox3d::CornerType(c))).head<2>());
+      fixed_footprints.emplace_back(int(i), box);
     }
     // The reference: the unladen truck at rest on level ground, forks down.
     const StaticReport st = static_report(truck, std::nullopt, 0.0);
@@ -405,6 +438,142 @@ struct Evaluator::Impl : EvaluationMemory::Data {
             {"thresholds", {{"reaction_time_s", th(k, "reaction_time_s")},
                             {"braking_deceleration_m_s2", th(k, "braking_deceleration_m_s2")},
                             {"margin_m", th(k, "margin_m")}}}},
+           out);
+  }
+
+  // Blind corners, doors and cross aisles: the horn heard from horn_before_s before the CoG
+  // entered the marker to horn_after_s after (one event per passage that had none), and walking
+  // pace inside it. A truck that starts inside a marker has not entered it.
+  void marked_places(const TickInput& in, bool first, double ground_speed, std::vector<EvaluationEvent>& out) {
+    if (in.inputs.horn) last_horn_t = in.t_s;
+    if (markers.empty()) return;
+    const RuleKey h = ev::kHornAtMarker, k = ev::kSpeedAtMarker;
+    const Eigen::Vector2d p = in.out.q.head<2>();
+    int fast = -1;
+    for (size_t i = 0; i < markers.size(); ++i) {
+      const MarkerInfo& m = markers[i];
+      Passage& ps = passages[i];
+      const bool inside = m.marker->contains(p);
+      if (inside && !ps.inside && !first && in.t_s - ps.left_t >= th(h, "clear_time_s")) {
+        ps.judged = !m.horn;
+        ps.entered_t = in.t_s;
+      }
+      if (!inside && ps.inside) ps.left_t = in.t_s;
+      ps.inside = inside;
+      if (!ps.judged) {
+        if (last_horn_t >= ps.entered_t - th(h, "horn_before_s")) {
+          ps.judged = true;
+        } else if (!inside || in.t_s - ps.entered_t >= th(h, "horn_after_s")) {
+          ps.judged = true;
+          emit(h, in.t_s, p,
+               {{"marker", m.marker->id},
+                {"marker_kind", m.marker->kind},
+                {"measured", {{"speed_m_s", round6(ground_speed)}}},
+                {"thresholds", {{"horn_before_s", th(h, "horn_before_s")}, {"horn_after_s", th(h, "horn_after_s")}}}},
+               out);
+        }
+      }
+      if (inside && m.speed && fast < 0 && ground_speed > th(k, "walking_pace_m_s")) fast = int(i);
+    }
+    if (marker_speed.update(fast >= 0, in.t_s, th(k, "min_duration_s"), th(k, "clear_time_s")))
+      emit(k, in.t_s, p,
+           {{"marker", markers[fast].marker->id},
+            {"marker_kind", markers[fast].marker->kind},
+            {"measured", {{"speed_m_s", round6(ground_speed)}}},
+            {"thresholds", {{"walking_pace_m_s", th(k, "walking_pace_m_s")}}}},
+           out);
+  }
+
+  // A person ahead in the truck's path (as people_in_path: ahead of its front, or behind it
+  // reversing, within its width and lateral_margin_m either side), standing, within
+  // near_distance_m, with a fixed object within object_within_m of him on his far side: driven
+  // towards at travel_speed_min_m_s or more, he has nowhere to go.
+  void people_at_fixed_objects(const TickInput& in, double v, std::vector<EvaluationEvent>& out) {
+    if (!in.pedestrians || in.pedestrians->empty()) return;
+    const RuleKey k = ev::kPedestrianAtFixedObject;
+    const double speed = std::abs(v);
+    int who = -1, what = -1;
+    double gap = 0, behind = 0;
+    if (speed >= th(k, "travel_speed_min_m_s") && !fixed_footprints.empty()) {
+      const Eigen::Isometry3d to_chassis = in.poses.chassis.inverse();
+      const Eigen::Vector3d tips = to_chassis * (in.poses.carriage * Eigen::Vector3d(outline.forks_m.max().x(), 0, 0));
+      const double front = std::max(outline.chassis_m.max().x(), tips.x()), rear = outline.chassis_m.min().x();
+      const double half_width = std::max(-outline.chassis_m.min().y(), outline.chassis_m.max().y()) + th(k, "lateral_margin_m");
+      const double z = in.poses.chassis.translation().z();
+      for (size_t i = 0; i < in.pedestrians->size() && who < 0; ++i) {
+        const PedestrianState& st = (*in.pedestrians)[i];
+        if (st.speed_m_s > 0) continue;  // walking: he can step out of the way
+        const Eigen::Vector3d p = to_chassis * Eigen::Vector3d(st.at_m.x(), st.at_m.y(), z);
+        if (std::abs(p.y()) > half_width) continue;
+        const double d = v > 0 ? p.x() - front : rear - p.x();
+        if (d < 0 || d > th(k, "near_distance_m")) continue;
+        for (const auto& [index, box] : fixed_footprints) {
+          const double off = box.exteriorDistance(st.at_m);
+          if (off > th(k, "object_within_m")) continue;
+          // On his far side: the object's nearest point to him no nearer the truck than he is.
+          const Eigen::Vector2d c = st.at_m.cwiseMax(box.min()).cwiseMin(box.max());
+          const Eigen::Vector3d pc = to_chassis * Eigen::Vector3d(c.x(), c.y(), z);
+          if (v > 0 ? pc.x() < p.x() : pc.x() > p.x()) continue;
+          who = int(i);
+          what = index;
+          gap = d;
+          behind = off;
+          break;
+        }
+      }
+    }
+    if (pedestrian_at_object.update(who >= 0, in.t_s, th(k, "min_duration_s"), th(k, "clear_time_s")))
+      emit(k, in.t_s, in.out.q.head<2>(),
+           {{"pedestrian", scene.pedestrians[who].id},
+            {"object", scene.objects[what].id},
+            {"object_kind", object_kind_name(scene.objects[what].kind)},
+            {"measured", {{"speed_m_s", round6(speed)}, {"distance_m", round6(gap)}, {"object_distance_m", round6(behind)}}},
+            {"thresholds", {{"near_distance_m", th(k, "near_distance_m")}, {"object_within_m", th(k, "object_within_m")}}}},
+           out);
+  }
+
+  // A person under the raised forks or load: the forks' heel above raised_fork_height_m and a
+  // person's middle within margin_m of the forks' outline (tips included) or of the pallet they
+  // carry, on the floor.
+  void people_under_forks(const TickInput& in, double heel_height, std::vector<EvaluationEvent>& out) {
+    if (!in.pedestrians || in.pedestrians->empty()) return;
+    const RuleKey k = ev::kPersonUnderForks;
+    const double margin = th(k, "margin_m");
+    int who = -1;
+    if (heel_height > th(k, "raised_fork_height_m")) {
+      const Eigen::Isometry3d to_carriage = in.poses.carriage.inverse();
+      const double z = in.poses.carriage.translation().z();
+      Eigen::AlignedBox2d forks = outline.forks_m;
+      forks.min().array() -= margin;
+      forks.max().array() += margin;
+      const PalletState* carried = nullptr;
+      const PalletSpec* spec = nullptr;
+      for (const PalletState& ps : in.pallets)
+        if (ps.on_forks) {
+          const auto it = object_index.find(ps.id);
+          if (it != object_index.end() && scene.objects[it->second].pallet) {
+            carried = &ps;
+            spec = &*scene.objects[it->second].pallet;
+          }
+        }
+      for (size_t i = 0; i < in.pedestrians->size() && who < 0; ++i) {
+        const Eigen::Vector2d at = (*in.pedestrians)[i].at_m;
+        const Eigen::Vector3d pc = to_carriage * Eigen::Vector3d(at.x(), at.y(), z);
+        bool under = forks.contains(pc.head<2>());
+        if (!under && carried) {
+          const Eigen::Vector3d pl = carried->pose.inverse() * Eigen::Vector3d(at.x(), at.y(), carried->pose.translation().z());
+          const double hl = std::max(spec->length_m, spec->load_size_m.x()) / 2 + margin;
+          const double hw = std::max(spec->width_m, spec->load_size_m.y()) / 2 + margin;
+          under = std::abs(pl.x()) <= hl && std::abs(pl.y()) <= hw;
+        }
+        if (under) who = int(i);
+      }
+    }
+    if (under_forks.update(who >= 0, in.t_s, th(k, "min_duration_s"), th(k, "clear_time_s")))
+      emit(k, in.t_s, (*in.pedestrians)[who].at_m,
+           {{"pedestrian", scene.pedestrians[who].id},
+            {"measured", {{"fork_height_m", round6(heel_height)}}},
+            {"thresholds", {{"raised_fork_height_m", th(k, "raised_fork_height_m")}, {"margin_m", margin}}}},
            out);
   }
 
@@ -765,6 +934,7 @@ struct Evaluator::Impl : EvaluationMemory::Data {
     const double dt = have_tick ? in.t_s - last_t : 0.0;
     const double tau = rules.acceleration_filter_time_constant_s;
     if (dt > 0) accel += (dt / (tau + dt)) * (o.qddot.head<3>() - accel);
+    const bool first = !have_tick;
     have_tick = true;
     last_t = in.t_s;
 
@@ -783,6 +953,9 @@ struct Evaluator::Impl : EvaluationMemory::Data {
     speeding(in, ground_speed, out);
     speed_near_people(in, ground_speed, out);
     people_in_path(in, v, out);
+    people_at_fixed_objects(in, v, out);
+    people_under_forks(in, heel_height, out);
+    marked_places(in, first, ground_speed, out);
     forks_and_mast(in, v, heel_height, out);
     dynamics(in, v, heel_height, out);
     handling(in, out);

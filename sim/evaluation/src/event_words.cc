@@ -38,7 +38,17 @@ const std::map<std::string, std::string> kNames = {
     {"time_limit", "time limit"},               {"slide_min", "counted from a slide of"},
     {"tolerance", "tolerance"},                 {"time", "time"}};
 
-std::string name_of(const std::string& bare) {
+// Where one rule's number means something else than the same name in the others ("margin" is the
+// stability margin but for the people's rules; "speed_max" a parked truck's but near a person).
+const std::map<std::string, std::string> kNamesOfKind = {
+    {"pedestrian_in_path:margin", "distance to spare"},
+    {"speed_near_pedestrian:speed_max", "highest speed near a person"},
+    {"person_under_forks:margin", "counted from beside the forks within"},
+    {"horn_at_marker:horn_before", "horn counted from before entering"},
+    {"horn_at_marker:horn_after", "horn counted until after entering"}};
+
+std::string name_of(const std::string& kind, const std::string& bare) {
+  if (const auto own = kNamesOfKind.find(kind + ":" + bare); own != kNamesOfKind.end()) return own->second;
   const auto it = kNames.find(bare);
   if (it != kNames.end()) return it->second;
   std::string words = bare;
@@ -47,7 +57,7 @@ std::string name_of(const std::string& bare) {
   return words;
 }
 
-json quantities(const json& group) {
+json quantities(const json& group, const std::string& kind) {
   json out = json::array();
   if (!group.is_object()) return out;
   for (const auto& [key, v] : group.items()) {
@@ -58,7 +68,7 @@ json quantities(const json& group) {
         bare = key.substr(0, key.size() - suffix.size());
         break;
       }
-    out.push_back({{"what", name_of(bare)}, {"value", quantity_words(key, v.get<double>())}});
+    out.push_back({{"what", name_of(kind, bare)}, {"value", quantity_words(key, v.get<double>())}});
   }
   return out;
 }
@@ -109,8 +119,8 @@ json event_words(const std::string& rule_title, const std::string& kind, const s
     }
   }
   const json d = json::parse(details, nullptr, false);
-  const json measured = quantities(d.is_object() ? d.value("measured", json()) : json());
-  const json limits = quantities(d.is_object() ? d.value("thresholds", json()) : json());
+  const json measured = quantities(d.is_object() ? d.value("measured", json()) : json(), kind);
+  const json limits = quantities(d.is_object() ? d.value("thresholds", json()) : json(), kind);
   std::string summary;
   if (!measured.empty()) summary = "Measured: " + listed(measured) + ".";
   if (!limits.empty()) summary += std::string(summary.empty() ? "" : " ") + "Limit: " + listed(limits) + ".";

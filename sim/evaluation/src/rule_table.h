@@ -45,11 +45,15 @@ enum RuleKey : int {
   kPedestrianStruck,
   kSpeedNearPedestrian,
   kPedestrianInPath,
+  kHornAtMarker,
+  kSpeedAtMarker,
+  kPedestrianAtFixedObject,
+  kPersonUnderForks,
   kNumRules
 };
 
 // What a rule's applies_to lists.
-enum class AppliesTo { kNothing, kObjectKinds, kZoneKinds };
+enum class AppliesTo { kNothing, kObjectKinds, kZoneKinds, kMarkerKinds };
 
 struct RuleSpec {
   const char* id;
@@ -97,6 +101,11 @@ inline const std::array<RuleSpec, kNumRules>& rule_specs() {
       {"speed_near_pedestrian", AppliesTo::kNothing, {"near_distance_m", "speed_max_m_s", "min_duration_s", "clear_time_s"}},
       {"pedestrian_in_path", AppliesTo::kNothing, {"travel_speed_min_m_s", "reaction_time_s", "braking_deceleration_m_s2",
                                                    "margin_m", "lateral_margin_m", "min_duration_s", "clear_time_s"}},
+      {"horn_at_marker", AppliesTo::kMarkerKinds, {"horn_before_s", "horn_after_s", "clear_time_s"}},
+      {"speed_at_marker", AppliesTo::kMarkerKinds, {"walking_pace_m_s", "min_duration_s", "clear_time_s"}},
+      {"pedestrian_at_fixed_object", AppliesTo::kNothing, {"travel_speed_min_m_s", "near_distance_m", "object_within_m",
+                                                           "lateral_margin_m", "min_duration_s", "clear_time_s"}},
+      {"person_under_forks", AppliesTo::kNothing, {"raised_fork_height_m", "margin_m", "min_duration_s", "clear_time_s"}},
   }};
   return specs;
 }

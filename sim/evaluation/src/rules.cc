@@ -1,4 +1,5 @@
 // Reading and checking a rules file (data/evaluation/rules.json).
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -134,6 +135,9 @@ Rule read_rule(const Node& n, const Scheme& scheme) {
     if (spec->applies == AppliesTo::kNothing) fail(a.file, a.key, "this rule applies to no object or zone kinds");
     if (spec->applies == AppliesTo::kObjectKinds && !parse_object_kind(kind))
       fail(a.file, a.key, "'" + kind + "' is not an object kind");
+    if (spec->applies == AppliesTo::kMarkerKinds &&
+        std::find(marker_kinds().begin(), marker_kinds().end(), kind) == marker_kinds().end())
+      fail(a.file, a.key, "'" + kind + "' is not a marker kind (blind_corner, door, cross_aisle)");
     r.applies_to.push_back(kind);
   }
   const Node th = n.at("thresholds");

@@ -33,8 +33,9 @@ std::optional<ObjectKind> parse_object_kind(const std::string& name) {
   return std::nullopt;
 }
 
-// Even-odd ray crossing; points on an edge may fall either way, which a speed limit tolerates.
-bool Zone::contains(const Eigen::Vector2d& p) const {
+namespace {
+// Even-odd ray crossing; points on an edge may fall either way, which a speed limit or a marker tolerates.
+bool polygon_contains(const std::vector<Eigen::Vector2d>& polygon, const Eigen::Vector2d& p) {
   bool inside = false;
   const size_t n = polygon.size();
   for (size_t i = 0, j = n - 1; i < n; j = i++) {
@@ -45,6 +46,15 @@ bool Zone::contains(const Eigen::Vector2d& p) const {
       inside = !inside;
   }
   return inside;
+}
+}  // namespace
+
+bool Zone::contains(const Eigen::Vector2d& p) const { return polygon_contains(polygon, p); }
+bool Marker::contains(const Eigen::Vector2d& p) const { return polygon_contains(polygon, p); }
+
+const std::vector<std::string>& marker_kinds() {
+  static const std::vector<std::string> kinds{"blind_corner", "door", "cross_aisle"};
+  return kinds;
 }
 
 const SceneObject* Scene::find(const std::string& id) const {

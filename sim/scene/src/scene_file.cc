@@ -143,14 +143,14 @@ struct Merged {
     std::string file, key;
   };
   std::map<std::string, Item> keys;
-  std::vector<Item> objects, zones, ramps, ground_steps, pedestrians;
+  std::vector<Item> objects, zones, ramps, ground_steps, pedestrians, markers, spills, falling_pallets;
 };
 
 const std::set<std::string> kTopKeys = {"name",   "description", "truck",        "start",  "exam_course",
                                         "load",   "include",     "objects",      "zones",
                                         "ramps",  "ground_steps", "route",     "task",         "time_limit_s",
                                         "floor_m", "zone_speed_limits_m_s", "exclude_objects", "pedestrians",
-                                        "manoeuvre", "duration_s"};
+                                        "markers", "spills", "falling_pallets", "manoeuvre", "duration_s"};
 
 // Read by load_scenario (scenario.h) from the scenario file itself.
 // An exam course is the scenario's own declaration: a layout may not make its includers exams.
@@ -172,11 +172,12 @@ void merge(const std::string& path, const std::string& data_dir, Merged& m, int 
     if (k == "include" || (!k.empty() && k[0] == '_')) continue;
     if (!kTopKeys.count(k)) fail(path, k, "is not a known key");
     if (depth > 0 && kOwnKeys.count(k)) fail(path, k, "belongs in the scenario file itself, not in an included layout");
-    if (k == "objects" || k == "zones" || k == "ramps" || k == "ground_steps" || k == "pedestrians") {
+    if (k == "objects" || k == "zones" || k == "ramps" || k == "ground_steps" || k == "pedestrians" || k == "markers" ||
+        k == "spills" || k == "falling_pallets") {
       const Node list(it.value(), path, k);
       list.array();
       auto& out = k == "objects" ? m.objects : k == "zones" ? m.zones : k == "ramps" ? m.ramps
-                  : k == "ground_steps" ? m.ground_steps : m.pedestrians;
+                  : k == "ground_steps" ? m.ground_steps : k == "markers" ? m.markers : k == "spills" ? m.spills : k == "falling_pallets" ? m.falling_pallets : m.pedestrians;
       for (size_t i = 0; i < list.size(); ++i) out.push_back({it.value()[i], path, k + "[" + std::to_string(i) + "]"});
     } else if (k == "exclude_objects") {
       const Node list(it.value(), path, k);
@@ -373,6 +374,7 @@ void place_on_support(SceneObject& pallet, const Node& n, const Scene& scene) {
 
 // One pedestrian: a path walked once at a speed, waits at its points, what starts the walk, and
 // whether the person looks out for the truck.
+void read_trigger(const Node& t, std::optional<double>& truck_within_m, double& at_s);
 PedestrianSpec read_pedestrian(const Node& n) {
   n.only({"id", "path", "speed_m_s", "waits", "trigger", "looks", "stop_within_m", "size_m"});
   PedestrianSpec p;
@@ -398,13 +400,7 @@ PedestrianSpec read_pedestrian(const Node& n) {
       p.waits.push_back(pw);
     }
   }
-  if (n.has("trigger")) {
-    const Node t = n.at("trigger");
-    t.only({"truck_within_m", "at_s"});
-    if (t.has("truck_within_m") == t.has("at_s")) t.fail("must give one of truck_within_m and at_s");
-    if (t.has("truck_within_m")) p.start_truck_within_m = t.at("truck_within_m").positive();
-    else p.start_at_s = t.at("at_s").non_negative();
-  }
+  if (n.has("trigger")) read_trigger(n.at("trigger"), p.start_truck_within_m, p.start_at_s);
   p.looks = n.has("looks") ? n.at("looks").boolean() : true;
   if (p.looks) p.stop_within_m = n.at("stop_within_m").positive();
   else if (n.has("stop_within_m")) n.at("stop_within_m").fail("is for one who looks (looks: true)");
@@ -416,26 +412,33 @@ PedestrianSpec read_pedestrian(const Node& n) {
   return p;
 }
 
+// A zone's or a marker's area: exactly one of `rect` and `polygon`, stored counter-clockwise.
+std::vector<Eigen::Vector2d> read_area(const Node& n) {
+  std::vector<Eigen::Vector2d> polygon;
+  if (n.has("polygon") == n.has("rect")) n.fail("needs exactly one of polygon and rect");
+  if (n.has("rect")) {
+    const Eigen::AlignedBox2d b = n.at("rect").box2();
+    polygon = {b.corner(Eigen::AlignedBox2d::BottomLeft), b.corner(Eigen::AlignedBox2d::BottomRight),
+               b.corner(Eigen::AlignedBox2d::TopRight), b.corner(Eigen::AlignedBox2d::TopLeft)};
+  } else {
+    const Node poly = n.at("polygon");
+    poly.array(3);
+    for (size_t i = 0; i < poly.size(); ++i) polygon.push_back(poly.at(i).vec2());
+  }
+  double area2 = 0;
+  for (size_t i = 0, j = polygon.size() - 1; i < polygon.size(); j = i++)
+    area2 += polygon[j].x() * polygon[i].y() - polygon[i].x() * polygon[j].y();
+  if (!(std::abs(area2) > 0)) n.fail("has no area");
+  if (area2 < 0) std::reverse(polygon.begin(), polygon.end());
+  return polygon;
+}
+
 Zone read_zone(const Node& n, const Node* speed_limits) {
   n.only({"id", "kind", "polygon", "rect", "speed_limit_m_s"});
   Zone z;
   z.id = n.at("id").string();
   z.kind = n.at("kind").string();
-  if (n.has("polygon") == n.has("rect")) n.fail("needs exactly one of polygon and rect");
-  if (n.has("rect")) {
-    const Eigen::AlignedBox2d b = n.at("rect").box2();
-    z.polygon = {b.corner(Eigen::AlignedBox2d::BottomLeft), b.corner(Eigen::AlignedBox2d::BottomRight),
-                 b.corner(Eigen::AlignedBox2d::TopRight), b.corner(Eigen::AlignedBox2d::TopLeft)};
-  } else {
-    const Node poly = n.at("polygon");
-    poly.array(3);
-    for (size_t i = 0; i < poly.size(); ++i) z.polygon.push_back(poly.at(i).vec2());
-  }
-  double area2 = 0;
-  for (size_t i = 0, j = z.polygon.size() - 1; i < z.polygon.size(); j = i++)
-    area2 += z.polygon[j].x() * z.polygon[i].y() - z.polygon[i].x() * z.polygon[j].y();
-  if (!(std::abs(area2) > 0)) n.fail("has no area");
-  if (area2 < 0) std::reverse(z.polygon.begin(), z.polygon.end());  // stored counter-clockwise
+  z.polygon = read_area(n);
   if (n.has("speed_limit_m_s")) {
     z.speed_limit_m_s = n.at("speed_limit_m_s").positive();
   } else if (speed_limits && speed_limits->has(z.kind.c_str())) {
@@ -444,6 +447,52 @@ Zone read_zone(const Node& n, const Node* speed_limits) {
     n.fail("has no speed_limit_m_s and zone_speed_limits_m_s has none for kind '" + z.kind + "'");
   }
   return z;
+}
+
+// A hazard's trigger: {truck_within_m} or {at_s}, exactly one.
+void read_trigger(const Node& t, std::optional<double>& truck_within_m, double& at_s) {
+  t.only({"truck_within_m", "at_s"});
+  if (t.has("truck_within_m") == t.has("at_s")) t.fail("must give one of truck_within_m and at_s");
+  if (t.has("truck_within_m")) truck_within_m = t.at("truck_within_m").positive();
+  else at_s = t.at("at_s").non_negative();
+}
+
+// A pallet that falls: it must stand on a support above the floor (a rack level, a bed).
+FallingPalletSpec read_falling_pallet(const Node& n, const Scene& scene) {
+  n.only({"pallet", "trigger", "toward_deg", "throw_m"});
+  FallingPalletSpec f;
+  f.pallet = n.at("pallet").string();
+  const SceneObject* o = scene.find(f.pallet);
+  if (!o || o->kind != ObjectKind::kPallet) n.at("pallet").fail("names no pallet '" + f.pallet + "'");
+  if (o->rests_on.empty() || !(o->pose.translation().z() > 0))
+    n.at("pallet").fail("names pallet '" + f.pallet + "', which stands on the floor: only one on a support above it can fall");
+  read_trigger(n.at("trigger"), f.start_truck_within_m, f.start_at_s);
+  f.toward_rad = n.at("toward_deg").number() * kDeg;
+  f.throw_m = n.non_negative_or("throw_m", f.throw_m);
+  return f;
+}
+
+Spill read_spill(const Node& n) {
+  n.only({"id", "rect", "friction_scale"});
+  Spill sp;
+  sp.id = n.at("id").string();
+  sp.rect = n.at("rect").box2();
+  if (!(sp.rect.sizes().minCoeff() > 0)) n.at("rect").fail("must have xmax > xmin and ymax > ymin");
+  sp.friction_scale = n.at("friction_scale").positive();
+  if (sp.friction_scale > 1) n.at("friction_scale").fail("must be at most 1 (a spill grips less, never more)");
+  return sp;
+}
+
+Marker read_marker(const Node& n) {
+  n.only({"id", "kind", "polygon", "rect"});
+  Marker mk;
+  mk.id = n.at("id").string();
+  mk.kind = n.at("kind").string();
+  const std::vector<std::string>& kinds = marker_kinds();
+  if (std::find(kinds.begin(), kinds.end(), mk.kind) == kinds.end())
+    n.at("kind").fail("must be blind_corner, door or cross_aisle (found " + mk.kind + ")");
+  mk.polygon = read_area(n);
+  return mk;
 }
 
 Ramp read_ramp(const Node& n) {
@@ -796,7 +845,16 @@ Scene load_scene(const std::string& path, const std::string& data_dir) {
 
   for (const Merged::Item& item : m.ramps) scene.ramps.push_back(read_ramp(node(item)));
   for (const Merged::Item& item : m.ground_steps) scene.ground_steps.push_back(read_ground_step(node(item)));
-  scene.ground = Ground(scene.ramps, scene.ground_steps);
+  std::set<std::string> spill_ids;
+  std::vector<GripPatch> grip;
+  for (const Merged::Item& item : m.spills) {
+    const Node n = node(item);
+    Spill sp = read_spill(n);
+    if (!spill_ids.insert(sp.id).second) n.at("id").fail("repeats the spill id '" + sp.id + "'");
+    grip.push_back({sp.rect, sp.friction_scale});
+    scene.spills.push_back(std::move(sp));
+  }
+  scene.ground = Ground(scene.ramps, scene.ground_steps, std::move(grip));
 
   std::set<std::string> ids;
   std::vector<PendingPlacement> placements;
@@ -821,12 +879,26 @@ Scene load_scene(const std::string& path, const std::string& data_dir) {
     if (!zone_ids.insert(z.id).second) n.at("id").fail("repeats the zone id '" + z.id + "'");
     scene.zones.push_back(std::move(z));
   }
+  std::set<std::string> marker_ids;
+  for (const Merged::Item& item : m.markers) {
+    const Node n = node(item);
+    Marker mk = read_marker(n);
+    if (!marker_ids.insert(mk.id).second) n.at("id").fail("repeats the marker id '" + mk.id + "'");
+    scene.markers.push_back(std::move(mk));
+  }
 
   for (const Merged::Item& item : m.pedestrians) {
     const Node n = node(item);
     PedestrianSpec p = read_pedestrian(n);
     if (!ids.insert(p.id).second) n.at("id").fail("repeats the id '" + p.id + "'");
     scene.pedestrians.push_back(std::move(p));
+  }
+  std::set<std::string> falling_ids;
+  for (const Merged::Item& item : m.falling_pallets) {
+    const Node n = node(item);
+    FallingPalletSpec f = read_falling_pallet(n, scene);
+    if (!falling_ids.insert(f.pallet).second) n.at("pallet").fail("repeats the falling pallet '" + f.pallet + "'");
+    scene.falling_pallets.push_back(std::move(f));
   }
 
   if (key("route")) {

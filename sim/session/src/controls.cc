@@ -40,6 +40,7 @@ DriverInputs driver_inputs(const ControlSample& c, const TruckParams& t) {
   u.tilt_rate_rad_s = c.tilt * t.limits.tilt_rate_max_rad_s;
   u.shift_rate_m_s = c.side_shift * t.limits.side_shift_rate_max_m_s;
   u.parking_brake = c.parking_brake;
+  u.horn = c.horn;
   return u;
 }
 
@@ -55,7 +56,7 @@ bool identical(const DriverInputs& a, const DriverInputs& b) {
   return same(a.drive_torque_N_m, b.drive_torque_N_m) && same(a.brake_torque_N_m, b.brake_torque_N_m) &&
          same(a.steer_rad, b.steer_rad) && same(a.tilt_rate_rad_s, b.tilt_rate_rad_s) &&
          same(a.lift_rate_m_s, b.lift_rate_m_s) && same(a.shift_rate_m_s, b.shift_rate_m_s) &&
-         a.parking_brake == b.parking_brake;
+         a.parking_brake == b.parking_brake && a.horn == b.horn;
 }
 
 ControlSequence::Verdict ControlSequence::judge(uint32_t seq, double silence_s) {

@@ -87,16 +87,24 @@ SessionState initial_state(const SessionModel& m) {
   s.load = sc.load;
   if (s.load) s.load_on_forks.phase = LoadPhase::kStuck;
   s.pedestrians = initial_pedestrians(m.scene.pedestrians);
+  s.falls = initial_falls(m.scene.falling_pallets);
   return s;
 }
 
 SessionState initial_state(const SessionModel& m, const LogHeader& h) {
   SessionState s;
   s.pedestrians = initial_pedestrians(m.scene.pedestrians);
+  s.falls = initial_falls(m.scene.falling_pallets);
   s.x = h.initial;
   s.load = h.load;
   if (s.load) s.load_on_forks.phase = LoadPhase::kStuck;
   return s;
+}
+
+PedestrianActivity activity_of(const PedestrianState& p) {
+  if (p.struck) return PedestrianActivity::kStruck;
+  if (!p.started) return PedestrianActivity::kWaiting;
+  return p.speed_m_s > 0 ? PedestrianActivity::kWalking : PedestrianActivity::kStanding;
 }
 
 struct SessionWorkspace::Impl {
@@ -104,7 +112,8 @@ struct SessionWorkspace::Impl {
   std::unique_ptr<Simulation> sim;
   Warehouse warehouse;
   Evaluator evaluator;
-  TruckOutline outline;  // for the pedestrians' distances to the truck
+  TruckOutline outline;  // for the pedestrians' and falling pallets' distances to the truck
+  std::vector<const SceneObject*> falling;  // each falling pallet's object: where it stood
   // The state this workspace's integrator last produced: stepping it continues the integrator's
   // history; any other state (a copy stepped elsewhere, a rewind) restarts it from that state.
   bool have_last = false;
@@ -121,6 +130,7 @@ struct SessionWorkspace::Impl {
   explicit Impl(const SessionModel& m)
       : model(m), warehouse(m.scene, m.shape, m.truck), evaluator(m.rules, m.scene, m.truck, m.shape, m.mode),
         outline(truck_outline(m.shape)) {
+    for (const FallingPalletSpec& f : m.scene.falling_pallets) falling.push_back(m.scene.find(f.pallet));
     found.reserve(16);
   }
 
@@ -157,6 +167,14 @@ const BodyPoses& SessionWorkspace::poses() const { return impl_->poses; }
 const StepReport& SessionWorkspace::report() const { return *impl_->report; }
 const std::vector<EvaluationEvent>& SessionWorkspace::evaluation_events() const { return impl_->found; }
 IntegratorStats SessionWorkspace::integrator_stats() const { return impl_->sim ? impl_->sim->stats() : IntegratorStats{}; }
+void SessionWorkspace::show(const SessionState& state) {
+  Impl& w = *impl_;
+  w.start_from(state);
+  w.have_last = false;
+  w.sim->set_inputs(state.inputs.driver);
+  w.out = w.sim->outputs();
+  w.poses = body_poses(w.model.truck, w.out.q);
+}
 
 namespace {
 struct StageScope {
@@ -166,6 +184,34 @@ struct StageScope {
   ~StageScope() { if (o) o->end(s); }
 };
 }  // namespace
+
+// Pallets falling from their racks: each one still where it stood starts when its trigger fires
+// (one moved or on the forks never does), and drops to the floor below in free fall.
+static void drop_pallets(const SessionModel& model, SessionState& state, const TruckOutline& outline,
+                  const std::vector<const SceneObject*>& objects, const Warehouse& warehouse) {
+  const std::vector<FallingPalletSpec>& specs = model.scene.falling_pallets;
+  if (state.falls.size() != specs.size()) state.falls = initial_falls(specs);
+  const BodyPoses poses = body_poses(model.truck, coordinates(state.x));
+  for (size_t i = 0; i < specs.size(); ++i) {
+    FallingPalletState& f = state.falls[i];
+    const SceneObject& o = *objects[i];
+    if (f.landed) continue;
+    if (!f.started) {
+      const PalletState* p = state.handling.pallet(o.id);
+      const bool in_place = !p || (!p->on_forks && !p->dropped && p->resting_on == o.rests_on && p->level == o.rest_level);
+      if (!in_place || !fall_triggered(specs[i], outline, poses, o.pose.translation().head<2>(), state.t_s)) continue;
+      f.started = true;
+      f.started_t_s = state.t_s;
+    }
+    bool landed = false;
+    const Eigen::Vector2d to = o.pose.translation().head<2>() +
+                               specs[i].throw_m * Eigen::Vector2d(std::cos(specs[i].toward_rad), std::sin(specs[i].toward_rad));
+    const Eigen::Isometry3d pose = falling_pose(specs[i], o.pose, model.scene.ground.height(to.x(), to.y()), kGravity_m_s2,
+                                                state.t_s - f.started_t_s, landed);
+    f.landed = landed;
+    warehouse.move_pallet(state.handling, o.id, pose);
+  }
+}
 
 void step(const SessionModel& model, SessionState& state, SessionWorkspace& workspace, const SessionInputs& inputs,
           std::vector<SessionEvent>& events, StageObserver* observer) {
@@ -192,6 +238,7 @@ void step(const SessionModel& model, SessionState& state, SessionWorkspace& work
       if (state.pedestrians.size() != people.size()) state.pedestrians = initial_pedestrians(people);
       walk(people, state.pedestrians, w.outline, body_poses(model.truck, coordinates(state.x)), state.t_s, model.tick_s);
     }
+    if (!model.scene.falling_pallets.empty()) drop_pallets(model, state, w.outline, w.falling, w.warehouse);
     const StepReport& r = *(w.report = &w.warehouse.step(sim, state.handling, state.pedestrians));
     for (const Contact& c : r.contacts)
       if (c.pedestrian >= 0) state.pedestrians[c.pedestrian].struck = true;
@@ -334,7 +381,7 @@ std::vector<InputChange> script_changes(const std::string& path, const SessionMo
     if (!std::isfinite(r.t) || r.t < 0) throw std::runtime_error(path + ": row " + std::to_string(i + 1) + ": bad time");
     // The row's steer as a scripted cab's sample brings it to the worker (script.h).
     const double steer = steer_from_fraction(steer_fraction(r.steer, model.truck.steer.max_rad), model.truck);
-    const ControlSample c{uint32_t(i + 1), steer, r.accelerator, r.brake, r.lift, r.tilt, r.shift, false, r.parking_brake};
+    const ControlSample c{uint32_t(i + 1), steer, r.accelerator, r.brake, r.lift, r.tilt, r.shift, r.horn, r.parking_brake};
     if (const auto problem = control_problem(c, model.truck))
       throw std::runtime_error(path + ": row " + std::to_string(i + 1) + " (t = " + std::to_string(r.t) + " s): " + *problem);
     out.push_back({first_tick_at(r.t, model.tick_s), c.seq, {driver_inputs(c, model.truck), false}, std::nullopt});

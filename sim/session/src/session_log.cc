@@ -107,9 +107,10 @@ ControlLogWriter::ControlLogWriter(const std::string& path, const LogHeader& h) 
 ControlLogWriter::~ControlLogWriter() { std::fclose(f_); }
 
 void ControlLogWriter::input(int64_t tick, uint32_t seq, const DriverInputs& u) {
-  std::fprintf(f_, "i %" PRId64 " %u %s %s %s %s %s %s %d\n", tick, seq, hex(u.drive_torque_N_m).c_str(),
+  // The horn's field only while it sounds: a log without it reads as before.
+  std::fprintf(f_, "i %" PRId64 " %u %s %s %s %s %s %s %d%s\n", tick, seq, hex(u.drive_torque_N_m).c_str(),
                hex(u.brake_torque_N_m).c_str(), hex(u.steer_rad).c_str(), hex(u.tilt_rate_rad_s).c_str(),
-               hex(u.lift_rate_m_s).c_str(), hex(u.shift_rate_m_s).c_str(), u.parking_brake ? 1 : 0);
+               hex(u.lift_rate_m_s).c_str(), hex(u.shift_rate_m_s).c_str(), u.parking_brake ? 1 : 0, u.horn ? " 1" : "");
   std::fflush(f_);  // a worker that is killed leaves everything it applied
 }
 
@@ -216,7 +217,7 @@ ControlLog read_control_log(const std::string& path) {
         if (w.size() == 17) for (int i = 0; i < 3; ++i) l.size_m[i] = from_hex(w[14 + i]);
         log.header.load = l;
       } else if (k == "i") {
-        if (w.size() != 9 && w.size() != 10) throw std::runtime_error("an input line needs 8 or 9 fields");
+        if (w.size() < 9 || w.size() > 11) throw std::runtime_error("an input line needs 8, 9 or 10 fields");
         ControlLog::Entry e;
         e.tick = std::stoll(w[1]);
         e.seq = static_cast<uint32_t>(std::stoul(w[2]));
@@ -224,6 +225,10 @@ ControlLog read_control_log(const std::string& path) {
         if (w.size() == 10) {
           if (w[9] != "0" && w[9] != "1") throw std::runtime_error("the parking brake is 0 or 1");
           e.inputs.parking_brake = w[9] == "1";
+        }
+        if (w.size() == 11) {
+          if (w[10] != "0" && w[10] != "1") throw std::runtime_error("the horn is 0 or 1");
+          e.inputs.horn = w[10] == "1";
         }
         e.segment = segment;
         if (!log.entries.empty() && e.segment == log.entries.back().segment && e.tick < log.entries.back().tick)

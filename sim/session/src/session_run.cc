@@ -62,6 +62,7 @@ void SessionRun::instruct(const Instruction& what) {
     if (log_) log_->instruction(state_.tick, what);
     state_ = point->second;                                 // the integrator restarts from it (step())
     points_.erase(std::next(point), points_.end());         // the abandoned attempt's
+    workspace_.show(state_);                                // a paused session's states show the point
     let_be_ticks_ = 0;
     return;
   }
@@ -71,6 +72,11 @@ void SessionRun::instruct(const Instruction& what) {
     if (state_.pedestrians.size() != people.size()) state_.pedestrians = initial_pedestrians(people);
     for (size_t i = 0; i < people.size(); ++i)
       if (people[i].id == what.text) state_.pedestrians[i].started = true;
+    // Or a pallet falls from its rack now.
+    const std::vector<FallingPalletSpec>& falls = model_.scene.falling_pallets;
+    if (state_.falls.size() != falls.size()) state_.falls = initial_falls(falls);
+    for (size_t i = 0; i < falls.size(); ++i)
+      if (falls[i].pallet == what.text) state_.falls[i] = {true, false, state_.t_s};
   }
   if (what.action == InstructorAction::kPause) paused_ = true;
   if (what.action == InstructorAction::kResume) paused_ = false;
@@ -79,6 +85,14 @@ void SessionRun::instruct(const Instruction& what) {
 
 std::optional<std::string> SessionRun::hazard_problem(const std::string& id) const {
   const std::vector<PedestrianSpec>& people = model_.scene.pedestrians;
+  const std::vector<FallingPalletSpec>& falls = model_.scene.falling_pallets;
+  for (size_t i = 0; i < falls.size(); ++i) {
+    if (falls[i].pallet != id) continue;
+    if (i < state_.falls.size() && state_.falls[i].started) return "pallet " + id + " has fallen already";
+    const PalletState* p = state_.handling.pallet(id);
+    if (p && (p->on_forks || p->dropped)) return "pallet " + id + " is no longer on its rack";
+    return std::nullopt;
+  }
   std::string ids;
   for (size_t i = 0; i < people.size(); ++i) {
     if (people[i].id != id) {
@@ -91,7 +105,9 @@ std::optional<std::string> SessionRun::hazard_problem(const std::string& id) con
     if (s.started) return "pedestrian " + id + " is walking already";
     return std::nullopt;
   }
-  return "no pedestrian '" + id + "' in this scenario" + (ids.empty() ? std::string(" (it has none)") : " (it has " + ids + ")");
+  for (const FallingPalletSpec& f : falls) ids += (ids.empty() ? "" : ", ") + f.pallet;
+  return (falls.empty() ? "no pedestrian '" : "no pedestrian or falling pallet '") + id + "' in this scenario" +
+         (ids.empty() ? std::string(" (it has none)") : " (it has " + ids + ")");
 }
 
 void SessionRun::keep_rewind_points(int64_t every_ticks, size_t kept) {

@@ -41,6 +41,10 @@ constexpr Names<InstructorAction, 5> kInstructorActions{{{InstructorAction::kPau
                                                          {InstructorAction::kMessage, "message"},
                                                          {InstructorAction::kRewind, "rewind"},
                                                          {InstructorAction::kHazard, "hazard"}}};
+constexpr Names<PedestrianActivity, 4> kPedestrianActivities{{{PedestrianActivity::kWaiting, "waiting"},
+                                                             {PedestrianActivity::kWalking, "walking"},
+                                                             {PedestrianActivity::kStanding, "standing"},
+                                                             {PedestrianActivity::kStruck, "struck"}}};
 constexpr Names<HostState, 2> kHostStates{{{HostState::kReady, "ready"}, {HostState::kStopping, "stopping"}}};
 constexpr Names<WorkerAction, 3> kWorkerActions{
     {{WorkerAction::kStart, "start"}, {WorkerAction::kAbort, "abort"}, {WorkerAction::kKill, "kill"}}};
@@ -78,6 +82,7 @@ const char* name(ExamKind k) { return name_in(kExamKinds, k); }
 const char* name(PaperKind k) { return name_in(kPaperKinds, k); }
 const char* name(PaperOutcome o) { return name_in(kPaperOutcomes, o); }
 const char* name(InstructorAction a) { return name_in(kInstructorActions, a); }
+const char* name(PedestrianActivity a) { return name_in(kPedestrianActivities, a); }
 const char* name(HostState s) { return name_in(kHostStates, s); }
 const char* name(WorkerAction a) { return name_in(kWorkerActions, a); }
 const char* name(WorkerReportState s) { return name_in(kReportStates, s); }
@@ -91,6 +96,7 @@ template <> std::optional<ExamKind> parse<ExamKind>(std::string_view s) { return
 template <> std::optional<PaperKind> parse<PaperKind>(std::string_view s) { return parse_in(kPaperKinds, s); }
 template <> std::optional<PaperOutcome> parse<PaperOutcome>(std::string_view s) { return parse_in(kPaperOutcomes, s); }
 template <> std::optional<InstructorAction> parse<InstructorAction>(std::string_view s) { return parse_in(kInstructorActions, s); }
+template <> std::optional<PedestrianActivity> parse<PedestrianActivity>(std::string_view s) { return parse_in(kPedestrianActivities, s); }
 template <> std::optional<HostState> parse<HostState>(std::string_view s) { return parse_in(kHostStates, s); }
 template <> std::optional<WorkerAction> parse<WorkerAction>(std::string_view s) { return parse_in(kWorkerActions, s); }
 template <> std::optional<WorkerReportState> parse<WorkerReportState>(std::string_view s) { return parse_in(kReportStates, s); }

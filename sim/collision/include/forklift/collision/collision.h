@@ -135,6 +135,11 @@ class Warehouse {
   // The pallets as the scene stands them, before any step.
   const HandlingState& initial_handling() const { return initial_; }
 
+  // A pallet the scene itself moves (one falling from its rack, forklift/scene/falling.h): at
+  // `pose` from now on, on nothing, fallen (never picked up again), and struck there from the
+  // next step. Returns false, and moves nothing, for an unknown id or a pallet on the forks.
+  bool move_pallet(HandlingState& state, const std::string& id, const Eigen::Isometry3d& pose) const;
+
   // The contacts the truck would have at coordinates q, without handling (for tests and tools).
   std::vector<Contact> contacts_at(const CoordVector& q);
 

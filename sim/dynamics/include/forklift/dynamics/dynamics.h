@@ -35,6 +35,13 @@ struct GroundStep {
   double top_m = 0;                 // height of its top face; may be below the floor (a drop)
 };
 
+// A floor patch with less grip (a spill of oil or water): inside its footprint every tyre's
+// friction is scaled by friction_scale (its static, sliding and peak values alike).
+struct GripPatch {
+  Eigen::AlignedBox2d footprint_m;  // world x, y
+  double friction_scale = 1;        // (0, 1]
+};
+
 // Ground height as a function of position (x, y), not of time (beyond the paper's eq 7).
 // The level is the highest top of the steps whose footprint holds (x, y), or the floor z = 0
 // where none does; a ramp raises it where the ramp is higher. Steps' sides and ramps' sides and
@@ -43,16 +50,20 @@ struct GroundStep {
 class Ground {
  public:
   Ground() = default;
-  explicit Ground(std::vector<Ramp> ramps, std::vector<GroundStep> steps = {});
+  explicit Ground(std::vector<Ramp> ramps, std::vector<GroundStep> steps = {}, std::vector<GripPatch> grip = {});
   double height(double x, double y) const;
+  // The tyres' friction scale at (x, y): the lowest of the grip patches holding it, 1 elsewhere.
+  double grip(double x, double y) const;
   Eigen::Vector2d gradient(double x, double y) const;  // (dh/dx, dh/dy); zero on steps
   bool flat() const { return ramps_.empty() && steps_.empty(); }  // z = 0 everywhere
   const std::vector<Ramp>& ramps() const { return ramps_; }
   const std::vector<GroundStep>& steps() const { return steps_; }
+  const std::vector<GripPatch>& grip_patches() const { return grip_; }
 
  private:
   std::vector<Ramp> ramps_;
   std::vector<GroundStep> steps_;
+  std::vector<GripPatch> grip_;
 };
 
 // A force from the scene on one of the truck's rigid bodies at a world point: a contact pushing
@@ -83,6 +94,7 @@ struct DriverInputs {
   double lift_rate_m_s = 0;     // lift lever, + up
   double shift_rate_m_s = 0;    // side-shift lever, + left
   bool parking_brake = false;   // holds the front wheels with the truck's parking-brake torque
+  bool horn = false;            // sounding: the evaluation and the people hear it; the dynamics do not
 };
 
 // Layout of the ODE state vector.

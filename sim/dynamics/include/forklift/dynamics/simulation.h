@@ -65,9 +65,18 @@ class Simulation {
   // numerical failure; the state is then the last good one.
   void advance_to(double t, double horizon = NAN);
 
+  // For a caller that samples a run itself, outside the integrator's own time (the manoeuvres):
+  // one step of the variable-step integrator toward `horizon`, never past it (the load then
+  // steps as after advance_to), and the state at any time within that step by the integrator's
+  // interpolation. `first_output` sizes CVODE's first step as advance_to's first target would.
+  // Not for rk4, whose steps have no interpolant.
+  void step_toward(double horizon, double first_output);
+  StateVector state_at(double t);
+
   double time() const;
   const StateVector& state() const;
   Outputs outputs() const;  // evaluated at the current state and inputs
+  Outputs outputs_at(double t, const StateVector& x) const;  // at state x and the inputs of time t
 
   // The scene's push-back on the truck, held until changed (Environment::external_forces).
   void set_external_forces(const std::vector<ExternalForce>& forces);

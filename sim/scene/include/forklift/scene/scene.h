@@ -113,6 +113,25 @@ struct Zone {
   bool contains(const Eigen::Vector2d& p) const;
 };
 
+// A marked place where the driver cannot see what is coming: a blind corner, a door, a cross
+// aisle. Entering its area the driver must have sounded the horn and keep to walking pace
+// (the evaluation's horn_at_marker and speed_at_marker; OSHA 1910.178(n)(4)).
+struct Marker {
+  std::string id, kind;                  // kind: one of marker_kinds()
+  std::vector<Eigen::Vector2d> polygon;  // world, counter-clockwise: where the horn and the slow pace are due
+  bool contains(const Eigen::Vector2d& p) const;
+};
+// "blind_corner", "door", "cross_aisle".
+const std::vector<std::string>& marker_kinds();
+
+// A spill on the floor (oil, water): a patch where the tyres grip less. It is in `Scene::ground`
+// (GripPatch, dynamics.h), which the dynamics read; listed here with its id for drawing.
+struct Spill {
+  std::string id;
+  Eigen::AlignedBox2d rect;   // world x, y
+  double friction_scale = 1;  // (0, 1]: the tyres' friction inside it, as a share of their own
+};
+
 // The marked route: a polyline with a width; leaving it is a fault (evaluation).
 struct Route {
   std::vector<Eigen::Vector2d> points;
@@ -210,6 +229,18 @@ struct PedestrianSpec {
   Eigen::Vector3d size_m{0.5, 0.3, 1.75};  // shoulders across, chest to back, height: an upright box
 };
 
+// A pallet that falls from the rack level it stands on when its trigger fires (a scenario's
+// `falling_pallets`; falling.h drops it): it slides throw_m off the beams along toward_rad as it
+// drops to the floor below, and lies there, fallen.
+struct FallingPalletSpec {
+  std::string pallet;  // a pallet object's id, standing on a support above the floor
+  // Falls when the truck's outline comes within this distance of the pallet's middle (set), or at start_at_s.
+  std::optional<double> start_truck_within_m;
+  double start_at_s = 0;
+  double toward_rad = 0;  // world heading of its slide off the beams
+  double throw_m = 0.8;   // how far it lands from under where it stood
+};
+
 struct Scene {
   std::string file, name, description;
   std::optional<ExamCourse> exam_course;  // set: the scenario is an exam course
@@ -217,6 +248,9 @@ struct Scene {
   Ground ground;      // ramps, and steps: docks, kerbs, lorry beds, the yard below a dock
   std::vector<SceneObject> objects;
   std::vector<Zone> zones;
+  std::vector<Marker> markers;  // blind corners, doors, cross aisles
+  std::vector<Spill> spills;    // in `ground` too
+  std::vector<FallingPalletSpec> falling_pallets;
   Route route;
   Task task;
   double time_limit_s = 0;  // zero: none

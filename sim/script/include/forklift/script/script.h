@@ -1,6 +1,6 @@
-// A timed control script: CSV rows "t, steer, accelerator, brake, lift, tilt, shift[, parking]"
+// A timed control script: CSV rows "t, steer, accelerator, brake, lift, tilt, shift[, parking[, horn]]"
 // (seconds, radians, and the normalised commands of protocol/idl/Forklift.idl; parking 0 or 1,
-// the parking brake, 0 when the column is absent), optional header line.
+// the parking brake, and horn 0 or 1, sounding, each 0 when its column is absent), optional header line.
 #pragma once
 #include <string>
 #include <vector>
@@ -10,6 +10,7 @@ namespace forklift {
 struct ScriptRow {
   double t = 0, steer = 0, accelerator = 0, brake = 0, lift = 0, tilt = 0, shift = 0;
   bool parking_brake = false;
+  bool horn = false;
 };
 
 // A row's steer is the rear wheel's angle; on the wire (fk_Controls.steer) it goes as a fraction of

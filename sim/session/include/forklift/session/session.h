@@ -21,6 +21,7 @@
 #include "forklift/collision/collision.h"
 #include "forklift/dynamics/simulation.h"
 #include "forklift/evaluation/evaluation.h"
+#include "forklift/scene/falling.h"
 #include "forklift/scene/pedestrians.h"
 #include "forklift/scene/scene.h"
 #include "forklift/session/session_log.h"
@@ -73,6 +74,7 @@ struct SessionState {
   std::vector<ExternalForce> scene_push;     // the scene's push-back, held to the next tick
   HandlingState handling;                    // every pallet, and the one on the forks
   std::vector<PedestrianState> pedestrians;  // one per Scene::pedestrians (pedestrians.h)
+  std::vector<FallingPalletState> falls;     // one per Scene::falling_pallets (falling.h)
   EvaluationMemory evaluation;
 };
 
@@ -81,6 +83,9 @@ struct SessionState {
 SessionState initial_state(const SessionModel& model);
 // A logged session's first state: its initial state and load come from the header.
 SessionState initial_state(const SessionModel& model, const LogHeader& header);
+
+// What a pedestrian is doing in a state, in the vocabulary's words (the live view, the replay).
+PedestrianActivity activity_of(const PedestrianState& person);
 
 // What one tick noticed that the cab, the server and the log must hear about.
 struct SessionEvent {
@@ -112,6 +117,10 @@ class SessionWorkspace {
   const StepReport& report() const;
   const std::vector<EvaluationEvent>& evaluation_events() const;  // the last step's, in full
   IntegratorStats integrator_stats() const;
+  // Sets the outputs and poses to those of a state this workspace did not step to (a rewind's
+  // point), so that what is published before the next step is that state's; the next step
+  // restarts the integrator from its state, as from any copy.
+  void show(const SessionState& state);
 
  private:
   friend void step(const SessionModel&, SessionState&, SessionWorkspace&, const SessionInputs&,

@@ -82,6 +82,15 @@ enum class InstructorAction {
   kHazard,   // "hazard": a scenario's pedestrian starts his walk now, whatever his trigger
 };
 
+// What one of a scenario's pedestrians is doing, as the live view, the replay and the cab's sound
+// are told (TruckState.pedestrians[].activity carries the value: 0 to 3, in this order).
+enum class PedestrianActivity {
+  kWaiting,   // "waiting": his cue (a trigger, or the instructor's "hazard") has not come
+  kWalking,   // "walking": along his path this tick
+  kStanding,  // "standing": at a wait, for the truck near him, or at his path's end
+  kStruck,    // "struck": the truck struck him; he stays where he is
+};
+
 // Who raised an event of a session, by its kind.
 enum class EventOrigin {
   kEvaluation,  // a rule of the evaluation (counted in the mark, by its worry level)
@@ -98,6 +107,7 @@ const char* name(ExamKind kind);
 const char* name(PaperKind kind);
 const char* name(PaperOutcome outcome);
 const char* name(InstructorAction action);
+const char* name(PedestrianActivity activity);
 
 // The same values in the words a person reads (the menu, the worker's summary, forklift-sim
 // evaluate): "time_limit" is "the time limit was reached", "waiting" is "waiting for the cab",
@@ -118,6 +128,7 @@ template <> std::optional<ExamKind> parse<ExamKind>(std::string_view name);
 template <> std::optional<PaperKind> parse<PaperKind>(std::string_view name);
 template <> std::optional<PaperOutcome> parse<PaperOutcome>(std::string_view name);
 template <> std::optional<InstructorAction> parse<InstructorAction>(std::string_view name);
+template <> std::optional<PedestrianActivity> parse<PedestrianActivity>(std::string_view name);
 
 // Why an instructor's message cannot go to the cab, or nullopt: it must be well-formed UTF-8 (it
 // comes from the wire, or from a log), hold a visible character, no control character (a line
