@@ -261,7 +261,12 @@ key_driver::Pick p13_pick() {
 }
 evt::Session rack_pick() { return evt::Session(load_scene(evt::data("scenarios/rack_pick.json"), FORKLIFT_DATA_DIR)); }
 
-TEST_F(KeyDrive, KeysAloneTakeAFloorPalletWithTheWheelThatStaysAndMissWithTheOneThatSpringsBack) {
+// Today's wheel, which stays where it is left, takes the pallet cleanly by keys alone. The old
+// self-centring wheel is driven too and its figures recorded, but no longer asserted to miss: it
+// missed on the brush tyre, and on the grip-peak tyre the same driver picks with it too, at every
+// last-leg speed tried (0.28-0.4 m/s), so that contrast was the driver's and the tyre's, not the
+// wheel's (docs/cab.md).
+TEST_F(KeyDrive, KeysAloneTakeAFloorPalletWithTheWheelThatStays) {
   evt::Session s = rack_pick();
   key_driver::Pick pick = p13_pick();
   const DriveResult now = drive(pick, s, 90);
@@ -282,8 +287,6 @@ TEST_F(KeyDrive, KeysAloneTakeAFloorPalletWithTheWheelThatStaysAndMissWithTheOne
               "squarer), %d fork strikes, %d pallet collisions\n",
               old.done ? "picked P13" : "no pick", old.t_s, old_pick.phase(), old_pick.tries, old.fork_strikes,
               old.pallet_collisions);
-  EXPECT_FALSE(old.done && old.fork_strikes == 0 && old.pallet_collisions == 0)
-      << "the same keys took the pallet cleanly with a wheel that springs back";
   RecordProperty("old_wheel_pick_s", old.done ? std::to_string(old.t_s) : "none in 90");
 }
 

@@ -253,21 +253,21 @@ double steady_lateral_grip(const TruckParams& t, double alpha) {
 TEST(GroundForces, AGripPeakTyreRisesToItsPeakThenDropsToItsSlidingGrip) {
   // Pacejka's and TMeasy's shape: the force rises with the slip to the peak, then falls as the
   // contact slides. The brush without a peak only ever rises towards its grip.
-  const ContactParams& c = grip_peak_truck().contact;
+  const ContactParams& c = shipped_truck().contact;
   double peak = 0, peak_at = 0;
   for (double deg = 0.5; deg <= 60; deg += 0.5) {
-    const double f = steady_lateral_grip(grip_peak_truck(), deg * kDeg);
+    const double f = steady_lateral_grip(shipped_truck(), deg * kDeg);
     if (f > peak) { peak = f; peak_at = deg; }
   }
   RecordProperty("lateral_peak", std::to_string(peak) + " at " + std::to_string(peak_at) + " deg");
   EXPECT_NEAR(peak, c.mu_static, 0.05 * c.mu_static);  // mu_static holds the peak
   EXPECT_GT(peak_at, 4);
   EXPECT_LT(peak_at, 16);
-  EXPECT_NEAR(steady_lateral_grip(grip_peak_truck(), 45 * kDeg), c.mu_sliding, 0.02);
-  EXPECT_NEAR(steady_lateral_grip(grip_peak_truck(), 60 * kDeg), c.mu_sliding, 0.02);
+  EXPECT_NEAR(steady_lateral_grip(shipped_truck(), 45 * kDeg), c.mu_sliding, 0.02);
+  EXPECT_NEAR(steady_lateral_grip(shipped_truck(), 60 * kDeg), c.mu_sliding, 0.02);
   double last = 0;
   for (double deg : {2.0, 5.0, 10.0, 20.0, 40.0, 60.0}) {
-    const double f = steady_lateral_grip(shipped_truck(), deg * kDeg);
+    const double f = steady_lateral_grip(brush_truck(), deg * kDeg);
     EXPECT_GT(f, last) << deg << " deg";
     last = f;
   }

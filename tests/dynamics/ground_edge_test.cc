@@ -59,9 +59,9 @@ double body_spring_energy(const TruckDynamics& d, const CoordVector& q) {
 
 // A drive ahead (+x) from rest at x = 0 on `ground`, the accelerator held to keep `speed_m_s`
 // (torque in proportion to the speed's shortfall, up to the truck's limit) until a front wheel
-// passes `foot_off_x_m`, then none. Every millisecond it takes the work-energy balance: the
-// kinetic, gravitational and spring energy (tyres, their tread and body contacts) less the drive's work on the
-// wheels can only fall (the brakes are off, so nothing else puts energy in: a landing may only
+// passes `foot_off_x_m`, then none, in ticks of `tick_s` (a session's 1 ms). Every tick it takes
+// the work-energy balance: the kinetic, gravitational and spring energy (tyres, their tread, body
+// contacts and a load sliding on the forks) less the drive's work on the wheels can only fall (the brakes are off, so nothing else puts energy in: a landing may only
 // take energy out).
 struct Drive {
   double largest_pitch_rad = 0, largest_roll_rad = 0;
@@ -73,7 +73,7 @@ struct Drive {
   StateVector x_end;
 };
 Drive drive(const Ground& ground, double speed_m_s, double seconds, double lift_m, double foot_off_x_m = INFINITY,
-            double yaw_rad = 0, const std::optional<Load>& load = std::nullopt) {
+            double yaw_rad = 0, const std::optional<Load>& load = std::nullopt, double tick_s = 1e-3) {
   const TruckParams& t = shipped_truck();
   TruckDynamics d(t, on(ground));
   if (load) d.attach_load(*load);
@@ -87,24 +87,24 @@ Drive drive(const Ground& ground, double speed_m_s, double seconds, double lift_
   const TruckDynamics bare(t, on(ground));
   double work = 0, power_before = 0, lowest = e0, left_with_load = 0;
   const double torque_max = t.drive.drive_torque_max_N_m;
-  for (int k = 1; k <= std::lround(seconds * 1000); ++k) {
+  for (int k = 1; k <= std::lround(seconds / tick_s); ++k) {
     const Outputs now = sim.outputs();
     const bool foot_on = std::max(now.wheels[kFrontLeft].contact_point_m.x(), now.wheels[kFrontRight].contact_point_m.x()) < foot_off_x_m;
     DriverInputs u;
     u.drive_torque_N_m = foot_on ? std::clamp(8000.0 * (speed_m_s - now.forward_speed_m_s), 0.0, torque_max) : 0.0;
     sim.set_inputs(u);
-    sim.advance_to(k * 1e-3);
+    sim.advance_to(k * tick_s);
     const Outputs out = sim.outputs();
     double power = 0;
     for (int w : {kFrontLeft, kFrontRight}) power += out.wheels[w].drive_torque_N_m * out.qdot[kAvr1 + w];
-    work += 0.5 * (power + power_before) * 1e-3;
+    work += 0.5 * (power + power_before) * tick_s;
     power_before = power;
     // A load that falls off the forks leaves the truck with its own energy: from then on the
     // balance is the truck's alone (`bare`, the model without the load), from where it stood.
     const bool fell_now = !r.load_fell && sim.load_on_forks().phase == LoadPhase::kFallen;
     r.load_fell = r.load_fell || fell_now;
     const TruckDynamics& now_model = r.load_fell ? bare : d;
-    const double e = now_model.energy(sim.state());
+    const double e = now_model.energy(sim.state()) + (r.load_fell ? 0.0 : sliding_load_energy(sim));
     const double held = e + body_spring_energy(now_model, out.q) - work;
     if (fell_now) {
       left_with_load = (e0 + work - e) - r.energy_lost_J;
@@ -130,8 +130,12 @@ double front_axle_x() { return shipped_truck().wheels[kFrontLeft].centre_m.x(); 
 // and energy out of nothing: 16 J at the unladen truck's rear wheel coming down on the dock again,
 // 26-44 J at the kerbs once the tread's energy is counted.
 constexpr double kEnergyRiseJ = 0.1;
-// The same for a laden truck's fall, whose load slips on the forks at the blow (see its test).
-constexpr double kLoadBlowRiseJ = 100;
+// The same for a laden truck's fall, whose load slips on the forks as it tips and at the blow (see
+// its test): measured 26 J at 1 ms ticks, 13 J at 0.5 ms, of some 18.6 kJ the fall takes out.
+constexpr double kLoadBlowRiseJ = 40;
+// The same for a truck falling off a dock's side: the edge across the belly near its face, where
+// its push fades (see box_edge_touches), is not quite a spring.
+constexpr double kSideFallRiseJ = 30;
 
 double weight_N() { return shipped_truck().service_mass_kg * kGravity_m_s2; }
 
@@ -206,8 +210,8 @@ namespace {
 // The dock's edge 3 m ahead of the front axle, the yard 1.2 m below; driven at 1 m/s with the forks
 // at 0.15 m until the front wheels are over the edge, then the foot comes off; 8 s in all.
 double dock_edge_x() { return front_axle_x() + 3.0; }
-Drive off_the_dock(const std::optional<Load>& load) {
-  return drive(Ground({}, {step_from(-30, dock_edge_x(), 1.2)}), 1.0, 8.0, 0.15, dock_edge_x(), 0.0, load);
+Drive off_the_dock(const std::optional<Load>& load, double tick_s = 1e-3) {
+  return drive(Ground({}, {step_from(-30, dock_edge_x(), 1.2)}), 1.0, 8.0, 0.15, dock_edge_x(), 0.0, load, tick_s);
 }
 void record(const std::string& name, const Drive& r) {
   testing::Test::RecordProperty(name + "_end_pitch_deg", std::to_string(r.end.q[kAvc] / kDeg));
@@ -236,10 +240,18 @@ TEST(GroundSteps, ALadenTruckDrivenOffADockFallsAndEndsOnItsForksOrOverturned) {
   // Nothing went through the yard's floor or the dock's edge.
   EXPECT_LT(r.end.body_penetration_max_m, 0.03);
   // The landing took energy out and never put in more than the load's contact does at the fork
-  // tips' blow on the yard: there the load slips for 2-3 ms under some 10 g, and the slide's force
-  // on the carriage, a tick late (load_on_forks.h), put in 64 J of the 40 kJ the fall releases.
-  // That lag is the load model's to remove; the ground's own contact keeps kEnergyRiseJ below.
+  // tips' blow on the yard, where the load slips for 2-3 ms under some 10 g (the ground's own
+  // contact keeps kEnergyRiseJ). Counted with the load where it slides and moving as it does (it
+  // was once counted as the model holds it, at its last attachment moving with the carriage,
+  // which made 64-70 J of nothing at the blow).
   EXPECT_LE(r.largest_rise_J, kLoadBlowRiseJ);
+  // Half of that is the slide's force on the carriage acting a tick late (load_on_forks.h): with
+  // ticks of half a millisecond it halves, and what it puts in is a thousandth of what the fall
+  // takes out: harmless.
+  const Drive half = off_the_dock(strapped, 0.5e-3);
+  RecordProperty("laden_largest_rise_half_tick_J", std::to_string(half.largest_rise_J));
+  EXPECT_LT(half.largest_rise_J, r.largest_rise_J);
+  EXPECT_LT(r.largest_rise_J - half.largest_rise_J, 1e-3 * r.energy_lost_J);
   EXPECT_GT(r.energy_lost_J, t.service_mass_kg * kGravity_m_s2 * 0.25);
   EXPECT_LT(Eigen::Vector3d(r.end.qdot[kX], r.end.qdot[kY], r.end.qdot[kZ]).norm(), 0.05) << "at rest";
 }
@@ -320,4 +332,24 @@ TEST(GroundSteps, AFiveCentimetreKerbIsClimbedOrStopsTheTruckNeverStrandsItOnIts
       EXPECT_TRUE(k.climbed) << "with its forks clear, a wheel of 0.23 m climbs 5 cm";
     }
   }
+}
+
+
+
+TEST(GroundSteps, AnUnladenTruckDrivenObliquelyOffADocksSideOverturnsIntoTheYard) {
+  // Heading 30 deg towards the dock's side edge (y = 1 m, the yard 1.2 m below) at 1 m/s, the foot
+  // held: the front wheel on that side goes over first, the belly catches on the edge, and as the
+  // truck is pushed on, its CoG passes the edge and it rolls off onto its side in the yard, the
+  // three-wheel truck's dock accident. The edge presses on the belly at the end of its segment in
+  // the belly where its depth is measured: at the segment's middle it put in 500 J here.
+  const TruckParams& t = shipped_truck();
+  const Ground g({}, {GroundStep{Eigen::AlignedBox2d(Eigen::Vector2d(-30, -10), Eigen::Vector2d(30, 1.0)), 1.2}});
+  const Drive r = drive(g, 1.0, 14.0, 0.15, INFINITY, 30 * kDeg);
+  record("side", r);
+  EXPECT_GT(std::abs(r.end.q[kAuc]), t.tipped_over_rad) << "roll " << r.end.q[kAuc] / kDeg << " deg";
+  EXPECT_LT(r.end.cog_m.z(), 0.8) << "in the yard, on its side";
+  EXPECT_GT(r.end.cog_m.y(), 1.0) << "beyond the edge";
+  EXPECT_LT(r.end.body_penetration_max_m, 0.03);
+  EXPECT_LE(r.largest_rise_J, kSideFallRiseJ);
+  EXPECT_LT(Eigen::Vector3d(r.end.qdot[kX], r.end.qdot[kY], r.end.qdot[kZ]).norm(), 0.05) << "at rest";
 }

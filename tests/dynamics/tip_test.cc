@@ -7,8 +7,8 @@
 // distance to the edge, h its height). Going forward at v with the rear wheel steered to phi, the
 // truck turns about the point on the front axle's line L / tan(phi) from its middle (L the
 // wheelbase), at the yaw rate v tan(phi) / L, and the CoG's acceleration is w^2 towards that point.
-// Both on the training truck's tyres (the averaged LuGre brush) and on tyres with a grip peak
-// (data/tyres/linde_e16c_grip_peak.json).
+// Both on the training truck's tyres (with a grip peak and a sliding drop) and on the brush
+// without a peak it had before (data/tyres/linde_e16c_brush.json).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -159,17 +159,54 @@ void skids_at_full_lock(const TruckParams& t) {
   EXPECT_LT(r.largest_roll_deg, t.tipped_over_rad / kDeg);
 }
 
+// Where skidding takes over from tipping, against the grip of the rear tyre. In a steady turn the
+// rear tyre carries a_f / L of the weight (a_f: the CoG behind the front axle, L the wheelbase)
+// and, for the yaw moments about the CoG to balance, the same share a_f / L of the lateral force
+// m a_y; only cos(phi) of its own sideways force is across the truck. So a_y <= mu g cos(phi),
+// whatever a_f: a steady turn reaches the tipping acceleration g d / h only while
+// mu cos(phi) > d / h. At that angle, with the tyre's sliding grip (the least it has), the truck
+// still tips; beyond it only the step's transient (the yaw the front tyres start before the rear
+// one saturates) can tip it, so the angle from which it skids lies between that and full lock.
+void tips_while_the_rear_tyre_can_hold_the_turn_and_skids_beyond(const TruckParams& t) {
+  const Triangle tr = unladen_triangle(t);
+  const double steady_limit = std::acos(tr.d / (tr.h * t.contact.mu_sliding));
+  const double peak_limit = std::acos(tr.d / (tr.h * t.contact.mu_static));
+  ASSERT_LT(steady_limit, t.steer.max_rad);
+  const TruckDynamics dyn(t);
+  const StateVector start = at_top_speed(dyn);
+  EXPECT_GT(steer_step(dyn, start, tr, steady_limit).final_roll_deg, 60)
+      << "the rear tyre's sliding grip holds a turn at g d / h up to " << steady_limit / kDeg << " deg";
+  // The angle from which it skids, by bisection between that and full lock.
+  double lo = steady_limit, hi = t.steer.max_rad;
+  for (int i = 0; i < 6; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (steer_step(dyn, start, tr, mid).final_roll_deg > 60 ? lo : hi) = mid;
+  }
+  const double skids_from = 0.5 * (lo + hi);
+  const std::string tyre = t.contact.tyre == TyreModel::kGripPeak ? "grip_peak_" : "brush_";
+  testing::Test::RecordProperty(tyre + "skids_from_deg", std::to_string(skids_from / kDeg) + " (steady rear-grip limit " +
+                                                      std::to_string(steady_limit / kDeg) + " sliding, " +
+                                                      std::to_string(peak_limit / kDeg) + " at the peak)");
+  EXPECT_GT(skids_from, steady_limit);
+  EXPECT_LT(skids_from, t.steer.max_rad - 2 * kDeg) << "it skids before the end stop";
+}
+
 }  // namespace
 
 TEST(TipOver, UnladenSharpTurnAtTopSpeedTipsAtTheStabilityTrianglesSteerAngle) {
   tips_at_the_stability_triangles_steer_angle(shipped_truck());
 }
 
-TEST(TipOver, SoItDoesOnTyresWithAGripPeak) {
-  tips_at_the_stability_triangles_steer_angle(grip_peak_truck());
+TEST(TipOver, SoItDoesOnTheBrushTyreWithoutAPeak) {
+  tips_at_the_stability_triangles_steer_angle(brush_truck());
 }
 
 TEST(TipOver, AtFullLockTheRearTyreSlidesAndTheTruckDoesNotTip) {
   skids_at_full_lock(shipped_truck());
-  skids_at_full_lock(grip_peak_truck());
+  skids_at_full_lock(brush_truck());
+}
+
+TEST(TipOver, ItTipsWhileTheRearTyreCanHoldTheTurnAndSkidsBeyond) {
+  tips_while_the_rear_tyre_can_hold_the_turn_and_skids_beyond(shipped_truck());
+  tips_while_the_rear_tyre_can_hold_the_turn_and_skids_beyond(brush_truck());
 }

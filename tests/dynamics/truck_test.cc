@@ -47,16 +47,18 @@ TEST(Truck, ShippedFilesGiveTheClassGeometryAndAxleLoads) {
   EXPECT_DOUBLE_EQ(p.contact.fx_max_N, 4500);
   EXPECT_DOUBLE_EQ(p.contact.fy_mu, 0.1);
   EXPECT_NEAR(p.contact.fy_alpha0_rad, 7.5 * M_PI / 180, 1e-15);
-  EXPECT_EQ(shipped_truck().contact.tyre, TyreModel::kBristle);
-  EXPECT_EQ(grip_peak_truck().contact.tyre, TyreModel::kGripPeak);
-  EXPECT_DOUBLE_EQ(grip_peak_truck().contact.mu_static, 0.9);  // the peak
-  EXPECT_DOUBLE_EQ(grip_peak_truck().contact.mu_sliding, 0.75);
+  EXPECT_EQ(shipped_truck().contact.tyre, TyreModel::kGripPeak);
+  EXPECT_DOUBLE_EQ(shipped_truck().contact.mu_static, 0.9);  // the peak
+  EXPECT_DOUBLE_EQ(shipped_truck().contact.mu_sliding, 0.75);
+  EXPECT_EQ(brush_truck().contact.tyre, TyreModel::kBristle);
+  EXPECT_DOUBLE_EQ(brush_truck().contact.mu_static, 0.75);
+  EXPECT_DOUBLE_EQ(brush_truck().contact.mu_sliding, 0.7);
 }
 
 TEST(Truck, MissingKeyIsNamed) {
-  std::string p = write_variant("missing", [](nlohmann::json& j) { j["ground_contact"].erase("mu_static"); });
+  std::string p = write_variant("missing", [](nlohmann::json& j) { with_brush_tyres(j); j["ground_contact"].erase("mu_static"); });
   EXPECT_NE(load_error(p).find("ground_contact.mu_static' is missing"), std::string::npos) << load_error(p);
-  p = write_variant("missing_peak", [](nlohmann::json& j) { with_grip_peak_tyres(j); j["ground_contact"].erase("mu_peak"); });
+  p = write_variant("missing_peak", [](nlohmann::json& j) { j["ground_contact"].erase("mu_peak"); });
   EXPECT_NE(load_error(p).find("ground_contact.mu_peak' is missing"), std::string::npos) << load_error(p);
   p = write_variant("tyre", [](nlohmann::json& j) { j["ground_contact"]["tyre_model"] = "magic"; });
   EXPECT_NE(load_error(p).find("tyre_model"), std::string::npos) << load_error(p);
@@ -76,10 +78,10 @@ TEST(Truck, ImpossibleValuesAreRefused) {
   EXPECT_NE(load_error(write_variant("heavy", [](nlohmann::json& j) { j["service_mass_kg"] = 300; })).find("less than"),
             std::string::npos);
   // A grip that rises again after its peak, or a sliding grip above the peak, is no tyre.
-  EXPECT_NE(load_error(write_variant("slip", [](nlohmann::json& j) { with_grip_peak_tyres(j); j["ground_contact"]["slip_sliding"] = 0.1; }))
+  EXPECT_NE(load_error(write_variant("slip", [](nlohmann::json& j) { j["ground_contact"]["slip_sliding"] = 0.1; }))
                 .find("slip_sliding' must exceed slip_peak"),
             std::string::npos);
-  EXPECT_NE(load_error(write_variant("grip", [](nlohmann::json& j) { with_grip_peak_tyres(j); j["ground_contact"]["mu_sliding"] = 1.0; }))
+  EXPECT_NE(load_error(write_variant("grip", [](nlohmann::json& j) { j["ground_contact"]["mu_sliding"] = 1.0; }))
                 .find("mu_sliding' must not exceed mu_peak"),
             std::string::npos);
 }

@@ -191,6 +191,10 @@ bool point_touch(const Ground& ground, const Vector3d& p, GroundTouch& t) {
   return true;
 }
 
+// How much deeper one end of an edge's segment in a box must lie than the other for the push to
+// act at that end rather than at the middle: a millimetre, small beside the boxes.
+constexpr double kEdgeSkew_m = 1e-3;
+
 int box_edge_touches(const Ground& ground, const Eigen::Matrix3d& R, const Vector3d& origin, const Vector3d& lo,
                      const Vector3d& hi, GroundTouch* out) {
   const Vector3d centre = origin + R * (0.5 * (lo + hi)), extent = R.cwiseAbs() * (0.5 * (hi - lo));
@@ -219,19 +223,33 @@ int box_edge_touches(const Ground& ground, const Eigen::Matrix3d& R, const Vecto
       // (up or out over the side), never into it.
       const Vector3d away = R.transpose() * Vector3d(outward[e].x(), outward[e].y(), 1.0);
       double best = INFINITY;
-      Vector3d push = Vector3d::Zero();
+      Vector3d push = Vector3d::Zero(), deepest = mid;
       for (int axis = 0; axis < 3; ++axis)
         for (double sign : {-1.0, 1.0}) {
           if (-sign * away[axis] <= 0) continue;
           const double face = sign > 0 ? hi[axis] : lo[axis];
-          const double depth = std::max(sign * (face - p0[axis]), sign * (face - p1[axis]));
+          const double d0 = sign * (face - p0[axis]), d1 = sign * (face - p1[axis]);
+          const double depth = std::max(d0, d1);
           if (depth < best) {
             best = depth;
             push = Vector3d::Zero();
             push[axis] = -sign;
+            // The force acts where the depth is measured, so that it does the work the depth's
+            // spring energy says (at the segment's middle its moment was another point's: 500 J
+            // out of nothing in a truck falling off a dock's side). Where both ends lie about
+            // equally deep (an edge along the face), it moves there smoothly from the middle.
+            const double skew = std::abs(d0 - d1);
+            deepest = mid + skew / (skew + kEdgeSkew_m) * ((d0 > d1 ? p0 : p1) - mid);
           }
         }
-      if (best > 0 && std::isfinite(best) && count < kMaxGroundTouches) out[count++] = {best, R * push, at};
+      // Where the edge lies just inside a face it cannot leave through (a fork's top at the kerb's
+      // height), the points on that face take the contact over as the edge leaves the box: the
+      // edge's depth fades to zero there, so the force does not jump as it crosses.
+      const Vector3d along = (b - a).normalized();
+      for (int axis = 0; axis < 3; ++axis)
+        if (std::abs(along[axis]) < 0.5)  // a face the edge crosses, not one its clipped ends lie on
+          best = std::min({best, mid[axis] - lo[axis], hi[axis] - mid[axis]});
+      if (best > 0 && std::isfinite(best) && count < kMaxGroundTouches) out[count++] = {best, R * push, origin + R * deepest};
     }
   }
   return count;
