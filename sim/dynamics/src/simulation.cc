@@ -600,10 +600,7 @@ Outputs Simulation::outputs_at(double t, const StateVector& x) const {
 
 Outputs Simulation::outputs() const {
   if (impl_->cached) return impl_->cached_out;
-  Outputs out;
-  StateVector dx;
-  impl_->dynamics.derivative(impl_->x, impl_->inputs_at(impl_->t), dx, &out);
-  return out;
+  return outputs_at(impl_->t, impl_->x);
 }
 
 void Simulation::set_external_forces(const std::vector<ExternalForce>& forces) {
