@@ -1,0 +1,91 @@
+// The message catalogues of data/i18n/: every language has every English key with the same
+// {{variables}}, the rules' English words are the rules file's, and a lookup interpolates, takes
+// its plural form and names what is missing.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "forklift/evaluation/event_words.h"
+#include "forklift/i18n/catalogue.h"
+
+namespace {
+
+using forklift::i18n::Catalogue;
+using nlohmann::json;
+const std::string kData = FORKLIFT_DATA_DIR;
+
+TEST(Catalogue, EveryLanguageHasEveryEnglishKeyWithItsVariables) {
+  const Catalogue& c = forklift::i18n::shipped();
+  const auto english = c.flat("en");
+  ASSERT_GT(english.size(), 100u);
+  ASSERT_TRUE(c.has_language("es"));
+  for (const std::string& lang : c.languages()) {
+    if (lang == "en") continue;
+    const auto other = c.flat(lang);
+    for (const auto& [key, text] : english) {
+      const auto it = other.find(key);
+      if (it == other.end()) {
+        ADD_FAILURE() << lang << " has no \"" << key << "\" (English: \"" << text << "\")";
+        continue;
+      }
+      EXPECT_EQ(forklift::i18n::variables(it->second), forklift::i18n::variables(text))
+          << lang << " \"" << key << "\": \"" << it->second << "\" against the English \"" << text << "\"";
+      EXPECT_FALSE(it->second.empty()) << lang << " \"" << key << "\" is empty";
+    }
+    for (const auto& [key, text] : other)
+      EXPECT_TRUE(english.count(key)) << lang << " has \"" << key << "\", which English has not: a key left behind";
+  }
+}
+
+TEST(Catalogue, TheRulesEnglishWordsAreTheRulesFiles) {
+  std::ifstream in(kData + "/evaluation/rules.json");
+  const json rules = json::parse(in);
+  const Catalogue& c = forklift::i18n::shipped();
+  for (const json& r : rules.at("rules")) {
+    const std::string id = r.at("id");
+    EXPECT_EQ(c.text("en", "words:rules." + id + ".title"), r.value("title", "")) << id;
+    EXPECT_EQ(c.text("en", "words:rules." + id + ".description"), r.value("description", "")) << id;
+  }
+}
+
+TEST(Catalogue, LooksUpInterpolatesTakesPluralsAndNamesWhatIsMissing) {
+  const auto dir = std::filesystem::path(testing::TempDir()) / "catalogue_lookup";
+  std::filesystem::create_directories(dir / "en");
+  std::filesystem::create_directories(dir / "es");
+  std::ofstream(dir / "en" / "t.json") << R"({"a": {"pupils_one": "{{count}} pupil", "pupils_other": "{{count}} pupils",
+    "hello": "Hello {{name}}, mark {{mark}}"}})";
+  std::ofstream(dir / "es" / "t.json") << R"({"a": {"pupils_one": "{{count}} alumno", "pupils_other": "{{count}} alumnos"}})";
+  const Catalogue c = Catalogue::load(dir);
+  EXPECT_EQ(c.text("en", "t:a.pupils", {{"count", 1}}), "1 pupil");
+  EXPECT_EQ(c.text("es", "t:a.pupils", {{"count", 602}}), "602 alumnos");
+  EXPECT_EQ(c.text("es", "t:a.pupils", {{"count", 0}}), "0 alumnos");
+  EXPECT_EQ(c.text("en", "t:a.hello", {{"name", "Ann"}, {"mark", 92}}), "Hello Ann, mark 92");
+  EXPECT_TRUE(c.has("es", "t:a.pupils"));
+  try {
+    c.text("es", "t:a.hello", {{"name", "Ana"}, {"mark", 92}});
+    ADD_FAILURE() << "a key missing in Spanish was found";
+  } catch (const forklift::i18n::Missing& e) {
+    EXPECT_NE(std::string(e.what()).find("\"t:a.hello\""), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("\"es\""), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(c.text("fr", "t:a.hello", {{"name", "A"}, {"mark", 1}}), forklift::i18n::Missing);
+  EXPECT_THROW(c.text("en", "t:a.hello", {{"name", "A"}}), forklift::i18n::Missing);  // {{mark}} not given
+  EXPECT_EQ(c.supported("fr"), "en");
+  EXPECT_THROW(Catalogue::load(dir / "nowhere"), std::runtime_error);
+  std::ofstream(dir / "es" / "bad.json") << R"({"a": 3})";
+  EXPECT_THROW(Catalogue::load(dir), std::runtime_error);
+}
+
+TEST(Catalogue, AnEventInSpanishReadsSpanishWithADecimalComma) {
+  const std::string details = R"({"measured": {"speed_m_s": 3.2}, "thresholds": {"over_limit_m_s": 0.1}})";
+  const json es = forklift::event_words(forklift::i18n::shipped(), "es", "speed_open_aisle", details);
+  EXPECT_EQ(es["title"], "Exceso de velocidad en un pasillo");
+  EXPECT_EQ(es["summary"], "Medido: speed 3,20 m/s (11,5 km/h). Límite: margen permitido sobre el límite 0,10 m/s (0,4 km/h).");
+  const json en = forklift::event_words(forklift::i18n::shipped(), "en", "speed_open_aisle", details);
+  EXPECT_EQ(en["title"], "Too fast in an aisle");
+  EXPECT_EQ(en["summary"], "Measured: speed 3.20 m/s (11.5 km/h). Limit: allowed over the limit 0.10 m/s (0.4 km/h).");
+  EXPECT_EQ(forklift::worry_words(forklift::i18n::shipped(), "es", 5), "grave");
+  EXPECT_EQ(forklift::worry_words(forklift::i18n::shipped(), "es", 7), "nivel 7");
+}
+
+}  // namespace
