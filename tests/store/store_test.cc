@@ -177,8 +177,11 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
     return r;
   }
   // Later migrations go first: a test that goes back to an older schema must come forward through them.
+  std::string DropMigration14() {
+    return "ALTER TABLE users DROP COLUMN language; ALTER TABLE pupils DROP COLUMN language; DELETE FROM schema_migrations WHERE version >= 14; ";
+  }
   std::string DropMigration13() {
-    return "DROP INDEX sessions_passed_by_cab; DROP INDEX sessions_passed_by_school; DELETE FROM schema_migrations WHERE version >= 13; ";
+    return DropMigration14() + "DROP INDEX sessions_passed_by_cab; DROP INDEX sessions_passed_by_school; DELETE FROM schema_migrations WHERE version >= 13; ";
   }
   std::string DropMigration12() {
     return DropMigration13() + "DROP TABLE login_lockouts; DROP TABLE login_attempts; DROP TABLE login_tokens; DELETE FROM schema_migrations WHERE version >= 12; ";
@@ -1451,6 +1454,35 @@ TEST_P(StoreTest, UpdatePupilChangesNameAndEmail) {
   EXPECT_EQ(ErrorKind([&] { store_->update_pupil(pupil + 99, "Nobody", ""); }), fs::StoreError::kNotFound);
   EXPECT_EQ(ErrorKind([&] { store_->update_pupil(pupil, "", ""); }), fs::StoreError::kInvalid);
   EXPECT_EQ(store_->get_pupil(pupil)->name, "Ann Driver");
+}
+
+// The language each person reads in: staff on their account, pupils on their record; English
+// until set, and for the people of a database from before languages were kept.
+TEST_P(StoreTest, ThePeoplesLanguagesRoundTripAndStartInEnglish) {
+  const int64_t ines = store_->create_user("ines", "h", fs::Role::kInstructor, school_, std::nullopt, "Ines Instructor");
+  const int64_t ana = NewPupil("Ana");
+  const int64_t ann = NewPupil("Ann");
+  EXPECT_EQ(store_->user_language(ines), "en");
+  EXPECT_EQ(store_->pupil_language(ana), "en");
+  store_->set_user_language(ines, "es");
+  store_->batch([&] { store_->set_pupil_language(ana, "es"); });
+  store_.reset();
+  store_ = Open();  // from the database, not a cache
+  EXPECT_EQ(store_->user_language(ines), "es");
+  EXPECT_EQ(store_->pupil_language(ana), "es");
+  EXPECT_EQ(store_->pupil_language(ann), "en");  // one pupil's, not the table's
+  EXPECT_EQ(ErrorKind([&] { store_->set_pupil_language(ana, "es'; --"); }), fs::StoreError::kInvalid);
+  EXPECT_EQ(ErrorKind([&] { store_->set_user_language(ines, ""); }), fs::StoreError::kInvalid);
+  EXPECT_EQ(ErrorKind([&] { store_->set_user_language(ines + 99, "es"); }), fs::StoreError::kNotFound);
+  EXPECT_EQ(ErrorKind([&] { store_->pupil_language(ann + 99); }), fs::StoreError::kNotFound);
+  EXPECT_EQ(store_->pupil_language(ana), "es");
+
+  store_.reset();
+  ASSERT_EQ(RawExec(DropMigration14()), "");  // schema 13, as an older program left it
+  store_ = Open();
+  EXPECT_GE(store_->schema_version(), 14);
+  EXPECT_EQ(store_->user_language(ines), "en");
+  EXPECT_EQ(store_->pupil_language(ana), "en");
 }
 
 TEST_P(StoreTest, AuditRowsRoundTripNewestFirstPerPupilSchoolOrAll) {

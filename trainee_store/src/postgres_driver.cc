@@ -486,6 +486,12 @@ CREATE INDEX sessions_by_cab ON sessions(cab_id, created_at, id);
 DROP INDEX sessions_by_starter;
 CREATE INDEX sessions_by_starter ON sessions(started_by, created_at, id);
 )sql",
+    // 14: the language each person reads the pages and their words in (data/i18n/'s folder
+    // names): staff on their account, pupils on their record (a pupil's login reads it there).
+    R"sql(
+ALTER TABLE users ADD COLUMN language TEXT NOT NULL DEFAULT 'en';
+ALTER TABLE pupils ADD COLUMN language TEXT NOT NULL DEFAULT 'en';
+)sql",
 };
 
 // A session's columns: the one before last reads score_counts by its key: whether the score notes

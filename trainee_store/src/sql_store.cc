@@ -14,6 +14,7 @@
 #include "sql_driver.h"
 
 #include <iterator>
+#include <regex>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -90,6 +91,23 @@ class SqlStore final : public Store {
     return inserted(__func__, Query(d_, __func__, "INSERT INTO schools(name) VALUES (?1) RETURNING id").bind(name));
   }
 
+  // The language column of users or pupils (migration 14), one row by id.
+  std::string language_of(const std::string& table, const char* op, int64_t id) {
+    Query q(d_, op, "SELECT language FROM " + table + " WHERE id = ?1");
+    const auto found = first_row(op, q.bind(id), [](const Query& r) { return r.text(0); });
+    require(found.has_value(), StoreError::kNotFound, op, "no " + table.substr(0, table.size() - 1) + " " + std::to_string(id));
+    return *found;
+  }
+  void set_language(const std::string& table, const char* op, int64_t id, const std::string& language) {
+    static const std::regex form("[A-Za-z0-9_-]{2,16}");
+    require(std::regex_match(language, form), StoreError::kInvalid, op, "'" + language + "' is not a language's name");
+    Transaction tx(d_, op, TxKind::kStatement);
+    Query q(d_, op, "UPDATE " + table + " SET language = ?1 WHERE id = ?2");
+    require(q.bind(language).bind(id).changes() > 0, StoreError::kNotFound, op,
+            "no " + table.substr(0, table.size() - 1) + " " + std::to_string(id));
+    tx.commit();
+  }
+
   int64_t create_user(const std::string& username, const std::string& password_hash, Role role, int64_t school_id,
                       std::optional<int64_t> pupil_id, const std::string& full_name) override {
     check_username(__func__, username);
@@ -109,6 +127,11 @@ class SqlStore final : public Store {
     require(q.bind(full_name).bind(id).changes() > 0, StoreError::kNotFound, __func__, "no user " + std::to_string(id));
     tx.commit();
   }
+
+  std::string user_language(int64_t id) override { return language_of("users", __func__, id); }
+  void set_user_language(int64_t id, const std::string& language) override { set_language("users", __func__, id, language); }
+  std::string pupil_language(int64_t id) override { return language_of("pupils", __func__, id); }
+  void set_pupil_language(int64_t id, const std::string& language) override { set_language("pupils", __func__, id, language); }
 
   std::optional<School> get_school(int64_t id) override {
     Query q(d_, __func__, "SELECT id, name FROM schools WHERE id = ?1");

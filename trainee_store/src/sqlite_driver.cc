@@ -502,6 +502,12 @@ CREATE TABLE login_lockouts (
 CREATE INDEX sessions_passed_by_cab ON sessions(cab_id, created_at) WHERE )sql" SESSION_PASSED_TERMS("") R"sql(;
 CREATE INDEX sessions_passed_by_school ON sessions(school_id, created_at) WHERE )sql" SESSION_PASSED_TERMS("") R"sql(;
 )sql",
+    // 14: the language each person reads the pages and their words in (data/i18n/'s folder
+    // names): staff on their account, pupils on their record (a pupil's login reads it there).
+    R"sql(
+ALTER TABLE users ADD COLUMN language TEXT NOT NULL DEFAULT 'en';
+ALTER TABLE pupils ADD COLUMN language TEXT NOT NULL DEFAULT 'en';
+)sql",
 };
 
 // Read FROM kSessions. The second column is NULL: read_session derives the public id from the id,

@@ -469,6 +469,15 @@ class AccountStore {
                               const std::string& full_name = "") = 0;
   // Sets a user's full name; kNotFound for an unknown user.
   virtual void set_user_full_name(int64_t id, const std::string& full_name) = 0;
+  // The language a person reads the pages, their words and their certificates in: a folder name
+  // of data/i18n/ ("en", "es"; the store checks only its form, 2 to 16 letters, digits, '-' or
+  // '_', and the server that it has that language). Staff keep theirs on their account, pupils on
+  // their record (a pupil's login reads it there); "en" until set. kNotFound for an unknown user
+  // or pupil, kInvalid for a malformed language.
+  virtual std::string user_language(int64_t user_id) = 0;
+  virtual void set_user_language(int64_t user_id, const std::string& language) = 0;
+  virtual std::string pupil_language(int64_t pupil_id) = 0;
+  virtual void set_pupil_language(int64_t pupil_id, const std::string& language) = 0;
   virtual std::optional<School> get_school(int64_t id) = 0;
   // The user of that name, capitals or not. Of names stored before the rule that differ only in
   // capitals, the one spelled exactly so, else the oldest.
