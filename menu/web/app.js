@@ -142,26 +142,80 @@ const FL = (() => {
     return isStaff(l) ? 'fleet.html' : 'pupil.html?id=' + encodeURIComponent(l.pupil_id);
   }
 
+  // The school's languages: the catalogues of data/i18n/ (served at /i18n/<lang>/<namespace>.json),
+  // looked up with i18next (vendor/, from npm). A page worded in them calls useLanguage() and
+  // words itself with t(); its static text carries data-i18n="key" (its text) and
+  // data-i18n-attr="attr:key;..." (attributes). The pages that do not yet stay in English whole.
+  const LANGUAGES = ['en', 'es'];  // data/i18n/'s folders, as server/openapi.yaml's Language
+  let i18n = null;
+
+  // The language a page with no login of its own opens in: ?lang=, the login's, the browser's.
+  function preferredLanguage() {
+    const asked = param('lang'), l = login(), browser = (navigator.language || '').slice(0, 2);
+    return [asked, l && l.language, browser].find((x) => LANGUAGES.includes(x)) || 'en';
+  }
+
+  // Loads `lang`'s messages of the shared namespace and `namespaces`, then words the page's marked
+  // text and its top bar in them. A message missing is said on the console (the tests fail on it).
+  async function useLanguage(lang, namespaces = []) {
+    if (!LANGUAGES.includes(lang)) lang = 'en';
+    if (i18n && i18n.language === lang) return lang;
+    const ns = ['web', ...namespaces];
+    const messages = {};
+    await Promise.all(ns.map(async (n) => {
+      const res = await fetch(`i18n/${lang}/${n}.json`);
+      if (!res.ok) throw new Error(`the messages ${lang}/${n} cannot be loaded (HTTP ${res.status})`);
+      messages[n] = await res.json();
+    }));
+    const next = i18next.createInstance();
+    await next.init({ lng: lang, fallbackLng: false, ns, defaultNS: 'web', resources: { [lang]: messages },
+                      interpolation: { escapeValue: false }, saveMissing: true,
+                      missingKeyHandler: (lngs, n, key) => console.error(`message ${n}:${key} is missing in ${lang}`) });
+    i18n = next;
+    document.documentElement.lang = lang;
+    for (const e of document.querySelectorAll('[data-i18n]')) e.textContent = t(e.dataset.i18n);
+    for (const e of document.querySelectorAll('[data-i18n-attr]'))
+      for (const pair of e.dataset.i18nAttr.split(';')) {
+        const at = pair.indexOf(':');  // "aria-label:certificate:page.qr_label": the attribute, then the key
+        e.setAttribute(pair.slice(0, at), t(pair.slice(at + 1)));
+      }
+    const l = login(), top = document.getElementById('top');
+    if (l && top && top.childElementCount) topBar(l);
+    return lang;
+  }
+
+  // A message of the page's language ("certificate:page.print", "nav.fleet" in the shared one).
+  function t(key, vars) {
+    if (!i18n) throw new Error(`t('${key}') before useLanguage()`);
+    return i18n.t(key, vars);
+  }
+  // The top bar's words: the page's language once it has one, English on the pages not yet worded.
+  const TOP_ENGLISH = { brand: 'Forklift school', skip: 'Skip to content', pages: 'Pages', log_out: 'Log out',
+                        'nav.fleet': 'Fleet', 'nav.pupils': 'Pupils', 'nav.day': 'The day', 'nav.sessions': 'Sessions',
+                        'nav.exams': 'Exams', 'nav.start': 'Start a session', 'nav.theory': 'Theory exam', 'nav.staff': 'Staff',
+                        'nav.my_record': 'My record', 'nav.certificate': 'Certificate' };
+  const top = (key) => (i18n ? t(key) : TOP_ENGLISH[key]);
+
   // The top bar: the pages of this role, who is logged in, and a log-out button.
   function topBar(l) {
     const header = document.getElementById('top');
     if (!header) return;
     const here = location.pathname.split('/').pop() || 'index.html';
     const links = isStaff(l)
-      ? [['fleet.html', 'Fleet'], ['pupils.html', 'Pupils'], ['day.html', 'The day'], ['sessions.html', 'Sessions'], ['exams.html', 'Exams'],
-         ['start.html', 'Start a session'], ['theory.html', 'Theory exam'],
-         ...(l.role === 'admin' ? [['staff.html', 'Staff']] : [])]
-      : [['pupil.html?id=' + encodeURIComponent(l.pupil_id), 'My record'], ['theory.html', 'Theory exam'],
-         ['certificate.html?pupil=' + encodeURIComponent(l.pupil_id), 'Certificate']];
+      ? [['fleet.html', 'nav.fleet'], ['pupils.html', 'nav.pupils'], ['day.html', 'nav.day'], ['sessions.html', 'nav.sessions'],
+         ['exams.html', 'nav.exams'], ['start.html', 'nav.start'], ['theory.html', 'nav.theory'],
+         ...(l.role === 'admin' ? [['staff.html', 'nav.staff']] : [])]
+      : [['pupil.html?id=' + encodeURIComponent(l.pupil_id), 'nav.my_record'], ['theory.html', 'nav.theory'],
+         ['certificate.html?pupil=' + encodeURIComponent(l.pupil_id), 'nav.certificate']];
     const list = el('ul', {},
-      links.map(([href, label]) => el('li', {},
-        el('a', { href, 'aria-current': href.split('?')[0] === here ? 'page' : null }, label))));
+      links.map(([href, key]) => el('li', {},
+        el('a', { href, 'aria-current': href.split('?')[0] === here ? 'page' : null }, top(key)))));
     clear(header).append(
-      el('a', { class: 'skip', href: '#main' }, 'Skip to content'),
-      el('span', { class: 'brand' }, 'Forklift school'),
-      el('nav', { 'aria-label': 'Pages' }, list),
-      el('span', { class: 'who' }, `${l.username} (${l.role})`),
-      el('button', { type: 'button', class: 'link', onclick: logout }, 'Log out'));
+      el('a', { class: 'skip', href: '#main' }, top('skip')),
+      el('span', { class: 'brand' }, top('brand')),
+      el('nav', { 'aria-label': top('pages') }, list),
+      el('span', { class: 'who' }, i18n ? t('who', { username: l.username, role: t(`roles.${l.role}`) }) : `${l.username} (${l.role})`),
+      el('button', { type: 'button', class: 'link', onclick: logout }, top('log_out')));
   }
 
   async function logout() {
@@ -181,8 +235,10 @@ const FL = (() => {
     return `${d.getFullYear()}-${p(d.getMonth() + 1)}-${p(d.getDate())} ${p(d.getHours())}:${p(d.getMinutes())}`;
   }
   function day(iso) { return iso ? dateTime(iso).slice(0, 10) : ''; }
-  function pct(x) { return x === null || x === undefined ? '' : `${Math.round(x * 1000) / 10} %`; }
-  function num(x, digits = 1) { return x === null || x === undefined ? '' : Number(x).toFixed(digits); }
+  // Numbers with the page's decimal separator (a comma in Spanish) once it has a language.
+  const decimals = (s) => (i18n ? s.replace('.', t('decimal')) : s);
+  function pct(x) { return x === null || x === undefined ? '' : decimals(`${Math.round(x * 1000) / 10} %`); }
+  function num(x, digits = 1) { return x === null || x === undefined ? '' : decimals(Number(x).toFixed(digits)); }
 
   const WORRY = { 0: 'information', 1: 'minor', 3: 'medium', 5: 'serious' };
   // A session's outcome (the API's word) as the pages say it.
@@ -230,5 +286,6 @@ const FL = (() => {
   }
 
   return { api, ApiError, login, setLogin, clearLogin, el, svg, clear, requireLogin, topBar, homeOf, isStaff, param,
+           useLanguage, preferredLanguage, t, LANGUAGES,
            dateTime, day, pct, num, worryName, outcomeText, stateText, reasonText, say, describeError, poll, STAFF };
 })();

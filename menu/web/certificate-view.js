@@ -1,25 +1,28 @@
 // What a certificate says, drawn the same way on the printable certificate (certificate.html) and
 // on the verification page anyone can open (verify.html): the record the server signed, its
-// status, and a QR code that opens its verification (qrcode-generator, from npm, in vendor/).
+// status, and a QR code that opens its verification (qrcode-generator, from npm, in vendor/). In
+// the certificate's language (the record's "language"): the "certificate" messages.
 'use strict';
 const CertificateView = (() => {
-  const { el, clear, day, num, pct } = FL;
-  const STATUS = {
-    valid: ['passed', 'Valid', 'The school\'s server signed this certificate, and every exam it cites is the exam recorded, with its evidence verified.'],
-    revoked: ['not-passed', 'Revoked', 'The school revoked this certificate.'],
-    does_not_verify: ['not-passed', 'Does not verify', 'This certificate is not the one the school issued, or an exam it cites no longer verifies.'],
-    not_found: ['not-passed', 'Not found', 'No certificate has this number.'],
-  };
+  const { el, clear, day, num, pct, t, useLanguage } = FL;
+  const STATUS_CLASS = { valid: 'passed', revoked: 'not-passed', does_not_verify: 'not-passed', not_found: 'not-passed' };
+
+  // The page in the certificate's language (a record from before languages were kept: English).
+  const inLanguageOf = (c) => (c ? useLanguage(c.language || 'en', ['certificate']) : Promise.resolve());
 
   function fact(dl, term, ...value) { dl.append(el('dt', {}, term), el('dd', {}, ...value)); }
   const person = (p) => (p ? p.name || p.username || '' : '');
 
   // The status as a banner: its word, what it means, and what went wrong or who revoked it and why.
   function status(node, v) {
-    const [cls, word, meaning] = STATUS[v.status] || ['not-passed', v.status, ''];
+    const known = v.status in STATUS_CLASS;
+    const cls = STATUS_CLASS[v.status] || 'not-passed';
+    const word = known ? t(`certificate:status.${v.status}.word`) : v.status;
+    const meaning = known ? t(`certificate:status.${v.status}.meaning`) : '';
     const out = [el('p', { class: 'verdict', id: 'verdict', 'data-status': v.status }, el('span', { class: `badge ${cls}` }, word), ' ', meaning)];
     if (v.revocation)
-      out.push(el('p', { id: 'revocation' }, `Revoked on ${day(v.revocation.at)} by ${v.revocation.by}: ${v.revocation.reason}`));
+      out.push(el('p', { id: 'revocation' },
+        t('certificate:status.revocation', { date: day(v.revocation.at), by: v.revocation.by, reason: v.revocation.reason })));
     if (v.problems && v.problems.length) out.push(el('ul', { id: 'problems', class: 'small' }, v.problems.map((p) => el('li', {}, p))));
     clear(node).append(...out);
   }
@@ -28,31 +31,34 @@ const CertificateView = (() => {
   // the licence, and when the operator must be evaluated again.
   function facts(dl, c) {
     clear(dl);
-    fact(dl, 'Certificate number', el('strong', { id: 'cert-number' }, c.number));
-    fact(dl, 'School', el('span', { id: 'cert-school' }, c.school));
-    fact(dl, 'Operator', el('strong', { id: 'cert-name' }, c.pupil.name));
-    const t = c.theory;
-    if (t) fact(dl, 'Theory exam', `passed ${day(t.taken_at)}: ${t.correct ?? '?'} of ${t.total ?? '?'} right (${pct(t.score)}`,
-                t.pass_mark !== null && t.pass_mark !== undefined ? `; pass mark ${pct(t.pass_mark)})` : ')',
-                el('div', { class: 'small' }, `supervised by ${person(t.examiner)}`));
+    fact(dl, t('certificate:facts.number'), el('strong', { id: 'cert-number' }, c.number));
+    fact(dl, t('certificate:facts.school'), el('span', { id: 'cert-school' }, c.school));
+    fact(dl, t('certificate:facts.operator'), el('strong', { id: 'cert-name' }, c.pupil.name));
+    const th = c.theory;
+    if (th) fact(dl, t('certificate:facts.theory'),
+                 t('certificate:facts.theory_passed', { date: day(th.taken_at), correct: th.correct ?? '?', total: th.total ?? '?', score: pct(th.score) }),
+                 th.pass_mark !== null && th.pass_mark !== undefined ? t('certificate:facts.theory_pass_mark', { mark: pct(th.pass_mark) }) : ')',
+                 el('div', { class: 'small' }, t('certificate:facts.supervised_by', { name: person(th.examiner) })));
     for (const p of c.practical || []) {
-      fact(dl, 'Practical exam', el('span', { class: 'practical', 'data-session': p.session },
-        `passed ${day(p.taken_at)}: mark ${num(p.score)} on the exam course ${p.course}`),
-        p.truck ? el('div', { class: 'small' }, `truck: ${p.truck.title}${p.truck.osha_class ? `, ${p.truck.osha_class}` : ''}`) : '',
-        el('div', { class: 'small' }, `examiner: `, el('span', { class: 'examiner' }, person(p.examiner)), ` (session ${p.session})`));
+      fact(dl, t('certificate:facts.practical'), el('span', { class: 'practical', 'data-session': p.session },
+        t('certificate:facts.practical_passed', { date: day(p.taken_at), mark: num(p.score), course: p.course })),
+        p.truck ? el('div', { class: 'small' }, t('certificate:facts.truck', { truck: p.truck.title + (p.truck.osha_class ? `, ${p.truck.osha_class}` : '') })) : '',
+        el('div', { class: 'small' }, t('certificate:facts.examiner'), el('span', { class: 'examiner' }, person(p.examiner)),
+           t('certificate:facts.session', { session: p.session })));
     }
     // Only what the record holds: each training session counted, with its date and mark, and no
     // word of training when the record lists none.
     const trained = (c.training && c.training.list) || [];
     if (trained.length)
-      fact(dl, 'Training', `${trained.length} marked simulator training session${trained.length === 1 ? '' : 's'}` +
-                           (c.training.truck_class ? ` on ${c.training.truck_class}` : '') + ':',
+      fact(dl, t('certificate:facts.training'), t('certificate:facts.training_sessions', { count: trained.length }) +
+                           (c.training.truck_class ? t('certificate:facts.training_on', { class: c.training.truck_class }) : '') + ':',
            el('ul', { id: 'cert-training', class: 'small' },
-              trained.map((t) => el('li', {}, `${day(t.at)}: ${t.scenario.replace(/_/g, ' ')}, mark ${num(t.mark)} of 100`))));
-    fact(dl, 'Date of evaluation', day(c.evaluated_at));
-    fact(dl, 'Licence issued', `${day(c.licence.issued_at)} by ${person(c.licence.issued_by)}`);
-    fact(dl, 'Re-evaluation due', el('strong', { id: 'cert-due' }, day(c.reevaluation_due)),
-         el('div', { class: 'small' }, 'An evaluation of the operator\'s performance at least once every three years: 29 CFR 1910.178(l)(4)(iii).'));
+              trained.map((s) => el('li', {}, t('certificate:facts.training_item',
+                { date: day(s.at), scenario: s.title || s.scenario.replace(/_/g, ' '), mark: num(s.mark) })))));
+    fact(dl, t('certificate:facts.evaluated'), day(c.evaluated_at));
+    fact(dl, t('certificate:facts.licence'), t('certificate:facts.licence_by', { date: day(c.licence.issued_at), name: person(c.licence.issued_by) }));
+    fact(dl, t('certificate:facts.due'), el('strong', { id: 'cert-due' }, day(c.reevaluation_due)),
+         el('div', { class: 'small' }, t('certificate:facts.due_rule')));
   }
 
   // The verification page's address for a certificate: on the school's public address when the
@@ -78,5 +84,5 @@ const CertificateView = (() => {
     canvas.dataset.text = text;
   }
 
-  return { status, facts, verifyUrl, qr };
+  return { status, facts, verifyUrl, qr, inLanguageOf };
 })();

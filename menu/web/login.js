@@ -30,7 +30,7 @@
     }
     try {
       const r = await api('POST', '/login', { username, password });
-      const l = { token: r.token, role: r.role, pupil_id: r.pupil_id, username,
+      const l = { token: r.token, role: r.role, pupil_id: r.pupil_id, username, language: r.language,
                   expires_at: Date.now() + r.expires_in_s * 1000 };
       setLogin(l);
       location.assign(safeNext() || homeOf(l));

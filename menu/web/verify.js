@@ -1,9 +1,10 @@
 // The verification page, open to anyone: GET /api/certificates/{number} (no login) says whether the
 // certificate is valid (the record the school's server signed, each exam it cites the one recorded
 // with its evidence verified), revoked, or does not verify; or that no certificate has the number.
+// In the certificate's language once found; before, in ?lang=, the login's or the browser's.
 'use strict';
 (() => {
-  const { api, el, clear, say, describeError, param, login, topBar } = FL;
+  const { api, el, clear, say, describeError, param, login, topBar, useLanguage, preferredLanguage } = FL;
   const $ = (x) => document.getElementById(x);
   if (login()) topBar(login());
 
@@ -13,6 +14,7 @@
     $('result').hidden = true;
     try {
       const v = await api('GET', `/certificates/${encodeURIComponent(number.trim())}`);
+      await CertificateView.inLanguageOf(v.certificate);
       CertificateView.status($('status'), v);
       if (v.certificate) CertificateView.facts($('cert-facts'), v.certificate);
       else clear($('cert-facts'));
@@ -36,6 +38,9 @@
     history.replaceState(null, '', `verify.html?number=${encodeURIComponent(number)}`);
     verify(number);
   });
-  const number = param('number');
-  if (number) verify(number);
+  (async () => {
+    await useLanguage(preferredLanguage(), ['certificate']);
+    const number = param('number');
+    if (number) verify(number);
+  })();
 })();

@@ -208,6 +208,25 @@ void require_role(const Principal& p, std::initializer_list<Role> roles) {
 
 bool is_staff(const Principal& p) { return p.role != Role::kPupil; }
 
+std::string language_of(Context& ctx, const Principal& p) {
+  return ctx.words->supported(p.pupil_id ? ctx.db().pupil_language(*p.pupil_id) : ctx.db().user_language(p.user_id));
+}
+
+std::string request_language(Context& ctx, const httplib::Request& req, const Principal& p) {
+  return req.has_param("lang") ? ctx.words->supported(req.get_param_value("lang")) : language_of(ctx, p);
+}
+
+std::optional<std::string> language_field(Context& ctx, const json& b) {
+  if (!b.contains("language")) return std::nullopt;
+  const std::string lang = field<std::string>(b, "language");
+  if (!ctx.words->has_language(lang)) {
+    std::string known;
+    for (const std::string& l : ctx.words->languages()) known += (known.empty() ? "" : ", ") + l;
+    throw ApiError(400, "bad_request", "'language' must be one of the school's languages: " + known);
+  }
+  return lang;
+}
+
 namespace {
 // Refuses `pupil` (none: there is no such pupil) unless `p` may see it.
 void check_visible(const Principal& p, int64_t id, const store::Pupil* pupil) {

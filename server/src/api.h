@@ -117,6 +117,13 @@ int query_int(const httplib::Request& req, const char* key, int dflt, int hi);
 Principal authenticate(Context& ctx, const httplib::Request& req);  // the bearer token's login, else 401
 void require_role(const Principal& p, std::initializer_list<store::Role> roles);  // else 403
 bool is_staff(const Principal& p);
+// The language a signed-in person reads in: staff their account's, a pupil their record's.
+std::string language_of(Context& ctx, const Principal& p);
+// The language the request's words are given in: ?lang= (the contract allows the catalogue's
+// languages only), else the signed-in person's.
+std::string request_language(Context& ctx, const httplib::Request& req, const Principal& p);
+// The body's "language", if given: one the catalogue has (else 400).
+std::optional<std::string> language_field(Context& ctx, const json& b);
 // A pupil sees only their own records; staff only their school's.
 store::Pupil visible_pupil(Context& ctx, const Principal& p, int64_t id);
 // A visible pupil's history (else 404 or 403 as visible_pupil), in one read of the store: the

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cctype>
 #include <map>
+#include <regex>
 
 #include "api.h"
 #include "catalogue.h"
@@ -117,6 +118,33 @@ std::string truck_class(Context& ctx, const store::Session& s) {
   return t["osha_class"].is_string() ? t["osha_class"].get<std::string>() : t["title"].get<std::string>();
 }
 
+// The catalogue's `key` in `lang`, or `english` (the data files' words) in English or where the
+// catalogue has no such key (a school's own scenario or truck).
+std::string worded(Context& ctx, const std::string& lang, const std::string& key, const std::string& english) {
+  return lang == i18n::kSourceLanguage || !ctx.words->has(lang, key) ? english : ctx.words->text(lang, key);
+}
+
+// A truck class's words (certification.json's in English) in `lang`: the catalogue's of the same
+// truck, found by its English words.
+std::string truck_class_in(Context& ctx, const std::string& lang, const std::string& english) {
+  if (lang == i18n::kSourceLanguage) return english;
+  for (const auto& [key, text] : ctx.words->flat(i18n::kSourceLanguage))
+    if ((key.rfind("certificate:truck_classes.", 0) == 0 || key == "certificate:default_truck") && text == english)
+      return ctx.words->text(lang, key);
+  return english;
+}
+
+// A scenario's title in `lang`: the catalogue's; the paper's manoeuvres (data/manoeuvres/,
+// "manoeuvre_4") by their number; else its name in words.
+std::string scenario_title(Context& ctx, const std::string& lang, const std::string& scenario) {
+  if (const std::string key = "words:scenarios." + scenario; ctx.words->has(lang, key)) return ctx.words->text(lang, key);
+  if (std::smatch m; std::regex_match(scenario, m, std::regex("manoeuvre_([0-9]+)")))
+    return ctx.words->text(lang, "words:manoeuvre", {{"number", m[1].str()}});
+  std::string words = scenario;
+  std::replace(words.begin(), words.end(), '_', ' ');
+  return words;
+}
+
 std::string plural(size_t n, const std::string& one) { return std::to_string(n) + " " + one + (n == 1 ? "" : "s"); }
 
 }  // namespace
@@ -175,7 +203,7 @@ LicenceBasis licence_basis(Context& ctx, const store::Pupil& pupil, const store:
 }
 
 json certificate_record(Context& ctx, const store::Pupil& pupil, const LicenceBasis& basis, const store::LicenceRecord& licence, int64_t issued_by, const std::string& number,
-                        const std::string& school) {
+                        const std::string& school, const std::string& lang) {
   store::Store& db = ctx.db();
   const ExamResult& t = *basis.theory;
   const json td = t.details.is_object() ? t.details : json::object();
@@ -190,10 +218,18 @@ json certificate_record(Context& ctx, const store::Pupil& pupil, const LicenceBa
     const auto entry = db.get_chain_entry(p->session->public_id);
     const json e = entry ? parsed(entry->entry) : json();
     const json truck = scenario_setup(scenario_as_run(db, ctx.data_dir, *p->session)).first;
+    json truck_words = nullptr;
+    if (truck.is_string()) {
+      const std::string stem = truck.get<std::string>();
+      truck_words = truck_json(ctx.data_dir, stem);
+      truck_words["title"] = worded(ctx, lang, "certificate:trucks." + stem, truck_words["title"]);
+      if (truck_words["osha_class"].is_string())
+        truck_words["osha_class"] = worded(ctx, lang, "certificate:truck_classes." + stem, truck_words["osha_class"]);
+    }
     practical.push_back({{"exam_id", p->record->id}, {"kind", name(ExamKind::kPractical)}, {"taken_at", p->taken_at}, {"score", p->record->score},
                          {"passed", true}, {"session", p->session->public_id}, {"scenario", p->session->scenario},
-                         {"course", course_title(p->course, p->session->scenario)},
-                         {"truck", truck.is_null() ? json(nullptr) : truck_json(ctx.data_dir, truck.get<std::string>())},
+                         {"course", worded(ctx, lang, "words:scenarios." + p->session->scenario, course_title(p->course, p->session->scenario))},
+                         {"truck", truck_words},
                          {"examiner", named_person(ctx, p->record->examiner_id, "examiner of practical exam " + p->session->public_id)},
                          {"chain", {{"seq", entry ? json(entry->seq) : json(nullptr)},
                                     {"entry_hash", e.is_object() ? e.value("entry_hash", json(nullptr)) : json(nullptr)}}},
@@ -202,18 +238,20 @@ json certificate_record(Context& ctx, const store::Pupil& pupil, const LicenceBa
   }
   json list = json::array();
   for (const TrainedSession& t : basis.training)
-    list.push_back({{"session", t.session}, {"at", t.at}, {"scenario", t.scenario}, {"mark", t.mark}});
-  const json training = {{"sessions", basis.training.size()}, {"truck_class", basis.truck_class},
+    list.push_back({{"session", t.session}, {"at", t.at}, {"scenario", t.scenario}, {"mark", t.mark},
+                    {"title", scenario_title(ctx, lang, t.scenario)}});
+  const json training = {{"sessions", basis.training.size()}, {"truck_class", truck_class_in(ctx, lang, basis.truck_class)},
                          {"first_at", basis.training.empty() ? json(nullptr) : json(basis.training.front().at)},
                          {"last_at", basis.training.empty() ? json(nullptr) : json(basis.training.back().at)}, {"list", list}};
   json statement = nullptr;
   try {
     // Only what the record holds: no word of training when none is listed.
-    statement = read_json_file(ctx.data_dir + "/theory/certification.json")
-                    .value(basis.training.empty() ? "statement_without_training" : "statement", json(nullptr));
+    const std::string which = basis.training.empty() ? "statement_without_training" : "statement";
+    statement = read_json_file(ctx.data_dir + "/theory/certification.json").value(which, json(nullptr));
+    if (statement.is_string()) statement = worded(ctx, lang, "certificate:" + which, statement.get<std::string>());
   } catch (const std::exception&) {
   }
-  return {{"format", kRecordFormat}, {"number", number}, {"school", school}, {"pupil", {{"id", pupil.id}, {"name", pupil.name}}},
+  return {{"format", kRecordFormat}, {"number", number}, {"language", lang}, {"school", school}, {"pupil", {{"id", pupil.id}, {"name", pupil.name}}},
           {"licence", {{"id", licence.id}, {"issued_at", licence.issued_at},
                        {"issued_by", named_person(ctx, issued_by, "person issuing the licence")}}},
           {"evaluated_at", evaluated_at},
@@ -228,6 +266,8 @@ CertificateCheck check_certificate(Context& ctx, const store::CertificateRecord&
   out.revocation = db.certificate_revocation(c.id);
   auto problem = [&](const std::string& p) { out.problems.push_back(p); };
   out.record = parsed(c.record);
+  // The checks that held in the certificate's words; a problem in the words that name it.
+  const std::string lang = ctx.words->supported(out.record.is_object() ? out.record.value("language", "en") : "en");
   // The signature: the record is the one the school's server signed.
   ChainKeys keys;
   try {
@@ -239,7 +279,13 @@ CertificateCheck check_certificate(Context& ctx, const store::CertificateRecord&
     problem("this server has no school CA (--security) to check the certificate's signature with");
   } else {
     const security::VerifyReport r = security::verify_certificate_signature(c.record, parsed(c.signature), keys.ca_pem, keys.crl_pem);
-    for (const auto& l : r.passed) out.checks.push_back(l);
+    for (size_t i = 0; i < r.passed.size(); ++i) {
+      const auto& [code, value] = r.passed_codes.at(i);
+      const std::string key = "certificate:check." + code;
+      out.checks.push_back(lang == i18n::kSourceLanguage || !ctx.words->has(lang, key)
+                               ? r.passed[i]
+                               : ctx.words->text(lang, key, {{"hash", value}, {"name", value}}));
+    }
     for (const auto& l : r.problems) problem(l);
   }
   const json& rec = out.record;
@@ -287,8 +333,13 @@ CertificateCheck check_certificate(Context& ctx, const store::CertificateRecord&
           continue;
         }
       }
-      out.checks.push_back(label + " is the exam recorded, passed, " +
-                           (e->kind == ExamKind::kPractical ? "with its evidence verified" : "as cited"));
+      const std::string english = label + " is the exam recorded, passed, " +
+                                  (e->kind == ExamKind::kPractical ? "with its evidence verified" : "as cited");
+      out.checks.push_back(lang == i18n::kSourceLanguage
+                               ? english
+                               : ctx.words->text(lang, e->kind == ExamKind::kPractical ? "certificate:check.exam_verified" : "certificate:check.exam_cited",
+                                                 {{"kind", ctx.words->text(lang, "certificate:kind." + x.value("kind", "theory"))},
+                                                  {"id", x.value("exam_id", json())}}));
     }
   }
   out.status = out.revocation ? "revoked" : out.problems.empty() ? "valid" : "does_not_verify";

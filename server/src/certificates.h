@@ -4,16 +4,18 @@
 // has the design.
 //
 // A certificate's record (JSON, signed as stored; forklift/security/certificate.h):
-//   {"format": "forklift-certificate/1", "number", "school", "pupil": {"id", "name"},
+//   {"format": "forklift-certificate/1", "number", "language", "school", "pupil": {"id", "name"},
 //    "licence": {"id", "issued_at", "issued_by": person}, "evaluated_at", "reevaluation_due",
 //    "reevaluation_rule", "theory": citation, "practical": [citation...],
-//    "training": {"sessions", "truck_class", "first_at", "last_at", "list": [{"session", "at", "scenario", "mark"}...]},
+//    "training": {"sessions", "truck_class", "first_at", "last_at", "list": [{"session", "at", "scenario", "mark", "title"}...]},
 //    "statement", "issued_at"}
 //   person:   {"id", "username", "name"} (the account's full name)
 //   citation: {"exam_id", "kind", "taken_at", "score", "passed", "examiner": person, "record_sha256"}
 //             (the exam record's row hashed as it was), a theory exam's with "correct", "total",
 //             "pass_mark", a practical exam's with "session", "scenario", "course", "truck" and
 //             "chain": {"seq", "entry_hash"} (its entry in the exam chain)
+//   "language" (data/i18n/'s: "en", "es") is what the statement, course, truck and training titles
+//   are worded in, and what its pages and checks are shown in; a record from before has none: "en".
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -56,18 +58,19 @@ LicenceBasis licence_basis(Context& ctx, const store::Pupil& pupil, const store:
                            const std::vector<ExamResult>& results, const std::string& now);
 
 // The record of a new certificate for `pupil`'s licence (issued by user `issued_by`), citing
-// `basis`. Throws ApiError 409 "full_name_missing" when a person it names has no full name on
-// their account.
+// `basis`, in `language` (one of ctx.words'): the record says which, and its statement, course,
+// truck and training are worded in it (English: the data files' words). Throws ApiError 409
+// "full_name_missing" when a person it names has no full name on their account.
 nlohmann::json certificate_record(Context& ctx, const store::Pupil& pupil, const LicenceBasis& basis,
                                   const store::LicenceRecord& licence, int64_t issued_by,
-                                  const std::string& number, const std::string& school);
+                                  const std::string& number, const std::string& school, const std::string& language);
 
 // What a check of a stored certificate finds: "valid", "revoked" (whatever else holds), or
 // "does_not_verify" (the record is not the one the school's server signed, or an exam it cites
 // is not the exam recorded, its evidence does not verify or its pass was withdrawn).
 struct CertificateCheck {
   std::string status;
-  std::vector<std::string> checks;    // what held
+  std::vector<std::string> checks;    // what held, in the certificate's language
   std::vector<std::string> problems;  // what did not
   nlohmann::json record;              // as stored, parsed (null if it does not parse)
   std::optional<store::CertificateRevocation> revocation;

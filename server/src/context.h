@@ -6,6 +6,7 @@
 #include <string>
 
 #include "auth.h"
+#include "forklift/i18n/catalogue.h"
 #include "fleet.h"
 #include "forklift/store/store.h"
 #include "periodic.h"
@@ -27,7 +28,9 @@ struct Context {
   std::unique_ptr<Fleet> fleet;
   std::unique_ptr<QuestionBank> bank;  // data/theory/questions.json, loaded at start
   std::unique_ptr<TheoryPolicy> theory_policy;  // data/theory/policy.json or --theory-policy, loaded at start
-  std::unique_ptr<LicenceRules> licence_rules;  // data/licence/rules.json or --licence-rules, loaded at start
+  std::unique_ptr<LicenceRules> licence_rules;
+  // The school's languages (data/i18n/), loaded at start: the words the server gives the pages.
+  std::unique_ptr<i18n::Catalogue> words;  // data/licence/rules.json or --licence-rules, loaded at start
   // The school's public address (ServerConfig::public_url, no trailing slash): certificates' QR
   // codes and links; empty: the pages use their own.
   std::string public_url;

@@ -99,7 +99,8 @@ void account_routes(Routes& svr, Context& ctx) {
     attempt.succeeded();
     Principal p{user->id, user->username, user->role, user->school_id, user->pupil_id, 0, user->login_generation};
     send_json(res, 200, {{"token", ctx.tokens->issue(ctx.db(), p)}, {"role", store::role_name(user->role)}, {"user_id", user->id},
-                         {"expires_in_s", ctx.tokens->ttl()}, {"pupil_id", user->pupil_id ? json(*user->pupil_id) : json(nullptr)}});
+                         {"expires_in_s", ctx.tokens->ttl()}, {"pupil_id", user->pupil_id ? json(*user->pupil_id) : json(nullptr)},
+                         {"language", language_of(ctx, p)}});
   }));
 
   // Ends a login before its time: the token is forgotten at once, on every server sharing the store.
@@ -131,22 +132,31 @@ void account_routes(Routes& svr, Context& ctx) {
     send_json(res, 201, {{"id", id}});
   }));
 
-  // An account as certificates name it: {"full_name"} (admin, own school). Staff accounts made
-  // before full names were kept have none, and a certificate naming them cannot be issued until
-  // they do.
+  // An account as certificates name it, {"full_name"}, and the language its person reads in,
+  // {"language"} (admin, own school; a member of staff may change their own language). Staff
+  // accounts made before full names were kept have none, and a certificate naming them cannot be
+  // issued until they do. A pupil's login reads its pupil record's language (PATCH /api/pupils/{id}).
   svr.Patch(R"(/api/users/(\d+))", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
-    require_role(p, {Role::kAdmin});
+    const json b = body_json(req);  // UserEdit
+    const std::optional<std::string> lang = language_field(ctx, b);
+    const bool own_language = lang && b.size() == 1 && p.user_id == path_id(req) && !p.pupil_id;
+    if (!own_language) require_role(p, {Role::kAdmin});
     const auto u = ctx.db().get_user(path_id(req));
     if (!u || u->school_id != p.school_id) throw ApiError(404, "not_found", "no user " + std::string(req.matches[1]));
-    const json b = body_json(req);  // full_name alone (UserEdit)
     const std::string name = full_name_field(b);
-    if (name.empty()) throw ApiError(400, "bad_request", "'full_name' is required");
+    if (name.empty() && !lang) throw ApiError(400, "bad_request", "'full_name' or 'language' is required");
+    if (lang && u->pupil_id) throw ApiError(400, "bad_request", "a pupil's login reads in its pupil record's language: change that instead");
     ctx.db().batch([&] {
-      ctx.db().set_user_full_name(u->id, name);
-      staff_audit(ctx.db(), p, u->id, "full_name_changed", {{"before", u->full_name}, {"after", name}});
+      if (!name.empty()) {
+        ctx.db().set_user_full_name(u->id, name);
+        staff_audit(ctx.db(), p, u->id, "full_name_changed", {{"before", u->full_name}, {"after", name}});
+      }
+      if (lang) ctx.db().set_user_language(u->id, *lang);
     });
-    send_json(res, 200, user_json(*ctx.db().get_user(u->id)));
+    json j = user_json(*ctx.db().get_user(u->id));
+    j["language"] = ctx.db().user_language(u->id);
+    send_json(res, 200, j);
   }));
 
   // The school's accounts by full name (admin): staff, and pupils' logins when asked
@@ -210,7 +220,9 @@ void account_routes(Routes& svr, Context& ctx) {
     const auto u = ctx.db().get_user(path_id(req));
     if (!u || u->school_id != p.school_id || (p.role != Role::kAdmin && p.user_id != u->id))
       throw ApiError(404, "not_found", "no user " + std::string(req.matches[1]));
-    send_json(res, 200, user_json(*u));
+    json j = user_json(*u);
+    j["language"] = u->pupil_id ? ctx.db().pupil_language(*u->pupil_id) : ctx.db().user_language(u->id);
+    send_json(res, 200, j);
   }));
 }
 

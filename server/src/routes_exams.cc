@@ -101,6 +101,9 @@ void exam_routes(Routes& svr, Context& ctx) {
     const Principal p = authenticate(ctx, req);
     require_role(p, {Role::kAdmin, Role::kExaminer});
     const store::Pupil pupil = visible_pupil(ctx, p, path_id(req));
+    // The certificate's language: {"language"} when given (LicenceRequest), else the pupil's.
+    const std::optional<std::string> asked = req.body.empty() ? std::nullopt : language_field(ctx, body_json(req));
+    const std::string language = asked ? *asked : ctx.words->supported(ctx.db().pupil_language(pupil.id));
     const ChainKeys keys = ctx.fleet->chain_keys();
     json licence, certificate;
     ctx.db().batch([&] {  // read inside, so that the exams cited are the ones standing when it is issued
@@ -124,7 +127,7 @@ void exam_routes(Routes& svr, Context& ctx) {
       c.licence_id = l.id;
       c.issued_at = now;
       c.issued_by = p.user_id;
-      c.record = certificate_record(ctx, pupil, basis, l, p.user_id, c.number, ctx.school_name).dump(-1, ' ', false,
+      c.record = certificate_record(ctx, pupil, basis, l, p.user_id, c.number, ctx.school_name, language).dump(-1, ' ', false,
                                                                                                            json::error_handler_t::replace);
       c.signature = security::sign_certificate(c.record, keys.server_key_file, keys.server_cert_file).dump();
       ctx.db().add_certificate(c);

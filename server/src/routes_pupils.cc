@@ -151,11 +151,14 @@ void pupil_routes(Routes& svr, Context& ctx) {
     send_json(res, 201, pupil_json(*ctx.db().get_pupil(id)));
   }));
 
-  // Corrects a pupil's name or email; the audit row keeps both versions. No change, no row.
+  // Corrects a pupil's name or email; the audit row keeps both versions. No change, no row. And the
+  // language the pupil reads in, which the pupil may change too.
   svr.Patch(R"(/api/pupils/(\d+))", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
-    require_role(p, {Role::kAdmin, Role::kInstructor});
-    const json b = body_json(req);  // name and email only (PupilEdit)
+    const json b = body_json(req);  // name, email and language (PupilEdit)
+    const std::optional<std::string> lang = language_field(ctx, b);
+    if (!(p.role == Role::kPupil && lang && b.size() == 1)) require_role(p, {Role::kAdmin, Role::kInstructor});
+    if (lang) ctx.db().set_pupil_language(visible_pupil(ctx, p, path_id(req)).id, *lang);
     store::Pupil after;
     ctx.db().batch([&] {  // read inside, so that the "before" recorded is the version replaced
       const store::Pupil before = visible_pupil(ctx, p, path_id(req));
@@ -167,7 +170,9 @@ void pupil_routes(Routes& svr, Context& ctx) {
       ctx.db().update_pupil(after.id, after.name, after.email);
       audit(ctx.db(), p, after.id, "pupil_edited", {{"before", pupil_fields(before)}, {"after", pupil_fields(after)}});
     });
-    send_json(res, 200, pupil_json(after));
+    json j = pupil_json(after);
+    j["language"] = ctx.db().pupil_language(after.id);
+    send_json(res, 200, j);
   }));
 
   // Every change to one pupil's record, newest first: staff of the pupil's school.
@@ -187,7 +192,9 @@ void pupil_routes(Routes& svr, Context& ctx) {
 
   svr.Get(R"(/api/pupils/(\d+))", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
-    send_json(res, 200, pupil_json(visible_pupil(ctx, p, path_id(req))));
+    json j = pupil_json(visible_pupil(ctx, p, path_id(req)));
+    j["language"] = ctx.db().pupil_language(j["id"].get<int64_t>());
+    send_json(res, 200, j);
   }));
 
   svr.Get(R"(/api/pupils/(\d+)/history)", guarded([&](const httplib::Request& req, httplib::Response& res) {

@@ -27,11 +27,11 @@ using store::Role;
 
 namespace {
 
-// With the event in words (its title, what was measured and its limit), for the pages.
-json event_json(Context& ctx, const store::EventRecord& e) {
+// With the event in words (its title, what was measured and its limit) in `lang`, for the pages.
+json event_json(Context& ctx, const store::EventRecord& e, const std::string& lang) {
   return {{"seq", e.seq}, {"sim_time_s", e.sim_time_s}, {"kind", e.kind}, {"worry_level", e.worry_level},
           {"x_m", e.x_m}, {"y_m", e.y_m}, {"details", e.details},
-          {"words", event_words(ctx.fleet->marking_rules(), e.kind, e.details)}};
+          {"words", event_words(ctx.fleet->marking_rules(), *ctx.words, lang, e.kind, e.details)}};
 }
 
 // The session named by the path's first match, if `p` may see it. A function, not a lambda local
@@ -189,9 +189,10 @@ void session_routes(Routes& svr, Context& ctx) {
   svr.Get(R"(/api/sessions/(s-\d+))", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
     const store::Session s = session_for(ctx, req, p);
+    const std::string lang = request_language(ctx, req, p);
     json j = session_json(s);
     j["events"] = json::array();
-    for (const auto& e : ctx.db().list_events(s.public_id)) j["events"].push_back(event_json(ctx, e));
+    for (const auto& e : ctx.db().list_events(s.public_id)) j["events"].push_back(event_json(ctx, e, lang));
     // The score as a mark only when the session completed; else the faults it counted, unmarked.
     if (const auto sc = ctx.db().get_score(s.public_id)) {
       if (store::mark_of(s)) j["score"] = {{"mark", sc->mark}, {"passed", sc->passed}, {"counts", sc->counts}};

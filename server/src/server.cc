@@ -105,6 +105,7 @@ Api::Api(ServerConfig c) : ctx_(std::make_unique<Context>()), contract_(&api_con
       load_theory_policy(c.theory_policy.empty() ? ctx.data_dir + "/theory/policy.json" : c.theory_policy, *ctx.bank));
   ctx.licence_rules =
       std::make_unique<LicenceRules>(load_licence_rules(c.licence_rules.empty() ? ctx.data_dir + "/licence/rules.json" : c.licence_rules));
+  ctx.words = std::make_unique<i18n::Catalogue>(i18n::Catalogue::load(ctx.data_dir + "/i18n"));
   ctx.public_url = c.public_url;
   while (!ctx.public_url.empty() && ctx.public_url.back() == '/') ctx.public_url.pop_back();
   ctx.plans = std::make_unique<PlanCache>(ctx.data_dir);

@@ -48,8 +48,29 @@ TEST(Catalogue, TheRulesEnglishWordsAreTheRulesFiles) {
   }
 }
 
+TEST(Catalogue, TheCertificatesEnglishWordsAreTheCertificationFiles) {
+  std::ifstream in(kData + "/theory/certification.json");
+  const json cert = json::parse(in);
+  const Catalogue& c = forklift::i18n::shipped();
+  for (const char* key : {"statement", "statement_without_training"})
+    EXPECT_EQ(c.text("en", std::string("certificate:") + key), cert.at(key).get<std::string>()) << key;
+  for (const auto& [stem, words] : cert.at("truck_classes").items()) {
+    if (stem.rfind('_', 0) == 0) continue;  // "_why"
+    EXPECT_EQ(c.text("en", "certificate:truck_classes." + stem), words.get<std::string>()) << stem;
+    std::ifstream truck(kData + "/trucks/" + stem + ".json");
+    EXPECT_EQ(c.text("en", "certificate:trucks." + stem), json::parse(truck).at("name").get<std::string>()) << stem;
+  }
+  // Every shipped scenario has its title in words, in every language.
+  for (const auto& f : std::filesystem::directory_iterator(kData + "/scenarios")) {
+    if (f.path().extension() != ".json") continue;
+    for (const std::string& lang : c.languages())
+      EXPECT_TRUE(c.has(lang, "words:scenarios." + f.path().stem().string())) << lang << " " << f.path().stem();
+  }
+}
+
 TEST(Catalogue, LooksUpInterpolatesTakesPluralsAndNamesWhatIsMissing) {
   const auto dir = std::filesystem::path(testing::TempDir()) / "catalogue_lookup";
+  std::filesystem::remove_all(dir);  // a run before left its bad file
   std::filesystem::create_directories(dir / "en");
   std::filesystem::create_directories(dir / "es");
   std::ofstream(dir / "en" / "t.json") << R"({"a": {"pupils_one": "{{count}} pupil", "pupils_other": "{{count}} pupils",

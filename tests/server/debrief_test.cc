@@ -5,6 +5,7 @@
 #include <httplib.h>
 
 #include <cmath>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
@@ -79,6 +80,30 @@ TEST(Debrief, TheReplayDrivesWhereTheWorkerDroveAndTheNotesAndSignOffAreKept) {
     }
   }
   EXPECT_GT(with_numbers, 0) << done["events"];
+
+  // The same events in Spanish when asked (?lang=es): each title the Spanish catalogue's, never
+  // the English one, numbers with a decimal comma; a language the school has not is refused.
+  {
+    std::ifstream in(kData + "/i18n/es/words.json");
+    const json es_words = json::parse(in);
+    auto [est, es] = s.call("GET", "/api/sessions/" + id + "?lang=es", dan);
+    ASSERT_EQ(est, 200) << es;
+    ASSERT_EQ(es["events"].size(), done["events"].size());
+    for (size_t i = 0; i < es["events"].size(); ++i) {
+      const json &e = es["events"][i], &w = e["words"];
+      const std::string kind = e["kind"];
+      const json& rule = es_words["rules"].value(kind, json());
+      if (rule.is_object()) EXPECT_EQ(w["title"], rule["title"]) << e;
+      else EXPECT_EQ(w["title"], es_words["information"].value(kind, "")) << e;
+      EXPECT_NE(w["title"], done["events"][i]["words"]["title"]) << e;
+      if (!w["measured"].empty()) {
+        EXPECT_EQ(w["summary"].get<std::string>().rfind("Medido: ", 0), 0u) << w;
+        EXPECT_EQ(w["summary"].get<std::string>().find("Measured"), std::string::npos) << w;
+      }
+    }
+    const auto [fst, fr] = s.call("GET", "/api/sessions/" + id + "?lang=fr", dan);
+    EXPECT_EQ(fst, 400) << fr;
+  }
 
   // The replay: every 0.1 s of sim time, re-simulated from the control log; at each point of the
   // path the server stored from the worker's live states, the replayed truck stands where the

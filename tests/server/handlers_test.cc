@@ -216,6 +216,15 @@ TEST(Handlers, APupilSeesOnlyTheirOwnRecordAndNoList) {
   EXPECT_EQ(s.call("GET", pupil_path(ana) + "/audit", token).first, 403);  // not even their own
   EXPECT_EQ(s.call("POST", "/api/pupils", token, R"({"name":"Eve"})").first, 403);
   EXPECT_EQ(s.call("PATCH", pupil_path(ana), token, R"({"name":"Queen Ana"})").first, 403);
+  // Her language is hers to choose (not with anything else, not another's), and her next login says it.
+  EXPECT_EQ(s.call("GET", pupil_path(ana), token).second["language"], "en");
+  EXPECT_EQ(s.call("PATCH", pupil_path(ana), token, R"({"language":"es"})").second["language"], "es");
+  EXPECT_EQ(s.call("PATCH", pupil_path(ana), token, R"({"language":"es","name":"Queen Ana"})").first, 403);
+  EXPECT_EQ(s.call("PATCH", pupil_path(ben), token, R"({"language":"es"})").first, 403);
+  EXPECT_EQ(s.call("PATCH", pupil_path(ana), token, R"({"language":"fr"})").first, 400);
+  EXPECT_EQ(s.call("GET", pupil_path(ana), admin).second["language"], "es");
+  EXPECT_EQ(s.call("GET", pupil_path(ben), admin).second["language"], "en");
+  EXPECT_EQ(s.call("POST", "/api/login", "", R"({"username":"ana","password":"ana-pass-1"})").second["language"], "es");
   EXPECT_EQ(s.call("GET", "/api/pupils", admin).second["pupils"].size(), 2u);
   EXPECT_EQ(s.call("GET", pupil_path(ana), admin).second["name"], "Ana");
 }

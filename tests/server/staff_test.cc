@@ -103,7 +103,19 @@ TEST(Staff, OnlyAnAdminReachesTheStaffEndpoints) {
     EXPECT_EQ(s.call("GET", erin_path + "/audit", token).first, 403);
     EXPECT_EQ(s.call("GET", "/api/staff-audit", token).first, 403);
     EXPECT_EQ(s.call("PATCH", erin_path, token, R"({"full_name":"Mallory"})").first, 403);
+    EXPECT_EQ(s.call("PATCH", erin_path, token, R"({"language":"es"})").first, 403);  // another's language
   }
+  // A member of staff chooses their own language; the administrator anyone's; the next login says it.
+  const std::string ines_token = s.login("ines", "ines-pass-1");
+  const json ines = s.call("POST", "/api/login", "", R"({"username":"ines","password":"ines-pass-1"})").second;
+  EXPECT_EQ(ines["language"], "en");
+  const std::string ines_path = "/api/users/" + std::to_string(ines["user_id"].get<int64_t>());
+  EXPECT_EQ(s.call("PATCH", ines_path, ines_token, R"({"language":"es"})").second["language"], "es");
+  EXPECT_EQ(s.call("PATCH", ines_path, ines_token, R"({"language":"es","full_name":"Ines I"})").first, 403);
+  EXPECT_EQ(s.call("POST", "/api/login", "", R"({"username":"ines","password":"ines-pass-1"})").second["language"], "es");
+  EXPECT_EQ(s.call("PATCH", erin_path, admin, R"({"language":"es"})").second["language"], "es");
+  EXPECT_EQ(s.call("GET", erin_path, admin).second["language"], "es");
+  EXPECT_EQ(s.call("PATCH", erin_path, admin, R"({"language":"xx"})").first, 400);
   // Nothing changed: erin still logs in with her password.
   s.login("erin", "erin-pass-1");
 }

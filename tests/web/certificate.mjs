@@ -7,7 +7,8 @@
 //   the licence -> the examiner issues the licence -> the certificate, listing her training sessions,
 //   whose QR code opens the verification page at the school's public address (--public-url) for
 //   anyone (no login): valid -> the examiner revokes it, and the
-//   verification page says so.
+//   verification page says so -> Ann reads Spanish: a licence issued again comes with a certificate
+//   in her language, which her page and anyone's verification show with no English word left.
 //
 //   BUILD/tests/forklift-test-alloc node certificate.mjs --bin BUILD/bin --data data --school BUILD/tests/fixtures/exam-course
 //                [--chromium /usr/bin/chromium] [--out DIR] [--screenshots DIR] [--headed]
@@ -176,6 +177,65 @@ try {
     await anyone.waitForSelector('#result:not([hidden])');
     check(await anyone.getAttribute('#verdict', 'data-status') === 'revoked', 'revoked, for anyone');
     check((await anyone.textContent('#revocation')).includes('Pupil re-examined after an incident'), 'with its reason');
+  });
+
+  // Spanish: Ann's record says she reads it, so the certificate issued now is worded in it (the
+  // record says so, signed), and its pages follow the certificate, whoever opens them.
+  await step('a certificate issued in Spanish shows Spanish, and verifies', async () => {
+    const annRecord = await api('PATCH', `/pupils/${annId}`, adminToken, { language: 'es' });
+    check(annRecord.language === 'es', `Ann's language is kept: ${JSON.stringify(annRecord)}`);
+    await api('POST', `/pupils/${annId}/licence`, adminToken);
+    const cert = await api('GET', `/pupils/${annId}/certificate`, adminToken);
+    check(cert.status === 'valid' && cert.certificate.language === 'es', `the new certificate is in Spanish and valid: ${cert.status}`);
+    check(cert.certificate.statement.startsWith('Este registro certifica'), `its signed statement is Spanish: ${cert.certificate.statement}`);
+    // Every English message whose Spanish differs, cut at its variables: none may be on a Spanish page.
+    const catalogue = (lang, ns) => JSON.parse(fs.readFileSync(path.join(args.data, 'i18n', lang, `${ns}.json`), 'utf8'));
+    const leaves = (o, prefix = '') => Object.entries(o).flatMap(([k, v]) => (typeof v === 'object' ? leaves(v, `${prefix}${k}.`) : [[prefix + k, v]]));
+    const english = [];
+    for (const ns of ['web', 'certificate', 'words']) {
+      const es = new Map(leaves(catalogue('es', ns)));
+      for (const [key, text] of leaves(catalogue('en', ns)))
+        if (!key.startsWith('_') && es.get(key) !== text)
+          for (const piece of text.split(/\{\{[^}]*\}\}/)) if (/[A-Za-z]{3}/.test(piece.trim())) english.push(piece.trim());
+    }
+    // The page's words a person sees or hears: its text, title and the attributes read aloud.
+    // Names stay as they are: the school's, the people's, the certificate's number.
+    const namesIn = (o) => Object.entries(o || {}).flatMap(([k, v]) =>
+      (v && typeof v === 'object' ? namesIn(v) : ['name', 'username', 'school', 'number'].includes(k) && typeof v === 'string' ? [v] : []));
+    const names = [...new Set([...namesIn(cert.certificate), annUser])].sort((a, b) => b.length - a.length);
+    const englishLeft = (of) => of.evaluate(({ english, names }) => {
+      let text = [document.title, document.body.innerText, ...[...document.querySelectorAll('details')].map((d) => d.textContent),
+                  ...[...document.querySelectorAll('[aria-label],[title],[placeholder],[alt]')].flatMap((e) =>
+                    ['aria-label', 'title', 'placeholder', 'alt'].map((a) => e.getAttribute(a) || ''))].join('\n');
+      for (const n of names) text = text.split(n).join(' ');
+      // Whole words: "exam" is English, "examen" Spanish.
+      const escape = (x) => x.replace(/[.*+?^${}()|[\]\\]/g, '\\$&');
+      return english.filter((piece) => new RegExp(`(?<!\\p{L})${escape(piece)}(?!\\p{L})`, 'u').test(text));
+    }, { english, names });
+    await page.click('#top button.link');
+    await page.waitForURL(/index\.html$/);
+    await logInAs(page, annUser, annPassword, new RegExp(`pupil\\.html\\?id=${annId}$`));
+    await page.goto(`${base}/certificate.html?pupil=${annId}`);
+    await page.waitForSelector('#certificate:not([hidden])');
+    check(await page.getAttribute('html', 'lang') === 'es', 'the page says it is Spanish');
+    check((await page.textContent('#verdict')).includes('Válido'), `valid, in Spanish: ${await page.textContent('#verdict')}`);
+    check((await page.textContent('#cert-facts')).includes('Examen práctico de carretilla contrapesada'), 'the exam course in Spanish');
+    const left = await englishLeft(page);
+    check(left.length === 0, `no English left on the Spanish certificate: ${JSON.stringify(left)}`);
+    await shot('certificate-es');
+    const axe = await axeFindings(page);
+    check(axe.serious.length === 0, `the Spanish certificate, usable by everyone: axe finds\n${axe.serious.join('\n')}`);
+    // Anyone's browser in English opens its QR code: the page follows the certificate.
+    await anyone.goto(cert.verify_url);
+    await anyone.waitForSelector('#result:not([hidden])');
+    check(await anyone.getAttribute('#verdict', 'data-status') === 'valid', 'the Spanish certificate verifies, for anyone');
+    check((await anyone.textContent('#verdict')).includes('Válido'), 'and says so in Spanish');
+    const checks = await anyone.$$eval('#checks li', (li) => li.map((x) => x.textContent));
+    check(checks.includes('la firma del servidor se verifica') && checks.some((c) => c.startsWith('el examen práctico ')),
+          `what was checked, in Spanish: ${JSON.stringify(checks)}`);
+    const leftThere = await englishLeft(anyone);
+    check(leftThere.length === 0, `no English left on its verification page: ${JSON.stringify(leftThere)}`);
+    await shot('verify-es', { of: anyone });
   });
 
   console.log(`web certificate: all steps passed in ${((Date.now() - started) / 1000).toFixed(1)} s; screenshots in ${shots}`);

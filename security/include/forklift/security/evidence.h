@@ -25,6 +25,7 @@
 #include <string>
 #include <string_view>
 #include <vector>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 
@@ -70,6 +71,10 @@ struct VerifyReport {
   bool ok = false;                    // problems.empty()
   Verdict verdict = Verdict::kTampered;
   std::vector<std::string> passed;    // one line per check that held
+  // A certificate's checks that held as (what, the value it names), for words in another language
+  // (verify_certificate_signature alone): "record_signed" (the SHA-256), "signer_ca", "signer_server"
+  // (the signer's name), "signature".
+  std::vector<std::pair<std::string, std::string>> passed_codes;
   std::vector<std::string> problems;  // one line per check that failed, naming what differs
 };
 
