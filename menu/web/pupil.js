@@ -90,7 +90,9 @@
 
   async function issueLicence() {
     try {
-      const l = await api('POST', `/pupils/${encodeURIComponent(id)}/licence`);
+      // The certificate's language: the pupil's unless the examiner chooses another.
+      const language = document.getElementById('certificate-language').value;
+      const l = await api('POST', `/pupils/${encodeURIComponent(id)}/licence`, language ? { language } : undefined);
       await load();
       say(message, `Licence issued, with certificate ${l.certificate}.`, 'ok');
     } catch (e) {
@@ -109,7 +111,11 @@
       items.push(el('button', { type: 'button', class: 'secondary', onclick: downloadCsv }, 'Download the history (CSV)'));
       if (both && (me.role === 'admin' || me.role === 'examiner'))
         items.push(el('button', { type: 'button', class: 'secondary', id: 'issue-licence', onclick: issueLicence },
-                      h.licence ? 'Issue a new licence' : 'Issue the licence'));
+                      h.licence ? 'Issue a new licence' : 'Issue the licence'),
+                   // Each language named in itself, as a reader of it looks for it.
+                   el('span', {}, el('label', { for: 'certificate-language' }, 'its certificate in '),
+                      el('select', { id: 'certificate-language' }, el('option', { value: '' }, "the pupil's language"),
+                         el('option', { value: 'en', lang: 'en' }, 'English'), el('option', { value: 'es', lang: 'es' }, 'Español'))));
     } else {
       items.push(el('a', { href: 'theory.html' }, 'Take the theory exam'));
     }

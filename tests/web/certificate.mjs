@@ -184,7 +184,14 @@ try {
   await step('a certificate issued in Spanish shows Spanish, and verifies', async () => {
     const annRecord = await api('PATCH', `/pupils/${annId}`, adminToken, { language: 'es' });
     check(annRecord.language === 'es', `Ann's language is kept: ${JSON.stringify(annRecord)}`);
-    await api('POST', `/pupils/${annId}/licence`, adminToken);
+    // The examiner's choice wins over hers; left to the page's default, hers.
+    await api('POST', `/pupils/${annId}/licence`, adminToken, { language: 'en' });
+    check((await api('GET', `/pupils/${annId}/certificate`, adminToken)).certificate.language === 'en', 'issued in the language asked');
+    await page.goto(`${base}/pupil.html?id=${annId}`);
+    await page.waitForSelector('#issue-licence');
+    check(await page.inputValue('#certificate-language') === '', "the page issues in the pupil's language unless told otherwise");
+    await page.click('#issue-licence');
+    await page.waitForFunction(() => /Licence issued, with certificate /.test(document.getElementById('message').textContent));
     const cert = await api('GET', `/pupils/${annId}/certificate`, adminToken);
     check(cert.status === 'valid' && cert.certificate.language === 'es', `the new certificate is in Spanish and valid: ${cert.status}`);
     check(cert.certificate.statement.startsWith('Este registro certifica'), `its signed statement is Spanish: ${cert.certificate.statement}`);
