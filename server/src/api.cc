@@ -212,8 +212,8 @@ std::string language_of(Context& ctx, const Principal& p) {
   return ctx.words->supported(p.pupil_id ? ctx.db().pupil_language(*p.pupil_id) : ctx.db().user_language(p.user_id));
 }
 
-std::string request_language(Context& ctx, const httplib::Request& req, const Principal& p) {
-  return req.has_param("lang") ? ctx.words->supported(req.get_param_value("lang")) : language_of(ctx, p);
+std::string request_language(Context& ctx, const httplib::Request& req) {
+  return req.has_param("lang") ? ctx.words->supported(req.get_param_value("lang")) : i18n::kSourceLanguage;
 }
 
 std::optional<std::string> language_field(Context& ctx, const json& b) {

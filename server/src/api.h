@@ -120,8 +120,9 @@ bool is_staff(const Principal& p);
 // The language a signed-in person reads in: staff their account's, a pupil their record's.
 std::string language_of(Context& ctx, const Principal& p);
 // The language the request's words are given in: ?lang= (the contract allows the catalogue's
-// languages only), else the signed-in person's.
-std::string request_language(Context& ctx, const httplib::Request& req, const Principal& p);
+// languages only), else English: the pages not yet worded in the school's languages, and the
+// command line, read English, and must not get another language's words in an English page.
+std::string request_language(Context& ctx, const httplib::Request& req);
 // The body's "language", if given: one the catalogue has (else 400).
 std::optional<std::string> language_field(Context& ctx, const json& b);
 // A pupil sees only their own records; staff only their school's.

@@ -189,7 +189,7 @@ void session_routes(Routes& svr, Context& ctx) {
   svr.Get(R"(/api/sessions/(s-\d+))", guarded([&](const httplib::Request& req, httplib::Response& res) {
     const Principal p = authenticate(ctx, req);
     const store::Session s = session_for(ctx, req, p);
-    const std::string lang = request_language(ctx, req, p);
+    const std::string lang = request_language(ctx, req);
     json j = session_json(s);
     j["events"] = json::array();
     for (const auto& e : ctx.db().list_events(s.public_id)) j["events"].push_back(event_json(ctx, e, lang));

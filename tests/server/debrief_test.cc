@@ -103,6 +103,11 @@ TEST(Debrief, TheReplayDrivesWhereTheWorkerDroveAndTheNotesAndSignOffAreKept) {
     }
     const auto [fst, fr] = s.call("GET", "/api/sessions/" + id + "?lang=fr", dan);
     EXPECT_EQ(fst, 400) << fr;
+    // Unasked, English, whatever the reader's own language: the pages that show them are English.
+    ASSERT_EQ(s.call("PATCH", "/api/pupils/" + pid, dan, R"({"language":"es"})").first, 200);
+    const json unasked = s.call("GET", "/api/sessions/" + id, dan).second;
+    for (size_t i = 0; i < unasked["events"].size(); ++i)
+      EXPECT_EQ(unasked["events"][i]["words"]["title"], done["events"][i]["words"]["title"]);
   }
 
   // The replay: every 0.1 s of sim time, re-simulated from the control log; at each point of the
