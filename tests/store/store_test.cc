@@ -2179,7 +2179,7 @@ TEST_P(StoreTest, TheUpgradeToOneOpenSessionPerCabFailsTheOlderOnesAndAuditsThem
   store_.reset();
 
   store_ = Open();
-  EXPECT_EQ(store_->schema_version(), 13);
+  EXPECT_GE(store_->schema_version(), 11);  // and the later ones on top
   for (const std::string& id : {older, middle}) {
     const auto s = store_->get_session(id);
     EXPECT_EQ(s->state, SessionPhase::kFailed) << id;
