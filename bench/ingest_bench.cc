@@ -196,6 +196,16 @@ class FakeHost {
   std::set<std::string> killed_, exited_;
 };
 
+// A thread stopped and joined however its scope is left (a refused start ends the program).
+struct Stopped {
+  std::atomic<bool>& stop;
+  std::thread& thread;
+  ~Stopped() {
+    stop = true;
+    if (thread.joinable()) thread.join();
+  }
+};
+
 // One step's figures.
 struct Step {
   int sessions = 0;
@@ -333,6 +343,7 @@ int main(int argc, char** argv) {
   FakeHost host(part, std::max(most, 1));
   std::atomic<bool> stop_host{false};
   std::thread host_thread([&] { host.run(stop_host); });
+  const Stopped host_stopped{stop_host, host_thread};
   // The host is believed once the server has its status: wait for it in the fleet.
   for (int i = 0; i < 100; ++i) {
     const json f = get_json(c, token, "/api/fleet");
@@ -396,6 +407,7 @@ int main(int argc, char** argv) {
         std::this_thread::sleep_until(next);
       }
     });
+    const Stopped publisher_stopped{stop_publishing, publisher};
 
     // Started through the API, one after another, as a school's staff would; each publishes
     // once its start has been answered (its participant is then known to the server).

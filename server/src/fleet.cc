@@ -7,6 +7,7 @@
 #include <pthread.h>
 
 #include <algorithm>
+#include <set>
 #include <chrono>
 
 namespace forklift::server {
@@ -200,6 +201,40 @@ void Fleet::ingest() {
       if (!gate_.knows(handles[i]))
         if (auto found = dds::sender_of(reader, handles[i])) gate_.learn(handles[i], std::move(*found));
   };
+  // Events, path points and cab sightings go to the store together, in one transaction at most
+  // every kStoreEvery: one commit (a disk flush) for all the sessions' instead of one each, which
+  // on PostgreSQL held a server to some 100 sessions. Before a score or a status is recorded, the
+  // session's events are stored (an exam's details are worked out from them).
+  constexpr auto kStoreEvery = std::chrono::milliseconds(100);
+  std::vector<store::EventRecord> pending_events;
+  std::map<std::string, std::vector<store::PathPoint>> path;  // by session, downsampled
+  std::set<std::string> announced;
+  auto stored_at = Clock::now();
+  auto store_pending = [&] {
+    stored_at = Clock::now();
+    if (pending_events.empty() && path.empty() && announced.empty()) return;
+    try {
+      db->batch([&] {
+        // One sample's trouble costs that one only: its savepoint is rolled back, the rest commit.
+        record_each(pending_events, "fk_Event", state_, [&](const store::EventRecord& e) { recorder_.event(*db, e); });
+        for (const std::string& cab : announced) db->cab_seen(cab, 1, store::now_iso8601());  // the default school
+        for (const auto& [session, points] : path) {
+          try {
+            db->add_path_points(session, points);
+          } catch (const std::exception& e) {
+            spdlog::warn("ingest: {}", e.what());  // a session gone from the store: its points only
+          }
+        }
+      });
+    } catch (const std::exception& e) {
+      // Logged, never fatal: these path points and sightings are lost (the events are in the
+      // workers' logs, from which each session's settling takes what the store lacks).
+      spdlog::warn("ingest: {}", e.what());
+    }
+    pending_events.clear();
+    path.clear();
+    announced.clear();
+  };
   while (!stop_) {
     ws.wait(0.1);
     IngestedSamples round;
@@ -222,31 +257,32 @@ void Fleet::ingest() {
     take(events, "fk_Event", state_, false, [&](const fk_Event& e, const dds_sample_info_t& info) {
       if (auto in = gate_.event(e, info, events.handle(), now)) {
         ++round.events;
-        recorder_.event(*db, *in);
+        pending_events.push_back(std::move(*in));
       }
     });
     take(scores, "fk_Score", state_, false, [&](const fk_Score& s, const dds_sample_info_t& info) {
       if (auto in = gate_.score(s, info, scores.handle())) {
         ++round.scores;
+        store_pending();
         recorder_.score(*db, std::move(*in));
       }
     });
     take(statuses, "fk_SessionStatus", state_, false, [&](const fk_SessionStatus& s, const dds_sample_info_t& info) {
       if (auto in = gate_.status(s, info, statuses.handle(), now)) {
         ++round.statuses;
+        store_pending();
         recorder_.status(*db, *in);
       }
     });
-    record_each(gate_.events_again(held.events, now), "fk_Event", state_, [&](const store::EventRecord& e) {
+    for (store::EventRecord& e : gate_.events_again(held.events, now)) {
       ++round.events;
-      recorder_.event(*db, e);
-    });
+      pending_events.push_back(std::move(e));
+    }
     record_each(gate_.statuses_again(held.statuses, now), "fk_SessionStatus", state_, [&](const StatusIn& s) {
       ++round.statuses;
+      store_pending();
       recorder_.status(*db, s);
     });
-    std::vector<std::string> announced;
-    std::map<std::string, std::vector<store::PathPoint>> path;  // by session, downsampled
     take(states, "fk_TruckState", state_, false, [&](const fk_TruckState& t, const dds_sample_info_t& info) {
       if (gate_.truck_state(t, info, states.handle())) {
         ++round.states;
@@ -257,22 +293,21 @@ void Fleet::ingest() {
       if (auto in = gate_.announce(a, info, announces.handle())) {
         ++round.announces;
         placement_.cab_seen(*in);
-        announced.push_back(in->id);
+        announced.insert(in->id);
       }
     });
     try {
       recorder_.take_followed_frames();
-      for (const std::string& cab : announced) db->cab_seen(cab, 1, store::now_iso8601());  // the default school
-      for (const auto& [session, points] : path) db->add_path_points(session, points);
     } catch (const std::exception& e) {
-      // Logged, never fatal: this round's path points or sightings are lost, the sessions go on.
-      spdlog::warn("ingest: {}", e.what());
+      spdlog::warn("ingest: {}", e.what());  // logged, never fatal: the sessions go on
     }
+    if (Clock::now() - stored_at >= kStoreEvery) store_pending();
     std::lock_guard<std::mutex> lock(state_.mu);
     IngestedSamples& n = state_.ingested;
     n.states += round.states, n.events += round.events, n.statuses += round.statuses;
     n.scores += round.scores, n.reports += round.reports, n.announces += round.announces;
   }
+  store_pending();
 }
 
 }  // namespace forklift::server
