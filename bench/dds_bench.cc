@@ -60,6 +60,7 @@
 #include <vector>
 
 #include "figure.h"
+#include "proc_stat.h"
 #include "stall_watch.h"
 #include "forklift/protocol/protocol.h"
 #include "support/process.h"
@@ -97,23 +98,6 @@ std::unique_ptr<Process> spawn_worker(int domain, const std::string& cab, double
 }
 
 // The CPU a process has used so far (user and system), seconds; NAN once it is gone.
-double cpu_seconds(pid_t pid) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
-  std::string stat;
-  if (!std::getline(in, stat)) return NAN;
-  // Fields after the command's closing parenthesis: state is field 3, utime 14, stime 15.
-  const size_t close = stat.rfind(')');
-  if (close == std::string::npos) return NAN;
-  std::istringstream rest(stat.substr(close + 2));
-  std::string field;
-  double utime = 0, stime = 0;
-  for (int i = 3; i <= 15 && rest >> field; ++i) {
-    if (i == 14) utime = std::stod(field);
-    if (i == 15) stime = std::stod(field);
-  }
-  return (utime + stime) / double(sysconf(_SC_CLK_TCK));
-}
-
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return NAN;
   std::sort(v.begin(), v.end());
@@ -373,7 +357,7 @@ bool framed_fleet(int domain, int n, double fps, double seconds) {
     const double t = since_start();
     if (!measuring && t >= kWarmUpS) {  // the window opens: CPU so far, per worker and ours
       measuring = true;
-      for (int k = 0; k < n; ++k) cpu_start[k] = cpu_seconds(workers[k]->pid());
+      for (int k = 0; k < n; ++k) cpu_start[k] = bench::cpu_seconds(workers[k]->pid());
       getrusage(RUSAGE_SELF, &self_start);
     }
     if (t >= next_control) {  // 50 Hz to every cab, frames wanted
@@ -398,7 +382,7 @@ bool framed_fleet(int domain, int n, double fps, double seconds) {
   }
   const double window = since_start() - kWarmUpS;
   for (int k = 0; k < n; ++k)
-    figures[k].cpu_pct = 100.0 * (cpu_seconds(workers[k]->pid()) - cpu_start[k]) / window;
+    figures[k].cpu_pct = 100.0 * (bench::cpu_seconds(workers[k]->pid()) - cpu_start[k]) / window;
   getrusage(RUSAGE_SELF, &self_end);
   auto seconds_of = [](const timeval& tv) { return double(tv.tv_sec) + 1e-6 * double(tv.tv_usec); };
   const double self_cpu = seconds_of(self_end.ru_utime) + seconds_of(self_end.ru_stime) - seconds_of(self_start.ru_utime) -

@@ -17,7 +17,7 @@ for a in "$@"; do
   esac
 done
 bin=build/bin
-for b in forklift-bench-dynamics forklift-bench-evaluation forklift-bench-dds forklift-bench-render forklift-bench-server forklift-sim; do
+for b in forklift-bench-dynamics forklift-bench-evaluation forklift-bench-dds forklift-bench-render forklift-bench-server forklift-bench-ingest forklift-sim; do
   [ -x "$bin/$b" ] || { echo "figures.sh: $bin/$b is missing: build first (scripts/build.sh)" >&2; exit 2; }
 done
 work=$(mktemp -d "${TMPDIR:-/tmp}/forklift-figures.XXXXXX")
@@ -74,6 +74,15 @@ measure "LP_NUM_THREADS=0 forklift-bench-render --benchmark_filter=jpeg_frame" \
   env LP_NUM_THREADS=0 "$bin/forklift-bench-render" --benchmark_filter=jpeg_frame --benchmark_repetitions=3
 measure "forklift-bench-server --runs 0 --seconds $seconds" \
   "$alloc" sh -c "exec $bin/forklift-bench-server --runs 0 --seconds $seconds --dir ${FORKLIFT_BENCH_DIR:-build/bench-data} --port \$FORKLIFT_TEST_PORT --dds-domain \$FORKLIFT_TEST_DOMAIN"
+# The server's DDS ingest: sessions at a worker's 60 Hz, on a copy of that store (its pupils'
+# histories asked meanwhile).
+ingest_sessions="100 300 500"
+[ "$quick" = 1 ] && ingest_sessions="50 300"
+history_store="${FORKLIFT_BENCH_DIR:-build/bench-data}/server-10000x50.db"
+from=()
+[ -f "$history_store" ] && from=(--from "$history_store")
+measure "forklift-bench-ingest --sessions $ingest_sessions --seconds $seconds ${from[*]}" \
+  "$alloc" sh -c "exec $bin/forklift-bench-ingest --sessions $ingest_sessions --seconds $seconds ${from[*]} --dir $work/ingest --port \$FORKLIFT_TEST_PORT --dds-domain \$FORKLIFT_TEST_DOMAIN"
 
 machine="$(nproc) cores ($(lscpu | sed -n 's/^Model name: *//p' | head -1)), $(free -g | awk '/^Mem:/{print $2}') GiB, $(uname -sr), load average $(cut -d' ' -f1-3 /proc/loadavg) at the end, $(date -u +%Y-%m-%d)"
 {

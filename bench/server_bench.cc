@@ -44,6 +44,7 @@
 #include <vector>
 
 #include "figure.h"
+#include "http_load.h"
 #include "forklift/protocol/protocol.h"
 #include "forklift/store/store.h"
 #include "support/loopback.h"
@@ -53,12 +54,13 @@
 using namespace forklift;
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
+using forklift::bench::hammer;
+using forklift::bench::Load;
+using forklift::bench::ms_since;
 
 namespace {
 
 const std::string kPassword = "bench-admin-pass";
-
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 // Fills the store through its public interface, in batches of one transaction each.
 void populate(const std::string& db, int pupils, int sessions_per_pupil) {
@@ -96,68 +98,6 @@ void populate(const std::string& db, int pupils, int sessions_per_pupil) {
       std::fprintf(stderr, "\rpopulating: %d of %d pupils (%.0f s)", first + per_batch, pupils, ms_since(t0) / 1e3);
   }
   std::fprintf(stderr, "\rpopulated %d pupils x %d sessions in %.1f s\n", pupils, sessions_per_pupil, ms_since(t0) / 1e3);
-}
-
-struct Load {
-  double seconds = 0;
-  std::vector<double> latency_ms;
-  long errors = 0;
-  double rps() const { return latency_ms.size() / seconds; }
-  double pct(double q) const {
-    if (latency_ms.empty()) return NAN;
-    return latency_ms[std::min(latency_ms.size() - 1, size_t(q * latency_ms.size()))];
-  }
-};
-
-// GETs on a kept-alive HTTP/1.1 connection (tests/support/loopback.h), with no more work than
-// reading the answers whole: the load runs on the same two cores as the server, and httplib's
-// client took a sixth of them from it. A connection told "Connection: close", or failing, is
-// opened again for the next request.
-class LoadClient {
- public:
-  LoadClient(int port, const std::string& token) : port_(port), auth_("Authorization: Bearer " + token + "\r\n") {}
-
-  // The answer's status, its whole body read; 0 if there was none.
-  int get(const std::string& path) {
-    if (!c_) c_ = std::make_unique<forklift_test::KeptConnection>(port_, 10);
-    const std::string head = c_->ask("GET " + path + " HTTP/1.1\r\nHost: 127.0.0.1\r\n" + auth_ + "\r\n");
-    const bool answered = head.rfind("HTTP/1.1 ", 0) == 0;
-    if (!answered || forklift_test::says_close(head)) c_.reset();
-    return answered ? std::atoi(head.c_str() + 9) : 0;
-  }
-
- private:
-  int port_;
-  std::string auth_;  // the header line
-  std::unique_ptr<forklift_test::KeptConnection> c_;
-};
-
-// `clients` keep-alive connections, each asking path(i) back to back for `seconds`.
-Load hammer(int port, const std::string& token, int clients, double seconds,
-            const std::function<std::string(std::mt19937&)>& path) {
-  std::vector<std::vector<double>> lat(clients);
-  std::atomic<long> errors{0};
-  std::vector<std::thread> threads;
-  const auto t0 = Clock::now();
-  for (int c = 0; c < clients; ++c) {
-    threads.emplace_back([&, c] {
-      LoadClient cli(port, token);
-      std::mt19937 rng(c + 1);
-      while (ms_since(t0) < seconds * 1e3) {
-        const std::string p = path(rng);
-        const auto t = Clock::now();
-        if (cli.get(p) != 200) ++errors;
-        else lat[c].push_back(ms_since(t));
-      }
-    });
-  }
-  for (auto& t : threads) t.join();
-  Load l;
-  l.seconds = ms_since(t0) / 1e3;
-  for (auto& v : lat) l.latency_ms.insert(l.latency_ms.end(), v.begin(), v.end());
-  std::sort(l.latency_ms.begin(), l.latency_ms.end());
-  l.errors = errors;
-  return l;
 }
 
 // Time from POST /api/sessions to the first TruckState of that session, this program being the cab.
@@ -331,12 +271,7 @@ int main(int argc, char** argv) {
                                  "--log-dir", dir + "/logs"},
         dir + "/server");
     httplib::Client c("127.0.0.1", port);
-    bool up = false;
-    for (int i = 0; i < 400 && !up; ++i) {
-      if (auto r = c.Get("/api/health"); r && r->status == 200) up = true;
-      else std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    }
-    if (!up) {
+    if (!forklift::bench::answers_health(c)) {
       std::fprintf(stderr, "forklift-server did not come up on %s:\n%s\n", shown.c_str(), server->err().c_str());
       return 1;
     }

@@ -62,6 +62,7 @@ class Fleet : private GateWorld {
   bool hosts_believed() const override { return state_.hosts_believed(); }
   const MarkingRules& marking_rules() const { return recorder_.marking_rules(); }
   RefusedSamples refused();
+  IngestedSamples ingested();
 
   // The exam chain's anchor, and the keys and CA it is checked with (read from the security
   // folder at each call, so that a new CRL counts at once).

@@ -149,6 +149,7 @@ struct FleetState {
   std::vector<Finishing> finishing;            // settled by the supervisor thread
   std::set<std::string> unsettled;             // sessions with a worker here whose logs are not stored yet
   RefusedSamples refused;
+  IngestedSamples ingested;                    // counted a round of the ingest at a time
   static constexpr size_t kRefusalsNamed = 4096;
   std::set<std::string> refusals_named;        // the refusals named in the log once each
   std::map<std::string, CabInfo> cabs;

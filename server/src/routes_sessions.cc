@@ -411,6 +411,9 @@ void session_routes(Routes& svr, Context& ctx) {
     const json refused = {{"wrong_sender", r.wrong_sender}, {"malformed", r.malformed}, {"score_disagrees", r.score_disagrees},
                           {"no_identity", r.no_identity}, {"unsigned_log", r.unsigned_log}};
     const json recovered = {{"events", r.recovered_events}, {"scores", r.recovered_scores}};
+    const IngestedSamples in = ctx.fleet->ingested();
+    const json ingested = {{"states", in.states}, {"events", in.events}, {"statuses", in.statuses}, {"scores", in.scores},
+                           {"reports", in.reports}, {"announces", in.announces}};
     // Whether exams can be chained (and so certified), and how many were refused since start.
     const Fleet::ChainStatus chain = ctx.fleet->chain_status();
     // The DDS domain its workers and cabs meet in, and whether under DDS Security (with the
@@ -423,6 +426,7 @@ void session_routes(Routes& svr, Context& ctx) {
                          {"dds_domain", ctx.fleet->config().dds_domain},
                          {"dds_security", ctx.fleet->secure()}, {"dds_security_dir", security_dir},
                          {"refused_samples", refused}, {"recovered_from_logs", recovered},
+                         {"ingested", ingested},
                          {"exam_chain", {{"ok", chain.problem.empty()}, {"problem", chain.problem.empty() ? json(nullptr) : json(chain.problem)},
                                          {"refused", chain.refused}}}});
   }));

@@ -29,6 +29,12 @@ struct RefusedSamples {
 };
 using RefusalCounter = uint64_t RefusedSamples::*;
 
+// The samples the gate let through, by topic, since the server started: what a load generator
+// compares with what it published (nothing lost) and a school reads beside the refusals.
+struct IngestedSamples {
+  uint64_t states = 0, events = 0, statuses = 0, scores = 0, reports = 0, announces = 0;
+};
+
 // Whom a session's samples must come from: its worker's participant, in its cab's partitions.
 struct Speaker {
   enum class Known {

@@ -61,6 +61,7 @@ const std::multimap<std::string, Shown> kDefaults = {
     {"forklift-bench-dynamics", {{"--help"}, "--repeat", "=5"}},
     {"forklift-bench-dds", {{"--help"}, "--samples", "=500"}},
     {"forklift-bench-server", {{"--help"}, "--pupils", "=10000"}},
+    {"forklift-bench-ingest", {{"--help"}, "--rate", "=60"}},
     {"forklift-bench-collision", {{"--help"}, "--benchmark_min_time", "=0.5"}},
     {"forklift-bench-evaluation", {{"--help"}, "--benchmark_format", "=console"}},
     {"forklift-bench-render", {{"--help"}, "--benchmark_repetitions", "=1"}}};
@@ -92,6 +93,7 @@ const std::multimap<std::string, std::vector<std::string>> kBadValues = {
     {"forklift-server", {"--listen", "127.0.0.1:80"}},
     {"forklift-server", {"--public-url", "forklift.example.org"}},
     {"forklift-bench-server", {"--port", "80"}},
+    {"forklift-bench-ingest", {"--port", "80"}},
     {"forklift-bench-collision", {"--benchmark_format=xml"}},
     {"forklift-bench-evaluation", {"--benchmark_min_time=soon"}},
     {"forklift-bench-render", {"--benchmark_repetitions=0"}}};

@@ -213,8 +213,11 @@ class Writer {
 template <typename T>
 class Reader {
  public:
-  Reader(Participant& p, const std::string& partition = "") {
+  // `keep_last`: the samples of each instance this reader keeps until taken, when more than its
+  // topic's own (a reader that must see every state, not only the newest).
+  Reader(Participant& p, const std::string& partition = "", int keep_last = 0) {
     dds_qos_t* qos = make_qos(Topic<T>::qos, partition);
+    if (keep_last > 0) dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, keep_last);
     sub_ = check(dds_create_subscriber(p.handle(), qos, nullptr), "subscriber");
     reader_ = check(dds_create_reader(sub_, p.topic<T>(), qos, nullptr), "reader for " + endpoint_name(Topic<T>::name, partition));
     dds_delete_qos(qos);
