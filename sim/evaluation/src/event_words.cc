@@ -45,7 +45,10 @@ const std::map<std::string, std::string> kNamesOfKind = {
     {"speed_near_pedestrian:speed_max", "highest speed near a person"},
     {"person_under_forks:margin", "counted from beside the forks within"},
     {"horn_at_marker:horn_before", "horn counted from before entering"},
-    {"horn_at_marker:horn_after", "horn counted until after entering"}};
+    {"horn_at_marker:horn_after", "horn counted until after entering"},
+    {"give_way_at_crossing:distance", "the truck with priority from the crossing's middle"},
+    {"give_way_at_crossing:truck_speed", "that truck's speed"},
+    {"give_way_at_crossing:priority_within", "counted for a truck with priority within"}};
 
 std::string name_of(const std::string& kind, const std::string& bare) {
   if (const auto own = kNamesOfKind.find(kind + ":" + bare); own != kNamesOfKind.end()) return own->second;
