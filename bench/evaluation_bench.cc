@@ -15,6 +15,9 @@
 //   yard_hazards_50  the yard with 50 hazards: 40 pedestrians as above, 5 markers (blind
 //              corners on the drive's way: the horn and speed rules) and 5 spills (a tenth less
 //              grip, under the drive: the tyres' grip looked up at every wheel every tick)
+//   yard_people_10_trucks_2  the yard's 10 pedestrians and 2 other trucks looping 40 m beside
+//              the start, and a crossing where they go first on the drive's way (the goal)
+//   yard_moving_50  50 moving hazards: 40 pedestrians and 10 other trucks
 // Rows:
 //   pipeline/<scene>   manual time = the whole tick; counters: per-tick microseconds of each
 //                      stage (dynamics_us, collision_us, outputs_us, evaluation_us) and the ratios
@@ -58,13 +61,14 @@ struct Run {
   std::vector<SessionEvent> found;
   size_t events = 0;
 
-  Run(const std::string& scenario, const std::string& script, double max_s, int people = 0, int fixed = 0) {
+  Run(const std::string& scenario, const std::string& script, double max_s, int people = 0, int fixed = 0, int trucks = 0) {
     SessionSpec spec;
     spec.scenario_file = scenario;
     spec.mode = "exam";
     model = load_session_model(spec, kData);
     add_people(people);
     add_fixed(fixed);
+    add_trucks(trucks);
     changes = script_changes(script, model);
     end = std::min<int64_t>(changes.back().tick + 1, int64_t(max_s / model.tick_s));
     first = initial_state(model);
@@ -84,6 +88,31 @@ struct Run {
       p.stop_within_m = p.looks ? 3.0 : 0.0;
       model.scene.pedestrians.push_back(p);
     }
+  }
+
+  // `n` other trucks driving round 40 m loops beside the start (from 8 m on the other side from
+  // the people, 3 m apart), their drivers looking ahead, and one crossing where the traffic goes
+  // first on the drive's first leg (the give-way rule's test every tick).
+  void add_trucks(int n) {
+    if (n == 0) return;
+    const Eigen::Vector2d at(model.scene.scenario.x_m, model.scene.scenario.y_m);
+    for (int i = 0; i < n; ++i) {
+      OtherTruckSpec t;
+      t.id = "bench_truck_" + std::to_string(i);
+      const double y = -8 - 3.0 * i;
+      t.route = {at + Eigen::Vector2d(-20, y), at + Eigen::Vector2d(20, y)};
+      t.loop = true;
+      t.speed_m_s = 2.0;
+      t.stop_within_m = 2.0;
+      model.scene.trucks.push_back(t);
+    }
+    Crossing c;
+    c.id = "bench_crossing";
+    c.priority = "traffic";
+    for (const Eigen::Vector2d& d : {Eigen::Vector2d(18, -2), Eigen::Vector2d(22, -2), Eigen::Vector2d(22, 2), Eigen::Vector2d(18, 2)})
+      c.polygon.push_back(at + d);
+    c.middle_m = at + Eigen::Vector2d(20, 0);
+    model.scene.crossings.push_back(c);
   }
 
   // `n` blind-corner markers and `n` spills, 3 m squares every 8 m ahead of the start (the yard
@@ -123,11 +152,14 @@ struct Scenes {
   double max_s;
   int people = 0;
   int fixed = 0;  // markers, and as many spills
+  int trucks = 0;  // other trucks
 };
 const Scenes kYard{"yard", kData + "/scenarios/first_drive_yard.json", 1e9};
 const Scenes kWarehouse{"warehouse", kData + "/scenarios/practical_exam.json", 60};
 const Scenes kYardPeople{"yard_people_10", kYard.scenario, 1e9, 10};
 const Scenes kYardHazards{"yard_hazards_50", kYard.scenario, 1e9, 40, 5};
+const Scenes kYardTraffic{"yard_people_10_trucks_2", kYard.scenario, 1e9, 10, 0, 2};
+const Scenes kYardMoving{"yard_moving_50", kYard.scenario, 1e9, 40, 0, 10};
 const std::string kScript = kData + "/evaluation/scripts/first_drive_yard_exam.csv";
 
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
@@ -149,7 +181,7 @@ struct StageTimes : StageObserver {
 std::map<std::string, std::vector<double>> g_tick_s;
 
 void BM_Pipeline(benchmark::State& state, Scenes sc) {
-  Run run(sc.scenario, kScript, sc.max_s, sc.people, sc.fixed);
+  Run run(sc.scenario, kScript, sc.max_s, sc.people, sc.fixed, sc.trucks);
   std::vector<double>& ticks = g_tick_s[sc.name];
   StageTimes times;
   for (auto _ : state) {
@@ -222,6 +254,8 @@ BENCHMARK_CAPTURE(BM_Pipeline, yard, kYard)->Name("pipeline/yard")->UseManualTim
 BENCHMARK_CAPTURE(BM_Pipeline, warehouse, kWarehouse)->Name("pipeline/warehouse")->UseManualTime()->Iterations(60000)->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_Pipeline, yard_people_10, kYardPeople)->Name("pipeline/yard_people_10")->UseManualTime()->Iterations(150000)->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_Pipeline, yard_hazards_50, kYardHazards)->Name("pipeline/yard_hazards_50")->UseManualTime()->Iterations(150000)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_Pipeline, yard_people_10_trucks_2, kYardTraffic)->Name("pipeline/yard_people_10_trucks_2")->UseManualTime()->Iterations(150000)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_Pipeline, yard_moving_50, kYardMoving)->Name("pipeline/yard_moving_50")->UseManualTime()->Iterations(150000)->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_EvaluatorTick, yard, kYard)->Name("evaluator/yard")->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_EvaluatorTick, warehouse, kWarehouse)->Name("evaluator/warehouse")->Unit(benchmark::kMicrosecond);
 

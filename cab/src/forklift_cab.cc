@@ -709,6 +709,7 @@ int CabProgram::run() {
         si.speed_m_s = hud_.state().speed_m_s;
         si.stability_fraction = hud_.state().stability_fraction;
         pedestrians_heard(hud_.state(), sound_settings_, si);
+        trucks_heard(hud_.state(), sound_settings_, si);
       }
       si.drive = c.accelerator;
       si.hydraulics = std::min(1.0, std::abs(c.lift) + std::abs(c.tilt) + std::abs(c.side_shift));

@@ -29,8 +29,10 @@ SoundSettings sound_settings(const nlohmann::json& j) {
   s.footstep_hz = settings_number(x, "footstep_hz", where);
   s.steps_per_s = settings_number(x, "steps_per_s", where);
   s.voice_hz = settings_number(x, "voice_hz", where);
-  if (!(s.pedestrian_heard_within_m > 0 && s.steps_per_s > 0))
-    throw std::runtime_error(where + ": pedestrian_heard_within_m and steps_per_s must be more than 0");
+  s.truck_heard_within_m = settings_number(x, "truck_heard_within_m", where);
+  s.truck_hz = settings_number(x, "truck_hz", where);
+  if (!(s.pedestrian_heard_within_m > 0 && s.steps_per_s > 0 && s.truck_heard_within_m > 0))
+    throw std::runtime_error(where + ": pedestrian_heard_within_m, steps_per_s and truck_heard_within_m must be more than 0");
   // The stability beat follows the display's bands.
   const HudSettings hud = hud_settings(j);
   s.stability_amber = hud.stability_amber;
@@ -50,6 +52,16 @@ void pedestrians_heard(const fk_TruckState& state, const SoundSettings& s, Sound
     if (!(d <= s.pedestrian_heard_within_m) || (in.pedestrian_m >= 0 && d >= in.pedestrian_m)) continue;
     in.pedestrian_m = d;
     in.pedestrian_walking = p.activity == static_cast<uint8_t>(forklift::PedestrianActivity::kWalking);
+  }
+}
+
+void trucks_heard(const fk_TruckState& state, const SoundSettings& s, SoundInputs& in) {
+  in.truck_m = -1;
+  for (size_t i = 0; i < state.truck_count && i < std::size(state.trucks); ++i) {
+    const fk_OtherTruckSeen& t = state.trucks[i];
+    if (t.activity != static_cast<uint8_t>(forklift::TruckActivity::kDriving)) continue;
+    const double d = std::hypot(t.x_m - state.x_m, t.y_m - state.y_m);
+    if (d <= s.truck_heard_within_m && (in.truck_m < 0 || d < in.truck_m)) in.truck_m = d;
   }
 }
 
@@ -101,8 +113,14 @@ void CabSound::synth(float* out, int n) {
   const double beat_hz = in_.stability_fraction < s_.stability_red ? 6 : in_.stability_fraction < s_.stability_amber ? 2 : 0;
   // A person near: louder the nearer, silent at the edge of hearing.
   const double person_amp = in_.pedestrian_m >= 0 ? 0.25 * std::max(0.0, 1 - in_.pedestrian_m / s_.pedestrian_heard_within_m) : 0;
+  // Another truck driving near: its motor's hum, louder the nearer.
+  const double truck_amp = in_.truck_m >= 0 ? 0.15 * std::max(0.0, 1 - in_.truck_m / s_.truck_heard_within_m) : 0;
   for (int i = 0; i < n; ++i) {
     double x = 0;
+    if (truck_amp > 0) {
+      truck_phase_ = std::fmod(truck_phase_ + s_.truck_hz * dt, 1.0);
+      x += truck_amp * (std::sin(2 * M_PI * truck_phase_) + 0.3 * std::sin(4 * M_PI * truck_phase_));
+    }
     motor_phase_ = std::fmod(motor_phase_ + motor_hz * dt, 1.0);
     x += motor_amp * (std::sin(2 * M_PI * motor_phase_) + 0.3 * std::sin(4 * M_PI * motor_phase_));
     noise_ = noise_ * 1664525u + 1013904223u;

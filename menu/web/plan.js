@@ -24,6 +24,8 @@ const FLPlan = (() => {
   // A person in a high-visibility vest, seen from above: yellow with an orange band; red once struck.
   const PERSON = { vest: '#ffd400', band: '#e8590c', struck: '#b42318' };
   const ACTIVITY_WORDS = { waiting: 'waiting for his cue', walking: 'walking', standing: 'standing', struck: 'struck by the truck' };
+  const TRUCK_WORDS = { waiting: 'waiting for its cue', driving: 'driving', giving_way: 'giving way at a crossing', standing: 'standing',
+                        struck: 'struck by the pupil\'s truck' };
 
   function niceStep(span) {
     for (const s of [0.5, 1, 2, 5, 10, 20, 50, 100]) if (span / s <= 14) return s;
@@ -122,6 +124,20 @@ const FLPlan = (() => {
       root.append(svg('polyline', { points: poly(p.path), fill: 'none', stroke: PERSON.band, 'stroke-width': u * 0.35,
                                     'stroke-dasharray': `${u * 0.8} ${u * 0.6}`, 'data-walk': p.id },
                       svg('title', {}, `Where pedestrian ${p.id} walks${p.looks ? '' : ' (he does not look out for the truck)'}`)));
+    }
+
+    // the other trucks' routes and the crossings (who goes first in each one's title)
+    for (const c of plan ? plan.crossings || [] : []) {
+      if (!c.polygon || c.polygon.length < 3) continue;
+      root.append(svg('polygon', { points: poly(c.polygon), fill: 'none', stroke: '#b35900', 'stroke-width': u * 0.3,
+                                   'stroke-dasharray': `${u * 0.5} ${u * 0.5}`, 'data-crossing': c.id },
+                      svg('title', {}, `Crossing ${c.id}: ${c.priority === 'pupil' ? 'the other trucks give way to the pupil' : 'the pupil gives way to the other trucks'}`)));
+    }
+    for (const t of plan ? plan.trucks || [] : []) {
+      if (!t.route || t.route.length < 2) continue;
+      root.append(svg(t.loop ? 'polygon' : 'polyline', { points: poly(t.route), fill: 'none', stroke: '#7b8794', 'stroke-width': u * 0.4,
+                                                         'stroke-dasharray': `${u * 1.2} ${u * 0.6}`, 'data-route': t.id },
+                      svg('title', {}, `Where truck ${t.id} drives${t.loop ? ', round and round' : ''}`)));
     }
 
     // the replay's truck and moving pallets, over the plan and under the event markers
@@ -228,6 +244,24 @@ const FLPlan = (() => {
         return g;
       },
       activityWords: (a) => ACTIVITY_WORDS[a] || a,
+      // The other trucks, as boxes of their plan size facing their heading: [{id, x_m, y_m,
+      // heading_deg, activity}]. A group for the overlay; each names the truck and what it does.
+      trucks(list) {
+        const g = svg('g', { class: 'trucks' });
+        const size = new Map((plan ? plan.trucks || [] : []).map((t) => [t.id, t.size_m || [3, 1.1, 2.1]]));
+        for (const t of list) {
+          const [l, w] = size.get(t.id) || [3, 1.1];
+          const cx = X(t.x_m), cy = Y(t.y_m);
+          g.append(svg('rect', { class: 'other-truck', 'data-truck': t.id, 'data-activity': t.activity,
+                                 'data-x': t.x_m.toFixed(3), 'data-y': t.y_m.toFixed(3),
+                                 x: cx - X(l / 2) + X(0), y: cy - (Y(0) - Y(w / 2)), width: X(l) - X(0), height: Y(0) - Y(w),
+                                 transform: `rotate(${-t.heading_deg} ${cx} ${cy})`,
+                                 fill: t.activity === 'struck' ? '#c0392b' : '#f28c28', stroke: '#222', 'stroke-width': u * 0.2 },
+            svg('title', {}, `Truck ${t.id}: ${TRUCK_WORDS[t.activity] || t.activity}, at x ${t.x_m.toFixed(1)} m, y ${t.y_m.toFixed(1)} m`)));
+        }
+        return g;
+      },
+      truckWords: (a) => TRUCK_WORDS[a] || a,
       shapeOf: (id) => root.querySelector(`[data-object="${CSS.escape(id)}"]`),
     };
   }

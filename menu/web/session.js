@@ -234,6 +234,10 @@
              pedestrians: (a.pedestrians || []).map((p, i) => {
                const q = (b.pedestrians || [])[i] || p;
                return [mix(p[0], q[0]), mix(p[1], q[1]), angle(p[2], q[2]), p[3]];
+             }),
+             trucks: (a.trucks || []).map((p, i) => {
+               const q = (b.trucks || [])[i] || p;
+               return [mix(p[0], q[0]), mix(p[1], q[1]), angle(p[2], q[2]), p[3]];
              }) };
   }
 
@@ -243,6 +247,9 @@
     drawReplay();
   }
 
+  // The other trucks of a replay's state, as the plan draws them.
+  const replayTrucks = (st) => (st.trucks || []).map(([x_m, y_m, heading_deg, activity], i) =>
+    ({ id: replay.truck_ids ? replay.truck_ids[i] : String(i + 1), x_m, y_m, heading_deg, activity }));
   // The people of a replay's state, as the plan draws them.
   const replayPeople = (st) => (st.pedestrians || []).map(([x_m, y_m, heading_deg, activity], i) =>
     ({ id: replay.pedestrian_ids ? replay.pedestrian_ids[i] : String(i + 1), x_m, y_m, heading_deg, activity }));
@@ -273,7 +280,7 @@
       FL.svg('circle', { cx: X(st.x_m), cy: Y(st.y_m), r: u * 0.5, fill: '#222' }),
       FL.svg('title', {}, `The truck at t = ${num(st.t)} s`));
     const people = replayPeople(st);
-    clear(overlay).append(g, drawn.people(people));
+    clear(overlay).append(g, drawn.people(people), drawn.trucks(replayTrucks(st)));
     drawn.keepInView(st.x_m, st.y_m);
     rs.clock.textContent = `t = ${num(st.t)} s`;
     const dl = clear(rs.state);
@@ -357,32 +364,42 @@
     const truck = FL.svg('circle', { id: 'live-truck', cx: X(liveState.x_m), cy: Y(liveState.y_m), r: u * 1.2, fill: '#f2c230', stroke: '#222',
                                      'stroke-width': u * 0.25, 'data-t': liveState.sim_time_s.toFixed(2) },
                          FL.svg('title', {}, `The truck now, at t = ${num(liveState.sim_time_s)} s`));
-    clear(overlay).append(truck, drawn.people(liveState.pedestrians || []));
+    clear(overlay).append(truck, drawn.people(liveState.pedestrians || []), drawn.trucks(liveState.trucks || []));
   }
 
-  // "Hazard now": each of the scenario's people who move, with what he is doing, and a button that
-  // starts one waiting for his cue (the API refuses the others, and any in an exam). The items are
-  // kept from one poll to the next, so that the keyboard's focus stays where it is.
+  // "Hazard now": each of the scenario's hazards (the people who move, the other trucks, the
+  // pallets that fall), with what each is doing, and a button that starts one waiting for its cue
+  // (the API refuses the others, and any in an exam). The items are kept from one poll to the
+  // next, so that the keyboard's focus stays where it is.
   const hazardItems = new Map();
   function hazardControls(s, state) {
-    const people = state && state.pedestrians ? state.pedestrians : [];
-    document.getElementById('hazards').hidden = !(s.state === 'running' && s.mode === 'training' && people.length > 0);
-    for (const p of people) {
-      let item = hazardItems.get(p.id);
+    const words = (a, truck) => drawn ? (truck ? drawn.truckWords(a) : drawn.activityWords(a)) : a;
+    const hazards = [
+      ...(state && state.pedestrians ? state.pedestrians : []).map((p) => ({ id: p.id, kind: 'pedestrian', activity: p.activity,
+        label: `Start pedestrian ${p.id} now`, done: `Pedestrian ${p.id} steps out now.`, status: `${p.id}: ${words(p.activity)}` })),
+      ...(state && state.trucks ? state.trucks : []).map((t) => ({ id: t.id, kind: 'truck', activity: t.activity,
+        label: `Start truck ${t.id} now`, done: `Truck ${t.id} drives off now.`, status: `${t.id}: ${words(t.activity, true)}` })),
+      ...(plan && plan.falling_pallets ? plan.falling_pallets : []).map((f) => ({ id: f.pallet, kind: 'falling pallet', activity: 'waiting',
+        label: `Drop pallet ${f.pallet} now`, done: `Pallet ${f.pallet} falls from its rack now.`, status: `${f.pallet}: on its rack until it falls` })),
+    ];
+    document.getElementById('hazards').hidden = !(s.state === 'running' && s.mode === 'training' && hazards.length > 0);
+    for (const h of hazards) {
+      let item = hazardItems.get(h.id);
       if (!item) {
         const status = el('span', { class: 'small' });
-        const button = el('button', { type: 'button', class: 'secondary', 'data-pedestrian': p.id }, `Start pedestrian ${p.id} now`);
+        const attr = h.kind === 'pedestrian' ? 'data-pedestrian' : 'data-hazard';
+        const button = el('button', { type: 'button', class: 'secondary', [attr]: h.id }, h.label);
         button.addEventListener('click', () => {
           if (button.getAttribute('aria-disabled') === 'true') return;
-          instruct({ action: 'hazard', pedestrian: p.id }, `Pedestrian ${p.id} steps out now.`);
+          instruct({ action: 'hazard', hazard: h.id }, h.done);
         });
-        item = { li: el('li', { 'data-pedestrian': p.id }, button, ' ', status), button, status };
-        hazardItems.set(p.id, item);
+        item = { li: el('li', { [attr]: h.id, 'data-kind': h.kind }, button, ' ', status), button, status };
+        hazardItems.set(h.id, item);
         document.getElementById('hazard-list').append(item.li);
       }
-      item.status.textContent = `${p.id}: ${drawn ? drawn.activityWords(p.activity) : p.activity}`;
-      item.li.dataset.activity = p.activity;
-      item.button.setAttribute('aria-disabled', p.activity === 'waiting' ? 'false' : 'true');
+      item.status.textContent = h.status;
+      item.li.dataset.activity = h.activity;
+      item.button.setAttribute('aria-disabled', h.activity === 'waiting' ? 'false' : 'true');
     }
   }
 

@@ -36,6 +36,8 @@ const Vector3f kLoadColour{0.74f, 0.56f, 0.34f};  // cardboard
 // A walking person: fluorescent yellow-orange vest and sleeves (EN ISO 20471 hi-vis), dark
 // trousers, skin.
 const Vector3f kHiVisColour{1.0f, 0.72f, 0.0f}, kTrousersColour{0.12f, 0.14f, 0.22f}, kSkinColour{0.85f, 0.66f, 0.52f};
+// The other trucks: a body painted as trucks commonly are, under a dark guard.
+const Vector3f kOtherTruckColour{0.85f, 0.33f, 0.10f}, kGuardColour{0.15f, 0.15f, 0.15f};
 // The last 10 cm of each fork, painted as a training truck's are, so the tips read at 3 m
 // against the floor and a pallet's dark openings.
 const Vector3f kForkTipColour{0.98f, 0.62f, 0.05f};
@@ -413,6 +415,7 @@ struct Renderer::Impl {
   std::map<const Mesh*, GpuMesh*> by_mesh;
   GpuMesh* load_box = nullptr;
   GpuMesh* person = nullptr;  // the walking people's figure, when the scene has any
+  GpuMesh* other_truck = nullptr;  // the other trucks' box, when the scene has any
   // The truck; the guard, the mast and the carriage's frame can be drawn see-through.
   TruckBatch truck_batch;
 
@@ -521,6 +524,20 @@ struct Renderer::Impl {
     return add_mesh(g);
   }
 
+  // Another truck, 1 m every way in the frame other_truck_pose gives but standing on z = 0 (x
+  // along its length): a body to 0.55 of its height and the guard's posts and roof above;
+  // scaled to each one's size when drawn.
+  GpuMesh* other_truck_box() {
+    Geometry g;
+    const auto part = [&](double x0, double y0, double z0, double x1, double y1, double z1, const Vector3f& colour) {
+      g.add_box(Eigen::AlignedBox3d(Vector3d(x0, y0, z0), Vector3d(x1, y1, z1)), Isometry3d::Identity(), colour);
+    };
+    part(-0.5, -0.5, 0, 0.5, 0.5, 0.55, kOtherTruckColour);
+    for (double y : {-0.47, 0.43}) part(-0.3, y, 0.55, -0.26, y + 0.04, 0.96, kGuardColour);
+    part(-0.32, -0.5, 0.96, 0.1, 0.5, 1.0, kGuardColour);
+    return add_mesh(g);
+  }
+
   // One GPU mesh per scene mesh, painted with `pattern` (the first asked for it).
   GpuMesh* mesh_for(const std::shared_ptr<const Mesh>& mesh, render::Pattern pattern = render::Pattern::kPlain) {
     if (!mesh) return nullptr;
@@ -597,6 +614,7 @@ struct Renderer::Impl {
       }
     }
     if (!scene.pedestrians.empty()) person = person_figure();
+    if (!scene.trucks.empty()) other_truck = other_truck_box();
     plain_from = static_batch.parts.size();
     if (quality.textures)
       for (const SceneObject& o : scene.objects)
@@ -761,6 +779,22 @@ struct Renderer::Impl {
     }
   }
 
+  // The other trucks where the state has them (at their routes' starts when it has none), each
+  // box scaled to its size.
+  void place_trucks(const RenderState& state) {
+    if (!other_truck) return;
+    const std::vector<OtherTruckSpec>& specs = scene.trucks;
+    const std::vector<OtherTruckState> start = state.trucks.size() == specs.size() ? std::vector<OtherTruckState>{}
+                                                                                   : initial_trucks(specs);
+    const std::vector<OtherTruckState>& now = start.empty() ? state.trucks : start;
+    for (size_t i = 0; i < specs.size(); ++i) {
+      Eigen::Affine3d m(Eigen::Translation3d(now[i].at_m.x(), now[i].at_m.y(), 0));
+      m.rotate(Eigen::AngleAxisd(now[i].heading_rad, Vector3d::UnitZ()));
+      m.scale(specs[i].size_m);
+      other_truck->add(m);
+    }
+  }
+
   // `hazed`: a view from in the warehouse (driver, chase), where far things fade towards the sky.
   RgbxPixels draw(const RenderState& state, const BodyPoses& poses, const Camera& camera, bool hazed,
                   const ViewOptions& options = {}) {
@@ -782,6 +816,7 @@ struct Renderer::Impl {
       }
     }
     place_people(state);
+    place_trucks(state);
 
     // Depth range from what is in the scene this frame.
     Eigen::AlignedBox3d extent;

@@ -68,6 +68,27 @@ json make_plan(const std::string& file, const std::string& data_dir) {
     j["pedestrians"].push_back({{"id", p.id}, {"path", path}, {"speed_m_s", p.speed_m_s}, {"looks", p.looks},
                                 {"size_m", {mm(p.size_m.x()), mm(p.size_m.y()), mm(p.size_m.z())}}});
   }
+  // The other trucks' routes and the crossings, likewise.
+  j["trucks"] = json::array();
+  for (const OtherTruckSpec& t : scene.trucks) {
+    json route = json::array();
+    for (const auto& q : t.route) route.push_back(xy(q));
+    j["trucks"].push_back({{"id", t.id}, {"route", route}, {"loop", t.loop}, {"speed_m_s", t.speed_m_s},
+                           {"size_m", {mm(t.size_m.x()), mm(t.size_m.y()), mm(t.size_m.z())}}});
+  }
+  // The pallets that fall (the instructor may drop one): which, and where it stands.
+  j["falling_pallets"] = json::array();
+  for (const FallingPalletSpec& f : scene.falling_pallets) {
+    const SceneObject* o = scene.find(f.pallet);
+    j["falling_pallets"].push_back({{"pallet", f.pallet}, {"x_m", o ? mm(o->pose.translation().x()) : 0.0},
+                                    {"y_m", o ? mm(o->pose.translation().y()) : 0.0}});
+  }
+  j["crossings"] = json::array();
+  for (const Crossing& c : scene.crossings) {
+    json poly = json::array();
+    for (const auto& p : c.polygon) poly.push_back(xy(p));
+    j["crossings"].push_back({{"id", c.id}, {"polygon", poly}, {"priority", c.priority}});
+  }
   return j;
 }
 

@@ -1,6 +1,7 @@
 // Sessions in the cabs: starting one (with its truck and load), its record, path and event stills,
 // aborting it, following it live, its exam evidence, and the fleet that runs them.
 #include <cmath>
+#include <tuple>
 #include <filesystem>
 #include <iterator>
 #include <fstream>
@@ -290,23 +291,30 @@ void session_routes(Routes& svr, Context& ctx) {
     } else if (b.contains("text")) {
       throw ApiError(400, "bad_request", "'text' goes with a message only");
     }
+    std::string hazard_kind;
     if (*action == InstructorAction::kHazard) {
-      // One of the pedestrians of the scenario as this session runs it.
-      what.text = field<std::string>(b, "pedestrian");
+      // One of the hazards of the scenario as this session runs it, by its id: a pedestrian, a
+      // falling pallet or another truck ("pedestrian" is the older clients' name for the field).
+      const std::string key = b.contains("hazard") || !b.contains("pedestrian") ? "hazard" : "pedestrian";
+      what.text = field<std::string>(b, key.c_str());
       const auto scenario = ctx.db().get_session_log(s.public_id, "scenario");
       const json run = scenario ? json::parse(*scenario, nullptr, false) : json();
       std::string ids;
-      bool known = false;
-      if (run.is_object() && run.contains("pedestrians") && run["pedestrians"].is_array())
-        for (const json& person : run["pedestrians"])
-          if (person.is_object() && person.contains("id") && person["id"].is_string()) {
-            known = known || person["id"] == what.text;
-            ids += (ids.empty() ? "" : ", ") + person["id"].get<std::string>();
+      for (const auto& [list, id_key, kind] : {std::tuple{"pedestrians", "id", "pedestrian"},
+                                               std::tuple{"falling_pallets", "pallet", "falling pallet"},
+                                               std::tuple{"trucks", "id", "truck"}}) {
+        if (!run.is_object() || !run.contains(list) || !run[list].is_array()) continue;
+        for (const json& h : run[list])
+          if (h.is_object() && h.contains(id_key) && h[id_key].is_string()) {
+            if (h[id_key] == what.text && hazard_kind.empty()) hazard_kind = kind;
+            ids += (ids.empty() ? "" : ", ") + std::string(kind) + " " + h[id_key].get<std::string>();
           }
-      if (!known)
-        throw ApiError(400, "bad_request", "'pedestrian': scenario " + s.scenario + (ids.empty() ? " has no pedestrian" : " has " + ids + ", not '" + what.text + "'"));
-    } else if (b.contains("pedestrian")) {
-      throw ApiError(400, "bad_request", "'pedestrian' goes with a hazard only");
+      }
+      if (hazard_kind.empty() || (key == "pedestrian" && hazard_kind != "pedestrian"))
+        throw ApiError(400, "bad_request", "'" + key + "': scenario " + s.scenario +
+                                               (ids.empty() ? " has no hazard to start" : " has " + ids + ", not '" + what.text + "'"));
+    } else if (b.contains("pedestrian") || b.contains("hazard")) {
+      throw ApiError(400, "bad_request", std::string("'") + (b.contains("hazard") ? "hazard" : "pedestrian") + "' goes with a hazard only");
     }
     if (s.mode == Mode::kExam)
       throw ApiError(409, "exam", "session " + s.public_id + " is an exam: it runs as the examinee drives it, and may only be aborted");
@@ -319,7 +327,13 @@ void session_routes(Routes& svr, Context& ctx) {
                           : *action == InstructorAction::kHazard ? "hazard_started"
                                                                  : "instructor_message_sent";
     json details = {{"session", s.public_id}};
-    if (!what.text.empty()) details[*action == InstructorAction::kHazard ? "pedestrian" : "text"] = what.text;
+    if (*action == InstructorAction::kHazard) {
+      details["hazard"] = what.text;
+      details["hazard_kind"] = hazard_kind;
+      if (hazard_kind == "pedestrian") details["pedestrian"] = what.text;
+    } else if (!what.text.empty()) {
+      details["text"] = what.text;
+    }
     if (*action == InstructorAction::kRewind) details["seconds"] = what.seconds;
     ctx.db().batch([&] { audit(ctx.db(), p, s.pupil_id, audited, details); });
     json sent = {{"session", s.public_id}, {"action", word}, {"text", what.text}};
@@ -341,6 +355,13 @@ void session_routes(Routes& svr, Context& ctx) {
         people.push_back({{"id", std::string(q.id)}, {"x_m", q.x_m}, {"y_m", q.y_m}, {"heading_deg", q.heading_rad * 180 / M_PI},
                           {"activity", name(static_cast<PedestrianActivity>(q.activity))}});
       }
+      // The other trucks on their routes, likewise.
+      json trucks = json::array();
+      for (uint8_t i = 0; i < t.truck_count && i < std::size(t.trucks); ++i) {
+        const fk_OtherTruckSeen& q = t.trucks[i];
+        trucks.push_back({{"id", std::string(q.id)}, {"x_m", q.x_m}, {"y_m", q.y_m}, {"heading_deg", q.heading_rad * 180 / M_PI},
+                          {"activity", name(static_cast<TruckActivity>(q.activity))}});
+      }
       state = {{"sim_time_s", t.sim_time_s}, {"x_m", t.x_m}, {"y_m", t.y_m}, {"yaw_deg", t.yaw_rad * 180 / M_PI},
                {"speed_m_s", t.speed_m_s}, {"lift_m", t.lift_m}, {"tilt_deg", t.tilt_rad * 180 / M_PI},
                {"load_attached", t.load_attached}, {"load_mass_kg", t.load_mass_kg}, {"stability_margin", t.stability_margin},
@@ -349,7 +370,7 @@ void session_routes(Routes& svr, Context& ctx) {
                // what the pupil is at: the steps of the task done, and the current one in words
                {"task", {{"steps_done", t.task_steps_done}, {"steps_total", t.task_steps_total}, {"step", std::string(t.task_step)}}},
                {"time_left_s", t.time_left_s < 0 ? json(nullptr) : json(t.time_left_s)},
-               {"pedestrians", people}};
+               {"pedestrians", people}, {"trucks", trucks}};
     }
     send_json(res, 200, {{"session", s.public_id}, {"state", state}, {"frame_available", !v.jpeg.empty()},
                          {"frame_seq", v.frame_seq}, {"frame_sim_time_s", v.frame_sim_time_s}});

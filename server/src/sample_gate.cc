@@ -223,6 +223,19 @@ bool SampleGate::truck_state(const fk_TruckState& t, const dds_sample_info_t& in
       return false;
     }
   }
+  // And the other trucks' list, as the pedestrians'.
+  if (t.truck_count > std::size(t.trucks)) {
+    malformed("fk_TruckState", "a truck state with more other trucks than it holds");
+    return false;
+  }
+  for (uint8_t i = 0; i < t.truck_count; ++i) {
+    const fk_OtherTruckSeen& o = t.trucks[i];
+    if (!finite({o.x_m, o.y_m, o.heading_rad}) || o.activity > static_cast<uint8_t>(TruckActivity::kStruck) ||
+        bad_text({{"another truck's id", o.id}})) {
+      malformed("fk_TruckState", "a truck state with another truck not finite, of no known activity or whose id is not UTF-8");
+      return false;
+    }
+  }
   return true;
 }
 

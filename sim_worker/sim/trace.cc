@@ -4,7 +4,7 @@
 // tick through the same step() the worker ran (replay_session, so bit for bit what the pupil
 // drove), and sampled every `--every` seconds of sim time: where the chassis stood and faced, the
 // forks' tips and height, the mast's tilt, the speed, which pallet was on the forks, every
-// pallet's pose, and where each pedestrian was and what he was doing. The server runs it once per session and keeps the result; the session page
+// pallet's pose, where each pedestrian was and what he was doing, and each other truck. The server runs it once per session and keeps the result; the session page
 // scrubs through it.
 #include "trace.h"
 
@@ -42,6 +42,10 @@ json sample_json(const SessionModel& model, const SessionState& state, const Ses
   json people = json::array();
   for (const PedestrianState& p : state.pedestrians)
     people.push_back({mm(p.at_m.x()), mm(p.at_m.y()), deg(p.heading_rad), name(activity_of(p))});
+  // And the other trucks as it drove them.
+  json trucks = json::array();
+  for (const OtherTruckState& t : state.trucks)
+    trucks.push_back({mm(t.at_m.x()), mm(t.at_m.y()), deg(t.heading_rad), name(activity_of(t))});
   // x, y and yaw as the worker's truck state and the stored path give them (the chassis's centre
   // of gravity); body_m: the chassis frame's origin, which the footprint is drawn from.
   return {{"t", mm(state.t_s)},
@@ -59,7 +63,8 @@ json sample_json(const SessionModel& model, const SessionState& state, const Ses
           {"fork_tip_m", {mm(tip.x()), mm(tip.y())}},
           {"load", on_forks.empty() ? json(nullptr) : json(on_forks)},
           {"pallets", pallets},
-          {"pedestrians", people}};
+          {"pedestrians", people},
+          {"trucks", trucks}};
 }
 
 }  // namespace
@@ -85,8 +90,10 @@ int trace_main(const TraceOptions& o, const std::string& data_dir) {
   }
   // A sample at every `every_ticks`-th tick: at 0.1 s, 0.2 s, ... of sim time.
   const int64_t every_ticks = std::max<int64_t>(1, std::llround(o.every_s / model->tick_s));
-  json samples = json::array(), pallet_ids = json::array(), pedestrian_ids = json::array(), rewinds = json::array();
+  json samples = json::array(), pallet_ids = json::array(), pedestrian_ids = json::array(), truck_ids = json::array(),
+       rewinds = json::array();
   for (const PedestrianSpec& p : model->scene.pedestrians) pedestrian_ids.push_back(p.id);
+  for (const OtherTruckSpec& t : model->scene.trucks) truck_ids.push_back(t.id);
   for (const auto& [tick, what] : log.instructions)
     if (what.action == InstructorAction::kRewind)
       rewinds.push_back({{"from_s", tick * model->tick_s}, {"to_s", what.to_tick * model->tick_s}});
@@ -126,6 +133,7 @@ int trace_main(const TraceOptions& o, const std::string& data_dir) {
         {"fork_width_m", model->shape.fork_width_m}}},
       {"pallet_ids", pallet_ids},
       {"pedestrian_ids", pedestrian_ids},
+      {"truck_ids", truck_ids},
       {"rewinds", rewinds},
       {"samples", samples}};
   std::cout << out.dump() << '\n';

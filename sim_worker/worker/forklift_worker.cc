@@ -465,7 +465,7 @@ int main(int argc, char** argv) {
           }
           run.instruct(*what);
           ++hazards;
-          log_line(cab, who + " set pedestrian " + what->text + " walking" + at);
+          log_line(cab, who + " started the scenario's hazard " + what->text + at);
           return;
         }
         run.instruct(*what);

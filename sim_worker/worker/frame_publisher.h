@@ -90,6 +90,7 @@ class FramePublisher {
     state_.q = coordinates_of(s);
     state_.pallets = s.handling.pallets();
     state_.pedestrians = s.pedestrians;
+    state_.trucks = s.trucks;
     t_ = s.t_s;
   }
   // The cab's wish: frames as `r` asks, or none (nullopt). Aids not granted are ignored.

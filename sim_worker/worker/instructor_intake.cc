@@ -28,8 +28,9 @@ std::optional<std::string> InstructorIntake::problem(const fk_InstructorAction& 
     out.text = a.text;
     if (const auto p = instructor_message_problem(out.text, message_max_chars_)) return *p;
   } else if (*action == InstructorAction::kHazard) {
-    out.text = a.text;  // which pedestrian: the worker knows the scene's (SessionRun::hazard_problem)
-    if (instructor_message_problem(out.text, kSceneIdMaxChars)) return "a hazard names the scenario's pedestrian by his id";
+    out.text = a.text;  // which hazard: the worker knows the scene's (SessionRun::hazard_problem)
+    if (instructor_message_problem(out.text, kSceneIdMaxChars))
+      return "a hazard names the scenario's pedestrian, falling pallet or truck by its id";
   } else if (a.text[0]) {
     return "a " + std::string(a.action) + " takes no text";
   }

@@ -9,6 +9,23 @@
 #include "forklift/dynamics/stability.h"
 
 namespace forklift::worker {
+namespace {
+
+// The scene's moving hazards of one kind as a state carries them (the first N, in the scene's
+// order): id, place, heading and what each is doing.
+template <class Spec, class State, class Seen, size_t N>
+void list_seen(const std::vector<Spec>& specs, const std::vector<State>& states, Seen (&out)[N], uint8_t& count) {
+  for (size_t i = 0; i < specs.size() && i < states.size() && count < N; ++i) {
+    Seen& seen = out[count++];
+    dds::set_string(seen.id, specs[i].id);
+    seen.x_m = states[i].at_m.x();
+    seen.y_m = states[i].at_m.y();
+    seen.heading_rad = states[i].heading_rad;
+    seen.activity = static_cast<uint8_t>(activity_of(states[i]));
+  }
+}
+
+}  // namespace
 
 fk_TruckState truck_state(const SessionRun& run, const std::string& cab, const std::string& session, double time_limit_s,
                           uint8_t aids) {
@@ -49,16 +66,9 @@ fk_TruckState truck_state(const SessionRun& run, const std::string& cab, const s
   s.aids = aids;
   // The people who move, as the session walks them: the instructor's live view and the cab's
   // sound (an exam's examiner sees them too: they are the scene, not an aid).
-  const std::vector<PedestrianSpec>& people = model.scene.pedestrians;
-  for (size_t i = 0; i < people.size() && i < state.pedestrians.size() && s.pedestrian_count < std::size(s.pedestrians); ++i) {
-    fk_PedestrianSeen& seen = s.pedestrians[s.pedestrian_count++];
-    const PedestrianState& p = state.pedestrians[i];
-    dds::set_string(seen.id, people[i].id);
-    seen.x_m = p.at_m.x();
-    seen.y_m = p.at_m.y();
-    seen.heading_rad = p.heading_rad;
-    seen.activity = static_cast<uint8_t>(activity_of(p));
-  }
+  list_seen(model.scene.pedestrians, state.pedestrians, s.pedestrians, s.pedestrian_count);
+  // And the other trucks on their routes.
+  list_seen(model.scene.trucks, state.trucks, s.trucks, s.truck_count);
   // Lining up with a pallet: a learning aid, never in an exam. It follows the task: the pallet
   // the current step is about, wherever it is (another nearer is not the one to take); with no
   // such step, the nearest ahead.

@@ -128,6 +128,31 @@ TEST(Sound, TheNearestPedestrianWithinHearingIsTheOneHeard) {
   EXPECT_LT(in.pedestrian_m, 0);
 }
 
+// Another truck driving near is heard, louder the nearer; one standing, waiting or beyond hearing
+// is not.
+TEST(Sound, AnotherTruckDrivingNearIsHeardAndOneStandingIsNot) {
+  const SoundSettings set = shipped_settings();
+  const auto with_truck = [&](double x_m, forklift::TruckActivity activity, const std::string& name) {
+    fk_TruckState s{};
+    s.truck_count = 1;
+    forklift::dds::set_string(s.trucks[0].id, "T1");
+    s.trucks[0].x_m = x_m;
+    s.trucks[0].activity = static_cast<uint8_t>(activity);
+    SoundInputs in;
+    trucks_heard(s, set, in);
+    return record(in, name, 0.3);
+  };
+  using forklift::TruckActivity;
+  const auto near = with_truck(3.0, TruckActivity::kDriving, "truck_near.raw");
+  const auto farther = with_truck(9.0, TruckActivity::kDriving, "truck_farther.raw");
+  ASSERT_GT(near.size(), 1000u);
+  EXPECT_GT(rms(near), 1.5 * rms(farther)) << "louder the nearer";
+  EXPECT_GT(rms(farther), 1e-4) << "9 m is within hearing";
+  EXPECT_LT(rms(with_truck(set.truck_heard_within_m + 3, TruckActivity::kDriving, "truck_beyond.raw")), 1e-4);
+  EXPECT_LT(rms(with_truck(3.0, TruckActivity::kGivingWay, "truck_giving_way.raw")), 1e-4);
+  EXPECT_LT(rms(with_truck(3.0, TruckActivity::kWaiting, "truck_waiting.raw")), 1e-4);
+}
+
 TEST(Sound, TheMotorWhinesHigherWithSpeed) {
   SoundInputs slow;
   slow.running = true;

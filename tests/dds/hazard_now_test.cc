@@ -53,7 +53,8 @@ bool states_until(dds::Reader<fk_TruckState>& states, const std::string& session
 // The walkway's pedestrian on pedestrian_awareness waits for the truck within 8 m; the truck
 // stands 10 m off, so only the instructor's hand sets him walking. The first state after the
 // request that shows him walking is at most 100 ms of sim time after the newest state before
-// it, and he walks north along his path from there.
+// it, and he walks north along his path from there. The scenario's falling pallet and truck are
+// started by their ids the same way, and an id it has not is refused in words.
 TEST(HazardNow, TheInstructorsHazardThroughTheApiWalksThePedestrianInTheNextStates) {
   Server s("hazard-now");
   const std::string admin = s.login("admin", forklift_test::kAdminPassword);
@@ -126,5 +127,21 @@ TEST(HazardNow, TheInstructorsHazardThroughTheApiWalksThePedestrianInTheNextStat
   EXPECT_GT(person(later, "W1")->y_m, start_y + 0.9) << "about 1.2 m/s north for a second";
   EXPECT_NEAR(person(later, "W1")->heading_rad, M_PI / 2, 1e-9) << "facing north, along his path";
   EXPECT_TRUE(s.live_until(admin, id, [](const json& t) { return t["pedestrians"][0]["activity"] == "walking"; }));
+
+  // Any of the scenario's hazards by its id: the falling pallet and the truck (both the
+  // instructor's alone: their triggers are an hour off); an id it has not is refused in words.
+  const auto [unknown, why] = s.call("POST", path, admin, json{{"action", "hazard"}, {"hazard", "P99"}}.dump());
+  EXPECT_EQ(unknown, 400) << why;
+  EXPECT_NE(why.dump().find("scenario pedestrian_awareness has pedestrian W1, falling pallet P2, truck T1, not 'P99'"), std::string::npos)
+      << why;
+  EXPECT_EQ(s.call("POST", path, admin, json{{"action", "hazard"}, {"pedestrian", "P2"}}.dump()).first, 400)
+      << "'pedestrian' names a pedestrian";
+  const auto [pallet, dropped] = s.call("POST", path, admin, json{{"action", "hazard"}, {"hazard", "P2"}}.dump());
+  EXPECT_EQ(pallet, 200) << dropped;
+  ASSERT_EQ(s.call("POST", path, admin, json{{"action", "hazard"}, {"hazard", "T1"}}.dump()).first, 200);
+  EXPECT_TRUE(states_until(states, id, 10, [](const fk_TruckState& t) {
+    return t.truck_count == 1 && std::string(t.trucks[0].id) == "T1" && t.trucks[0].activity == static_cast<uint8_t>(TruckActivity::kDriving);
+  })) << "T1 never drove";
+  EXPECT_TRUE(s.live_until(admin, id, [](const json& t) { return t["trucks"].size() == 1 && t["trucks"][0]["activity"] == "driving"; }));
   EXPECT_EQ(s.call("POST", "/api/sessions/" + id + "/abort", admin).first, 200);
 }

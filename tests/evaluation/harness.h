@@ -404,9 +404,21 @@ struct Driver {
                  },
                  [&] { return (target - s.pos()).norm() <= radius; });
   }
-  void stop(double max_s = 10) {
-    s.run(max_s, [&] { Controls c = levers(); speed(c, 0); c.steer_rad = s.c.steer_rad; return c; },
-          [&] { return std::abs(s.v()) < 0.003; });
+  void stop(double max_s = 10) { hold([&] { return std::abs(s.v()) < 0.003; }, max_s); }
+  // Braked, the levers and the wheel held, until `done`.
+  void hold(const std::function<bool()>& done, double max_s = 60) {
+    s.run(max_s, [&] { Controls c = levers(); speed(c, 0); c.steer_rad = s.c.steer_rad; return c; }, done);
+  }
+  // Ahead along the line y = `lane` (heading +x) at `v` until `done`; the levers held.
+  void along(double v, double lane, const std::function<bool()>& done, double max_s = 60) {
+    s.run(max_s,
+          [&] {
+            Controls c = levers();
+            speed(c, v);
+            c.steer_rad = steer_to_line(lane);
+            return c;
+          },
+          done);
   }
   // Levers to their targets with the truck braked.
   void settle_levers(double max_s = 20) {

@@ -22,21 +22,12 @@ const std::string kCleanScript = "pedestrian_awareness_clean.csv";
 const std::string kFaultyScript = "pedestrian_awareness_faults.csv";
 
 // Ahead along the line y = `lane` (heading +x) at `v` until `done`; forks held.
-void drive(Session& s, Driver& d, double v, double lane, const std::function<bool()>& done, double max_s = 60) {
-  s.run(max_s,
-        [&] {
-          Controls c = d.levers();
-          d.speed(c, v);
-          c.steer_rad = d.steer_to_line(lane);
-          return c;
-        },
-        done);
+void drive(Session&, Driver& d, double v, double lane, const std::function<bool()>& done, double max_s = 60) {
+  d.along(v, lane, done, max_s);
 }
 
 // Braked, forks held, until `done`.
-void hold(Session& s, Driver& d, const std::function<bool()>& done, double max_s = 60) {
-  s.run(max_s, [&] { Controls c = d.levers(); d.speed(c, 0); c.steer_rad = s.c.steer_rad; return c; }, done);
-}
+void hold(Session&, Driver& d, const std::function<bool()>& done, double max_s = 60) { d.hold(done, max_s); }
 
 const PedestrianState& walker(const Session& s) { return s.state.pedestrians.at(0); }
 

@@ -669,6 +669,36 @@ TEST(Renderer, WalkingPeopleAreHiVisFiguresWhereTheStatePutsThem) {
   EXPECT_EQ(ahead(b), 0.0) << "gone from where he stood";
 }
 
+TEST(Renderer, OtherTrucksAreBoxesOfTheirSizeWhereTheStatePutsThem) {
+  Scene scene = floor_scene();
+  OtherTruckSpec t;
+  t.id = "T1";
+  t.route = {Vector2d(8, 0), Vector2d(8, 10)};
+  t.speed_m_s = 2.0;
+  scene.trucks.push_back(t);
+  Renderer r(scene, test_truck_shape(), truck());
+  // The body's orange-red: red strong, green well below it, blue lower still (the training
+  // truck's yellow has green near its red; the floor is grey, the sky blue).
+  auto body = [](const uint8_t* p) { return p[0] > 100 && p[0] > p[1] + 50 && p[1] > p[2]; };
+  const auto ahead = [&](const Image& im) { return fraction(im, 0.35, 0.2, 0.65, 0.8, body); };
+  const auto left = [&](const Image& im) { return fraction(im, 0.0, 0.2, 0.35, 0.8, body); };
+
+  // No states: at its route's start, straight ahead, across the view.
+  RenderState state = truck_at(0, 0, 0);
+  const Image& a = r.render(state, View::kDriver);
+  dump("other_truck_at_start", a);
+  EXPECT_GT(ahead(a), 0.01);
+  EXPECT_EQ(left(a), 0.0);
+
+  // Driven 5 m to the left.
+  state.trucks = initial_trucks(scene.trucks);
+  state.trucks[0].at_m = Vector2d(8, 5);
+  const Image& b = r.render(state, View::kDriver);
+  dump("other_truck_driven", b);
+  EXPECT_GT(left(b), 0.005);
+  EXPECT_EQ(ahead(b), 0.0) << "gone from where it stood";
+}
+
 // ---- the plan view and the floor's paint ----------------------------------------------------
 
 TEST(Renderer, PlanViewShowsConcaveWalkwayStriped) {

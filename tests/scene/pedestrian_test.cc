@@ -11,32 +11,17 @@
 #include <fstream>
 
 #include "forklift/scene/pedestrians.h"
+#include "pupil_truck.h"
 
 using namespace forklift;
+using forklift::scene_test::outline;
+using forklift::scene_test::truck_at;
 namespace fs = std::filesystem;
 
 namespace {
 
 const std::string kData = FORKLIFT_DATA_DIR;
 constexpr double kTick = 1e-3;
-
-// A truck of boxes: the chassis 2.6 m long and 1.1 m wide behind its origin, forks 1.2 m ahead.
-TruckOutline outline() {
-  TruckOutline o;
-  o.chassis_m = Eigen::AlignedBox2d(Eigen::Vector2d(-2.5, -0.55), Eigen::Vector2d(0.1, 0.55));
-  o.forks_m = Eigen::AlignedBox2d(Eigen::Vector2d(0, -0.25), Eigen::Vector2d(1.2, 0.25));
-  return o;
-}
-
-// The truck's chassis origin at (x, y), heading +x; the fork heel 0.5 m ahead of it.
-BodyPoses truck_at(double x, double y) {
-  BodyPoses p;
-  p.chassis = Eigen::Isometry3d(Eigen::Translation3d(x, y, 0.3));
-  p.mast = p.chassis;
-  p.carriage = Eigen::Isometry3d(Eigen::Translation3d(x + 0.5, y, 0.2));
-  for (auto& w : p.wheels) w = p.chassis;
-  return p;
-}
 
 PedestrianSpec crosser(bool looks) {
   PedestrianSpec s;
@@ -234,18 +219,7 @@ TEST(Pedestrians, DistanceToTheTruckIsToItsOutline) {
 // --- the loader ---
 
 std::string load_error(const std::string& pedestrian) {
-  const fs::path dir = fs::temp_directory_path() / ("pedestrian_test_" + std::to_string(getpid()));
-  fs::create_directories(dir);
-  const std::string path = (dir / "people.json").string();
-  std::ofstream(path) << R"({"truck": "trucks/linde_e16c.json", "pedestrians": [)" << pedestrian << "]}";
-  try {
-    load_scene(path, kData);
-  } catch (const SceneError& e) {
-    fs::remove_all(dir);
-    return e.what();
-  }
-  fs::remove_all(dir);
-  return "(no error)";
+  return scene_test::load_error("people.json", R"({"truck": "trucks/linde_e16c.json", "pedestrians": [)" + pedestrian + "]}");
 }
 
 TEST(Pedestrians, TheLoaderReadsEveryKey) {

@@ -68,6 +68,13 @@ try {
     check(await page.$('#plan-svg polyline[data-walk="W1"]') !== null, 'his path is on the plan');
     check(/W1 waiting/.test(await page.textContent('#live-people')), 'the live facts say he waits');
     await page.waitForSelector('#hazards:not([hidden]) li[data-pedestrian="W1"][data-activity="waiting"]');
+    // The scenario's other hazards, the instructor's alone: the truck on aisle A (its route and
+    // its box waiting at the start) and the pallet that falls, each listed with words.
+    check(await page.$('#plan-svg polygon[data-route="T1"]') !== null, "T1's route is on the plan");
+    await page.waitForSelector('#plan-svg rect.other-truck[data-truck="T1"][data-activity="waiting"]');
+    check(/Start truck T1 now/.test(await page.textContent('#hazard-list button[data-hazard="T1"]')), 'the truck is listed');
+    check(/T1: waiting for its cue/.test(await page.textContent('li[data-hazard="T1"]')), 'in words');
+    check(/Drop pallet P2 now/.test(await page.textContent('#hazard-list button[data-hazard="P2"]')), 'the falling pallet is listed');
   });
 
   await step('the live page with its hazard list passes axe-core', async () => {
@@ -112,6 +119,7 @@ try {
     forget(/(HTTP 409 for GET .*\/live$|HTTP 503 for GET .*\/replay$|status of (409|503) )/);
     const replay = await api('GET', `/sessions/${session.id}/replay`, ines);
     check(JSON.stringify(replay.pedestrian_ids) === '["W1"]', `the replay names him: ${replay.pedestrian_ids}`);
+    check(JSON.stringify(replay.truck_ids) === '["T1"]', `and the truck: ${replay.truck_ids}`);
     const started = replay.samples.findIndex((s) => s.pedestrians[0][3] === 'walking');
     check(started > 2, `he starts walking part way: sample ${started}`);
     for (const sample of [replay.samples[1], replay.samples[started + 5]]) {

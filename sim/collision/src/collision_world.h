@@ -49,7 +49,7 @@ struct RawContact {
   int part = 0;
   Body body = Body::kChassis;
   int object = 0;  // index into Scene::objects (when person < 0)
-  int person = -1; // index into Scene::pedestrians: a person struck
+  int person = -1; // index into the bodies place_people was given: a person (or another truck) struck
   Eigen::Vector3d point = Eigen::Vector3d::Zero();   // world
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ(); // world, from the object towards the truck
   double depth = 0;
@@ -70,8 +70,8 @@ class CollisionWorld {
   // Moves the truck's boxes (and the carried pallet's, at `load_pose`) and finds the scene
   // boxes near the truck. Then nearby_pallets() lists the free pallets near it.
   virtual void place_truck(const BodyPoses& poses, const Eigen::Isometry3d& load_pose) = 0;
-  // The people's bodies this tick, one per Scene::pedestrians, each a box at its world pose
-  // (LocalBox::centre). contacts() tests them against the truck's parts and the carried load.
+  // The people's bodies this tick, one per Scene::pedestrians, then the other trucks' (one per
+  // Scene::trucks), each a box at its world pose (LocalBox::centre). contacts() tests them against the truck's parts and the carried load.
   virtual void place_people(const std::vector<LocalBox>& bodies) = 0;
   virtual const std::vector<int>& nearby_pallets() const = 0;
 

@@ -99,7 +99,7 @@ class FclWorld final : public CollisionWorld {
   std::vector<TruckBox> truck_;
   std::vector<std::unique_ptr<SceneBox>> static_;
   std::vector<std::vector<std::unique_ptr<SceneBox>>> pallet_;  // per pallet
-  std::vector<std::unique_ptr<SceneBox>> people_;  // per pedestrian, moved every tick; few, so no broad phase
+  std::vector<std::unique_ptr<SceneBox>> people_;  // per pedestrian and other truck, moved every tick; few, so no broad phase
   std::unique_ptr<fcl::DynamicAABBTreeCollisionManagerd> static_manager_, pallet_manager_;
   int carried_ = -1;
 
@@ -258,6 +258,8 @@ void FclWorld::place_people(const std::vector<LocalBox>& bodies) {
   people_.resize(bodies.size());
   for (size_t i = 0; i < bodies.size(); ++i) {
     SceneBox& sb = *people_[i];
+    // A body of another size in this place (people and trucks share the list): its own shape.
+    if (sb.box.half != bodies[i].half) sb.obj = make_object(LocalBox{Isometry3d::Identity(), bodies[i].half}, Isometry3d::Identity());
     sb.box = bodies[i];
     sb.obj->setTransform(to_fcl(bodies[i].centre));
     sb.obj->computeAABB();

@@ -130,8 +130,10 @@ struct Warehouse::Impl : HandlingState::Data {
 
   StepReport report;
   std::vector<collision::RawContact> raw;
-  std::vector<collision::LocalBox> people_boxes;       // scratch, per pedestrian
+  std::vector<collision::LocalBox> people_boxes;       // scratch, per pedestrian then per other truck
   const std::vector<PedestrianState>* people = nullptr;  // this step's, when the scene has any
+  const std::vector<OtherTruckState>* trucks = nullptr;  // this step's, when the scene has any
+  size_t people_placed = 0;                              // the first people_boxes are people, the rest trucks
 
   Impl(const Scene& s, const TruckShape& shape, const TruckParams& t) : scene(s), truck(t) {
     forks = collision::fork_boxes(shape);
@@ -192,15 +194,20 @@ struct Warehouse::Impl : HandlingState::Data {
 
   Isometry3d load_pose(const Isometry3d& carriage) const { return carriage * along_x(slide_m) * rel; }
 
-  // The people's bodies where this step's states stand them (none without states: nobody to
-  // strike, as in contacts_at).
+  // The people's bodies, then the other trucks', where this step's states stand them (none
+  // without states: nobody to strike, as in contacts_at).
   void place_people() {
-    if (scene.pedestrians.empty()) return;
-    people_boxes.resize(people ? scene.pedestrians.size() : 0);
-    for (size_t i = 0; i < people_boxes.size(); ++i) {
+    if (scene.pedestrians.empty() && scene.trucks.empty()) return;
+    people_placed = people ? scene.pedestrians.size() : 0;
+    people_boxes.resize(people_placed + (trucks ? scene.trucks.size() : 0));
+    for (size_t i = 0; i < people_placed; ++i) {
       const PedestrianSpec& spec = scene.pedestrians[i];
       // Local x chest to back, y across the shoulders (pedestrian_body_pose).
       people_boxes[i] = {pedestrian_body_pose(spec, (*people)[i]), 0.5 * Vector3d(spec.size_m.y(), spec.size_m.x(), spec.size_m.z())};
+    }
+    for (size_t i = people_placed; i < people_boxes.size(); ++i) {
+      const OtherTruckSpec& spec = scene.trucks[i - people_placed];
+      people_boxes[i] = {other_truck_pose(spec, (*trucks)[i - people_placed]), 0.5 * spec.size_m};
     }
     world->place_people(people_boxes);
   }
@@ -226,7 +233,14 @@ struct Warehouse::Impl : HandlingState::Data {
       Contact c;
       c.truck_part = collision::part_name(r.part);
       Vector3d person_v = Vector3d::Zero();
-      if (r.person >= 0) {
+      if (r.person >= int(people_placed)) {
+        const int t = r.person - int(people_placed);
+        c.object_id = scene.trucks[t].id;
+        c.object_kind = ObjectKind::kObstacle;  // pushes back as one
+        c.other_truck = t;
+        const OtherTruckState& o = (*trucks)[t];
+        person_v = o.speed_m_s * Vector3d(std::cos(o.heading_rad), std::sin(o.heading_rad), 0);
+      } else if (r.person >= 0) {
         c.object_id = scene.pedestrians[r.person].id;
         c.object_kind = ObjectKind::kPedestrian;
         c.pedestrian = r.person;
@@ -437,15 +451,20 @@ Warehouse::Warehouse(const Scene& scene, const TruckShape& shape, const TruckPar
 }
 Warehouse::~Warehouse() = default;
 
-const StepReport& Warehouse::step(const Simulation& sim, HandlingState& state, const std::vector<PedestrianState>& people) {
+const StepReport& Warehouse::step(const Simulation& sim, HandlingState& state, const std::vector<PedestrianState>& people,
+                                  const std::vector<OtherTruckState>& trucks) {
   if (people.size() != impl_->scene.pedestrians.size() && !people.empty())
     throw std::logic_error("Warehouse::step: one pedestrian state per scene pedestrian");
+  if (trucks.size() != impl_->scene.trucks.size() && !trucks.empty())
+    throw std::logic_error("Warehouse::step: one truck state per scene truck");
   // Read during this step only.
   struct People {
     const std::vector<PedestrianState>*& p;
-    ~People() { p = nullptr; }
-  } hold{impl_->people};
+    const std::vector<OtherTruckState>*& t;
+    ~People() { p = nullptr; t = nullptr; }
+  } hold{impl_->people, impl_->trucks};
   impl_->people = people.empty() ? nullptr : &people;
+  impl_->trucks = trucks.empty() ? nullptr : &trucks;
   // The session's state in the warehouse for the step, and back afterwards (an exception too).
   struct Borrow {
     HandlingState::Data& mine;

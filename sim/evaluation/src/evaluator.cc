@@ -103,6 +103,7 @@ struct EvaluationMemory::Data {
   std::vector<Episode> episodes;  // per scene object
   std::vector<int> active_episodes;
   std::vector<Episode> people_episodes;  // per walking pedestrian
+  std::vector<Episode> truck_episodes;   // per other truck
   Debounce near_pedestrian, pedestrian_in_path, pedestrian_at_object, under_forks;
   // One passage through a marker (blind corner, door, cross aisle) from the truck's CoG entering
   // its area; leaving and entering again within the horn rule's clear_time_s is the same one.
@@ -112,6 +113,7 @@ struct EvaluationMemory::Data {
     double entered_t = 0, left_t = -std::numeric_limits<double>::infinity();
   };
   std::vector<Passage> passages;  // per scene marker
+  std::vector<Passage> crossing_passages;  // per scene crossing (only inside and left_t are used)
   double last_horn_t = -std::numeric_limits<double>::infinity();  // the horn last sounded
   Debounce marker_speed;
 
@@ -209,6 +211,8 @@ struct Evaluator::Impl : EvaluationMemory::Data {
     for (size_t i = 0; i < scene.objects.size(); ++i) object_index.emplace(scene.objects[i].id, int(i));
     episodes.resize(scene.objects.size());
     people_episodes.resize(scene.pedestrians.size());
+    truck_episodes.resize(scene.trucks.size());
+    crossing_passages.resize(scene.crossings.size());
     outline = truck_outline(shape);
     active_episodes.reserve(scene.objects.size());
     for (const Zone& z : scene.zones) {
@@ -295,6 +299,10 @@ struct Evaluator::Impl : EvaluationMemory::Data {
         struck(in, c, out);
         continue;
       }
+      if (c.other_truck >= 0) {
+        truck_struck(in, c, out);
+        continue;
+      }
       const auto it = object_index.find(c.object_id);
       if (it == object_index.end()) continue;  // not a scene object (cannot happen with the Warehouse)
       Episode& ep = episodes[it->second];
@@ -359,15 +367,20 @@ struct Evaluator::Impl : EvaluationMemory::Data {
     }
   }
 
+  // A contact at `t` with a body that moves (a person, another truck): whether it begins an
+  // episode, which ends after `clear_s` without one.
+  static bool new_episode(Episode& ep, double t, double clear_s) {
+    const bool was_active = ep.active && t - ep.last_contact_t < clear_s;
+    ep.active = true;
+    ep.last_contact_t = t;
+    return !was_active;
+  }
+
   // A walking person struck: one event per person per contact episode (an episode ends after
   // clear_time_s without a contact with that person); never graded down to a touch.
   void struck(const TickInput& in, const Contact& c, std::vector<EvaluationEvent>& out) {
     const RuleKey k = ev::kPedestrianStruck;
-    Episode& ep = people_episodes[c.pedestrian];
-    const bool was_active = ep.active && in.t_s - ep.last_contact_t < th(k, "clear_time_s");
-    ep.active = true;
-    ep.last_contact_t = in.t_s;
-    if (was_active) return;
+    if (!new_episode(people_episodes[c.pedestrian], in.t_s, th(k, "clear_time_s"))) return;
     const PedestrianSpec& p = scene.pedestrians[c.pedestrian];
     emit(k, in.t_s, c.point_m.head<2>(),
          {{"pedestrian", p.id},
@@ -375,6 +388,73 @@ struct Evaluator::Impl : EvaluationMemory::Data {
           {"truck_part", c.truck_part},
           {"measured", {{"impact_speed_m_s", round6(c.relative_speed_m_s)}, {"depth_m", round6(c.depth_m)}}}},
          out);
+  }
+
+  // Another truck struck: one event per truck per contact episode (an episode ends after
+  // clear_time_s without a contact with it), graded by the impact's speed as the course's objects
+  // (violent_collision from its impact speed).
+  void truck_struck(const TickInput& in, const Contact& c, std::vector<EvaluationEvent>& out) {
+    const RuleKey k = ev::kCollisionTruck;
+    if (!new_episode(truck_episodes[c.other_truck], in.t_s, th(k, "clear_time_s"))) return;
+    const double hard = th(k, "hard_impact_speed_m_s"), violent = th(ev::kViolentCollision, "impact_speed_m_s");
+    const bool is_hard = c.relative_speed_m_s >= hard;
+    if (c.relative_speed_m_s >= violent) {
+      emit(ev::kViolentCollision, in.t_s, c.point_m.head<2>(),
+           {{"object", scene.trucks[c.other_truck].id},
+            {"object_kind", "truck"},
+            {"truck_part", c.truck_part},
+            {"measured", {{"impact_speed_m_s", round6(c.relative_speed_m_s)}, {"depth_m", round6(c.depth_m)}}},
+            {"thresholds", {{"impact_speed_m_s", violent}}}},
+           out);
+      return;
+    }
+    emit(k, in.t_s, c.point_m.head<2>(),
+         {{"truck", scene.trucks[c.other_truck].id},
+          {"truck_part", c.truck_part},
+          {"grade", is_hard ? "hard impact" : "touch"},
+          {"measured", {{"impact_speed_m_s", round6(c.relative_speed_m_s)}, {"depth_m", round6(c.depth_m)}}},
+          {"thresholds", {{"hard_impact_speed_m_s", hard}}}},
+         out, is_hard ? int(th(k, "hard_impact_worry_level")) : -1);
+  }
+
+  // Giving way at a crossing where the traffic goes first: the truck's CoG entering its area while
+  // another truck that is driving or waiting to (started, not arrived, not struck), not yet past
+  // the crossing's middle, has its body within priority_within_m of that middle. A truck that
+  // leaves and enters again within clear_time_s is on the same passage.
+  void crossings(const TickInput& in, bool first, std::vector<EvaluationEvent>& out) {
+    if (scene.crossings.empty()) return;
+    const RuleKey k = ev::kGiveWayAtCrossing;
+    const Eigen::Vector2d p = in.out.q.head<2>();
+    for (size_t i = 0; i < scene.crossings.size(); ++i) {
+      const Crossing& x = scene.crossings[i];
+      Passage& ps = crossing_passages[i];
+      const bool inside = x.contains(p);
+      const bool entering = inside && !ps.inside && !first && in.t_s - ps.left_t >= th(k, "clear_time_s");
+      if (!inside && ps.inside) ps.left_t = in.t_s;
+      ps.inside = inside;
+      if (!entering || x.priority != "traffic" || !in.trucks) continue;
+      int who = -1;
+      double nearest = std::numeric_limits<double>::infinity();
+      for (size_t t = 0; t < in.trucks->size(); ++t) {
+        const OtherTruckState& o = (*in.trucks)[t];
+        if (!o.started || o.arrived || o.struck) continue;
+        const double half = 0.5 * scene.trucks[t].size_m.x();
+        const Eigen::Vector2d to = x.middle_m - o.at_m;
+        if (to.dot(Eigen::Vector2d(std::cos(o.heading_rad), std::sin(o.heading_rad))) < -half) continue;  // past it
+        const double d = std::max(0.0, to.norm() - half);
+        if (d <= th(k, "priority_within_m") && d < nearest) {
+          nearest = d;
+          who = int(t);
+        }
+      }
+      if (who >= 0)
+        emit(k, in.t_s, p,
+             {{"crossing", x.id},
+              {"truck", scene.trucks[who].id},
+              {"measured", {{"distance_m", round6(nearest)}, {"truck_speed_m_s", round6((*in.trucks)[who].speed_m_s)}}},
+              {"thresholds", {{"priority_within_m", th(k, "priority_within_m")}}}},
+             out);
+    }
   }
 
   // Speed near a person: faster than speed_max_m_s with the truck's outline within
@@ -956,6 +1036,7 @@ struct Evaluator::Impl : EvaluationMemory::Data {
     people_at_fixed_objects(in, v, out);
     people_under_forks(in, heel_height, out);
     marked_places(in, first, ground_speed, out);
+    crossings(in, first, out);
     forks_and_mast(in, v, heel_height, out);
     dynamics(in, v, heel_height, out);
     handling(in, out);

@@ -49,6 +49,8 @@ enum RuleKey : int {
   kSpeedAtMarker,
   kPedestrianAtFixedObject,
   kPersonUnderForks,
+  kCollisionTruck,
+  kGiveWayAtCrossing,
   kNumRules
 };
 
@@ -106,6 +108,8 @@ inline const std::array<RuleSpec, kNumRules>& rule_specs() {
       {"pedestrian_at_fixed_object", AppliesTo::kNothing, {"travel_speed_min_m_s", "near_distance_m", "object_within_m",
                                                            "lateral_margin_m", "min_duration_s", "clear_time_s"}},
       {"person_under_forks", AppliesTo::kNothing, {"raised_fork_height_m", "margin_m", "min_duration_s", "clear_time_s"}},
+      {"collision_truck", AppliesTo::kNothing, {"hard_impact_speed_m_s", "hard_impact_worry_level", "clear_time_s"}},
+      {"give_way_at_crossing", AppliesTo::kNothing, {"priority_within_m", "clear_time_s"}},
   }};
   return specs;
 }

@@ -102,11 +102,15 @@ void walk(const std::vector<PedestrianSpec>& specs, std::vector<PedestrianState>
   }
 }
 
-Eigen::Isometry3d pedestrian_body_pose(const PedestrianSpec& spec, const PedestrianState& state) {
+Eigen::Isometry3d standing_pose(const Eigen::Vector2d& at, double heading_rad, double height_m) {
   Eigen::Isometry3d p = Eigen::Isometry3d::Identity();
-  p.translation() = Eigen::Vector3d(state.at_m.x(), state.at_m.y(), 0.5 * spec.size_m.z());
-  p.linear() = Eigen::AngleAxisd(state.heading_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  p.translation() = Eigen::Vector3d(at.x(), at.y(), 0.5 * height_m);
+  p.linear() = Eigen::AngleAxisd(heading_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   return p;
+}
+
+Eigen::Isometry3d pedestrian_body_pose(const PedestrianSpec& spec, const PedestrianState& state) {
+  return standing_pose(state.at_m, state.heading_rad, spec.size_m.z());
 }
 
 }  // namespace forklift

@@ -51,6 +51,7 @@ bool polygon_contains(const std::vector<Eigen::Vector2d>& polygon, const Eigen::
 
 bool Zone::contains(const Eigen::Vector2d& p) const { return polygon_contains(polygon, p); }
 bool Marker::contains(const Eigen::Vector2d& p) const { return polygon_contains(polygon, p); }
+bool Crossing::contains(const Eigen::Vector2d& p) const { return polygon_contains(polygon, p); }
 
 const std::vector<std::string>& marker_kinds() {
   static const std::vector<std::string> kinds{"blind_corner", "door", "cross_aisle"};

@@ -143,14 +143,15 @@ struct Merged {
     std::string file, key;
   };
   std::map<std::string, Item> keys;
-  std::vector<Item> objects, zones, ramps, ground_steps, pedestrians, markers, spills, falling_pallets;
+  std::vector<Item> objects, zones, ramps, ground_steps, pedestrians, markers, spills, falling_pallets, trucks, crossings;
 };
 
 const std::set<std::string> kTopKeys = {"name",   "description", "truck",        "start",  "exam_course",
                                         "load",   "include",     "objects",      "zones",
                                         "ramps",  "ground_steps", "route",     "task",         "time_limit_s",
                                         "floor_m", "zone_speed_limits_m_s", "exclude_objects", "pedestrians",
-                                        "markers", "spills", "falling_pallets", "manoeuvre", "duration_s"};
+                                        "markers", "spills", "falling_pallets", "manoeuvre", "duration_s",
+                                        "trucks", "crossings"};
 
 // Read by load_scenario (scenario.h) from the scenario file itself.
 // An exam course is the scenario's own declaration: a layout may not make its includers exams.
@@ -173,11 +174,12 @@ void merge(const std::string& path, const std::string& data_dir, Merged& m, int 
     if (!kTopKeys.count(k)) fail(path, k, "is not a known key");
     if (depth > 0 && kOwnKeys.count(k)) fail(path, k, "belongs in the scenario file itself, not in an included layout");
     if (k == "objects" || k == "zones" || k == "ramps" || k == "ground_steps" || k == "pedestrians" || k == "markers" ||
-        k == "spills" || k == "falling_pallets") {
+        k == "spills" || k == "falling_pallets" || k == "trucks" || k == "crossings") {
       const Node list(it.value(), path, k);
       list.array();
       auto& out = k == "objects" ? m.objects : k == "zones" ? m.zones : k == "ramps" ? m.ramps
-                  : k == "ground_steps" ? m.ground_steps : k == "markers" ? m.markers : k == "spills" ? m.spills : k == "falling_pallets" ? m.falling_pallets : m.pedestrians;
+                  : k == "ground_steps" ? m.ground_steps : k == "markers" ? m.markers : k == "spills" ? m.spills : k == "falling_pallets" ? m.falling_pallets
+                  : k == "trucks" ? m.trucks : k == "crossings" ? m.crossings : m.pedestrians;
       for (size_t i = 0; i < list.size(); ++i) out.push_back({it.value()[i], path, k + "[" + std::to_string(i) + "]"});
     } else if (k == "exclude_objects") {
       const Node list(it.value(), path, k);
@@ -497,6 +499,44 @@ Marker read_marker(const Node& n) {
     n.at("kind").fail("must be blind_corner, door or cross_aisle (found " + mk.kind + ")");
   mk.polygon = read_area(n);
   return mk;
+}
+
+// Another truck on its route: the route driven at a speed, once or round and round, from its trigger.
+OtherTruckSpec read_other_truck(const Node& n) {
+  n.only({"id", "route", "speed_m_s", "loop", "trigger", "stop_within_m", "size_m"});
+  OtherTruckSpec t;
+  t.id = n.at("id").string();
+  const Node route = n.at("route");
+  route.array(2);
+  for (size_t i = 0; i < route.size(); ++i) {
+    t.route.push_back(route.at(i).vec2());
+    if (i > 0 && t.route[i] == t.route[i - 1]) route.at(i).fail("repeats the point before it");
+  }
+  t.loop = n.has("loop") ? n.at("loop").boolean() : false;
+  if (t.loop && t.route.back() == t.route.front()) route.fail("ends where it starts: a loop closes itself (loop: true)");
+  t.speed_m_s = n.at("speed_m_s").positive();
+  if (n.has("trigger")) read_trigger(n.at("trigger"), t.start_truck_within_m, t.start_at_s);
+  if (n.has("stop_within_m")) t.stop_within_m = n.at("stop_within_m").positive();
+  if (n.has("size_m")) {
+    t.size_m = n.at("size_m").vec3();
+    for (int i = 0; i < 3; ++i)
+      if (!(t.size_m[i] > 0)) n.at("size_m").at(size_t(i)).fail("must be positive");
+  }
+  return t;
+}
+
+Crossing read_crossing(const Node& n) {
+  n.only({"id", "polygon", "rect", "priority", "watch_m"});
+  Crossing c;
+  c.id = n.at("id").string();
+  c.polygon = read_area(n);
+  for (const Eigen::Vector2d& p : c.polygon) c.middle_m += p / double(c.polygon.size());
+  c.priority = n.at("priority").string();
+  if (c.priority != "pupil" && c.priority != "traffic")
+    n.at("priority").fail("must be pupil (the other trucks give way) or traffic (the pupil gives way) (found " + c.priority + ")");
+  if (c.priority == "pupil") c.watch_m = n.at("watch_m").positive();
+  else if (n.has("watch_m")) n.at("watch_m").fail("is for a crossing where the other trucks give way (priority: pupil)");
+  return c;
 }
 
 Ramp read_ramp(const Node& n) {
@@ -896,6 +936,19 @@ Scene load_scene(const std::string& path, const std::string& data_dir) {
     PedestrianSpec p = read_pedestrian(n);
     if (!ids.insert(p.id).second) n.at("id").fail("repeats the id '" + p.id + "'");
     scene.pedestrians.push_back(std::move(p));
+  }
+  for (const Merged::Item& item : m.trucks) {
+    const Node n = node(item);
+    OtherTruckSpec t = read_other_truck(n);
+    if (!ids.insert(t.id).second) n.at("id").fail("repeats the id '" + t.id + "'");
+    scene.trucks.push_back(std::move(t));
+  }
+  std::set<std::string> crossing_ids;
+  for (const Merged::Item& item : m.crossings) {
+    const Node n = node(item);
+    Crossing c = read_crossing(n);
+    if (!crossing_ids.insert(c.id).second) n.at("id").fail("repeats the crossing id '" + c.id + "'");
+    scene.crossings.push_back(std::move(c));
   }
   std::set<std::string> falling_ids;
   for (const Merged::Item& item : m.falling_pallets) {

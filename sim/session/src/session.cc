@@ -88,6 +88,7 @@ SessionState initial_state(const SessionModel& m) {
   if (s.load) s.load_on_forks.phase = LoadPhase::kStuck;
   s.pedestrians = initial_pedestrians(m.scene.pedestrians);
   s.falls = initial_falls(m.scene.falling_pallets);
+  s.trucks = initial_trucks(m.scene.trucks);
   return s;
 }
 
@@ -95,6 +96,7 @@ SessionState initial_state(const SessionModel& m, const LogHeader& h) {
   SessionState s;
   s.pedestrians = initial_pedestrians(m.scene.pedestrians);
   s.falls = initial_falls(m.scene.falling_pallets);
+  s.trucks = initial_trucks(m.scene.trucks);
   s.x = h.initial;
   s.load = h.load;
   if (s.load) s.load_on_forks.phase = LoadPhase::kStuck;
@@ -105,6 +107,13 @@ PedestrianActivity activity_of(const PedestrianState& p) {
   if (p.struck) return PedestrianActivity::kStruck;
   if (!p.started) return PedestrianActivity::kWaiting;
   return p.speed_m_s > 0 ? PedestrianActivity::kWalking : PedestrianActivity::kStanding;
+}
+
+TruckActivity activity_of(const OtherTruckState& t) {
+  if (t.struck) return TruckActivity::kStruck;
+  if (!t.started) return TruckActivity::kWaiting;
+  if (t.giving_way >= 0) return TruckActivity::kGivingWay;
+  return t.speed_m_s > 0 ? TruckActivity::kDriving : TruckActivity::kStanding;
 }
 
 struct SessionWorkspace::Impl {
@@ -234,15 +243,25 @@ void step(const SessionModel& model, SessionState& state, SessionWorkspace& work
      // scene's push-back are held from now on, in the state and in the simulation
     StageScope scope(observer, Stage::kCollision);
     const std::vector<PedestrianSpec>& people = model.scene.pedestrians;
-    if (!people.empty()) {  // the people see the truck where the dynamics left it
-      if (state.pedestrians.size() != people.size()) state.pedestrians = initial_pedestrians(people);
-      walk(people, state.pedestrians, w.outline, body_poses(model.truck, coordinates(state.x)), state.t_s, model.tick_s,
-           inputs.driver.horn);
+    const std::vector<OtherTruckSpec>& traffic = model.scene.trucks;
+    if (!people.empty() || !traffic.empty()) {
+      // The people and the other trucks' drivers see the truck where the dynamics left it.
+      const BodyPoses seen = body_poses(model.truck, coordinates(state.x));
+      if (!people.empty()) {
+        if (state.pedestrians.size() != people.size()) state.pedestrians = initial_pedestrians(people);
+        walk(people, state.pedestrians, w.outline, seen, state.t_s, model.tick_s, inputs.driver.horn);
+      }
+      if (!traffic.empty()) {
+        if (state.trucks.size() != traffic.size()) state.trucks = initial_trucks(traffic);
+        drive(traffic, model.scene.crossings, state.trucks, w.outline, seen, state.t_s, model.tick_s);
+      }
     }
     if (!model.scene.falling_pallets.empty()) drop_pallets(model, state, w.outline, w.falling, w.warehouse);
-    const StepReport& r = *(w.report = &w.warehouse.step(sim, state.handling, state.pedestrians));
-    for (const Contact& c : r.contacts)
+    const StepReport& r = *(w.report = &w.warehouse.step(sim, state.handling, state.pedestrians, state.trucks));
+    for (const Contact& c : r.contacts) {
       if (c.pedestrian >= 0) state.pedestrians[c.pedestrian].struck = true;
+      if (c.other_truck >= 0) state.trucks[c.other_truck].struck = true;
+    }
     if (r.load_change == LoadChange::kAttached) state.load = r.load;
     if (r.load_change == LoadChange::kReleased) state.load.reset();
     state.scene_push = r.scene_push;
@@ -266,7 +285,7 @@ void step(const SessionModel& model, SessionState& state, SessionWorkspace& work
   StageScope scope(observer, Stage::kEvaluation);
   const TickInput in{state.t_s, w.out, w.poses, inputs.driver, *w.report, state.handling.pallets(), state.load,
                      inputs.deadman, sim.dynamics().environment().gravity_m_s2, load_after_dynamics,
-                     &state.pedestrians};
+                     &state.pedestrians, &state.trucks};
   w.found.clear();
   w.evaluator.tick(state.evaluation, in, w.found);
   w.forward(events);

@@ -77,6 +77,11 @@ void SessionRun::instruct(const Instruction& what) {
     if (state_.falls.size() != falls.size()) state_.falls = initial_falls(falls);
     for (size_t i = 0; i < falls.size(); ++i)
       if (falls[i].pallet == what.text) state_.falls[i] = {true, false, state_.t_s};
+    // Or another truck drives off now.
+    const std::vector<OtherTruckSpec>& trucks = model_.scene.trucks;
+    if (state_.trucks.size() != trucks.size()) state_.trucks = initial_trucks(trucks);
+    for (size_t i = 0; i < trucks.size(); ++i)
+      if (trucks[i].id == what.text) state_.trucks[i].started = true;
   }
   if (what.action == InstructorAction::kPause) paused_ = true;
   if (what.action == InstructorAction::kResume) paused_ = false;
@@ -93,6 +98,15 @@ std::optional<std::string> SessionRun::hazard_problem(const std::string& id) con
     if (p && (p->on_forks || p->dropped)) return "pallet " + id + " is no longer on its rack";
     return std::nullopt;
   }
+  const std::vector<OtherTruckSpec>& trucks = model_.scene.trucks;
+  for (size_t i = 0; i < trucks.size(); ++i) {
+    if (trucks[i].id != id) continue;
+    if (i >= state_.trucks.size()) return std::nullopt;  // not driven yet: all stand at their start
+    const OtherTruckState& s = state_.trucks[i];
+    if (s.struck) return "truck " + id + " has been struck";
+    if (s.started) return "truck " + id + " is driving already";
+    return std::nullopt;
+  }
   std::string ids;
   for (size_t i = 0; i < people.size(); ++i) {
     if (people[i].id != id) {
@@ -106,7 +120,14 @@ std::optional<std::string> SessionRun::hazard_problem(const std::string& id) con
     return std::nullopt;
   }
   for (const FallingPalletSpec& f : falls) ids += (ids.empty() ? "" : ", ") + f.pallet;
-  return (falls.empty() ? "no pedestrian '" : "no pedestrian or falling pallet '") + id + "' in this scenario" +
+  for (const OtherTruckSpec& t : trucks) ids += (ids.empty() ? "" : ", ") + t.id;
+  // Named by the kinds of hazard the scene has ("no pedestrian or falling pallet 'P9'").
+  std::vector<std::string> kinds{"pedestrian"};
+  if (!falls.empty()) kinds.push_back("falling pallet");
+  if (!trucks.empty()) kinds.push_back("truck");
+  std::string what = kinds[0];
+  for (size_t i = 1; i < kinds.size(); ++i) what += (i + 1 == kinds.size() ? " or " : ", ") + kinds[i];
+  return "no " + what + " '" + id + "' in this scenario" +
          (ids.empty() ? std::string(" (it has none)") : " (it has " + ids + ")");
 }
 

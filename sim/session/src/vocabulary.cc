@@ -45,6 +45,11 @@ constexpr Names<PedestrianActivity, 4> kPedestrianActivities{{{PedestrianActivit
                                                              {PedestrianActivity::kWalking, "walking"},
                                                              {PedestrianActivity::kStanding, "standing"},
                                                              {PedestrianActivity::kStruck, "struck"}}};
+constexpr Names<TruckActivity, 5> kTruckActivities{{{TruckActivity::kWaiting, "waiting"},
+                                                    {TruckActivity::kDriving, "driving"},
+                                                    {TruckActivity::kGivingWay, "giving_way"},
+                                                    {TruckActivity::kStanding, "standing"},
+                                                    {TruckActivity::kStruck, "struck"}}};
 constexpr Names<HostState, 2> kHostStates{{{HostState::kReady, "ready"}, {HostState::kStopping, "stopping"}}};
 constexpr Names<WorkerAction, 3> kWorkerActions{
     {{WorkerAction::kStart, "start"}, {WorkerAction::kAbort, "abort"}, {WorkerAction::kKill, "kill"}}};
@@ -83,6 +88,7 @@ const char* name(PaperKind k) { return name_in(kPaperKinds, k); }
 const char* name(PaperOutcome o) { return name_in(kPaperOutcomes, o); }
 const char* name(InstructorAction a) { return name_in(kInstructorActions, a); }
 const char* name(PedestrianActivity a) { return name_in(kPedestrianActivities, a); }
+const char* name(TruckActivity a) { return name_in(kTruckActivities, a); }
 const char* name(HostState s) { return name_in(kHostStates, s); }
 const char* name(WorkerAction a) { return name_in(kWorkerActions, a); }
 const char* name(WorkerReportState s) { return name_in(kReportStates, s); }
@@ -97,6 +103,7 @@ template <> std::optional<PaperKind> parse<PaperKind>(std::string_view s) { retu
 template <> std::optional<PaperOutcome> parse<PaperOutcome>(std::string_view s) { return parse_in(kPaperOutcomes, s); }
 template <> std::optional<InstructorAction> parse<InstructorAction>(std::string_view s) { return parse_in(kInstructorActions, s); }
 template <> std::optional<PedestrianActivity> parse<PedestrianActivity>(std::string_view s) { return parse_in(kPedestrianActivities, s); }
+template <> std::optional<TruckActivity> parse<TruckActivity>(std::string_view s) { return parse_in(kTruckActivities, s); }
 template <> std::optional<HostState> parse<HostState>(std::string_view s) { return parse_in(kHostStates, s); }
 template <> std::optional<WorkerAction> parse<WorkerAction>(std::string_view s) { return parse_in(kWorkerActions, s); }
 template <> std::optional<WorkerReportState> parse<WorkerReportState>(std::string_view s) { return parse_in(kReportStates, s); }

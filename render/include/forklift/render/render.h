@@ -12,6 +12,7 @@
 
 #include "forklift/image/image.h"
 #include "forklift/scene/pedestrians.h"
+#include "forklift/scene/traffic.h"
 #include "forklift/scene/scene.h"
 
 namespace forklift {
@@ -60,6 +61,8 @@ struct RenderState {
   std::vector<PalletState> pallets;     // empty: every pallet where the scene puts it
   // One per Scene::pedestrians, drawn as hi-vis figures; empty: each at his path's start.
   std::vector<PedestrianState> pedestrians;
+  // One per Scene::trucks, drawn as boxes of their size; empty: each at its route's start.
+  std::vector<OtherTruckState> trucks;
 };
 
 // What a picture may cost beyond the plain shaded scene.

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "forklift/scene/pedestrians.h"
+#include "forklift/scene/traffic.h"
 #include "forklift/scene/scene.h"
 #include "forklift/dynamics/simulation.h"
 
@@ -23,11 +24,12 @@ struct Contact {
   std::string object_id;    // the scene object struck (a pallet's id for pallets), or the pedestrian
   ObjectKind object_kind = ObjectKind::kObstacle;  // kPedestrian for a standing figure and a walking one
   int pedestrian = -1;      // >= 0: a walking person struck, index into Scene::pedestrians
+  int other_truck = -1;     // >= 0: another truck struck, index into Scene::trucks (object_kind kObstacle)
   Eigen::Vector3d point_m = Eigen::Vector3d::Zero();   // world
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();   // world, unit, from the object towards the truck
   double depth_m = 0;                                  // penetration, >= 0
   double relative_speed_m_s = 0;  // speed of the truck part's point into the object (along -normal), >= 0
-                                  // (into a walking person: less the person's own walking velocity)
+                                  // (into a walking person or a moving truck: less its own velocity)
 };
 
 struct HandlingEvent {
@@ -127,10 +129,13 @@ class Warehouse {
   // striking a pallet outside its pockets is a contact, not a pick-up.
   // The scene's pedestrians stand as `people` says (one state per Scene::pedestrians, walked to
   // this tick; empty when the scene has none): their bodies are struck like objects, but they
-  // push nothing back (a person gives way) and are never handled.
+  // push nothing back (a person gives way) and are never handled. The other trucks stand as
+  // `trucks` says (one state per Scene::trucks; empty when none): struck like objects, and, as
+  // heavy as the truck, they push back as a fixed obstacle does.
   // The simulation is only read: the caller applies the report (apply()) before the next tick.
   const StepReport& step(const Simulation& sim, HandlingState& state,
-                         const std::vector<PedestrianState>& people = {});
+                         const std::vector<PedestrianState>& people = {},
+                         const std::vector<OtherTruckState>& trucks = {});
 
   // The pallets as the scene stands them, before any step.
   const HandlingState& initial_handling() const { return initial_; }

@@ -103,6 +103,9 @@ struct TickInput {
   // The scene's walking people after the tick's walk (one per Scene::pedestrians); null or empty
   // when it has none.
   const std::vector<PedestrianState>* pedestrians = nullptr;
+  // The scene's other trucks after the tick's drive (one per Scene::trucks); null or empty when
+  // it has none.
+  const std::vector<OtherTruckState>* trucks = nullptr;
 };
 
 struct EvaluationEvent {

@@ -54,4 +54,8 @@ void walk(const std::vector<PedestrianSpec>& specs, std::vector<PedestrianState>
 // facing its heading (local x: chest to back, y: across the shoulders), its centre at half height.
 Eigen::Isometry3d pedestrian_body_pose(const PedestrianSpec& spec, const PedestrianState& state);
 
+// An upright body `height_m` tall standing on z = 0 at `at` (world), facing `heading_rad`: its
+// centre's pose (the people's and the other trucks' boxes).
+Eigen::Isometry3d standing_pose(const Eigen::Vector2d& at, double heading_rad, double height_m);
+
 }  // namespace forklift

@@ -244,6 +244,35 @@ struct FallingPalletSpec {
   double throw_m = 0.8;   // how far it lands from under where it stood
 };
 
+// A marked crossing of traffic routes (a scenario's `crossings`): who goes first there is the
+// site's traffic rule, which the scenario states. "pupil": the other trucks give way to the
+// pupil's truck (traffic.h stops them short of it while the pupil's truck is within watch_m of
+// its middle); "traffic": the pupil gives way to them (the evaluation's give_way_at_crossing).
+struct Crossing {
+  std::string id;
+  std::vector<Eigen::Vector2d> polygon;  // world, counter-clockwise
+  std::string priority;                  // "pupil" or "traffic"
+  double watch_m = 0;                    // "pupil": how near the pupil's truck holds the traffic back
+  Eigen::Vector2d middle_m = Eigen::Vector2d::Zero();  // the mean of the polygon's corners
+  bool contains(const Eigen::Vector2d& p) const;
+};
+
+// Another truck driven along a route (a scenario's `trucks`): how it drives, and the state that
+// changes, are traffic.h's.
+struct OtherTruckSpec {
+  std::string id;                      // unique among the objects, pedestrians and trucks
+  std::vector<Eigen::Vector2d> route;  // world, at least 2 points: the body's middle drives along it
+  double speed_m_s = 0;                // driving speed, > 0
+  bool loop = false;                   // after the last point back to the first, and round again
+  // Starts when the pupil's truck's outline comes within this distance (set), or at start_at_s.
+  std::optional<double> start_truck_within_m;
+  double start_at_s = 0;
+  // Its driver looks ahead: it stands while the pupil's truck's outline is within this distance
+  // of the middle of its front (set); unset, it drives on whatever is ahead.
+  std::optional<double> stop_within_m;
+  Eigen::Vector3d size_m{3.0, 1.1, 2.1};  // length, width, height: an upright box facing its way
+};
+
 struct Scene {
   std::string file, name, description;
   std::optional<ExamCourse> exam_course;  // set: the scenario is an exam course
@@ -262,6 +291,8 @@ struct Scene {
   std::vector<Ramp> ramps;
   std::vector<GroundStep> ground_steps;
   std::vector<PedestrianSpec> pedestrians;  // people who move (pedestrians.h walks them)
+  std::vector<OtherTruckSpec> trucks;       // other trucks on their routes (traffic.h drives them)
+  std::vector<Crossing> crossings;          // where routes cross, and who goes first
 
   const SceneObject* find(const std::string& id) const;  // nullptr if absent
   // The lowest speed limit of the zones containing p, or nullopt outside every zone.

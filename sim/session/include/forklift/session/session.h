@@ -24,6 +24,7 @@
 #include "forklift/scene/falling.h"
 #include "forklift/scene/pedestrians.h"
 #include "forklift/scene/scene.h"
+#include "forklift/scene/traffic.h"
 #include "forklift/session/session_log.h"
 #include "forklift/session/vocabulary.h"
 
@@ -75,6 +76,7 @@ struct SessionState {
   HandlingState handling;                    // every pallet, and the one on the forks
   std::vector<PedestrianState> pedestrians;  // one per Scene::pedestrians (pedestrians.h)
   std::vector<FallingPalletState> falls;     // one per Scene::falling_pallets (falling.h)
+  std::vector<OtherTruckState> trucks;       // one per Scene::trucks (traffic.h)
   EvaluationMemory evaluation;
 };
 
@@ -86,6 +88,8 @@ SessionState initial_state(const SessionModel& model, const LogHeader& header);
 
 // What a pedestrian is doing in a state, in the vocabulary's words (the live view, the replay).
 PedestrianActivity activity_of(const PedestrianState& person);
+// What another truck is doing in a state, in the vocabulary's words.
+TruckActivity activity_of(const OtherTruckState& truck);
 
 // What one tick noticed that the cab, the server and the log must hear about.
 struct SessionEvent {

@@ -91,6 +91,15 @@ enum class PedestrianActivity {
   kStruck,    // "struck": the truck struck him; he stays where he is
 };
 
+// What one of a scenario's other trucks is doing (TruckState.trucks[].activity: 0 to 4, in this order).
+enum class TruckActivity {
+  kWaiting,    // "waiting": its cue (a trigger, or the instructor's "hazard") has not come
+  kDriving,    // "driving": along its route this tick
+  kGivingWay,  // "giving_way": standing short of a crossing where the pupil goes first
+  kStanding,   // "standing": for the pupil's truck ahead of it, or at its route's end
+  kStruck,     // "struck": the pupil's truck struck it; its driver stopped there
+};
+
 // Who raised an event of a session, by its kind.
 enum class EventOrigin {
   kEvaluation,  // a rule of the evaluation (counted in the mark, by its worry level)
@@ -108,6 +117,7 @@ const char* name(PaperKind kind);
 const char* name(PaperOutcome outcome);
 const char* name(InstructorAction action);
 const char* name(PedestrianActivity activity);
+const char* name(TruckActivity activity);
 
 // The same values in the words a person reads (the menu, the worker's summary, forklift-sim
 // evaluate): "time_limit" is "the time limit was reached", "waiting" is "waiting for the cab",
@@ -129,6 +139,7 @@ template <> std::optional<PaperKind> parse<PaperKind>(std::string_view name);
 template <> std::optional<PaperOutcome> parse<PaperOutcome>(std::string_view name);
 template <> std::optional<InstructorAction> parse<InstructorAction>(std::string_view name);
 template <> std::optional<PedestrianActivity> parse<PedestrianActivity>(std::string_view name);
+template <> std::optional<TruckActivity> parse<TruckActivity>(std::string_view name);
 
 // Why an instructor's message cannot go to the cab, or nullopt: it must be well-formed UTF-8 (it
 // comes from the wire, or from a log), hold a visible character, no control character (a line
