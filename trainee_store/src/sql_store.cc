@@ -249,7 +249,11 @@ class SqlStore final : public Store {
       Query cursor(d_, __func__, "SELECT " + key + " FROM pupils WHERE pupils.id = ?1 AND pupils.school_id = ?2");
       require(cursor.bind(*f.after).bind(f.school_id).step(), StoreError::kNotFound, __func__,
               "no pupil " + std::to_string(*f.after) + " in the school");
-      bound.add("(" + key + ", pupils.id) " + (f.descending ? "<" : ">") + " (?, ?)", {cursor.text(0), *f.after});
+      // Spelled out rather than as a row value, which SQLite does not take to its index: the
+      // key's range first (from the index), then its ties by id.
+      const char* from = f.descending ? " <= ?" : " >= ?";
+      const char* past = f.descending ? " < ?" : " > ?";
+      bound.add(key + from + " AND (" + key + past + " OR pupils.id" + past + ")", {cursor.text(0), cursor.text(0), *f.after});
     }
     // An instructor's own pupils first: a first sort key ahead of the one asked for.
     std::string sql = "SELECT " PUPIL_COLUMNS " FROM pupils" + bound.sql() + " ORDER BY ";
@@ -340,6 +344,11 @@ class SqlStore final : public Store {
     if (f.examiner_id) where.add("e.examiner_id = ?", {*f.examiner_id});
     if (f.group_id) where.add("p.group_id = ?", {*f.group_id});
     const std::string from = " FROM exams e JOIN pupils p ON p.id = e.pupil_id" + where.sql();
+    // The page reads exams first (SQLite's CROSS JOIN) unless a filter picks pupils: with the
+    // statistics of a store of 600,000 exams SQLite read every pupil's exams and sorted them all
+    // for a page of 50 (1.2 s).
+    const std::string page_from = " FROM exams e " + std::string(f.search.empty() && !f.group_id ? dialect_.session_page_join : "JOIN") +
+                                  " pupils p ON p.id = e.pupil_id" + where.sql();
     Transaction tx(d_, __func__, TxKind::kRead);
     ExamPage page;
     const bool whole_school = !f.pupil_id && f.search.empty() && !f.kind && f.from.empty() && f.to.empty() && !f.passed &&
@@ -349,7 +358,7 @@ class SqlStore final : public Store {
     // hashed every session of the store to find the few the exams have.
     Query q(d_, __func__, ("SELECT e.id, e.pupil_id, e.kind, (SELECT s.public_id FROM sessions s WHERE s.id = e.session_id), e.score, e.passed, e.examiner_id, e.taken_at, "
                                "e.details, p.name, (SELECT COUNT(*) FROM exam_corrections c WHERE c.exam_id = e.id)" +
-                               from + " ORDER BY " + order + " LIMIT ? OFFSET ?")
+                               page_from + " ORDER BY " + order + " LIMIT ? OFFSET ?")
                                   .c_str());
     where.bind(q);
     q.bind(limit).bind(offset);
