@@ -187,12 +187,12 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
       sql += "DROP TRIGGER " + (sqlite() ? name.substr(0, name.find(' ')) : name) + "; ";
     }
     if (!sqlite()) sql += "DROP FUNCTION school_totals_count; ";
-    sql += "DROP INDEX exams_by_kind_result; DROP INDEX sessions_passed_by_cab; DROP INDEX sessions_passed_by_school; ";
-    // Migration 13's indexes as it made them.
-    sql += sqlite() ? "CREATE INDEX sessions_passed_by_cab ON sessions(cab_id, created_at) WHERE state = 'ended' AND passed = TRUE AND reason IN ('task_complete', 'parked', 'duration'); "
-                      "CREATE INDEX sessions_passed_by_school ON sessions(school_id, created_at) WHERE state = 'ended' AND passed = TRUE AND reason IN ('task_complete', 'parked', 'duration'); "
-                    : "CREATE INDEX sessions_passed_by_cab ON sessions(cab_id, created_at, id) WHERE state = 'ended' AND passed = TRUE AND reason IN ('task_complete', 'parked', 'duration'); "
-                      "CREATE INDEX sessions_passed_by_school ON sessions(school_id, created_at, id) WHERE state = 'ended' AND passed = TRUE AND reason IN ('task_complete', 'parked', 'duration'); ";
+    sql += "DROP INDEX exams_by_kind_result; ";
+    // Migration 13's indexes as it made them (SQLite's 14 leaves them).
+    if (!sqlite())
+      sql += "DROP INDEX sessions_passed_by_cab; DROP INDEX sessions_passed_by_school; "
+             "CREATE INDEX sessions_passed_by_cab ON sessions(cab_id, created_at, id) WHERE state = 'ended' AND passed = TRUE AND reason IN ('task_complete', 'parked', 'duration'); "
+             "CREATE INDEX sessions_passed_by_school ON sessions(school_id, created_at, id) WHERE state = 'ended' AND passed = TRUE AND reason IN ('task_complete', 'parked', 'duration'); ";
     return sql + "DROP TABLE school_totals; DELETE FROM schema_migrations WHERE version >= 14; ";
   }
   std::string DropMigration13() {
