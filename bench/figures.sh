@@ -17,7 +17,7 @@ for a in "$@"; do
   esac
 done
 bin=build/bin
-for b in forklift-bench-dynamics forklift-bench-evaluation forklift-bench-dds forklift-bench-render forklift-bench-server forklift-bench-ingest forklift-sim; do
+for b in forklift-bench-dynamics forklift-bench-evaluation forklift-bench-dds forklift-bench-render forklift-bench-server forklift-bench-ingest forklift-bench-store forklift-sim; do
   [ -x "$bin/$b" ] || { echo "figures.sh: $bin/$b is missing: build first (scripts/build.sh)" >&2; exit 2; }
 done
 work=$(mktemp -d "${TMPDIR:-/tmp}/forklift-figures.XXXXXX")
@@ -83,6 +83,15 @@ from=()
 [ -f "$history_store" ] && from=(--from "$history_store")
 measure "forklift-bench-ingest --sessions $ingest_sessions --seconds $seconds ${from[*]}" \
   "$alloc" sh -c "exec $bin/forklift-bench-ingest --sessions $ingest_sessions --seconds $seconds ${from[*]} --dir $work/ingest --port \$FORKLIFT_TEST_PORT --dds-domain \$FORKLIFT_TEST_DOMAIN"
+
+# The lists and the history as the store grows: generated stores of 100,000, 1 million and 10
+# million sessions on both backends (kept in the bench folder: some 10 GB at 10 million; the first
+# run generates them, some 15 minutes), every list's p99 at the largest, and each call's growth.
+# --quick: 100,000 sessions alone, no growth rows.
+sizes="100000 1000000 10000000"
+[ "$quick" = 1 ] && sizes=100000
+measure "forklift-bench-store --sessions $sizes --db sqlite postgresql --seconds $seconds" \
+  "$bin/forklift-bench-store" --sessions $sizes --db sqlite postgresql --seconds "$seconds" --dir "${FORKLIFT_BENCH_DIR:-build/bench-data}"
 
 machine="$(nproc) cores ($(lscpu | sed -n 's/^Model name: *//p' | head -1)), $(free -g | awk '/^Mem:/{print $2}') GiB, $(uname -sr), load average $(cut -d' ' -f1-3 /proc/loadavg) at the end, $(date -u +%Y-%m-%d)"
 {

@@ -10,13 +10,18 @@ const FL_LIST = (() => {
   // ('pupil'), table, count, previous, next, message, csv (a button), filters() (the query's
   // filters as an object), row(item) (a <tr>), sort and order (the server's default), page size.
   function pagedList(opts) {
-    const state = { offset: 0, sort: opts.sort, order: opts.order, asked: 0 };
+    // after: the row the next page follows (keyset paging, where the server offers next_after):
+    // then the offset only numbers the rows shown.
+    const state = { offset: 0, sort: opts.sort, order: opts.order, asked: 0, after: null, nextAfter: null };
     const size = opts.size || 50;
     const tbody = opts.table.querySelector('tbody');
 
     function query(extra = {}) {
       const q = new URLSearchParams({ sort: state.sort, order: state.order });
-      if (!extra.format) { q.set('limit', size); q.set('offset', state.offset); }  // the CSV is every page
+      if (!extra.format) {  // the CSV is every page
+        q.set('limit', size);
+        if (state.after !== null) { q.set('after', state.after); q.set('offset', 0); } else q.set('offset', state.offset);
+      }
       for (const [k, v] of Object.entries(opts.filters())) if (v !== '' && v !== null && v !== undefined) q.set(k, v);
       for (const [k, v] of Object.entries(extra)) q.set(k, v);
       return q.toString();
@@ -35,6 +40,7 @@ const FL_LIST = (() => {
             if (state.sort === key) state.order = state.order === 'asc' ? 'desc' : 'asc';
             else { state.sort = key; state.order = th.dataset.first || 'asc'; }
             state.offset = 0;
+            state.after = null;
             load();
           });
         }
@@ -50,21 +56,25 @@ const FL_LIST = (() => {
         const page = await api('GET', `${opts.path}?${query()}`);
         if (mine !== state.asked) return;  // a later request has been sent
         const items = page[opts.key];
-        if (items.length === 0 && state.offset > 0 && page.total > 0) { state.offset = Math.max(0, page.total - size); load(); return; }
+        if (items.length === 0 && state.offset > 0 && page.total > 0) {
+          state.offset = Math.max(0, page.total - size); state.after = null; load(); return;
+        }
+        state.nextAfter = page.next_after ?? null;
         clear(tbody).append(...items.map(opts.row));
         const plural = page.total === 1 ? opts.noun : opts.nouns || `${opts.noun}s`;
         opts.count.textContent = page.total === 0 ? `No ${opts.nouns || opts.noun + 's'} match.`
-          : `${state.offset + 1}–${state.offset + items.length} of ${page.total} ${plural}`;
+          : `${state.offset + 1}–${state.offset + items.length} of ${page.total_is_at_least ? `more than ${page.total.toLocaleString('en')}` : page.total} ${plural}`;
         opts.count.dataset.total = page.total;
         opts.previous.disabled = state.offset === 0;
-        opts.next.disabled = state.offset + items.length >= page.total;
+        // A filter that matches more than the store counts (10,000): pages go on while they are full.
+        opts.next.disabled = page.total_is_at_least ? items.length < size : state.offset + items.length >= page.total;
       } catch (e) {
         say(opts.message, describeError(e));
       }
     }
 
-    opts.previous.addEventListener('click', () => { state.offset = Math.max(0, state.offset - size); load(); });
-    opts.next.addEventListener('click', () => { state.offset += size; load(); });
+    opts.previous.addEventListener('click', () => { state.offset = Math.max(0, state.offset - size); state.after = null; load(); });
+    opts.next.addEventListener('click', () => { state.offset += size; state.after = state.nextAfter; load(); });
     if (opts.csv) {
       opts.csv.addEventListener('click', async () => {
         try {
@@ -79,7 +89,7 @@ const FL_LIST = (() => {
       });
     }
     // From the first page again (a filter changed).
-    const reload = () => { state.offset = 0; load(); };
+    const reload = () => { state.offset = 0; state.after = null; load(); };
     return { load, reload };
   }
 

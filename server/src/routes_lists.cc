@@ -148,7 +148,7 @@ void list_routes(Routes& svr, Context& ctx) {
       j["started_by"] = people.json(r.session.started_by);
       out.push_back(std::move(j));
     }
-    send_json(res, 200, {{"sessions", out}, {"total", found.total}, {"limit", page.limit}, {"offset", page.offset}});
+    send_json(res, 200, {{"sessions", out}, {"total", found.total}, {"total_is_at_least", found.total_is_at_least}, {"limit", page.limit}, {"offset", page.offset}});
   }));
 
   // Every exam record of the school (staff), as recorded (its page shows its corrections):
@@ -196,7 +196,7 @@ void list_routes(Routes& svr, Context& ctx) {
                      {"score", r.exam.score}, {"passed", r.exam.passed}, {"examiner", people.json(r.exam.examiner_id)},
                      {"taken_at", r.exam.taken_at}, {"corrections", r.corrections}});
     }
-    send_json(res, 200, {{"exams", out}, {"total", found.total}, {"limit", page.limit}, {"offset", page.offset}});
+    send_json(res, 200, {{"exams", out}, {"total", found.total}, {"total_is_at_least", found.total_is_at_least}, {"limit", page.limit}, {"offset", page.offset}});
   }));
 
   // ------------------------------------------------------------ groups

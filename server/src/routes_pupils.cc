@@ -97,6 +97,7 @@ void pupil_routes(Routes& svr, Context& ctx) {
     f.instructor_id = query_id(req, "instructor");
     std::tie(f.sort, f.descending) = sort_request(req, "name", false);
     if (p.role == Role::kInstructor && req.get_param_value("mine_first") != "false") f.first_for = p.user_id;
+    f.after = query_id(req, "after");
     const bool csv = wants_csv(req);
     const store::PupilPage found = listed([&] { return ctx.db().find_pupils(f, csv ? 1 : page.limit, csv ? 0 : page.offset); });
     auto people = std::make_shared<People>(ctx.db());
@@ -125,7 +126,11 @@ void pupil_routes(Routes& svr, Context& ctx) {
       j["instructor"] = g ? people->json(g->instructor_id) : json(nullptr);
       out.push_back(std::move(j));
     }
-    send_json(res, 200, {{"pupils", out}, {"total", found.total}, {"limit", page.limit}, {"offset", page.offset}});
+    json body = {{"pupils", out}, {"total", found.total}, {"total_is_at_least", found.total_is_at_least}, {"limit", page.limit}, {"offset", page.offset}};
+    // The next page by keyset (after=), where the list's order allows it and a page follows.
+    if (!f.first_for && f.sort != "group" && !found.pupils.empty() && static_cast<int>(found.pupils.size()) == page.limit)
+      body["next_after"] = found.pupils.back().id;
+    send_json(res, 200, body);
   }));
 
   svr.Post("/api/pupils", guarded([&](const httplib::Request& req, httplib::Response& res) {

@@ -63,6 +63,21 @@ TEST(Lists, PupilsArePagedSearchedSortedAndExportedAsShown) {
   EXPECT_EQ(page["offset"], 10);
   ASSERT_EQ(page["pupils"].size(), 10u);
   EXPECT_EQ(page["pupils"][0]["name"], "Pupil 109");  // by name: "=HYPERLINK" sorts first
+  EXPECT_FALSE(page["total_is_at_least"].get<bool>());
+
+  // The next page by keyset (after= the last row's id) is the next page by offset.
+  auto [first_st, first] = s.call("GET", "/api/pupils?limit=10", admin);
+  ASSERT_EQ(first_st, 200) << first;
+  ASSERT_TRUE(first.contains("next_after")) << first;
+  EXPECT_EQ(first["next_after"], first["pupils"][9]["id"]);
+  auto [next_st, next] = s.call("GET", "/api/pupils?limit=10&after=" + std::to_string(first["next_after"].get<int64_t>()), admin);
+  ASSERT_EQ(next_st, 200) << next;
+  EXPECT_EQ(next["pupils"], page["pupils"]);
+  EXPECT_EQ(next["total"], 31);
+  auto [last_st, last] = s.call("GET", "/api/pupils?limit=10&offset=30", admin);
+  EXPECT_FALSE(last.contains("next_after")) << last;  // no page follows
+  EXPECT_EQ(s.call("GET", "/api/pupils?after=" + std::to_string(first["next_after"].get<int64_t>()) + "&sort=group", admin).first, 400);
+  EXPECT_EQ(s.call("GET", "/api/pupils?after=999999", admin).first, 404);
 
   auto [sst, yard] = s.call("GET", "/api/pupils?search=YARD.example&sort=email&order=desc", admin);
   ASSERT_EQ(sst, 200) << yard;

@@ -128,7 +128,10 @@ try {
     const add = await page.locator('#add button[type=submit]').boundingBox();
     check(add && add.y + add.height <= 860 && await page.evaluate(() => window.scrollY) === 0,
           `the add form's button is on the first screen: ${JSON.stringify(add)}`);
+    // "Next" asks for the page after the last row shown (keyset paging), not an offset.
+    const keyset = page.waitForRequest((r) => r.url().includes('/api/pupils?') && /[?&]after=\d+/.test(r.url()), { timeout: 10000 });
     await page.click('#next');
+    await keyset;
     await waitCount('51–100 of 600');
     check((await page.textContent('#pupils tbody tr:first-child th')) === 'Pupil 050', 'the second page starts at Pupil 050');
     await page.click('#previous');

@@ -508,6 +508,45 @@ CREATE INDEX sessions_passed_by_school ON sessions(school_id, created_at) WHERE 
 ALTER TABLE users ADD COLUMN language TEXT NOT NULL DEFAULT 'en';
 ALTER TABLE pupils ADD COLUMN language TEXT NOT NULL DEFAULT 'en';
 )sql",
+    // 15: each school's totals of pupils, sessions and exams, kept by triggers as rows come and
+    // go, so that the whole school's lists show their total without counting 10 million rows
+    // (1.2 s on SQLite, more on PostgreSQL).
+    R"sql(
+-- The passed sessions' indexes stay as 13 made them: with the reason in their keys (PostgreSQL's
+-- 15) SQLite, planning without statistics, found them wider than the cab's index of every session
+-- and read a cab's whole day for a page of its passed sessions (56 ms for 18,000 sessions).
+-- The exams by kind and result in time order: counting a school's passed practical exams went
+-- through every pupil's exams (56 ms at a million sessions).
+CREATE INDEX exams_by_kind_result ON exams(kind, passed, taken_at);
+CREATE TABLE school_totals (
+  school_id INTEGER PRIMARY KEY REFERENCES schools(id),
+  pupils INTEGER NOT NULL DEFAULT 0,
+  sessions INTEGER NOT NULL DEFAULT 0,
+  exams INTEGER NOT NULL DEFAULT 0
+);
+)sql" SCHOOL_TOTALS_FILL R"sql(
+CREATE TRIGGER school_totals_school AFTER INSERT ON schools BEGIN
+  INSERT INTO school_totals(school_id) VALUES (NEW.id);
+END;
+CREATE TRIGGER school_totals_pupil_in AFTER INSERT ON pupils BEGIN
+  UPDATE school_totals SET pupils = pupils + 1 WHERE school_id = NEW.school_id;
+END;
+CREATE TRIGGER school_totals_pupil_out AFTER DELETE ON pupils BEGIN
+  UPDATE school_totals SET pupils = pupils - 1 WHERE school_id = OLD.school_id;
+END;
+CREATE TRIGGER school_totals_session_in AFTER INSERT ON sessions BEGIN
+  UPDATE school_totals SET sessions = sessions + 1 WHERE school_id = NEW.school_id;
+END;
+CREATE TRIGGER school_totals_session_out AFTER DELETE ON sessions BEGIN
+  UPDATE school_totals SET sessions = sessions - 1 WHERE school_id = OLD.school_id;
+END;
+CREATE TRIGGER school_totals_exam_in AFTER INSERT ON exams BEGIN
+  UPDATE school_totals SET exams = exams + 1 WHERE school_id = (SELECT school_id FROM pupils WHERE id = NEW.pupil_id);
+END;
+CREATE TRIGGER school_totals_exam_out AFTER DELETE ON exams BEGIN
+  UPDATE school_totals SET exams = exams - 1 WHERE school_id = (SELECT school_id FROM pupils WHERE id = OLD.pupil_id);
+END;
+)sql",
 };
 
 // Read FROM kSessions. The second column is NULL: read_session derives the public id from the id,
@@ -703,6 +742,9 @@ class SqliteDriver final : public Driver {
     // touches a few hundred scattered pages (10,000 pupils x 50 sessions x 20 events: 590 us per
     // call with pread, 270 with mmap).
     run_sql(db, "open", "PRAGMA mmap_size=1073741824");
+    // A statement inside a batch that fires a trigger (the school's totals) keeps a statement
+    // journal, to undo itself alone: in memory, not a temporary file written page by page.
+    run_sql(db, "open", "PRAGMA temp_store=MEMORY");
   }
 
   // The cached prepared statement for `sql` (prepared once per connection).

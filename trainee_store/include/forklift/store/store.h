@@ -155,6 +155,13 @@ struct Session {
 // the total that match. Sort keys come from a fixed list (the store refuses others, kInvalid);
 // ties are broken by id. Text filters are exact unless said otherwise; dates are ISO-8601 UTC
 // strings compared as such ("2026-11-23" matches from the start of that day).
+//
+// A list's total: the whole school's pupils, sessions or exams (no filter but the school) are
+// read from the totals the store keeps as rows come and go, exact and without counting; any other
+// filter's rows are counted up to kCountedAtMost, and a page whose filter matches more says so
+// (total_is_at_least: total is kCountedAtMost, and more match), so that no list's count reads
+// millions of rows.
+constexpr int64_t kCountedAtMost = 10000;
 struct PupilFilter {
   int64_t school_id = 0;
   std::string search;                     // in the name or the email, capitals or not; empty: all
@@ -163,10 +170,16 @@ struct PupilFilter {
   std::optional<int64_t> first_for;       // an instructor: their groups' pupils first, then the rest
   std::string sort = "name";              // "name", "email", "created_at", "group"
   bool descending = false;
+  // Keyset paging: the page after this pupil's row in the list's order (sort name, email or
+  // created_at, without first_for; else kInvalid; kNotFound if no such pupil of the school), the
+  // offset counted from there. Its cost does not grow with the page's place in the list, where an
+  // offset's walks past every row before it (200,000 pupils: tens of milliseconds).
+  std::optional<int64_t> after;
 };
 struct PupilPage {
   std::vector<Pupil> pupils;
   int64_t total = 0;
+  bool total_is_at_least = false;  // more than total match (kCountedAtMost)
 };
 
 struct SessionFilter {
@@ -191,6 +204,7 @@ struct SessionRow {
 struct SessionPage {
   std::vector<SessionRow> sessions;
   int64_t total = 0;
+  bool total_is_at_least = false;  // more than total match (kCountedAtMost)
 };
 
 struct ExamFilter {
@@ -263,6 +277,7 @@ struct ExamRow {
 struct ExamPage {
   std::vector<ExamRow> exams;
   int64_t total = 0;
+  bool total_is_at_least = false;  // more than total match (kCountedAtMost)
 };
 
 // A cab booked for a pupil's session at a time. A cab is never booked twice at
