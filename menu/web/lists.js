@@ -4,11 +4,12 @@
 'use strict';
 
 const FL_LIST = (() => {
-  const { api, el, clear, say, describeError } = FL;
+  const { api, el, clear, say, describeError, t } = FL;
 
-  // A paged, sorted list. `opts`: path (e.g. '/pupils'), key (the page's array: 'pupils'), noun
-  // ('pupil'), table, count, previous, next, message, csv (a button), filters() (the query's
-  // filters as an object), row(item) (a <tr>), sort and order (the server's default), page size.
+  // A paged, sorted list, worded in the page's language. `opts`: path (e.g. '/pupils'), key (the
+  // page's array: 'pupils', and its noun in the catalogue's lists.nouns), table, count, previous,
+  // next, message, csv (a button), filters() (the query's filters as an object), row(item) (a
+  // <tr>), sort and order (the server's default), page size.
   function pagedList(opts) {
     const state = { offset: 0, sort: opts.sort, order: opts.order, asked: 0 };
     const size = opts.size || 50;
@@ -39,7 +40,7 @@ const FL_LIST = (() => {
           });
         }
         b.dataset.arrow = on ? (state.order === 'asc' ? ' ▲' : ' ▼') : '';
-        b.setAttribute('aria-label', `${b.textContent}: sort ${on && state.order === 'asc' ? 'descending' : 'ascending'}`);
+        b.setAttribute('aria-label', t(on && state.order === 'asc' ? 'lists.sort_desc' : 'lists.sort_asc', { column: b.textContent }));
       }
     }
 
@@ -52,9 +53,9 @@ const FL_LIST = (() => {
         const items = page[opts.key];
         if (items.length === 0 && state.offset > 0 && page.total > 0) { state.offset = Math.max(0, page.total - size); load(); return; }
         clear(tbody).append(...items.map(opts.row));
-        const plural = page.total === 1 ? opts.noun : opts.nouns || `${opts.noun}s`;
-        opts.count.textContent = page.total === 0 ? `No ${opts.nouns || opts.noun + 's'} match.`
-          : `${state.offset + 1}–${state.offset + items.length} of ${page.total} ${plural}`;
+        const what = t(`lists.nouns.${opts.key}`, { count: page.total });
+        opts.count.textContent = page.total === 0 ? t('lists.none', { what })
+          : t('lists.count', { from: state.offset + 1, to: state.offset + items.length, count: page.total, what });
         opts.count.dataset.total = page.total;
         opts.previous.disabled = state.offset === 0;
         opts.next.disabled = state.offset + items.length >= page.total;

@@ -23,7 +23,9 @@ const FLPlan = (() => {
 
   // A person in a high-visibility vest, seen from above: yellow with an orange band; red once struck.
   const PERSON = { vest: '#ffd400', band: '#e8590c', struck: '#b42318' };
-  const ACTIVITY_WORDS = { waiting: 'waiting for his cue', walking: 'walking', standing: 'standing', struck: 'struck by the truck' };
+  // What a person who moves is doing, in the page's words (an activity no catalogue knows as it is).
+  const activityWords = (a) => (FL.has(`plan.activity.${a}`) ? FL.t(`plan.activity.${a}`) : a);
+  const t = (key, vars) => FL.t(key, vars);
 
   function niceStep(span) {
     for (const s of [0.5, 1, 2, 5, 10, 20, 50, 100]) if (span / s <= 14) return s;
@@ -57,8 +59,8 @@ const FLPlan = (() => {
                               'aria-labelledby': 'plan-title plan-desc', id: 'plan-svg' });
     const last = path[path.length - 1];
     root.append(svg('title', { id: 'plan-title' }, title),
-                svg('desc', { id: 'plan-desc' }, path.length === 0 ? 'No truck path has been recorded.'
-                  : `The truck's path, ${path.length} points over ${last.t.toFixed(1)} s, ending at x ${last.x_m.toFixed(1)} m, y ${last.y_m.toFixed(1)} m; ${events.length} events marked.`));
+                svg('desc', { id: 'plan-desc' }, path.length === 0 ? t('plan.no_path')
+                  : t('plan.desc', { points: path.length, time: FL.num(last.t), x: FL.num(last.x_m), y: FL.num(last.y_m), events: events.length })));
 
     // the floor and its zones
     if (floor) {
@@ -90,7 +92,7 @@ const FLPlan = (() => {
         root.append(svg('polyline', { points: poly(plan.route.points), fill: 'none', stroke: '#2da44e', 'stroke-opacity': 0.12,
                                       'stroke-width': plan.route.width_m, 'stroke-linejoin': 'round', 'stroke-linecap': 'round' }));
       root.append(svg('polyline', { points: poly(plan.route.points), fill: 'none', stroke: '#555', 'stroke-width': u * 0.3,
-                                    'stroke-dasharray': `${u * 1.5} ${u}` }, svg('title', {}, 'The marked route')));
+                                    'stroke-dasharray': `${u * 1.5} ${u}` }, svg('title', {}, t('plan.route'))));
     }
     for (const s of plan && plan.task ? plan.task.steps : []) {
       if (s.kind === 'pass')
@@ -108,12 +110,12 @@ const FLPlan = (() => {
       const r = [x + Math.cos(a - 2.5) * L * 0.6, y + Math.sin(a - 2.5) * L * 0.6];
       return svg('polygon', { points: poly([tip, l, r]), fill, stroke: '#fff', 'stroke-width': u * 0.2 }, svg('title', {}, label));
     };
-    if (plan && plan.start) root.append(arrow(plan.start.x_m, plan.start.y_m, plan.start.yaw_deg || 0, '#57606a', 'Start'));
+    if (plan && plan.start) root.append(arrow(plan.start.x_m, plan.start.y_m, plan.start.yaw_deg || 0, '#57606a', t('plan.start')));
     if (path.length > 1)
       root.append(svg('polyline', { id: 'truck-path', points: poly(path.map((p) => [p.x_m, p.y_m])), fill: 'none', stroke: '#0b5cad',
                                     'stroke-width': u * 0.6, 'stroke-linejoin': 'round', 'data-points': path.length },
-                      svg('title', {}, "The truck's path")));
-    if (last) root.append(arrow(last.x_m, last.y_m, last.yaw_deg, '#0b5cad', `The truck at t = ${last.t.toFixed(1)} s`));
+                      svg('title', {}, t('plan.path'))));
+    if (last) root.append(arrow(last.x_m, last.y_m, last.yaw_deg, '#0b5cad', t('plan.truck_at', { time: FL.num(last.t) })));
 
     // the paths the scenario's people walk, first point to last (where each is comes with the
     // live state and the replay)
@@ -121,7 +123,7 @@ const FLPlan = (() => {
       if (!p.path || p.path.length < 2) continue;
       root.append(svg('polyline', { points: poly(p.path), fill: 'none', stroke: PERSON.band, 'stroke-width': u * 0.35,
                                     'stroke-dasharray': `${u * 0.8} ${u * 0.6}`, 'data-walk': p.id },
-                      svg('title', {}, `Where pedestrian ${p.id} walks${p.looks ? '' : ' (he does not look out for the truck)'}`)));
+                      svg('title', {}, t('plan.walks', { id: p.id }) + (p.looks ? '' : t('plan.does_not_look')))));
     }
 
     // the replay's truck and moving pallets, over the plan and under the event markers
@@ -145,7 +147,7 @@ const FLPlan = (() => {
           n > 1 ? svg('line', { x1: cx, y1: cy, x2: cx + dx, y2: cy + dy, stroke: '#555', 'stroke-width': u * 0.15 }) : null,
           svg('circle', { cx: cx + dx, cy: cy + dy, r: u * 1.6, fill: WORRY_FILL[e.worry_level] || '#555', stroke: '#fff', 'stroke-width': u * 0.2 }),
           svg('text', { x: cx + dx, y: cy + dy + u * 0.8, 'text-anchor': 'middle', 'font-size': u * 2.2, fill: '#fff', 'font-weight': 700 }, e.seq),
-          svg('title', {}, `${e.seq}: ${e.words ? e.words.title : e.kind} (${FL.worryName(e.worry_level)}) at t = ${e.sim_time_s.toFixed(1)} s`));
+          svg('title', {}, t('plan.event', { seq: e.seq, title: e.words ? e.words.title : e.kind, worry: FL.worryName(e.worry_level), time: FL.num(e.sim_time_s) })));
         if (onEvent) g.addEventListener('click', () => onEvent(e.seq));
         marks.set(e.seq, g);
         scaled.push({ g, cx, cy });
@@ -184,10 +186,10 @@ const FLPlan = (() => {
       applyView();
     });
     root.addEventListener('pointerup', () => { drag = null; });
-    const zoomBar = el('div', { class: 'zoom', role: 'group', 'aria-label': 'Zoom the plan' },
-      el('button', { type: 'button', class: 'secondary', id: 'zoom-in', 'aria-label': 'Zoom in', onclick: () => zoomAt(1.5) }, '+'),
-      el('button', { type: 'button', class: 'secondary', id: 'zoom-out', 'aria-label': 'Zoom out', onclick: () => zoomAt(1 / 1.5) }, '−'),
-      el('button', { type: 'button', class: 'secondary', id: 'zoom-reset', onclick: () => { view = { ...full }; applyView(); } }, 'Whole plan'));
+    const zoomBar = el('div', { class: 'zoom', role: 'group', 'aria-label': t('plan.zoom') },
+      el('button', { type: 'button', class: 'secondary', id: 'zoom-in', 'aria-label': t('plan.zoom_in'), onclick: () => zoomAt(1.5) }, '+'),
+      el('button', { type: 'button', class: 'secondary', id: 'zoom-out', 'aria-label': t('plan.zoom_out'), onclick: () => zoomAt(1 / 1.5) }, '−'),
+      el('button', { type: 'button', class: 'secondary', id: 'zoom-reset', onclick: () => { view = { ...full }; applyView(); } }, t('plan.whole')));
 
     clear(container).append(zoomBar, root);
     applyView();
@@ -223,11 +225,11 @@ const FLPlan = (() => {
             svg('circle', { cx, cy, r, fill: struck ? PERSON.struck : PERSON.vest, stroke: PERSON.band, 'stroke-width': r * 0.35 }),
             svg('line', { x1: cx, y1: cy, x2: +(cx + Math.cos(a) * r * 1.6).toFixed(3), y2: +(cy - Math.sin(a) * r * 1.6).toFixed(3),
                           stroke: '#222', 'stroke-width': r * 0.3, 'stroke-linecap': 'round' }),
-            svg('title', {}, `Pedestrian ${p.id}: ${ACTIVITY_WORDS[p.activity] || p.activity}, at x ${p.x_m.toFixed(1)} m, y ${p.y_m.toFixed(1)} m`)));
+            svg('title', {}, t('plan.person', { id: p.id, activity: activityWords(p.activity), x: FL.num(p.x_m), y: FL.num(p.y_m) }))));
         }
         return g;
       },
-      activityWords: (a) => ACTIVITY_WORDS[a] || a,
+      activityWords,
       shapeOf: (id) => root.querySelector(`[data-object="${CSS.escape(id)}"]`),
     };
   }
