@@ -157,7 +157,15 @@ const FL = (() => {
 
   // Loads `lang`'s messages of the shared namespace and `namespaces`, then words the page's marked
   // text and its top bar in them. A message missing is said on the console (the tests fail on it).
-  async function useLanguage(lang, namespaces = []) {
+  let wording = null;  // the latest useLanguage() under way or done
+  function useLanguage(lang, namespaces = []) {
+    wording = wordIn(lang, namespaces);
+    return wording;
+  }
+  // Settles once the page has its words: a form sent before then waits for them.
+  const worded = () => wording || Promise.resolve();
+
+  async function wordIn(lang, namespaces) {
     if (!LANGUAGES.includes(lang)) lang = 'en';
     if (i18n && i18n.language === lang) return lang;
     const ns = ['web', ...namespaces];
@@ -369,6 +377,6 @@ const FL = (() => {
   }
 
   return { api, ApiError, login, setLogin, clearLogin, el, svg, clear, requireLogin, topBar, homeOf, isStaff, param,
-           useLanguage, wordPage, preferredLanguage, t, has, truckWords, LANGUAGES,
+           useLanguage, wordPage, worded, preferredLanguage, t, has, truckWords, LANGUAGES,
            dateTime, day, pct, num, worryName, worryClass, reasonWords, english, tAround, outcomeText, stateText, reasonText, say, describeError, poll, STAFF };
 })();

@@ -88,6 +88,7 @@
 
   $('book').addEventListener('submit', async (ev) => {
     ev.preventDefault();
+    await FL.worded();
     const body = { pupil_id: Number($('pupil').value), cab_id: $('cab').value.trim(), starts_at: `${$('date').value}T${$('start').value}:00Z`,
                    duration_min: Number($('minutes').value), scenario: $('scenario').value, mode: $('mode').value };
     if (!body.pupil_id) { say(message, t('day.choose_pupil')); return; }

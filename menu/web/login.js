@@ -26,6 +26,7 @@
 
   document.getElementById('login').addEventListener('submit', async (ev) => {
     ev.preventDefault();
+    await FL.worded();  // a quick hand may log in before the page's words have come
     const username = document.getElementById('username').value.trim();
     const password = document.getElementById('password').value;
     if (!username || !password) {

@@ -55,6 +55,7 @@
 
   $('add').addEventListener('submit', async (ev) => {
     ev.preventDefault();
+    await FL.worded();
     const body = { name: $('name').value.trim(), email: $('email').value.trim() };
     const username = $('new-username').value.trim();
     const password = $('new-password').value;
@@ -80,6 +81,7 @@
 
   $('add-group').addEventListener('submit', async (ev) => {
     ev.preventDefault();
+    await FL.worded();
     const name = $('group-name').value.trim();
     if (!name) { say(message, t('pupils.group_needs_name')); return; }
     const body = { name };

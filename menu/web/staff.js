@@ -96,6 +96,7 @@
 
   document.getElementById('add').addEventListener('submit', async (ev) => {
     ev.preventDefault();
+    await FL.worded();
     const body = { full_name: document.getElementById('full-name').value.trim(), role: document.getElementById('role').value,
                    username: document.getElementById('new-username').value.trim(),
                    password: document.getElementById('new-password').value };

@@ -58,6 +58,7 @@
 
   $('start').addEventListener('submit', async (ev) => {
     ev.preventDefault();
+    await FL.worded();
     clear(message);
     const body = { pupil_id: Number($('pupil').value), scenario: $('scenario').value, cab_id: $('cab').value.trim(), mode: $('mode').value };
     if (!body.pupil_id) { say(message, t('start.choose_pupil')); $('pupil-search').focus(); return; }
