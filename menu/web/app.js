@@ -143,9 +143,9 @@ const FL = (() => {
   }
 
   // The school's languages: the catalogues of data/i18n/ (served at /i18n/<lang>/<namespace>.json),
-  // looked up with i18next (vendor/, from npm). A page worded in them calls useLanguage() and
-  // words itself with t(); its static text carries data-i18n="key" (its text) and
-  // data-i18n-attr="attr:key;..." (attributes). The pages that do not yet stay in English whole.
+  // looked up with i18next (vendor/, from npm). Every page calls useLanguage() (most through
+  // wordPage()) and words itself with t(); its static text carries a data-i18n attribute naming
+  // its text's key, and data-i18n-attr its attributes' ("aria-label:KEY;placeholder:KEY").
   const LANGUAGES = ['en', 'es'];  // data/i18n/'s folders, as server/openapi.yaml's Language
   let i18n = null;
 
@@ -157,7 +157,15 @@ const FL = (() => {
 
   // Loads `lang`'s messages of the shared namespace and `namespaces`, then words the page's marked
   // text and its top bar in them. A message missing is said on the console (the tests fail on it).
-  async function useLanguage(lang, namespaces = []) {
+  let wording = null;  // the latest useLanguage() under way or done
+  function useLanguage(lang, namespaces = []) {
+    wording = wordIn(lang, namespaces);
+    return wording;
+  }
+  // Settles once the page has its words: a form sent before then waits for them.
+  const worded = () => wording || Promise.resolve();
+
+  async function wordIn(lang, namespaces) {
     if (!LANGUAGES.includes(lang)) lang = 'en';
     if (i18n && i18n.language === lang) return lang;
     const ns = ['web', ...namespaces];
@@ -184,16 +192,36 @@ const FL = (() => {
     return lang;
   }
 
+  // A page worded in the school's languages: the signed-in person's (English without a login),
+  // with the events' words (namespace words) and its title "<page> · <school>" from `titleKey`.
+  async function wordPage(titleKey, namespaces = []) {
+    const l = login();
+    const lang = await useLanguage((l && l.language) || 'en', ['words', ...namespaces]);
+    if (titleKey) document.title = t('title', { page: t(titleKey) });
+    return lang;
+  }
+
+  // Whether the page's language has a message for `key` (data the catalogues word when they can).
+  const has = (key) => !!i18n && i18n.exists(key);
+  // A truck as the API gives it ({name, title, osha_class}), its title and class in the page's
+  // language where the certificate's catalogue words them (a page that loads it).
+  function truckWords(tr) {
+    const own = (key, english) => (has(`certificate:${key}.${tr.name}`) ? t(`certificate:${key}.${tr.name}`) : english);
+    return { ...tr, title: own('trucks', tr.title), osha_class: tr.osha_class ? own('truck_classes', tr.osha_class) : tr.osha_class };
+  }
+
   // A message of the page's language ("certificate:page.print", "nav.fleet" in the shared one).
   function t(key, vars) {
     if (!i18n) throw new Error(`t('${key}') before useLanguage()`);
     return i18n.t(key, vars);
   }
-  // The top bar's words: the page's language once it has one, English on the pages not yet worded.
+  // The top bar's words: the page's language once it has one, English until then.
   const TOP_ENGLISH = { brand: 'Forklift school', skip: 'Skip to content', pages: 'Pages', log_out: 'Log out',
                         'nav.fleet': 'Fleet', 'nav.pupils': 'Pupils', 'nav.day': 'The day', 'nav.sessions': 'Sessions',
                         'nav.exams': 'Exams', 'nav.start': 'Start a session', 'nav.theory': 'Theory exam', 'nav.staff': 'Staff',
-                        'nav.my_record': 'My record', 'nav.certificate': 'Certificate' };
+                        'nav.my_record': 'My record', 'nav.certificate': 'Certificate', language: 'Language' };
+  // Each language named in itself, as a reader of it looks for it.
+  const LANGUAGE_NAMES = { en: 'English', es: 'Español' };
   const top = (key) => (i18n ? t(key) : TOP_ENGLISH[key]);
 
   // The top bar: the pages of this role, who is logged in, and a log-out button.
@@ -215,7 +243,31 @@ const FL = (() => {
       el('span', { class: 'brand' }, top('brand')),
       el('nav', { 'aria-label': top('pages') }, list),
       el('span', { class: 'who' }, i18n ? t('who', { username: l.username, role: t(`roles.${l.role}`) }) : `${l.username} (${l.role})`),
+      languageChoice(l),
       el('button', { type: 'button', class: 'link', onclick: logout }, top('log_out')));
+  }
+
+  // The signed-in person's language, chosen on their own record (staff: their account; a pupil:
+  // their pupil record), kept with the login and the page shown again in it.
+  function languageChoice(l) {
+    const own = l.role === 'pupil' ? (l.pupil_id ? `/pupils/${encodeURIComponent(l.pupil_id)}` : null)
+                                   : (l.user_id ? `/users/${encodeURIComponent(l.user_id)}` : null);
+    if (!own) return null;  // a login kept before the logins said who: chosen after the next
+    const select = el('select', { id: 'language', class: 'language', 'aria-label': top('language') },
+      LANGUAGES.map((x) => el('option', { value: x, lang: x, selected: x === (l.language || 'en') }, LANGUAGE_NAMES[x])));
+    select.addEventListener('change', async () => {
+      try {
+        const r = await api('PATCH', own, { language: select.value });
+        const now = login();
+        if (now && now.token === l.token) setLogin({ ...now, language: r.language || select.value });
+        location.reload();
+      } catch (e) {
+        select.value = l.language || 'en';
+        const box = document.getElementById('message');
+        if (box) say(box, describeError(e));
+      }
+    });
+    return select;
   }
 
   async function logout() {
@@ -240,24 +292,62 @@ const FL = (() => {
   function pct(x) { return x === null || x === undefined ? '' : decimals(`${Math.round(x * 1000) / 10} %`); }
   function num(x, digits = 1) { return x === null || x === undefined ? '' : decimals(Number(x).toFixed(digits)); }
 
-  const WORRY = { 0: 'information', 1: 'minor', 3: 'medium', 5: 'serious' };
-  // A session's outcome (the API's word) as the pages say it.
-  const OUTCOME = { open: 'under way', completed: 'completed', timed_out: 'out of time', aborted: 'aborted by the instructor',
-                    stopped: 'stopped', failed: 'failed' };
-  function outcomeText(o) { return OUTCOME[o] || String(o).replace(/_/g, ' '); }
-  // A session's state and the worker's end reason as forklift-menu says them (the session
-  // vocabulary's words()); a reason the server wrote in words ("aborted by ines") stays as it is.
-  const STATE = { starting: 'starting', waiting: 'waiting for the cab', running: 'running', ended: 'ended', aborted: 'aborted',
-                  failed: 'failed' };
-  const REASON = { duration: 'its time was up', time_limit: 'the time limit was reached', task_complete: 'the task was done',
-                   aborted: 'aborted by an instructor', signal: 'stopped before its end', numerical_failure: 'the simulation failed',
-                   cab_gone: 'the cab stopped sending its controls', parked: 'parked at the end', tipped_over: 'the truck tipped over' };
-  function stateText(s) { return STATE[s] || String(s).replace(/_/g, ' '); }
+  // The shared words of sessions and events, in the page's language once it has one (English
+  // until then): worry levels, outcomes, states and the worker's end reasons (forklift-menu's
+  // session vocabulary); a code no catalogue knows yet is still said as words, and a reason the
+  // server wrote in words ("aborted by ines") stays as it is.
+  const ENGLISH = {
+    worry: { 0: 'information', 1: 'minor', 3: 'medium', 5: 'serious' },
+    outcome: { open: 'under way', completed: 'completed', timed_out: 'out of time', aborted: 'aborted by the instructor',
+               stopped: 'stopped', failed: 'failed' },
+    state: { starting: 'starting', waiting: 'waiting for the cab', running: 'running', ended: 'ended', aborted: 'aborted',
+             failed: 'failed' },
+    reason: { duration: 'its time was up', time_limit: 'the time limit was reached', task_complete: 'the task was done',
+              aborted: 'aborted by an instructor', signal: 'stopped before its end', numerical_failure: 'the simulation failed',
+              cab_gone: 'the cab stopped sending its controls', parked: 'parked at the end', tipped_over: 'the truck tipped over' },
+  };
+  const word = (group, code) => {
+    if (!Object.prototype.hasOwnProperty.call(ENGLISH[group], code)) return null;
+    return i18n ? t(`${group === 'worry' ? 'words:' : ''}${group}.${code}`) : ENGLISH[group][code];
+  };
+  const asWords = (code) => String(code).replace(/_/g, ' ');
+  function outcomeText(o) { return word('outcome', o) || asWords(o); }
+  function stateText(s) { return word('state', s) || asWords(s); }
   function reasonText(r) {
-    if (REASON[r]) return REASON[r];
-    return /^[a-z]+(_[a-z]+)+$/.test(r) ? r.replace(/_/g, ' ') : String(r);  // a code no table knows yet, still as words
+    return word('reason', r) || (/^[a-z]+(_[a-z]+)+$/.test(r) ? asWords(r) : String(r));
   }
-  function worryName(level) { return WORRY[level] || `level ${level}`; }
+  // A worry level's class for its colour: always the English word (style.css's).
+  function worryClass(level) { return ENGLISH.worry[level] || `level-${level}`; }
+  function worryName(level) { return word('worry', level) || (i18n ? t('words:worry.other', { level }) : `level ${level}`); }
+
+  // Why a result is not a pass (the API's {code, text}), in the page's language: the server's text
+  // in English; a code with a message of its own in another language, worded from the text's
+  // numbers and the session's end reason; any other kept as the server wrote it, marked English.
+  function reasonWords(r, endReason) {
+    if (!i18n || i18n.language === 'en') return r.text;
+    const because = endReason ? t('why.because', { reason: reasonText(endReason) }) : '';
+    const points = /^(\d+) penalty points, more than the (\d+) allowed$/.exec(r.text);
+    if (['aborted', 'stopped', 'failed'].includes(r.code) && /before its end|failed/.test(r.text)) return t(`why.${r.code}`) + because;
+    if (r.code === 'timed_out' && /^the paper's/.test(r.text)) return t('why.paper_timed_out');
+    if (r.code === 'timed_out') return t(/time limit/.test(r.text) ? 'why.time_limit' : 'why.timed_out');
+    if (r.code === 'too_many_points' && points) return t('why.too_many_points', { points: points[1], allowed: points[2] });
+    if (r.code === 'evidence' && /no exam session/.test(r.text)) return t('why.no_session');
+    if (['task_incomplete', 'not_passed', 'no_score'].includes(r.code)) return t(`why.${r.code}`);
+    return english(r.text);
+  }
+
+  // Words the data gives only in English (a scenario's description, a rule's source, the theory
+  // bank's questions) on a page in another language: said as English, so that a reader and a
+  // screen reader know it.
+  function english(text) {
+    return !i18n || i18n.language === 'en' || !text ? text : el('span', { lang: 'en' }, text);
+  }
+
+  // A message whose variable `name` is a node (English data, a link): the message's text around it.
+  function tAround(key, name, node, vars = {}) {
+    const [before, after] = t(key, { ...vars, [name]: '\u0000' }).split('\u0000');
+    return [before, node, after];
+  }
 
   // A message in a live region: errors are announced, and never built from HTML.
   function say(node, text, kind = 'error') {
@@ -266,7 +356,8 @@ const FL = (() => {
 
   // What went wrong in the server's words; its code is for scripts, not for the person reading.
   function describeError(e) {
-    if (e instanceof ApiError && e.status && !e.message) return `the server refused it (HTTP ${e.status})`;
+    if (i18n && e instanceof ApiError && e.code === 'network') return t('error.network');
+    if (e instanceof ApiError && e.status && !e.message) return i18n ? t('error.refused', { status: e.status }) : `the server refused it (HTTP ${e.status})`;
     return String((e && e.message) || e);
   }
 
@@ -286,6 +377,6 @@ const FL = (() => {
   }
 
   return { api, ApiError, login, setLogin, clearLogin, el, svg, clear, requireLogin, topBar, homeOf, isStaff, param,
-           useLanguage, preferredLanguage, t, LANGUAGES,
-           dateTime, day, pct, num, worryName, outcomeText, stateText, reasonText, say, describeError, poll, STAFF };
+           useLanguage, wordPage, worded, preferredLanguage, t, has, truckWords, LANGUAGES,
+           dateTime, day, pct, num, worryName, worryClass, reasonWords, english, tAround, outcomeText, stateText, reasonText, say, describeError, poll, STAFF };
 })();

@@ -49,7 +49,7 @@
     try {
       await show(await api('GET', `/pupils/${encodeURIComponent(id)}/certificate`));
     } catch (e) {
-      say($('message'), e.code === 'not_certified' ? t('certificate:page.none_yet', { why: e.message }) : describeError(e),
+      say($('message'), e.code === 'not_certified' ? FL.tAround('certificate:page.none_yet', 'why', FL.english(e.message)) : describeError(e),
           e.code === 'not_certified' ? 'warn' : 'error');
       $('print').disabled = true;
     }

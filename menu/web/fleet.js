@@ -2,7 +2,7 @@
 // more (GET /api/sessions/{id}) and listed with how it ended.
 'use strict';
 (() => {
-  const { api, el, clear, requireLogin, say, describeError, num, poll, stateText, reasonText } = FL;
+  const { api, el, clear, requireLogin, say, describeError, num, poll, stateText, reasonText, t } = FL;
   requireLogin(FL.STAFF);
   const tbody = document.querySelector('#cabs tbody');
   const finishedBody = document.querySelector('#finished tbody');
@@ -15,21 +15,21 @@
   function badge(cls, text) { return el('span', { class: `badge ${cls}` }, text); }
 
   function health(s) {
-    if (s.seconds_since_state === null) return [badge('starting', 'starting'), ' waiting for its first state'];
-    const h = s.healthy ? badge('healthy', 'healthy') : badge('unhealthy', 'no state');
-    return [h, ` t = ${num(s.sim_time_s)} s, ${num(s.speed_m_s, 2)} m/s`,
-            s.healthy ? '' : `, silent ${num(s.seconds_since_state)} s`];
+    if (s.seconds_since_state === null) return [badge('starting', t('fleet.starting')), t('fleet.first_state')];
+    const h = s.healthy ? badge('healthy', t('fleet.healthy')) : badge('unhealthy', t('fleet.no_state'));
+    return [h, t('fleet.worker_state', { time: num(s.sim_time_s), speed: num(s.speed_m_s, 2) }),
+            s.healthy ? '' : t('fleet.silent', { seconds: num(s.seconds_since_state) })];
   }
 
   async function abort(id, button) {
     if (!confirmAbort.has(id)) {
       confirmAbort.add(id);
-      button.textContent = `Confirm: abort ${id}`;
+      button.textContent = t('fleet.confirm_abort', { id });
       return;
     }
     try {
       await api('POST', `/sessions/${encodeURIComponent(id)}/abort`);
-      say(message, `Session ${id} aborted.`, 'ok');
+      say(message, t('fleet.aborted', { id }), 'ok');
     } catch (e) {
       say(message, describeError(e));
     }
@@ -38,24 +38,24 @@
 
   function row(c) {
     const s = c.session;
-    const status = c.online ? badge('online', 'online') : badge('offline', 'offline');
-    const seen = !c.online && c.last_seen_at ? el('div', { class: 'small muted' }, `last seen ${FL.dateTime(c.last_seen_at)}`) : null;
-    const mode = c.online && c.mode ? el('div', { class: 'small muted' }, `controls: ${c.mode}`) : null;
+    const status = c.online ? badge('online', t('fleet.online')) : badge('offline', t('fleet.offline'));
+    const seen = !c.online && c.last_seen_at ? el('div', { class: 'small muted' }, t('fleet.last_seen', { when: FL.dateTime(c.last_seen_at) })) : null;
+    const mode = c.online && c.mode ? el('div', { class: 'small muted' }, t('fleet.controls', { mode: c.mode })) : null;
     if (!s) {
       return el('tr', { 'data-cab': c.id }, el('th', { scope: 'row' }, c.id), el('td', {}, status, seen, mode),
-                el('td', { class: 'muted' }, 'idle'), el('td', {}), el('td', {}), el('td', {}));
+                el('td', { class: 'muted' }, t('fleet.idle')), el('td', {}), el('td', {}), el('td', {}));
     }
     if (!s.id) {
       return el('tr', { 'data-cab': c.id }, el('th', { scope: 'row' }, c.id), el('td', {}, status, seen, mode),
-                el('td', { class: 'muted' }, 'busy (another school)'), el('td', {}), el('td', {}), el('td', {}));
+                el('td', { class: 'muted' }, t('fleet.busy')), el('td', {}), el('td', {}), el('td', {}));
     }
-    const button = el('button', { type: 'button', class: 'danger', 'data-key': `abort ${s.id}`, 'aria-label': `Abort session ${s.id}`, onclick: (ev) => abort(s.id, ev.currentTarget) },
-                      confirmAbort.has(s.id) ? `Confirm: abort ${s.id}` : 'Abort');
+    const button = el('button', { type: 'button', class: 'danger', 'data-key': `abort ${s.id}`, 'aria-label': t('fleet.abort_label', { id: s.id }), onclick: (ev) => abort(s.id, ev.currentTarget) },
+                      confirmAbort.has(s.id) ? t('fleet.confirm_abort', { id: s.id }) : t('fleet.abort'));
     return el('tr', { 'data-cab': c.id, 'data-session': s.id },
       el('th', { scope: 'row' }, c.id),
       el('td', {}, status, seen, mode),
       el('td', {}, el('a', { href: `session.html?id=${encodeURIComponent(s.id)}` }, s.id), ' ',
-         badge(s.state, s.state), el('div', { class: 'small' }, `${s.scenario}, ${s.mode}`)),
+         badge(s.state, stateText(s.state)), el('div', { class: 'small' }, `${s.scenario}, ${t(`mode.${s.mode}`)}`)),
       el('td', {}, el('a', { href: `pupil.html?id=${encodeURIComponent(s.pupil_id)}` }, s.pupil_name)),
       el('td', { class: 'worker' }, health(s)),
       el('td', {}, button));
@@ -95,7 +95,7 @@
       const again = [...tbody.querySelectorAll('[data-key]')].find((e) => e.getAttribute('data-key') === focused);
       if (again) again.focus();
     }
-    if (f.cabs.length === 0) tbody.append(el('tr', {}, el('td', { colspan: 6, class: 'muted' }, 'No cab has announced itself yet: start forklift-cab on a cab station.')));
+    if (f.cabs.length === 0) tbody.append(el('tr', {}, el('td', { colspan: 6, class: 'muted' }, t('fleet.no_cab'))));
     const now = new Set();
     for (const c of f.cabs) {
       if (c.session && c.session.id) {
@@ -110,8 +110,8 @@
       }
     }
     const online = f.cabs.filter((c) => c.online).length;
-    summary.textContent = `${online} of ${f.cabs.length} cabs online; ${f.workers.length} of ${f.max_workers} sim workers running.`;
+    summary.textContent = t('fleet.summary', { online, cabs: f.cabs.length, workers: f.workers.length, max: f.max_workers });
   }
 
-  poll(refresh, 1000);
+  FL.wordPage('fleet.title').then(() => poll(refresh, 1000));
 })();

@@ -4,11 +4,12 @@
 'use strict';
 
 const FL_LIST = (() => {
-  const { api, el, clear, say, describeError } = FL;
+  const { api, el, clear, say, describeError, t } = FL;
 
-  // A paged, sorted list. `opts`: path (e.g. '/pupils'), key (the page's array: 'pupils'), noun
-  // ('pupil'), table, count, previous, next, message, csv (a button), filters() (the query's
-  // filters as an object), row(item) (a <tr>), sort and order (the server's default), page size.
+  // A paged, sorted list, worded in the page's language. `opts`: path (e.g. '/pupils'), key (the
+  // page's array: 'pupils', and its noun in the catalogue's lists.nouns), table, count, previous,
+  // next, message, csv (a button), filters() (the query's filters as an object), row(item) (a
+  // <tr>), sort and order (the server's default), page size.
   function pagedList(opts) {
     // after: the row the next page follows (keyset paging, where the server offers next_after):
     // then the offset only numbers the rows shown.
@@ -45,7 +46,7 @@ const FL_LIST = (() => {
           });
         }
         b.dataset.arrow = on ? (state.order === 'asc' ? ' ▲' : ' ▼') : '';
-        b.setAttribute('aria-label', `${b.textContent}: sort ${on && state.order === 'asc' ? 'descending' : 'ascending'}`);
+        b.setAttribute('aria-label', t(on && state.order === 'asc' ? 'lists.sort_desc' : 'lists.sort_asc', { column: b.textContent }));
       }
     }
 
@@ -61,9 +62,11 @@ const FL_LIST = (() => {
         }
         state.nextAfter = page.next_after ?? null;
         clear(tbody).append(...items.map(opts.row));
-        const plural = page.total === 1 ? opts.noun : opts.nouns || `${opts.noun}s`;
-        opts.count.textContent = page.total === 0 ? `No ${opts.nouns || opts.noun + 's'} match.`
-          : `${state.offset + 1}–${state.offset + items.length} of ${page.total_is_at_least ? `more than ${page.total.toLocaleString('en')}` : page.total} ${plural}`;
+        const what = t(`lists.nouns.${opts.key}`, { count: page.total });
+        const counted = { from: state.offset + 1, to: state.offset + items.length, count: page.total, what };
+        opts.count.textContent = page.total === 0 ? t('lists.none', { what })
+          : page.total_is_at_least ? t('lists.count_at_least', { ...counted, total: page.total.toLocaleString(document.documentElement.lang || 'en') })
+          : t('lists.count', counted);
         opts.count.dataset.total = page.total;
         opts.previous.disabled = state.offset === 0;
         // A filter that matches more than the store counts (10,000): pages go on while they are full.

@@ -2,9 +2,13 @@
 // go on by role (or to the page that sent us here, if it is one of ours).
 'use strict';
 (() => {
-  const { api, setLogin, login, homeOf, say, describeError, param } = FL;
+  const { api, setLogin, login, homeOf, say, describeError, param, t } = FL;
   const message = document.getElementById('message');
-  if (param('expired')) say(message, 'Your login has expired: please log in again.', 'warn');
+  // In the language asked (?lang=), else the browser's: nobody is logged in yet.
+  FL.useLanguage(FL.preferredLanguage()).then(() => {
+    document.title = t('title', { page: t('login.title') });
+    if (param('expired')) say(message, t('login.expired'), 'warn');
+  });
 
   // Only our own pages, never another site: "pupil.html?id=3" yes, "//evil.example" no.
   function safeNext() {
@@ -22,20 +26,21 @@
 
   document.getElementById('login').addEventListener('submit', async (ev) => {
     ev.preventDefault();
+    await FL.worded();  // a quick hand may log in before the page's words have come
     const username = document.getElementById('username').value.trim();
     const password = document.getElementById('password').value;
     if (!username || !password) {
-      say(message, 'Enter your user name and password.');
+      say(message, t('login.enter_both'));
       return;
     }
     try {
       const r = await api('POST', '/login', { username, password });
-      const l = { token: r.token, role: r.role, pupil_id: r.pupil_id, username, language: r.language,
+      const l = { token: r.token, role: r.role, user_id: r.user_id, pupil_id: r.pupil_id, username, language: r.language,
                   expires_at: Date.now() + r.expires_in_s * 1000 };
       setLogin(l);
       location.assign(safeNext() || homeOf(l));
     } catch (e) {
-      say(message, e.code === 'bad_credentials' ? 'Unknown user or wrong password.' : describeError(e));
+      say(message, e.code === 'bad_credentials' ? t('login.bad_credentials') : describeError(e));
     }
   });
 })();

@@ -23,9 +23,10 @@ const FLPlan = (() => {
 
   // A person in a high-visibility vest, seen from above: yellow with an orange band; red once struck.
   const PERSON = { vest: '#ffd400', band: '#e8590c', struck: '#b42318' };
-  const ACTIVITY_WORDS = { waiting: 'waiting for his cue', walking: 'walking', standing: 'standing', struck: 'struck by the truck' };
-  const TRUCK_WORDS = { waiting: 'waiting for its cue', driving: 'driving', giving_way: 'giving way at a crossing', standing: 'standing',
-                        struck: 'struck by the pupil\'s truck' };
+  // What a person who moves is doing, in the page's words (an activity no catalogue knows as it is).
+  const activityWords = (a) => (FL.has(`plan.activity.${a}`) ? FL.t(`plan.activity.${a}`) : a);
+  const t = (key, vars) => FL.t(key, vars);
+  const truckWords = (a) => (FL.has(`plan.truck_activity.${a}`) ? FL.t(`plan.truck_activity.${a}`) : a);
 
   function niceStep(span) {
     for (const s of [0.5, 1, 2, 5, 10, 20, 50, 100]) if (span / s <= 14) return s;
@@ -59,8 +60,8 @@ const FLPlan = (() => {
                               'aria-labelledby': 'plan-title plan-desc', id: 'plan-svg' });
     const last = path[path.length - 1];
     root.append(svg('title', { id: 'plan-title' }, title),
-                svg('desc', { id: 'plan-desc' }, path.length === 0 ? 'No truck path has been recorded.'
-                  : `The truck's path, ${path.length} points over ${last.t.toFixed(1)} s, ending at x ${last.x_m.toFixed(1)} m, y ${last.y_m.toFixed(1)} m; ${events.length} events marked.`));
+                svg('desc', { id: 'plan-desc' }, path.length === 0 ? t('plan.no_path')
+                  : t('plan.desc', { points: path.length, time: FL.num(last.t), x: FL.num(last.x_m), y: FL.num(last.y_m), events: events.length })));
 
     // the floor and its zones
     if (floor) {
@@ -92,7 +93,7 @@ const FLPlan = (() => {
         root.append(svg('polyline', { points: poly(plan.route.points), fill: 'none', stroke: '#2da44e', 'stroke-opacity': 0.12,
                                       'stroke-width': plan.route.width_m, 'stroke-linejoin': 'round', 'stroke-linecap': 'round' }));
       root.append(svg('polyline', { points: poly(plan.route.points), fill: 'none', stroke: '#555', 'stroke-width': u * 0.3,
-                                    'stroke-dasharray': `${u * 1.5} ${u}` }, svg('title', {}, 'The marked route')));
+                                    'stroke-dasharray': `${u * 1.5} ${u}` }, svg('title', {}, t('plan.route'))));
     }
     for (const s of plan && plan.task ? plan.task.steps : []) {
       if (s.kind === 'pass')
@@ -110,12 +111,12 @@ const FLPlan = (() => {
       const r = [x + Math.cos(a - 2.5) * L * 0.6, y + Math.sin(a - 2.5) * L * 0.6];
       return svg('polygon', { points: poly([tip, l, r]), fill, stroke: '#fff', 'stroke-width': u * 0.2 }, svg('title', {}, label));
     };
-    if (plan && plan.start) root.append(arrow(plan.start.x_m, plan.start.y_m, plan.start.yaw_deg || 0, '#57606a', 'Start'));
+    if (plan && plan.start) root.append(arrow(plan.start.x_m, plan.start.y_m, plan.start.yaw_deg || 0, '#57606a', t('plan.start')));
     if (path.length > 1)
       root.append(svg('polyline', { id: 'truck-path', points: poly(path.map((p) => [p.x_m, p.y_m])), fill: 'none', stroke: '#0b5cad',
                                     'stroke-width': u * 0.6, 'stroke-linejoin': 'round', 'data-points': path.length },
-                      svg('title', {}, "The truck's path")));
-    if (last) root.append(arrow(last.x_m, last.y_m, last.yaw_deg, '#0b5cad', `The truck at t = ${last.t.toFixed(1)} s`));
+                      svg('title', {}, t('plan.path'))));
+    if (last) root.append(arrow(last.x_m, last.y_m, last.yaw_deg, '#0b5cad', t('plan.truck_at', { time: FL.num(last.t) })));
 
     // the paths the scenario's people walk, first point to last (where each is comes with the
     // live state and the replay)
@@ -123,7 +124,7 @@ const FLPlan = (() => {
       if (!p.path || p.path.length < 2) continue;
       root.append(svg('polyline', { points: poly(p.path), fill: 'none', stroke: PERSON.band, 'stroke-width': u * 0.35,
                                     'stroke-dasharray': `${u * 0.8} ${u * 0.6}`, 'data-walk': p.id },
-                      svg('title', {}, `Where pedestrian ${p.id} walks${p.looks ? '' : ' (he does not look out for the truck)'}`)));
+                      svg('title', {}, t('plan.walks', { id: p.id }) + (p.looks ? '' : t('plan.does_not_look')))));
     }
 
     // the other trucks' routes and the crossings (who goes first in each one's title)
@@ -131,13 +132,13 @@ const FLPlan = (() => {
       if (!c.polygon || c.polygon.length < 3) continue;
       root.append(svg('polygon', { points: poly(c.polygon), fill: 'none', stroke: '#b35900', 'stroke-width': u * 0.3,
                                    'stroke-dasharray': `${u * 0.5} ${u * 0.5}`, 'data-crossing': c.id },
-                      svg('title', {}, `Crossing ${c.id}: ${c.priority === 'pupil' ? 'the other trucks give way to the pupil' : 'the pupil gives way to the other trucks'}`)));
+                      svg('title', {}, t(c.priority === 'pupil' ? 'plan.crossing_pupil_first' : 'plan.crossing_traffic_first', { id: c.id }))));
     }
-    for (const t of plan ? plan.trucks || [] : []) {
-      if (!t.route || t.route.length < 2) continue;
-      root.append(svg(t.loop ? 'polygon' : 'polyline', { points: poly(t.route), fill: 'none', stroke: '#7b8794', 'stroke-width': u * 0.4,
-                                                         'stroke-dasharray': `${u * 1.2} ${u * 0.6}`, 'data-route': t.id },
-                      svg('title', {}, `Where truck ${t.id} drives${t.loop ? ', round and round' : ''}`)));
+    for (const other of plan ? plan.trucks || [] : []) {
+      if (!other.route || other.route.length < 2) continue;
+      root.append(svg(other.loop ? 'polygon' : 'polyline', { points: poly(other.route), fill: 'none', stroke: '#7b8794', 'stroke-width': u * 0.4,
+                                                             'stroke-dasharray': `${u * 1.2} ${u * 0.6}`, 'data-route': other.id },
+                      svg('title', {}, t(other.loop ? 'plan.truck_route_loop' : 'plan.truck_route', { id: other.id }))));
     }
 
     // the replay's truck and moving pallets, over the plan and under the event markers
@@ -161,7 +162,7 @@ const FLPlan = (() => {
           n > 1 ? svg('line', { x1: cx, y1: cy, x2: cx + dx, y2: cy + dy, stroke: '#555', 'stroke-width': u * 0.15 }) : null,
           svg('circle', { cx: cx + dx, cy: cy + dy, r: u * 1.6, fill: WORRY_FILL[e.worry_level] || '#555', stroke: '#fff', 'stroke-width': u * 0.2 }),
           svg('text', { x: cx + dx, y: cy + dy + u * 0.8, 'text-anchor': 'middle', 'font-size': u * 2.2, fill: '#fff', 'font-weight': 700 }, e.seq),
-          svg('title', {}, `${e.seq}: ${e.words ? e.words.title : e.kind} (${FL.worryName(e.worry_level)}) at t = ${e.sim_time_s.toFixed(1)} s`));
+          svg('title', {}, t('plan.event', { seq: e.seq, title: e.words ? e.words.title : e.kind, worry: FL.worryName(e.worry_level), time: FL.num(e.sim_time_s) })));
         if (onEvent) g.addEventListener('click', () => onEvent(e.seq));
         marks.set(e.seq, g);
         scaled.push({ g, cx, cy });
@@ -200,10 +201,10 @@ const FLPlan = (() => {
       applyView();
     });
     root.addEventListener('pointerup', () => { drag = null; });
-    const zoomBar = el('div', { class: 'zoom', role: 'group', 'aria-label': 'Zoom the plan' },
-      el('button', { type: 'button', class: 'secondary', id: 'zoom-in', 'aria-label': 'Zoom in', onclick: () => zoomAt(1.5) }, '+'),
-      el('button', { type: 'button', class: 'secondary', id: 'zoom-out', 'aria-label': 'Zoom out', onclick: () => zoomAt(1 / 1.5) }, '−'),
-      el('button', { type: 'button', class: 'secondary', id: 'zoom-reset', onclick: () => { view = { ...full }; applyView(); } }, 'Whole plan'));
+    const zoomBar = el('div', { class: 'zoom', role: 'group', 'aria-label': t('plan.zoom') },
+      el('button', { type: 'button', class: 'secondary', id: 'zoom-in', 'aria-label': t('plan.zoom_in'), onclick: () => zoomAt(1.5) }, '+'),
+      el('button', { type: 'button', class: 'secondary', id: 'zoom-out', 'aria-label': t('plan.zoom_out'), onclick: () => zoomAt(1 / 1.5) }, '−'),
+      el('button', { type: 'button', class: 'secondary', id: 'zoom-reset', onclick: () => { view = { ...full }; applyView(); } }, t('plan.whole')));
 
     clear(container).append(zoomBar, root);
     applyView();
@@ -239,29 +240,29 @@ const FLPlan = (() => {
             svg('circle', { cx, cy, r, fill: struck ? PERSON.struck : PERSON.vest, stroke: PERSON.band, 'stroke-width': r * 0.35 }),
             svg('line', { x1: cx, y1: cy, x2: +(cx + Math.cos(a) * r * 1.6).toFixed(3), y2: +(cy - Math.sin(a) * r * 1.6).toFixed(3),
                           stroke: '#222', 'stroke-width': r * 0.3, 'stroke-linecap': 'round' }),
-            svg('title', {}, `Pedestrian ${p.id}: ${ACTIVITY_WORDS[p.activity] || p.activity}, at x ${p.x_m.toFixed(1)} m, y ${p.y_m.toFixed(1)} m`)));
+            svg('title', {}, t('plan.person', { id: p.id, activity: activityWords(p.activity), x: FL.num(p.x_m), y: FL.num(p.y_m) }))));
         }
         return g;
       },
-      activityWords: (a) => ACTIVITY_WORDS[a] || a,
+      activityWords,
       // The other trucks, as boxes of their plan size facing their heading: [{id, x_m, y_m,
       // heading_deg, activity}]. A group for the overlay; each names the truck and what it does.
       trucks(list) {
         const g = svg('g', { class: 'trucks' });
         const size = new Map((plan ? plan.trucks || [] : []).map((t) => [t.id, t.size_m || [3, 1.1, 2.1]]));
-        for (const t of list) {
-          const [l, w] = size.get(t.id) || [3, 1.1];
-          const cx = X(t.x_m), cy = Y(t.y_m);
-          g.append(svg('rect', { class: 'other-truck', 'data-truck': t.id, 'data-activity': t.activity,
-                                 'data-x': t.x_m.toFixed(3), 'data-y': t.y_m.toFixed(3),
+        for (const truck of list) {
+          const [l, w] = size.get(truck.id) || [3, 1.1];
+          const cx = X(truck.x_m), cy = Y(truck.y_m);
+          g.append(svg('rect', { class: 'other-truck', 'data-truck': truck.id, 'data-activity': truck.activity,
+                                 'data-x': truck.x_m.toFixed(3), 'data-y': truck.y_m.toFixed(3),
                                  x: cx - X(l / 2) + X(0), y: cy - (Y(0) - Y(w / 2)), width: X(l) - X(0), height: Y(0) - Y(w),
-                                 transform: `rotate(${-t.heading_deg} ${cx} ${cy})`,
-                                 fill: t.activity === 'struck' ? '#c0392b' : '#f28c28', stroke: '#222', 'stroke-width': u * 0.2 },
-            svg('title', {}, `Truck ${t.id}: ${TRUCK_WORDS[t.activity] || t.activity}, at x ${t.x_m.toFixed(1)} m, y ${t.y_m.toFixed(1)} m`)));
+                                 transform: `rotate(${-truck.heading_deg} ${cx} ${cy})`,
+                                 fill: truck.activity === 'struck' ? '#c0392b' : '#f28c28', stroke: '#222', 'stroke-width': u * 0.2 },
+            svg('title', {}, t('plan.other_truck', { id: truck.id, activity: truckWords(truck.activity), x: FL.num(truck.x_m), y: FL.num(truck.y_m) }))));
         }
         return g;
       },
-      truckWords: (a) => TRUCK_WORDS[a] || a,
+      truckWords,
       shapeOf: (id) => root.querySelector(`[data-object="${CSS.escape(id)}"]`),
     };
   }

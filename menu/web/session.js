@@ -4,8 +4,8 @@
 // debrief: a replay re-simulated from its control log (GET .../replay), scrubbed in time over the
 // plan with the events on the same timeline, and the instructor's notes and sign-off.
 'use strict';
-(() => {
-  const { api, el, clear, requireLogin, say, describeError, dateTime, num, param, isStaff, worryName, pct, stateText, reasonText } = FL;
+(async () => {
+  const { api, el, clear, requireLogin, say, describeError, dateTime, num, param, isStaff, worryName, worryClass, pct, stateText, reasonText, t } = FL;
   const me = requireLogin();
   const id = param('id');
   const message = document.getElementById('message');
@@ -14,36 +14,41 @@
 
   function badge(cls, text) { return el('span', { class: `badge ${cls}` }, text); }
   function fact(dl, term, ...value) { dl.append(el('dt', {}, term), el('dd', {}, ...value)); }
+  function passBadge(passed) { return passed ? badge('passed', t('passed')) : badge('not-passed', t('not_passed')); }
+  // The task in a line, in the scenario's own words (English: not translated yet).
+  function taskSummary() {
+    const summary = plan && plan.task && plan.task.summary;
+    return summary ? FL.english(summary) : null;
+  }
 
   function loadText(load) {
-    if (!load) return 'none';
-    const parts = [`${num(load.mass_kg, 0)} kg`];
-    if (load.cog_height_m !== undefined) parts.push(`centre of gravity ${num(load.cog_height_m, 2)} m up`);
-    if (load.lateral_m) parts.push(`${num(load.lateral_m, 2)} m to the ${load.lateral_m > 0 ? 'left' : 'right'}`);
+    if (!load) return t('session.load_none');
+    const parts = [t('session.load_kg', { mass: num(load.mass_kg, 0) })];
+    if (load.cog_height_m !== undefined) parts.push(t('session.load_cog', { height: num(load.cog_height_m, 2) }));
+    if (load.lateral_m) parts.push(t(load.lateral_m > 0 ? 'session.load_left' : 'session.load_right', { offset: num(Math.abs(load.lateral_m), 2) }));
     return parts.join(', ');
   }
 
   function facts(s, pupil) {
-    document.getElementById('heading').textContent = `Session ${s.id}`;
-    document.title = `Session ${s.id} · Forklift school`;
+    document.getElementById('heading').textContent = t('session.heading_id', { id: s.id });
+    document.title = t('title', { page: t('session.heading_id', { id: s.id }) });
     const dl = clear(document.getElementById('facts'));
-    fact(dl, 'Pupil', pupil ? el('a', { href: `pupil.html?id=${encodeURIComponent(s.pupil_id)}` }, pupil.name) : `#${s.pupil_id}`);
-    fact(dl, 'Scenario', s.scenario, plan && plan.task && plan.task.summary ? el('div', { class: 'small muted' }, plan.task.summary) : '');
-    fact(dl, 'Truck', s.truck ? `${s.truck.title}${s.truck.osha_class ? ` (${s.truck.osha_class})` : ''}` : 'the scenario\'s default');
-    fact(dl, 'Load', loadText(s.load));
-    fact(dl, 'Cab', s.cab_id);
-    fact(dl, 'Mode', s.mode);
-    fact(dl, 'State', badge(s.state, stateText(s.state)), s.reason ? ` (${reasonText(s.reason)})` : '');
-    fact(dl, 'Started', dateTime(s.created_at));
-    if (s.ended_at) fact(dl, 'Ended', dateTime(s.ended_at));
+    fact(dl, t('session.pupil'), pupil ? el('a', { href: `pupil.html?id=${encodeURIComponent(s.pupil_id)}` }, pupil.name) : `#${s.pupil_id}`);
+    fact(dl, t('session.scenario'), s.scenario, taskSummary() ? el('div', { class: 'small muted' }, taskSummary()) : '');
+    const truck = s.truck ? FL.truckWords(s.truck) : null;
+    fact(dl, t('session.truck'), truck ? `${truck.title}${truck.osha_class ? ` (${truck.osha_class})` : ''}` : t('session.default_truck'));
+    fact(dl, t('session.load'), loadText(s.load));
+    fact(dl, t('session.cab'), s.cab_id);
+    fact(dl, t('session.mode'), t(`mode.${s.mode}`));
+    fact(dl, t('session.state'), badge(s.state, stateText(s.state)), s.reason ? ` (${reasonText(s.reason)})` : '');
+    fact(dl, t('session.started'), dateTime(s.created_at));
+    if (s.ended_at) fact(dl, t('session.ended'), dateTime(s.ended_at));
     // Only a session that ran its course has a mark; the others say how they ended instead.
-    const unmarked = { timed_out: 'no mark: the time ran out', aborted: 'no mark: the session was aborted',
-                       stopped: 'no mark: the session was stopped before its end', failed: 'no mark: the session failed',
-                       completed: 'not marked yet', open: 'not marked yet' };
-    fact(dl, 'Mark', s.mark === null ? el('span', { class: 'muted', id: 'no-mark', 'data-outcome': s.outcome }, unmarked[s.outcome] || 'no mark')
-                                     : [el('strong', { id: 'mark' }, num(s.mark)), ' ', s.passed === null ? '' : s.passed ? badge('passed', 'passed') : badge('not-passed', 'not passed')]);
+    const unmarked = ['timed_out', 'aborted', 'stopped', 'failed', 'completed', 'open'].includes(s.outcome) ? s.outcome : 'other';
+    fact(dl, t('session.mark'), s.mark === null ? el('span', { class: 'muted', id: 'no-mark', 'data-outcome': s.outcome }, t(`session.unmarked.${unmarked}`))
+                                     : [el('strong', { id: 'mark' }, num(s.mark)), ' ', s.passed === null ? '' : passBadge(s.passed)]);
     if (s.reasons && s.reasons.length && s.passed !== true)
-      fact(dl, s.mode === 'exam' ? 'Why it did not pass' : 'Why', el('ul', { class: 'small reasons' }, s.reasons.map((r) => el('li', { 'data-code': r.code }, r.text))));
+      fact(dl, t(s.mode === 'exam' ? 'session.why_not_passed' : 'session.why'), el('ul', { class: 'small reasons' }, s.reasons.map((r) => el('li', { 'data-code': r.code }, FL.reasonWords(r, s.reason)))));
   }
 
   function actions(s) {
@@ -51,7 +56,7 @@
     if (isStaff(me) && !TERMINAL.includes(s.state)) {
       box.append(el('button', { type: 'button', class: 'danger', onclick: async () => {
         try { await api('POST', `/sessions/${encodeURIComponent(s.id)}/abort`); refresh(); } catch (e) { say(message, describeError(e)); }
-      } }, 'Abort the session'));
+      } }, t('session.abort')));
     }
   }
 
@@ -67,29 +72,35 @@
     const titles = {};
     for (const e of s.events) if (e.words) titles[e.kind] = e.words.title;
     const rows = Object.entries(counts).sort((a, b) => b[1] - a[1]).map(([k, n]) => el('tr', {},
-      el('th', { scope: 'row', 'data-kind': k }, titles[k] || k.replace(/_/g, ' ')), el('td', {}, worst[k] ? badge(worryName(worst[k]), worryName(worst[k])) : ''), el('td', { class: 'num' }, n)));
-    if (rows.length === 0) rows.push(el('tr', {}, el('td', { colspan: 3, class: 'muted' }, 'No faults.')));
-    if (s.score) rows.push(el('tr', {}, el('th', { scope: 'row' }, 'Mark'), el('td', {}, s.score.passed ? badge('passed', 'passed') : badge('not-passed', 'not passed')),
+      el('th', { scope: 'row', 'data-kind': k }, titles[k] || k.replace(/_/g, ' ')), el('td', {}, worst[k] ? badge(worryClass(worst[k]), worryName(worst[k])) : ''), el('td', { class: 'num' }, n)));
+    if (rows.length === 0) rows.push(el('tr', {}, el('td', { colspan: 3, class: 'muted' }, t('session.no_faults'))));
+    if (s.score) rows.push(el('tr', {}, el('th', { scope: 'row' }, t('session.mark')), el('td', {}, passBadge(s.score.passed)),
                                  el('td', { class: 'num' }, num(s.score.mark))));
     clear(document.querySelector('#sheet tbody')).append(...rows);
-    document.getElementById('sheet-heading').textContent = s.score ? 'Marking sheet' : 'Marking sheet (faults counted; no mark)';
+    document.getElementById('sheet-heading').textContent = t(s.score ? 'session.sheet' : 'session.sheet_no_mark');
   }
 
   async function showStill(s, e, box, button) {
     button.disabled = true;
-    button.textContent = 'Rendering…';
+    button.textContent = t('session.rendering');
     try {
       const blob = await api('GET', `/sessions/${encodeURIComponent(s.id)}/events/${e.seq}/still.png`);
-      box.append(el('img', { src: URL.createObjectURL(blob), alt: `The scene from behind the truck at event ${e.seq} (${e.words ? e.words.title : e.kind}), t = ${num(e.sim_time_s)} s` }));
+      box.append(el('img', { src: URL.createObjectURL(blob), alt: t('session.still_alt', { seq: e.seq, title: e.words ? e.words.title : e.kind, time: num(e.sim_time_s) }) }));
       button.remove();
     } catch (err) {
-      button.textContent = 'No still';
+      button.textContent = t('session.no_still');
       box.append(el('p', { class: 'error small' }, describeError(err)));
     }
   }
 
   // An event's details: what the pupil did in the rule's words, what was measured against its
   // limit in units (the server's words for the evaluator's numbers), and where the rule comes from.
+  // The rule's description as the evaluator wrote it (the rules file's English), or the catalogue's
+  // in the page's language.
+  function description(e, english) {
+    return document.documentElement.lang !== 'en' && FL.has(`words:rules.${e.kind}.description`) ? t(`words:rules.${e.kind}.description`) : FL.english(english);
+  }
+
   function details(e) {
     let d = null;
     try { d = JSON.parse(e.details); } catch (err) { /* plain text, or cut short in transit */ }
@@ -98,10 +109,10 @@
     const what = Object.entries(d).filter(([k, v]) => typeof v === 'string' && !['description', 'source'].includes(k))
       .map(([k, v]) => `${k.replace(/_/g, ' ')}: ${v.replace(/_/g, ' ')}`).join('; ');
     return el('div', { class: 'small' },
-      d.description ? el('div', {}, d.description) : '',
+      d.description ? el('div', {}, description(e, d.description)) : '',
       words.summary ? el('div', { class: 'measured' }, words.summary) : '',
-      what ? el('div', { class: 'muted' }, what) : '',
-      d.source ? el('div', { class: 'muted' }, `rule: ${d.source}`) : '');
+      what ? el('div', { class: 'muted' }, FL.english(what)) : '',
+      d.source ? el('div', { class: 'muted' }, FL.tAround('session.rule', 'source', FL.english(d.source))) : '');
   }
 
   function select(seq) {
@@ -114,19 +125,19 @@
 
   function timeline(s) {
     const ol = clear(document.getElementById('timeline'));
-    if (s.events.length === 0) ol.append(el('li', { class: 'muted' }, 'No events.'));
+    if (s.events.length === 0) ol.append(el('li', { class: 'muted' }, t('session.no_events')));
     for (const e of s.events) {
       const still = el('div', { class: 'still' });
       const li = el('li', { class: `w${e.worry_level}`, 'data-seq': e.seq },
         el('span', { class: 'when' }, `${e.seq}. t = ${num(e.sim_time_s)} s`),
-        el('strong', { 'data-kind': e.kind }, e.words ? e.words.title : e.kind), ' ', badge(worryName(e.worry_level), worryName(e.worry_level)),
+        el('strong', { 'data-kind': e.kind }, e.words ? e.words.title : e.kind), ' ', badge(worryClass(e.worry_level), worryName(e.worry_level)),
         details(e),
-        el('div', { class: 'small muted' }, `at x ${num(e.x_m)} m, y ${num(e.y_m)} m `,
+        el('div', { class: 'small muted' }, t('session.at', { x: num(e.x_m), y: num(e.y_m) }),
            el('button', { type: 'button', class: 'link show-event', onclick: () => select(e.seq) },
-              replay ? 'show in the replay' : 'show on the plan')),
+              t(replay ? 'session.show_replay' : 'session.show_plan'))),
         still);
       if (s.stills_available) {
-        const b = el('button', { type: 'button', class: 'secondary' }, 'Show the still');
+        const b = el('button', { type: 'button', class: 'secondary' }, t('session.show_still'));
         b.addEventListener('click', () => showStill(s, e, still, b));
         still.append(b);
       }
@@ -138,7 +149,7 @@
   async function refresh() {
     let s, path, pupil = null;
     try {
-      [s, path] = await Promise.all([api('GET', `/sessions/${encodeURIComponent(id)}`), api('GET', `/sessions/${encodeURIComponent(id)}/path`)]);
+      [s, path] = await Promise.all([api('GET', `/sessions/${encodeURIComponent(id)}?lang=${encodeURIComponent(lang)}`), api('GET', `/sessions/${encodeURIComponent(id)}/path`)]);
     } catch (e) {
       say(message, describeError(e));
       return null;
@@ -155,7 +166,7 @@
       actions(s);
       sheet(s);
       drawn = FLPlan.draw(document.getElementById('plan'), { plan, path: path.points, events: s.events,
-        title: `Plan of ${s.scenario} with the path of session ${s.id}`, onEvent: select });
+        title: t('session.plan_title', { scenario: s.scenario, id: s.id }), onEvent: select });
       shownEvents = s.events;
       timeline(s);
       if (replay) drawReplay();
@@ -179,7 +190,7 @@
     if (replayAsked) return;
     replayAsked = true;
     rs.section.hidden = false;
-    say(rs.status, 'Preparing the replay: the session is re-simulated from its control log…', 'status');
+    say(rs.status, t('session.preparing'), 'status');
     try {
       let r = null;
       for (let i = 0; !r; i++) {
@@ -190,24 +201,24 @@
           await new Promise((ok) => setTimeout(ok, 1000));
         }
       }
-      if (!r.samples || r.samples.length === 0) throw new Error('the replay has no states');
+      if (!r.samples || r.samples.length === 0) throw new Error(t('session.no_states'));
       replay = r;
     } catch (e) {
-      say(rs.status, `No replay: ${describeError(e)}`);
+      say(rs.status, t('session.no_replay', { why: describeError(e) }));
       return;
     }
     const end = replay.samples[replay.samples.length - 1].t;
-    clear(rs.status).append(`${replay.samples.length} states over ${num(end)} s, re-simulated from the cab's controls`,
-      replay.failure ? ` (the simulation failed at its end: ${replay.failure})` : '', '.');
+    clear(rs.status).append(t('session.replay_status', { count: replay.samples.length, time: num(end) }),
+      replay.failure ? t('session.replay_failed', { why: replay.failure }) : '', '.');
     rs.time.max = String(end);
     rs.time.disabled = rs.play.disabled = false;
     clear(rs.marks).append(...shownEvents.map((e) => {
       const b = el('button', { type: 'button', class: `w${e.worry_level}`, 'data-seq': e.seq, tabindex: -1,
-        title: `${e.seq}: ${e.words ? e.words.title : e.kind} at ${num(e.sim_time_s)} s`, onclick: () => select(e.seq) });
+        title: t('session.event_mark', { seq: e.seq, title: e.words ? e.words.title : e.kind, time: num(e.sim_time_s) }), onclick: () => select(e.seq) });
       b.style.left = `${Math.min(100, 100 * e.sim_time_s / end).toFixed(2)}%`;  // CSSOM: the pages' CSP allows no style attribute
       return b;
     }));
-    for (const b of document.querySelectorAll('#timeline .show-event')) b.textContent = 'show in the replay';
+    for (const b of document.querySelectorAll('#timeline .show-event')) b.textContent = t('session.show_replay');
     rs.section.dataset.ready = 'true';
     setTime(current !== null ? (shownEvents.find((e) => e.seq === current) || { sim_time_s: 0 }).sim_time_s : 0);
   }
@@ -278,23 +289,24 @@
       FL.svg('polygon', { points: pts(body), fill: '#f2c230', 'fill-opacity': 0.9, stroke: '#222', 'stroke-width': u * 0.25 }),
       fork(1), fork(-1),
       FL.svg('circle', { cx: X(st.x_m), cy: Y(st.y_m), r: u * 0.5, fill: '#222' }),
-      FL.svg('title', {}, `The truck at t = ${num(st.t)} s`));
+      FL.svg('title', {}, t('session.truck_at', { time: num(st.t) })));
     const people = replayPeople(st);
     clear(overlay).append(g, drawn.people(people), drawn.trucks(replayTrucks(st)));
     drawn.keepInView(st.x_m, st.y_m);
     rs.clock.textContent = `t = ${num(st.t)} s`;
     const dl = clear(rs.state);
-    fact(dl, 'Speed', `${num(Math.abs(st.speed_m_s), 2)} m/s (${num(Math.abs(st.speed_m_s) * 3.6)} km/h)${st.speed_m_s < -0.02 ? ', reversing' : ''}`);
-    fact(dl, 'Forks', st.fork_height_m < 1 ? `${num(st.fork_height_m * 100, 0)} cm up` : `${num(st.fork_height_m, 2)} m up`);
-    fact(dl, 'Mast tilt', `${num(Math.abs(st.tilt_deg))}° ${st.tilt_deg > 0.05 ? 'back' : st.tilt_deg < -0.05 ? 'forward' : ''}`);
-    fact(dl, 'Load', st.load ? `pallet ${st.load} on the forks` : 'none on the forks');
-    if (people.length) fact(dl, 'Pedestrians', peopleWords(people));
+    fact(dl, t('session.speed_label'), t('session.speed_value', { speed: num(Math.abs(st.speed_m_s), 2), kmh: num(Math.abs(st.speed_m_s) * 3.6) }) +
+      (st.speed_m_s < -0.02 ? t('session.reversing') : ''));
+    fact(dl, t('session.forks'), st.fork_height_m < 1 ? t('session.cm_up', { height: num(st.fork_height_m * 100, 0) }) : t('session.m_up', { height: num(st.fork_height_m, 2) }));
+    fact(dl, t('session.tilt'), `${num(Math.abs(st.tilt_deg))}° ${st.tilt_deg > 0.05 ? t('session.back') : st.tilt_deg < -0.05 ? t('session.forward') : ''}`);
+    fact(dl, t('session.load'), st.load ? t('session.pallet_on', { id: st.load }) : t('session.none_on'));
+    if (people.length) fact(dl, t('session.pedestrians'), peopleWords(people));
   }
 
-  rs.time.addEventListener('input', () => { playing = false; rs.play.textContent = 'Play'; setTime(Number(rs.time.value)); });
+  rs.time.addEventListener('input', () => { playing = false; rs.play.textContent = t('session.play'); setTime(Number(rs.time.value)); });
   rs.play.addEventListener('click', () => {
     playing = !playing;
-    rs.play.textContent = playing ? 'Pause' : 'Play';
+    rs.play.textContent = t(playing ? 'session.pause_replay' : 'session.play');
     if (!playing) return;
     if (replayT >= Number(rs.time.max)) setTime(0);
     let before = performance.now();
@@ -302,7 +314,7 @@
       if (!playing) return;
       setTime(replayT + (now - before) / 1000 * Number(rs.speed.value));
       before = now;
-      if (replayT >= Number(rs.time.max)) { playing = false; rs.play.textContent = 'Play'; return; }
+      if (replayT >= Number(rs.time.max)) { playing = false; rs.play.textContent = t('session.play'); return; }
       requestAnimationFrame(frame);
     };
     requestAnimationFrame(frame);
@@ -315,9 +327,9 @@
   let debriefFor = null;
   function showDebrief(d) {
     clear(ds.notes).append(...(d.notes.length ? d.notes.map((n) => el('li', { 'data-note': n.id },
-      el('div', { class: 'small muted' }, `${n.author.name}, ${dateTime(n.at)}`), n.text)) : [el('li', { class: 'muted' }, 'No notes yet.')]));
+      el('div', { class: 'small muted' }, `${n.author.name}, ${dateTime(n.at)}`), n.text)) : [el('li', { class: 'muted' }, t('session.no_notes'))]));
     ds.signed.hidden = !d.sign_off;
-    if (d.sign_off) clear(ds.signed).append(badge('passed', 'signed off'), ` by ${d.sign_off.by.name}, ${dateTime(d.sign_off.at)}`,
+    if (d.sign_off) clear(ds.signed).append(badge('passed', t('session.signed_off')), t('session.signed_by', { name: d.sign_off.by.name, at: dateTime(d.sign_off.at) }),
                                             d.sign_off.comment ? `: ${d.sign_off.comment}` : '');
     ds.noteForm.hidden = !isStaff(me) || !!d.sign_off;
     ds.signForm.hidden = !isStaff(me) || !!d.sign_off || !d.finished;
@@ -332,14 +344,14 @@
     try {
       showDebrief(await api('POST', `/sessions/${encodeURIComponent(id)}/notes`, { text: ds.noteText.value }));
       ds.noteText.value = '';
-      say(message, 'Note added.', 'status');
+      say(message, t('session.note_added'), 'status');
     } catch (e) { say(message, describeError(e)); }
   });
   ds.signForm.addEventListener('submit', async (ev) => {
     ev.preventDefault();
     try {
       showDebrief(await api('POST', `/sessions/${encodeURIComponent(id)}/sign-off`, { comment: ds.comment.value }));
-      say(message, 'The debrief is signed off.', 'status');
+      say(message, t('session.signed_done'), 'status');
     } catch (e) { say(message, describeError(e)); }
   });
 
@@ -349,7 +361,7 @@
   // 95.4 s as "1 min 35 s"; under a minute as "35 s".
   const minutesSeconds = (s) => {
     const whole = Math.max(0, Math.floor(s));
-    return whole >= 60 ? `${Math.floor(whole / 60)} min ${whole % 60} s` : `${whole} s`;
+    return whole >= 60 ? t('session.min_s', { min: Math.floor(whole / 60), s: whole % 60 }) : t('session.s', { s: whole });
   };
   // The people who move, in words: "W1 walking, W2 waiting for his cue".
   const peopleWords = (list) => list.map((p) => `${p.id} ${drawn ? drawn.activityWords(p.activity) : p.activity}`).join(', ');
@@ -363,7 +375,7 @@
     if (!liveState) { clear(overlay); return; }
     const truck = FL.svg('circle', { id: 'live-truck', cx: X(liveState.x_m), cy: Y(liveState.y_m), r: u * 1.2, fill: '#f2c230', stroke: '#222',
                                      'stroke-width': u * 0.25, 'data-t': liveState.sim_time_s.toFixed(2) },
-                         FL.svg('title', {}, `The truck now, at t = ${num(liveState.sim_time_s)} s`));
+                         FL.svg('title', {}, t('session.truck_now', { time: num(liveState.sim_time_s) })));
     clear(overlay).append(truck, drawn.people(liveState.pedestrians || []), drawn.trucks(liveState.trucks || []));
   }
 
@@ -376,11 +388,12 @@
     const words = (a, truck) => drawn ? (truck ? drawn.truckWords(a) : drawn.activityWords(a)) : a;
     const hazards = [
       ...(state && state.pedestrians ? state.pedestrians : []).map((p) => ({ id: p.id, kind: 'pedestrian', activity: p.activity,
-        label: `Start pedestrian ${p.id} now`, done: `Pedestrian ${p.id} steps out now.`, status: `${p.id}: ${words(p.activity)}` })),
-      ...(state && state.trucks ? state.trucks : []).map((t) => ({ id: t.id, kind: 'truck', activity: t.activity,
-        label: `Start truck ${t.id} now`, done: `Truck ${t.id} drives off now.`, status: `${t.id}: ${words(t.activity, true)}` })),
+        label: t('session.start_pedestrian', { id: p.id }), done: t('session.pedestrian_out', { id: p.id }), status: `${p.id}: ${words(p.activity)}` })),
+      ...(state && state.trucks ? state.trucks : []).map((o) => ({ id: o.id, kind: 'truck', activity: o.activity,
+        label: t('session.start_truck', { id: o.id }), done: t('session.truck_out', { id: o.id }), status: `${o.id}: ${words(o.activity, true)}` })),
       ...(plan && plan.falling_pallets ? plan.falling_pallets : []).map((f) => ({ id: f.pallet, kind: 'falling pallet', activity: 'waiting',
-        label: `Drop pallet ${f.pallet} now`, done: `Pallet ${f.pallet} falls from its rack now.`, status: `${f.pallet}: on its rack until it falls` })),
+        label: t('session.drop_pallet', { id: f.pallet }), done: t('session.pallet_falls', { id: f.pallet }),
+        status: t('session.pallet_waiting', { id: f.pallet }) })),
     ];
     document.getElementById('hazards').hidden = !(s.state === 'running' && s.mode === 'training' && hazards.length > 0);
     for (const h of hazards) {
@@ -411,7 +424,7 @@
     box.hidden = !(s.state === 'running' && s.mode === 'training' && state);
     pausedNow = !!(state && state.paused);
     const b = document.getElementById('pause');
-    b.textContent = pausedNow ? 'Resume the session' : 'Pause the session';
+    b.textContent = t(pausedNow ? 'session.resume' : 'session.pause');
     b.setAttribute('aria-pressed', pausedNow ? 'true' : 'false');
   }
   async function instruct(body, done) {
@@ -423,17 +436,17 @@
     } catch (e) { say(message, describeError(e)); return false; }
   }
   document.getElementById('pause').addEventListener('click', () =>
-    instruct({ action: pausedNow ? 'resume' : 'pause' }, pausedNow ? 'The session runs again.' : 'The session is paused: the truck and its clock wait.'));
+    instruct({ action: pausedNow ? 'resume' : 'pause' }, t(pausedNow ? 'session.runs_again' : 'session.paused')));
   document.getElementById('rewind').addEventListener('click', () => {
     const seconds = Number(document.getElementById('rewind-s').value);
-    instruct({ action: 'rewind', seconds }, `The session goes back at least ${seconds} s: the faults since stay on the record and leave the mark.`);
+    instruct({ action: 'rewind', seconds }, t('session.goes_back', { seconds }));
   });
   document.getElementById('say-form').addEventListener('submit', (ev) => {
     ev.preventDefault();
     const input = document.getElementById('say-text');
     const text = input.value.trim();
     if (!text) return;
-    instruct({ action: 'message', text }, 'The message is on the pupil\'s display.').then((sent) => { if (sent) input.value = ''; });
+    instruct({ action: 'message', text }, t('session.message_shown')).then((sent) => { if (sent) input.value = ''; });
   });
   async function live(s) {
     const box = document.getElementById('live');
@@ -446,30 +459,30 @@
       const v = await api('GET', `/sessions/${encodeURIComponent(s.id)}/live`);
       const dl = clear(document.getElementById('live-state'));
       if (v.state) {
-        fact(dl, 'Time', `${num(v.state.sim_time_s)} s`);
-        fact(dl, 'Time left', v.state.time_left_s === null || v.state.time_left_s === undefined ? el('span', { class: 'muted' }, 'no time limit')
+        fact(dl, t('session.time'), t('session.s', { s: num(v.state.sim_time_s) }));
+        fact(dl, t('session.time_left'), v.state.time_left_s === null || v.state.time_left_s === undefined ? el('span', { class: 'muted' }, t('session.no_limit'))
           : el('span', { id: 'live-time-left' }, minutesSeconds(v.state.time_left_s)));
         const task = v.state.task;
         if (task && task.steps_total > 0) {
-          fact(dl, 'Task', el('span', { id: 'live-task' }, `${task.steps_done} of ${task.steps_total} steps done`,
-            task.step ? el('span', {}, `; now: ${task.step}`) : '; all done'));
+          fact(dl, t('session.task'), el('span', { id: 'live-task' }, t('session.steps', { done: task.steps_done, total: task.steps_total }),
+            task.step ? el('span', {}, t('session.now_step', { step: task.step })) : t('session.all_done')));
         }
-        fact(dl, 'Speed', `${num(v.state.speed_m_s, 2)} m/s`);
-        fact(dl, 'Forks', `${num(v.state.lift_m, 2)} m`);
-        fact(dl, 'Load', v.state.load_attached ? `${num(v.state.load_mass_kg, 0)} kg` : 'none');
-        fact(dl, 'Stability', pct(v.state.stability_margin));
-        if (v.state.deadman) fact(dl, 'Dead man', badge('failed', 'cab silent: truck stopped'));
-        if (v.state.paused) fact(dl, 'Paused', el('span', { id: 'live-paused' }, badge('waiting', 'paused by the instructor')));
-        if (v.state.instructor_message) fact(dl, 'The cab shows', el('span', { id: 'live-said' }, v.state.instructor_message));
-        if (v.state.pedestrians && v.state.pedestrians.length) fact(dl, 'Pedestrians', el('span', { id: 'live-people' }, peopleWords(v.state.pedestrians)));
+        fact(dl, t('session.speed_label'), `${num(v.state.speed_m_s, 2)} m/s`);
+        fact(dl, t('session.forks'), `${num(v.state.lift_m, 2)} m`);
+        fact(dl, t('session.load'), v.state.load_attached ? t('session.load_kg', { mass: num(v.state.load_mass_kg, 0) }) : t('session.load_none'));
+        fact(dl, t('session.stability'), pct(v.state.stability_margin));
+        if (v.state.deadman) fact(dl, t('session.dead_man'), badge('failed', t('session.cab_silent')));
+        if (v.state.paused) fact(dl, t('session.paused_label'), el('span', { id: 'live-paused' }, badge('waiting', t('session.paused_by'))));
+        if (v.state.instructor_message) fact(dl, t('session.cab_shows'), el('span', { id: 'live-said' }, v.state.instructor_message));
+        if (v.state.pedestrians && v.state.pedestrians.length) fact(dl, t('session.pedestrians'), el('span', { id: 'live-people' }, peopleWords(v.state.pedestrians)));
       } else {
-        fact(dl, 'Truck', 'waiting for the cab');
+        fact(dl, t('session.truck'), t('session.waiting_cab'));
       }
       instructorControls(s, v.state);
       hazardControls(s, v.state);
       liveState = v.state;
       drawLive();
-      if (!v.frame_available && !liveUrl) fact(dl, 'View', el('span', { class: 'muted' }, 'no frames from this cab\'s worker'));
+      if (!v.frame_available && !liveUrl) fact(dl, t('session.view'), el('span', { class: 'muted' }, t('session.no_frames')));
       if (v.frame_available) {
         const blob = await api('GET', `/sessions/${encodeURIComponent(s.id)}/live/frame.jpg`);
         const old = liveUrl;
@@ -486,8 +499,9 @@
     }
   }
 
-  if (!id) { say(message, 'Which session? Open this page from a pupil or the fleet.'); return; }
   let shown = null;  // the session as last fetched
+  const lang = await FL.wordPage('session.title', ['certificate']);  // its events worded by the server in it too
+  if (!id) { say(message, t('session.which')); return; }
   FL.poll(async () => { if (shown) await live(shown); }, 500, () => shown && TERMINAL.includes(shown.state));
   // Until the session is over, and then a little longer for its mark (the score follows the end).
   let done = false, endedAt = null;

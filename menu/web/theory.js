@@ -8,7 +8,7 @@
 // paper again (open or finished); ?pupil=N chooses the pupil for staff.
 'use strict';
 (() => {
-  const { api, el, clear, requireLogin, say, describeError, pct, dateTime, param, isStaff } = FL;
+  const { api, el, clear, requireLogin, say, describeError, pct, dateTime, param, isStaff, t } = FL;
   const me = requireLogin();
   const $ = (id) => document.getElementById(id);
   const message = $('message');
@@ -19,6 +19,9 @@
     for (const id of ['intro', 'paper', 'result']) $(id).hidden = id !== section;
   }
 
+  // A topic's title in the page's language (the bank's own, in English, where the catalogue has none).
+  const topicTitle = (id, english) => (FL.has(`theory.topic.${id}`) ? t(`theory.topic.${id}`) : english);
+
   // 125 s -> "2:05"; 3725 s -> "1:02:05".
   function clockText(s) {
     s = Math.max(0, Math.ceil(s));
@@ -28,12 +31,12 @@
   }
   function minutes(s) {
     if (s === null || s === undefined) return '';
-    return s % 60 === 0 ? `${s / 60} minute${s === 60 ? '' : 's'}` : `${s} s`;
+    return s % 60 === 0 ? t('theory.minutes', { count: s / 60 }) : t('theory.seconds', { count: s });
   }
   function waitWords(s) {
-    if (!s) return 'no wait';
-    if (s % 86400 === 0) return `${s / 86400} day${s === 86400 ? '' : 's'}`;
-    if (s % 3600 === 0) return `${s / 3600} hour${s === 3600 ? '' : 's'}`;
+    if (!s) return t('theory.no_wait');
+    if (s % 86400 === 0) return t('theory.days', { count: s / 86400 });
+    if (s % 3600 === 0) return t('theory.hours', { count: s / 3600 });
     return minutes(s);
   }
 
@@ -52,18 +55,16 @@
     const open = standing.papers.find((p) => p.outcome === null);
     let text;
     if (ex.allowed) {
-      text = isStaff(me) ? 'This pupil may sit a supervised theory exam now.'
-                         : 'You may sit the theory exam when an examiner or instructor hands you a paper.';
+      text = t(isStaff(me) ? 'theory.staff_may' : 'theory.pupil_may');
     } else if (ex.code === 'paper_open' && open && open.kind === 'exam') {
-      text = isStaff(me) ? `Exam paper ${open.id} is open until ${dateTime(open.deadline)}.`
-                         : `Your exam paper ${open.id} is ready, supervised by ${open.supervised_by}: open it and answer it by ${dateTime(open.deadline)}.`;
+      text = t(isStaff(me) ? 'theory.staff_open' : 'theory.pupil_open', { id: open.id, by: open.supervised_by, deadline: dateTime(open.deadline) });
     } else {
       text = ex.message;
     }
     $('exam-standing').textContent = text;
     $('exam-standing').dataset.code = ex.code || 'allowed';
     $('open-paper').hidden = !open;
-    if (open) $('open-paper').textContent = `Open ${open.kind === 'exam' ? 'exam' : 'practice'} paper ${open.id}`;
+    if (open) $('open-paper').textContent = t(open.kind === 'exam' ? 'theory.open_exam' : 'theory.open_practice', { id: open.id });
     $('begin-exam').hidden = !isStaff(me);
     $('begin-exam').disabled = !ex.allowed;
     $('begin-practice').hidden = false;
@@ -72,13 +73,13 @@
     $('standing').hidden = false;
 
     const rows = standing.papers.slice().reverse().map((p) => el('tr', { 'data-paper': p.id, 'data-kind': p.kind },
-      el('th', { scope: 'row' }, el('a', { href: `theory.html?attempt=${encodeURIComponent(p.id)}` }, `Paper ${p.id}`)),
-      el('td', {}, p.kind === 'exam' ? 'Supervised exam' : 'Practice (does not count)'),
+      el('th', { scope: 'row' }, el('a', { href: `theory.html?attempt=${encodeURIComponent(p.id)}` }, t('theory.paper_n', { id: p.id }))),
+      el('td', {}, t(p.kind === 'exam' ? 'theory.supervised_exam' : 'theory.practice_kind')),
       el('td', {}, dateTime(p.started_at)),
       el('td', {}, p.supervised_by || ''),
-      el('td', { class: 'outcome' }, p.outcome === null ? (p.deadline ? `open until ${dateTime(p.deadline)}` : 'open')
-        : p.outcome === 'timed_out' ? 'timed out' : p.passed ? 'passed' : 'not passed'),
-      el('td', { class: 'num' }, p.outcome === 'marked' ? `${p.correct} of ${p.total}` : '')));
+      el('td', { class: 'outcome' }, p.outcome === null ? (p.deadline ? t('theory.open_until', { deadline: dateTime(p.deadline) }) : t('theory.open'))
+        : t(p.outcome === 'timed_out' ? 'theory.timed_out' : p.passed ? 'passed' : 'not_passed')),
+      el('td', { class: 'num' }, p.outcome === 'marked' ? t('theory.of', { correct: p.correct, total: p.total }) : '')));
     clear($('papers').querySelector('tbody')).append(...rows);
     $('papers').hidden = rows.length === 0;
   }
@@ -90,11 +91,10 @@
       clear(message);
       const a = await api('POST', '/theory/attempts', body);
       if (kind === 'exam' && isStaff(me)) {
-        const name = $('pupil').selectedOptions[0] ? $('pupil').selectedOptions[0].textContent : 'the pupil';
+        const name = $('pupil').selectedOptions[0] ? $('pupil').selectedOptions[0].textContent : t('theory.the_pupil');
         await loadStanding();
-        $('handed-text').textContent = `Exam paper ${a.id} is handed out to ${name}, supervised by ${a.supervised_by}: ` +
-          `${a.questions.length} questions, ${minutes(a.time_limit_s)}, until ${dateTime(a.deadline)}. ` +
-          `${name} answers it from the Theory exam page of their own login, or here on this screen.`;
+        $('handed-text').textContent = t('theory.handed', { id: a.id, name, by: a.supervised_by, questions: a.questions.length,
+                                                            time: minutes(a.time_limit_s), deadline: dateTime(a.deadline) });
         $('handed').hidden = false;
         $('answer-here').onclick = () => paper(a);
         return;
@@ -119,7 +119,7 @@
 
   function progress() {
     const n = Object.keys(chosen()).length;
-    $('progress').textContent = `${n} of ${attempt.questions.length} answered.`;
+    $('progress').textContent = t('theory.answered', { count: n, total: attempt.questions.length });
   }
 
   async function picture(box, q) {
@@ -127,18 +127,18 @@
       const blob = await api('GET', q.image.replace(/^\/api/, ''));
       box.append(el('img', { class: 'figure', src: URL.createObjectURL(blob), alt: q.image_alt }));
     } catch (e) {
-      box.append(el('p', { class: 'warn' }, `The picture cannot be shown (${describeError(e)}). It shows: ${q.image_alt}`));
+      box.append(el('p', { class: 'warn' }, t('theory.no_picture', { why: describeError(e), alt: q.image_alt })));
     }
   }
 
   function startClock(a) {
     clearInterval(clockTimer);
-    if (a.time_left_s === null) { $('clock').textContent = 'No time limit'; return; }
+    if (a.time_left_s === null) { $('clock').textContent = t('theory.no_limit'); return; }
     // Counted from the server's time left, so that this computer's clock does not matter.
     const end = performance.now() + a.time_left_s * 1000;
     const tick = () => {
       const left = (end - performance.now()) / 1000;
-      $('clock').textContent = `Time left ${clockText(left)}`;
+      $('clock').textContent = t('theory.time_left', { left: clockText(left) });
       $('clock').dataset.left = String(Math.max(0, Math.round(left)));
       if (left <= 0) {
         clearInterval(clockTimer);
@@ -154,26 +154,23 @@
     warnedUnanswered = false;
     handingIn = false;
     $('hand-in').disabled = false;
-    $('paper-kind').textContent = a.kind === 'exam'
-      ? `Supervised theory exam, handed out by ${a.supervised_by}. It counts toward the theory exam and the certificate.`
-      : 'Practice quiz: it is marked, but it does not count toward the theory exam or the certificate.';
+    $('paper-kind').textContent = t(a.kind === 'exam' ? 'theory.exam_kind' : 'theory.practice_paper', { by: a.supervised_by });
     $('paper-kind').dataset.kind = a.kind;
-    $('paper-intro').textContent = `${a.questions.length} questions, ${minutes(a.time_limit_s)} to answer them` +
-      (a.deadline ? ` (until ${dateTime(a.deadline)})` : '') + `. Choose one answer to each; you pass with ${pct(a.pass_mark)} right. ` +
-      'Nothing is marked until you hand in; when the time is up the paper is handed in as it stands, and answers after that are not marked.';
+    $('paper-intro').textContent = t('theory.intro', { questions: a.questions.length, time: minutes(a.time_limit_s) }) +
+      (a.deadline ? t('theory.until', { deadline: dateTime(a.deadline) }) : '') + t('theory.intro_rest', { pass: pct(a.pass_mark) });
     const box = clear($('questions'));
     a.questions.forEach((q, i) => {
       const name = `q-${q.id}`;
       const fieldset = el('fieldset', { class: 'question', 'data-question': q.id },
-        el('legend', {}, `${i + 1}. ${q.text}`),
-        el('p', { class: 'topic' }, `Question ${i + 1} of ${a.questions.length} · ${q.topic_title}`));
+        el('legend', {}, `${i + 1}. `, FL.english(q.text)),
+        el('p', { class: 'topic' }, t('theory.question_of', { n: i + 1, total: a.questions.length, topic: topicTitle(q.topic, q.topic_title) })));
       if (q.image) {
         const figure = el('div', { class: 'picture' });
         fieldset.append(figure);
         picture(figure, q);
       }
       fieldset.append(...q.choices.map((c, k) => el('label', { class: 'choice', for: `${name}-${k}` },
-        el('input', { type: 'radio', name, id: `${name}-${k}`, value: k, onchange: progress }), c)));
+        el('input', { type: 'radio', name, id: `${name}-${k}`, value: k, onchange: progress }), FL.english(c))));
       box.append(fieldset);
     });
     progress();
@@ -188,7 +185,7 @@
     const missing = attempt.questions.length - Object.keys(answers).length;
     if (!timeUp && missing > 0 && !warnedUnanswered) {
       warnedUnanswered = true;
-      say(message, `${missing} question${missing === 1 ? ' is' : 's are'} not answered and will count as wrong. Press "Hand in" again to hand in anyway.`, 'warn');
+      say(message, t('theory.unanswered', { count: missing }), 'warn');
       return;
     }
     handingIn = true;
@@ -227,30 +224,30 @@
     const summary = clear($('result-summary'));
     summary.append(
       el('p', { class: timedOut || !r.passed ? 'error' : 'ok', id: 'verdict' },
-         timedOut ? 'Timed out.' : r.passed ? 'Passed.' : 'Not passed.'),
-      a.kind === 'practice' ? el('p', { class: 'warn', id: 'practice-result' }, 'Practice quiz: this result does not count toward the theory exam or the certificate.') : '',
+         t(timedOut ? 'theory.verdict_timed_out' : r.passed ? 'theory.verdict_passed' : 'theory.verdict_not_passed')),
+      a.kind === 'practice' ? el('p', { class: 'warn', id: 'practice-result' }, t('theory.practice_result')) : '',
       timedOut
-        ? el('p', {}, `The time ran out at ${dateTime(a.deadline)} before the paper was handed in, so nothing on it was marked.`)
-        : el('p', {}, `${r.correct} of ${r.total} right: ${pct(r.score)}; the pass mark is ${pct(r.pass_mark)}.`),
+        ? el('p', {}, t('theory.ran_out', { deadline: dateTime(a.deadline) }))
+        : el('p', {}, t('theory.score', { correct: r.correct, total: r.total, score: pct(r.score), pass: pct(r.pass_mark) })),
       el('p', { class: 'muted', id: 'stored' },
-         r.exam_id ? `Recorded as theory exam ${r.exam_id} on ${dateTime(r.taken_at)}` : `Practice paper ${a.id}, ${dateTime(r.taken_at)}`,
-         r.supervised_by ? `, supervised by ${r.supervised_by}` : '', r.handed_in_by ? `, handed in by ${r.handed_in_by}` : '', '.'));
+         r.exam_id ? t('theory.recorded', { id: r.exam_id, at: dateTime(r.taken_at) }) : t('theory.practice_n', { id: a.id, at: dateTime(r.taken_at) }),
+         r.supervised_by ? t('theory.supervised', { by: r.supervised_by }) : '', r.handed_in_by ? t('theory.handed_in_by', { by: r.handed_in_by }) : '', '.'));
     // In the bank's order of topics, as the intro lists them.
     const order = info ? info.topics.map((x) => x.id) : [];
-    const rank = (t) => (order.indexOf(t) + 1) || order.length + 1;
+    const rank = (topic) => (order.indexOf(topic) + 1) || order.length + 1;
     const topics = Object.entries(r.by_topic).sort(([a], [b]) => rank(a) - rank(b));
-    clear($('by-topic').querySelector('tbody')).append(...topics.map(([t, v]) => {
-      const title = (info && info.topics.find((x) => x.id === t) || { title: t }).title;
-      return el('tr', { 'data-topic': t }, el('th', { scope: 'row' }, title), el('td', { class: 'num' }, `${v.correct} of ${v.total}`));
+    clear($('by-topic').querySelector('tbody')).append(...topics.map(([topic, v]) => {
+      const title = topicTitle(topic, (info && info.topics.find((x) => x.id === topic) || { title: topic }).title);
+      return el('tr', { 'data-topic': topic }, el('th', { scope: 'row' }, title), el('td', { class: 'num' }, t('theory.of', { correct: v.correct, total: v.total })));
     }));
     $('by-topic').hidden = Object.keys(r.by_topic).length === 0;
     const list = clear($('to-revise'));
     if (r.to_revise.length === 0) {
-      list.append(el('li', {}, timedOut ? 'Nothing was marked: go over every topic before the next paper.' : 'Nothing: every answer was right.'));
+      list.append(el('li', {}, t(timedOut ? 'theory.nothing_marked' : 'theory.nothing')));
     }
-    for (const t of r.to_revise) {
-      list.append(el('li', { 'data-topic': t.topic },
-        el('strong', {}, t.title), `: ${t.missed} question${t.missed === 1 ? '' : 's'} missed. Read ${t.clauses.join('; ')}.`));
+    for (const x of r.to_revise) {
+      list.append(el('li', { 'data-topic': x.topic },
+        el('strong', {}, topicTitle(x.topic, x.title)), t('theory.missed', { count: x.missed, clauses: x.clauses.join('; ') })));
     }
     show('result');
     history.replaceState(null, '', `theory.html?attempt=${encodeURIComponent(a.id)}`);
@@ -274,7 +271,7 @@
     try {
       await api('POST', `/theory/pupils/${encodeURIComponent(pupilId)}/unlock`, { reason: 'unlocked on the theory exam page' });
       await loadStanding();
-      say(message, 'Unlocked: the pupil may sit another supervised exam now.', 'ok');
+      say(message, t('theory.unlocked'), 'ok');
     } catch (e) {
       say(message, describeError(e));
     }
@@ -294,22 +291,21 @@
         return;
       }
       const p = info.policy;
-      $('intro-text').textContent = `A theory exam paper has ${info.questions_per_exam} multiple-choice questions drawn for you from a bank of ` +
-        `${info.questions_in_bank}, covering every topic below, with ${minutes(p.exam_time_limit_s)} to answer them. ` +
-        `The server marks it; you pass with ${pct(info.pass_mark)} right, and the result is stored on your record.`;
-      $('rules-text').textContent = 'An exam is sat under supervision: an examiner or instructor hands out the paper. ' +
-        `After a paper that does not pass, the next may be sat after ${waitWords(p.retake_wait_s)}` +
-        (p.max_attempts ? `; after ${p.max_attempts} papers without a pass an instructor must unlock further attempts` : '') +
-        `. A practice quiz of ${p.practice_questions} questions in ${minutes(p.practice_time_limit_s)} may be taken at any time and never counts.`;
-      $('pass-why').textContent = info.pass_mark_why;
-      clear($('topics').querySelector('tbody')).append(...info.topics.map((t) => el('tr', {},
-        el('th', { scope: 'row' }, t.title), el('td', {}, t.osha), el('td', { class: 'num' }, t.questions))));
+      $('intro-text').textContent = t('theory.intro_text', { questions: info.questions_per_exam, bank: info.questions_in_bank,
+                                                             time: minutes(p.exam_time_limit_s), pass: pct(info.pass_mark) });
+      $('rules-text').textContent = t('theory.rules_text', { wait: waitWords(p.retake_wait_s) }) +
+        (p.max_attempts ? t('theory.rules_max', { count: p.max_attempts }) : '') +
+        t('theory.rules_practice', { questions: p.practice_questions, time: minutes(p.practice_time_limit_s) });
+      // The bank's reason in English; the catalogue's in another language.
+      $('pass-why').textContent = document.documentElement.lang === 'en' ? info.pass_mark_why : t('theory.pass_mark_why');
+      clear($('topics').querySelector('tbody')).append(...info.topics.map((x) => el('tr', {},
+        el('th', { scope: 'row' }, topicTitle(x.id, x.title)), el('td', {}, x.osha), el('td', { class: 'num' }, x.questions))));
       if (isStaff(me)) {
         const pupils = (await api('GET', '/pupils?limit=1000')).pupils;
         const want = param('pupil');
         // The one asked for, if the first thousand by name do not have them.
         if (want && !pupils.some((x) => String(x.id) === want)) pupils.unshift(await api('GET', `/pupils/${encodeURIComponent(want)}`));
-        $('pupil').append(el('option', { value: '' }, 'choose a pupil'),
+        $('pupil').append(el('option', { value: '' }, t('theory.choose_pupil')),
           ...pupils.map((x) => el('option', { value: x.id, selected: String(x.id) === want }, x.name)));
         $('for-pupil').hidden = false;
         pupilId = $('pupil').value || null;
@@ -322,5 +318,5 @@
       say(message, describeError(e));
     }
   }
-  init();
+  FL.wordPage('theory.title').then(init);
 })();

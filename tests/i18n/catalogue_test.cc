@@ -4,6 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <regex>
+#include <set>
+#include <sstream>
 
 #include "forklift/evaluation/event_words.h"
 #include "forklift/i18n/catalogue.h"
@@ -48,7 +51,7 @@ TEST(Catalogue, TheRulesEnglishWordsAreTheRulesFiles) {
   }
 }
 
-TEST(Catalogue, TheCertificatesEnglishWordsAreTheCertificationFiles) {
+TEST(Catalogue, TheCertificateAndTheoryEnglishWordsAreTheirFiles) {
   std::ifstream in(kData + "/theory/certification.json");
   const json cert = json::parse(in);
   const Catalogue& c = forklift::i18n::shipped();
@@ -60,11 +63,55 @@ TEST(Catalogue, TheCertificatesEnglishWordsAreTheCertificationFiles) {
     std::ifstream truck(kData + "/trucks/" + stem + ".json");
     EXPECT_EQ(c.text("en", "certificate:trucks." + stem), json::parse(truck).at("name").get<std::string>()) << stem;
   }
+  // The theory bank's topics and its pass mark's reason, as the theory page words them.
+  std::ifstream bank_in(kData + "/theory/questions.json");
+  const json bank = json::parse(bank_in);
+  for (const auto& [id, topic] : bank.at("topics").items())
+    EXPECT_EQ(c.text("en", "web:theory.topic." + id), topic.at("title").get<std::string>()) << id;
+  EXPECT_EQ(c.text("en", "web:theory.pass_mark_why"), bank.at("_pass_mark_why").get<std::string>());
   // Every shipped scenario has its title in words, in every language.
   for (const auto& f : std::filesystem::directory_iterator(kData + "/scenarios")) {
     if (f.path().extension() != ".json") continue;
     for (const std::string& lang : c.languages())
       EXPECT_TRUE(c.has(lang, "words:scenarios." + f.path().stem().string())) << lang << " " << f.path().stem();
+  }
+}
+
+// Every key a page of menu/web names as it is written (data-i18n="key", data-i18n-attr="attr:key",
+// t('key') in its script) is in the English catalogue, as it is or with its plural forms: a page
+// never shows a key in place of its words. Keys built at run time (t(`mode.${m}`)) are not seen here.
+TEST(Catalogue, EveryKeyThePagesNameIsInTheCatalogue) {
+  const Catalogue& c = forklift::i18n::shipped();
+  const std::regex marked(R"re(data-i18n="([^"]+)")re"), attrs(R"re(data-i18n-attr="([^"]+)")re"),
+      called(R"re(\bt\('([a-z_.:0-9]+)')re");
+  const auto qualified = [](const std::string& key) { return key.find(':') == std::string::npos ? "web:" + key : key; };
+  const auto known = [&](const std::string& key) {
+    const std::string k = qualified(key);
+    return c.has("en", k) || (c.has("en", k + "_one") && c.has("en", k + "_other"));
+  };
+  std::set<std::string> seen;
+  int files = 0;
+  for (const auto& f : std::filesystem::directory_iterator(std::string(FORKLIFT_SOURCE_DIR) + "/menu/web")) {
+    const std::string ext = f.path().extension().string();
+    if (ext != ".html" && ext != ".js") continue;
+    ++files;
+    std::ifstream in(f.path());
+    std::stringstream text;
+    text << in.rdbuf();
+    const std::string s = text.str();
+    const std::string name = f.path().filename().string();
+    for (auto it = std::sregex_iterator(s.begin(), s.end(), marked); it != std::sregex_iterator(); ++it) seen.insert(name + " " + (*it)[1].str());
+    for (auto it = std::sregex_iterator(s.begin(), s.end(), called); it != std::sregex_iterator(); ++it) seen.insert(name + " " + (*it)[1].str());
+    for (auto it = std::sregex_iterator(s.begin(), s.end(), attrs); it != std::sregex_iterator(); ++it) {
+      std::stringstream pairs((*it)[1].str());
+      for (std::string pair; std::getline(pairs, pair, ';');) seen.insert(name + " " + pair.substr(pair.find(':') + 1));
+    }
+  }
+  ASSERT_GT(files, 20);
+  ASSERT_GT(seen.size(), 300u) << "the pages' keys are read";
+  for (const std::string& entry : seen) {
+    const std::string key = entry.substr(entry.find(' ') + 1);
+    EXPECT_TRUE(known(key)) << entry << ": no such message in English";
   }
 }
 
@@ -101,7 +148,7 @@ TEST(Catalogue, AnEventInSpanishReadsSpanishWithADecimalComma) {
   const std::string details = R"({"measured": {"speed_m_s": 3.2}, "thresholds": {"over_limit_m_s": 0.1}})";
   const json es = forklift::event_words(forklift::i18n::shipped(), "es", "speed_open_aisle", details);
   EXPECT_EQ(es["title"], "Exceso de velocidad en un pasillo");
-  EXPECT_EQ(es["summary"], "Medido: speed 3,20 m/s (11,5 km/h). Límite: margen permitido sobre el límite 0,10 m/s (0,4 km/h).");
+  EXPECT_EQ(es["summary"], "Medido: velocidad 3,20 m/s (11,5 km/h). Límite: margen permitido sobre el límite 0,10 m/s (0,4 km/h).");
   const json en = forklift::event_words(forklift::i18n::shipped(), "en", "speed_open_aisle", details);
   EXPECT_EQ(en["title"], "Too fast in an aisle");
   EXPECT_EQ(en["summary"], "Measured: speed 3.20 m/s (11.5 km/h). Limit: allowed over the limit 0.10 m/s (0.4 km/h).");

@@ -6,13 +6,16 @@
 //   the login, the fleet, the day, the pupils and a pupil's record, the start page, the sessions,
 //   a session live and a finished one's debrief, the exams, the staff, the theory paper, the
 //   pupil's certificate page and the public certificate check;
+// - the same pages for an administrator and a pupil who read Spanish, chosen with the top bar's
+//   language selector: no English message of the catalogues left on any, and axe still clean;
 // - colour is never the only signal: every event and every marking-sheet level says its worry
 //   level in words;
 // - no text field cuts what it holds: each input is at least as wide as the text typed into it.
 //
 //   BUILD/tests/forklift-test-alloc node a11y.mjs --bin BUILD/bin --data data [--out DIR] [--headed]
 import path from 'node:path';
-import { setup, startServer, axeFindings, check, sleep, supports, Processes, apiOf, waitForServer, browserPage, failed } from './harness.mjs';
+import { setup, startServer, axeFindings, check, sleep, supports, Processes, apiOf, waitForServer, browserPage, failed, englishMessages,
+         englishLeft } from './harness.mjs';
 
 const test = setup('a11y');
 const { args, domain, out, base } = test;
@@ -54,6 +57,19 @@ async function open(p, ready) {
   await page.waitForLoadState('networkidle', { timeout: 5000 }).catch(() => {});
 }
 
+// Logs in on the login page as it stands; freshLogIn first ends this browser's login.
+async function logIn(username, password, landing) {
+  await page.fill('#username', username);
+  await page.fill('#password', password);
+  await page.press('#password', 'Enter');
+  await page.waitForURL(landing);
+}
+async function freshLogIn(username, password, landing) {
+  await page.evaluate(() => localStorage.clear());
+  await open('index.html', '#login');
+  await logIn(username, password, landing);
+}
+
 // Tab from wherever the focus is until `selector` has it: the control is in the tab order. Fails
 // after `max` presses.
 async function tabTo(selector, max = 80) {
@@ -91,7 +107,7 @@ async function noFieldCutsItsText(what) {
 
 try {
   await waitForServer(base, procs, server);
-  const admin = (await api('POST', '/login', null, { username: 'admin', password: adminPassword })).token;
+  const { token: admin, user_id: adminId } = await api('POST', '/login', null, { username: 'admin', password: adminPassword });
   await api('POST', '/users', admin, { username: 'ines', password: 'ines-pass-1', role: 'instructor', full_name: 'Ines Instructor' });
   const pupil = await api('POST', '/pupils', admin, { name: 'Kay Keyboard', email: 'kay.keyboard@example.org', username: 'kay', password: 'kay-pass-12' });
   const cab = 'keycab';
@@ -217,15 +233,7 @@ try {
     await page.fill('#password', adminPassword);
     await page.press('#password', 'Enter');
     await page.waitForURL(/fleet\.html$/);
-    const pages = [
-      ['fleet.html', 'the fleet', null], ['day.html', 'the day', null], ['pupils.html', 'the pupils', '#pupils tbody tr'],
-      [`pupil.html?id=${pupil.id}`, "a pupil's record", null], ['start.html', 'the start page', '#scenario option'],
-      ['sessions.html', 'the sessions', null], [`session.html?id=${waiting.id}`, 'a session live, waiting for its cab', '#live:not([hidden])'],
-      [`session.html?id=${sessionId}`, "a finished session's debrief", '#replay[data-ready=true]'],
-      ['exams.html', 'the exams', null], ['staff.html', 'the staff', null], ['theory.html', 'the theory exam, for staff', null],
-      ['verify.html', 'the certificate check', null],
-    ];
-    for (const [p, what, ready] of pages) {
+    for (const [p, what, ready] of staffPages()) {
       await open(p, ready);
       await audit(what);
       await noFieldCutsItsText(what);
@@ -234,13 +242,20 @@ try {
     reported();
   });
 
+  // The staff pages, as the administrator sees them.
+  function staffPages() {
+    return [
+      ['fleet.html', 'the fleet', null], ['day.html', 'the day', null], ['pupils.html', 'the pupils', '#pupils tbody tr'],
+      [`pupil.html?id=${pupil.id}`, "a pupil's record", null], ['start.html', 'the start page', '#scenario option'],
+      ['sessions.html', 'the sessions', null], [`session.html?id=${waiting.id}`, 'a session live, waiting for its cab', '#live:not([hidden])'],
+      [`session.html?id=${sessionId}`, "a finished session's debrief", '#replay[data-ready=true]'],
+      ['exams.html', 'the exams', null], ['staff.html', 'the staff', null], ['theory.html', 'the theory exam, for staff', null],
+      ['verify.html', 'the certificate check', null],
+    ];
+  }
+
   await step('axe: the pupil\'s own pages: record, theory paper, certificate', async () => {
-    await page.evaluate(() => localStorage.clear());
-    await open('index.html', '#login');
-    await page.fill('#username', 'kay');
-    await page.fill('#password', 'kay-pass-12');
-    await page.press('#password', 'Enter');
-    await page.waitForURL(/pupil\.html/);
+    await freshLogIn('kay', 'kay-pass-12', /pupil\.html/);
     await page.waitForLoadState('networkidle', { timeout: 5000 }).catch(() => {});
     await audit("the pupil's own record");
     await open('theory.html', '#intro:not([hidden])');
@@ -256,6 +271,58 @@ try {
     forget(/(HTTP 409 for GET .*\/certificate$|status of 409 )/);
     await audit("the pupil's certificate page");
     reported();
+  });
+
+
+  // Spanish: the administrator and the pupil choose it with the top bar's selector (their own
+  // record, PATCHed), and every page they see is worded in it: no English message of the
+  // catalogues left (names and codes stay as they are), and axe as clean as in English.
+  const english = englishMessages(args.data);
+  // What stays as it was given: people's names, cabs, scenarios' codes, the notes typed above.
+  const names = ['Kay Keyboard', 'kay', 'admin', 'ines', 'Ines Instructor', cab, 'nocab', 'Check behind before reversing.',
+                 'Signed off by keyboard alone.', ...(await api('GET', '/scenarios', admin)).map((x) => x.name)];
+  async function inSpanish(what) {
+    check(await page.getAttribute('html', 'lang') === 'es', `${what} says it is Spanish`);
+    const left = await englishLeft(page, english, names);
+    report(left.length === 0, `${what} (${page.url()}) in Spanish still shows English: ${JSON.stringify(left)}`);
+    await audit(`${what}, in Spanish`);
+  }
+  async function chooseSpanish(landing) {
+    await page.selectOption('#language', 'es');
+    await page.waitForURL(landing);
+    await page.waitForFunction(() => document.documentElement.lang === 'es');
+  }
+
+  await step('Spanish: the administrator chooses it, and every staff page is in it', async () => {
+    await page.evaluate(() => localStorage.clear());
+    await open('index.html?lang=es', '#login');
+    await inSpanish('the login page');
+    await logIn('admin', adminPassword, /fleet\.html$/);
+    check(await page.getAttribute('html', 'lang') === 'en', 'the administrator reads English until she chooses');
+    await chooseSpanish(/fleet\.html$/);
+    check((await api('GET', `/users/${adminId}`, admin)).language === 'es', 'her choice is kept on her account');
+    for (const [p, what, ready] of staffPages()) {
+      await open(p, ready);
+      await inSpanish(what);
+      if (p === `session.html?id=${sessionId}`) await shot('a11y-es-debrief');
+    }
+    reported();
+  });
+
+  await step("Spanish: the pupil chooses it, and his own pages are in it", async () => {
+    await freshLogIn('kay', 'kay-pass-12', /pupil\.html/);
+    await chooseSpanish(/pupil\.html/);
+    check((await api('GET', `/pupils/${pupil.id}`, admin)).language === 'es', 'his choice is kept on his record');
+    await page.waitForLoadState('networkidle', { timeout: 5000 }).catch(() => {});
+    await inSpanish("the pupil's own record");
+    await open('theory.html', '#intro:not([hidden])');
+    await inSpanish('the theory exam page, for the pupil');
+    await open(`certificate.html?pupil=${pupil.id}`, null);
+    forget(/(HTTP 409 for GET .*\/certificate$|status of 409 )/);
+    await inSpanish("the pupil's certificate page");
+    reported();
+    // Back to English for whoever runs after.
+    await api('PATCH', `/pupils/${pupil.id}`, admin, { language: 'en' });
   });
 
   await step('the certificate check, public, for a number no certificate has', async () => {

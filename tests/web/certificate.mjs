@@ -14,7 +14,7 @@
 //                [--chromium /usr/bin/chromium] [--out DIR] [--screenshots DIR] [--headed]
 import fs from 'node:fs';
 import path from 'node:path';
-import { setup, check, sleep, Processes, apiOf, browserPage, shooter, logInAs, failed, axeFindings } from './harness.mjs';
+import { setup, check, sleep, Processes, apiOf, browserPage, shooter, logInAs, failed, axeFindings, englishMessages, englishLeft } from './harness.mjs';
 
 let jsQR;
 try {
@@ -195,30 +195,13 @@ try {
     const cert = await api('GET', `/pupils/${annId}/certificate`, adminToken);
     check(cert.status === 'valid' && cert.certificate.language === 'es', `the new certificate is in Spanish and valid: ${cert.status}`);
     check(cert.certificate.statement.startsWith('Este registro certifica'), `its signed statement is Spanish: ${cert.certificate.statement}`);
-    // Every English message whose Spanish differs, cut at its variables: none may be on a Spanish page.
-    const catalogue = (lang, ns) => JSON.parse(fs.readFileSync(path.join(args.data, 'i18n', lang, `${ns}.json`), 'utf8'));
-    const leaves = (o, prefix = '') => Object.entries(o).flatMap(([k, v]) => (typeof v === 'object' ? leaves(v, `${prefix}${k}.`) : [[prefix + k, v]]));
-    const english = [];
-    for (const ns of ['web', 'certificate', 'words']) {
-      const es = new Map(leaves(catalogue('es', ns)));
-      for (const [key, text] of leaves(catalogue('en', ns)))
-        if (!key.startsWith('_') && es.get(key) !== text)
-          for (const piece of text.split(/\{\{[^}]*\}\}/)) if (/[A-Za-z]{3}/.test(piece.trim())) english.push(piece.trim());
-    }
-    // The page's words a person sees or hears: its text, title and the attributes read aloud.
+    // Every English message whose Spanish differs: none may be on a Spanish page.
+    const english = englishMessages(args.data);
     // Names stay as they are: the school's, the people's, the certificate's number.
     const namesIn = (o) => Object.entries(o || {}).flatMap(([k, v]) =>
       (v && typeof v === 'object' ? namesIn(v) : ['name', 'username', 'school', 'number'].includes(k) && typeof v === 'string' ? [v] : []));
-    const names = [...new Set([...namesIn(cert.certificate), annUser])].sort((a, b) => b.length - a.length);
-    const englishLeft = (of) => of.evaluate(({ english, names }) => {
-      let text = [document.title, document.body.innerText, ...[...document.querySelectorAll('details')].map((d) => d.textContent),
-                  ...[...document.querySelectorAll('[aria-label],[title],[placeholder],[alt]')].flatMap((e) =>
-                    ['aria-label', 'title', 'placeholder', 'alt'].map((a) => e.getAttribute(a) || ''))].join('\n');
-      for (const n of names) text = text.split(n).join(' ');
-      // Whole words: "exam" is English, "examen" Spanish.
-      const escape = (x) => x.replace(/[.*+?^${}()|[\]\\]/g, '\\$&');
-      return english.filter((piece) => new RegExp(`(?<!\\p{L})${escape(piece)}(?!\\p{L})`, 'u').test(text));
-    }, { english, names });
+    const names = [...namesIn(cert.certificate), annUser];
+    const englishLeftOn = (of) => englishLeft(of, english, names);
     await page.click('#top button.link');
     await page.waitForURL(/index\.html$/);
     await logInAs(page, annUser, annPassword, new RegExp(`pupil\\.html\\?id=${annId}$`));
@@ -227,7 +210,7 @@ try {
     check(await page.getAttribute('html', 'lang') === 'es', 'the page says it is Spanish');
     check((await page.textContent('#verdict')).includes('Válido'), `valid, in Spanish: ${await page.textContent('#verdict')}`);
     check((await page.textContent('#cert-facts')).includes('Examen práctico de carretilla contrapesada'), 'the exam course in Spanish');
-    const left = await englishLeft(page);
+    const left = await englishLeftOn(page);
     check(left.length === 0, `no English left on the Spanish certificate: ${JSON.stringify(left)}`);
     await shot('certificate-es');
     const axe = await axeFindings(page);
@@ -240,7 +223,7 @@ try {
     const checks = await anyone.$$eval('#checks li', (li) => li.map((x) => x.textContent));
     check(checks.includes('la firma del servidor se verifica') && checks.some((c) => c.startsWith('el examen práctico ')),
           `what was checked, in Spanish: ${JSON.stringify(checks)}`);
-    const leftThere = await englishLeft(anyone);
+    const leftThere = await englishLeftOn(anyone);
     check(leftThere.length === 0, `no English left on its verification page: ${JSON.stringify(leftThere)}`);
     await shot('verify-es', { of: anyone });
   });

@@ -36,6 +36,44 @@ export async function axeFindings(page) {
   };
 }
 
+// The English a page in another language must not show: every English message of data/i18n whose
+// translation in `lang` differs, cut at its variables, each piece with three letters or more.
+export function englishMessages(dataDir, lang = 'es', namespaces = ['web', 'words', 'certificate']) {
+  const catalogue = (l, ns) => JSON.parse(fs.readFileSync(path.join(dataDir, 'i18n', l, `${ns}.json`), 'utf8'));
+  const leaves = (o, prefix = '') => Object.entries(o).flatMap(([k, v]) => (typeof v === 'object' ? leaves(v, `${prefix}${k}.`) : [[prefix + k, v]]));
+  const english = new Set();
+  for (const ns of namespaces) {
+    const other = new Map(leaves(catalogue(lang, ns)));
+    for (const [key, text] of leaves(catalogue('en', ns)))
+      if (!key.startsWith('_') && other.get(key) !== text)
+        for (const piece of text.split(/\{\{[^}]*\}\}/)) if (/[A-Za-z]{3}/.test(piece.trim())) english.add(piece.trim());
+  }
+  return [...english];
+}
+
+// Which of `english` (englishMessages) the page shows: its text, title, the text of its closed
+// <details> and the attributes read aloud, whole words only ("exam" is English, "examen" Spanish).
+// Taken out first: `names` (people's, the school's, a certificate's number: they stay as they are)
+// and what the page marks as another language (lang="en": data the catalogues do not translate).
+export function englishLeft(page, english, names = []) {
+  const longestFirst = [...new Set(names.filter(Boolean))].sort((a, b) => b.length - a.length);
+  return page.evaluate(({ english, names }) => {
+    let text = [document.title, document.body.innerText, ...[...document.querySelectorAll('details')].map((d) => d.textContent),
+                ...[...document.querySelectorAll('[aria-label],[title],[placeholder],[alt]')].flatMap((e) =>
+                  ['aria-label', 'title', 'placeholder', 'alt'].map((a) => e.getAttribute(a) || ''))].join('\n');
+    // What the page says is in another language (data not translated, each language's own name).
+    for (const e of document.querySelectorAll('body [lang]'))
+      if (e.lang !== document.documentElement.lang && e.innerText) text = text.split(e.innerText).join(' ');
+    for (const n of names) text = text.split(n).join(' ');
+    const escape = (x) => x.replace(/[.*+?^${}()|[\]\\]/g, '\\$&');
+    // Each piece found, with what is round it on the page.
+    return english.flatMap((piece) => {
+      const m = new RegExp(`(?<!\\p{L})${escape(piece)}(?!\\p{L})`, 'u').exec(text);
+      return m ? [`${piece} (in "${text.slice(Math.max(0, m.index - 30), m.index + piece.length + 30).replace(/\s+/g, ' ')}")`] : [];
+    });
+  }, { english, names: longestFirst });
+}
+
 export const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 export function check(cond, what) { if (!cond) throw new Error(what); }
 
