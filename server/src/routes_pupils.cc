@@ -153,7 +153,9 @@ void pupil_routes(Routes& svr, Context& ctx) {
       audit(ctx.db(), p, id, "pupil_created", {{"name", name}, {"email", email}, {"username", username ? json(*username) : json(nullptr)}});
     });
     res.set_header("Location", "/api/pupils/" + std::to_string(id));
-    send_json(res, 201, pupil_json(*ctx.db().get_pupil(id)));
+    json j = pupil_json(*ctx.db().get_pupil(id));
+    j["language"] = ctx.db().pupil_language(id);  // as GET /api/pupils/{id} answers
+    send_json(res, 201, j);
   }));
 
   // Corrects a pupil's name or email; the audit row keeps both versions. No change, no row. And the
