@@ -3,6 +3,8 @@
 // its bearer token, elements built from data as text only (never HTML from data), the top bar
 // by role, and small formatters. Pages are plain scripts loaded with `defer`; no framework.
 'use strict';
+// The page's deferred scripts have all run by DOMContentLoaded: from then its forms are handled.
+document.addEventListener('DOMContentLoaded', () => document.documentElement.classList.remove('loading'));
 
 const FL = (() => {
   const KEY = 'forklift.login';
