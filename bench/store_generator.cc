@@ -80,12 +80,7 @@ std::string time_text(int day, int seconds) {
   tm.tm_year = 125;
   tm.tm_mday = 1 + day;
   tm.tm_sec = seconds;
-  const std::time_t t = timegm(&tm);
-  std::tm out{};
-  gmtime_r(&t, &out);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &out);
-  return buf;
+  return store::iso8601_of(timegm(&tm));
 }
 
 // Session i (0-based, in time order): its pupil is of the cohort driving those weeks, each of the

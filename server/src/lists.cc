@@ -67,12 +67,7 @@ std::string add_minutes(const std::string& iso, int minutes) {
   tm.tm_hour = std::stoi(iso.substr(11, 2));
   tm.tm_min = std::stoi(iso.substr(14, 2)) + minutes;
   tm.tm_sec = std::stoi(iso.substr(17, 2));
-  const std::time_t t = timegm(&tm);
-  std::tm out{};
-  gmtime_r(&t, &out);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &out);
-  return buf;
+  return store::iso8601_of(timegm(&tm));
 }
 
 std::string next_day(const std::string& date) { return add_minutes(date + "T00:00:00Z", 24 * 60).substr(0, 10); }

@@ -36,8 +36,9 @@ std::optional<std::string> canonical_username(const std::string& name) {
   return out;
 }
 
-std::string now_iso8601() {
-  const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+std::string now_iso8601() { return iso8601_of(std::chrono::system_clock::to_time_t(std::chrono::system_clock::now())); }
+
+std::string iso8601_of(std::time_t t) {
   std::tm utc{};
   gmtime_r(&t, &utc);
   char buf[32];

@@ -27,6 +27,7 @@
 #include <memory>
 #include <optional>
 #include <stdexcept>
+#include <ctime>
 #include <string>
 #include <utility>
 #include <vector>
@@ -819,6 +820,8 @@ std::string printable_location(const std::string& location);
 // ISO-8601 UTC time of the system clock, and the same time `years` or `months` (either may be
 // negative) after an ISO time, on the month's last day when the month has not its day.
 std::string now_iso8601();
+// A time as the store writes times, "YYYY-MM-DDTHH:MM:SSZ" (UTC).
+std::string iso8601_of(std::time_t t);
 std::string add_years_iso8601(const std::string& iso, int years);
 std::string add_months_iso8601(const std::string& iso, int months);
 
