@@ -124,7 +124,19 @@ void Fleet::supervise() {
   pthread_setname_np(pthread_self(), "supervise");
   auto db = store::Store::open(config_.db_path);
   ToChain to_chain = recorder_.check_chain(*db);  // ended exams, until when to wait
+  // Signs of life five times a lease, so that a late one or two never lose this server its sessions.
+  const auto alive_every = seconds(config_.server_lease_s / 5);
+  auto said_alive = Clock::now();
   while (!stop_) {
+    if (Clock::now() - said_alive >= alive_every) {
+      said_alive = Clock::now();
+      try {
+        db->server_alive(config_.server_id, store::now_iso8601());
+        take_over(*db, db->claim_sessions(config_.server_id, state_.lease_start(), false));
+      } catch (const std::exception& e) {
+        spdlog::error("saying this server is alive, or taking over a stopped server's sessions: {}", e.what());
+      }
+    }
     supervisor_.watch();
     for (const FleetState::Finishing& f : supervisor_.due()) {
       try {
@@ -137,6 +149,15 @@ void Fleet::supervise() {
     recorder_.chain_ended_exams(*db, to_chain);
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
+}
+
+void Fleet::take_over(store::Store& db, const std::vector<std::string>& sessions) {
+  // A hosted worker's host was heard from while the other server ran it; the rest ran on that
+  // server's machine (adopted if that is this one) or are waited for as at start-up.
+  std::vector<std::string> unheard;
+  for (const std::string& s : sessions)
+    if (!placement_.take_over(db, s)) unheard.push_back(s);
+  if (!unheard.empty()) supervisor_.take_over(db, unheard);
 }
 
 namespace {

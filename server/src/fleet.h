@@ -80,6 +80,8 @@ class Fleet : private GateWorld {
  private:
   void supervise();  // thread: reap exits, detect hangs, settle, chain
   void ingest();     // thread: DDS -> sample gate -> parts
+  // Sessions of a server that has stopped, claimed in the store: run from here from now on.
+  void take_over(store::Store& db, const std::vector<std::string>& sessions);
 
   // The gate's world: whom a session's samples must come from, who a writer is, the count.
   Speaker speaker(const std::string& session) override;

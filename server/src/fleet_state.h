@@ -6,6 +6,8 @@
 #include <sys/types.h>
 
 #include <chrono>
+#include <cmath>
+#include <ctime>
 #include <condition_variable>
 #include <fstream>
 #include <map>
@@ -17,6 +19,7 @@
 #include <vector>
 
 #include "sample_gate.h"
+#include "forklift/store/store.h"
 #include "forklift/host/worker_launch.h"
 #include "forklift/protocol/protocol.h"
 
@@ -48,6 +51,10 @@ struct FleetConfig {
   double host_pass_over_s = 30;      // a host passed over for silence is not asked again for this long
   double path_interval_s = 0.5;  // sim time between two stored points of a session's truck path
   std::string chain_anchor;      // the exam chain's anchor file; empty: <log_dir>/exam-chain.anchor
+  // This server among those that share the store: it runs the sessions it starts, and takes over
+  // those of a server that has said nothing for server_lease_s (store::claim_sessions).
+  std::string server_id = "server";
+  double server_lease_s = 10;
 };
 
 struct WorkerInfo {
@@ -109,6 +116,10 @@ struct FleetState {
   std::string log_path(const std::string& session) const { return config.log_dir + "/" + session + ".ctl"; }
   bool secure() const { return !config.security_dir.empty(); }
   bool hosts_believed() const { return secure() || config.trust_clear_hosts; }
+  // The wall-clock time before which a server's last sign of life means it has stopped.
+  std::string lease_start() const {
+    return store::iso8601_of(std::time(nullptr) - static_cast<std::time_t>(std::ceil(config.server_lease_s)));
+  }
   // Counts a refused sample; each different refusal is named in the log once (a forged report
   // among a clear host's many statuses is seen), within a bounded memory; repeats only as the
   // count doubles. Takes mu.

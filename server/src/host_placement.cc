@@ -321,7 +321,53 @@ void HostPlacement::on_report(store::Store& db, const fk_WorkerReport& r) {
     if (waiting) fleet_.finishing.erase(ending);
     else if (ending != fleet_.finishing.end() || fleet_.unsettled.count(session)) return;
   }
+  // Another server's, alive: its samples and its end are its own (kept for a take-over).
+  if (const auto owner = db.session_server(session);
+      owner && *owner != fleet_.config.server_id &&
+      db.claim_sessions(fleet_.config.server_id, fleet_.lease_start(), false, session).empty()) {
+    std::lock_guard<std::mutex> lock(fleet_.mu);
+    keep_heard(r, rep.now);
+    return;
+  }
   adopt_hosted(db, rep);
+}
+
+void HostPlacement::keep_heard(const fk_WorkerReport& r, Clock::time_point now) {
+  // Forgotten a while after its worker's end (its server has settled it, or it is taken over
+  // with this copy), or with a newer report.
+  std::erase_if(heard_, [&](const auto& h) {
+    return std::string(h.second->r.state) == name(WorkerReportState::kExited) && now - h.second->at > std::chrono::minutes(2);
+  });
+  auto h = std::make_unique<Heard>();
+  h->r = r;
+  h->at = now;
+  auto keep = [](dds_sequence_octet& seq, std::vector<uint8_t>& bytes) {
+    bytes.assign(seq._buffer, seq._buffer + seq._length);
+    seq._buffer = bytes.data();
+    seq._maximum = seq._length;
+    seq._release = false;
+  };
+  keep(h->r.control_log, h->log);
+  keep(h->r.signature, h->sig);
+  keep(h->r.worker_err, h->err);
+  heard_[r.session_id] = std::move(h);
+}
+
+bool HostPlacement::take_over(store::Store& db, const std::string& session) {
+  std::unique_ptr<Heard> h;
+  {
+    std::lock_guard<std::mutex> lock(fleet_.mu);
+    const auto it = heard_.find(session);
+    if (it == heard_.end()) return false;
+    h = std::move(it->second);
+    heard_.erase(it);
+  }
+  spdlog::info("took over session {} from a server that has stopped: its worker runs on host {}", session, h->r.host_id);
+  const auto state = parse<WorkerReportState>(h->r.state);
+  if (!state) return false;
+  Report rep{h->r, *state, session, Clock::now(), std::nullopt};
+  adopt_hosted(db, rep);
+  return true;
 }
 
 void HostPlacement::adopt_hosted(store::Store& db, Report& rep) {

@@ -36,6 +36,10 @@ class HostPlacement {
   // worker exited with its files; another server's session adopted, a stray stopped.
   void on_report(store::Store& db, const fk_WorkerReport& r);
 
+  // A session taken over from a server that has stopped, adopted from what its host last
+  // reported (the report was heard, and left, while the other server ran it); false if nothing was heard.
+  bool take_over(store::Store& db, const std::string& session);
+
   std::vector<HostInfo> hosts();
   std::vector<CabInfo> cabs_online(double within_s);
 
@@ -68,8 +72,17 @@ class HostPlacement {
   // supervisor fails the session with this reason (a worker that crashed before signing).
   static void distrust(WorkerInfo& w, Clock::time_point now);
 
+  // A report on another server's session, kept (a deep copy) for a take-over.
+  struct Heard {
+    fk_WorkerReport r{};
+    std::vector<uint8_t> log, sig, err;  // r's sequences point here
+    Clock::time_point at;
+  };
+  void keep_heard(const fk_WorkerReport& r, Clock::time_point now);  // under mu
+
   FleetState& fleet_;
   dds::Participant& participant_;
+  std::map<std::string, std::unique_ptr<Heard>> heard_;  // by session, under mu
   WorkerSupervisor& local_;
   std::map<std::string, std::unique_ptr<dds::Writer<fk_WorkerRequest>>> request_writers_;  // by host, under mu
 };

@@ -175,6 +175,10 @@ int main(int argc, char** argv) {
   app.add_option("--security", cfg.security_dir, "the school's DDS Security folder (scripts/forklift-pki.sh; default FORKLIFT_SECURITY_DIR): "
                  "needed for exams")->envname("FORKLIFT_SECURITY_DIR");
   app.add_option("--identity", cfg.identity, "the server's identity in it");
+  app.add_option("--server-id", cfg.server_id, "this server's name among the servers that share one database: each runs the "
+                 "sessions it starts (default: this machine's name and the port, as school1:8080)");
+  app.add_option("--server-lease", cfg.server_lease_s, "how long a server sharing the database may say nothing before another "
+                 "takes over its sessions, s")->check(CLI::Range(2.0, 3600.0));
   app.add_option("--admin-password", cfg.admin_password, "password of the 'admin' account created with a new database (else FORKLIFT_ADMIN_PASSWORD, else random)");
   app.add_option("--school-name", cfg.school_name, "the school's name as certificates print it (default: the school of the "
                  "--security folder's CA, else the database's)")->envname("FORKLIFT_SCHOOL_NAME");
@@ -216,6 +220,7 @@ int main(int argc, char** argv) {
       throw std::runtime_error("--listen " + listen + ": give an address and a port from 1024 to 65535, as 127.0.0.1:8080 "
                                "(ports below 1024 are kept for the system's own services, even when run as root)");
     const int port = std::stoi(port_text);
+    if (cfg.server_id.empty()) cfg.server_id = forklift::server::machine_name() + ":" + std::to_string(port);
     require_db_folder(cfg.db_path);
     // The port before anything else: a second server started by mistake changes nothing (its
     // fleet would adopt and stop the first one's workers).

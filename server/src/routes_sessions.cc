@@ -147,7 +147,7 @@ store::Session start_session(Context& ctx, const Principal& p, const json& b,
   ctx.db().batch([&] {
     try {
       s = ctx.db().create_session(pupil.id, cab, scenario, mode, mode == Mode::kExam ? std::optional<int64_t>(p.user_id) : std::nullopt,
-                                  store::now_iso8601(), p.user_id);
+                                  store::now_iso8601(), p.user_id, ctx.fleet->config().server_id);
     } catch (const store::StoreError& e) {
       // The store keeps one open session per cab: another server (or request) started one first.
       if (e.kind() != store::StoreError::kConflict) throw;

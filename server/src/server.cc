@@ -3,6 +3,7 @@
 
 #include <httplib.h>
 #include <sodium.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -15,6 +16,12 @@
 #include "routes.h"
 
 namespace forklift::server {
+
+std::string machine_name() {
+  char name[256] = {};
+  if (gethostname(name, sizeof name - 1) != 0 || name[0] == '\0') return "localhost";
+  return name;
+}
 
 namespace {
 
@@ -119,6 +126,8 @@ Api::Api(ServerConfig c) : ctx_(std::make_unique<Context>()), contract_(&api_con
   fc.dds_config = c.dds_config;
   fc.security_dir = c.security_dir;
   fc.identity = c.identity;
+  fc.server_id = c.server_id.empty() ? machine_name() + "/" + std::to_string(getpid()) : c.server_id;
+  fc.server_lease_s = c.server_lease_s;
   fc.max_workers = c.max_workers;
   fc.hang_timeout_s = c.hang_timeout_s;
   fc.frames = c.frames;

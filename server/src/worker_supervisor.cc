@@ -14,18 +14,39 @@ void WorkerSupervisor::adopt(store::Store& db) {
   // A restarted server adopts the sessions still open whose workers still run (they keep
   // reporting over DDS; not our children, they are watched through /proc). A session whose
   // worker is gone is settled from its log: it may have ended, with its mark, while we were down.
+  // Another server's sessions are its own, while it lives.
+  db.server_alive(fleet_.config.server_id, store::now_iso8601());
+  const std::vector<std::string> ours = db.claim_sessions(fleet_.config.server_id, fleet_.lease_start(), true);
+  const std::vector<WorkerProcess> strays = take_over(db, ours, true);
+  for (const WorkerProcess& p : strays) {
+    spdlog::warn("stopping worker pid {} (session {}, cab {}): its session is not open here or its cab runs another", p.pid, p.session, p.cab);
+    kill(p.pid, SIGTERM);
+  }
+}
+
+void WorkerSupervisor::take_over(store::Store& db, const std::vector<std::string>& sessions) {
+  for (const std::string& s : sessions) spdlog::info("took over session {} from a server that has stopped", s);
+  take_over(db, sessions, false);
+}
+
+std::vector<WorkerProcess> WorkerSupervisor::take_over(store::Store& db, const std::vector<std::string>& sessions, bool all_workers) {
   std::map<std::string, WorkerProcess> running;  // by session
   std::vector<WorkerProcess> strays;
   for (const WorkerProcess& p : find_workers(fleet_.config.log_dir)) {
     if (running.count(p.session)) strays.push_back(p);
     else running[p.session] = p;
   }
-  const auto now = Clock::now();
-  std::set<std::string> cabs_taken;
+  const std::set<std::string> taken(sessions.begin(), sessions.end());
   std::vector<store::Session> open = db.open_sessions();
+  std::erase_if(open, [&](const store::Session& s) { return !taken.count(s.public_id); });
   // The newest session of a cab keeps it: an older one still open is settled.
   std::sort(open.begin(), open.end(), [](const store::Session& a, const store::Session& b) { return a.public_id > b.public_id; });
+  std::lock_guard<std::mutex> lock(fleet_.mu);
+  const auto now = Clock::now();
+  std::set<std::string> cabs_taken;
+  for (const auto& [id, w] : fleet_.workers) cabs_taken.insert(w.cab);
   for (const store::Session& s : open) {
+    if (fleet_.workers.count(s.public_id) || fleet_.unsettled.count(s.public_id)) continue;  // adopted from its host's report meanwhile
     WorkerInfo w;
     w.session = s.public_id;
     w.cab = s.cab_id;
@@ -52,12 +73,12 @@ void WorkerSupervisor::adopt(store::Store& db) {
                                   now + grace});
     }
   }
-  // Workers of this server with no open session, or a second one for a cab: no cab has two.
-  for (const auto& [id, p] : running) strays.push_back(p);
-  for (const WorkerProcess& p : strays) {
-    spdlog::warn("stopping worker pid {} (session {}, cab {}): its session is not open here or its cab runs another", p.pid, p.session, p.cab);
-    kill(p.pid, SIGTERM);
-  }
+  // At start-up, workers of this server with no open session here, or a second one for a cab:
+  // no cab has two. (Later, a worker of a session another server runs is left alone.)
+  if (all_workers)
+    for (const auto& [id, p] : running)
+      if (!fleet_.workers.count(id)) strays.push_back(p);
+  return strays;
 }
 
 void WorkerSupervisor::stop_local_workers() {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "fleet_state.h"
+#include "worker_log.h"
 #include "forklift/store/store.h"
 
 namespace forklift::server {
@@ -20,8 +21,12 @@ class WorkerSupervisor {
   using AskHost = std::function<void(const std::string& host, const std::string& session, WorkerAction action)>;
   WorkerSupervisor(FleetState& fleet, AskHost ask_host) : fleet_(fleet), ask_host_(std::move(ask_host)) {}
 
-  // Start-up: the sessions left open, and the workers of this server still running.
+  // Start-up: the sessions left open that are this server's (or nobody's, or a stopped server's),
+  // and the workers of this server still running; the rest stopped.
   void adopt(store::Store& db);
+  // Sessions taken over from a server that has stopped (store::claim_sessions): each worker found
+  // running here adopted, the others waited for their host's word as at start-up.
+  void take_over(store::Store& db, const std::vector<std::string>& sessions);
   // Spawns the session's worker on this machine. Throws std::runtime_error when the machine
   // already runs max_workers, the cab is busy, or (under DDS Security) the worker has no identity.
   void start_local(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
@@ -40,6 +45,9 @@ class WorkerSupervisor {
   void settled(const std::string& session);
 
  private:
+  // The sessions' workers adopted or waited for; the workers to stop (every worker here that is
+  // not adopted, with `all_workers`).
+  std::vector<WorkerProcess> take_over(store::Store& db, const std::vector<std::string>& sessions, bool all_workers);
   void signal_worker(const WorkerInfo& w, int sig);  // under mu
   // Why the worker is done (its exit, its host's silence, a hang), with `done` set; or it hangs.
   bool check(WorkerInfo& w, Clock::time_point now, std::string& reason);

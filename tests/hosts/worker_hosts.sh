@@ -5,10 +5,12 @@
 # (multicast discovery on their one interface) and nothing leaves the namespaces.
 #   1. Four sessions started through server A run on both hosts (two each); scripted cabs in C
 #      drive them; their events and marks reach the store exactly once (each event of the host's
-#      session log once, every mark once), though both servers ingest them.
+#      session log once, every mark once). Server B, on the same database, ingests none of them:
+#      each session is its starting server's.
 #   2. Killing H1's agent and workers fails its session with the reason; the next session goes
 #      to H2, the host left.
-#   3. Server A stops mid-session: the session goes on and server B settles it with its mark.
+#   3. Server A stops mid-session: the session goes on, server B takes it over once A's lease has
+#      run out and settles it with its mark; A, started again, leaves it to B.
 #   4. With DDS Security (--secure): the same school with every identity; a cab with its own
 #      identity cannot drive another cab's worker, which never hears a control.
 #   5. Nothing is believed without an identity. In clear DDS hosts and servers run only with
@@ -112,9 +114,9 @@ fi
 
 # In clear DDS hosts are believed only on the operator's word (a closed network: these namespaces).
 trust=(); [ "$secure" = "--secure" ] || trust=(--trust-clear-hosts)
-start_server() {  # NS ADDRESS NAME
+start_server() {  # NS ADDRESS NAME (A2: server A started again)
   spawn "$1" "$bin/forklift-server" --db "$db" --listen "$2:$port" --no-local-workers --log-dir "$out/$3" \
-    --frame-fps 0 "${trust[@]}" 2> "$out/$3.log" &
+    --server-id "${3%2}" --server-lease 4 --frame-fps 0 "${trust[@]}" 2> "$out/$3.log" &
   pids+=($!)
   eval "server_$3=$!"
   for _ in $(seq 300); do ip netns exec "$C" curl -sf "http://$2:$port/api/health" > /dev/null && return 0; sleep 0.1; done
@@ -183,7 +185,7 @@ pupil=$(menu pupil-add --name "Hosts Pupil" --email hosts@example.org | sed -E '
 wait_hosts 2
 
 if [ "$secure" != "--secure" ]; then
-  # 1. Four sessions on two hosts of two places each; both servers ingest (B joins the domain).
+  # 1. Four sessions on two hosts of two places each, started through A; B joins the domain.
   start_server "$T" "$addr_T" B
   sessions=()
   for c in c1 c2 c3 c4; do
@@ -214,7 +216,12 @@ if [ "$secure" != "--secure" ]; then
     [ "$realtime" = "the tick ran at $([ "$h" = h2 ] && echo real-time || echo normal) priority" ] ||
       fail realtime "session $s on $h: the worker's summary says '$realtime'"
   done
-  [ "$failed" -eq 0 ] && echo "1: four sessions ran two on each host; every event and mark is in the store once; h2's ticks ran real time"
+  # Each session is its starting server's: B believed none of their samples, A every one.
+  [ "$(fleet_says "$addr_T" "f['ingested']['states'] + f['ingested']['events'] + f['ingested']['scores']")" = 0 ] ||
+    fail ingest "server B ingested samples of server A's sessions: $(fleet_says "$addr_T" "f['ingested']")"
+  [ "$(fleet_says "$addr_S" "f['ingested']['states'] > 0 and f['ingested']['scores'] == 4")" = True ] ||
+    fail ingest "server A did not ingest its sessions' states and four scores: $(fleet_says "$addr_S" "f['ingested']")"
+  [ "$failed" -eq 0 ] && echo "1: four sessions ran two on each host; every event and mark is in the store once, ingested by A alone; h2's ticks ran real time"
 
   # 2. A host dies mid-session: its session fails with the reason; the next goes to the other.
   s1=$(start c1 25); drive c1
@@ -235,11 +242,14 @@ if [ "$secure" != "--secure" ]; then
   start_host "$A" h1
   wait_hosts 2
 
-  # 3. Server A stops mid-session; server B, on the same database and domain, settles it.
+  # 3. Server A stops mid-session; server B, on the same database and domain, takes it over
+  # when A's lease (4 s) has run out, and settles it.
   s4=$(start c4 15); drive c4
   wait_state "$s4" running 30 || fail two_servers "session $s4 never ran"
   kill -TERM "$server_A"; wait "$server_A"
-  # ... and starts again while the session runs: it adopts it from its host's report.
+  for _ in $(seq 100); do grep -q "took over session $s4" "$out/B.log" && break; sleep 0.1; done
+  grep -q "took over session $s4" "$out/B.log" || fail two_servers "server B never took over $s4: $(grep -v 'GET\|POST' "$out/B.log" | tail -3)"
+  # ... and A starts again while the session runs: it is B's now.
   start_server "$S" "$addr_S" A2
   wait_cabs
   wait_state "$s4" ended 30 || fail two_servers "session $s4 is $(session_state "$s4") after server A stopped"
@@ -247,9 +257,9 @@ if [ "$secure" != "--secure" ]; then
   [ "$(sql "SELECT count(*) FROM scores sc JOIN sessions s ON s.id = sc.session_id WHERE s.public_id = '$s4'")" = 1 ] ||
     fail two_servers "session $s4 has no mark after server A stopped"
   grep -q "adopted session $s4" "$out/B.log" || fail two_servers "server B never adopted $s4"
-  grep -q "adopted session $s4" "$out/A2.log" || fail two_servers "server A, started again, never adopted $s4: $(grep -v 'GET\|POST' "$out/A2.log" | tail -3)"
+  ! grep -q "adopted session $s4" "$out/A2.log" || fail two_servers "server A, started again, adopted $s4, which B runs"
   ! grep -q "refused" "$out/A2.log" "$out/B.log" || fail two_servers "samples were refused: $(grep -h refused "$out/A2.log" "$out/B.log" | head -3)"
-  [ "$failed" -eq 0 ] && echo "3: server A stopped mid-session; server B adopted $s4 and stored its end and mark; A, started again, adopted it too"
+  [ "$failed" -eq 0 ] && echo "3: server A stopped mid-session; server B took over $s4 after A's lease and stored its end and mark; A, started again, left it to B"
 
   # 5. Clear DDS: no host runs without the operator's word; a server without it believes none.
   rc=0; on "$A" "$bin/forklift-host" --host-id h9 --log-dir "$out/h9" > "$out/h9.log" 2>&1 || rc=$?

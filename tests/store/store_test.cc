@@ -181,8 +181,11 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
   std::string DropMigration14() {
     return DropMigration15() + "ALTER TABLE users DROP COLUMN language; ALTER TABLE pupils DROP COLUMN language; DELETE FROM schema_migrations WHERE version >= 14; ";
   }
+  std::string DropMigrationServers() {
+    return "ALTER TABLE sessions DROP COLUMN server_id; DROP TABLE servers; DELETE FROM schema_migrations WHERE version >= 16; ";
+  }
   std::string DropMigration15() {
-    std::string sql;
+    std::string sql = DropMigrationServers();
     for (const char* t : {"school_totals_school ON schools", "school_totals_pupil_in ON pupils", "school_totals_pupil_out ON pupils",
                           "school_totals_session_in ON sessions", "school_totals_session_out ON sessions",
                           "school_totals_exam_in ON exams", "school_totals_exam_out ON exams"}) {
@@ -2238,6 +2241,57 @@ TEST_P(StoreTest, ACabHasOneOpenSessionAndOfStoresRacingForItOneWins) {
   EXPECT_EQ(other_errors.load(), 0);
   EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM sessions WHERE cab_id = 'cabX' AND state NOT IN ('ended', 'failed', 'aborted')"),
             std::vector<std::string>{"1"});
+}
+
+// Servers sharing a store: each runs the sessions it started; a server whose signs of life have
+// stopped has its open sessions taken over, each by one server, however many race for them.
+TEST_P(StoreTest, EachOpenSessionIsRunByOneServerAndAStoppedServersAreTakenOver) {
+  const int64_t pupil = NewPupil("Ann");
+  store_->server_alive("a", "2026-12-05T10:00:00Z");
+  store_->server_alive("b", "2026-12-05T10:00:00Z");
+  const std::string of_a = store_->create_session(pupil, "cab1", "m4", Mode::kTraining, std::nullopt, "t", std::nullopt, "a").public_id;
+  const std::string of_b = store_->create_session(pupil, "cab2", "m4", Mode::kTraining, std::nullopt, "t", std::nullopt, "b").public_id;
+  const std::string of_none = store_->create_session(pupil, "cab3", "m4", Mode::kTraining, std::nullopt, "t").public_id;
+  const std::string ended = store_->create_session(pupil, "cab4", "m4", Mode::kTraining, std::nullopt, "t", std::nullopt, "b").public_id;
+  ASSERT_TRUE(store_->set_session_state(ended, SessionPhase::kEnded, "task_complete", "t"));
+  EXPECT_EQ(store_->session_server(of_a), "a");
+  EXPECT_EQ(store_->session_server(of_none), "");
+  EXPECT_EQ(store_->session_server(ended), std::nullopt);  // over: nobody runs it
+
+  // Both alive (seen at 10:00, the lease from 09:59:50): a restarted "a" takes its own and the
+  // session nobody ran; "b" then finds nothing to take.
+  const std::string lease = "2026-12-05T09:59:50Z";
+  EXPECT_EQ(store_->claim_sessions("b", lease, false, of_a), std::vector<std::string>{});  // "a" is alive
+  EXPECT_EQ(store_->claim_sessions("a", lease, true), (std::vector<std::string>{of_a, of_none}));
+  EXPECT_EQ(store_->claim_sessions("b", lease, false), std::vector<std::string>{});
+  EXPECT_EQ(store_->claim_sessions("a", lease, false), std::vector<std::string>{});  // its own are not taken again
+  EXPECT_EQ(store_->session_server(of_b), "b");
+
+  // "b" falls silent: after its lease, of the servers that race to take over, one takes its session.
+  store_->server_alive("a", "2026-12-05T10:00:20Z");
+  const std::string later = "2026-12-05T10:00:10Z";
+  constexpr int kRacers = 6;
+  std::vector<std::unique_ptr<fs::Store>> stores;
+  for (int i = 0; i < kRacers; ++i) stores.push_back(Open());
+  std::latch go(kRacers);
+  std::vector<std::vector<std::string>> taken(kRacers);
+  std::vector<std::thread> racers;
+  for (int i = 0; i < kRacers; ++i)
+    racers.emplace_back([&, i] {
+      stores[i]->server_alive("r" + std::to_string(i), "2026-12-05T10:00:20Z");  // a server says so before it takes any
+      go.arrive_and_wait();
+      taken[i] = stores[i]->claim_sessions("r" + std::to_string(i), later, false);
+    });
+  for (auto& t : racers) t.join();
+  int winners = 0;
+  for (int i = 0; i < kRacers; ++i)
+    if (!taken[i].empty()) {
+      ++winners;
+      EXPECT_EQ(taken[i], std::vector<std::string>{of_b});
+      EXPECT_EQ(store_->session_server(of_b), "r" + std::to_string(i));
+    }
+  EXPECT_EQ(winners, 1);
+  EXPECT_EQ(store_->session_server(of_a), "a");  // alive at 10:00:20: kept
 }
 
 TEST_P(StoreTest, TheUpgradeToOneOpenSessionPerCabFailsTheOlderOnesAndAuditsThem) {

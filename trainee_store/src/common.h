@@ -36,6 +36,12 @@ constexpr const char* kServerBusy = "the database server of the school's records
   alias ".cab_id AND later.id > " alias ".id AND later.state NOT IN ('ended', 'failed', 'aborted'))"
 
 // Migration 15's first fill of each school's totals (school_totals), the same in both dialects.
+// Migration 16, the same on both backends: which server runs each open session (claim_sessions),
+// and each server's last sign of life.
+#define SERVERS_MIGRATION              \
+  "ALTER TABLE sessions ADD COLUMN server_id TEXT; " \
+  "CREATE TABLE servers (id TEXT PRIMARY KEY, seen_at TEXT NOT NULL);"
+
 #define SCHOOL_TOTALS_FILL                                                                              \
   "INSERT INTO school_totals(school_id, pupils, sessions, exams) SELECT id, "                           \
   "(SELECT COUNT(*) FROM pupils p WHERE p.school_id = schools.id), "                                    \

@@ -544,7 +544,10 @@ CREATE TRIGGER school_totals_exam_in AFTER INSERT ON exams REFERENCING NEW TABLE
   FOR EACH STATEMENT EXECUTE FUNCTION school_totals_count();
 CREATE TRIGGER school_totals_exam_out AFTER DELETE ON exams REFERENCING OLD TABLE AS changed_rows
   FOR EACH STATEMENT EXECUTE FUNCTION school_totals_count();
-)sql",
+)sql",    // 16: which server runs each open session, so that several servers on one store each ingest
+    // and supervise their own sessions, and take over those of a server that has stopped (its
+    // last sign of life in servers.seen_at older than the lease).
+    SERVERS_MIGRATION,
 };
 
 // A session's columns: the one before last reads score_counts by its key (TASK_INCOMPLETE_SQL): whether the score notes

@@ -515,15 +515,19 @@ class SqlStore final : public Store {
 
   Session create_session(int64_t pupil_id, const std::string& cab_id, const std::string& scenario,
                          Mode mode, std::optional<int64_t> examiner_id, const std::string& now,
-                         std::optional<int64_t> started_by) override {
+                         std::optional<int64_t> started_by, const std::string& server) override {
     check_new_session(__func__, cab_id, scenario);
     Transaction tx(d_, __func__, TxKind::kStatement);
     const std::optional<Pupil> of = pupil(__func__, pupil_id);
     require(of.has_value(), StoreError::kNotFound, __func__, "no pupil " + std::to_string(pupil_id));
     Query q(d_, __func__,
-            "INSERT INTO sessions(pupil_id, cab_id, scenario, mode, state, examiner_id, created_at, started_by, school_id) "
-            "VALUES (?1, ?2, ?3, ?4, 'starting', ?5, ?6, ?7, ?8) RETURNING id, public_id");
+            // server_id named only when there is one: the statement as before it existed otherwise.
+            std::string("INSERT INTO sessions(pupil_id, cab_id, scenario, mode, state, examiner_id, created_at, started_by, school_id") +
+                (server.empty() ? ") VALUES (?1, ?2, ?3, ?4, 'starting', ?5, ?6, ?7, ?8)"
+                                : ", server_id) VALUES (?1, ?2, ?3, ?4, 'starting', ?5, ?6, ?7, ?8, ?9)") +
+                " RETURNING id, public_id");
     q.bind(pupil_id).bind(cab_id).bind(scenario).bind(std::string(name(mode))).bind(examiner_id).bind(now).bind(started_by).bind(of->school_id);
+    if (!server.empty()) q.bind(server);
     q.step();
     Session s;
     s.id = q.int64(0);
@@ -561,6 +565,45 @@ class SqlStore final : public Store {
     Query q(d_, __func__, std::string("SELECT ") + dialect_.session_columns + " FROM " + dialect_.sessions_from +
                               " WHERE state NOT IN ('ended', 'failed', 'aborted') ORDER BY id");
     return rows(__func__, q, read_session<Query>);
+  }
+
+  void server_alive(const std::string& server, const std::string& now) override {
+    Query q(d_, __func__,
+            "INSERT INTO servers(id, seen_at) VALUES (?1, ?2) ON CONFLICT (id) DO UPDATE SET seen_at = excluded.seen_at");
+    changed(__func__, q.bind(server).bind(now));
+  }
+
+  std::vector<std::string> claim_sessions(const std::string& server, const std::string& stale_before, bool own,
+                                          const std::string& only) override {
+    Transaction tx(d_, __func__, TxKind::kStatement);
+    // The open sessions' condition spelled as their index's. A server that never said it was
+    // alive has no row: its sessions are taken too.
+    Query q(d_, __func__,
+            std::string("UPDATE sessions SET server_id = ?1 WHERE state NOT IN ('ended', 'failed', 'aborted') AND (server_id IS NULL OR ") +
+                (own ? "server_id = ?1 OR " : "") +
+                "(server_id <> ?1 AND server_id NOT IN (SELECT id FROM servers WHERE seen_at >= ?2)))" +
+                (only.empty() ? "" : " AND public_id = ?3") + " RETURNING id");
+    q.bind(server).bind(stale_before);
+    if (!only.empty()) q.bind(only);
+    std::vector<int64_t> ids;
+    while (q.step()) ids.push_back(q.int64(0));
+    q.run();
+    std::sort(ids.begin(), ids.end());
+    std::vector<std::string> taken;
+    for (const int64_t id : ids) taken.push_back(session_public_id(id));
+    tx.commit();
+    return taken;
+  }
+
+  std::optional<std::string> session_server(const std::string& public_id) override {
+    Query q(d_, __func__,
+            "SELECT COALESCE(server_id, '') FROM sessions WHERE public_id = ?1 AND state NOT IN ('ended', 'failed', 'aborted')");
+    Transaction tx(d_, __func__, TxKind::kStatement);
+    q.bind(public_id);
+    std::optional<std::string> server;
+    if (q.step()) server = q.text(0);
+    tx.commit();
+    return server;
   }
 
   bool set_session_state(const std::string& public_id, SessionPhase state, const std::string& reason,

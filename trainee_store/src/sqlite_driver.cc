@@ -546,7 +546,10 @@ END;
 CREATE TRIGGER school_totals_exam_out AFTER DELETE ON exams BEGIN
   UPDATE school_totals SET exams = exams - 1 WHERE school_id = (SELECT school_id FROM pupils WHERE id = OLD.pupil_id);
 END;
-)sql",
+)sql",    // 16: which server runs each open session, so that several servers on one store each ingest
+    // and supervise their own sessions, and take over those of a server that has stopped (its
+    // last sign of life in servers.seen_at older than the lease).
+    SERVERS_MIGRATION,
 };
 
 // Read FROM kSessions. The second column is NULL: read_session derives the public id from the id,

@@ -23,6 +23,9 @@ enum class PasswordCost { kInteractive, kModerate, kSensitive, kTest };
 const char* name(PasswordCost cost);
 std::optional<PasswordCost> parse_password_cost(const std::string& text);
 
+// This machine's network name (gethostname), for the default server id; "localhost" if it has none.
+std::string machine_name();
+
 struct ServerConfig {
   // The store: an SQLite file, created if missing, or a PostgreSQL database's URI
   // ("postgresql://...", store::Store::open).
@@ -63,6 +66,10 @@ struct ServerConfig {
   std::string dds_config;         // Cyclone DDS configuration file; empty: the default
   std::string security_dir;       // the school's DDS Security folder; empty: no exams
   std::string identity = "server.main";
+  // This server among those that share the store (each runs the sessions it starts, and takes
+  // over a stopped one's after server_lease_s). Empty: this machine's name and the process id.
+  std::string server_id;
+  double server_lease_s = 10;
   int max_workers = 8;
   double hang_timeout_s = 5;
   std::optional<host::WorkerFrames> frames;  // every worker's frames' rate, size, encoding (nullopt: the worker's defaults)

@@ -602,13 +602,27 @@ class SessionStore {
   // A cab has at most one open session (not ended, failed or aborted): kConflict if it has one,
   // decided by a unique index, so that of two servers starting a session on one cab at once one
   // fails. (Schema 11 failed the older of any open sessions that shared a cab before it.)
+  // `server` names the server that runs it (claim_sessions); empty: none yet.
   virtual Session create_session(int64_t pupil_id, const std::string& cab_id, const std::string& scenario,
                                  Mode mode, std::optional<int64_t> examiner_id, const std::string& now,
-                                 std::optional<int64_t> started_by = std::nullopt) = 0;
+                                 std::optional<int64_t> started_by = std::nullopt, const std::string& server = "") = 0;
   virtual std::optional<Session> get_session(const std::string& public_id) = 0;
   virtual std::vector<Session> list_sessions_for_pupil(int64_t pupil_id) = 0;
   // Sessions not yet ended, failed or aborted (a restarted server resumes supervising these).
   virtual std::vector<Session> open_sessions() = 0;
+
+  // Which server runs each open session, when several share the store: the one that started it,
+  // until its signs of life stop, when another takes it over. A server says it is alive (at its
+  // wall-clock `now`) every few seconds.
+  virtual void server_alive(const std::string& server, const std::string& now) = 0;
+  // Takes for `server` the open sessions that no server runs (started before servers were named)
+  // and those whose server's last sign of life is older than `stale_before` (its lease ran out);
+  // with `own`, its own as well; with `only`, that session alone. One statement, so that of two
+  // servers taking over from a third, each session goes to one. Returns their public ids, oldest first.
+  virtual std::vector<std::string> claim_sessions(const std::string& server, const std::string& stale_before, bool own,
+                                                  const std::string& only = "") = 0;
+  // The server that runs an open session: empty if none, nullopt if no such open session.
+  virtual std::optional<std::string> session_server(const std::string& public_id) = 0;
   // Moves a session to `state`. A session that is ended, failed or aborted never changes again:
   // the call then returns false and changes nothing. Sets ended_at for those three states.
   virtual bool set_session_state(const std::string& public_id, SessionPhase state, const std::string& reason,
