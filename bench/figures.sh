@@ -83,6 +83,9 @@ from=()
 [ -f "$history_store" ] && from=(--from "$history_store")
 measure "forklift-bench-ingest --sessions $ingest_sessions --seconds $seconds ${from[*]}" \
   "$alloc" sh -c "exec $bin/forklift-bench-ingest --sessions $ingest_sessions --seconds $seconds ${from[*]} --dir $work/ingest --port \$FORKLIFT_TEST_PORT --dds-domain \$FORKLIFT_TEST_DOMAIN"
+# Two servers on one PostgreSQL against one, each ingesting the sessions started through it.
+measure "forklift-bench-ingest --db postgresql --servers 1 2 --sessions 300 --seconds $seconds" \
+  "$alloc" sh -c "exec $bin/forklift-bench-ingest --db postgresql --servers 1 2 --sessions 300 --seconds $seconds --dir $work/ingest-pg --port \$FORKLIFT_TEST_PORT --dds-domain \$FORKLIFT_TEST_DOMAIN"
 
 # The lists and the history as the store grows: generated stores of 100,000, 1 million and 10
 # million sessions on both backends (kept in the bench folder: some 10 GB at 10 million; the first

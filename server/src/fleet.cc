@@ -55,6 +55,11 @@ std::vector<WorkerInfo> Fleet::workers() {
   return out;
 }
 
+bool Fleet::workers_session(const std::string& session) {
+  std::lock_guard<std::mutex> lock(state_.mu);
+  return state_.workers.count(session) > 0;
+}
+
 bool Fleet::cab_busy(const std::string& cab) {
   std::lock_guard<std::mutex> lock(state_.mu);
   return !state_.session_on(cab).empty();
@@ -202,18 +207,35 @@ void Fleet::ingest() {
   dds::Reader<fk_Event> events(*participant_, "worker.*");
   dds::Reader<fk_Score> scores(*participant_, "worker.*");
   dds::Reader<fk_SessionStatus> statuses(*participant_, "worker.*");
-  // Every state, not only each cab's newest: the truck path is taken from them, and a round of
-  // the ingest held up (a store transaction, a busy machine) would otherwise lose the states that
-  // came meanwhile. 16 is over a quarter of a second of a worker's 60 Hz.
-  dds::Reader<fk_TruckState> states(*participant_, "cab.*", 16);
   dds::Reader<fk_CabAnnounce> announces(*participant_, "cab.*");
   // Worker hosts speak in their own partitions.
   dds::Reader<fk_HostStatus> host_statuses(*participant_, "host.*");
   dds::Reader<fk_WorkerReport> reports(*participant_, "host.*");
-  const auto readers = {events.handle(), scores.handle(), statuses.handle(), states.handle(), announces.handle(),
-                        host_statuses.handle(), reports.handle()};
+  const auto readers = {events.handle(), scores.handle(), statuses.handle(), announces.handle(), host_statuses.handle(),
+                        reports.handle()};
   dds::WaitSet ws(*participant_);
   for (dds_entity_t r : readers) ws.attach_reader(r);
+  // The truck states of the cabs whose sessions this server runs, a reader in each one's
+  // partition: with several servers on one store, each is sent its own sessions' states alone
+  // (60 a second each, the bulk of the ingest), not every cab's to read and drop. Every state,
+  // not only each cab's newest: the truck path is taken from them, and a round of the ingest held
+  // up (a store transaction, a busy machine) would otherwise lose the states that came meanwhile.
+  // 16 is over a quarter of a second of a worker's 60 Hz.
+  std::map<std::string, std::unique_ptr<dds::Reader<fk_TruckState>>> states;  // by cab
+  auto read_states_of_bound_cabs = [&] {
+    std::set<std::string> cabs;
+    {
+      std::lock_guard<std::mutex> lock(state_.mu);
+      for (const auto& [session, b] : state_.bindings) cabs.insert(b.cab);
+    }
+    std::erase_if(states, [&](const auto& r) { return !cabs.count(r.first); });  // a deleted reader leaves the wait set
+    for (const std::string& cab : cabs)
+      if (!states.count(cab)) {
+        auto r = std::make_unique<dds::Reader<fk_TruckState>>(*participant_, dds::cab_partition(cab), 16);
+        ws.attach_reader(r->handle());
+        states.emplace(cab, std::move(r));
+      }
+  };
   // Who each writer is, learnt while it is matched (the gate keeps it for after it has gone).
   auto learn_senders = [&](dds_entity_t reader) {
     dds_instance_handle_t handles[64];
@@ -256,10 +278,23 @@ void Fleet::ingest() {
     path.clear();
     announced.clear();
   };
+  // A round at most every kRoundEvery: the samples that came meanwhile are taken together, a
+  // reader at a time, rather than a round for each (the readers keep 16 states per cab, over a
+  // quarter of a second). The truck states' writers are learnt less often: a worker's lives for
+  // its session, and one not learnt yet is asked for when its sample is taken.
+  constexpr auto kRoundEvery = std::chrono::milliseconds(10);
+  constexpr auto kLearnStatesEvery = std::chrono::milliseconds(250);
+  auto learnt_states_at = Clock::now() - kLearnStatesEvery;
   while (!stop_) {
+    const auto round_start = Clock::now();
+    read_states_of_bound_cabs();
     ws.wait(0.1);
     IngestedSamples round;
     for (dds_entity_t r : readers) learn_senders(r);
+    if (Clock::now() - learnt_states_at >= kLearnStatesEvery) {
+      learnt_states_at = Clock::now();
+      for (const auto& [cab, r] : states) learn_senders(r->handle());
+    }
     // Invalid samples too: one says that a host's status writer has gone.
     take(host_statuses, "fk_HostStatus", state_, true, [&](const fk_HostStatus& h, const dds_sample_info_t& info) {
       if (auto in = gate_.host_status(h, info, host_statuses.handle())) placement_.host_status(*in);
@@ -304,12 +339,13 @@ void Fleet::ingest() {
       store_pending();
       recorder_.status(*db, s);
     });
-    take(states, "fk_TruckState", state_, false, [&](const fk_TruckState& t, const dds_sample_info_t& info) {
-      if (gate_.truck_state(t, info, states.handle())) {
-        ++round.states;
-        recorder_.truck_state(t, path);
-      }
-    });
+    for (const auto& [cab, r] : states)
+      take(*r, "fk_TruckState", state_, false, [&](const fk_TruckState& t, const dds_sample_info_t& info) {
+        if (gate_.truck_state(t, info, r->handle())) {
+          ++round.states;
+          recorder_.truck_state(t, path);
+        }
+      });
     take(announces, "fk_CabAnnounce", state_, false, [&](const fk_CabAnnounce& a, const dds_sample_info_t& info) {
       if (auto in = gate_.announce(a, info, announces.handle())) {
         ++round.announces;
@@ -323,10 +359,13 @@ void Fleet::ingest() {
       spdlog::warn("ingest: {}", e.what());  // logged, never fatal: the sessions go on
     }
     if (Clock::now() - stored_at >= kStoreEvery) store_pending();
-    std::lock_guard<std::mutex> lock(state_.mu);
-    IngestedSamples& n = state_.ingested;
-    n.states += round.states, n.events += round.events, n.statuses += round.statuses;
-    n.scores += round.scores, n.reports += round.reports, n.announces += round.announces;
+    {
+      std::lock_guard<std::mutex> lock(state_.mu);
+      IngestedSamples& n = state_.ingested;
+      n.states += round.states, n.events += round.events, n.statuses += round.statuses;
+      n.scores += round.scores, n.reports += round.reports, n.announces += round.announces;
+    }
+    std::this_thread::sleep_until(round_start + kRoundEvery);
   }
   store_pending();
 }

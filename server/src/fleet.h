@@ -42,7 +42,8 @@ class Fleet : private GateWorld {
   }
   // The instructor's abort: SIGUSR1 to the session's worker, which ends the session with reason
   // "aborted" (SIGTERM, the server stopping, ends it as "signal"); false if it has no worker here.
-  bool abort(const std::string& session) { return supervisor_.abort(session); }
+  // Another server's session whose worker runs on a host heard from: that host is asked.
+  bool abort(const std::string& session) { return supervisor_.abort(session) || placement_.abort_heard(session); }
   // The instructor's pause, resume, message or rewind, written to the session's worker (here or on a host)
   // in its cab's instructor partition, `by` the instructor's username; the worker acts on it at
   // its next tick. Why it cannot go (no running worker here; paused already, or not paused, as the
@@ -50,6 +51,7 @@ class Fleet : private GateWorld {
   std::optional<std::string> instruct(const std::string& session, const Instruction& what, const std::string& by);
 
   std::vector<WorkerInfo> workers();
+  bool workers_session(const std::string& session);  // whether a worker runs it here
   std::vector<HostInfo> hosts() { return placement_.hosts(); }  // the worker hosts heard from, alive or not
   // Whether the session's worker runs here or has ended without its logs stored yet (they are
   // stored a moment after it exits, when its last samples have had time to arrive).

@@ -353,6 +353,14 @@ void HostPlacement::keep_heard(const fk_WorkerReport& r, Clock::time_point now) 
   heard_[r.session_id] = std::move(h);
 }
 
+bool HostPlacement::abort_heard(const std::string& session) {
+  std::lock_guard<std::mutex> lock(fleet_.mu);
+  const auto it = heard_.find(session);
+  if (it == heard_.end() || std::string(it->second->r.state) == name(WorkerReportState::kExited)) return false;
+  request(it->second->r.host_id, session, WorkerAction::kAbort);
+  return true;
+}
+
 bool HostPlacement::take_over(store::Store& db, const std::string& session) {
   std::unique_ptr<Heard> h;
   {

@@ -39,6 +39,8 @@ class HostPlacement {
   // A session taken over from a server that has stopped, adopted from what its host last
   // reported (the report was heard, and left, while the other server ran it); false if nothing was heard.
   bool take_over(store::Store& db, const std::string& session);
+  // The abort of another server's session, asked of its worker's host when heard of; false if not.
+  bool abort_heard(const std::string& session);
 
   std::vector<HostInfo> hosts();
   std::vector<CabInfo> cabs_online(double within_s);

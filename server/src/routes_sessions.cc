@@ -41,13 +41,22 @@ store::Session session_for(Context& ctx, const httplib::Request& req, const Prin
   return visible_session(ctx, p, req.matches[1]);
 }
 
+// Why a session has no running worker here: it is over, another server of the school runs it
+// (its live view and the instructor's hand are there), or its worker is gone.
+std::string not_running_here(Context& ctx, const store::Session& s) {
+  const auto server = ctx.db().session_server(s.public_id);
+  if (server && !server->empty() && *server != ctx.fleet->config().server_id)
+    return "session " + s.public_id + " is run by the school's server " + *server + ": follow it and act on it there";
+  return "session " + s.public_id + " has no running worker (" + std::string(name(s.state)) + ")";
+}
+
 // The session of the request, for staff, with what the fleet sees of it now (live follow).
 std::pair<store::Session, LiveView> followed(Context& ctx, const httplib::Request& req) {
   const Principal p = authenticate(ctx, req);
   require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
   const store::Session s = session_for(ctx, req, p);
   const auto v = ctx.fleet->follow(s.public_id);
-  if (!v) throw ApiError(409, "not_running", "session " + s.public_id + " has no running worker (" + name(s.state) + ")");
+  if (!v) throw ApiError(409, "not_running", not_running_here(ctx, s));
   return {s, *v};
 }
 
@@ -320,7 +329,8 @@ void session_routes(Routes& svr, Context& ctx) {
       throw ApiError(409, "exam", "session " + s.public_id + " is an exam: it runs as the examinee drives it, and may only be aborted");
     if (s.state != SessionPhase::kRunning)
       throw ApiError(409, "not_running", "session " + s.public_id + " is " + name(s.state) + ", not running");
-    if (const auto problem = ctx.fleet->instruct(s.public_id, what, p.username)) throw ApiError(409, "not_running", *problem);
+    if (const auto problem = ctx.fleet->instruct(s.public_id, what, p.username))
+      throw ApiError(409, "not_running", ctx.fleet->workers_session(s.public_id) ? *problem : not_running_here(ctx, s));
     const char* audited = *action == InstructorAction::kPause    ? "session_paused"
                           : *action == InstructorAction::kResume ? "session_resumed"
                           : *action == InstructorAction::kRewind ? "session_rewound"

@@ -246,6 +246,9 @@ if [ "$secure" != "--secure" ]; then
   # when A's lease (4 s) has run out, and settles it.
   s4=$(start c4 15); drive c4
   wait_state "$s4" running 30 || fail two_servers "session $s4 never ran"
+  # B neither follows nor runs it: its live view names the server that does.
+  live_B=$(ip netns exec "$C" curl -s -H "Authorization: Bearer $(cat "$out/token")" "http://$addr_T:$port/api/sessions/$s4/live")
+  [[ "$live_B" == *"is run by the school's server A"* ]] || fail two_servers "server B's live view of $s4 does not name server A: $live_B"
   kill -TERM "$server_A"; wait "$server_A"
   for _ in $(seq 100); do grep -q "took over session $s4" "$out/B.log" && break; sleep 0.1; done
   grep -q "took over session $s4" "$out/B.log" || fail two_servers "server B never took over $s4: $(grep -v 'GET\|POST' "$out/B.log" | tail -3)"
