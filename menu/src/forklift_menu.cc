@@ -475,6 +475,9 @@ int main(int argc, char** argv) {
         cab_args = {"--dds-domain", std::to_string(dds_domain)};
         if (const std::string folder = drive_security(fleet, cab_security, cab); !folder.empty())
           cab_args.insert(cab_args.end(), {"--security", folder});
+        // The cab speaks the pupil's language (their record's), whoever starts it.
+        const json p = cl.call("GET", "/api/pupils/" + std::to_string(pupil));
+        if (p.value("language", json()).is_string()) cab_args.insert(cab_args.end(), {"--language", p["language"].get<std::string>()});
       }
       const json s = cl.call("POST", "/api/sessions", body);
       const std::string id = s["id"];

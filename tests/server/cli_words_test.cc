@@ -243,6 +243,16 @@ TEST(MenuWords, EveryCommandPrintsWordsAndJsonOnlyWhenAsked) {
   EXPECT_NE(r.code, 0) << r.out;
   in_spanish("session (unknown)", r);
   EXPECT_TRUE(contains(r.err, "el servidor lo rechazó (404)")) << r.err;
+  // A pupil who reads Spanish: the scripted cab `start --drive` starts speaks it (the session's
+  // time limit ends it while the cab still drives, which the cab says in its words).
+  const std::string jo = std::to_string(pupil["id"].get<int64_t>());
+  ASSERT_EQ(s.call("PATCH", "/api/pupils/" + jo, admin, json{{"language", "es"}}.dump()).first, 200);
+  r = menu({"start", "--pupil", jo, "--cab", "cabJ", "--scenario", "manoeuvre_1", "--time-limit", "1", "--drive",
+            forklift_test::short_script(s.dir, 3.0)},
+           180);
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  EXPECT_TRUE(std::regex_search(r.out, std::regex("sesión s-[0-9]+: Sesión terminada"))) << "the cab in the pupil's language: " << r.out;
+  EXPECT_TRUE(contains(r.out, "started on cab cabJ")) << "the menu in its own person's: " << r.out;
   r = menu({"--language", "fr", "pupils"});
   EXPECT_EQ(r.code, 2) << "a language the school has not is bad usage: " << r.out << r.err;
 
