@@ -25,6 +25,7 @@
 #include "forklift/protocol/protocol.h"
 #include "forklift/script/script.h"
 #include "forklift/session/vocabulary.h"
+#include "forklift/units/decimals.h"
 #include "frame_view.h"
 #include "local_view.h"
 #include "hud.h"
@@ -657,8 +658,10 @@ int CabProgram::run() {
   }
   if (writer_->matched() == 0 || (!o_.script.empty() && steer_lock_rad_ == 0)) {
     if (g_stop) return 0;
-    std::cerr << "forklift-cab: no worker for cab " << o_.cab_id << " after " << o_.wait_s
-              << " s: is the session started for this cab?\n";
+    std::string wait_words = trimmed_decimals(o_.wait_s, 1);  // "10", "0.5"
+    if (const size_t dot = wait_words.find('.'); dot != std::string::npos) wait_words = cab_number(o_.language, o_.wait_s, 1);
+    std::cerr << "forklift-cab: " << cab_words(o_.language, "notice.no_worker", {{"cab", o_.cab_id}, {"seconds", wait_words}})
+              << '\n';
     return 5;
   }
 

@@ -130,7 +130,9 @@ std::string reasons_words(const json& reasons, const std::string& end_reason) {
     if (code == "aborted" || code == "stopped" || code == "failed")
       w = end_reason.empty() ? say("why." + code) : say("why.because", {{"why", say("why." + code)}, {"reason", reason_words(end_reason)}});
     else if (code == "timed_out")
-      w = say(said.find("time limit") != std::string::npos ? "why.time_limit" : "why.timed_out");
+      w = say(said.rfind("the paper's", 0) == 0                 ? "why.paper_timed_out"
+              : said.find("time limit") != std::string::npos ? "why.time_limit"
+                                                             : "why.timed_out");
     else if (code == "task_incomplete" || code == "not_passed")
       w = say("why." + code);
     s += (s.empty() ? "" : "; ") + w;

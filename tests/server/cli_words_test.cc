@@ -225,7 +225,7 @@ TEST(MenuWords, EveryCommandPrintsWordsAndJsonOnlyWhenAsked) {
     EXPECT_TRUE(contains(r.out, forklift::i18n::shipped().text("es", "words:rules." + e["kind"].get<std::string>() + ".title"))) << r.out;
   r = menu({"--language", "es", "session", other["id"]});
   in_spanish("session (aborted)", r);
-  EXPECT_TRUE(contains(r.out, "sin nota: la sesión fue anulada")) << r.out;
+  EXPECT_TRUE(contains(r.out, "sin nota: la sesión se interrumpió")) << r.out;
   r = menu({"history", "--pupil", wren}, 60, {"-u", "LC_ALL", "-u", "LC_MESSAGES", "LANG=es_ES.UTF-8"});
   ASSERT_EQ(r.code, 0) << r.err;
   in_spanish("history (LANG=es_ES.UTF-8)", r);
