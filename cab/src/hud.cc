@@ -49,11 +49,15 @@ std::string clock(double s) {
   return buf;
 }
 
-// How many lines `text` takes at `width_px` in HUD size `size` (the window wraps it at words;
+// How many lines `utf8` takes at `width_px` in HUD size `size` (the window wraps it at words;
 // DejaVu Sans is about 0.55 em a character, its bold, which titles use, about 0.62).
-int line_count(const std::string& text, int width_px, int size, int line) {
+int line_count(const std::string& utf8, int width_px, int size, int line) {
   const double em = size >= 1 ? 0.62 : 0.55;
   const size_t per_line = size_t(std::max(8.0, width_px / (em * hud_font_px(size, line))));
+  // One byte a character ("á" is two in UTF-8): UTF-8's continuation bytes left out.
+  std::string text;
+  for (const char c : utf8)
+    if ((static_cast<unsigned char>(c) & 0xC0) != 0x80) text += c;
   int n = 0;
   for (size_t at = 0; at < text.size(); ++n) {
     if (text.size() - at <= per_line) break;
