@@ -37,7 +37,7 @@ std::string cab_number(const std::string& lang, double value, int decimals) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.*f", decimals, value);
   std::string s = buf;
-  if (s == "-0" || s.find_first_not_of("-0.") == std::string::npos) s.erase(0, s[0] == '-' ? 1 : 0);  // no "-0.0"
+  if (s.find_first_not_of("-0.") == std::string::npos && s[0] == '-') s.erase(0, 1);  // "0.0", never "-0.0"
   const std::string decimal = i18n::shipped().text(lang, "words:number.decimal");
   if (const size_t dot = s.find('.'); dot != std::string::npos) s.replace(dot, 1, decimal);
   return s;
