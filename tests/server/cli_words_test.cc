@@ -4,7 +4,9 @@
 // null, and has its words:
 // the mark "of 100", the events' titles as the debrief words them, outcomes in words. With
 // --json each gives JSON a script can parse. `follow --frame` with no frame says why and fails.
-// The server's text session log keeps those words as they are.
+// The server's text session log keeps those words as they are. In Spanish (--language es, or
+// LANG=es_ES.UTF-8) the same commands print none of the English of the menu's catalogue or of the
+// rules' words, --json is the same, and a Spanish-reading pupil's scripted cab speaks Spanish.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -209,6 +211,13 @@ TEST(MenuWords, EveryCommandPrintsWordsAndJsonOnlyWhenAsked) {
     text = std::regex_replace(text, std::regex("(\\(404\\): ).*"), "$1");
     EXPECT_EQ(forklift::test::english_left(text, english), std::vector<std::string>{}) << ran.out << ran.err;
   };
+  r = menu({"--language", "es", "login", "--user", "admin", "--password", kAdminPassword});
+  ASSERT_EQ(r.code, 0) << r.err;
+  in_spanish("login", r);
+  EXPECT_TRUE(contains(r.out, "sesión iniciada como admin (administrador)")) << r.out;
+  r = menu({"--language", "es", "pupil-add", "--name", "Eva Español"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  in_spanish("pupil-add", r);
   r = menu({"--language", "es", "pupils"});
   ASSERT_EQ(r.code, 0) << r.err;
   in_spanish("pupils", r);
