@@ -21,9 +21,11 @@
 #include <thread>
 #include <unistd.h>
 
+#include "forklift/i18n/catalogue.h"
 #include "forklift/protocol/protocol.h"
 #include "forklift/script/script.h"
 #include "forklift/session/vocabulary.h"
+#include "forklift/units/decimals.h"
 #include "frame_view.h"
 #include "local_view.h"
 #include "hud.h"
@@ -214,6 +216,7 @@ struct Options {
   std::optional<int> domain;
   FrameView::Options frames;
   std::string window_size = "960x720";
+  std::string language;  // what the pupil reads: "en", "es" (default from the environment)
 };
 
 std::string help_footer(const ControllerMap& map) {
@@ -233,10 +236,11 @@ class CabProgram {
  public:
   CabProgram(Options o, InputSettings is, ControllerMap map, HudSettings hs, SoundSettings ss, json cab_json)
       : o_(std::move(o)), input_(is, map, read_calibration(o_.calibration_file)),
-        hud_(hs, load_fault_words(kDataDir + "/evaluation/rules.json")), map_(std::move(map)),
+        hud_(hs, load_fault_words(kDataDir + "/evaluation/rules.json", o_.language), o_.language), map_(std::move(map)),
         rear_view_below_m_s_(cab_json.value("rear_view_below_m_s", -0.05)), trace_(o_.trace) {
-    std::vector<std::pair<std::string, std::string>> help = key_map();
-    for (auto& line : controller_help(map_)) help.push_back(line);
+    input_.set_language(o_.language);
+    std::vector<std::pair<std::string, std::string>> help = key_map(o_.language);
+    for (auto& line : controller_help(map_, o_.language)) help.push_back(line);
     hud_.set_help(std::move(help));
     sound_settings_ = ss;
     font_ = cab_json.at("hud").at("font").get<std::string>();
@@ -480,8 +484,8 @@ void CabProgram::take_dds() {
     hud_.on_status(state, s.reason, t);
     trace_.write({{"type", "status"}, {"state", state}, {"reason", s.reason}}, t);
     if (phase != SessionPhase::kEnded && phase != SessionPhase::kFailed) return;
-    std::printf("%ssession %s: %s\n", isatty(STDOUT_FILENO) && !window_ ? "\n" : "", s.session_id,
-                end_words(state, s.reason).c_str());
+    std::printf("%s%s\n", isatty(STDOUT_FILENO) && !window_ ? "\n" : "",
+                cab_words(o_.language, "session.line", {{"session", std::string(s.session_id)}, {"words", end_words(state, s.reason, o_.language)}}).c_str());
     std::fflush(stdout);
     if (!ended_at_) ended_at_ = t;  // over: the window shows it a moment, then the cab goes back to its menu
   });
@@ -511,7 +515,7 @@ void CabProgram::draw(bool fresh_frame) {
     std::snprintf(name, sizeof name, "cab-%s-%.0f.png", o_.cab_id.c_str(), t * 1000);
     const std::string path = o_.save_window.empty() ? name : o_.save_window;
     write_png(path, shot);
-    hud_.on_notice("Picture saved: " + path, t);
+    hud_.on_notice(cab_words(o_.language, "notice.picture_saved", {{"file", path}}), t);
   }
   std::vector<std::string> texts = Hud::texts(items);
   if (trace_.on() && texts != last_texts_) {
@@ -530,36 +534,42 @@ void CabProgram::terminal_line() {
   if (t - last_line_t_ < (tty ? 0.1 : 1.0)) return;
   last_line_t_ = t;
   const fk_TruckState& s = hud_.state();
-  std::string load = s.load_attached ? std::to_string(int(s.load_mass_kg)) + " kg" : std::string("none");
-  const std::string said = s.instructor_message[0] && dds::valid_utf8(s.instructor_message)
-                               ? std::string("  Your instructor: ") + s.instructor_message : std::string();
-  std::printf("%st=%6.1f s  %5.1f km/h%s  forks %4.2f m  load %s  %s%s%s%s%s", tty ? "\r" : "", s.sim_time_s,
-              std::abs(s.speed_m_s) * 3.6,
-              s.speed_limit_m_s > 0 ? (" (limit " + std::to_string(int(std::lround(s.speed_limit_m_s * 3.6))) + ")").c_str() : "",
-              s.fork_height_m, load.c_str(), hud_.stability_words().c_str(), s.deadman ? "  NO CONTROLS: braking" : "",
-              s.paused ? "  PAUSED by your instructor" : "", said.c_str(), tty ? "    " : "\n");
+  const std::string& lang = o_.language;
+  // Fixed widths, so that the line stands still as it is written over.
+  auto padded = [&](double v, int decimals, size_t width) {
+    std::string n = cab_number(lang, v, decimals);
+    return std::string(n.size() < width ? width - n.size() : 0, ' ') + n;
+  };
+  std::string line = cab_words(lang, "terminal.line",
+      {{"time", padded(s.sim_time_s, 1, 6)}, {"speed", padded(std::abs(s.speed_m_s) * 3.6, 1, 5)},
+       {"limit", s.speed_limit_m_s > 0 ? cab_words(lang, "terminal.limit", {{"limit", cab_number(lang, s.speed_limit_m_s * 3.6, 0)}}) : ""},
+       {"forks", padded(s.fork_height_m, 2, 4)},
+       {"load", s.load_attached ? cab_words(lang, "terminal.load", {{"mass", cab_number(lang, s.load_mass_kg, 0)}}) : cab_words(lang, "terminal.no_load")},
+       {"stability", hud_.stability_words()}});
+  if (s.deadman) line += "  " + cab_words(lang, "terminal.deadman");
+  if (s.paused) line += "  " + cab_words(lang, "terminal.paused");
+  if (s.instructor_message[0] && dds::valid_utf8(s.instructor_message))
+    line += "  " + cab_words(lang, "instructor.message", {{"message", std::string(s.instructor_message)}});
+  std::printf("%s%s%s", tty ? "\r" : "", line.c_str(), tty ? "    " : "\n");
   std::fflush(stdout);
 }
 
 // --calibrate: rest, wheel left, wheel right, accelerator down, brake down; Enter after each.
 void CabProgram::calibration_step() {
-  static const char* kPrompts[] = {"Let go of every control, then press Enter",
-                                   "Turn the wheel fully left and hold it, then press Enter",
-                                   "Turn the wheel fully right and hold it, then press Enter",
-                                   "Press the accelerator pedal fully, then press Enter",
-                                   "Press the brake pedal fully, then press Enter"};
+  static const char* kSteps[] = {"rest", "wheel_left", "wheel_right", "accelerator", "brake"};
+  const auto prompt = [&](int step) { return cab_words(o_.language, std::string("calibration.") + kSteps[step]); };
   if (calib_step_ >= 0) {
     const auto readings = input_.raw_axes();
     if (readings.empty()) {  // nothing plugged in yet: ask again
-      hud_.set_prompt(std::string("No controller: plug it in. ") + kPrompts[calib_step_]);
+      hud_.set_prompt(cab_words(o_.language, "calibration.no_controller", {{"step", prompt(calib_step_)}}));
       return;
     }
     calib_readings_.push_back(readings);
   }
   ++calib_step_;
   if (calib_step_ < 5) {
-    hud_.set_prompt(kPrompts[calib_step_]);
-    std::cout << kPrompts[calib_step_] << std::endl;
+    hud_.set_prompt(prompt(calib_step_));
+    std::cout << prompt(calib_step_) << std::endl;
     return;
   }
   // Each calibrated axis: its reading at rest (step 0), at full travel and, for the wheel, at
@@ -580,7 +590,7 @@ void CabProgram::calibration_step() {
   std::ofstream out(o_.calibration_file);
   out << json{{"device", input_.active_device()}, {"axes", axes}}.dump(2) << '\n';
   if (!out) throw std::runtime_error("cannot write " + o_.calibration_file);
-  std::cout << "calibration written to " << o_.calibration_file << std::endl;
+  std::cout << cab_words(o_.language, "calibration.written", {{"file", o_.calibration_file}}) << std::endl;
   g_stop = true;
 }
 
@@ -648,8 +658,10 @@ int CabProgram::run() {
   }
   if (writer_->matched() == 0 || (!o_.script.empty() && steer_lock_rad_ == 0)) {
     if (g_stop) return 0;
-    std::cerr << "forklift-cab: no worker for cab " << o_.cab_id << " after " << o_.wait_s
-              << " s: is the session started for this cab?\n";
+    std::string wait_words = trimmed_decimals(o_.wait_s, 1);  // "10", "0.5"
+    if (const size_t dot = wait_words.find('.'); dot != std::string::npos) wait_words = cab_number(o_.language, o_.wait_s, 1);
+    std::cerr << "forklift-cab: " << cab_words(o_.language, "notice.no_worker", {{"cab", o_.cab_id}, {"seconds", wait_words}})
+              << '\n';
     return 5;
   }
 
@@ -807,6 +819,19 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--scenario", o.scenario, "with --render local: the scenario file the session runs (its scene and truck are drawn)")
       ->check(CLI::ExistingFile);
+  // The pupil's language: a school's cab PC is set up in it (LANG), or the station that starts the
+  // cab for a pupil passes theirs.
+  std::vector<std::string> languages;
+  try {
+    o.language = i18n::environment_language(i18n::shipped());
+    languages = i18n::shipped().languages();
+  } catch (const std::exception& e) {
+    std::cerr << "forklift-cab: the message catalogues cannot be read: " << e.what() << '\n';
+    return 2;
+  }
+  app.add_option("--language", o.language, "the language the pupil reads the display, the help and the messages in (default: "
+                 "LC_ALL, LC_MESSAGES or LANG when it is one of them, else en)")
+      ->check(CLI::IsMember(languages));
   try {
     app.parse(argc, argv);
     if (o.cab_id.empty() && !o.list) throw CLI::RequiredError("--cab");

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "forklift/i18n/catalogue.h"
 #include "forklift/protocol/aids.h"
 #include "forklift/session/vocabulary.h"
 #include "forklift/units/units.h"
@@ -19,13 +20,7 @@ const Rgba kGrey{190, 190, 190, 255}, kPanel{0, 0, 0, 120}, kBlue{120, 190, 255,
 // The side columns' share of the window's width: text of 25-30 characters a line at any size.
 constexpr double kSideShare = 0.25;
 
-std::string format(const char* fmt, double a, double b = 0) {
-  char buf[160];
-  std::snprintf(buf, sizeof buf, fmt, a, b);
-  return buf;
-}
-
-std::string title_of(const std::string& rule) {
+std::string title_of(const std::string& rule) {  // a rule no catalogue words
   std::string t = rule;
   std::replace(t.begin(), t.end(), '_', ' ');
   if (!t.empty()) t[0] = char(std::toupper(static_cast<unsigned char>(t[0])));
@@ -33,12 +28,12 @@ std::string title_of(const std::string& rule) {
 }
 
 // A fault's level in words, as the marking sheet grades it.
-std::string level_words(int worry, bool automatic_fail) {
-  if (automatic_fail) return "an exam would fail here";
-  if (worry >= 5) return "serious fault";
-  if (worry >= 3) return "fault";
-  if (worry >= 1) return "minor fault";
-  return "note";
+std::string level_words(const std::string& lang, int worry, bool automatic_fail) {
+  return cab_words(lang, automatic_fail ? "fault.exam_fail"
+                         : worry >= 5   ? "fault.serious"
+                         : worry >= 3   ? "fault.fault"
+                         : worry >= 1   ? "fault.minor"
+                                        : "fault.note");
 }
 
 Rgba level_colour(int worry, bool automatic_fail) {
@@ -54,11 +49,15 @@ std::string clock(double s) {
   return buf;
 }
 
-// How many lines `text` takes at `width_px` in HUD size `size` (the window wraps it at words;
+// How many lines `utf8` takes at `width_px` in HUD size `size` (the window wraps it at words;
 // DejaVu Sans is about 0.55 em a character, its bold, which titles use, about 0.62).
-int line_count(const std::string& text, int width_px, int size, int line) {
+int line_count(const std::string& utf8, int width_px, int size, int line) {
   const double em = size >= 1 ? 0.62 : 0.55;
   const size_t per_line = size_t(std::max(8.0, width_px / (em * hud_font_px(size, line))));
+  // One byte a character ("á" is two in UTF-8): UTF-8's continuation bytes left out.
+  std::string text;
+  for (const char c : utf8)
+    if ((static_cast<unsigned char>(c) & 0xC0) != 0x80) text += c;
   int n = 0;
   for (size_t at = 0; at < text.size(); ++n) {
     if (text.size() - at <= per_line) break;
@@ -69,14 +68,11 @@ int line_count(const std::string& text, int width_px, int size, int line) {
 }
 
 // Where a pallet lies from the driver's seat, in words: "ahead on your left", "behind you".
-std::string bearing_words(double bearing_rad) {
+std::string bearing_words(const std::string& lang, double bearing_rad) {
   const double deg = std::abs(bearing_rad) * kRad;
-  const char* side = bearing_rad > 0 ? "left" : "right";
-  if (deg <= 15) return "straight ahead";
-  if (deg <= 60) return std::string("ahead on your ") + side;
-  if (deg <= 120) return std::string("to your ") + side;
-  if (deg <= 165) return std::string("behind you on the ") + side;
-  return "behind you";
+  const std::string side = bearing_rad > 0 ? "left" : "right";
+  const std::string key = deg <= 15 ? "straight" : deg <= 60 ? "ahead_" + side : deg <= 120 ? "side_" + side : deg <= 165 ? "behind_" + side : "behind";
+  return cab_words(lang, "pallet.bearing." + key);
 }
 
 }  // namespace
@@ -106,41 +102,39 @@ HudSettings hud_settings(const nlohmann::json& j) {
   return s;
 }
 
-std::map<std::string, FaultWords> load_fault_words(const std::string& path) {
+std::map<std::string, FaultWords> load_fault_words(const std::string& path, const std::string& lang) {
+  const i18n::Catalogue& c = i18n::shipped();
   const nlohmann::json j = read_settings_file(path);
   std::map<std::string, FaultWords> out;
   for (const nlohmann::json& r : settings_at(j, "rules", path)) {
     FaultWords w;
     const std::string id = settings_at(r, "id", path + " rules").get<std::string>();
-    w.title = title_of(id);
-    w.description = r.value("description", "");
+    const std::string key = "words:rules." + id;
+    w.title = c.has(lang, key + ".title") ? c.text(lang, key + ".title") : title_of(id);
+    w.description = c.has(lang, key + ".description") ? c.text(lang, key + ".description") : r.value("description", "");
     w.automatic_fail = r.value("automatic_fail", false);
     out[id] = w;
   }
   return out;
 }
 
-std::string end_words(const std::string& state, const std::string& reason) {
-  if (parse<SessionPhase>(state) == SessionPhase::kFailed)
-    return "The session could not run: " + reason + ". Tell your instructor.";
-  if (const std::optional<EndReason> r = parse<EndReason>(reason)) switch (*r) {
-      case EndReason::kAborted: return "Session aborted by your instructor";
-      case EndReason::kTaskComplete: return "Session over: task complete";
-      case EndReason::kTimeLimit: return "Session over: time is up";
-      case EndReason::kDuration: return "Session over: the session's time has run";
-      case EndReason::kSignal: return "Session stopped by the school's system";
-      case EndReason::kCabGone: return "Session over: this cab sent no controls for too long";
-      case EndReason::kNumericalFailure: return std::string("Session over: ") + words(*r);
-    }
-  return "Session over (" + reason + ")";  // a reason this cab is too old to know, as sent
+std::string end_words(const std::string& state, const std::string& reason, const std::string& lang) {
+  // A failed session's reason is the worker's own sentence (English, from the system).
+  if (parse<SessionPhase>(state) == SessionPhase::kFailed) return cab_words(lang, "session.failed", {{"reason", reason}});
+  // Each end reason the vocabulary knows has its words; one this cab is too old to know, as sent.
+  if (parse<EndReason>(reason)) return cab_words(lang, "session.end." + reason);
+  return cab_words(lang, "session.end.unknown", {{"reason", reason}});
 }
 
-Hud::Hud(HudSettings settings, std::map<std::string, FaultWords> words) : s_(settings), words_(std::move(words)) {}
+Hud::Hud(HudSettings settings, std::map<std::string, FaultWords> words, std::string lang)
+    : s_(settings), words_(std::move(words)), lang_(i18n::shipped().supported(lang)), session_line_(t("session.waiting")) {}
+
+std::string Hud::t(const std::string& key, const nlohmann::json& vars) const { return cab_words(lang_, key, vars); }
 
 void Hud::on_state(const fk_TruckState& s) {
   state_ = s;
   have_state_ = true;
-  if (!session_over_ && session_line_.rfind("Waiting", 0) == 0) session_line_.clear();
+  if (!session_over_ && waiting_) session_line_.clear(), waiting_ = false;
 }
 
 void Hud::add(Message m) {
@@ -153,12 +147,15 @@ void Hud::on_event(const fk_Event& e, double now_s) {
   FaultWords w{title_of(kind), "", false};
   if (auto it = words_.find(kind); it != words_.end()) w = it->second;
   std::string detail = w.description;
+  // The evaluator's own description (the rules file's English) where the catalogue has none in
+  // this language, and in English, where it may say more than the rule.
   try {
     const nlohmann::json d = nlohmann::json::parse(std::string(e.details));
-    if (d.contains("description") && d["description"].is_string()) detail = d["description"].get<std::string>();
+    if (d.contains("description") && d["description"].is_string() && (lang_ == i18n::kSourceLanguage || detail.empty()))
+      detail = d["description"].get<std::string>();
   } catch (const std::exception&) {
   }
-  add({w.title + ": " + level_words(e.worry_level, w.automatic_fail), detail, "fault",
+  add({t("fault.line", {{"title", w.title}, {"level", level_words(lang_, e.worry_level, w.automatic_fail)}}), detail, "fault",
        level_colour(e.worry_level, w.automatic_fail), now_s, now_s + s_.fault_shown_s});
 }
 
@@ -166,12 +163,15 @@ void Hud::on_status(const std::string& state, const std::string& reason, double 
   const std::optional<SessionPhase> phase = parse<SessionPhase>(state);
   if (phase == SessionPhase::kRunning && !session_over_) {
     session_line_.clear();
-    add({"Session started: drive when ready", "", "session", kGreen, now_s, now_s + 3});
+    waiting_ = false;
+    add({t("session.started"), "", "session", kGreen, now_s, now_s + 3});
   } else if (phase == SessionPhase::kWaiting && !session_over_) {
-    session_line_ = "Waiting for the session to start";
+    session_line_ = t("session.waiting");
+    waiting_ = true;
   } else if (phase == SessionPhase::kEnded || phase == SessionPhase::kFailed) {
     session_over_ = true;
-    session_line_ = end_words(state, reason);
+    waiting_ = false;
+    session_line_ = end_words(state, reason, lang_);
     const std::optional<EndReason> r = parse<EndReason>(reason);
     session_colour_ = r == EndReason::kTaskComplete                                   ? kGreen
                       : r == EndReason::kAborted || phase == SessionPhase::kFailed ? kRed
@@ -188,26 +188,20 @@ Rgba Hud::stability_colour() const {
 
 std::string Hud::stability_words() const {
   const double f = state_.stability_fraction;
-  std::string w = format("Stability %.0f%%", 100 * std::clamp(f, 0.0, 1.0));
+  const std::string w = t("stability.value", {{"percent", cab_number(lang_, 100 * std::clamp(f, 0.0, 1.0), 0)}});
   if (f >= s_.stability_amber) return w;
   const bool raised = state_.fork_height_m > 0.5;
   const bool turning = std::abs(state_.steer_rad) > 10 / kRad && std::abs(state_.speed_m_s) > 0.5;
   std::string why;
   switch (state_.stability_edge) {
-    case 0:
-      why = raised ? "tipping forward: lower the load, tilt back, brake gently" : "tipping forward: brake gently, tilt back";
-      break;
+    case 0: why = raised ? "forward_raised" : "forward"; break;
     case 1:
-    case 2: {
-      const char* side = state_.stability_edge == 1 ? "left" : "right";
-      why = std::string("tipping ") + side + ": " +
-            (turning ? (raised ? "slow down and lower the load" : "slow down in the turn")
-                     : (raised ? "lower the load" : "turn less sharply, slow down"));
+    case 2:
+      why = std::string(state_.stability_edge == 1 ? "left" : "right") + (turning ? "_turn" : "") + (raised ? "_raised" : "");
       break;
-    }
-    default: why = "slow down, lower the load";
+    default: why = "other";
   }
-  return w + " - " + why;
+  return t("stability.why", {{"stability", w}, {"why", t("stability." + why)}});
 }
 
 std::string Hud::pallet_words() const { return pallet_hint().words; }
@@ -217,28 +211,29 @@ Hud::PalletHint Hud::pallet_hint() const {
   if (s.load_attached) return {};
   // The task's pallet is not ahead of the forks: where it is, so that the pupil drives to it.
   if (s.task_pallet[0] && std::string(s.pallet_ahead) != s.task_pallet) {
-    std::string out = std::string("Pallet ") + s.task_pallet + " is " + format("%.1f m away, ", s.task_pallet_range_m) +
-                      bearing_words(s.task_pallet_bearing_rad);
-    if (s.task_pallet_height_m > 0.3) out += format(", %.1f m up", s.task_pallet_height_m);
-    return {out, false};
+    const nlohmann::json vars = {{"pallet", std::string(s.task_pallet)}, {"distance", cab_number(lang_, s.task_pallet_range_m, 1)},
+                                 {"bearing", bearing_words(lang_, s.task_pallet_bearing_rad)},
+                                 {"height", cab_number(lang_, s.task_pallet_height_m, 1)}};
+    return {t(s.task_pallet_height_m > 0.3 ? "pallet.where_up" : "pallet.where", vars), false};
   }
   if (!s.pallet_ahead[0] || s.pallet_distance_m > 3) return {};
-  const std::string name = std::string("Pallet ") + s.pallet_ahead;
-  if (s.pallet_engaged) return {name + " in: lift the forks to take it", true};
+  if (s.pallet_engaged) return {t("pallet.in", {{"pallet", std::string(s.pallet_ahead)}}), true};
   std::vector<std::string> todo;
-  auto cm = [](double m) { return std::to_string(int(std::lround(std::abs(m) * 100))) + " cm"; };
-  if (s.pallet_height_m > s.pallet_height_tolerance_m) todo.push_back("lower the forks " + cm(s.pallet_height_m));
-  if (s.pallet_height_m < -s.pallet_height_tolerance_m) todo.push_back("raise the forks " + cm(s.pallet_height_m));
-  if (s.pallet_lateral_m > s.pallet_lateral_tolerance_m) todo.push_back("move " + cm(s.pallet_lateral_m) + " right");
-  if (s.pallet_lateral_m < -s.pallet_lateral_tolerance_m) todo.push_back("move " + cm(s.pallet_lateral_m) + " left");
+  auto cm = [](double m) { return int(std::lround(std::abs(m) * 100)); };
+  if (s.pallet_height_m > s.pallet_height_tolerance_m) todo.push_back(t("pallet.lower", {{"cm", cm(s.pallet_height_m)}}));
+  if (s.pallet_height_m < -s.pallet_height_tolerance_m) todo.push_back(t("pallet.raise", {{"cm", cm(s.pallet_height_m)}}));
+  if (s.pallet_lateral_m > s.pallet_lateral_tolerance_m) todo.push_back(t("pallet.move_right", {{"cm", cm(s.pallet_lateral_m)}}));
+  if (s.pallet_lateral_m < -s.pallet_lateral_tolerance_m) todo.push_back(t("pallet.move_left", {{"cm", cm(s.pallet_lateral_m)}}));
   const double deg = s.pallet_angle_rad * kRad;
   if (std::abs(s.pallet_angle_rad) > s.pallet_angle_tolerance_rad * 0.5)  // square well inside the limit
-    todo.push_back(format("turn %.0f deg ", std::abs(deg)) + (deg > 0 ? "right" : "left") + " to square up");
-  const std::string where = s.pallet_distance_m > 0 ? format(" %.1f m ahead", s.pallet_distance_m) : std::string();
-  if (todo.empty()) return {name + where + ": lined up, drive the forks in slowly", true};
-  std::string out = name + where + ": ";
-  for (size_t i = 0; i < todo.size(); ++i) out += (i ? ", " : "") + todo[i];
-  return {out, false};
+    todo.push_back(t(deg > 0 ? "pallet.turn_right" : "pallet.turn_left", {{"deg", cab_number(lang_, std::abs(deg), 0)}}));
+  const std::string name = s.pallet_distance_m > 0
+                               ? t("pallet.name_ahead", {{"pallet", std::string(s.pallet_ahead)}, {"distance", cab_number(lang_, s.pallet_distance_m, 1)}})
+                               : t("pallet.name", {{"pallet", std::string(s.pallet_ahead)}});
+  if (todo.empty()) return {t("pallet.lined_up", {{"pallet", name}}), true};
+  std::string list;
+  for (size_t i = 0; i < todo.size(); ++i) list += (i ? ", " : "") + todo[i];
+  return {t("pallet.to_do", {{"pallet", name}, {"list", list}}), false};
 }
 
 void Hud::steering_dial(std::vector<HudItem>& out, int cx, int cy, int r, int line, int text_w) const {
@@ -283,8 +278,8 @@ void Hud::steering_dial(std::vector<HudItem>& out, int cx, int cy, int r, int li
     i.colour = kWhite, i.size = 0, i.role = role, i.text = std::move(t);
     out.push_back(std::move(i));
   };
-  words(cy - line, "Rear wheel", "steer_title");
-  words(cy, std::abs(deg) < 0.5 ? std::string("straight") : format("%.0f deg ", std::abs(deg)) + (deg > 0 ? "right" : "left"),
+  words(cy - line, t("steer.title"), "steer_title");
+  words(cy, std::abs(deg) < 0.5 ? t("steer.straight") : t(deg > 0 ? "steer.right" : "steer.left", {{"deg", cab_number(lang_, std::abs(deg), 0)}}),
         "steer");
 }
 
@@ -307,7 +302,7 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
   if (help_) {
     fill(0, 0, width, height, Rgba{0, 0, 0, 200}, "help");
     int y = line;
-    text(line, y, "Keys and controller (F1 to close)", kWhite, 2, "help");
+    text(line, y, t("help.title"), kWhite, 2, "help");
     y += 2 * line;
     for (const auto& [keys, what] : help_lines_) {
       text(line, y, keys, kAmber, 0, "help");
@@ -334,15 +329,15 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
     // The step in hand (or what is left to do once the task is done), wrapped by the window.
     const bool done = !state_.task_step[0] && state_.task_steps_total > 0;
     const std::string step = state_.task_step[0] ? name_keys(state_.task_step)
-                             : done              ? std::string("Stop, lower the forks, controls to neutral")
+                             : done              ? t("task.finish")
                                                  : std::string();
     const int step_h = step.empty() ? 0 : wrapped_h(step, 0);
     const int h = line + 8 + step_h + (state_.task_steps_total > 0 ? 9 : 0) + (state_.time_left_s >= 0 ? line : 0) + 6;
     fill(0, 0, side_w, h, kPanel, "panel");
     if (state_.task_step[0])
-      text(pad, yl, format("Step %.0f of %.0f", state_.task_steps_done + 1.0, state_.task_steps_total), kWhite, 1, "task");
+      text(pad, yl, t("task.step", {{"step", state_.task_steps_done + 1}, {"total", state_.task_steps_total}}), kWhite, 1, "task");
     else
-      text(pad, yl, done ? "Task done" : "Free driving", done ? kGreen : kWhite, 1, "task");
+      text(pad, yl, t(done ? "task.done" : "task.free"), done ? kGreen : kWhite, 1, "task");
     yl += line + 2;
     if (!step.empty()) text(pad, yl, step, kWhite, 0, "task_step", wrap);
     yl += step_h;
@@ -353,7 +348,7 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
     }
     if (state_.time_left_s >= 0) {
       const Rgba c = state_.time_left_s < 30 ? kRed : state_.time_left_s < 60 ? kAmber : kWhite;
-      text(pad, yl, "Time left " + clock(state_.time_left_s), c, 0, "time_left");
+      text(pad, yl, t("task.time_left", {{"clock", clock(state_.time_left_s)}}), c, 0, "time_left");
       yl += line;
     }
     yl += 8;
@@ -365,13 +360,16 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
     const double kmh = std::abs(state_.speed_m_s) * 3.6;
     const bool over = state_.speed_limit_m_s > 0 && std::abs(state_.speed_m_s) > state_.speed_limit_m_s + 1e-3;
     const std::string limit = state_.speed_limit_m_s > 0
-                                  ? format("limit %.0f km/h", state_.speed_limit_m_s * 3.6) + (over ? ": too fast" : "")
-                                  : "no limit here";
+                                  ? t(over ? "drive.too_fast" : "drive.limit", {{"limit", cab_number(lang_, state_.speed_limit_m_s * 3.6, 0)}})
+                                  : t("drive.no_limit");
     std::string flags;
-    if (cmd_.parking_brake) flags += "P brake  ";
-    if (!cmd_.seated) flags += "Seat empty: drive off  ";
-    if (cmd_.controller_lost) flags += "Controller lost: braking  ";
-    if (state_.deadman) flags += "No controls reach the truck: braking";
+    auto flag = [&](bool on, const char* key) {
+      if (on) flags += (flags.empty() ? "" : "  ") + t(key);
+    };
+    flag(cmd_.parking_brake, "drive.parking_brake");
+    flag(!cmd_.seated, "drive.seat_empty");
+    flag(cmd_.controller_lost, "drive.controller_lost");
+    flag(state_.deadman, "drive.deadman");
     const int flags_h = flags.empty() ? 0 : wrapped_h(flags, 0) + 4;
     const int dial_r = std::max(12, line * 3 / 2);
     const int dial_h = compact_ ? 0 : 2 * dial_r + 12;
@@ -380,7 +378,7 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
     const int h = 2 * line + 8 + limit_h + flags_h + dial_h;
     const int y0 = height - h;
     fill(0, y0, side_w, h, kPanel, "panel");
-    text(pad, y0 + 4, format("%.1f km/h", kmh), over ? kRed : kWhite, 2, "speed");
+    text(pad, y0 + 4, t("drive.speed", {{"speed", cab_number(lang_, kmh, 1)}}), over ? kRed : kWhite, 2, "speed");
     int y = y0 + 2 * line + 8;
     const char* lever = cmd_.direction > 0 ? "F" : cmd_.direction < 0 ? "R" : "N";
     text(side_w - 2 * line, y - line / 2, lever, cmd_.direction < 0 ? kAmber : kWhite, 2, "direction");
@@ -397,15 +395,16 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
   int right_bottom = height;
   if (have_state_ && !compact_) {
     const double tilt_deg = state_.tilt_rad * kRad;
-    const std::string forks = format("Forks %.2f m up, mast %.1f deg ", state_.fork_height_m, std::abs(tilt_deg)) +
-                              (tilt_deg > 0.05 ? "forward" : tilt_deg < -0.05 ? "back" : "upright");
-    std::string load = "No load";
+    const std::string forks =
+        t(tilt_deg > 0.05 ? "forks.forward" : tilt_deg < -0.05 ? "forks.back" : "forks.upright",
+          {{"height", cab_number(lang_, state_.fork_height_m, 2)}, {"tilt", cab_number(lang_, std::abs(tilt_deg), 1)}});
+    std::string load = t("load.none");
     Rgba load_colour = kGrey;
     if (state_.load_attached) {
       const double share = state_.load_capacity_kg > 0 ? state_.load_mass_kg / state_.load_capacity_kg : 0;
       load_colour = share > 1 ? kRed : share > s_.capacity_amber ? kAmber : kWhite;
-      load = format("Load %.0f kg of %.0f kg allowed at this load centre", state_.load_mass_kg, state_.load_capacity_kg) +
-             (share > 1 ? ": overload" : "");
+      load = t(share > 1 ? "load.overload" : "load.carried",
+               {{"mass", cab_number(lang_, state_.load_mass_kg, 0)}, {"capacity", cab_number(lang_, state_.load_capacity_kg, 0)}});
     }
     const std::string stability = stability_words();
     const PalletHint hint = pallet_hint();
@@ -433,22 +432,22 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
   }
 
   // The learning aids asked for but not allowed here, under the task.
-  auto refused = [&](bool asked, int bit, const char* what) {
+  auto refused = [&](bool asked, int bit, const char* aid) {
     if (compact_ || !asked || !have_state_ || (state_.aids & bit)) return;
-    const std::string words = std::string(what) + " is not allowed in this session";
+    const std::string words = t(std::string("aid.refused.") + aid);
     const int h = wrapped_h(words, 0);
     fill(0, yl - 2, side_w, h + 4, kPanel, "panel");
     text(pad, yl, words, kAmber, 0, "aid_refused", wrap);
     yl += h + 4;
   };
-  refused(cmd_.rear_view, aids::kRearView, "The rear-view mirror");
-  refused(cmd_.fork_camera, aids::kForkCamera, "The fork camera");
-  refused(cmd_.see_through_mast, aids::kSeeThroughMast, "The see-through mast");
-  refused(cmd_.chase_camera, aids::kChaseCamera, "The chase camera");
+  refused(cmd_.rear_view, aids::kRearView, "rear_view");
+  refused(cmd_.fork_camera, aids::kForkCamera, "fork_camera");
+  refused(cmd_.see_through_mast, aids::kSeeThroughMast, "see_through_mast");
+  refused(cmd_.chase_camera, aids::kChaseCamera, "chase_camera");
 
   // The see-through mast, while it is on, says what the faint shapes in front of the forks are.
   if (!compact_ && cmd_.see_through_mast && have_state_ && (state_.aids & aids::kSeeThroughMast)) {
-    const std::string words = see_through_mast_words();
+    const std::string words = see_through_mast_words(lang_);
     const int h = wrapped_h(words, 0);
     fill(0, yl - 2, side_w, h + 4, kPanel, "panel");
     text(pad, yl, words, kBlue, 0, "aid_explained", wrap);
@@ -475,14 +474,14 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
   // The instructor's hand: a line of text from the instructor above the middle, and a paused
   // session said across it (an end or a start said there instead wins).
   if (have_state_ && state_.instructor_message[0] && dds::valid_utf8(state_.instructor_message)) {
-    const std::string words = std::string("Your instructor: ") + state_.instructor_message;
+    const std::string words = t("instructor.message", {{"message", std::string(state_.instructor_message)}});
     const int h = line_count(words, width - 2 * line, 1, line) * line;
     const int y = std::max(yl, height / 2 - 3 * line - h);
     fill(0, y - 2, width, h + 4, kPanel, "panel");
     text(line, y, words, kBlue, 1, "instructor_message", width - 2 * line);
   }
   if (have_state_ && state_.paused && session_line_.empty()) {
-    const std::string words = "Paused by your instructor: the truck waits, and so does the clock";
+    const std::string words = t("instructor.paused");
     const int h = line_count(words, width - 2 * line, 2, line) * (2 * line);
     fill(0, height / 2 - line, width, h + 4, kPanel, "panel");
     text(line, height / 2 - line / 2, words, kAmber, 2, "paused", width - 2 * line);
@@ -495,11 +494,7 @@ std::vector<HudItem> Hud::draw_list(int width, int height, double now_s) const {
   return out;
 }
 
-std::string see_through_mast_words() {
-  return "See-through mast (training aid): the mast, the overhead guard and the carriage's plate and backrest are "
-         "drawn faint so you see the pallet behind them; the forks stay solid. A real mast is solid: look round it "
-         "(J / L)";
-}
+std::string see_through_mast_words(const std::string& lang) { return cab_words(lang, "aid.see_through_mast"); }
 
 std::vector<std::string> Hud::texts(const std::vector<HudItem>& items) {
   std::vector<std::string> out;

@@ -51,17 +51,20 @@ struct HudSettings {
 };
 HudSettings hud_settings(const nlohmann::json& cab_json);  // throws std::runtime_error naming the key
 
-// What a fault is called and whether it fails an exam, from data/evaluation/rules.json.
+// What a fault is called and whether it fails an exam: data/evaluation/rules.json's rules, their
+// title and description in `lang` from the catalogue (words:rules.<id>), as the debrief words them.
 struct FaultWords {
   std::string title;        // "Violent collision"
   std::string description;  // the rule's words to the pupil
   bool automatic_fail = false;
 };
-std::map<std::string, FaultWords> load_fault_words(const std::string& rules_json);
+std::map<std::string, FaultWords> load_fault_words(const std::string& rules_json, const std::string& lang = "en");
 
 class Hud {
  public:
-  Hud(HudSettings settings, std::map<std::string, FaultWords> words);
+  // Every word the display shows is in `lang` (data/i18n/<lang>/cab.json), `words` too.
+  Hud(HudSettings settings, std::map<std::string, FaultWords> words, std::string lang = "en");
+  const std::string& language() const { return lang_; }
 
   void on_state(const fk_TruckState& s);
   void on_event(const fk_Event& e, double now_s);
@@ -75,7 +78,7 @@ class Hud {
   // The truck's end stops (the worker's status): the steering dial marks what the wheel asks.
   void set_steer_lock(double rad) { steer_lock_rad_ = rad; }
   // A line in the middle of the window until replaced (the calibration's steps).
-  void set_prompt(std::string text) { session_line_ = std::move(text); }
+  void set_prompt(std::string text) { session_line_ = std::move(text), waiting_ = false; }
   void set_help(std::vector<std::pair<std::string, std::string>> lines) { help_lines_ = std::move(lines); }
   bool has_state() const { return have_state_; }
   const fk_TruckState& state() const { return state_; }
@@ -115,7 +118,10 @@ class Hud {
   bool have_state_ = false;
   CabCommand cmd_;
   std::deque<Message> messages_;  // newest first
-  std::string session_line_ = "Waiting for the session to start";
+  std::string t(const std::string& key, const nlohmann::json& vars = nlohmann::json::object()) const;
+  std::string lang_;
+  bool waiting_ = true;  // the session line says it waits for the start
+  std::string session_line_;
   Rgba session_colour_{255, 255, 255, 255};
   bool session_over_ = false;
   bool help_ = false;
@@ -124,10 +130,10 @@ class Hud {
   std::vector<std::pair<std::string, std::string>> help_lines_;
 };
 
-// "aborted" -> "Session aborted by your instructor", ...
-std::string end_words(const std::string& state, const std::string& reason);
+// "aborted" -> "Session aborted by your instructor", ... in `lang`.
+std::string end_words(const std::string& state, const std::string& reason, const std::string& lang = "en");
 
 // What the see-through mast aid shows, in words: the HUD says it while the aid is on.
-std::string see_through_mast_words();
+std::string see_through_mast_words(const std::string& lang = "en");
 
 }  // namespace forklift::cab

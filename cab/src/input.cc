@@ -168,7 +168,7 @@ CabInput::~CabInput() = default;
 
 bool CabInput::add_mappings(const std::string& path) {
   if (SDL_GameControllerAddMappingsFromFile(path.c_str()) < 0) {
-    notices_.push_back("controller mappings " + path + " not read: " + SDL_GetError());
+    notices_.push_back(cab_words(lang_, "notice.mappings_not_read", {{"file", path}, {"why", SDL_GetError()}}));
     return false;
   }
   return true;
@@ -190,12 +190,11 @@ void CabInput::open(int index) {
     if (map_.fallback_mapping.empty()) return;
     const std::string line = std::string(guid) + "," + (jname ? jname : "joystick") + "," + map_.fallback_mapping;
     if (SDL_GameControllerAddMapping(line.c_str()) < 0) return;
-    notices_.push_back(std::string("no mapping for '") + (jname ? jname : "joystick") + "' (" + guid +
-                       "): using the usual wheel layout; add its line to data/cab/gamecontrollerdb.txt");
+    notices_.push_back(cab_words(lang_, "notice.no_mapping", {{"name", jname ? jname : "joystick"}, {"guid", guid}}));
   }
   SDL_GameController* pad = SDL_GameControllerOpen(index);
   if (!pad) {
-    notices_.push_back(std::string("cannot open a controller: ") + SDL_GetError());
+    notices_.push_back(cab_words(lang_, "notice.cannot_open", {{"why", SDL_GetError()}}));
     return;
   }
   auto owned = std::make_unique<Controller>();
@@ -209,7 +208,7 @@ void CabInput::open(int index) {
     pad_steer_last_ = NAN;  // its wheel's first reading counts as a move
   }
   cmd_.controller_lost = false;
-  notices_.push_back("Controller '" + c->name + "' connected");
+  notices_.push_back(cab_words(lang_, "notice.connected", {{"name", c->name}}));
 }
 
 void CabInput::close(SDL_JoystickID id) {
@@ -220,7 +219,7 @@ void CabInput::close(SDL_JoystickID id) {
     // A pedal set pulled out mid-drive must not leave the truck driving: brake until the
     // pupil takes over again (another controller, or the keyboard).
     cmd_.controller_lost = true;
-    notices_.push_back("Controller '" + (*it)->name + "' unplugged: the truck is braked");
+    notices_.push_back(cab_words(lang_, "notice.unplugged", {{"name", (*it)->name}}));
   }
   controllers_.erase(it);
   if (was_active) {
@@ -475,31 +474,18 @@ std::vector<std::string> CabInput::take_notices() {
   return out;
 }
 
-const std::vector<std::pair<std::string, std::string>>& key_map() {
-  static const std::vector<std::pair<std::string, std::string>> keys = {
-      {"Up (hold)", "accelerator: held presses it, released lets it go"},
-      {"Down or Space (hold)", "brake (overrides the accelerator)"},
-      {"Left / Right", "turn the wheel left / right: a tap a degree or two, held faster; it stays where it is left"},
-      {"Home", "bring the wheel back straight"},
-      {"F / N / R", "direction lever: forward / neutral / reverse"},
-      {"W / S", "lift / lower the forks: a tap about 1 cm, held faster"},
-      {"A / D", "tilt the mast back / forward: a tap a fraction of a degree, held faster"},
-      {"Q / E (hold)", "side-shift left / right"},
-      {"H (hold)", "horn"},
-      {"P", "parking brake on / off"},
-      {"T", "seat switch: sit down / stand up (standing cuts the drive)"},
-      {"J / L, I / K (hold)", "look left / right, up / down (or drag with the left mouse button)"},
-      {"B", "rear-view mirror on / off (training; shown by itself when reversing)"},
-      {"M", "see-through mast on / off (training): the mast, the guard and the carriage drawn faint,"},
-      {"", "the forks solid, so you see the pallet behind them; a real mast is solid (look round it: J / L)"},
-      {"C", "chase camera on / off (training)"},
-      {"Tab", "hide the display but the speed / show it all"},
-      {"V", "fork camera on / off: the view from between the forks, at the right (training)"},
-      {"F1", "this help"},
-      {"F12", "save a picture of the window"},
-      {"Esc", "leave the cab"},
-  };
-  return keys;
+std::vector<std::pair<std::string, std::string>> key_map(const std::string& lang) {
+  // In the order the F1 help lists them; the see-through mast's words take two lines.
+  static const char* kRows[] = {"accelerator", "brake", "steer", "centre", "lever", "lift", "tilt",
+                                "side_shift", "horn", "parking_brake", "seat", "look", "rear_view",
+                                "see_through_mast", "see_through_mast_more", "chase_camera", "compact",
+                                "fork_camera", "help", "picture", "leave"};
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const std::string row : kRows) {
+    const bool more = row.ends_with("_more");
+    out.emplace_back(more ? std::string() : cab_words(lang, "help.keys." + row), cab_words(lang, "help.what." + row));
+  }
+  return out;
 }
 
 const std::vector<std::pair<std::string, SDL_Scancode>>& key_bindings() {
@@ -522,22 +508,22 @@ std::string name_keys(const std::string& text) {
   });
 }
 
-std::vector<std::pair<std::string, std::string>> controller_help(const ControllerMap& m) {
+std::vector<std::pair<std::string, std::string>> controller_help(const ControllerMap& m, const std::string& lang) {
   std::vector<std::pair<std::string, std::string>> out;
   auto axis = [&](const char* what, const ControllerMap::Axis& a) {
     if (a.axis == SDL_CONTROLLER_AXIS_INVALID) return;
-    out.emplace_back(std::string(SDL_GameControllerGetStringForAxis(a.axis)) + (a.invert ? " (inverted)" : ""), what);
+    const std::string sdl = SDL_GameControllerGetStringForAxis(a.axis);
+    out.emplace_back(a.invert ? cab_words(lang, "help.axis.inverted", {{"axis", sdl}}) : sdl,
+                     cab_words(lang, std::string("help.axis.") + what));
   };
   axis("steer", m.steer);
-  axis("accelerator pedal", m.accelerator);
-  axis("brake pedal", m.brake);
-  axis("lift lever", m.lift);
-  axis("tilt lever", m.tilt);
-  for (const auto& [function, button] : m.buttons) {
-    std::string words = function;
-    std::replace(words.begin(), words.end(), '_', ' ');
-    out.emplace_back(std::string("button ") + SDL_GameControllerGetStringForButton(button), words);
-  }
+  axis("accelerator", m.accelerator);
+  axis("brake", m.brake);
+  axis("lift", m.lift);
+  axis("tilt", m.tilt);
+  for (const auto& [function, button] : m.buttons)
+    out.emplace_back(cab_words(lang, "help.button", {{"button", SDL_GameControllerGetStringForButton(button)}}),
+                     cab_words(lang, "help.buttons." + function));
   return out;
 }
 

@@ -126,8 +126,10 @@ class CabInput {
   const CabCommand& command() const { return cmd_; }
   // Which device drives: "keyboard" or the controller's name.
   std::string active_device() const;
-  // Messages for the pupil about devices ("Controller 'X' unplugged: the truck is braked").
+  // Messages for the pupil about devices ("Controller 'X' unplugged: the truck is braked"), in
+  // the language set here (data/i18n/<lang>/cab.json; English until set).
   std::vector<std::string> take_notices();
+  void set_language(std::string lang) { lang_ = std::move(lang); }
   // Opens every controller already plugged in (hot-plugged ones open themselves).
   void open_present_controllers();
   // SDL_GameControllerAddMappingsFromFile for one file; false (with a notice) if it is absent.
@@ -170,11 +172,12 @@ class CabInput {
   bool mouse_look_ = false;
   double mouse_yaw_ = 0, mouse_pitch_ = 0;
   std::vector<std::string> notices_;
+  std::string lang_ = "en";
 };
 
-// The key map, for --help and the F1 overlay: one "keys: what" line each.
-const std::vector<std::pair<std::string, std::string>>& key_map();
-// The controller map in words, for --help and F1.
-std::vector<std::pair<std::string, std::string>> controller_help(const ControllerMap& map);
+// The key map, for --help and the F1 overlay: one "keys: what" line each, in `lang`.
+std::vector<std::pair<std::string, std::string>> key_map(const std::string& lang = "en");
+// The controller map in words, for --help and F1, in `lang`.
+std::vector<std::pair<std::string, std::string>> controller_help(const ControllerMap& map, const std::string& lang = "en");
 
 }  // namespace forklift::cab

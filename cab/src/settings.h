@@ -13,4 +13,10 @@ nlohmann::json read_settings_file(const std::string& path);  // throws std::runt
 const nlohmann::json& settings_at(const nlohmann::json& j, const char* key, const std::string& where);
 double settings_number(const nlohmann::json& j, const char* key, const std::string& where);
 
+// What the pupil reads, in `lang`: "cab:<key>" of the shipped catalogues (data/i18n/<lang>/cab.json)
+// with its {{variables}} from `vars`. Throws i18n::Missing for a key the catalogue has not (a bug).
+std::string cab_words(const std::string& lang, const std::string& key, const nlohmann::json& vars = nlohmann::json::object());
+// `value` with `decimals` decimals and `lang`'s decimal separator ("9,0" in Spanish).
+std::string cab_number(const std::string& lang, double value, int decimals);
+
 }  // namespace forklift::cab

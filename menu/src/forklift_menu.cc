@@ -19,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include "forklift/i18n/catalogue.h"
 #include "forklift/security/evidence.h"
 #include "forklift/session/vocabulary.h"
 #include "words.h"
@@ -54,7 +55,7 @@ struct Client {
     std::ifstream in(token_file);
     std::string t;
     std::getline(in, t);
-    if (t.empty()) throw std::runtime_error("not logged in: run forklift-menu login first");
+    if (t.empty()) throw std::runtime_error(say("error.not_logged_in"));
     return t;
   }
   // Sends a request; a refusal is printed from the server's JSON error and ends the program.
@@ -68,7 +69,7 @@ struct Client {
     try { j = json::parse(r->body); } catch (...) { j = r->body; }
     if (r->status >= 400) {
       const std::string msg = j.is_object() && j.contains("error") ? j["error"].value("message", r->body) : r->body;
-      throw std::runtime_error("server refused (" + std::to_string(r->status) + "): " + msg);
+      throw std::runtime_error(say("error.refused", {{"status", r->status}, {"message", msg}}));
     }
     return j;
   }
@@ -76,18 +77,17 @@ struct Client {
     auto c = http();
     auto r = c.Get(path, {{"Authorization", "Bearer " + token()}});
     if (!r) throw std::runtime_error(unreachable(r.error()));
-    if (r->status >= 400) throw std::runtime_error("export failed (" + std::to_string(r->status) + ")");
+    if (r->status >= 400) throw std::runtime_error(say("error.export_failed", {{"status", r->status}}));
     return r->body;
   }
   // Why a request got no answer, saying what to do about it.
   std::string unreachable(httplib::Error e) const {
     switch (e) {
       case httplib::Error::SSLServerVerification:
-        return "refusing " + server + ": its certificate cannot be verified" + (ca.empty() ? "" : " with the CA in " + ca) +
-               " (give the CA that signed it with --ca FILE or FORKLIFT_CA)";
-      case httplib::Error::SSLLoadingCerts: return "cannot load the CA certificates" + (ca.empty() ? std::string() : " in " + ca);
-      case httplib::Error::SSLConnection: return "no TLS connection with " + server + " (does it serve https?)";
-      default: return "cannot reach " + server + " (" + httplib::to_string(e) + ")";
+        return say(ca.empty() ? "error.certificate" : "error.certificate_ca", {{"server", server}, {"ca", ca}});
+      case httplib::Error::SSLLoadingCerts: return say(ca.empty() ? "error.cas" : "error.cas_in", {{"ca", ca}});
+      case httplib::Error::SSLConnection: return say("error.tls", {{"server", server}});
+      default: return say("error.unreachable", {{"server", server}, {"why", httplib::to_string(e)}});  // httplib's words
     }
   }
 };
@@ -96,89 +96,131 @@ struct Client {
 std::string fmt(const json& v) {
   if (v.is_null()) return "-";
   if (v.is_number()) return number(v);
-  if (v.is_boolean()) return v.get<bool>() ? "yes" : "no";
+  if (v.is_boolean()) return say(v.get<bool>() ? "yes" : "no");
   return v.is_string() ? v.get<std::string>() : v.dump();
 }
 
+// A table's row: each cell padded to its column's width in characters (UTF-8: "sesión" is 6).
+std::string columns(const std::vector<std::string>& cells) {
+  static const size_t kWidths[] = {10, 16, 20, 9, 10, 11, 0};
+  std::string out;
+  for (size_t i = 0; i < cells.size(); ++i) {
+    out += cells[i];
+    size_t chars = 0;
+    for (unsigned char c : cells[i]) chars += (c & 0xC0) != 0x80;
+    if (i + 1 < cells.size()) out += std::string(std::max<size_t>(1, kWidths[i] + 1 - std::min(chars, kWidths[i])), ' ');
+  }
+  return out;
+}
+
+// A truck's title: the catalogue's for a shipped truck (its file's name), else the server's.
+std::string truck_title(const json& truck) {
+  const std::string key = "certificate:trucks." + fmt(truck.value("name", json()));
+  if (language() != forklift::i18n::kSourceLanguage && forklift::i18n::shipped().has(language(), key))
+    return forklift::i18n::shipped().text(language(), key);
+  return fmt(truck.value("title", json()));
+}
+
 std::string passed_words(const json& passed) {
-  return passed.is_boolean() ? (passed.get<bool>() ? "passed" : "not passed") : "-";
+  return passed.is_boolean() ? say(passed.get<bool>() ? "passed" : "not_passed") : "-";
 }
 
 // An exam as the pupil's page lists it: a practical exam's mark of 100, a theory paper's score
 // as a percentage with the questions right.
 std::string exam_words(const json& e) {
-  const std::string kind = fmt(e["kind"]);
-  std::string s = kind + " exam " + when(e["taken_at"]) + ": ";
+  const bool theory = fmt(e["kind"]) == "theory";
+  std::string s;
   if (e["score"].is_number())
-    s += kind == "theory" ? number(e["score"].get<double>() * 100, 0) + " %" : "mark " + number(e["score"]) + " of 100";
+    s = theory ? say("exam.percent", {{"percent", number(e["score"].get<double>() * 100, 0)}}) : say("mark.of_100", {{"mark", number(e["score"])}});
   else
-    s += "no mark (" + outcome_words(fmt(e["outcome"])) + ")";
+    s = say("exam.no_mark", {{"outcome", outcome_words(fmt(e["outcome"]))}});
   if (e.value("correct", json()).is_number() && e.value("total", json()).is_number())
-    s += " (" + fmt(e["correct"]) + " of " + fmt(e["total"]) + " right)";
-  s += ", " + passed_words(e["passed"]);
-  if (e.value("not_counted", json()).is_string()) s += "; does not count: " + e["not_counted"].get<std::string>();
-  else if (const std::string why = reasons_words(e.value("reasons", json())); !why.empty() && e["passed"] != true) s += "; " + why;
-  return s;
+    s = say("exam.right", {{"result", s}, {"correct", fmt(e["correct"])}, {"total", fmt(e["total"])}});
+  s = say("exam.passed", {{"result", s}, {"passed", passed_words(e["passed"])}});
+  if (e.value("not_counted", json()).is_string()) s = say("exam.not_counted", {{"result", s}, {"why", e["not_counted"].get<std::string>()}});
+  else if (const std::string why = reasons_words(e.value("reasons", json())); !why.empty() && e["passed"] != true)
+    s = say("exam.why", {{"result", s}, {"why", why}});
+  return say(theory ? "exam.theory" : "exam.practical", {{"when", when(e["taken_at"])}, {"result", s}});
 }
 
 void print_history(const json& h) {
-  std::printf("%s (pupil %s)\n", fmt(h["pupil"]["name"]).c_str(), fmt(h["pupil"]["id"]).c_str());
-  std::printf("%-10s %-16s %-20s %-9s %-10s %-11s %s\n", "session", "started", "scenario", "mode", "outcome", "mark", "result");
+  std::printf("%s\n", say("history.pupil", {{"name", fmt(h["pupil"]["name"])}, {"id", fmt(h["pupil"]["id"])}}).c_str());
+  std::printf("%s\n", columns({say("history.session"), say("history.started"), say("history.scenario"), say("history.mode"),
+                               say("history.outcome"), say("history.mark"), say("history.result")}).c_str());
   for (const auto& s : h["sessions"])
-    std::printf("%-10s %-16s %-20s %-9s %-10s %-11s %s\n", fmt(s["id"]).c_str(), when(s["created_at"]).c_str(), fmt(s["scenario"]).c_str(),
-                fmt(s["mode"]).c_str(), outcome_words(fmt(s["outcome"])).c_str(),
-                s["mark"].is_number() ? (number(s["mark"]) + " of 100").c_str() : "no mark", passed_words(s["passed"]).c_str());
+    std::printf("%s\n", columns({fmt(s["id"]), when(s["created_at"]), fmt(s["scenario"]), worded("mode", fmt(s["mode"])),
+                                 outcome_words(fmt(s["outcome"])),
+                                 s["mark"].is_number() ? say("history.mark_of_100", {{"mark", number(s["mark"])}}) : say("mark.none"),
+                                 passed_words(s["passed"])}).c_str());
   if (!h["exams"].empty()) {
-    std::printf("exams:\n");
+    std::printf("%s\n", say("history.exams").c_str());
     for (const auto& e : h["exams"]) std::printf("  %s\n", exam_words(e).c_str());
   }
   // The kinds in the marking sheet's words, most often first.
   std::vector<std::pair<int, std::string>> faults;
   for (const auto& [kind, n] : h["faults_by_kind"].items()) {
     const json title = h.value("fault_titles", json::object()).value(kind, json());
-    faults.emplace_back(n.get<int>(), title.is_string() ? title.get<std::string>() : reason_words(kind));
+    faults.emplace_back(n.get<int>(), rule_title(kind, title.is_string() ? title.get<std::string>() : ""));
   }
   std::stable_sort(faults.begin(), faults.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
   std::string listed;
-  for (const auto& [n, title] : faults) listed += (listed.empty() ? "" : "; ") + title + " " + std::to_string(n) + (n == 1 ? " time" : " times");
-  std::printf("faults over all sessions: %s\n", listed.empty() ? "none" : listed.c_str());
+  for (const auto& [n, title] : faults) listed += (listed.empty() ? "" : "; ") + say("history.times", {{"title", title}, {"count", n}});
+  std::printf("%s\n", listed.empty() ? say("history.no_faults").c_str() : say("history.faults", {{"list", listed}}).c_str());
   const json& trend = h["trend"];
-  std::printf("trend: %s\n", trend.is_number() ? ((trend.get<double>() >= 0 ? "+" : "") + number(trend, 2) + " marks a session (training)").c_str()
-                                                : "none yet (it needs two marked training sessions)");
-  std::printf("licence: %s%s\n",
-              h["licence"].is_null() ? "none" : ("issued " + when(h["licence"]["issued_at"]) + ", re-evaluation due " + when(h["licence"]["reevaluation_due"])).c_str(),
-              h["reevaluation_overdue"] == true ? " (re-evaluation overdue)" : "");
+  std::printf("%s\n", trend.is_number() ? say("history.trend", {{"trend", (trend.get<double>() >= 0 ? "+" : "") + number(trend, 2)}}).c_str()
+                                        : say("history.no_trend").c_str());
+  std::printf("%s\n", h["licence"].is_null()
+                          ? say("history.no_licence").c_str()
+                          : say(h["reevaluation_overdue"] == true ? "history.licence_overdue" : "history.licence",
+                                {{"issued", when(h["licence"]["issued_at"])}, {"due", when(h["licence"]["reevaluation_due"])}}).c_str());
 }
 
 // A session as the session page shows it, events worded as the debrief words them.
 void print_session(const json& s) {
-  std::printf("session %s: pupil %s, cab %s, scenario %s, %s\n", fmt(s["id"]).c_str(), fmt(s["pupil_id"]).c_str(), fmt(s["cab_id"]).c_str(),
-              fmt(s["scenario"]).c_str(), fmt(s["mode"]).c_str());
-  if (s.value("truck", json()).is_object()) std::printf("truck: %s\n", fmt(s["truck"].value("title", json())).c_str());
-  std::printf("load: %s\n", load_words(s.value("load", json())).c_str());
+  std::printf("%s\n", say("session.head", {{"id", fmt(s["id"])}, {"pupil", fmt(s["pupil_id"])}, {"cab", fmt(s["cab_id"])},
+                                           {"scenario", fmt(s["scenario"])}, {"mode", worded("mode", fmt(s["mode"]))}}).c_str());
+  if (s.value("truck", json()).is_object()) std::printf("%s\n", say("session.truck", {{"truck", truck_title(s["truck"])}}).c_str());
+  std::printf("%s\n", say("session.load", {{"load", load_words(s.value("load", json()))}}).c_str());
   std::string state = state_words(fmt(s["state"]));
-  if (s["reason"].is_string() && !s["reason"].get<std::string>().empty()) state += " (" + reason_words(s["reason"].get<std::string>()) + ")";
-  std::printf("state: %s; started %s%s\n", state.c_str(), when(s["created_at"]).c_str(),
-              s["ended_at"].is_string() ? (", ended " + when(s["ended_at"])).c_str() : "");
+  if (s["reason"].is_string() && !s["reason"].get<std::string>().empty())
+    state = say("session.with_reason", {{"state", state}, {"reason", reason_words(s["reason"].get<std::string>())}});
+  std::printf("%s\n", say(s["ended_at"].is_string() ? "session.state_ended" : "session.state",
+                          {{"state", state}, {"started", when(s["created_at"])}, {"ended", when(s["ended_at"])}}).c_str());
   std::printf("%s\n", mark_words(s).c_str());
-  if (const std::string why = reasons_words(s.value("reasons", json())); !why.empty() && s["passed"] != true)
-    std::printf("why: %s\n", why.c_str());
-  if (s["events"].empty()) std::printf("no events\n");
-  else std::printf("events:\n");
-  for (const auto& e : s["events"]) std::printf("  at %6.1f s  %s\n", e["sim_time_s"].get<double>(), event_words(e).c_str());
+  if (const std::string why = reasons_words(s.value("reasons", json()), s["reason"].is_string() ? s["reason"].get<std::string>() : "");
+      !why.empty() && s["passed"] != true)
+    std::printf("%s\n", say("session.why", {{"why", why}}).c_str());
+  std::printf("%s\n", say(s["events"].empty() ? "session.no_events" : "session.events").c_str());
+  for (const auto& e : s["events"]) {
+    char at[32];
+    std::snprintf(at, sizeof at, "%6s", number(e["sim_time_s"], 1).c_str());
+    std::printf("%s\n", say("session.event", {{"time", at}, {"event", event_words(e)}}).c_str());
+  }
 }
 
 // A scenario as the start page offers it: what it is, its load, its time (its truck is a file's
 // name here; `session` shows the truck's title).
 void print_scenario(const json& s) {
-  std::string about = s.value("exam_course", false) ? "exam course" + (s.value("exam_title", json()).is_string() ? " (" + s["exam_title"].get<std::string>() + ")" : "")
-                                                    : fmt(s.value("kind", json("scenario")));
-  about += "; load: " + load_words(s.value("load", json()));
-  if (s.value("time_limit_s", json()).is_number()) about += "; time limit " + number(s["time_limit_s"]) + " s";
-  else if (s.value("duration_s", json()).is_number()) about += "; runs " + number(s["duration_s"]) + " s";
-  if (s.value("error", json()).is_string()) about += "; its file cannot be read";
+  // Its description and its course's title are the scenario file's, in English: in another
+  // language its title in the catalogue's words stands in for them (as on the start page).
+  const std::string name = fmt(s["name"]), title = "words:scenarios." + name;
+  const bool manoeuvre = name.rfind("manoeuvre_", 0) == 0 && name.size() > 10 &&
+                         name.find_first_not_of("0123456789", 10) == std::string::npos;  // the paper's, by number
+  const bool titled = language() != forklift::i18n::kSourceLanguage && (manoeuvre || forklift::i18n::shipped().has(language(), title));
+  std::string about = s.value("exam_course", false)
+                          ? (s.value("exam_title", json()).is_string() && !titled ? say("scenario.exam_course_titled", {{"title", s["exam_title"].get<std::string>()}})
+                                                                       : say("scenario.exam_course"))
+                          : worded("scenario.kind", fmt(s.value("kind", json("scenario"))));
+  about = say("scenario.load", {{"about", about}, {"load", load_words(s.value("load", json()))}});
+  if (s.value("time_limit_s", json()).is_number()) about = say("scenario.time_limit", {{"about", about}, {"seconds", number(s["time_limit_s"])}});
+  else if (s.value("duration_s", json()).is_number()) about = say("scenario.runs", {{"about", about}, {"seconds", number(s["duration_s"])}});
+  if (s.value("error", json()).is_string()) about = say("scenario.unreadable", {{"about", about}});
   std::printf("%-22s %s\n", fmt(s["name"]).c_str(), about.c_str());
-  if (s.value("description", json()).is_string()) std::printf("%-22s %s\n", "", s["description"].get<std::string>().c_str());
+  if (titled)
+    std::printf("%-22s %s\n", "", (manoeuvre ? forklift::i18n::shipped().text(language(), "words:manoeuvre", {{"number", name.substr(10)}})
+                                             : forklift::i18n::shipped().text(language(), title)).c_str());
+  else if (s.value("description", json()).is_string())
+    std::printf("%-22s %s\n", "", s["description"].get<std::string>().c_str());
 }
 
 // Prints the session's live state once a second (and keeps its newest frame) until it is over.
@@ -194,12 +236,8 @@ std::string drive_security(const json& fleet, const std::string& given, const st
   const std::string identity = folder + "/identities/cab." + cab;
   std::error_code ec;
   if (!folder.empty() && std::filesystem::is_directory(identity, ec)) return folder;
-  throw std::runtime_error(
-      "the server runs its cabs under DDS Security, and the scripted cab needs the identity cab." + cab + " from the school's "
-      "security folder: " + (folder.empty() ? std::string("give --security DIR (or FORKLIFT_SECURITY_DIR)")
-                                           : folder + " has no " + identity.substr(folder.size() + 1) +
-                                                 (given.empty() ? " on this machine: give --security DIR" : "")) +
-      " (scripts/forklift-pki.sh add-cab makes it)");
+  throw std::runtime_error(say(folder.empty() ? "error.security_give" : given.empty() ? "error.security_missing_here" : "error.security_missing",
+                               {{"cab", cab}, {"folder", folder}, {"identity", identity.substr(folder.size() + 1)}}));
 }
 
 int follow_session(const Client& cl, const std::string& id, const std::string& frame_file, double seconds) {
@@ -208,30 +246,29 @@ int follow_session(const Client& cl, const std::string& id, const std::string& f
   bool framed = false;
   const auto no_frame = [&](const std::string& during) {
     if (frame_file.empty() || framed) return 0;
-    std::fprintf(stderr, "forklift-menu: no frame came from session %s %s, so %s was not written: a worker renders frames only "
-                 "while its cab shows them (a cab with a window; a scripted or windowless cab asks for none) and the server's "
-                 "--frame-fps is not 0\n", id.c_str(), during.c_str(), frame_file.c_str());
+    std::fprintf(stderr, "forklift-menu: %s\n", say("follow.no_frame", {{"id", id}, {"during", during}, {"file", frame_file}}).c_str());
     return 5;
   };
   while (std::chrono::steady_clock::now() < until) {
-    const json s = cl.call("GET", "/api/sessions/" + id);
+    const json s = cl.call("GET", "/api/sessions/" + id + (g_json ? "" : "?lang=" + language()));
     const std::string state = s["state"];
     const std::optional<SessionPhase> phase = parse<SessionPhase>(state);
     if (!phase || is_terminal(*phase)) {
       if (g_json) std::printf("%s\n", s.dump().c_str());
       else std::printf("%s\n", session_line(s).c_str());
-      return no_frame("before it was over");
+      return no_frame(say("follow.before_over"));
     }
     if (*phase != SessionPhase::kStarting) {
       const json v = cl.call("GET", "/api/sessions/" + id + "/live");
       const json& t = v["state"];
       if (g_json) std::printf("%s\n", v.dump().c_str());  // one JSON document a line
-      else if (t.is_null()) std::printf("session %s %s: waiting for the cab\n", id.c_str(), state_words(state).c_str());
+      else if (t.is_null()) std::printf("%s\n", say("follow.waiting", {{"id", id}, {"state", state_words(state)}}).c_str());
       else
-        std::printf("session %s at %s s: speed %s km/h, forks %s m up, load %s, stability margin %s %%%s\n", id.c_str(),
-                    number(t["sim_time_s"]).c_str(), number(3.6 * t["speed_m_s"].get<double>()).c_str(), number(t["lift_m"], 2).c_str(),
-                    t["load_attached"].get<bool>() ? (number(t["load_mass_kg"], 0) + " kg").c_str() : "none",
-                    number(100 * t["stability_margin"].get<double>(), 0).c_str(), t["deadman"].get<bool>() ? ", dead man's switch released" : "");
+        std::printf("%s\n", say(t["deadman"].get<bool>() ? "follow.live_deadman" : "follow.live",
+                                {{"id", id}, {"time", number(t["sim_time_s"])}, {"speed", number(3.6 * t["speed_m_s"].get<double>())},
+                                 {"forks", number(t["lift_m"], 2)},
+                                 {"load", t["load_attached"].get<bool>() ? say("load.mass", {{"mass", number(t["load_mass_kg"], 0)}}) : say("follow.no_load")},
+                                 {"margin", number(100 * t["stability_margin"].get<double>(), 0)}}).c_str());
       if (!frame_file.empty() && v["frame_available"].get<bool>() && v["frame_seq"].get<uint32_t>() != saved) {
         std::ofstream(frame_file, std::ios::binary) << cl.get_text("/api/sessions/" + id + "/live/frame.jpg");
         saved = v["frame_seq"].get<uint32_t>();
@@ -241,7 +278,7 @@ int follow_session(const Client& cl, const std::string& id, const std::string& f
     }
     std::this_thread::sleep_for(std::chrono::seconds(1));
   }
-  return no_frame("in " + number(seconds) + " s");
+  return no_frame(say("follow.within", {{"seconds", number(seconds)}}));
 }
 
 // Fetches the exam's evidence and checks it here, against the school's CA: the server is not
@@ -263,28 +300,25 @@ int verify_exam(const Client& cl, const std::string& id, const std::string& ca_f
                 {"not_chained_because", why}});
     return report.verdict == Verdict::kVerified ? 0 : report.verdict == Verdict::kNotChained ? 4 : 3;
   }
-  for (const std::string& line : report.passed) std::printf("ok    %s\n", line.c_str());
-  for (const std::string& line : report.problems) std::printf("FAIL  %s\n", line.c_str());
+  // Each check's own line is the security library's (English, as the certificate's checks).
+  for (const std::string& line : report.passed) std::printf("%s\n", say("verify.ok", {{"line", line}}).c_str());
+  for (const std::string& line : report.problems) std::printf("%s\n", say("verify.fail", {{"line", line}}).c_str());
   switch (report.verdict) {
     case Verdict::kVerified: {
       // The mark as the session page gives it: an exam cut short by its time limit has none (the
       // record's is the evaluator's count of a drive that was never finished).
       const json session = cl.call("GET", "/api/sessions/" + id);
-      std::printf("verified: exam %s of pupil %s (%s), %s, examiner %s: record, log, chain and signatures intact\n", id.c_str(),
-                  fmt(r.value("pupil_id", json())).c_str(), fmt(r.value("pupil", json())).c_str(), mark_words(session).c_str(),
-                  fmt(r.value("examiner", json())).c_str());
+      std::printf("%s\n", say("verify.verified", {{"id", id}, {"pupil", fmt(r.value("pupil_id", json()))}, {"name", fmt(r.value("pupil", json()))},
+                                                  {"mark", mark_words(session)}, {"examiner", fmt(r.value("examiner", json()))}}).c_str());
       return 0;
     }
     case Verdict::kNotChained: {
-      std::printf("NOT CHAINED: exam %s has no entry in the exam chain (the chain and its anchor show no sign of tampering): %s. "
-                  "Its result cannot be verified and does not count.\n",
-                  id.c_str(), why.is_string() ? why.get<std::string>().c_str() : "the server gives no reason");
+      std::printf("%s\n", say("verify.not_chained", {{"id", id}, {"why", why.is_string() ? why.get<std::string>() : say("verify.no_reason")}}).c_str());
       return 4;
     }
     case Verdict::kTampered: break;
   }
-  std::printf("TAMPERED: exam %s is NOT VERIFIED, with %zu problem(s): its stored record or log, or the exam chain, was changed after "
-              "the exam\n", id.c_str(), report.problems.size());
+  std::printf("%s\n", say("verify.tampered", {{"id", id}, {"count", report.problems.size()}}).c_str());
   return 3;
 }
 
@@ -305,6 +339,19 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   app.add_option("--token-file", cl.token_file, "where the login token is kept");
   app.add_flag("--json", g_json, "print the server's answer as JSON (for scripts) instead of words; export is CSV either way");
+  // The person's language: the terminal's (LC_ALL, LC_MESSAGES, LANG), unless told.
+  std::string lang;
+  std::vector<std::string> languages;
+  try {
+    lang = forklift::i18n::environment_language(forklift::i18n::shipped());
+    languages = forklift::i18n::shipped().languages();
+  } catch (const std::exception& e) {
+    std::cerr << "forklift-menu: the message catalogues cannot be read: " << e.what() << '\n';
+    return 2;
+  }
+  app.add_option("--language", lang, "the language of what it prints for a person (default: LC_ALL, LC_MESSAGES or LANG when "
+                                      "it is one of them, else en; --help is in English)")
+      ->check(CLI::IsMember(languages));
 
   std::string username, password, name, email, search, cab, scenario, mode = forklift::name(forklift::Mode::kTraining), drive, session, out;
   int64_t pupil = 0;
@@ -377,6 +424,7 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;  // --help and --version: 0; bad usage: 2, as every program
   }
+  set_language(lang);
 
   try {
     if (*login) {
@@ -388,20 +436,21 @@ int main(int argc, char** argv) {
         shown.erase("token");  // kept in the token file, never printed
         print_json(shown);
       } else {
-        std::printf("logged in as %s (%s)\n", username.c_str(), r["role"].get<std::string>().c_str());
+        const std::string role = r["role"].get<std::string>();
+        std::printf("%s\n", say("logged_in", {{"user", username}, {"role", worded("role", role)}}).c_str());
       }
     } else if (*add) {
       json b = {{"name", name}, {"email", email}};
       if (!username.empty()) { b["username"] = username; b["password"] = password; }
       const json r = cl.call("POST", "/api/pupils", b);
       if (g_json) print_json(r);
-      else std::printf("pupil %lld: %s\n", static_cast<long long>(r["id"].get<int64_t>()), r["name"].get<std::string>().c_str());
+      else std::printf("%s\n", say("pupil_added", {{"id", r["id"].get<int64_t>()}, {"name", r["name"].get<std::string>()}}).c_str());
     } else if (*list) {
       const json r = cl.call("GET", "/api/pupils?limit=1000&search=" + httplib::detail::encode_query_param(search));
       if (g_json) { print_json(r); return 0; }
       for (const auto& p : r["pupils"]) std::printf("%6lld  %s\n", static_cast<long long>(p["id"].get<int64_t>()), p["name"].get<std::string>().c_str());
       if (r["total"].get<int64_t>() > static_cast<int64_t>(r["pupils"].size()))
-        std::printf("(%zu of %lld pupils: narrow the search)\n", r["pupils"].size(), static_cast<long long>(r["total"].get<int64_t>()));
+        std::printf("%s\n", say("pupils_more", {{"shown", r["pupils"].size()}, {"total", r["total"].get<int64_t>()}}).c_str());
     } else if (*scen) {
       const json r = cl.call("GET", "/api/scenarios");
       if (g_json) print_json(r);
@@ -426,10 +475,13 @@ int main(int argc, char** argv) {
         cab_args = {"--dds-domain", std::to_string(dds_domain)};
         if (const std::string folder = drive_security(fleet, cab_security, cab); !folder.empty())
           cab_args.insert(cab_args.end(), {"--security", folder});
+        // The cab speaks the pupil's language (their record's), whoever starts it.
+        const json p = cl.call("GET", "/api/pupils/" + std::to_string(pupil));
+        if (p.value("language", json()).is_string()) cab_args.insert(cab_args.end(), {"--language", p["language"].get<std::string>()});
       }
       const json s = cl.call("POST", "/api/sessions", body);
       const std::string id = s["id"];
-      if (!g_json) std::printf("session %s started on cab %s\n", id.c_str(), cab.c_str());
+      if (!g_json) std::printf("%s\n", say("started", {{"id", id}, {"cab", cab}}).c_str());
       std::fflush(stdout);  // before the scripted cab writes to the same terminal
       if (!drive.empty()) {
         const std::string self = std::filesystem::canonical("/proc/self/exe").parent_path().string();
@@ -448,9 +500,9 @@ int main(int argc, char** argv) {
         int status = 0;
         waitpid(pid, &status, 0);
         if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-          std::fprintf(stderr, "forklift-menu: the scripted cab ended with an error (%s); waiting for session %s's end\n",
-                       WIFEXITED(status) ? ("exit status " + std::to_string(WEXITSTATUS(status))).c_str() : "killed by a signal",
-                       id.c_str());
+          std::fprintf(stderr, "forklift-menu: %s\n",
+                       (WIFEXITED(status) ? say("error.cab_failed", {{"status", WEXITSTATUS(status)}, {"id", id}})
+                                          : say("error.cab_killed", {{"id", id}})).c_str());
         wait = true;
       }
       if (wait) {
@@ -475,15 +527,16 @@ int main(int argc, char** argv) {
         else std::printf("%s\n", session_line(cur).c_str());
         // A session that did not run to its end is a failure for a script that started it.
         if (phase != SessionPhase::kEnded) {
-          std::fprintf(stderr, "forklift-menu: session %s did not run to its end: %s\n", id.c_str(),
-                       phase && is_terminal(*phase) ? session_line(cur).c_str() : "it is not over after 2 minutes of waiting");
+          std::fprintf(stderr, "forklift-menu: %s\n", (phase && is_terminal(*phase) ? say("error.not_to_end", {{"id", id}, {"line", session_line(cur)}})
+                                                                                   : say("error.not_over", {{"id", id}})).c_str());
           return 3;
         }
       } else if (g_json) {
         print_json(s);
       }
     } else if (*show) {
-      const json s = cl.call("GET", "/api/sessions/" + session);
+      // Its events worded by the server in the person's language (the JSON's, for scripts, English).
+      const json s = cl.call("GET", "/api/sessions/" + session + (g_json ? "" : "?lang=" + language()));
       if (g_json) print_json(s);
       else print_session(s);
     } else if (*hist) {
@@ -500,7 +553,7 @@ int main(int argc, char** argv) {
       if (g_json) print_json(s);
       else std::printf("%s\n", session_line(s).c_str());
     } else if (*verify) {
-      if (school_ca.empty()) throw std::runtime_error("verify needs the school's CA: --school-ca FILE or FORKLIFT_SECURITY_DIR");
+      if (school_ca.empty()) throw std::runtime_error(say("verify.needs_ca"));
       return verify_exam(cl, session, school_ca, school_crl);
     }
     return 0;

@@ -357,10 +357,12 @@ const FL = (() => {
   }
 
   // What went wrong in the server's words; its code is for scripts, not for the person reading.
+  // The server (and the browser) words it in English: said as English on a page in another
+  // language (english()), so a node there; tAround() puts it inside a message.
   function describeError(e) {
     if (i18n && e instanceof ApiError && e.code === 'network') return t('error.network');
     if (e instanceof ApiError && e.status && !e.message) return i18n ? t('error.refused', { status: e.status }) : `the server refused it (HTTP ${e.status})`;
-    return String((e && e.message) || e);
+    return english(String((e && e.message) || e));
   }
 
   // Runs `fn` now and every `ms` until `stop()` returns true; errors are shown, not fatal.

@@ -204,7 +204,7 @@
       if (!r.samples || r.samples.length === 0) throw new Error(t('session.no_states'));
       replay = r;
     } catch (e) {
-      say(rs.status, t('session.no_replay', { why: describeError(e) }));
+      say(rs.status, FL.tAround('session.no_replay', 'why', describeError(e)));
       return;
     }
     const end = replay.samples[replay.samples.length - 1].t;
@@ -465,7 +465,7 @@
         const task = v.state.task;
         if (task && task.steps_total > 0) {
           fact(dl, t('session.task'), el('span', { id: 'live-task' }, t('session.steps', { done: task.steps_done, total: task.steps_total }),
-            task.step ? el('span', {}, t('session.now_step', { step: task.step })) : t('session.all_done')));
+            task.step ? el('span', {}, FL.tAround('session.now_step', 'step', FL.english(task.step))) : t('session.all_done')));
         }
         fact(dl, t('session.speed_label'), `${num(v.state.speed_m_s, 2)} m/s`);
         fact(dl, t('session.forks'), `${num(v.state.lift_m, 2)} m`);

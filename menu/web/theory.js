@@ -127,7 +127,7 @@
       const blob = await api('GET', q.image.replace(/^\/api/, ''));
       box.append(el('img', { class: 'figure', src: URL.createObjectURL(blob), alt: q.image_alt }));
     } catch (e) {
-      box.append(el('p', { class: 'warn' }, t('theory.no_picture', { why: describeError(e), alt: q.image_alt })));
+      box.append(el('p', { class: 'warn' }, ...FL.tAround('theory.no_picture', 'why', describeError(e), { alt: q.image_alt })));
     }
   }
 

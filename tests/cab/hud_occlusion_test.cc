@@ -120,9 +120,9 @@ std::vector<Work> work_in_sight(double h, int W, int H) {
 // A HUD with everything it can show at once while driving: the task, time, a fault with its
 // advice, refused aids, what cuts the drive, the load, amber stability and the pallet hint.
 // `allowed_aids`: the training aids the session allows (none: each one asked for is said to be refused;
-// all: the see-through mast explains itself).
-Hud busy_hud(double fork_height_m, uint8_t allowed_aids = 0) {
-  Hud hud = cab::test::make_hud();
+// all: the see-through mast explains itself). In English or Spanish, whose words are longer.
+Hud busy_hud(double fork_height_m, uint8_t allowed_aids = 0, const std::string& lang = "en") {
+  Hud hud = cab::test::make_hud(lang);
   fk_TruckState s = cab::test::moving();
   s.speed_m_s = 2.9;  // over the limit
   s.stability_fraction = 0.3;
@@ -171,19 +171,21 @@ TEST(HudOcclusion, TheForksTheirTipsAndThePalletAheadAreNeverUnderAPanel) {
       ASSERT_GE(work.size(), 6u) << "the forks and the pallet are not in the picture at " << h << " m";
       for (bool compact : {false, true}) {
         for (uint8_t allowed : {uint8_t(0), aids::kAll}) {
-          Hud hud = busy_hud(h, allowed);
-          if (compact) hud.toggle_compact();
-          const std::vector<HudItem> items = hud.draw_list(W, H, 2);
-          ASSERT_TRUE(std::any_of(items.begin(), items.end(), [](const HudItem& i) { return i.role == "speed"; }));
-          for (const HudRect& r : panel_rects(items))
-            for (const Work& w : work)
-              if (overlaps(r, w.box)) {
-                ++hidden;
-                ADD_FAILURE() << W << "x" << H << ", forks " << h << " m up" << (compact ? " (compact)" : "") << ": the "
-                              << w.what << " (x " << w.box.min().x() << "-" << w.box.max().x() << ", y " << w.box.min().y()
-                              << "-" << w.box.max().y() << ") is under a panel at x " << r.x << "-" << r.x + r.w << ", y "
-                              << r.y << "-" << r.y + r.h;
-              }
+          for (const char* lang : {"en", "es"}) {
+            Hud hud = busy_hud(h, allowed, lang);
+            if (compact) hud.toggle_compact();
+            const std::vector<HudItem> items = hud.draw_list(W, H, 2);
+            ASSERT_TRUE(std::any_of(items.begin(), items.end(), [](const HudItem& i) { return i.role == "speed"; }));
+            for (const HudRect& r : panel_rects(items))
+              for (const Work& w : work)
+                if (overlaps(r, w.box)) {
+                  ++hidden;
+                  ADD_FAILURE() << W << "x" << H << ", forks " << h << " m up" << (compact ? " (compact)" : "") << " in " << lang << ": the "
+                                << w.what << " (x " << w.box.min().x() << "-" << w.box.max().x() << ", y " << w.box.min().y()
+                                << "-" << w.box.max().y() << ") is under a panel at x " << r.x << "-" << r.x + r.w << ", y "
+                                << r.y << "-" << r.y + r.h;
+                }
+          }
         }
       }
     }

@@ -7,9 +7,10 @@
 
 namespace forklift::cab::test {
 
-inline Hud make_hud() {
+inline Hud make_hud(const std::string& lang = "en") {
   std::ifstream in(std::string(FORKLIFT_DATA_DIR) + "/cab/cab.json");
-  return Hud(hud_settings(nlohmann::json::parse(in)), load_fault_words(std::string(FORKLIFT_DATA_DIR) + "/evaluation/rules.json"));
+  return Hud(hud_settings(nlohmann::json::parse(in)), load_fault_words(std::string(FORKLIFT_DATA_DIR) + "/evaluation/rules.json", lang),
+             lang);
 }
 
 inline fk_TruckState moving() {

@@ -6,6 +6,7 @@
 
 #include "hud.h"
 #include "hud_states.h"
+#include "support/english_left.h"
 
 using namespace forklift;
 using namespace forklift::cab;
@@ -94,7 +95,7 @@ TEST(Hud, AFaultIsShownInWordsWithItsLevelWhileItLasts) {
   e.worry_level = 1;
   hud.on_event(e, 11);
   items = hud.draw_list(960, 720, 11.1);
-  EXPECT_TRUE(has_text(items, "Travel forks low: minor fault"));
+  EXPECT_TRUE(has_text(items, "Travelled with the forks too low: minor fault"));  // the rule's title, as the debrief's
   EXPECT_FALSE(has_text(hud.draw_list(960, 720, 30), "Violent collision"));  // gone after its time
 }
 
@@ -239,6 +240,112 @@ TEST(Hud, F1ShowsTheKeyMap) {
   EXPECT_TRUE(has_text(items, "direction lever: forward / neutral / reverse"));
   EXPECT_TRUE(has_text(items, "Up (hold)"));
   EXPECT_TRUE(has_text(items, "bring the wheel back straight"));
+}
+
+// The cab in Spanish: every state the display words, the F1 help with the controller's words,
+// a fault, the instructor's hand and every end of a session read in Spanish, with a decimal comma,
+// and none of the English of the cab's catalogue or of the rules' words is left.
+TEST(Hud, InSpanishEveryWordThePupilReadsIsSpanish) {
+  Hud hud = make_hud("es");
+  std::string all;
+  auto take = [&](const std::vector<HudItem>& items) {
+    for (const std::string& t : Hud::texts(items)) all += t + "\n";
+  };
+  take(hud.draw_list(960, 720, 0));  // waiting for the start
+  EXPECT_TRUE(has_text(hud.draw_list(960, 720, 0), "Esperando a que empiece la sesión"));
+  hud.on_status("running", "", 1);
+  hud.set_steer_lock(1.3);
+  fk_TruckState s = moving();
+  dds::set_string(s.task_step, "Coja el palé P3 del estante R2");  // the scenario's words: data, not the cab's
+  s.speed_m_s = 3.5;  // over the zone's limit
+  s.steer_rad = 0.5;
+  s.stability_fraction = 0.4;  // amber, turning
+  s.load_attached = true;
+  s.load_mass_kg = 1200;
+  s.load_capacity_kg = 1000;  // overloaded
+  s.tilt_rad = 0.05;
+  s.deadman = true;
+  hud.on_state(s);
+  CabCommand c;
+  c.parking_brake = true;
+  c.seated = false;
+  c.controller_lost = true;
+  c.see_through_mast = true;
+  c.rear_view = true;
+  hud.set_command(c);
+  fk_Event e{};
+  dds::set_string(e.session_id, "s-1");
+  dds::set_string(e.kind, "violent_collision");
+  e.worry_level = 5;
+  dds::set_string(e.details, R"({"description":"You hit something hard. Approach everything slowly so that you can stop before touching it."})");
+  hud.on_event(e, 1);
+  auto items = hud.draw_list(960, 720, 1.2);
+  take(items);
+  EXPECT_EQ(find(items, "task")->text, "Paso 2 de 3");
+  EXPECT_EQ(find(items, "speed")->text, "12,6 km/h");
+  EXPECT_TRUE(has_text(items, "Choque violento: aquí se suspendería un examen"));
+  EXPECT_TRUE(has_text(items, "Acérquese a todo despacio")) << "the rule's description in Spanish, not the event's English";
+  for (const fk_TruckState& next : [&] {
+         std::vector<fk_TruckState> v;
+         fk_TruckState a = s;  // the stability's other words, the pallet hints, the instructor's hand
+         a.stability_edge = 0, a.fork_height_m = 2, a.stability_fraction = 0.1, a.load_attached = false, a.tilt_rad = -0.05;
+         dds::set_string(a.task_pallet, "P3");
+         a.task_pallet_range_m = 6.24, a.task_pallet_bearing_rad = 2.5, a.task_pallet_height_m = 1.8;
+         dds::set_string(a.instructor_message, "Mire por encima del hombro");
+         a.paused = true;
+         v.push_back(a);
+         fk_TruckState b = a;
+         b.stability_edge = 2, b.fork_height_m = 0.1, b.steer_rad = 0, b.tilt_rad = 0;
+         dds::set_string(b.pallet_ahead, "P3");
+         b.pallet_distance_m = 1.24, b.pallet_height_m = 0.06, b.pallet_lateral_m = -0.04, b.pallet_angle_rad = 0.2;
+         b.pallet_height_tolerance_m = 0.03, b.pallet_lateral_tolerance_m = 0.025, b.pallet_angle_tolerance_rad = 0.17;
+         v.push_back(b);
+         fk_TruckState d = b;  // lined up, then in; the task done
+         d.pallet_height_m = -0.06, d.pallet_lateral_m = 0.04, d.pallet_angle_rad = -0.2;
+         v.push_back(d);
+         d.pallet_height_m = d.pallet_lateral_m = d.pallet_angle_rad = 0;
+         v.push_back(d);
+         d.pallet_engaged = true;
+         d.task_step[0] = 0;
+         v.push_back(d);
+         d.task_steps_total = 0;
+         d.stability_edge = 3;
+         v.push_back(d);
+         return v;
+       }()) {
+    hud.on_state(next);
+    take(hud.draw_list(960, 720, 2));
+  }
+  EXPECT_NE(all.find("El palé P3 está a 6,2 m, detrás, a la izquierda, a 1,8 m de altura"), std::string::npos) << all;
+  EXPECT_NE(all.find("Su instructor: Mire por encima del hombro"), std::string::npos) << all;
+  c = CabCommand{};
+  c.see_through_mast = true;
+  hud.set_command(c);
+  s.aids = 0;  // an exam: the aid refused
+  hud.on_state(s);
+  take(hud.draw_list(960, 720, 3));
+  hud.toggle_compact();
+  take(hud.draw_list(960, 720, 3));
+  hud.toggle_compact();
+  std::vector<std::pair<std::string, std::string>> help = key_map("es");
+  for (auto& line : controller_help(load_controller_map(std::string(FORKLIFT_DATA_DIR) + "/cab/controllers.json"), "es"))
+    help.push_back(line);
+  hud.set_help(help);
+  hud.toggle_help();
+  take(hud.draw_list(960, 720, 3));
+  EXPECT_NE(all.find("Teclas y mando (F1 para cerrar)"), std::string::npos) << all;
+  EXPECT_NE(all.find("botón start"), std::string::npos) << "the controller's buttons: " << all;
+  hud.on_status("ended", "aborted", 4);
+  hud.toggle_help();
+  take(hud.draw_list(960, 720, 4));
+  for (const char* reason : {"duration", "time_limit", "task_complete", "aborted", "signal", "cab_gone", "numerical_failure"})
+    all += end_words("ended", reason, "es") + "\n";
+  all += see_through_mast_words("es") + "\n";
+  EXPECT_NE(all.find("Sesión interrumpida por su instructor"), std::string::npos) << all;
+
+  const auto english = forklift::test::english_pieces(i18n::shipped(), "es", {"cab", "words"});
+  ASSERT_GT(english.size(), 100u);
+  EXPECT_EQ(forklift::test::english_left(all, english), std::vector<std::string>{}) << all;
 }
 
 }  // namespace

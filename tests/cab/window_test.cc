@@ -233,7 +233,8 @@ TEST_F(CabWindow, SigtermClosesTheCabAndTheWorkerBrakesOnTheSilence) {
 }
 
 TEST_F(CabWindow, ACollisionsWarningIsOnTheDisplayWithinHalfASecond) {
-  // Straight ahead at full drive into the lorry at the dock (a violent collision after about 4 s).
+  // Straight ahead at full drive into the lorry at the dock (a violent collision after about 4 s),
+  // in a cab set to Spanish: the warning is read in the pupil's language.
   const std::string script = tmp("straight.csv");
   {
     std::ofstream f(script);
@@ -244,7 +245,7 @@ TEST_F(CabWindow, ACollisionsWarningIsOnTheDisplayWithinHalfASecond) {
   Process w = worker("kc2", domain, "load_lorry", 30);
   const std::string trace = tmp("kc2.trace");
   Process cab({kBin + "/forklift-cab", "--cab", "kc2", "--script", script, "--no-sound", "--dds-domain", std::to_string(domain),
-               "--wait-worker", "30", "--trace", trace, "--save-window", tmp("kc2.png")},
+               "--wait-worker", "30", "--trace", trace, "--save-window", tmp("kc2.png"), "--language", "es"},
               tmp("kc2.cab"));
   ASSERT_EQ(cab.wait(60), 0) << cab.err();
   w.signal(SIGTERM);
@@ -258,8 +259,14 @@ TEST_F(CabWindow, ACollisionsWarningIsOnTheDisplayWithinHalfASecond) {
   for (const json& r : t)
     if (r["type"] == "hud" && !shown_sim_t)
       for (const json& text : r["texts"])
-        if (text.get<std::string>() == "Violent collision: an exam would fail here") shown_sim_t = r["sim_time_s"].get<double>();
-  ASSERT_TRUE(shown_sim_t) << "the warning was never drawn";
+        if (text.get<std::string>() == "Choque violento: aquí se suspendería un examen") shown_sim_t = r["sim_time_s"].get<double>();
+  ASSERT_TRUE(shown_sim_t) << "the warning was never drawn in Spanish";
+  for (const json& r : t) {
+    if (r["type"] != "hud") continue;
+    for (const json& text : r["texts"])
+      for (const char* english : {"Violent collision", "Stability", "Forks ", "Rear wheel", "Step ", "Session over"})
+        EXPECT_EQ(text.get<std::string>().find(english), std::string::npos) << text;
+  }
   EXPECT_LE(*shown_sim_t - *event_sim_t, 0.5);
 }
 

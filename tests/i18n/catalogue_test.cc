@@ -63,6 +63,13 @@ TEST(Catalogue, TheCertificateAndTheoryEnglishWordsAreTheirFiles) {
     std::ifstream truck(kData + "/trucks/" + stem + ".json");
     EXPECT_EQ(c.text("en", "certificate:trucks." + stem), json::parse(truck).at("name").get<std::string>()) << stem;
   }
+  // Every shipped truck's name, as the session pages and the command line word it.
+  for (const auto& f : std::filesystem::directory_iterator(kData + "/trucks")) {
+    if (f.path().extension() != ".json") continue;
+    std::ifstream truck(f.path());
+    EXPECT_EQ(c.text("en", "certificate:trucks." + f.path().stem().string()), json::parse(truck).at("name").get<std::string>())
+        << f.path().stem();
+  }
   // The theory bank's topics and its pass mark's reason, as the theory page words them.
   std::ifstream bank_in(kData + "/theory/questions.json");
   const json bank = json::parse(bank_in);

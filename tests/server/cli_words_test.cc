@@ -4,7 +4,9 @@
 // null, and has its words:
 // the mark "of 100", the events' titles as the debrief words them, outcomes in words. With
 // --json each gives JSON a script can parse. `follow --frame` with no frame says why and fails.
-// The server's text session log keeps those words as they are.
+// The server's text session log keeps those words as they are. In Spanish (--language es, or
+// LANG=es_ES.UTF-8) the same commands print none of the English of the menu's catalogue or of the
+// rules' words, --json is the same, and a Spanish-reading pupil's scripted cab speaks Spanish.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -17,7 +19,9 @@
 #include <string>
 #include <vector>
 
+#include "forklift/i18n/catalogue.h"
 #include "support/cab_script.h"
+#include "support/english_left.h"
 #include "support/process.h"
 #include "support/server.h"
 
@@ -39,8 +43,13 @@ bool contains(const std::string& text, const std::string& part) { return text.fi
 class Menu {
  public:
   explicit Menu(const Server& s) : s_(s), token_file_(s.dir + "/menu-token") {}
-  Ran operator()(std::vector<std::string> args, double timeout_s = 60) {
+  // `env`: the environment's changes, as env(1) takes them ("-u", "LC_ALL", "LANG=es_ES.UTF-8").
+  Ran operator()(std::vector<std::string> args, double timeout_s = 60, std::vector<std::string> env = {}) {
     args.insert(args.begin(), {kBin + "/forklift-menu", "--server", s_.url(), "--token-file", token_file_});
+    if (!env.empty()) {
+      env.insert(env.begin(), "/usr/bin/env");
+      args.insert(args.begin(), env.begin(), env.end());
+    }
     Process p(args, s_.dir + "/menu-" + std::to_string(++runs_));
     const int code = p.wait(timeout_s);
     return {code, p.out(), p.err()};
@@ -185,6 +194,76 @@ TEST(MenuWords, EveryCommandPrintsWordsAndJsonOnlyWhenAsked) {
   r = menu({"verify", id, "--school-ca", ca});
   EXPECT_NE(r.code, 0) << r.out;
   expect_words("verify (a training session)", r.out + r.err, names);
+
+  // In Spanish (--language es, or the environment's LANG): the same commands print none of the
+  // English of the menu's catalogue or of the rules' words, and still no JSON, hex float or code;
+  // --json gives the same JSON as in English.
+  const auto english = forklift::test::english_pieces(forklift::i18n::shipped(), "es", {"menu", "words"});
+  ASSERT_GT(english.size(), 100u);
+  // The scenarios' names are identifiers a person types; what the server says in a refusal is
+  // the server's own (English) words.
+  auto in_spanish = [&](const std::string& what, const Ran& ran, bool descriptions = false) {
+    SCOPED_TRACE(what);
+    expect_words(what + " in Spanish", ran.out + ran.err, names, descriptions);
+    std::string text = ran.out + ran.err;
+    for (const std::string& n : names)
+      for (size_t at; (at = text.find(n)) != std::string::npos;) text.erase(at, n.size());
+    text = std::regex_replace(text, std::regex("(\\(404\\): ).*"), "$1");
+    EXPECT_EQ(forklift::test::english_left(text, english), std::vector<std::string>{}) << ran.out << ran.err;
+  };
+  r = menu({"--language", "es", "login", "--user", "admin", "--password", kAdminPassword});
+  ASSERT_EQ(r.code, 0) << r.err;
+  in_spanish("login", r);
+  EXPECT_TRUE(contains(r.out, "sesión iniciada como admin (administrador)")) << r.out;
+  r = menu({"--language", "es", "pupil-add", "--name", "Eva Español"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  in_spanish("pupil-add", r);
+  r = menu({"--language", "es", "pupils"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  in_spanish("pupils", r);
+  r = menu({"--language", "es", "scenarios"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  in_spanish("scenarios", r, true);
+  EXPECT_TRUE(contains(r.out, "carga: ")) << r.out;
+  EXPECT_TRUE(contains(r.out, "Primera conducción")) << "the scenarios' titles: " << r.out;
+  r = menu({"--language", "es", "session", id});
+  ASSERT_EQ(r.code, 0) << r.err;
+  in_spanish("session", r);
+  EXPECT_TRUE(contains(r.out, "de 100")) << r.out;
+  for (const json& e : session["events"])
+    EXPECT_TRUE(contains(r.out, forklift::i18n::shipped().text("es", "words:rules." + e["kind"].get<std::string>() + ".title"))) << r.out;
+  r = menu({"--language", "es", "session", other["id"]});
+  in_spanish("session (aborted)", r);
+  EXPECT_TRUE(contains(r.out, "sin nota: la sesión se interrumpió")) << r.out;
+  r = menu({"history", "--pupil", wren}, 60, {"-u", "LC_ALL", "-u", "LC_MESSAGES", "LANG=es_ES.UTF-8"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  in_spanish("history (LANG=es_ES.UTF-8)", r);
+  EXPECT_TRUE(contains(r.out, "faltas en todas las sesiones: ")) << r.out;
+  EXPECT_EQ(r.out, menu({"--language", "es", "history", "--pupil", wren}).out) << "--language es says what LANG=es says";
+  const json history_es = parsed(menu({"--language", "es", "--json", "history", "--pupil", wren}), "history in Spanish");
+  EXPECT_EQ(history_es["sessions"], history["sessions"]);
+  EXPECT_EQ(history_es["fault_titles"], history["fault_titles"]);
+  EXPECT_EQ(parsed(menu({"--language", "es", "--json", "session", id}), "session in Spanish")["events"],
+            parsed(menu({"--json", "session", id}), "session")["events"]);
+  r = menu({"--language", "es", "follow", id, "--seconds", "5"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  in_spanish("follow", r);
+  r = menu({"--language", "es", "session", "s-999999"});
+  EXPECT_NE(r.code, 0) << r.out;
+  in_spanish("session (unknown)", r);
+  EXPECT_TRUE(contains(r.err, "el servidor lo rechazó (404)")) << r.err;
+  // A pupil who reads Spanish: the scripted cab `start --drive` starts speaks it (the session's
+  // time limit ends it while the cab still drives, which the cab says in its words).
+  const std::string jo = std::to_string(pupil["id"].get<int64_t>());
+  ASSERT_EQ(s.call("PATCH", "/api/pupils/" + jo, admin, json{{"language", "es"}}.dump()).first, 200);
+  r = menu({"start", "--pupil", jo, "--cab", "cabJ", "--scenario", "manoeuvre_1", "--time-limit", "1", "--drive",
+            forklift_test::short_script(s.dir, 3.0)},
+           180);
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  EXPECT_TRUE(std::regex_search(r.out, std::regex("sesión s-[0-9]+: Sesión terminada"))) << "the cab in the pupil's language: " << r.out;
+  EXPECT_TRUE(contains(r.out, "started on cab cabJ")) << "the menu in its own person's: " << r.out;
+  r = menu({"--language", "fr", "pupils"});
+  EXPECT_EQ(r.code, 2) << "a language the school has not is bad usage: " << r.out << r.err;
 
   // The server's text session log writes what a person reads as it is: "aborted by admin" in
   // quotes, not aborted\x20by\x20admin.

@@ -10,4 +10,9 @@ namespace {
 // test of the hashing itself passes --password-cost, which wins.
 const bool kPasswordCost = setenv("FORKLIFT_PASSWORD_COST", "test", /*overwrite=*/0) == 0;
 
+// The programs the tests start speak English, whatever the machine's language: forklift-cab and
+// forklift-menu take their language from LC_ALL, LC_MESSAGES and LANG when not told, and the tests
+// read their English. A test of another language says so (--language, or env(1) for LANG).
+const bool kLanguage = setenv("LC_ALL", "C.UTF-8", /*overwrite=*/1) == 0;
+
 }  // namespace

@@ -1,5 +1,6 @@
 #include "forklift/i18n/catalogue.h"
 
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
@@ -119,6 +120,15 @@ const json* Catalogue::namespace_file(const std::string& lang, const std::string
 const Catalogue& shipped() {
   static const Catalogue c = Catalogue::load(std::filesystem::path(FORKLIFT_DATA_DIR) / "i18n");
   return c;
+}
+
+std::string environment_language(const Catalogue& c) {
+  for (const char* name : {"LC_ALL", "LC_MESSAGES", "LANG"}) {
+    const char* v = std::getenv(name);
+    if (!v || !*v) continue;
+    return c.supported(std::string(v).substr(0, 2));
+  }
+  return kSourceLanguage;
 }
 
 std::set<std::string> variables(const std::string& text) {

@@ -63,6 +63,11 @@ class Catalogue {
 // first use; throws as load() does when they cannot be read.
 const Catalogue& shipped();
 
+// The language a program run from a terminal speaks when not told (a person's --language wins):
+// the first of LC_ALL, LC_MESSAGES and LANG that is set, as gettext reads them, when `c` has its
+// first two letters ("es_ES.UTF-8" -> "es"); else the source language ("C.UTF-8", nothing set).
+std::string environment_language(const Catalogue& c);
+
 // The names of the {{variables}} in `text`.
 std::set<std::string> variables(const std::string& text);
 
