@@ -254,6 +254,32 @@ TEST(Hazards, ASpillTheInstructorStartsGripsLessFromThenOnAndReplaysBitForBit) {
   EXPECT_LT(dry.final_state[kX], r.final_state[kX]);
 }
 
+// A rewind point kept before the instructor started the spill takes it away again: the state
+// rewound to has it waiting, the dynamics grip as on the dry floor there, and the instructor
+// may start it again.
+TEST(Hazards, ARewindToBeforeTheSpillTakesItAway) {
+  json j = json::parse(std::ifstream(kHazards));
+  j["start"]["y_m"] = -25.0;
+  const std::string scenario = testing::TempDir() + "/hazards_lane_late_spill_rewind.json";
+  std::ofstream(scenario) << j.dump(1);
+  const SessionModel model = load_session_model(SessionSpec{scenario}, FORKLIFT_DATA_DIR);
+  SessionRun run(model, initial_state(model));
+  run.keep_rewind_points(500, 4);
+  ControlSample c;
+  c.accelerator = 0.5;
+  run.apply(1, driver_inputs(c, model.truck));
+  for (int i = 0; i < 1000; ++i) run.tick();
+  run.instruct({InstructorAction::kHazard, "OIL_LATE"});
+  EXPECT_EQ(absent_spills(model.scene.spills, run.state().spills), 0u) << "on the floor";
+  for (int i = 0; i < 700; ++i) run.tick();
+  const auto point = run.rewind_point(0.7);
+  ASSERT_TRUE(point);
+  EXPECT_EQ(*point, 1000) << "kept as the instructor started it, before the tick that did";
+  run.instruct({InstructorAction::kRewind, "", *point, 0.7});
+  EXPECT_EQ(absent_spills(model.scene.spills, run.state().spills), 0b10u) << "OIL_LATE (the second) waiting again";
+  EXPECT_EQ(run.hazard_problem("OIL_LATE"), std::nullopt) << "and the instructor may start it again";
+}
+
 TEST(Hazards, TheHornGoesThroughACabScriptAndASessionLogBitForBit) {
   // The clean drive past the markers as a cab script: forklift-sim marks it clean, and the same
   // script without its horn column is marked for the horn at both markers.
