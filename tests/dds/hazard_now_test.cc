@@ -146,7 +146,7 @@ TEST(HazardNow, TheInstructorsHazardThroughTheApiWalksThePedestrianInTheNextStat
   })) << "T1 never drove";
   EXPECT_TRUE(s.live_until(admin, id, [](const json& t) { return t["trucks"].size() == 2 && t["trucks"][0]["activity"] == "driving"; }));
   // The oil spill past the door, the instructor's alone, is put on the floor by its id too (the
-  // worker logs it, and the session's replay grips there from that tick: HazardsTest).
+  // worker logs it, and a replay grips there from that tick: Hazards.ASpillTheInstructorStarts...).
   const auto [spill, spilt] = s.call("POST", path, admin, json{{"action", "hazard"}, {"hazard", "S1"}}.dump());
   EXPECT_EQ(spill, 200) << spilt;
   EXPECT_EQ(s.call("POST", "/api/sessions/" + id + "/abort", admin).first, 200);
