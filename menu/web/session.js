@@ -380,7 +380,7 @@
   }
 
   // "Hazard now": each of the scenario's hazards (the people who move, the other trucks, the
-  // pallets that fall), with what each is doing, and a button that starts one waiting for its cue
+  // pallets that fall, the spills that wait for a trigger), with what each is doing, and a button that starts one waiting for its cue
   // (the API refuses the others, and any in an exam). The items are kept from one poll to the
   // next, so that the keyboard's focus stays where it is.
   const hazardItems = new Map();
@@ -394,6 +394,9 @@
       ...(plan && plan.falling_pallets ? plan.falling_pallets : []).map((f) => ({ id: f.pallet, kind: 'falling pallet', activity: 'waiting',
         label: t('session.drop_pallet', { id: f.pallet }), done: t('session.pallet_falls', { id: f.pallet }),
         status: t('session.pallet_waiting', { id: f.pallet }) })),
+      ...(plan && plan.spills ? plan.spills.filter((p) => p.triggered) : []).map((p) => ({ id: p.id, kind: 'spill', activity: 'waiting',
+        label: t('session.spill_now', { id: p.id }), done: t('session.spill_appears', { id: p.id }),
+        status: t('session.spill_waiting', { id: p.id }) })),
     ];
     document.getElementById('hazards').hidden = !(s.state === 'running' && s.mode === 'training' && hazards.length > 0);
     for (const h of hazards) {

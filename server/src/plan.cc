@@ -83,6 +83,12 @@ json make_plan(const std::string& file, const std::string& data_dir) {
     j["falling_pallets"].push_back({{"pallet", f.pallet}, {"x_m", o ? mm(o->pose.translation().x()) : 0.0},
                                     {"y_m", o ? mm(o->pose.translation().y()) : 0.0}});
   }
+  // The spills: where each is, how slippery, and whether it waits for a trigger (the instructor
+  // may start one that does).
+  j["spills"] = json::array();
+  for (const Spill& sp : scene.spills)
+    j["spills"].push_back({{"id", sp.id}, {"rect", {mm(sp.rect.min().x()), mm(sp.rect.min().y()), mm(sp.rect.max().x()), mm(sp.rect.max().y())}},
+                           {"friction_scale", sp.friction_scale}, {"triggered", sp.triggered}});
   j["crossings"] = json::array();
   for (const Crossing& c : scene.crossings) {
     json poly = json::array();

@@ -303,7 +303,8 @@ void session_routes(Routes& svr, Context& ctx) {
     std::string hazard_kind;
     if (*action == InstructorAction::kHazard) {
       // One of the hazards of the scenario as this session runs it, by its id: a pedestrian, a
-      // falling pallet or another truck ("pedestrian" is the older clients' name for the field).
+      // falling pallet, another truck or a spill ("pedestrian" is the older clients' name for the
+      // field). A spill there from the start is listed too: the worker refuses it, in words.
       const std::string key = b.contains("hazard") || !b.contains("pedestrian") ? "hazard" : "pedestrian";
       what.text = field<std::string>(b, key.c_str());
       const auto scenario = ctx.db().get_session_log(s.public_id, "scenario");
@@ -311,7 +312,7 @@ void session_routes(Routes& svr, Context& ctx) {
       std::string ids;
       for (const auto& [list, id_key, kind] : {std::tuple{"pedestrians", "id", "pedestrian"},
                                                std::tuple{"falling_pallets", "pallet", "falling pallet"},
-                                               std::tuple{"trucks", "id", "truck"}}) {
+                                               std::tuple{"trucks", "id", "truck"}, std::tuple{"spills", "id", "spill"}}) {
         if (!run.is_object() || !run.contains(list) || !run[list].is_array()) continue;
         for (const json& h : run[list])
           if (h.is_object() && h.contains(id_key) && h[id_key].is_string()) {

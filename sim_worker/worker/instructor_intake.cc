@@ -30,7 +30,7 @@ std::optional<std::string> InstructorIntake::problem(const fk_InstructorAction& 
   } else if (*action == InstructorAction::kHazard) {
     out.text = a.text;  // which hazard: the worker knows the scene's (SessionRun::hazard_problem)
     if (instructor_message_problem(out.text, kSceneIdMaxChars))
-      return "a hazard names the scenario's pedestrian, falling pallet or truck by its id";
+      return "a hazard names the scenario's pedestrian, falling pallet, truck or spill by its id";
   } else if (a.text[0]) {
     return "a " + std::string(a.action) + " takes no text";
   }

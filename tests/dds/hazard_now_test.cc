@@ -53,8 +53,8 @@ bool states_until(dds::Reader<fk_TruckState>& states, const std::string& session
 // The walkway's pedestrian on pedestrian_awareness waits for the truck within 8 m; the truck
 // stands 10 m off, so only the instructor's hand sets him walking. The first state after the
 // request that shows him walking is at most 100 ms of sim time after the newest state before
-// it, and he walks north along his path from there. The scenario's falling pallet and truck are
-// started by their ids the same way, and an id it has not is refused in words.
+// it, and he walks north along his path from there. The scenario's falling pallet, truck and spill
+// are started by their ids the same way, and an id it has not is refused in words.
 TEST(HazardNow, TheInstructorsHazardThroughTheApiWalksThePedestrianInTheNextStates) {
   Server s("hazard-now");
   const std::string admin = s.login("admin", forklift_test::kAdminPassword);
@@ -77,7 +77,7 @@ TEST(HazardNow, TheInstructorsHazardThroughTheApiWalksThePedestrianInTheNextStat
   })) << "the worker's states never listed W1 waiting";
   const std::string path = "/api/sessions/" + id + "/instructor";
   ASSERT_TRUE(s.live_until(admin, id, [](const json& t) {
-    return t["pedestrians"].is_array() && t["pedestrians"].size() == 1 && t["pedestrians"][0]["id"] == "W1" &&
+    return t["pedestrians"].is_array() && t["pedestrians"].size() == 2 && t["pedestrians"][0]["id"] == "W1" &&
            t["pedestrians"][0]["activity"] == "waiting";
   })) << "the live view lists W1 waiting";
 
@@ -132,7 +132,9 @@ TEST(HazardNow, TheInstructorsHazardThroughTheApiWalksThePedestrianInTheNextStat
   // instructor's alone: their triggers are an hour off); an id it has not is refused in words.
   const auto [unknown, why] = s.call("POST", path, admin, json{{"action", "hazard"}, {"hazard", "P99"}}.dump());
   EXPECT_EQ(unknown, 400) << why;
-  EXPECT_NE(why.dump().find("scenario pedestrian_awareness has pedestrian W1, falling pallet P2, truck T1, not 'P99'"), std::string::npos)
+  EXPECT_NE(why.dump().find("scenario pedestrian_awareness has pedestrian W1, pedestrian W2, falling pallet P2, truck T1, truck T2, "
+                            "spill S1, not 'P99'"),
+            std::string::npos)
       << why;
   EXPECT_EQ(s.call("POST", path, admin, json{{"action", "hazard"}, {"pedestrian", "P2"}}.dump()).first, 400)
       << "'pedestrian' names a pedestrian";
@@ -140,8 +142,12 @@ TEST(HazardNow, TheInstructorsHazardThroughTheApiWalksThePedestrianInTheNextStat
   EXPECT_EQ(pallet, 200) << dropped;
   ASSERT_EQ(s.call("POST", path, admin, json{{"action", "hazard"}, {"hazard", "T1"}}.dump()).first, 200);
   EXPECT_TRUE(states_until(states, id, 10, [](const fk_TruckState& t) {
-    return t.truck_count == 1 && std::string(t.trucks[0].id) == "T1" && t.trucks[0].activity == static_cast<uint8_t>(TruckActivity::kDriving);
+    return t.truck_count == 2 && std::string(t.trucks[0].id) == "T1" && t.trucks[0].activity == static_cast<uint8_t>(TruckActivity::kDriving);
   })) << "T1 never drove";
-  EXPECT_TRUE(s.live_until(admin, id, [](const json& t) { return t["trucks"].size() == 1 && t["trucks"][0]["activity"] == "driving"; }));
+  EXPECT_TRUE(s.live_until(admin, id, [](const json& t) { return t["trucks"].size() == 2 && t["trucks"][0]["activity"] == "driving"; }));
+  // The oil spill past the door, the instructor's alone, is put on the floor by its id too (the
+  // worker logs it, and a replay grips there from that tick: Hazards.ASpillTheInstructorStarts...).
+  const auto [spill, spilt] = s.call("POST", path, admin, json{{"action", "hazard"}, {"hazard", "S1"}}.dump());
+  EXPECT_EQ(spill, 200) << spilt;
   EXPECT_EQ(s.call("POST", "/api/sessions/" + id + "/abort", admin).first, 200);
 }

@@ -265,7 +265,7 @@ TEST(Instructor, AHazardSetsThePedestrianWalkingAndTheLogReplaysBitForBit) {
   const json live = forklift_test::output_json(w);
   EXPECT_EQ(live["instructor"]["hazards"], 1);
   EXPECT_EQ(live["instructor"]["refused"], 1);
-  EXPECT_NE(w.err().find("no pedestrian, falling pallet or truck 'W9' in this scenario (it has W1, P2, T1)"), std::string::npos) << w.err();
+  EXPECT_NE(w.err().find("no pedestrian, falling pallet, truck or spill 'W9' in this scenario (it has W1, W2, P2, T1, T2, S1)"), std::string::npos) << w.err();
   const ControlLog log = read_control_log(temp_file("s-9.ctl"));
   ASSERT_EQ(log.instructions.size(), 1u);
   EXPECT_EQ(log.instructions[0].second, (Instruction{InstructorAction::kHazard, "W1"}));

@@ -2,7 +2,7 @@
 // the horn and walking pace at marked blind corners and doors, driving towards a person
 // standing in front of a fixed object, and a person under the raised forks; each rule on a drive
 // that commits it and on one that does not, its words as a school reads them, and the horn
-// carried through a cab script and a session log bit for bit.
+// carried through a cab script and a session log bit for bit; a spill the instructor starts.
 #include <cstring>
 #include <fstream>
 #include <iostream>
@@ -187,6 +187,99 @@ TEST(Hazards, ASpillLengthensTheStopAsItsGripSays) {
   EXPECT_LT(oily.pos().x(), 16.0) << "it stood on the spill";
 }
 
+// The spill OIL_LATE (lane y = -25) that waits for the instructor: a SessionRun from the lane's
+// start at half throttle to x = 9 (the whole truck over the patch), where the instructor starts
+// the spill (or not), then the brake full on until the truck stands. Returns the distance the CoG
+// ran from the brake's touch; `log` (when given) records the session.
+double stop_on_the_late_spill(const SessionModel& model, bool start_it, const std::string& log = "") {
+  const SessionState first = initial_state(model);
+  SessionRun run(model, first, log.empty() ? nullptr : std::make_unique<ControlLogWriter>(log, log_header(model, first, "spill", "cab1")),
+                 {0, false});
+  ControlSample c;
+  c.accelerator = 0.5;
+  run.apply(1, driver_inputs(c, model.truck));
+  while (run.state().x[kX] < 9.0 && run.state().t_s < 30) run.tick();
+  const double from = run.state().x[kX];
+  EXPECT_EQ(run.hazard_problem("OIL_LATE"), std::nullopt);
+  if (start_it) {
+    run.instruct({InstructorAction::kHazard, "OIL_LATE"});
+    EXPECT_NE(run.hazard_problem("OIL_LATE"), std::nullopt) << "on the floor already";
+  }
+  c.accelerator = 0;
+  c.brake = 1.0;
+  run.apply(2, driver_inputs(c, model.truck));
+  const auto v = [&] { return std::hypot(run.state().x[StateIndex::kQdot + kX], run.state().x[StateIndex::kQdot + kY]); };
+  for (int i = 0; i < 100 || (v() > 0.01 && run.state().t_s < 40); ++i) run.tick();
+  run.end(EndReason::kAborted);
+  return run.state().x[kX] - from;
+}
+
+TEST(Hazards, ASpillTheInstructorStartsGripsLessFromThenOnAndReplaysBitForBit) {
+  // A scene starting on lane y = -25 (the session's start is the scenario's).
+  json j = json::parse(std::ifstream(kHazards));
+  j["start"]["y_m"] = -25.0;
+  const std::string dir = testing::TempDir();
+  const std::string scenario = dir + "/hazards_lane_late_spill.json";
+  std::ofstream(scenario) << j.dump(1);
+  const SessionModel model = load_session_model(SessionSpec{scenario}, FORKLIFT_DATA_DIR);
+  {
+    const SessionRun probe(model, initial_state(model));
+    ASSERT_TRUE(probe.hazard_problem("OIL"));
+    EXPECT_NE(probe.hazard_problem("OIL")->find("on the floor from the start"), std::string::npos) << *probe.hazard_problem("OIL");
+  }
+  const std::string log = dir + "/hazards_late_spill.ctl";
+  const double dry_m = stop_on_the_late_spill(model, false), oily_m = stop_on_the_late_spill(model, true, log);
+  std::cout << "full brake from half throttle at x = 9: " << dry_m << " m with the spill waiting, " << oily_m
+            << " m once the instructor started it\n";
+  // Not yet started, the patch grips as the dry floor: the brakes' stop (ASpillLengthens...: under
+  // a metre from 2 m/s). Started, the tyres slide on a fifth of their grip.
+  EXPECT_GT(oily_m, 1.5 * dry_m);
+  EXPECT_GT(dry_m, 0.05) << "it was moving";
+
+  // The log names the spill at its tick, and its replay slides the same way, bit for bit.
+  const ControlLog parsed = read_control_log(log);
+  ASSERT_EQ(parsed.instructions.size(), 1u);
+  EXPECT_EQ(parsed.instructions[0].second, (Instruction{InstructorAction::kHazard, "OIL_LATE"}));
+  std::vector<StateVector> states;
+  const ReplayResult r = replay_session(parsed, model, [&](const SessionState& st, const SessionWorkspace&) { states.push_back(st.x); });
+  ASSERT_TRUE(parsed.final_state.has_value());
+  EXPECT_EQ(std::memcmp(r.final_state.data(), parsed.final_state->data(), sizeof(double) * StateIndex::kSize), 0);
+  EXPECT_EQ(r.event_lines, parsed.event_lines);
+  // Without the instructor's line the replay stops short, as the spill waited.
+  ControlLog without = parsed;
+  without.instructions.clear();
+  without.instruction_segments.clear();
+  const ReplayResult dry = replay_session(without, model);
+  EXPECT_NE(std::memcmp(dry.final_state.data(), parsed.final_state->data(), sizeof(double) * StateIndex::kSize), 0);
+  EXPECT_LT(dry.final_state[kX], r.final_state[kX]);
+}
+
+// A rewind point kept before the instructor started the spill takes it away again: the state
+// rewound to has it waiting, the dynamics grip as on the dry floor there, and the instructor
+// may start it again.
+TEST(Hazards, ARewindToBeforeTheSpillTakesItAway) {
+  json j = json::parse(std::ifstream(kHazards));
+  j["start"]["y_m"] = -25.0;
+  const std::string scenario = testing::TempDir() + "/hazards_lane_late_spill_rewind.json";
+  std::ofstream(scenario) << j.dump(1);
+  const SessionModel model = load_session_model(SessionSpec{scenario}, FORKLIFT_DATA_DIR);
+  SessionRun run(model, initial_state(model));
+  run.keep_rewind_points(500, 4);
+  ControlSample c;
+  c.accelerator = 0.5;
+  run.apply(1, driver_inputs(c, model.truck));
+  for (int i = 0; i < 1000; ++i) run.tick();
+  run.instruct({InstructorAction::kHazard, "OIL_LATE"});
+  EXPECT_EQ(absent_spills(model.scene.spills, run.state().spills), 0u) << "on the floor";
+  for (int i = 0; i < 700; ++i) run.tick();
+  const auto point = run.rewind_point(0.7);
+  ASSERT_TRUE(point);
+  EXPECT_EQ(*point, 1000) << "kept as the instructor started it, before the tick that did";
+  run.instruct({InstructorAction::kRewind, "", *point, 0.7});
+  EXPECT_EQ(absent_spills(model.scene.spills, run.state().spills), 0b10u) << "OIL_LATE (the second) waiting again";
+  EXPECT_EQ(run.hazard_problem("OIL_LATE"), std::nullopt) << "and the instructor may start it again";
+}
+
 TEST(Hazards, TheHornGoesThroughACabScriptAndASessionLogBitForBit) {
   // The clean drive past the markers as a cab script: forklift-sim marks it clean, and the same
   // script without its horn column is marked for the horn at both markers.
@@ -338,7 +431,7 @@ TEST(Hazards, TheInstructorDropsThePalletNowAndNotTwice) {
   SessionRun run(model, initial_state(model));
   EXPECT_EQ(run.hazard_problem("PF"), std::nullopt);
   ASSERT_TRUE(run.hazard_problem("P9"));
-  EXPECT_NE(run.hazard_problem("P9")->find("no pedestrian or falling pallet 'P9'"), std::string::npos) << *run.hazard_problem("P9");
+  EXPECT_NE(run.hazard_problem("P9")->find("no pedestrian, falling pallet or spill 'P9'"), std::string::npos) << *run.hazard_problem("P9");
   for (int i = 0; i < 100; ++i) run.tick();
   run.instruct({InstructorAction::kHazard, "PF"});
   for (int i = 0; i < 1000; ++i) run.tick();

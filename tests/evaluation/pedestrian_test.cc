@@ -20,6 +20,7 @@ using nlohmann::json;
 const std::string kAwareness = data("scenarios/pedestrian_awareness.json");
 const std::string kCleanScript = "pedestrian_awareness_clean.csv";
 const std::string kFaultyScript = "pedestrian_awareness_faults.csv";
+const std::string kCutInScript = "pedestrian_awareness_crossing_faults.csv";
 
 // Ahead along the line y = `lane` (heading +x) at `v` until `done`; forks held.
 void drive(Session&, Driver& d, double v, double lane, const std::function<bool()>& done, double max_s = 60) {
@@ -30,6 +31,9 @@ void drive(Session&, Driver& d, double v, double lane, const std::function<bool(
 void hold(Session&, Driver& d, const std::function<bool()>& done, double max_s = 60) { d.hold(done, max_s); }
 
 const PedestrianState& walker(const Session& s) { return s.state.pedestrians.at(0); }
+// The worker past the door who heeds the horn, and the truck that goes first at the crossing.
+const PedestrianState& listener(const Session& s) { return s.state.pedestrians.at(1); }
+const OtherTruckState& traffic(const Session& s) { return s.state.trucks.at(1); }
 
 // Both drives begin alike: forks to travelling height, walking pace to 3 m short of the walkway,
 // stop (the worker has stepped out by then).
@@ -41,21 +45,28 @@ void to_the_walkway(Session& s, Driver& d) {
   d.stop();
 }
 
-// The clean drive: the horn before the door and the blind corner, stopped while the worker
-// crosses the aisle and walks on to his path's end, then on to the marker at walking pace, stop,
-// forks down, parked.
-void clean_drive(Session& s) {
+// The clean drive: the horn before the door (the worker there hears it and stands) and the blind
+// corner, stopped while the walkway's worker crosses the aisle and walks on to his path's end;
+// on at walking pace to 3.5 m short of the crossing's traffic lane (fork tips at x = 25.5),
+// stopped until the truck that goes first there has gone by, then on to the marker, stop, forks
+// down, parked. `give_way` false: the same drive on into the crossing as the truck comes.
+void clean_drive(Session& s, bool give_way = true) {
   s.horn = [&s] { return horn_due(s); };
   Driver d{s};
   to_the_walkway(s, d);
   hold(s, d, [&] { return walker(s).arrived; });
+  if (give_way) {
+    d.approach([&] { return 25.5 - (d.heel_x() + s.shape.fork_length_m); }, 1.0, 5.0);
+    hold(s, d, [&] { return traffic(s).arrived; });
+  }
   d.approach([&] { return 31.5 - s.pos().x(); }, 1.0, 5.0);
   d.park_forks_down();
 }
 
 // The faulty drive: at twice walking pace through the door and the blind corner without the
-// horn, up to the walkway as the worker steps out, braking late, 2 m short of it; on again once
-// he is across.
+// horn (the worker past the door does not hear it, and walks out once it has passed), up to the
+// walkway as the worker there steps out, braking late, 2 m short of it; on again once he is
+// across, into the crossing as the truck that goes first there comes.
 void faulty_drive(Session& s) {
   Driver d{s};
   s.control_period_ticks = 50;
@@ -146,10 +157,17 @@ TEST(Pedestrians, TheCleanScriptKeepsToWalkingPaceAndTheFaultyOneDoesNot) {
   EXPECT_TRUE(clean.events.empty()) << clean.summary();
   EXPECT_TRUE(cs.passed);
   EXPECT_TRUE(clean.state.pedestrians[0].arrived) << "he crossed and walked on to his path's end";
+  // The worker past the door heard the horn and stood on the walkway while the truck was near
+  // (no event: he was never in its path); he crosses once it has gone on.
+  EXPECT_TRUE(listener(clean).alerted) << "the horn at the door alerted the worker there";
+  EXPECT_TRUE(traffic(clean).arrived) << "the truck went by first";
 
   Session faulty(load_scene(kAwareness, FORKLIFT_DATA_DIR), Mode::kTraining);
   faulty_drive(faulty);
   faulty.finish("duration");
+  EXPECT_FALSE(listener(faulty).alerted) << "no horn: the worker past the door did not hear the truck";
+  EXPECT_GT(listener(faulty).at_m.y(), 5.0) << "and he walked out across the aisle";
+  EXPECT_EQ(faulty.count("give_way_at_crossing"), 1) << faulty.summary() << "on to the marker as the truck came";
   EXPECT_EQ(faulty.count("horn_at_marker"), 2) << faulty.summary() << "the door and the blind corner";
   EXPECT_GE(faulty.count("speed_at_marker"), 1) << faulty.summary();
   EXPECT_EQ(faulty.count("speed_near_pedestrian"), 1) << faulty.summary();
@@ -163,9 +181,22 @@ TEST(Pedestrians, TheCleanScriptKeepsToWalkingPaceAndTheFaultyOneDoesNot) {
   EXPECT_GT(d["measured"]["speed_m_s"].get<double>(), 1.4);
   EXPECT_LE(d["measured"]["distance_m"].get<double>(), 3.0);
 
+  // The clean drive on into the crossing as the truck that goes first there comes: its driver
+  // stands for the pupil's truck, and the pupil did not give way.
+  Session cut_in(load_scene(kAwareness, FORKLIFT_DATA_DIR), Mode::kTraining);
+  clean_drive(cut_in, false);
+  cut_in.finish("duration");
+  ASSERT_EQ(cut_in.count("give_way_at_crossing"), 1) << cut_in.summary();
+  EXPECT_EQ(cut_in.events.size(), 1u) << cut_in.summary();
+  const json g = json::parse(cut_in.first("give_way_at_crossing")->details);
+  EXPECT_EQ(g["crossing"], "X_east");
+  EXPECT_EQ(g["truck"], "T2");
+  EXPECT_EQ(cut_in.count("collision_truck"), 0);
+
   // The same drives as cab scripts (rewritten into data/ with FORKLIFT_EVAL_SCRIPT_DIR).
-  write_script(clean, kCleanScript, "pedestrian_awareness, exam: a clean drive that lets the worker cross");
+  write_script(clean, kCleanScript, "pedestrian_awareness, exam: a clean drive that lets the workers and the truck cross");
   write_script(faulty, kFaultyScript, "pedestrian_awareness: off again too fast past the worker");
+  write_script(cut_in, kCutInScript, "pedestrian_awareness: on into the crossing in front of the truck that goes first");
 }
 
 TEST(Pedestrians, TheShippedScriptsAreMarkedAlikeByForkliftSimAndTheLogReplaysTheWalkBitForBit) {

@@ -373,7 +373,7 @@ TEST(SessionRun, AHazardSetsAScenariosPedestrianWalkingNowAndReplaysByteForByte)
   SessionRun run(model, first, std::make_unique<ControlLogWriter>(path, log_header(model, first, "hazard", "cab1")), {0, false});
   EXPECT_NE(run.hazard_problem("W9"), std::nullopt) << "no such pedestrian";
   for (int i = 0; i < 100; ++i) run.tick();
-  ASSERT_EQ(run.state().pedestrians.size(), 1u);
+  ASSERT_EQ(run.state().pedestrians.size(), 2u);  // W1, and W2 past the door
   const Eigen::Vector2d at_start = run.state().pedestrians[0].at_m;
   EXPECT_FALSE(run.state().pedestrians[0].started) << "beyond his trigger";
   EXPECT_EQ(run.hazard_problem("W1"), std::nullopt);

@@ -45,6 +45,37 @@ TEST(Traffic, ATruckGivesWayAtACrossingWhereThePupilGoesFirstAndDrivesOnAfter) {
   EXPECT_EQ(s.count("give_way_at_crossing"), 0) << s.summary() << "the pupil goes first here";
 }
 
+// Two other trucks meeting at C_trucks (x 28-32, y 18-22): T_east's front is there first (3.25 s),
+// so T_north, listed before it, stands short of the crossing until T_east's body has left it
+// (6.75 s), then drives on; their bodies' centre lines are never in the crossing together.
+TEST(Traffic, OfTwoTrucksMeetingAtACrossingTheSecondThereWaits) {
+  Session s(scene("traffic.json"), Mode::kTraining);
+  Driver d{s};
+  d.settle_levers();
+  const int c_trucks = 2;
+  double waited_from = -1, waited_to = -1;
+  int both_in = 0;
+  d.hold([&] {
+    const OtherTruckState &n = truck_state(s, "T_north"), &e = truck_state(s, "T_east");
+    EXPECT_EQ(e.giving_way, -1) << "at " << s.t() << " s: T_east came first";
+    if (n.giving_way == c_trucks) {
+      if (waited_from < 0) waited_from = s.t();
+      waited_to = s.t();
+    }
+    const bool n_in = n.at_m.y() + 1.5 > 18.0 && n.at_m.y() - 1.5 < 22.0;
+    const bool e_in = e.at_m.x() + 1.5 > 28.0 && e.at_m.x() - 1.5 < 32.0;
+    both_in += n_in && e_in;
+    return s.t() >= 12.0;
+  });
+  EXPECT_EQ(both_in, 0);
+  EXPECT_NEAR(waited_from, 6.5 / 1.5, 0.01) << "T_north's front at the crossing's edge";
+  EXPECT_NEAR(waited_to, 13.5 / 2.0, 0.01) << "until T_east's rear left it";
+  const OtherTruckState& n = truck_state(s, "T_north");
+  EXPECT_EQ(n.giving_way, -1);
+  EXPECT_NEAR(n.at_m.y(), 10 + 1.5 * (12.0 - (13.5 / 2.0 - 6.5 / 1.5)), 0.01) << "it drove on, as late as it waited";
+  EXPECT_EQ(s.count("collision_truck"), 0) << s.summary();
+}
+
 TEST(Traffic, EnteringACrossingWithATruckComingIsAFaultAndWaitingForItIsNot) {
   // Lane y = 0: T_first comes up x = 12 at 1.5 m/s and has priority at C_first (x 10-14).
   Session faulty(scene("traffic.json"), Mode::kTraining, Vector3d(0, 0, 0));

@@ -1,7 +1,7 @@
 // A scenario's hazards as the loader reads them: markers (blind corners, doors, cross aisles: where
 // the driver sounds the horn), spills (floor patches where the tyres grip less) and pallets that
 // fall from their racks, into the scene and its ground, joined across an include, and refused,
-// naming the key, when malformed; a falling pallet's free fall.
+// naming the key, when malformed; a spill that waits for its trigger; a falling pallet's free fall.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -12,6 +12,7 @@
 
 #include "forklift/scene/falling.h"
 #include "forklift/scene/scene.h"
+#include "forklift/scene/spills.h"
 
 using namespace forklift;
 namespace fs = std::filesystem;
@@ -74,6 +75,40 @@ TEST(SceneHazards, ASpillScalesTheGroundsGripInsideItOnly) {
   EXPECT_EQ(g.grip(8.5, 0), 0.6);
   EXPECT_EQ(g.grip(8.5, 2), 1.0);
   EXPECT_EQ(g.height(6, 0), 0.0) << "a spill is no step";
+  EXPECT_FALSE(l.scene->spills[0].triggered) << "no trigger: on the floor from the start";
+  // A patch named absent grips as the floor around it.
+  EXPECT_EQ(g.grip(6, 0, 0b01), 1.0);
+  EXPECT_EQ(g.grip(7.5, 0, 0b01), 0.6) << "the other one still there";
+  EXPECT_EQ(g.grip(7.5, 0, 0b11), 1.0);
+}
+
+TEST(SceneHazards, ASpillWithATriggerIsAbsentUntilItFires) {
+  const Loaded l = load(with("spills", R"({"id": "DRY", "rect": [1, -1, 2, 1], "friction_scale": 0.5},
+      {"id": "LATER", "rect": [5, -1, 8, 1], "friction_scale": 0.3, "trigger": {"at_s": 10}},
+      {"id": "NEAR", "rect": [20, -1, 22, 1], "friction_scale": 0.3, "trigger": {"truck_within_m": 2.5}})"));
+  ASSERT_TRUE(l.scene) << l.error;
+  const std::vector<Spill>& sp = l.scene->spills;
+  ASSERT_EQ(sp.size(), 3u);
+  EXPECT_TRUE(sp[1].triggered);
+  EXPECT_EQ(sp[1].start_at_s, 10.0);
+  EXPECT_EQ(sp[2].start_truck_within_m, 2.5);
+  std::vector<SpillState> st = initial_spills(sp);
+  EXPECT_EQ(absent_spills(sp, st), 0b110u) << "the two with a trigger";
+  EXPECT_EQ(absent_spills(sp, {}), 0b110u) << "no states yet: as the session starts";
+  // The truck at the origin, its outline the default truck's: the time fires LATER at 10 s only;
+  // NEAR (its middle 21 m ahead) stays away.
+  const TruckShape shape = load_truck_shape(kData + "/trucks/linde_e16c.json", kData);
+  const TruckParams truck = load_truck(kData + "/trucks/linde_e16c.json");
+  CoordVector q = CoordVector::Zero();
+  const BodyPoses poses = body_poses(truck, q);
+  spread_spills(sp, st, truck_outline(shape), poses, 9.999);
+  EXPECT_EQ(absent_spills(sp, st), 0b110u);
+  spread_spills(sp, st, truck_outline(shape), poses, 10.0);
+  EXPECT_EQ(absent_spills(sp, st), 0b100u);
+  EXPECT_EQ(st[1].appeared_t_s, 10.0);
+  q[kX] = 17.0;  // fork tips about 19.2: within 2.5 m of x = 21
+  spread_spills(sp, st, truck_outline(shape), body_poses(truck, q), 11.0);
+  EXPECT_EQ(absent_spills(sp, st), 0u);
 }
 
 TEST(SceneHazards, AnIncludedLayoutsMarkersAndSpillsAreJoinedWithTheScenariosOwn) {
@@ -107,6 +142,11 @@ TEST(SceneHazards, BadMarkersAndSpillsAreRefusedNamingTheKey) {
   refused("spills", R"({"id": "S", "rect": [2, 0, 1, 1], "friction_scale": 0.5})", "spills[0].rect");
   refused("spills", R"({"id": "S", "rect": [0, 0, 1, 1], "friction_scale": 0.5}, {"id": "S", "rect": [0, 0, 1, 1], "friction_scale": 0.5})",
           "repeats");
+  refused("spills", R"({"id": "S", "rect": [0, 0, 1, 1], "friction_scale": 0.5, "trigger": {}})", "spills[0].trigger");
+  refused("spills", R"({"id": "S", "rect": [0, 0, 1, 1], "friction_scale": 0.5, "trigger": {"at_s": 1, "truck_within_m": 2}})",
+          "spills[0].trigger");
+  refused("spills", R"({"id": "S", "rect": [0, 0, 1, 1], "friction_scale": 0.5, "trigger": {"at_s": -1}})", "spills[0].trigger.at_s");
+  refused("spills", R"({"id": "S", "rect": [0, 0, 1, 1], "friction_scale": 0.5, "starts": "now"})", "starts");
 }
 
 TEST(SceneHazards, AFallingPalletNamesAPalletOnASupportAboveTheFloor) {

@@ -69,12 +69,15 @@ try {
     check(/W1 waiting/.test(await page.textContent('#live-people')), 'the live facts say he waits');
     await page.waitForSelector('#hazards:not([hidden]) li[data-pedestrian="W1"][data-activity="waiting"]');
     // The scenario's other hazards, the instructor's alone: the truck on aisle A (its route and
-    // its box waiting at the start) and the pallet that falls, each listed with words.
+    // its box waiting at the start), the pallet that falls and the spill past the door, each
+    // listed with words.
     check(await page.$('#plan-svg polygon[data-route="T1"]') !== null, "T1's route is on the plan");
     await page.waitForSelector('#plan-svg rect.other-truck[data-truck="T1"][data-activity="waiting"]');
     check(/Start truck T1 now/.test(await page.textContent('#hazard-list button[data-hazard="T1"]')), 'the truck is listed');
     check(/T1: waiting for its cue/.test(await page.textContent('li[data-hazard="T1"]')), 'in words');
     check(/Drop pallet P2 now/.test(await page.textContent('#hazard-list button[data-hazard="P2"]')), 'the falling pallet is listed');
+    check(/Spill S1 now/.test(await page.textContent('#hazard-list button[data-hazard="S1"]')), 'the spill that waits is listed');
+    check(/S1: a spill, not on the floor/.test(await page.textContent('li[data-hazard="S1"]')), 'in words');
   });
 
   await step('the live page with its hazard list passes axe-core', async () => {
@@ -118,8 +121,8 @@ try {
     await page.waitForSelector('#replay[data-ready=true]', { timeout: 120000 });
     forget(/(HTTP 409 for GET .*\/live$|HTTP 503 for GET .*\/replay$|status of (409|503) )/);
     const replay = await api('GET', `/sessions/${session.id}/replay`, ines);
-    check(JSON.stringify(replay.pedestrian_ids) === '["W1"]', `the replay names him: ${replay.pedestrian_ids}`);
-    check(JSON.stringify(replay.truck_ids) === '["T1"]', `and the truck: ${replay.truck_ids}`);
+    check(JSON.stringify(replay.pedestrian_ids) === '["W1","W2"]', `the replay names him (and the worker past the door): ${replay.pedestrian_ids}`);
+    check(JSON.stringify(replay.truck_ids) === '["T1","T2"]', `and the trucks: ${replay.truck_ids}`);
     const started = replay.samples.findIndex((s) => s.pedestrians[0][3] === 'walking');
     check(started > 2, `he starts walking part way: sample ${started}`);
     for (const sample of [replay.samples[1], replay.samples[started + 5]]) {

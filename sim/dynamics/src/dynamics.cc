@@ -398,7 +398,7 @@ void evaluate(const TruckParams& t, const Environment& env, const std::optional<
     const Vector3d &n = cf.n, &axle = cf.axle, &xw = cf.xw, &yw = cf.yw, &vs = cf.vs;
     const bool upright = cf.upright;
     // A spill under the tyre scales its friction, whichever tyre law is in use.
-    const double grip = env.ground.grip(c.contact_point_m.x(), c.contact_point_m.y());
+    const double grip = env.ground.grip(c.contact_point_m.x(), c.contact_point_m.y(), env.grip_patches_absent);
     e.tyre_rate[w].setZero();
     double stribeck = 0, mu = 0;
     if (bristle) {

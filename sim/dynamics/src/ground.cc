@@ -76,10 +76,13 @@ bool clip_line(const Vector2d& o, const Vector2d& d, const Vector2d& lo, const V
 Ground::Ground(std::vector<Ramp> ramps, std::vector<GroundStep> steps, std::vector<GripPatch> grip)
     : ramps_(std::move(ramps)), steps_(std::move(steps)), grip_(std::move(grip)) {}
 
-double Ground::grip(double x, double y) const {
+double Ground::grip(double x, double y, uint64_t absent) const {
   double scale = 1;
-  for (const GripPatch& g : grip_)
+  for (size_t i = 0; i < grip_.size(); ++i) {
+    if (i < 64 && (absent >> i & 1u)) continue;
+    const GripPatch& g = grip_[i];
     if (g.footprint_m.contains(Vector2d(x, y))) scale = std::min(scale, g.friction_scale);
+  }
   return scale;
 }
 

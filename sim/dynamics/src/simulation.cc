@@ -614,6 +614,12 @@ void Simulation::set_external_forces(const std::vector<ExternalForce>& forces) {
   impl_->scene_forces.assign(forces.begin(), forces.end());
   impl_->gather_forces();
 }
+void Simulation::set_grip_patches_absent(uint64_t absent) {
+  uint64_t& held = impl_->dynamics.environment().grip_patches_absent;
+  if (held == absent) return;
+  impl_->cached = false;
+  held = absent;
+}
 void Simulation::attach_load(const Load& load) {
   impl_->cached = false;
   impl_->dynamics.attach_load(load);

@@ -9,10 +9,15 @@ std::vector<FallingPalletState> initial_falls(const std::vector<FallingPalletSpe
   return std::vector<FallingPalletState>(specs.size());
 }
 
+bool trigger_fired(const std::optional<double>& truck_within_m, double at_s, const TruckOutline& outline,
+                   const BodyPoses& poses, const Eigen::Vector2d& at, double t_s) {
+  if (truck_within_m) return distance_to_truck(outline, poses, at) <= *truck_within_m;
+  return t_s >= at_s;
+}
+
 bool fall_triggered(const FallingPalletSpec& spec, const TruckOutline& outline, const BodyPoses& poses,
                     const Eigen::Vector2d& at, double t_s) {
-  if (spec.start_truck_within_m) return distance_to_truck(outline, poses, at) <= *spec.start_truck_within_m;
-  return t_s >= spec.start_at_s;
+  return trigger_fired(spec.start_truck_within_m, spec.start_at_s, outline, poses, at, t_s);
 }
 
 Eigen::Isometry3d falling_pose(const FallingPalletSpec& spec, const Eigen::Isometry3d& start, double floor_z, double g,

@@ -479,13 +479,17 @@ FallingPalletSpec read_falling_pallet(const Node& n, const Scene& scene) {
 }
 
 Spill read_spill(const Node& n) {
-  n.only({"id", "rect", "friction_scale"});
+  n.only({"id", "rect", "friction_scale", "trigger"});
   Spill sp;
   sp.id = n.at("id").string();
   sp.rect = n.at("rect").box2();
   if (!(sp.rect.sizes().minCoeff() > 0)) n.at("rect").fail("must have xmax > xmin and ymax > ymin");
   sp.friction_scale = n.at("friction_scale").positive();
   if (sp.friction_scale > 1) n.at("friction_scale").fail("must be at most 1 (a spill grips less, never more)");
+  if (n.has("trigger")) {
+    sp.triggered = true;
+    read_trigger(n.at("trigger"), sp.start_truck_within_m, sp.start_at_s);
+  }
   return sp;
 }
 
@@ -895,6 +899,8 @@ Scene load_scene(const std::string& path, const std::string& data_dir) {
     const Node n = node(item);
     Spill sp = read_spill(n);
     if (!spill_ids.insert(sp.id).second) n.at("id").fail("repeats the spill id '" + sp.id + "'");
+    if (sp.triggered && scene.spills.size() >= kMaxTriggeredSpill)
+      n.at("trigger").fail("is for the first " + std::to_string(kMaxTriggeredSpill) + " spills only: list this one earlier");
     grip.push_back({sp.rect, sp.friction_scale});
     scene.spills.push_back(std::move(sp));
   }

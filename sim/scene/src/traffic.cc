@@ -38,6 +38,32 @@ Eigen::Vector2d front_of(const OtherTruckSpec& spec, const OtherTruckState& s) {
   return s.at_m + 0.5 * spec.size_m.x() * Eigen::Vector2d(std::cos(s.heading_rad), std::sin(s.heading_rad));
 }
 
+double cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
+
+// Whether the segments [a, b] and [c, d] meet (touching counts).
+bool segments_meet(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c, const Eigen::Vector2d& d) {
+  const double d1 = cross2(b - a, c - a), d2 = cross2(b - a, d - a), d3 = cross2(d - c, a - c), d4 = cross2(d - c, b - c);
+  return ((d1 <= 0 && d2 >= 0) || (d1 >= 0 && d2 <= 0)) && ((d3 <= 0 && d4 >= 0) || (d3 >= 0 && d4 <= 0));
+}
+
+// Whether a truck's body, as its centre line from rear to front, is in the crossing's area.
+bool in_crossing(const Crossing& x, const OtherTruckSpec& spec, const OtherTruckState& s) {
+  const Eigen::Vector2d front = front_of(spec, s), rear = 2 * s.at_m - front;
+  if (x.contains(front) || x.contains(rear)) return true;
+  const size_t n = x.polygon.size();
+  for (size_t i = 0; i < n; ++i)
+    if (segments_meet(rear, front, x.polygon[i], x.polygon[(i + 1) % n])) return true;
+  return false;
+}
+
+// Another truck's body in the crossing: the one that came first has it, and the others wait.
+bool taken_by_another(const Crossing& x, const std::vector<OtherTruckSpec>& specs,
+                      const std::vector<OtherTruckState>& states, size_t self) {
+  for (size_t j = 0; j < specs.size(); ++j)
+    if (j != self && in_crossing(x, specs[j], states[j])) return true;
+  return false;
+}
+
 }  // namespace
 
 std::vector<OtherTruckState> initial_trucks(const std::vector<OtherTruckSpec>& specs) {
@@ -68,11 +94,16 @@ void drive(const std::vector<OtherTruckSpec>& specs, const std::vector<Crossing>
     }
     const OtherTruckState next = advanced(spec, s, spec.speed_m_s * dt_s);
     const Eigen::Vector2d next_front = front_of(spec, next);
-    // Entering a crossing where the pupil goes first, with the pupil's truck near it: wait short of it.
+    // Entering a crossing where the pupil goes first, with the pupil's truck near it, or one that
+    // another truck's body is in (whatever the crossing's priority: the first there goes first):
+    // wait short of it. The trucks move in the scene's order, so of two reaching it in the same
+    // tick the one listed first goes.
     for (size_t c = 0; c < crossings.size() && s.giving_way < 0; ++c) {
       const Crossing& x = crossings[c];
-      if (x.priority != "pupil" || !x.contains(next_front) || x.contains(front)) continue;
-      if (distance_to_truck(outline, poses, x.middle_m) <= x.watch_m) s.giving_way = int(c);
+      if (!x.contains(next_front) || x.contains(front)) continue;
+      if ((x.priority == "pupil" && distance_to_truck(outline, poses, x.middle_m) <= x.watch_m) ||
+          taken_by_another(x, specs, states, i))
+        s.giving_way = int(c);
     }
     if (s.giving_way >= 0) continue;
     s = next;

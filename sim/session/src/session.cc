@@ -21,6 +21,7 @@ Environment environment_of(const SessionModel& m, const SessionState* s = nullpt
   Environment env;
   env.ground = m.scene.ground;
   if (s) env.external_forces = s->scene_push;
+  env.grip_patches_absent = absent_spills(m.scene.spills, s ? s->spills : std::vector<SpillState>{});
   return env;
 }
 
@@ -123,6 +124,7 @@ struct SessionWorkspace::Impl {
   Evaluator evaluator;
   TruckOutline outline;  // for the pedestrians' and falling pallets' distances to the truck
   std::vector<const SceneObject*> falling;  // each falling pallet's object: where it stood
+  bool spills_triggered = false;             // a spill of the scene appears at a trigger
   // The state this workspace's integrator last produced: stepping it continues the integrator's
   // history; any other state (a copy stepped elsewhere, a rewind) restarts it from that state.
   bool have_last = false;
@@ -140,6 +142,7 @@ struct SessionWorkspace::Impl {
       : model(m), warehouse(m.scene, m.shape, m.truck), evaluator(m.rules, m.scene, m.truck, m.shape, m.mode),
         outline(truck_outline(m.shape)) {
     for (const FallingPalletSpec& f : m.scene.falling_pallets) falling.push_back(m.scene.find(f.pallet));
+    for (const Spill& sp : m.scene.spills) spills_triggered = spills_triggered || sp.triggered;
     found.reserve(16);
   }
 
@@ -229,6 +232,8 @@ void step(const SessionModel& model, SessionState& state, SessionWorkspace& work
   Simulation& sim = *w.sim;
   state.inputs = inputs;
   sim.set_inputs(inputs.driver);
+  // The spills on the floor now (one the instructor started since the last tick among them).
+  if (!model.scene.spills.empty()) sim.set_grip_patches_absent(absent_spills(model.scene.spills, state.spills));
   {  // dynamics
     StageScope scope(observer, Stage::kDynamics);
     sim.advance_to((state.tick + 1) * model.tick_s);
@@ -257,6 +262,11 @@ void step(const SessionModel& model, SessionState& state, SessionWorkspace& work
       }
     }
     if (!model.scene.falling_pallets.empty()) drop_pallets(model, state, w.outline, w.falling, w.warehouse);
+    // Spills whose trigger fires are on the floor from the next tick's dynamics on.
+    if (w.spills_triggered) {
+      if (state.spills.size() != model.scene.spills.size()) state.spills = initial_spills(model.scene.spills);
+      spread_spills(model.scene.spills, state.spills, w.outline, body_poses(model.truck, coordinates(state.x)), state.t_s);
+    }
     const StepReport& r = *(w.report = &w.warehouse.step(sim, state.handling, state.pedestrians, state.trucks));
     for (const Contact& c : r.contacts) {
       if (c.pedestrian >= 0) state.pedestrians[c.pedestrian].struck = true;

@@ -82,6 +82,11 @@ void SessionRun::instruct(const Instruction& what) {
     if (state_.trucks.size() != trucks.size()) state_.trucks = initial_trucks(trucks);
     for (size_t i = 0; i < trucks.size(); ++i)
       if (trucks[i].id == what.text) state_.trucks[i].started = true;
+    // Or a spill appears now: its tyres' grip from the next tick's dynamics on.
+    const std::vector<Spill>& spills = model_.scene.spills;
+    if (state_.spills.size() != spills.size()) state_.spills = initial_spills(spills);
+    for (size_t i = 0; i < spills.size(); ++i)
+      if (spills[i].id == what.text) state_.spills[i] = {true, state_.t_s};
   }
   if (what.action == InstructorAction::kPause) paused_ = true;
   if (what.action == InstructorAction::kResume) paused_ = false;
@@ -107,6 +112,13 @@ std::optional<std::string> SessionRun::hazard_problem(const std::string& id) con
     if (s.started) return "truck " + id + " is driving already";
     return std::nullopt;
   }
+  const std::vector<Spill>& spills = model_.scene.spills;
+  for (size_t i = 0; i < spills.size(); ++i) {
+    if (spills[i].id != id) continue;
+    if (!spills[i].triggered) return "spill " + id + " is on the floor from the start";
+    if (i < state_.spills.size() && state_.spills[i].appeared) return "spill " + id + " is on the floor already";
+    return std::nullopt;
+  }
   std::string ids;
   for (size_t i = 0; i < people.size(); ++i) {
     if (people[i].id != id) {
@@ -121,10 +133,17 @@ std::optional<std::string> SessionRun::hazard_problem(const std::string& id) con
   }
   for (const FallingPalletSpec& f : falls) ids += (ids.empty() ? "" : ", ") + f.pallet;
   for (const OtherTruckSpec& t : trucks) ids += (ids.empty() ? "" : ", ") + t.id;
+  bool spill_starts = false;
+  for (const Spill& sp : spills)
+    if (sp.triggered) {
+      ids += (ids.empty() ? "" : ", ") + sp.id;
+      spill_starts = true;
+    }
   // Named by the kinds of hazard the scene has ("no pedestrian or falling pallet 'P9'").
   std::vector<std::string> kinds{"pedestrian"};
   if (!falls.empty()) kinds.push_back("falling pallet");
   if (!trucks.empty()) kinds.push_back("truck");
+  if (spill_starts) kinds.push_back("spill");
   std::string what = kinds[0];
   for (size_t i = 1; i < kinds.size(); ++i) what += (i + 1 == kinds.size() ? " or " : ", ") + kinds[i];
   return "no " + what + " '" + id + "' in this scenario" +

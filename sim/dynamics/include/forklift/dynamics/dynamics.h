@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
+#include <cstdint>
 #include <optional>
 #include <vector>
 
@@ -53,7 +54,8 @@ class Ground {
   explicit Ground(std::vector<Ramp> ramps, std::vector<GroundStep> steps = {}, std::vector<GripPatch> grip = {});
   double height(double x, double y) const;
   // The tyres' friction scale at (x, y): the lowest of the grip patches holding it, 1 elsewhere.
-  double grip(double x, double y) const;
+  // Bit i of `absent` set: patch i (i < 64) is not on the floor (yet), and holds nothing.
+  double grip(double x, double y, uint64_t absent = 0) const;
   Eigen::Vector2d gradient(double x, double y) const;  // (dh/dx, dh/dy); zero on steps
   bool flat() const { return ramps_.empty() && steps_.empty(); }  // z = 0 everywhere
   const std::vector<Ramp>& ramps() const { return ramps_; }
@@ -82,6 +84,9 @@ struct Environment {
   std::optional<std::array<Eigen::Vector2d, kNumWheels>> chock_anchors_m;
   // Held from one physics tick to the next: the scene's push-back on the truck.
   std::vector<ExternalForce> external_forces;
+  // The grip patches not on the floor now (Ground::grip's `absent`): a spill that appears at a
+  // trigger or at the instructor's word is absent until then. Held from one tick to the next.
+  uint64_t grip_patches_absent = 0;
 };
 
 // What the truck's controller is asked for, in physical units. Out-of-range values are clamped

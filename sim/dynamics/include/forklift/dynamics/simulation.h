@@ -80,6 +80,8 @@ class Simulation {
 
   // The scene's push-back on the truck, held until changed (Environment::external_forces).
   void set_external_forces(const std::vector<ExternalForce>& forces);
+  // The grip patches not on the floor, held until changed (Environment::grip_patches_absent).
+  void set_grip_patches_absent(uint64_t absent);
 
   // Section 5, at run time: change the carriage's mass and restart the integrator's history.
   // A load put on the forks is a body of its own there (load_on_forks.h): after each advance_to

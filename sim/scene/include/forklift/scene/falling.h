@@ -7,6 +7,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <optional>
 #include <vector>
 
 #include "forklift/scene/pedestrians.h"  // TruckOutline, distance_to_truck
@@ -23,6 +24,11 @@ struct FallingPalletState {
 
 // Every pallet still on its beams.
 std::vector<FallingPalletState> initial_falls(const std::vector<FallingPalletSpec>& specs);
+
+// Whether a hazard's trigger fires at sim time `t_s` with the truck at `poses`: with a distance
+// (`truck_within_m` set), the truck's outline within it of `at` (world); else `t_s` >= `at_s`.
+bool trigger_fired(const std::optional<double>& truck_within_m, double at_s, const TruckOutline& outline,
+                   const BodyPoses& poses, const Eigen::Vector2d& at, double t_s);
 
 // Whether `spec`'s trigger fires at sim time `t_s` with the truck at `poses`: the time is reached,
 // or the truck's outline is within the distance of the pallet's middle (`at`, world).

@@ -125,12 +125,21 @@ struct Marker {
 const std::vector<std::string>& marker_kinds();
 
 // A spill on the floor (oil, water): a patch where the tyres grip less. It is in `Scene::ground`
-// (GripPatch, dynamics.h), which the dynamics read; listed here with its id for drawing.
+// (GripPatch, dynamics.h, at the same index), which the dynamics read; listed here with its id
+// for drawing. One with a trigger is not on the floor until it fires (or the instructor's
+// "hazard" names it): whether it has appeared is the session's state (spills.h).
 struct Spill {
   std::string id;
   Eigen::AlignedBox2d rect;   // world x, y
   double friction_scale = 1;  // (0, 1]: the tyres' friction inside it, as a share of their own
+  bool triggered = false;     // false: on the floor from the start
+  // Appears when the truck's outline comes within this distance of the patch's middle (set), or at start_at_s.
+  std::optional<double> start_truck_within_m;
+  double start_at_s = 0;
 };
+// A spill with a trigger must be among the first kMaxTriggeredSpill spills (the dynamics hold
+// which are absent as the bits of a word).
+constexpr size_t kMaxTriggeredSpill = 64;
 
 // The marked route: a polyline with a width; leaving it is a fault (evaluation).
 struct Route {

@@ -26,7 +26,7 @@ struct OtherTruckState {
   double speed_m_s = 0;    // this tick's: 0 standing, the spec's speed driving
   bool started = false;    // its trigger has fired (or the instructor started it)
   bool arrived = false;    // at the end of a route that does not loop: stands there
-  int giving_way = -1;     // >= 0: standing short of this crossing (Scene::crossings) for the pupil's truck
+  int giving_way = -1;     // >= 0: standing short of this crossing (Scene::crossings) for the pupil's truck or another
   bool stopped_for_truck = false;  // standing: the pupil's truck is within its stop_within_m ahead
   bool struck = false;     // the pupil's truck struck it: its driver stops there (set by the session)
 };
@@ -38,8 +38,11 @@ std::vector<OtherTruckState> initial_trucks(const std::vector<OtherTruckSpec>& s
 // starts when its trigger fires and drives its route at its speed; it stands (a) short of a
 // crossing where the pupil has priority, when the move would take the middle of its front into
 // the crossing's area while the pupil's truck's outline is within the crossing's watch_m of the
-// crossing's middle, (b) while the pupil's truck is within its stop_within_m of its front, and
-// (c) once struck. `states` has one entry per spec (initial_trucks).
+// crossing's middle, (b) short of any crossing, when the move would take its front into the
+// crossing's area while another truck's body (its centre line, rear to front) is in it: the one
+// that reached it first goes first, and of two reaching it in the same tick the one listed first
+// (the trucks move in the scene's order), (c) while the pupil's truck is within its stop_within_m
+// of its front, and (d) once struck. `states` has one entry per spec (initial_trucks).
 void drive(const std::vector<OtherTruckSpec>& specs, const std::vector<Crossing>& crossings,
            std::vector<OtherTruckState>& states, const TruckOutline& outline, const BodyPoses& poses, double t_s,
            double dt_s);

@@ -24,6 +24,7 @@
 #include "forklift/scene/falling.h"
 #include "forklift/scene/pedestrians.h"
 #include "forklift/scene/scene.h"
+#include "forklift/scene/spills.h"
 #include "forklift/scene/traffic.h"
 #include "forklift/session/session_log.h"
 #include "forklift/session/vocabulary.h"
@@ -77,6 +78,7 @@ struct SessionState {
   std::vector<PedestrianState> pedestrians;  // one per Scene::pedestrians (pedestrians.h)
   std::vector<FallingPalletState> falls;     // one per Scene::falling_pallets (falling.h)
   std::vector<OtherTruckState> trucks;       // one per Scene::trucks (traffic.h)
+  std::vector<SpillState> spills;            // one per Scene::spills (spills.h): which are on the floor
   EvaluationMemory evaluation;
 };
 

@@ -70,12 +70,14 @@ class SessionRun {
   // the record (the log's "e" lines, the events published); throws std::runtime_error if no
   // point is kept there (a log that rewinds where its run kept nothing).
   // A hazard sets the scene's pedestrian `text` walking at once (his trigger no longer waited
-  // for), drops its falling pallet `text`, or sets its other truck `text` driving, logged when
-  // the tick is stepped as the others.
+  // for), drops its falling pallet `text`, sets its other truck `text` driving, or puts its spill
+  // `text` on the floor (from the next tick's dynamics on), logged when the tick is stepped as the
+  // others.
   void instruct(const Instruction& what);
   bool paused() const { return paused_; }
-  // Why the scene's hazard `id` (a pedestrian, a falling pallet, another truck) cannot be started
-  // now (none of that id; started, fallen or struck already), or nullopt.
+  // Why the scene's hazard `id` (a pedestrian, a falling pallet, another truck, a spill with a
+  // trigger) cannot be started now (none of that id; started, fallen, struck or on the floor
+  // already), or nullopt.
   std::optional<std::string> hazard_problem(const std::string& id) const;
 
   // Rewind points: copies of the state, kept as the session runs. The worker's: every
