@@ -128,7 +128,11 @@ struct Run {
       m.kind = "blind_corner";
       for (int k : {0, 1, 3, 2}) m.polygon.push_back(box.corner(Eigen::AlignedBox2d::CornerType(k)));
       model.scene.markers.push_back(m);
-      model.scene.spills.push_back({"bench_spill_" + std::to_string(i), box.translated(Eigen::Vector2d(4, 0)), 0.9});
+      Spill spill;  // on the floor from the start
+      spill.id = "bench_spill_" + std::to_string(i);
+      spill.rect = box.translated(Eigen::Vector2d(4, 0));
+      spill.friction_scale = 0.9;
+      model.scene.spills.push_back(spill);
       grip.push_back({model.scene.spills.back().rect, 0.9});
     }
     if (n > 0) model.scene.ground = Ground(model.scene.ground.ramps(), model.scene.ground.steps(), grip);

@@ -16,6 +16,8 @@
 //               what the shadow map (two sizes), the haze, the metre grid, the textures and
 //               the anti-aliasing cost
 //   jpeg_frame  what the worker does for a JPEG frame: render, RGBX read-back, encode
+//   people      the driver view at 640x480 with 10 pedestrians in sight, 4 to 13 m ahead (their
+//               hi-vis figures), against frame/driver/640x480 without them
 // Counters: calls (draw calls in the frame, the shadow map's included), parts (static parts
 // drawn of the scene's, after frustum culling).
 // Wall time is what counts (llvmpipe renders on its own threads), so every row uses real time.
@@ -73,6 +75,39 @@ const World& world() {
   return w;
 }
 
+// The world with `n` pedestrians standing in the driver's sight: one a metre, from 4 m ahead
+// of the truck, a metre and a half to either side in turn, facing across its way.
+const World& world_with_people(int n) {
+  static std::map<int, World> worlds;
+  auto it = worlds.find(n);
+  if (it != worlds.end()) return it->second;
+  World w = world();
+  const double yaw = w.scene.scenario.yaw_rad;
+  const Eigen::Vector2d at(w.scene.scenario.x_m, w.scene.scenario.y_m), ahead(std::cos(yaw), std::sin(yaw)), left(-ahead.y(), ahead.x());
+  for (int i = 0; i < n; ++i) {
+    PedestrianSpec p;
+    p.id = "bench_person_" + std::to_string(i);
+    const Eigen::Vector2d c = at + (4.0 + i) * ahead + (i % 2 ? 1.5 : -1.5) * left;
+    p.path = {c, c + left};
+    p.speed_m_s = 1.2;
+    w.scene.pedestrians.push_back(p);
+  }
+  return worlds.emplace(n, std::move(w)).first->second;
+}
+
+// The pedestrians of world_with_people as they stand, each at his path's start facing along it.
+std::vector<PedestrianState> standing(const World& w) {
+  std::vector<PedestrianState> out;
+  for (const PedestrianSpec& p : w.scene.pedestrians) {
+    PedestrianState s;
+    s.at_m = p.path.front();
+    const Eigen::Vector2d d = p.path[1] - p.path[0];
+    s.heading_rad = std::atan2(d.y(), d.x());
+    out.push_back(s);
+  }
+  return out;
+}
+
 // The state of frame i: the truck 1 cm further along its heading per frame, forks at 0.3 m.
 RenderState frame_state(const World& w, int64_t i) {
   RenderState s;
@@ -111,6 +146,23 @@ void BM_Frame(benchmark::State& state, View view, ViewOptions options, int width
   state.counters["fps"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate);
   state.counters["calls"] = r.last_frame().draw_calls;
   state.counters["parts"] = r.last_frame().static_parts_drawn;
+  state.counters["triangles"] = double(r.last_frame().triangles);
+}
+
+// The driver view with `n` pedestrians in sight (world_with_people).
+void BM_People(benchmark::State& state, int n, int width, int height) {
+  if (!world_or_skip(state)) return;
+  const World& w = world_with_people(n);
+  Renderer r(w.scene, w.shape, w.truck, width, height);
+  const std::vector<PedestrianState> people = standing(w);
+  int64_t i = 0;
+  for (auto _ : state) {
+    RenderState s = frame_state(w, i++);
+    s.pedestrians = people;
+    benchmark::DoNotOptimize(r.render(s, View::kDriver).rgb.data());
+  }
+  state.counters["fps"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["calls"] = r.last_frame().draw_calls;
   state.counters["triangles"] = double(r.last_frame().triangles);
 }
 
@@ -204,6 +256,7 @@ int main(int argc, char** argv) {
   }
   for (const auto& [name, options] : kAidRows)
     timed(benchmark::RegisterBenchmark((std::string(name) + "/640x480").c_str(), BM_Frame, View::kDriver, options, 640, 480, RenderQuality{}));
+  timed(benchmark::RegisterBenchmark("people/10/640x480", BM_People, 10, 640, 480));
   timed(benchmark::RegisterBenchmark("jpeg_encode/640x480", BM_JpegEncode, 640, 480));
   // What each depth cue costs: none of them, each alone, and the shadow map's size.
   for (const auto& [name, quality] : kQualityRows)
@@ -243,6 +296,9 @@ int main(int argc, char** argv) {
     const double t = row(r);
     if (t > 0) std::printf("%-24s %9.2f %8.1f %10s  %+.2f ms on plain\n", r.c_str(), t, 1e3 / t, "", plain > 0 ? t - plain : 0.0);
   }
+  if (const double people = row("people/10/640x480"), alone = row("frame/driver/640x480"); people > 0 && alone > 0)
+    std::printf("%-24s %9.2f %8.1f %10s  %+.2f ms on frame/driver/640x480 (10 pedestrians in sight)\n", "people/10/640x480", people,
+                1e3 / people, "", people - alone);
   const double jpeg = row("jpeg_encode/640x480");
   if (jpeg > 0) std::printf("%-24s %9.2f\n", "jpeg_encode/640x480", jpeg);
   // Goals: the picture within the framed fleet's budget, eight cabs' 30 frames
