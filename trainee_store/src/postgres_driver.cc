@@ -545,6 +545,9 @@ CREATE TRIGGER school_totals_exam_in AFTER INSERT ON exams REFERENCING NEW TABLE
 CREATE TRIGGER school_totals_exam_out AFTER DELETE ON exams REFERENCING OLD TABLE AS changed_rows
   FOR EACH STATEMENT EXECUTE FUNCTION school_totals_count();
 )sql",
+    // 16: each session's outcome on its row, written when it settles, as SQLite's 16; the id in
+    // the indexes' keys as in 13's.
+    OUTCOME_STORED(", id"),
 };
 
 // A session's columns: the one before last reads score_counts by its key (TASK_INCOMPLETE_SQL): whether the score notes

@@ -45,6 +45,47 @@ namespace {
   "e.id, e.pupil_id, e.kind, s.public_id, e.score, e.passed, e.examiner_id, e.taken_at, e.details FROM exams e " \
   "LEFT JOIN sessions s ON s.id = e.session_id"
 
+// session_outcome() in SQL, of a session whose phase, end reason and task-incomplete flag are the
+// SQL expressions `state`, `reason` and `task_left` (true or false): written out from
+// session_outcome() itself, phase by phase and reason by reason, so that the outcome the store
+// keeps on the session row (migration 16) is the one the C++ rule gives.
+std::string outcome_sql(const std::string& state, const std::string& reason, const std::string& task_left) {
+  const auto outcome = [](SessionPhase phase, const std::string& why, bool task) {
+    Session s;
+    s.state = phase;
+    s.reason = why;
+    s.task_left_unfinished = task;
+    return std::string("'") + name(session_outcome(s)) + "'";
+  };
+  // Every end reason's word, the evaluation's "parked", and last any other word (here, none).
+  std::vector<std::string> reasons;
+  for (int i = 0;; ++i) {
+    const auto r = static_cast<EndReason>(i);
+    if (parse<EndReason>(name(r)) != r) break;
+    reasons.push_back(name(r));
+  }
+  reasons.push_back("parked");
+  // One phase's outcome by its reason: a CASE over the reasons whose outcome is not the others'.
+  const auto by_reason = [&](SessionPhase phase) {
+    const auto of = [&](const std::string& why) {
+      const std::string done = outcome(phase, why, false), left = outcome(phase, why, true);
+      return done == left ? done : "CASE WHEN " + task_left + " THEN " + left + " ELSE " + done + " END";
+    };
+    const std::string other = of("");
+    std::string cases;
+    for (const std::string& why : reasons)
+      if (const std::string o = of(why); o != other) cases += " WHEN '" + why + "' THEN " + o;
+    return cases.empty() ? other : "CASE " + reason + cases + " ELSE " + other + " END";
+  };
+  std::string sql = "CASE " + state;
+  for (int i = 0;; ++i) {
+    const auto phase = static_cast<SessionPhase>(i);
+    if (parse<SessionPhase>(name(phase)) != phase) break;
+    sql += std::string(" WHEN '") + name(phase) + "' THEN " + by_reason(phase);
+  }
+  return sql + " END";
+}
+
 // A row of "c.seq, s.public_id, c.entry" (exam_chain c joined with its session s).
 ChainEntry read_chain_entry(const Query& q) { return ChainEntry{q.int64(0), q.text(1), q.text(2)}; }
 
@@ -320,10 +361,11 @@ class SqlStore final : public Store {
     if (f.mode) where.add("sessions.mode = ?", {std::string(name(*f.mode))});
     if (f.instructor_id) where.add("sessions.started_by = ?", {*f.instructor_id});
     if (f.group_id) where.add("p.group_id = ?", {*f.group_id});
-    if (f.outcome) where.add(SESSION_OUTCOME_SQL " = ?", {std::string(name(*f.outcome))});
-    if (f.result == "passed") where.add(SESSION_PASSED_SQL);
+    if (f.outcome) where.add("sessions.outcome = ?", {std::string(name(*f.outcome))});
+    if (f.result == "passed") where.add(SESSION_COMPLETED_PASSED("sessions."));
+    // Over, and not completed and passed (a completed session without a score among them).
     if (f.result == "not_passed")
-      where.add("sessions.state IN ('ended', 'failed', 'aborted') AND NOT (" SESSION_PASSED_SQL ")");
+      where.add("sessions.outcome <> 'open' AND (sessions.outcome <> 'completed' OR sessions.passed IS NOT TRUE)");
     const std::string from = " FROM sessions JOIN pupils p ON p.id = sessions.pupil_id" + where.sql();
     Transaction tx(d_, __func__, TxKind::kRead);
     SessionPage page;
@@ -568,9 +610,12 @@ class SqlStore final : public Store {
     Transaction tx(d_, __func__, TxKind::kStatement);
     // One statement, so that two writers cannot both move a session out of an open state: the
     // second one's guard is checked again once the first one's row is committed.
-    Query q(d_, __func__,
-            "UPDATE sessions SET state = ?1, reason = ?2, ended_at = ?3 "
-            "WHERE public_id = ?4 AND state NOT IN ('ended', 'failed', 'aborted')");
+    // Its outcome with it, from the new phase and reason and the score's task flag (a score may
+    // come first).
+    static const std::string sql = "UPDATE sessions SET state = ?1, reason = ?2, ended_at = ?3, outcome = " +
+                                   outcome_sql("CAST(?1 AS TEXT)", "CAST(?2 AS TEXT)", TASK_INCOMPLETE_SQL " IS NOT NULL") +
+                                   " WHERE public_id = ?4 AND state NOT IN ('ended', 'failed', 'aborted')";
+    Query q(d_, __func__, sql);
     const bool changed = q.bind(std::string(name(state))).bind(reason).bind(is_terminal(state) ? now : std::string()).bind(public_id).changes() > 0;
     if (!changed) require_session(__func__, public_id);  // kNotFound rather than false for an unknown session
     tx.commit();
@@ -618,7 +663,11 @@ class SqlStore final : public Store {
       Query q(d_, __func__, "INSERT INTO score_counts(session_id, kind, count) VALUES (?1, ?2, ?3)");
       q.bind(session.id).bind(kind).bind(count).run();
     }
-    Query(d_, __func__, "UPDATE sessions SET mark = ?1, passed = ?2 WHERE id = ?3").bind(s.mark).bind(s.passed).bind(session.id).run();
+    // The outcome again: the score may note the task left unfinished of a session already ended.
+    static const std::string update = "UPDATE sessions SET mark = ?1, passed = ?2, outcome = " +
+                                      outcome_sql("sessions.state", "sessions.reason", TASK_INCOMPLETE_SQL " IS NOT NULL") +
+                                      " WHERE id = ?3";
+    Query(d_, __func__, update).bind(s.mark).bind(s.passed).bind(session.id).run();
     if (makes_practical_record(session)) insert_exam(__func__, practical_exam(session, s, now), session.id);
     tx.commit();
     return true;
@@ -1100,6 +1149,11 @@ class SqlStore final : public Store {
       }
       if (version == latest) return tx.commit();
       d_.exec("migrate", dialect_.migrations[version]);
+      // The outcome of every session that is over, as session_outcome() gives it.
+      if (version + 1 == kOutcomeStoredVersion)
+        d_.exec("migrate", "UPDATE sessions SET outcome = " +
+                               outcome_sql("state", "reason", TASK_INCOMPLETE_SQL " IS NOT NULL") +
+                               " WHERE state IN ('ended', 'failed', 'aborted')");
       Query(d_, "migrate", "INSERT INTO schema_migrations(version, applied_at) VALUES (?1, ?2)")
           .bind(version + 1)
           .bind(now_iso8601())

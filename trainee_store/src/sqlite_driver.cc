@@ -547,6 +547,10 @@ CREATE TRIGGER school_totals_exam_out AFTER DELETE ON exams BEGIN
   UPDATE school_totals SET exams = exams - 1 WHERE school_id = (SELECT school_id FROM pupils WHERE id = OLD.pupil_id);
 END;
 )sql",
+    // 16: each session's outcome on its row, written when it settles (the store back-fills the
+    // sessions before it), so that the lists filter by outcome and result on an index of their own
+    // rather than working the outcome out row by row.
+    OUTCOME_STORED(""),
 };
 
 // Read FROM kSessions. The second column is NULL: read_session derives the public id from the id,
