@@ -2171,6 +2171,47 @@ TEST_P(StoreTest, SessionNotesAndSignOffAreAppendOnlyAndNoNoteFollowsTheSignOff)
 // A hash as the server makes one (SHA-256 in hex): 64 hex digits, here of one repeated digit.
 std::string FakeHash(char digit) { return std::string(64, digit); }
 
+// A pupil's history reads the notes on every session of theirs and, when asked, the request's
+// login token as find_login_token() reads it, with the rest: what a server's history page needs
+// from the store, in one trip to it.
+TEST_P(StoreTest, TheHistoryReadsTheSessionsNotesAndTheLoginWithIt) {
+  const int64_t ida = store_->create_user("ida", "h", fs::Role::kInstructor, school_);
+  const int64_t pupil = NewPupil("Ann"), other_pupil = NewPupil("Bob");
+  const std::string first = NewSession(pupil).public_id, second = NewSession(pupil).public_id;
+  const std::string others = NewSession(other_pupil).public_id;
+  store_->add_session_note({0, second, ida, "2026-03-01T10:00:00Z", "Check the mirrors."});
+  store_->add_session_note({0, first, ida, "2026-03-01T10:01:00Z", "Slow down at the rack."});
+  store_->add_session_note({0, others, ida, "2026-03-01T10:02:00Z", "Bob's note."});
+  fs::LoginToken t;
+  t.hash = FakeHash('c');
+  t.user_id = ida;
+  t.expires_at_ms = 5000;
+  store_->add_login_token(t);
+
+  std::optional<fs::LoginToken> token;
+  const auto h = store_->history(pupil, "2026-12-01T00:00:00Z", t.hash, token);
+  ASSERT_TRUE(h.has_value());
+  ASSERT_EQ(h->notes.size(), 2u);  // Ann's two, oldest first, not Bob's
+  EXPECT_EQ(h->notes[0].session_public_id, second);
+  EXPECT_EQ(h->notes[0].text, "Check the mirrors.");
+  EXPECT_EQ(h->notes[1].session_public_id, first);
+  EXPECT_EQ(h->notes[1].author_id, ida);
+  ASSERT_TRUE(token.has_value());
+  const auto found = store_->find_login_token(t.hash);
+  EXPECT_EQ(token->user.username, "ida");
+  EXPECT_EQ(token->user_id, found->user_id);
+  EXPECT_EQ(token->expires_at_ms, found->expires_at_ms);
+  EXPECT_EQ(token->login_generation, found->login_generation);
+  // An unknown token, and none asked for; and no pupil, with the token still read.
+  store_->history(pupil, "2026-12-01T00:00:00Z", FakeHash('d'), token);
+  EXPECT_FALSE(token.has_value());
+  token = found;
+  EXPECT_EQ(store_->history(pupil, "2026-12-01T00:00:00Z", "", token)->notes.size(), 2u);
+  EXPECT_FALSE(token.has_value());
+  EXPECT_FALSE(store_->history(other_pupil + 100, "2026-12-01T00:00:00Z", t.hash, token).has_value());
+  EXPECT_TRUE(token.has_value());
+}
+
 TEST_P(StoreTest, LoginTokensAreKeptByTheirHashAloneAndHonouredByEveryStore) {
   const int64_t ann = store_->create_user("ann", "h", fs::Role::kInstructor, school_);
   fs::LoginToken t;

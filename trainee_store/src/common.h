@@ -88,6 +88,10 @@ inline std::string order_by(const char* op, const std::vector<std::pair<std::str
 #define TASK_INCOMPLETE_SQL \
   "(SELECT 1 FROM score_counts c WHERE c.session_id = sessions.id AND c.kind = 'task_incomplete')"
 
+// Session::task_left_unfinished of a session (FROM sessions, unaliased), read from its stored
+// outcome: a session whose time ran out ("duration") timed out exactly when its task was left.
+#define TASK_LEFT_SQL "(sessions.outcome = 'timed_out' AND sessions.reason = 'duration')"
+
 // The terms that a session "completed and passed" (the lists' result "passed") met before the
 // outcome was stored (migration 16), of its own row, as migrations 13 and 15 index them. `s`
 // prefixes each column ("sessions." or "").

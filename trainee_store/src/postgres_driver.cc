@@ -550,14 +550,14 @@ CREATE TRIGGER school_totals_exam_out AFTER DELETE ON exams REFERENCING OLD TABL
     OUTCOME_STORED(", id"),
 };
 
-// A session's columns: the one before last reads score_counts by its key (TASK_INCOMPLETE_SQL): whether the score notes
-// the task left unfinished (the evaluator's rule "task_incomplete"), which session_outcome()
-// needs. Read FROM sessions, unaliased.
+// A session's columns: the one before last says whether the score notes the task left unfinished
+// (TASK_LEFT_SQL: of the stored outcome, where it read score_counts once per row). Read FROM
+// sessions, unaliased.
 constexpr const char* kSessionColumns =
     "sessions.id, sessions.public_id, sessions.pupil_id, sessions.cab_id, sessions.scenario, sessions.mode, "
     "sessions.state, sessions.reason, sessions.examiner_id, sessions.created_at, sessions.ended_at, sessions.mark, "
     "sessions.passed, "
-    TASK_INCOMPLETE_SQL " IS NOT NULL, "
+    TASK_LEFT_SQL ", "
     "sessions.started_by";
 
 // PostgreSQL's dialect: lower(x COLLATE "C") folds ASCII capitals only, as SQLite's NOCASE, and

@@ -89,6 +89,11 @@ std::string outcome_sql(const std::string& state, const std::string& reason, con
 // A row of "c.seq, s.public_id, c.entry" (exam_chain c joined with its session s).
 ChainEntry read_chain_entry(const Query& q) { return ChainEntry{q.int64(0), q.text(1), q.text(2)}; }
 
+// A login token's row (?1 its hash) with its account, as read_login_token() reads it.
+constexpr const char* kFindLoginToken =
+    "SELECT " USER_COLUMNS ", t.generation, t.expires_at_ms FROM login_tokens t JOIN users ON users.id = t.user_id "
+    "WHERE t.hash = ?1";
+
 class SqlStore final : public Store {
  public:
   SqlStore(std::unique_ptr<Driver> driver, const Dialect& dialect)
@@ -1050,8 +1055,7 @@ class SqlStore final : public Store {
   }
 
   std::optional<LoginToken> find_login_token(const std::string& hash) override {
-    Query q(d_, __func__, "SELECT " USER_COLUMNS ", t.generation, t.expires_at_ms FROM login_tokens t "
-                          "JOIN users ON users.id = t.user_id WHERE t.hash = ?1");
+    Query q(d_, __func__, kFindLoginToken);
     return first_row(__func__, q.bind(hash), [&](const Query& r) { return read_login_token(r, hash); });
   }
 
@@ -1104,8 +1108,14 @@ class SqlStore final : public Store {
   }
 
   std::optional<PupilHistory> history(int64_t pupil_id, const std::string& now) override {
+    std::optional<LoginToken> none;
+    return history(pupil_id, now, "", none);
+  }
+
+  std::optional<PupilHistory> history(int64_t pupil_id, const std::string& now, const std::string& token_hash,
+                                      std::optional<LoginToken>& token) override {
     // One consistent snapshot, and one round trip to a database a network away: every statement
-    // is sent at once, the pupil's own among them, and its rows read after.
+    // is sent at once, the pupil's own and the login's among them, and its rows read after.
     Transaction tx(d_, __func__, TxKind::kRead);
     Query pupil_q(d_, __func__, "SELECT " PUPIL_COLUMNS " FROM pupils WHERE id = ?1");
     Query sessions_q(d_, __func__, sessions_of_sql());
@@ -1117,8 +1127,18 @@ class SqlStore final : public Store {
     Query corrections_q(d_, __func__,
                         "SELECT " CORRECTION_COLUMNS " FROM exam_corrections "
                         "WHERE exam_id IN (SELECT id FROM exams WHERE pupil_id = ?1) ORDER BY id");
-    for (Query* q : {&pupil_q, &sessions_q, &exams_q, &faults_q, &licence_q, &corrections_q}) q->bind(pupil_id);
-    tx.run_last({&pupil_q, &sessions_q, &exams_q, &faults_q, &licence_q, &corrections_q});
+    Query notes_q(d_, __func__,
+                  "SELECT n.id, s.public_id, n.author_user_id, n.at, n.text FROM sessions s "
+                  "JOIN session_notes n ON n.session_id = s.id WHERE s.pupil_id = ?1 ORDER BY n.id");
+    for (Query* q : {&pupil_q, &sessions_q, &exams_q, &faults_q, &licence_q, &corrections_q, &notes_q}) q->bind(pupil_id);
+    token.reset();
+    if (token_hash.empty()) {
+      tx.run_last({&pupil_q, &sessions_q, &exams_q, &faults_q, &licence_q, &corrections_q, &notes_q});
+    } else {
+      Query token_q(d_, __func__, kFindLoginToken);
+      tx.run_last({&token_q.bind(token_hash), &pupil_q, &sessions_q, &exams_q, &faults_q, &licence_q, &corrections_q, &notes_q});
+      if (token_q.step()) token = read_login_token(token_q, token_hash);
+    }
     if (!pupil_q.step()) return std::nullopt;
     PupilHistory h;
     h.pupil = read_pupil(pupil_q);
@@ -1128,6 +1148,7 @@ class SqlStore final : public Store {
     if (licence_q.step())
       h.licence = LicenceRecord{licence_q.int64(0), pupil_id, licence_q.text(1), licence_q.text(2), licence_q.text(3)};
     while (corrections_q.step()) h.corrections.push_back(read_correction(corrections_q));
+    while (notes_q.step()) h.notes.push_back(read_session_note(notes_q));
     h.trend = mark_trend(h.sessions);
     h.reevaluation_overdue = h.licence && h.licence->reevaluation_due < now;  // same form: string order is time order
     tx.commit();

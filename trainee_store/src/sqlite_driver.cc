@@ -553,19 +553,15 @@ END;
     OUTCOME_STORED(""),
 };
 
-// Read FROM kSessions. The second column is NULL: read_session derives the public id from the id,
+// Read FROM sessions. The second column is NULL: read_session derives the public id from the id,
 // as the schema does, without the schema's printf on every row. The one before last says whether
-// the score notes the task left unfinished (the evaluator's rule "task_incomplete"), which
-// session_outcome() needs: joined from the partial index of those sessions alone (migration 10;
-// the planner would take the whole key's index). A correlated EXISTS per row made reading a
-// pupil's 50 sessions 58 us; this join, 44 us, of which 2 us is the flag.
+// the score notes the task left unfinished (TASK_LEFT_SQL: of the stored outcome, where it was
+// joined from the task-incomplete scores' index).
 constexpr const char* kSessionColumns =
     "sessions.id, NULL, sessions.pupil_id, sessions.cab_id, sessions.scenario, sessions.mode, "
     "sessions.state, sessions.reason, sessions.examiner_id, sessions.created_at, sessions.ended_at, sessions.mark, "
-    "sessions.passed, incomplete.session_id IS NOT NULL, sessions.started_by";
-constexpr const char* kSessions =
-    "sessions LEFT JOIN score_counts incomplete INDEXED BY score_counts_task_incomplete "
-    "ON incomplete.session_id = sessions.id AND incomplete.kind = 'task_incomplete'";
+    "sessions.passed, " TASK_LEFT_SQL ", sessions.started_by";
+constexpr const char* kSessions = "sessions";
 
 // SQLite's dialect: NOCASE folds ASCII capitals only, as canonical_username() does, and LIKE
 // ignores ASCII capitals by itself.
