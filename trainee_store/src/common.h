@@ -114,6 +114,17 @@ inline std::string order_by(const char* op, const std::vector<std::pair<std::str
 // The schema version whose migration is OUTCOME_STORED: the store back-fills the outcome after it.
 constexpr int kOutcomeStoredVersion = 16;
 
+// Keyset paging: the rows of a list after the cursor's, whose sort key `key` is `key_value` and
+// whose id (`id_column`) is `id`, found in the index where an offset would walk past every row
+// before them. Spelled out rather than as a row value, which SQLite does not take to its index:
+// the key's range first (from the index), then its ties by id.
+inline void add_after(Conditions& where, const std::string& key, const std::string& id_column, const std::string& key_value,
+                      int64_t id, bool descending) {
+  const char* from = descending ? " <= ?" : " >= ?";
+  const char* past = descending ? " < ?" : " > ?";
+  where.add(key + from + " AND (" + key + past + " OR " + id_column + past + ")", {key_value, key_value, id});
+}
+
 // LIKE pattern for "contains `text`", with '\' escaping so that % and _ in it match literally.
 inline std::string contains_pattern(const std::string& text) {
   std::string p = "%";

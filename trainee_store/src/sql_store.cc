@@ -318,11 +318,7 @@ class SqlStore final : public Store {
       Query cursor(d_, __func__, "SELECT " + key + " FROM pupils WHERE pupils.id = ?1 AND pupils.school_id = ?2");
       require(cursor.bind(*f.after).bind(f.school_id).step(), StoreError::kNotFound, __func__,
               "no pupil " + std::to_string(*f.after) + " in the school");
-      // Spelled out rather than as a row value, which SQLite does not take to its index: the
-      // key's range first (from the index), then its ties by id.
-      const char* from = f.descending ? " <= ?" : " >= ?";
-      const char* past = f.descending ? " < ?" : " > ?";
-      bound.add(key + from + " AND (" + key + past + " OR pupils.id" + past + ")", {cursor.text(0), cursor.text(0), *f.after});
+      add_after(bound, key, "pupils.id", cursor.text(0), *f.after, f.descending);
     }
     // An instructor's own pupils first: a first sort key ahead of the one asked for.
     std::string sql = "SELECT " PUPIL_COLUMNS " FROM pupils" + bound.sql() + " ORDER BY ";
@@ -372,6 +368,7 @@ class SqlStore final : public Store {
     if (f.result == "not_passed")
       where.add("sessions.outcome <> 'open' AND (sessions.outcome <> 'completed' OR sessions.passed IS NOT TRUE)");
     const std::string from = " FROM sessions JOIN pupils p ON p.id = sessions.pupil_id" + where.sql();
+    require(f.after.empty() || f.sort == "created_at", StoreError::kInvalid, __func__, "'after' pages a list sorted by created_at");
     Transaction tx(d_, __func__, TxKind::kRead);
     SessionPage page;
     // Counted without the pupils unless a filter needs them.
@@ -379,13 +376,20 @@ class SqlStore final : public Store {
     const bool whole_school = !f.pupil_id && f.search.empty() && f.from.empty() && f.to.empty() && f.cab_id.empty() &&
                               f.scenario.empty() && !f.mode && !f.instructor_id && !f.group_id && !f.outcome && f.result.empty();
     list_total(__func__, page, whole_school, "sessions", f.school_id, by_pupil ? from : " FROM sessions" + where.sql(), where);
+    Conditions bound = where;
+    if (!f.after.empty()) {
+      Query cursor(d_, __func__, "SELECT created_at, id FROM sessions WHERE public_id = ?1 AND school_id = ?2");
+      require(cursor.bind(f.after).bind(f.school_id).step(), StoreError::kNotFound, __func__,
+              "no session '" + f.after + "' in the school");
+      add_after(bound, "sessions.created_at", "sessions.id", cursor.text(0), cursor.int64(1), f.descending);
+    }
     // The page reads sessions first on SQLite (its CROSS JOIN fixes the join order): through the
     // index of their order or filter, it stops after a page; pupils first, it sorted every session
     // of the day (35 ms for a day of 10,000 sessions, 0.3 ms so). The count keeps the planner's order.
     Query q(d_, __func__, std::string("SELECT ") + dialect_.session_columns + ", p.name FROM " + dialect_.sessions_from + " " +
-                              dialect_.session_page_join + " pupils p ON p.id = sessions.pupil_id" + where.sql() + " ORDER BY " +
+                              dialect_.session_page_join + " pupils p ON p.id = sessions.pupil_id" + bound.sql() + " ORDER BY " +
                               order + " LIMIT ? OFFSET ?");
-    where.bind(q);
+    bound.bind(q);
     q.bind(limit).bind(offset);
     while (q.step()) page.sessions.push_back({read_session(q), q.text(15)});
     tx.commit();
@@ -417,20 +421,28 @@ class SqlStore final : public Store {
     // The page reads exams first (SQLite's CROSS JOIN) unless a filter picks pupils: with the
     // statistics of a store of 600,000 exams SQLite read every pupil's exams and sorted them all
     // for a page of 50 (1.2 s).
-    const std::string page_from = " FROM exams e " + std::string(f.search.empty() && !f.group_id ? dialect_.session_page_join : "JOIN") +
-                                  " pupils p ON p.id = e.pupil_id" + where.sql();
+    const std::string page_join = " FROM exams e " + std::string(f.search.empty() && !f.group_id ? dialect_.session_page_join : "JOIN") +
+                                  " pupils p ON p.id = e.pupil_id";
+    require(!f.after || f.sort == "taken_at", StoreError::kInvalid, __func__, "'after' pages a list sorted by taken_at");
     Transaction tx(d_, __func__, TxKind::kRead);
     ExamPage page;
     const bool whole_school = !f.pupil_id && f.search.empty() && !f.kind && f.from.empty() && f.to.empty() && !f.passed &&
                               !f.examiner_id && !f.group_id;
     list_total(__func__, page, whole_school, "exams", f.school_id, from, where);
+    Conditions bound = where;
+    if (f.after) {
+      Query cursor(d_, __func__, "SELECT e.taken_at FROM exams e JOIN pupils p ON p.id = e.pupil_id WHERE e.id = ?1 AND p.school_id = ?2");
+      require(cursor.bind(*f.after).bind(f.school_id).step(), StoreError::kNotFound, __func__,
+              "no exam " + std::to_string(*f.after) + " in the school");
+      add_after(bound, "e.taken_at", "e.id", cursor.text(0), *f.after, f.descending);
+    }
     // A practical exam's session looked up for the page's rows alone: joined, PostgreSQL's planner
     // hashed every session of the store to find the few the exams have.
     Query q(d_, __func__, ("SELECT e.id, e.pupil_id, e.kind, (SELECT s.public_id FROM sessions s WHERE s.id = e.session_id), e.score, e.passed, e.examiner_id, e.taken_at, "
                                "e.details, p.name, (SELECT COUNT(*) FROM exam_corrections c WHERE c.exam_id = e.id)" +
-                               page_from + " ORDER BY " + order + " LIMIT ? OFFSET ?")
+                               page_join + bound.sql() + " ORDER BY " + order + " LIMIT ? OFFSET ?")
                                   .c_str());
-    where.bind(q);
+    bound.bind(q);
     q.bind(limit).bind(offset);
     while (q.step()) page.exams.push_back({read_exam(q), q.text(9), q.int64(10)});
     tx.commit();

@@ -198,6 +198,10 @@ struct SessionFilter {
   std::string result;                    // "passed" (completed and passed), "not_passed" (over, and not so); empty: any
   std::string sort = "created_at";       // "created_at", "pupil", "cab", "scenario", "mode", "mark"
   bool descending = true;
+  // Keyset paging, as PupilFilter's: the page after this session's row (its public id) in the
+  // list's order (sorted by created_at, else kInvalid; kNotFound if no such session of the
+  // school), the offset counted from there. Empty: none.
+  std::string after;
 };
 // A session as a list shows it: with its pupil's name.
 struct SessionRow {
@@ -221,6 +225,9 @@ struct ExamFilter {
   std::optional<int64_t> group_id;
   std::string sort = "taken_at";        // "taken_at", "pupil", "kind", "score"
   bool descending = true;
+  // Keyset paging, as PupilFilter's: the page after this exam record's row in the list's order
+  // (sorted by taken_at, else kInvalid; kNotFound if no such exam of the school).
+  std::optional<int64_t> after;
 };
 
 // What a session's end means, the one rule that the store's trend, the API,
