@@ -72,8 +72,10 @@ measure "forklift-bench-dds --framed-fleet 8 --framed-only --seconds $seconds" \
   "$alloc" sh -c "exec $bin/forklift-bench-dds --framed-fleet 8 --framed-only --seconds $seconds --dds-domain \$FORKLIFT_TEST_DOMAIN --dir $work/dds"
 measure "LP_NUM_THREADS=0 forklift-bench-render --benchmark_filter=jpeg_frame" \
   env LP_NUM_THREADS=0 "$bin/forklift-bench-render" --benchmark_filter=jpeg_frame --benchmark_repetitions=3
-measure "forklift-bench-server --runs 0 --seconds $seconds" \
-  "$alloc" sh -c "exec $bin/forklift-bench-server --runs 0 --seconds $seconds --dir ${FORKLIFT_BENCH_DIR:-build/bench-data} --port \$FORKLIFT_TEST_PORT --dds-domain \$FORKLIFT_TEST_DOMAIN"
+# A pupil's history on both backends side by side (PostgreSQL a server of its own, filled by SQL):
+# its rate on each and PostgreSQL's against SQLite's, measured in the same run.
+measure "forklift-bench-server --db sqlite postgresql --runs 0 --seconds $seconds" \
+  "$alloc" sh -c "exec $bin/forklift-bench-server --db sqlite postgresql --runs 0 --seconds $seconds --dir ${FORKLIFT_BENCH_DIR:-build/bench-data} --port \$FORKLIFT_TEST_PORT --dds-domain \$FORKLIFT_TEST_DOMAIN"
 # The server's DDS ingest: sessions at a worker's 60 Hz, on a copy of that store (its pupils'
 # histories asked meanwhile).
 ingest_sessions="100 300 500"

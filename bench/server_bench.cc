@@ -100,6 +100,50 @@ void populate(const std::string& db, int pupils, int sessions_per_pupil) {
   std::fprintf(stderr, "\rpopulated %d pupils x %d sessions in %.1f s\n", pupils, sessions_per_pupil, ms_since(t0) / 1e3);
 }
 
+// The same store as populate() makes, on a PostgreSQL server of this program's own, written by
+// the database itself (INSERT ... SELECT from generate_series): populate()'s calls, a round trip
+// each on PostgreSQL, took an hour for 500,000 sessions on this machine. The marks are random as
+// populate()'s, from PostgreSQL's generator.
+void populate_postgresql(const forklift::test::PostgresServer& pg, const std::string& database, const std::string& location,
+                         int pupils, int sessions_per_pupil) {
+  const auto t0 = Clock::now();
+  std::string school, ended;
+  {
+    auto store = store::Store::open(location);
+    school = std::to_string(store->find_user("admin")->school_id);
+    // What an end with populate()'s reason (none) means, as the store writes it.
+    store::Session s;
+    s.state = SessionPhase::kEnded;
+    ended = name(store::session_outcome(s));
+  }
+  const std::string n = std::to_string(pupils), per = std::to_string(sessions_per_pupil);
+  // A server from before the outcome was stored (--server-bin) made a schema without it.
+  std::vector<std::string> stored;
+  pg.exec(database, "SELECT column_name FROM information_schema.columns WHERE table_name = 'sessions' AND column_name = 'outcome'", &stored);
+  const std::string outcome_column = stored.empty() ? "" : ", outcome", outcome_value = stored.empty() ? "" : ", '" + ended + "'";
+  // The pupils in order of their number, so that their ids follow it ("Pupil 0" first).
+  pg.exec(database, "INSERT INTO pupils(school_id, name, email, created_at) SELECT " + school +
+                        ", 'Pupil ' || p, '', '2026-01-01T00:00:00Z' FROM generate_series(0, " + n + " - 1) p ORDER BY p");
+  // Session s of pupil p at populate()'s time: month 1 + s / 28 % 12, day 1 + s % 28, hour 8 + s % 10.
+  pg.exec(database,
+          "INSERT INTO sessions(pupil_id, cab_id, scenario, mode, state, reason, created_at, ended_at, mark, passed, school_id" +
+              outcome_column + ") SELECT p.id, 'cab1', 'practical_exam', 'training', 'ended', '', w, w, 40 + 60 * random(), TRUE, " +
+              school + outcome_value + " FROM (SELECT id FROM pupils WHERE school_id = " + school + " ORDER BY id) p CROSS JOIN generate_series(0, " + per +
+          " - 1) s CROSS JOIN LATERAL (SELECT format('2026-%s-%sT%s:00:00Z', lpad((1 + s / 28 % 12)::text, 2, '0'), "
+          "lpad((1 + s % 28)::text, 2, '0'), lpad((8 + s % 10)::text, 2, '0')) AS w) t ORDER BY p.id, s");
+  // Pupil p's session s: its fault's kind is populate()'s kinds[(p + s) % 5].
+  const std::string numbered = "(SELECT s.id, s.mark, (p.id - f.first) AS p, row_number() OVER (PARTITION BY s.pupil_id ORDER BY s.id) - 1 AS s "
+                               "FROM sessions s JOIN pupils p ON p.id = s.pupil_id, (SELECT MIN(id) AS first FROM pupils WHERE school_id = " +
+                               school + ") f WHERE p.school_id = " + school + ") n";
+  const std::string kind = "(ARRAY['speeding', 'collision_rack', 'harsh_braking', 'forks_high', 'off_route'])[(n.p + n.s) % 5 + 1]";
+  pg.exec(database, "INSERT INTO events(session_id, seq, sim_time_s, kind, worry_level, x_m, y_m, details) "
+                    "SELECT n.id, 1, 3.0, 'deadman', 0, 1, 2, '{}' FROM " + numbered +
+                    " UNION ALL SELECT n.id, 2, 7.5, " + kind + ", 3, 4, 5, '{}' FROM " + numbered);
+  pg.exec(database, "INSERT INTO scores(session_id, mark, passed) SELECT id, mark, TRUE FROM sessions WHERE school_id = " + school);
+  pg.exec(database, "INSERT INTO score_counts(session_id, kind, count) SELECT n.id, " + kind + ", 1 FROM " + numbered);
+  std::fprintf(stderr, "populated %d pupils x %d sessions in %.1f s (SQL)\n", pupils, sessions_per_pupil, ms_since(t0) / 1e3);
+}
+
 // Time from POST /api/sessions to the first TruckState of that session, this program being the cab.
 std::vector<double> start_to_state(int port, int domain, const std::string& token, int64_t pupil, int runs) {
   dds::Participant part(dds::DomainSettings::resolve(domain, ""));
@@ -286,7 +330,8 @@ int main(int argc, char** argv) {
     }
     if (fresh) {
       try {
-        populate(location, pupils, sessions);
+        if (db == "postgresql") populate_postgresql(*postgres, "server_" + size, location, pupils, sessions);
+        else populate(location, pupils, sessions);
       } catch (const std::exception& e) {
         if (db == "sqlite") std::filesystem::remove(location);
         if (db == "postgresql") postgres->drop_database("server_" + size);

@@ -147,6 +147,13 @@ int main(int argc, char** argv) {
       std::uniform_int_distribution<int> day(0, g.days - 1), cab(1, g.cabs);
       std::uniform_int_distribution<int64_t> pupil(g.first_pupil_id, g.first_pupil_id + g.pupils - 1),
           offset(0, std::max<int64_t>(0, g.pupils - 50));
+      // A generated store's sessions and exams are numbered from 1 (it held none before).
+      std::uniform_int_distribution<int64_t> session(1, g.sessions), exam(1, std::max<int64_t>(1, g.exams));
+      const auto public_id = [](int64_t id) {
+        char text[32];
+        std::snprintf(text, sizeof text, "s-%06lld", static_cast<long long>(id));
+        return std::string(text);
+      };
       const auto a_day = [&](std::mt19937& r, store::SessionFilter& f) {
         const int d = day(r);
         f.from = bench::generated_day(d) + "T00:00:00Z";
@@ -164,6 +171,10 @@ int main(int argc, char** argv) {
            [&](std::mt19937& r) { auto f = pupils; f.after = pupil(r); store->find_pupils(f, 50, 0); }},
           {"pupils: a page anywhere (offset)", [&](std::mt19937& r) { store->find_pupils(pupils, 50, static_cast<int>(offset(r))); }},
           {"sessions: the newest", [&](std::mt19937&) { store->find_sessions(sessions, 50, 0); }},
+          {"sessions: the page after one (keyset)",
+           [&](std::mt19937& r) { auto f = sessions; f.after = public_id(session(r)); store->find_sessions(f, 50, 0); }},
+          {"sessions: a page anywhere (offset)",
+           [&](std::mt19937& r) { store->find_sessions(sessions, 50, static_cast<int>(session(r) - 1)); }},
           {"sessions: a day's", [&](std::mt19937& r) { auto f = sessions; a_day(r, f); store->find_sessions(f, 50, 0); }},
           {"sessions: a cab's day",
            [&](std::mt19937& r) { auto f = sessions; a_day(r, f); f.cab_id = "cab" + std::to_string(cab(r)); store->find_sessions(f, 50, 0); }},
@@ -176,6 +187,7 @@ int main(int argc, char** argv) {
           {"sessions: passed, the newest", [&](std::mt19937&) { auto f = sessions; f.result = "passed"; store->find_sessions(f, 50, 0); }},
           {"sessions: a pupil's", [&](std::mt19937& r) { auto f = sessions; f.pupil_id = pupil(r); store->find_sessions(f, 50, 0); }},
           {"exams: the newest", [&](std::mt19937&) { store->find_exams(exams, 50, 0); }},
+          {"exams: the page after one (keyset)", [&](std::mt19937& r) { auto f = exams; f.after = exam(r); store->find_exams(f, 50, 0); }},
           {"exams: practical, passed",
            [&](std::mt19937&) { auto f = exams; f.kind = ExamKind::kPractical; f.passed = true; store->find_exams(f, 50, 0); }},
           {"a pupil's history", [&](std::mt19937& r) { store->history(pupil(r), "2027-01-01T00:00:00Z"); }},

@@ -65,6 +65,7 @@ struct SessionRow {
   double mark;
   const char* fault;
   int fault_count;
+  const char* outcome;  // as the store keeps it (session_outcome())
 };
 
 struct PupilRow {
@@ -115,6 +116,11 @@ SessionRow session_row(const Layout& l, int64_t i) {
     else s.reason = "cab_gone";
   }
   s.passed = s.scored && s.mark >= 70 && std::string(s.reason) != "time_limit";
+  store::Session as_stored;
+  as_stored.state = *parse<SessionPhase>(s.state);
+  as_stored.reason = s.reason;
+  as_stored.task_left_unfinished = s.task_incomplete;
+  s.outcome = name(store::session_outcome(as_stored));
   s.fault = kFaults[(h >> 40) % 5];
   s.fault_count = 1 + static_cast<int>((h >> 48) % 3);
   return s;
@@ -218,13 +224,13 @@ void fill_postgresql(const std::string& uri, Layout& l, bool progress, Clock::ti
     }
   });
   say(progress, "pupils", l.pupils, l.pupils, t0);
-  pg.copy("sessions(id, pupil_id, cab_id, scenario, mode, state, reason, created_at, ended_at, mark, passed, school_id)",
+  pg.copy("sessions(id, pupil_id, cab_id, scenario, mode, state, reason, created_at, ended_at, mark, passed, school_id, outcome)",
           [&](const auto& line) {
             for (int64_t i = 0; i < l.n; ++i) {
               const SessionRow r = session_row(l, i);
               line(std::to_string(r.id) + '\t' + std::to_string(r.pupil) + "\tcab" + std::to_string(r.cab) + '\t' + r.scenario +
                    (r.exam ? "\texam\t" : "\ttraining\t") + r.state + '\t' + r.reason + '\t' + r.created_at + '\t' + r.ended_at +
-                   '\t' + (r.scored ? num(r.mark) : "\\N") + '\t' + (r.scored ? (r.passed ? "t" : "f") : "\\N") + '\t' + s);
+                   '\t' + (r.scored ? num(r.mark) : "\\N") + '\t' + (r.scored ? (r.passed ? "t" : "f") : "\\N") + '\t' + s + '\t' + r.outcome);
               if (i % 1000000 == 0) say(progress, "sessions", i, l.n, t0);
             }
           });
@@ -260,6 +266,9 @@ void fill_postgresql(const std::string& uri, Layout& l, bool progress, Clock::ti
   for (const auto& [name, definition] : indexes) pg.exec(definition);
   for (const char* t : {"pupils", "sessions", "exams"})
     pg.exec(std::string("SELECT setval(pg_get_serial_sequence('") + t + "', 'id'), (SELECT MAX(id) FROM " + t + "))");
+  // Committed to the disk before VACUUM: it sets no page all-visible (no index-only scans) while
+  // the commit that wrote its rows may still be lost, as an asynchronous commit may.
+  pg.exec("SET synchronous_commit = on");
   pg.exec("COMMIT");
   say(progress, "statistics", 0, 1, t0);
   // The statistics and visibility map autovacuum makes within minutes of a bulk load.
@@ -361,8 +370,8 @@ void fill_sqlite(const std::string& path, Layout& l, bool progress, Clock::time_
     add_exam(p.id, "theory", std::nullopt, p.theory_score, p.theory_score >= 80, p.created_at);
   }
   sqlite3_stmt* session = db.prepare(
-      "INSERT INTO sessions(id, pupil_id, cab_id, scenario, mode, state, reason, created_at, ended_at, mark, passed, school_id) "
-      "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)");
+      "INSERT INTO sessions(id, pupil_id, cab_id, scenario, mode, state, reason, created_at, ended_at, mark, passed, school_id, outcome) "
+      "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13)");
   sqlite3_stmt* score = db.prepare("INSERT INTO scores(session_id, mark, passed) VALUES (?1, ?2, ?3)");
   sqlite3_stmt* count = db.prepare("INSERT INTO score_counts(session_id, kind, count) VALUES (?1, ?2, ?3)");
   for (int64_t i = 0; i < l.n; ++i) {
@@ -384,6 +393,7 @@ void fill_sqlite(const std::string& path, Layout& l, bool progress, Clock::time_
       sqlite3_bind_null(session, 11);
     }
     sqlite3_bind_int64(session, 12, l.school);
+    text(session, 13, r.outcome);
     db.run(session);
     if (r.scored) {
       sqlite3_bind_int64(score, 1, r.id);

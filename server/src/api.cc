@@ -180,25 +180,37 @@ int query_int(const httplib::Request& req, const char* key, int dflt, int hi) {
   return static_cast<int>(v);
 }
 
-Principal authenticate(Context& ctx, const httplib::Request& req) {
+namespace {
+// The request's bearer token, else 401.
+std::string bearer_token(const httplib::Request& req) {
   const std::string h = req.get_header_value("Authorization");
   if (h.rfind("Bearer ", 0) != 0) throw ApiError(401, "unauthenticated", "log in first: Authorization: Bearer <token>");
-  const auto c = ctx.tokens->check(ctx.db(), h.substr(7));
+  return h.substr(7);
+}
+
+// The login that check `c` of the request's `token` found, else 401.
+Principal login_of(Context& ctx, const std::string& token, const Tokens::Check& c) {
   if (c.expired) throw ApiError(401, "token_expired", "this login has expired: log in again");
   if (!c.principal) throw ApiError(401, "unauthenticated", "the token is unknown or was logged out: log in again");
   // The account as it is now, read from the store with the token, so that a deactivation or a
   // password reset made through any server sharing it ends this login at once.
   const auto& u = c.user;
   if (!u || !u->active) {
-    ctx.tokens->revoke(ctx.db(), h.substr(7));
+    ctx.tokens->revoke(ctx.db(), token);
     throw ApiError(401, "account_deactivated", "this account has been deactivated: ask the school's administrator");
   }
   if (u->login_generation != c.principal->login_generation) {
-    ctx.tokens->revoke(ctx.db(), h.substr(7));
+    ctx.tokens->revoke(ctx.db(), token);
     throw ApiError(401, "unauthenticated", "this login was ended by the school's administrator (a new password, or the account deactivated): log in again");
   }
   request_notes().user = c.principal->username;  // for the access log
   return *c.principal;
+}
+}  // namespace
+
+Principal authenticate(Context& ctx, const httplib::Request& req) {
+  const std::string token = bearer_token(req);
+  return login_of(ctx, token, ctx.tokens->check(ctx.db(), token));
 }
 
 void require_role(const Principal& p, std::initializer_list<Role> roles) {
@@ -246,6 +258,16 @@ store::PupilHistory visible_history(Context& ctx, const Principal& p, int64_t id
   auto h = ctx.db().history(id, store::now_iso8601());
   check_visible(p, id, h ? &h->pupil : nullptr);
   return std::move(*h);
+}
+
+std::pair<Principal, store::PupilHistory> login_and_history(Context& ctx, const httplib::Request& req, int64_t id) {
+  const std::string token = bearer_token(req);
+  std::optional<store::LoginToken> found;
+  auto h = ctx.db().history(id, store::now_iso8601(), Tokens::key_of(token), found);
+  // Nothing of the history is used before the login is checked as authenticate() checks it.
+  const Principal p = login_of(ctx, token, ctx.tokens->checked(found));
+  check_visible(p, id, h ? &h->pupil : nullptr);
+  return {p, std::move(*h)};
 }
 
 store::Session visible_session(Context& ctx, const Principal& p, const std::string& public_id) {

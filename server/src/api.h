@@ -130,6 +130,9 @@ store::Pupil visible_pupil(Context& ctx, const Principal& p, int64_t id);
 // A visible pupil's history (else 404 or 403 as visible_pupil), in one read of the store: the
 // pupil comes with it.
 store::PupilHistory visible_history(Context& ctx, const Principal& p, int64_t id);
+// authenticate() and visible_history() in one trip to the store: the login's token read with the
+// history (Store::history with a token), checked before anything of it is used.
+std::pair<Principal, store::PupilHistory> login_and_history(Context& ctx, const httplib::Request& req, int64_t id);
 // The session `public_id`, if its pupil is visible to `p` (else 404 or 403 as visible_pupil).
 store::Session visible_session(Context& ctx, const Principal& p, const std::string& public_id);
 

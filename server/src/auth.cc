@@ -113,10 +113,18 @@ std::string Tokens::issue(store::LoginStore& db, const Principal& p) {
   return hex;
 }
 
-Tokens::Check Tokens::check(store::LoginStore& db, const std::string& token) {
+std::string Tokens::key_of(const std::string& token) {
   // Not hex of the right length: never issued, and not worth a look-up.
-  if (token.size() != 64 || token.find_first_not_of("0123456789abcdef") != std::string::npos) return {};
-  const auto t = db.find_login_token(token_hash(token));
+  if (token.size() != 64 || token.find_first_not_of("0123456789abcdef") != std::string::npos) return "";
+  return token_hash(token);
+}
+
+Tokens::Check Tokens::check(store::LoginStore& db, const std::string& token) {
+  const std::string key = key_of(token);
+  return key.empty() ? Check{} : checked(db.find_login_token(key));
+}
+
+Tokens::Check Tokens::checked(const std::optional<store::LoginToken>& t) const {
   if (!t) return {};
   if (t->expires_at_ms <= unix_ms()) return {std::nullopt, true, t->user};
   const store::User& u = t->user;

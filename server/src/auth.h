@@ -71,6 +71,11 @@ class Tokens {
   explicit Tokens(double ttl_s, double remember_expired_s = 24 * 3600);
   std::string issue(store::LoginStore& db, const Principal& p);
   Check check(store::LoginStore& db, const std::string& token);
+  // The store's key of `token` (its SHA-256 in hex), or empty for one never issued (not 64
+  // lower-case hex digits): nothing to look up.
+  static std::string key_of(const std::string& token);
+  // check() of a token that the caller looked up by its key_of() with its page (none: not found).
+  Check checked(const std::optional<store::LoginToken>& found) const;
   void revoke(store::LoginStore& db, const std::string& token);  // a revoked token reads as unknown, not expired
   double ttl() const { return ttl_; }
 

@@ -167,10 +167,17 @@ void stream_csv(httplib::Response& res, const std::string& filename, std::vector
 }
 
 nlohmann::json session_notes_json(store::Store& db, People& people, const std::string& session_public_id) {
-  nlohmann::json notes = nlohmann::json::array();
-  for (const auto& n : db.list_session_notes(session_public_id))
-    notes.push_back({{"id", n.id}, {"at", n.at}, {"text", n.text}, {"author", people.json(n.author_id)}});
-  return notes;
+  const std::vector<store::SessionNote> notes = db.list_session_notes(session_public_id);
+  std::vector<const store::SessionNote*> each;
+  for (const auto& n : notes) each.push_back(&n);
+  return session_notes_json(people, each);
+}
+
+nlohmann::json session_notes_json(People& people, const std::vector<const store::SessionNote*>& notes) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const store::SessionNote* n : notes)
+    out.push_back({{"id", n->id}, {"at", n->at}, {"text", n->text}, {"author", people.json(n->author_id)}});
+  return out;
 }
 
 const std::optional<store::User>& People::user(int64_t id) {

@@ -104,5 +104,7 @@ class People {
 
 // A session's debrief notes, oldest first: [{"id", "at", "text", "author": people.json}].
 nlohmann::json session_notes_json(store::Store& db, People& people, const std::string& session_public_id);
+// The same of notes read already (a pupil's history's, of one session).
+nlohmann::json session_notes_json(People& people, const std::vector<const store::SessionNote*>& notes);
 
 }  // namespace forklift::server

@@ -122,6 +122,7 @@ void list_routes(Routes& svr, Context& ctx) {
     f.instructor_id = query_id(req, "instructor");
     f.group_id = query_id(req, "group");
     std::tie(f.sort, f.descending) = sort_request(req, "created_at", true);
+    f.after = text_param(req, "after");
     const bool csv = wants_csv(req);
     const store::SessionPage found = listed([&] { return ctx.db().find_sessions(f, csv ? 1 : page.limit, csv ? 0 : page.offset); });
     if (csv) {  // every session of the filter, read as the client takes them
@@ -148,7 +149,11 @@ void list_routes(Routes& svr, Context& ctx) {
       j["started_by"] = people.json(r.session.started_by);
       out.push_back(std::move(j));
     }
-    send_json(res, 200, {{"sessions", out}, {"total", found.total}, {"total_is_at_least", found.total_is_at_least}, {"limit", page.limit}, {"offset", page.offset}});
+    json body = {{"sessions", out}, {"total", found.total}, {"total_is_at_least", found.total_is_at_least}, {"limit", page.limit}, {"offset", page.offset}};
+    // The next page by keyset (after=), where the list's order allows it and a page follows.
+    if (f.sort == "created_at" && !found.sessions.empty() && static_cast<int>(found.sessions.size()) == page.limit)
+      body["next_after"] = found.sessions.back().session.public_id;
+    send_json(res, 200, body);
   }));
 
   // Every exam record of the school (staff), as recorded (its page shows its corrections):
@@ -170,6 +175,7 @@ void list_routes(Routes& svr, Context& ctx) {
     f.examiner_id = query_id(req, "examiner");
     f.group_id = query_id(req, "group");
     std::tie(f.sort, f.descending) = sort_request(req, "taken_at", true);
+    f.after = query_id(req, "after");
     const bool csv = wants_csv(req);
     const store::ExamPage found = listed([&] { return ctx.db().find_exams(f, csv ? 1 : page.limit, csv ? 0 : page.offset); });
     if (csv) {  // every exam of the filter, read as the client takes them
@@ -196,7 +202,10 @@ void list_routes(Routes& svr, Context& ctx) {
                      {"score", r.exam.score}, {"passed", r.exam.passed}, {"examiner", people.json(r.exam.examiner_id)},
                      {"taken_at", r.exam.taken_at}, {"corrections", r.corrections}});
     }
-    send_json(res, 200, {{"exams", out}, {"total", found.total}, {"total_is_at_least", found.total_is_at_least}, {"limit", page.limit}, {"offset", page.offset}});
+    json body = {{"exams", out}, {"total", found.total}, {"total_is_at_least", found.total_is_at_least}, {"limit", page.limit}, {"offset", page.offset}};
+    if (f.sort == "taken_at" && !found.exams.empty() && static_cast<int>(found.exams.size()) == page.limit)
+      body["next_after"] = found.exams.back().exam.id;
+    send_json(res, 200, body);
   }));
 
   // ------------------------------------------------------------ groups

@@ -221,6 +221,14 @@ TEST(Lists, SessionsAndExamsAreFilteredSortedAndExportedAsShown) {
   EXPECT_EQ(s.call("GET", "/api/sessions?result=passed&date=2026-11-23", admin).second["sessions"][0]["id"], day[0]);
   EXPECT_EQ(s.call("GET", "/api/sessions?outcome=timed_out", admin).second["sessions"][0]["id"], day[1]);
   EXPECT_EQ(s.call("GET", "/api/sessions?search=depot", admin).second["total"], 2);
+  // The next page by keyset (after= the last row's id) is the next page by offset.
+  const json first_page = s.call("GET", "/api/sessions?limit=2", admin).second;
+  ASSERT_TRUE(first_page.contains("next_after")) << first_page;
+  EXPECT_EQ(first_page["next_after"], first_page["sessions"][1]["id"]);
+  EXPECT_EQ(s.call("GET", "/api/sessions?limit=2&after=" + first_page["next_after"].get<std::string>(), admin).second["sessions"],
+            s.call("GET", "/api/sessions?limit=2&offset=2", admin).second["sessions"]);
+  EXPECT_EQ(s.call("GET", "/api/sessions?after=s-999999", admin).first, 404);
+  EXPECT_EQ(s.call("GET", "/api/sessions?sort=cab&after=" + first_page["next_after"].get<std::string>(), admin).first, 400);
   EXPECT_EQ(s.call("GET", "/api/sessions?pupil=" + std::to_string(bob) + "&sort=created_at&order=asc", admin).second["sessions"][0]["id"],
             day[1]);
   for (const char* bad : {"date=23/11/2026", "date=2026-02-30", "outcome=won", "result=maybe", "sort=secret", "mode=racing",
@@ -259,6 +267,11 @@ TEST(Lists, SessionsAndExamsAreFilteredSortedAndExportedAsShown) {
   EXPECT_EQ(xrows[1][5], "");
   EXPECT_EQ(xrows[1][6], "87.5");
   EXPECT_EQ(s.call("GET", "/api/exams?kind=oral", admin).first, 400);
+  const json first_exam = s.call("GET", "/api/exams?limit=1", admin).second;
+  ASSERT_TRUE(first_exam.contains("next_after")) << first_exam;
+  EXPECT_EQ(s.call("GET", "/api/exams?limit=1&after=" + std::to_string(first_exam["next_after"].get<int64_t>()), admin).second["exams"],
+            s.call("GET", "/api/exams?limit=1&offset=1", admin).second["exams"]);
+  EXPECT_EQ(s.call("GET", "/api/exams?after=999999", admin).first, 404);
 
   // Pupils have no school lists.
   ASSERT_EQ(s.call("POST", "/api/users", admin,

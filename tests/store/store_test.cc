@@ -181,11 +181,20 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
   std::string DropMigration14() {
     return DropMigration15() + "ALTER TABLE users DROP COLUMN language; ALTER TABLE pupils DROP COLUMN language; DELETE FROM schema_migrations WHERE version >= 14; ";
   }
-  std::string DropMigrationServers() {
-    return "ALTER TABLE sessions DROP COLUMN server_id; DROP TABLE servers; DELETE FROM schema_migrations WHERE version >= 16; ";
+  std::string DropMigration17() {
+    return "ALTER TABLE sessions DROP COLUMN server_id; DROP TABLE servers; DELETE FROM schema_migrations WHERE version >= 17; ";
+  }
+  std::string DropMigration16() {
+    // The passed sessions' indexes as 15 left them (13's on SQLite).
+    const std::string passed = " WHERE state = 'ended' AND passed = TRUE AND reason IN ('task_complete', 'parked', 'duration'); ";
+    const std::string key = sqlite() ? "created_at)" : "created_at, id, reason)";
+    return DropMigration17() + "DROP INDEX sessions_by_school_outcome; DROP INDEX sessions_passed_by_cab; DROP INDEX sessions_passed_by_school; "
+           "CREATE INDEX sessions_passed_by_cab ON sessions(cab_id, " + key + passed +
+           "CREATE INDEX sessions_passed_by_school ON sessions(school_id, " + key + passed +
+           "ALTER TABLE sessions DROP COLUMN outcome; DELETE FROM schema_migrations WHERE version >= 16; ";
   }
   std::string DropMigration15() {
-    std::string sql = DropMigrationServers();
+    std::string sql = DropMigration16();
     for (const char* t : {"school_totals_school ON schools", "school_totals_pupil_in ON pupils", "school_totals_pupil_out ON pupils",
                           "school_totals_session_in ON sessions", "school_totals_session_out ON sessions",
                           "school_totals_exam_in ON exams", "school_totals_exam_out ON exams"}) {
@@ -348,6 +357,60 @@ TEST_P(StoreTest, PupilsArePagedAfterARowAsByOffset) {
   fs::PupilFilter all;
   all.school_id = school_;
   EXPECT_EQ(store_->find_pupils(all, 1, 0).total, 8);
+}
+
+// The sessions' and the exams' lists paged after a row (SessionFilter::after, ExamFilter::after)
+// give the pages offset paging gives, in either order, ties of time broken by id.
+TEST_P(StoreTest, SessionsAndExamsArePagedAfterARowAsByOffset) {
+  const int64_t pupil = NewPupil("Ann");
+  for (int i = 0; i < 9; ++i) {
+    const std::string at = "2026-03-0" + std::to_string(1 + i / 3) + "T09:00:00Z";  // three at each time
+    const fs::Session s = store_->create_session(pupil, "cab" + std::to_string(i), "manoeuvre_4", Mode::kTraining, std::nullopt, at);
+    store_->set_session_state(s.public_id, SessionPhase::kEnded, "task_complete", at);
+    store_->add_exam(TheoryRecord(pupil, 0.1 * i, i % 2 == 0, at));
+  }
+  for (const bool descending : {false, true}) {
+    fs::SessionFilter sf;
+    sf.school_id = school_;
+    sf.descending = descending;
+    fs::ExamFilter ef;
+    ef.school_id = school_;
+    ef.descending = descending;
+    std::vector<std::string> sessions_by_offset, sessions_by_keyset;
+    std::vector<int64_t> exams_by_offset, exams_by_keyset;
+    for (int offset = 0; offset < 9; offset += 2) {
+      for (const auto& r : store_->find_sessions(sf, 2, offset).sessions) sessions_by_offset.push_back(r.session.public_id);
+      for (const auto& r : store_->find_exams(ef, 2, offset).exams) exams_by_offset.push_back(r.exam.id);
+    }
+    for (;;) {
+      const fs::SessionPage page = store_->find_sessions(sf, 2, 0);
+      for (const auto& r : page.sessions) sessions_by_keyset.push_back(r.session.public_id);
+      if (page.sessions.size() < 2) break;
+      sf.after = page.sessions.back().session.public_id;
+    }
+    for (;;) {
+      const fs::ExamPage page = store_->find_exams(ef, 2, 0);
+      EXPECT_EQ(page.total, 9);
+      for (const auto& r : page.exams) exams_by_keyset.push_back(r.exam.id);
+      if (page.exams.size() < 2) break;
+      ef.after = page.exams.back().exam.id;
+    }
+    EXPECT_EQ(sessions_by_keyset, sessions_by_offset) << (descending ? "desc" : "asc");
+    EXPECT_EQ(exams_by_keyset, exams_by_offset) << (descending ? "desc" : "asc");
+    EXPECT_EQ(sessions_by_offset.size(), 9u);
+    EXPECT_EQ(exams_by_offset.size(), 9u);
+  }
+  fs::SessionFilter sf;
+  sf.school_id = school_;
+  sf.after = "s-999999";
+  EXPECT_EQ(ErrorKind([&] { store_->find_sessions(sf, 2, 0); }), fs::StoreError::kNotFound);
+  sf.after = "s-000001";
+  sf.sort = "cab";
+  EXPECT_EQ(ErrorKind([&] { store_->find_sessions(sf, 2, 0); }), fs::StoreError::kInvalid);
+  fs::ExamFilter ef;
+  ef.school_id = school_;
+  ef.after = 999999;
+  EXPECT_EQ(ErrorKind([&] { store_->find_exams(ef, 2, 0); }), fs::StoreError::kNotFound);
 }
 
 TEST_P(StoreTest, GroupsHaveAnInstructorAndPupilsAndFilterTheLists) {
@@ -995,6 +1058,13 @@ TEST_P(StoreTest, EveryListReadsTheSessionsThroughAnIndex) {
     return f;
   };
 
+  // Rows deep in the lists, for their next pages by keyset.
+  fs::SessionFilter school_sessions;
+  school_sessions.school_id = school;
+  const std::string deep_session = store_->find_sessions(school_sessions, 1, 50000).sessions.at(0).session.public_id;
+  fs::ExamFilter school_exams;
+  school_exams.school_id = school;
+  const int64_t deep_exam = store_->find_exams(school_exams, 1, 3000).exams.at(0).exam.id;
   const auto lists = [&] {
     fs::PupilFilter pupils;
     pupils.school_id = school;
@@ -1016,15 +1086,28 @@ TEST_P(StoreTest, EveryListReadsTheSessionsThroughAnIndex) {
     fs::SessionFilter day_timed_out = a_day;
     day_timed_out.outcome = Outcome::kTimedOut;
     store_->find_sessions(day_timed_out, 50, 0);
+    fs::SessionFilter cab_day_stopped = cab_day_passed;
+    cab_day_stopped.result.clear();
+    cab_day_stopped.outcome = Outcome::kStopped;
+    store_->find_sessions(cab_day_stopped, 50, 0);
     fs::SessionFilter passed = newest;
     passed.result = "passed";
     store_->find_sessions(passed, 50, 0);
+    fs::SessionFilter timed_out = newest;
+    timed_out.outcome = Outcome::kTimedOut;
+    store_->find_sessions(timed_out, 50, 0);
     fs::SessionFilter pupil = newest;
     pupil.pupil_id = some_pupil;
     store_->find_sessions(pupil, 50, 0);
     fs::ExamFilter exams;
     exams.school_id = school;
     store_->find_exams(exams, 50, 0);
+    fs::SessionFilter sessions_after = newest;
+    sessions_after.after = deep_session;
+    store_->find_sessions(sessions_after, 50, 0);
+    fs::ExamFilter exams_after = exams;
+    exams_after.after = deep_exam;
+    store_->find_exams(exams_after, 50, 0);
     fs::ExamFilter practical_passed = exams;
     practical_passed.kind = forklift::ExamKind::kPractical;
     practical_passed.passed = true;
@@ -1062,7 +1145,54 @@ TEST_P(StoreTest, EveryListReadsTheSessionsThroughAnIndex) {
       EXPECT_EQ(line.find("hashed SubPlan"), std::string::npos) << "a hash of the whole store's rows:\n" << plan;
     }
   }
-  EXPECT_GE(sessions_read, 12);
+  EXPECT_GE(sessions_read, 18);
+}
+
+// The outcome kept on a session's row (the lists' filter by outcome and result) is
+// session_outcome()'s, however the session ended, whether its score came before its end or after,
+// as written when it settles and as back-filled by the upgrade that stored it (schema 16): the
+// cab leaving ("cab_gone") is "stopped" in both, as the rule says, not "failed".
+TEST_P(StoreTest, TheStoredOutcomeIsTheOutcomeRulesOnEveryEnd) {
+  const int64_t pupil = NewPupil("Ann");
+  std::vector<std::string> reasons = {"parked", "", "worker exited"};
+  for (int i = 0; forklift::parse<forklift::EndReason>(forklift::name(static_cast<forklift::EndReason>(i))); ++i)
+    reasons.push_back(forklift::name(static_cast<forklift::EndReason>(i)));
+  std::map<std::string, Outcome> expected;  // by session
+  int cab = 0;
+  for (const SessionPhase phase : {SessionPhase::kRunning, SessionPhase::kEnded, SessionPhase::kFailed, SessionPhase::kAborted})
+    for (const std::string& reason : reasons)
+      for (const bool task_left : {false, true}) {
+        const fs::Session s = store_->create_session(pupil, "cab" + std::to_string(++cab), "manoeuvre_4", Mode::kTraining,
+                                                     std::nullopt, "2026-03-01T09:00:00Z");
+        fs::ScoreRecord score{s.public_id, 80, true, {}};
+        if (task_left) score.counts["task_incomplete"] = 1;
+        // The score before the end for every other session, after it for the rest.
+        if (cab % 2) store_->set_score(score, "2026-03-01T09:20:00Z");
+        store_->set_session_state(s.public_id, phase, reason, "2026-03-01T09:20:00Z");
+        if (cab % 2 == 0) store_->set_score(score, "2026-03-01T09:20:00Z");
+        expected[s.public_id] = fs::session_outcome(*store_->get_session(s.public_id));
+      }
+  const auto check = [&](const char* when) {
+    std::map<std::string, Outcome> listed;
+    fs::SessionFilter f;
+    f.school_id = school_;
+    f.pupil_id = pupil;
+    for (int i = 0; forklift::parse<Outcome>(forklift::name(static_cast<Outcome>(i))); ++i) {
+      f.outcome = static_cast<Outcome>(i);
+      for (const fs::SessionRow& r : store_->find_sessions(f, 500, 0).sessions) listed[r.session.public_id] = *f.outcome;
+    }
+    EXPECT_EQ(listed, expected) << when;
+  };
+  check("as written");
+  const fs::Session gone = store_->create_session(pupil, "cabX", "manoeuvre_4", Mode::kTraining, std::nullopt, "2026-03-01T10:00:00Z");
+  store_->set_session_state(gone.public_id, SessionPhase::kEnded, "cab_gone", "2026-03-01T10:05:00Z");
+  EXPECT_EQ(fs::session_outcome(*store_->get_session(gone.public_id)), Outcome::kStopped);
+  expected[gone.public_id] = Outcome::kStopped;
+  check("the cab gone");
+  store_.reset();
+  ASSERT_EQ(RawExec(DropMigration16()), "");  // schema 15, as an older program left it
+  store_ = Open();
+  check("back-filled by the upgrade");
 }
 
 // Two servers on one database (two Store objects: two connections) ingest the same 200 sessions'
@@ -2110,6 +2240,47 @@ TEST_P(StoreTest, SessionNotesAndSignOffAreAppendOnlyAndNoNoteFollowsTheSignOff)
 
 // A hash as the server makes one (SHA-256 in hex): 64 hex digits, here of one repeated digit.
 std::string FakeHash(char digit) { return std::string(64, digit); }
+
+// A pupil's history reads the notes on every session of theirs and, when asked, the request's
+// login token as find_login_token() reads it, with the rest: what a server's history page needs
+// from the store, in one trip to it.
+TEST_P(StoreTest, TheHistoryReadsTheSessionsNotesAndTheLoginWithIt) {
+  const int64_t ida = store_->create_user("ida", "h", fs::Role::kInstructor, school_);
+  const int64_t pupil = NewPupil("Ann"), other_pupil = NewPupil("Bob");
+  const std::string first = NewSession(pupil).public_id, second = NewSession(pupil).public_id;
+  const std::string others = NewSession(other_pupil).public_id;
+  store_->add_session_note({0, second, ida, "2026-03-01T10:00:00Z", "Check the mirrors."});
+  store_->add_session_note({0, first, ida, "2026-03-01T10:01:00Z", "Slow down at the rack."});
+  store_->add_session_note({0, others, ida, "2026-03-01T10:02:00Z", "Bob's note."});
+  fs::LoginToken t;
+  t.hash = FakeHash('c');
+  t.user_id = ida;
+  t.expires_at_ms = 5000;
+  store_->add_login_token(t);
+
+  std::optional<fs::LoginToken> token;
+  const auto h = store_->history(pupil, "2026-12-01T00:00:00Z", t.hash, token);
+  ASSERT_TRUE(h.has_value());
+  ASSERT_EQ(h->notes.size(), 2u);  // Ann's two, oldest first, not Bob's
+  EXPECT_EQ(h->notes[0].session_public_id, second);
+  EXPECT_EQ(h->notes[0].text, "Check the mirrors.");
+  EXPECT_EQ(h->notes[1].session_public_id, first);
+  EXPECT_EQ(h->notes[1].author_id, ida);
+  ASSERT_TRUE(token.has_value());
+  const auto found = store_->find_login_token(t.hash);
+  EXPECT_EQ(token->user.username, "ida");
+  EXPECT_EQ(token->user_id, found->user_id);
+  EXPECT_EQ(token->expires_at_ms, found->expires_at_ms);
+  EXPECT_EQ(token->login_generation, found->login_generation);
+  // An unknown token, and none asked for; and no pupil, with the token still read.
+  store_->history(pupil, "2026-12-01T00:00:00Z", FakeHash('d'), token);
+  EXPECT_FALSE(token.has_value());
+  token = found;
+  EXPECT_EQ(store_->history(pupil, "2026-12-01T00:00:00Z", "", token)->notes.size(), 2u);
+  EXPECT_FALSE(token.has_value());
+  EXPECT_FALSE(store_->history(other_pupil + 100, "2026-12-01T00:00:00Z", t.hash, token).has_value());
+  EXPECT_TRUE(token.has_value());
+}
 
 TEST_P(StoreTest, LoginTokensAreKeptByTheirHashAloneAndHonouredByEveryStore) {
   const int64_t ann = store_->create_user("ann", "h", fs::Role::kInstructor, school_);

@@ -73,16 +73,17 @@ try {
   for (const id of ids.slice(0, 5)) await api('PUT', `/pupils/${id}/group`, admin, { group_id: group.id });
 
   // Today's sessions (12, on two cabs, half of them passed, the last stopped by its time limit),
-  // yesterday's one, and a theory exam, as the server would have written them.
+  // yesterday's one, and a theory exam, as the server would have written them (each session's
+  // outcome with it, as the store keeps it).
   const school = execFileSync('sqlite3', [db, `SELECT school_id FROM pupils WHERE id = ${ids[0]};`], { encoding: 'utf8' }).trim();
   const rows = [];
   for (let i = 0; i < 12; i++) {
     const at = `${today}T${String(7 + i).padStart(2, '0')}:00:00Z`;
-    rows.push(`(${ids[i]}, 'cab${1 + (i % 2)}', 'manoeuvre_4', 'training', 'ended', '${i === 11 ? 'time_limit' : 'task_complete'}', '${at}', '${at}', ${60 + i}.25, ${i % 4 < 2 ? 1 : 0}, ${ines}, ${school})`);
+    rows.push(`(${ids[i]}, 'cab${1 + (i % 2)}', 'manoeuvre_4', 'training', 'ended', '${i === 11 ? 'time_limit' : 'task_complete'}', '${at}', '${at}', ${60 + i}.25, ${i % 4 < 2 ? 1 : 0}, ${ines}, ${school}, '${i === 11 ? 'timed_out' : 'completed'}')`);
   }
-  rows.push(`(${ids[20]}, 'cab1', 'manoeuvre_4', 'training', 'ended', 'task_complete', '${yesterday}T09:00:00Z', '${yesterday}T09:10:00Z', 70, 1, ${ines}, ${school})`);
+  rows.push(`(${ids[20]}, 'cab1', 'manoeuvre_4', 'training', 'ended', 'task_complete', '${yesterday}T09:00:00Z', '${yesterday}T09:10:00Z', 70, 1, ${ines}, ${school}, 'completed')`);
   execFileSync('sqlite3', [db, `.timeout 5000`,
-    'INSERT INTO sessions (pupil_id, cab_id, scenario, mode, state, reason, created_at, ended_at, mark, passed, started_by, school_id) VALUES ' +
+    'INSERT INTO sessions (pupil_id, cab_id, scenario, mode, state, reason, created_at, ended_at, mark, passed, started_by, school_id, outcome) VALUES ' +
     rows.join(', ') + ';',
     `INSERT INTO exams (pupil_id, kind, score, passed, taken_at, details) VALUES (${ids[3]}, 'theory', 0.875, 1, '${today}T12:00:00Z', '{}');`]);
 

@@ -36,7 +36,7 @@ constexpr const char* kServerBusy = "the database server of the school's records
   alias ".cab_id AND later.id > " alias ".id AND later.state NOT IN ('ended', 'failed', 'aborted'))"
 
 // Migration 15's first fill of each school's totals (school_totals), the same in both dialects.
-// Migration 16, the same on both backends: which server runs each open session (claim_sessions),
+// Migration 17, the same on both backends: which server runs each open session (claim_sessions),
 // and each server's last sign of life.
 #define SERVERS_MIGRATION              \
   "ALTER TABLE sessions ADD COLUMN server_id TEXT; " \
@@ -94,28 +94,42 @@ inline std::string order_by(const char* op, const std::vector<std::pair<std::str
 #define TASK_INCOMPLETE_SQL \
   "(SELECT 1 FROM score_counts c WHERE c.session_id = sessions.id AND c.kind = 'task_incomplete')"
 
-// A session's outcome in SQL, as session_outcome() says it (the same text in both dialects); the
-// statement reads FROM sessions, unaliased.
-#define SESSION_OUTCOME_SQL                                                                                            \
-  "(CASE WHEN sessions.state NOT IN ('ended', 'failed', 'aborted') THEN 'open' "                                       \
-  "WHEN sessions.state = 'aborted' THEN 'aborted' WHEN sessions.state = 'failed' THEN 'failed' "                       \
-  "WHEN sessions.reason IN ('task_complete', 'parked') THEN 'completed' "                                              \
-  "WHEN sessions.reason = 'duration' THEN CASE WHEN " TASK_INCOMPLETE_SQL " IS NOT NULL THEN 'timed_out' "          \
-  "ELSE 'completed' END "                                                                                              \
-  "WHEN sessions.reason = 'time_limit' THEN 'timed_out' WHEN sessions.reason = 'aborted' THEN 'aborted' "             \
-  "WHEN sessions.reason = 'signal' THEN 'stopped' ELSE 'failed' END)"
+// Session::task_left_unfinished of a session (FROM sessions, unaliased), read from its stored
+// outcome: a session whose time ran out ("duration") timed out exactly when its task was left.
+#define TASK_LEFT_SQL "(sessions.outcome = 'timed_out' AND sessions.reason = 'duration')"
 
-// The terms that a session "completed and passed" (the lists' result "passed") meets, of its own
-// row: over as it should be, passed, and an end that completes (SESSION_OUTCOME_SQL's
-// 'completed'). `s` prefixes each column ("sessions." or ""). Spelled the same in the lists and
-// in the partial indexes of migration 13, so that both planners match them to the indexes.
+// The terms that a session "completed and passed" (the lists' result "passed") met before the
+// outcome was stored (migration 16), of its own row, as migrations 13 and 15 index them. `s`
+// prefixes each column ("sessions." or "").
 #define SESSION_PASSED_TERMS(s) \
   s "state = 'ended' AND " s "passed = TRUE AND " s "reason IN ('task_complete', 'parked', 'duration')"
-// A session (FROM sessions, unaliased) completed and passed: SESSION_OUTCOME_SQL = 'completed'
-// AND passed, unrolled, so that the lists find those sessions by their own index rather than
-// working the outcome out for every session of the day.
-#define SESSION_PASSED_SQL                                                                                   \
-  SESSION_PASSED_TERMS("sessions.") " AND (sessions.reason <> 'duration' OR " TASK_INCOMPLETE_SQL " IS NULL)"
+// A session completed and passed, of its stored outcome (migration 16): spelled the same in the
+// lists and in the partial indexes, so that both planners match them to the indexes.
+#define SESSION_COMPLETED_PASSED(s) s "outcome = 'completed' AND " s "passed = TRUE"
+// The outcomes a session row may hold (the session vocabulary's Outcome words), for its CHECK.
+#define SESSION_OUTCOMES "('open', 'completed', 'timed_out', 'aborted', 'stopped', 'failed')"
+// Migration 16: each session's outcome kept on its row (back-filled by the store, from
+// session_outcome(): sql_store.cc), the passed sessions' indexes on it, and the school's sessions
+// by outcome in time order.
+#define OUTCOME_STORED(id_key)                                                                                 \
+  "ALTER TABLE sessions ADD COLUMN outcome TEXT NOT NULL DEFAULT 'open' CHECK (outcome IN " SESSION_OUTCOMES "); " \
+  "DROP INDEX sessions_passed_by_cab; DROP INDEX sessions_passed_by_school; "                                  \
+  "CREATE INDEX sessions_passed_by_cab ON sessions(cab_id, created_at" id_key ") WHERE " SESSION_COMPLETED_PASSED("") "; " \
+  "CREATE INDEX sessions_passed_by_school ON sessions(school_id, created_at" id_key ") WHERE " SESSION_COMPLETED_PASSED("") "; " \
+  "CREATE INDEX sessions_by_school_outcome ON sessions(school_id, outcome, created_at" id_key ");"
+// The schema version whose migration is OUTCOME_STORED: the store back-fills the outcome after it.
+constexpr int kOutcomeStoredVersion = 16;
+
+// Keyset paging: the rows of a list after the cursor's, whose sort key `key` is `key_value` and
+// whose id (`id_column`) is `id`, found in the index where an offset would walk past every row
+// before them. Spelled out rather than as a row value, which SQLite does not take to its index:
+// the key's range first (from the index), then its ties by id.
+inline void add_after(Conditions& where, const std::string& key, const std::string& id_column, const std::string& key_value,
+                      int64_t id, bool descending) {
+  const char* from = descending ? " <= ?" : " >= ?";
+  const char* past = descending ? " < ?" : " > ?";
+  where.add(key + from + " AND (" + key + past + " OR " + id_column + past + ")", {key_value, key_value, id});
+}
 
 // LIKE pattern for "contains `text`", with '\' escaping so that % and _ in it match literally.
 inline std::string contains_pattern(const std::string& text) {

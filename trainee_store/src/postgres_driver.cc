@@ -544,20 +544,24 @@ CREATE TRIGGER school_totals_exam_in AFTER INSERT ON exams REFERENCING NEW TABLE
   FOR EACH STATEMENT EXECUTE FUNCTION school_totals_count();
 CREATE TRIGGER school_totals_exam_out AFTER DELETE ON exams REFERENCING OLD TABLE AS changed_rows
   FOR EACH STATEMENT EXECUTE FUNCTION school_totals_count();
-)sql",    // 16: which server runs each open session, so that several servers on one store each ingest
+)sql",
+    // 16: each session's outcome on its row, written when it settles, as SQLite's 16; the id in
+    // the indexes' keys as in 13's.
+    OUTCOME_STORED(", id"),
+    // 17: which server runs each open session, so that several servers on one store each ingest
     // and supervise their own sessions, and take over those of a server that has stopped (its
     // last sign of life in servers.seen_at older than the lease).
     SERVERS_MIGRATION,
 };
 
-// A session's columns: the one before last reads score_counts by its key (TASK_INCOMPLETE_SQL): whether the score notes
-// the task left unfinished (the evaluator's rule "task_incomplete"), which session_outcome()
-// needs. Read FROM sessions, unaliased.
+// A session's columns: the one before last says whether the score notes the task left unfinished
+// (TASK_LEFT_SQL: of the stored outcome, where it read score_counts once per row). Read FROM
+// sessions, unaliased.
 constexpr const char* kSessionColumns =
     "sessions.id, sessions.public_id, sessions.pupil_id, sessions.cab_id, sessions.scenario, sessions.mode, "
     "sessions.state, sessions.reason, sessions.examiner_id, sessions.created_at, sessions.ended_at, sessions.mark, "
     "sessions.passed, "
-    TASK_INCOMPLETE_SQL " IS NOT NULL, "
+    TASK_LEFT_SQL ", "
     "sessions.started_by";
 
 // PostgreSQL's dialect: lower(x COLLATE "C") folds ASCII capitals only, as SQLite's NOCASE, and

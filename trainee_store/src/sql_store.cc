@@ -45,8 +45,54 @@ namespace {
   "e.id, e.pupil_id, e.kind, s.public_id, e.score, e.passed, e.examiner_id, e.taken_at, e.details FROM exams e " \
   "LEFT JOIN sessions s ON s.id = e.session_id"
 
+// session_outcome() in SQL, of a session whose phase, end reason and task-incomplete flag are the
+// SQL expressions `state`, `reason` and `task_left` (true or false): written out from
+// session_outcome() itself, phase by phase and reason by reason, so that the outcome the store
+// keeps on the session row (migration 16) is the one the C++ rule gives.
+std::string outcome_sql(const std::string& state, const std::string& reason, const std::string& task_left) {
+  const auto outcome = [](SessionPhase phase, const std::string& why, bool task) {
+    Session s;
+    s.state = phase;
+    s.reason = why;
+    s.task_left_unfinished = task;
+    return std::string("'") + name(session_outcome(s)) + "'";
+  };
+  // Every end reason's word, the evaluation's "parked", and last any other word (here, none).
+  std::vector<std::string> reasons;
+  for (int i = 0;; ++i) {
+    const auto r = static_cast<EndReason>(i);
+    if (parse<EndReason>(name(r)) != r) break;
+    reasons.push_back(name(r));
+  }
+  reasons.push_back("parked");
+  // One phase's outcome by its reason: a CASE over the reasons whose outcome is not the others'.
+  const auto by_reason = [&](SessionPhase phase) {
+    const auto of = [&](const std::string& why) {
+      const std::string done = outcome(phase, why, false), left = outcome(phase, why, true);
+      return done == left ? done : "CASE WHEN " + task_left + " THEN " + left + " ELSE " + done + " END";
+    };
+    const std::string other = of("");
+    std::string cases;
+    for (const std::string& why : reasons)
+      if (const std::string o = of(why); o != other) cases += " WHEN '" + why + "' THEN " + o;
+    return cases.empty() ? other : "CASE " + reason + cases + " ELSE " + other + " END";
+  };
+  std::string sql = "CASE " + state;
+  for (int i = 0;; ++i) {
+    const auto phase = static_cast<SessionPhase>(i);
+    if (parse<SessionPhase>(name(phase)) != phase) break;
+    sql += std::string(" WHEN '") + name(phase) + "' THEN " + by_reason(phase);
+  }
+  return sql + " END";
+}
+
 // A row of "c.seq, s.public_id, c.entry" (exam_chain c joined with its session s).
 ChainEntry read_chain_entry(const Query& q) { return ChainEntry{q.int64(0), q.text(1), q.text(2)}; }
+
+// A login token's row (?1 its hash) with its account, as read_login_token() reads it.
+constexpr const char* kFindLoginToken =
+    "SELECT " USER_COLUMNS ", t.generation, t.expires_at_ms FROM login_tokens t JOIN users ON users.id = t.user_id "
+    "WHERE t.hash = ?1";
 
 class SqlStore final : public Store {
  public:
@@ -272,11 +318,7 @@ class SqlStore final : public Store {
       Query cursor(d_, __func__, "SELECT " + key + " FROM pupils WHERE pupils.id = ?1 AND pupils.school_id = ?2");
       require(cursor.bind(*f.after).bind(f.school_id).step(), StoreError::kNotFound, __func__,
               "no pupil " + std::to_string(*f.after) + " in the school");
-      // Spelled out rather than as a row value, which SQLite does not take to its index: the
-      // key's range first (from the index), then its ties by id.
-      const char* from = f.descending ? " <= ?" : " >= ?";
-      const char* past = f.descending ? " < ?" : " > ?";
-      bound.add(key + from + " AND (" + key + past + " OR pupils.id" + past + ")", {cursor.text(0), cursor.text(0), *f.after});
+      add_after(bound, key, "pupils.id", cursor.text(0), *f.after, f.descending);
     }
     // An instructor's own pupils first: a first sort key ahead of the one asked for.
     std::string sql = "SELECT " PUPIL_COLUMNS " FROM pupils" + bound.sql() + " ORDER BY ";
@@ -320,11 +362,13 @@ class SqlStore final : public Store {
     if (f.mode) where.add("sessions.mode = ?", {std::string(name(*f.mode))});
     if (f.instructor_id) where.add("sessions.started_by = ?", {*f.instructor_id});
     if (f.group_id) where.add("p.group_id = ?", {*f.group_id});
-    if (f.outcome) where.add(SESSION_OUTCOME_SQL " = ?", {std::string(name(*f.outcome))});
-    if (f.result == "passed") where.add(SESSION_PASSED_SQL);
+    if (f.outcome) where.add("sessions.outcome = ?", {std::string(name(*f.outcome))});
+    if (f.result == "passed") where.add(SESSION_COMPLETED_PASSED("sessions."));
+    // Over, and not completed and passed (a completed session without a score among them).
     if (f.result == "not_passed")
-      where.add("sessions.state IN ('ended', 'failed', 'aborted') AND NOT (" SESSION_PASSED_SQL ")");
+      where.add("sessions.outcome <> 'open' AND (sessions.outcome <> 'completed' OR sessions.passed IS NOT TRUE)");
     const std::string from = " FROM sessions JOIN pupils p ON p.id = sessions.pupil_id" + where.sql();
+    require(f.after.empty() || f.sort == "created_at", StoreError::kInvalid, __func__, "'after' pages a list sorted by created_at");
     Transaction tx(d_, __func__, TxKind::kRead);
     SessionPage page;
     // Counted without the pupils unless a filter needs them.
@@ -332,13 +376,20 @@ class SqlStore final : public Store {
     const bool whole_school = !f.pupil_id && f.search.empty() && f.from.empty() && f.to.empty() && f.cab_id.empty() &&
                               f.scenario.empty() && !f.mode && !f.instructor_id && !f.group_id && !f.outcome && f.result.empty();
     list_total(__func__, page, whole_school, "sessions", f.school_id, by_pupil ? from : " FROM sessions" + where.sql(), where);
+    Conditions bound = where;
+    if (!f.after.empty()) {
+      Query cursor(d_, __func__, "SELECT created_at, id FROM sessions WHERE public_id = ?1 AND school_id = ?2");
+      require(cursor.bind(f.after).bind(f.school_id).step(), StoreError::kNotFound, __func__,
+              "no session '" + f.after + "' in the school");
+      add_after(bound, "sessions.created_at", "sessions.id", cursor.text(0), cursor.int64(1), f.descending);
+    }
     // The page reads sessions first on SQLite (its CROSS JOIN fixes the join order): through the
     // index of their order or filter, it stops after a page; pupils first, it sorted every session
     // of the day (35 ms for a day of 10,000 sessions, 0.3 ms so). The count keeps the planner's order.
     Query q(d_, __func__, std::string("SELECT ") + dialect_.session_columns + ", p.name FROM " + dialect_.sessions_from + " " +
-                              dialect_.session_page_join + " pupils p ON p.id = sessions.pupil_id" + where.sql() + " ORDER BY " +
+                              dialect_.session_page_join + " pupils p ON p.id = sessions.pupil_id" + bound.sql() + " ORDER BY " +
                               order + " LIMIT ? OFFSET ?");
-    where.bind(q);
+    bound.bind(q);
     q.bind(limit).bind(offset);
     while (q.step()) page.sessions.push_back({read_session(q), q.text(15)});
     tx.commit();
@@ -370,20 +421,28 @@ class SqlStore final : public Store {
     // The page reads exams first (SQLite's CROSS JOIN) unless a filter picks pupils: with the
     // statistics of a store of 600,000 exams SQLite read every pupil's exams and sorted them all
     // for a page of 50 (1.2 s).
-    const std::string page_from = " FROM exams e " + std::string(f.search.empty() && !f.group_id ? dialect_.session_page_join : "JOIN") +
-                                  " pupils p ON p.id = e.pupil_id" + where.sql();
+    const std::string page_join = " FROM exams e " + std::string(f.search.empty() && !f.group_id ? dialect_.session_page_join : "JOIN") +
+                                  " pupils p ON p.id = e.pupil_id";
+    require(!f.after || f.sort == "taken_at", StoreError::kInvalid, __func__, "'after' pages a list sorted by taken_at");
     Transaction tx(d_, __func__, TxKind::kRead);
     ExamPage page;
     const bool whole_school = !f.pupil_id && f.search.empty() && !f.kind && f.from.empty() && f.to.empty() && !f.passed &&
                               !f.examiner_id && !f.group_id;
     list_total(__func__, page, whole_school, "exams", f.school_id, from, where);
+    Conditions bound = where;
+    if (f.after) {
+      Query cursor(d_, __func__, "SELECT e.taken_at FROM exams e JOIN pupils p ON p.id = e.pupil_id WHERE e.id = ?1 AND p.school_id = ?2");
+      require(cursor.bind(*f.after).bind(f.school_id).step(), StoreError::kNotFound, __func__,
+              "no exam " + std::to_string(*f.after) + " in the school");
+      add_after(bound, "e.taken_at", "e.id", cursor.text(0), *f.after, f.descending);
+    }
     // A practical exam's session looked up for the page's rows alone: joined, PostgreSQL's planner
     // hashed every session of the store to find the few the exams have.
     Query q(d_, __func__, ("SELECT e.id, e.pupil_id, e.kind, (SELECT s.public_id FROM sessions s WHERE s.id = e.session_id), e.score, e.passed, e.examiner_id, e.taken_at, "
                                "e.details, p.name, (SELECT COUNT(*) FROM exam_corrections c WHERE c.exam_id = e.id)" +
-                               page_from + " ORDER BY " + order + " LIMIT ? OFFSET ?")
+                               page_join + bound.sql() + " ORDER BY " + order + " LIMIT ? OFFSET ?")
                                   .c_str());
-    where.bind(q);
+    bound.bind(q);
     q.bind(limit).bind(offset);
     while (q.step()) page.exams.push_back({read_exam(q), q.text(9), q.int64(10)});
     tx.commit();
@@ -611,9 +670,12 @@ class SqlStore final : public Store {
     Transaction tx(d_, __func__, TxKind::kStatement);
     // One statement, so that two writers cannot both move a session out of an open state: the
     // second one's guard is checked again once the first one's row is committed.
-    Query q(d_, __func__,
-            "UPDATE sessions SET state = ?1, reason = ?2, ended_at = ?3 "
-            "WHERE public_id = ?4 AND state NOT IN ('ended', 'failed', 'aborted')");
+    // Its outcome with it, from the new phase and reason and the score's task flag (a score may
+    // come first).
+    static const std::string sql = "UPDATE sessions SET state = ?1, reason = ?2, ended_at = ?3, outcome = " +
+                                   outcome_sql("CAST(?1 AS TEXT)", "CAST(?2 AS TEXT)", TASK_INCOMPLETE_SQL " IS NOT NULL") +
+                                   " WHERE public_id = ?4 AND state NOT IN ('ended', 'failed', 'aborted')";
+    Query q(d_, __func__, sql);
     const bool changed = q.bind(std::string(name(state))).bind(reason).bind(is_terminal(state) ? now : std::string()).bind(public_id).changes() > 0;
     if (!changed) require_session(__func__, public_id);  // kNotFound rather than false for an unknown session
     tx.commit();
@@ -661,7 +723,11 @@ class SqlStore final : public Store {
       Query q(d_, __func__, "INSERT INTO score_counts(session_id, kind, count) VALUES (?1, ?2, ?3)");
       q.bind(session.id).bind(kind).bind(count).run();
     }
-    Query(d_, __func__, "UPDATE sessions SET mark = ?1, passed = ?2 WHERE id = ?3").bind(s.mark).bind(s.passed).bind(session.id).run();
+    // The outcome again: the score may note the task left unfinished of a session already ended.
+    static const std::string update = "UPDATE sessions SET mark = ?1, passed = ?2, outcome = " +
+                                      outcome_sql("sessions.state", "sessions.reason", TASK_INCOMPLETE_SQL " IS NOT NULL") +
+                                      " WHERE id = ?3";
+    Query(d_, __func__, update).bind(s.mark).bind(s.passed).bind(session.id).run();
     if (makes_practical_record(session)) insert_exam(__func__, practical_exam(session, s, now), session.id);
     tx.commit();
     return true;
@@ -1044,8 +1110,7 @@ class SqlStore final : public Store {
   }
 
   std::optional<LoginToken> find_login_token(const std::string& hash) override {
-    Query q(d_, __func__, "SELECT " USER_COLUMNS ", t.generation, t.expires_at_ms FROM login_tokens t "
-                          "JOIN users ON users.id = t.user_id WHERE t.hash = ?1");
+    Query q(d_, __func__, kFindLoginToken);
     return first_row(__func__, q.bind(hash), [&](const Query& r) { return read_login_token(r, hash); });
   }
 
@@ -1098,8 +1163,14 @@ class SqlStore final : public Store {
   }
 
   std::optional<PupilHistory> history(int64_t pupil_id, const std::string& now) override {
+    std::optional<LoginToken> none;
+    return history(pupil_id, now, "", none);
+  }
+
+  std::optional<PupilHistory> history(int64_t pupil_id, const std::string& now, const std::string& token_hash,
+                                      std::optional<LoginToken>& token) override {
     // One consistent snapshot, and one round trip to a database a network away: every statement
-    // is sent at once, the pupil's own among them, and its rows read after.
+    // is sent at once, the pupil's own and the login's among them, and its rows read after.
     Transaction tx(d_, __func__, TxKind::kRead);
     Query pupil_q(d_, __func__, "SELECT " PUPIL_COLUMNS " FROM pupils WHERE id = ?1");
     Query sessions_q(d_, __func__, sessions_of_sql());
@@ -1111,8 +1182,18 @@ class SqlStore final : public Store {
     Query corrections_q(d_, __func__,
                         "SELECT " CORRECTION_COLUMNS " FROM exam_corrections "
                         "WHERE exam_id IN (SELECT id FROM exams WHERE pupil_id = ?1) ORDER BY id");
-    for (Query* q : {&pupil_q, &sessions_q, &exams_q, &faults_q, &licence_q, &corrections_q}) q->bind(pupil_id);
-    tx.run_last({&pupil_q, &sessions_q, &exams_q, &faults_q, &licence_q, &corrections_q});
+    Query notes_q(d_, __func__,
+                  "SELECT n.id, s.public_id, n.author_user_id, n.at, n.text FROM sessions s "
+                  "JOIN session_notes n ON n.session_id = s.id WHERE s.pupil_id = ?1 ORDER BY n.id");
+    for (Query* q : {&pupil_q, &sessions_q, &exams_q, &faults_q, &licence_q, &corrections_q, &notes_q}) q->bind(pupil_id);
+    token.reset();
+    if (token_hash.empty()) {
+      tx.run_last({&pupil_q, &sessions_q, &exams_q, &faults_q, &licence_q, &corrections_q, &notes_q});
+    } else {
+      Query token_q(d_, __func__, kFindLoginToken);
+      tx.run_last({&token_q.bind(token_hash), &pupil_q, &sessions_q, &exams_q, &faults_q, &licence_q, &corrections_q, &notes_q});
+      if (token_q.step()) token = read_login_token(token_q, token_hash);
+    }
     if (!pupil_q.step()) return std::nullopt;
     PupilHistory h;
     h.pupil = read_pupil(pupil_q);
@@ -1122,6 +1203,7 @@ class SqlStore final : public Store {
     if (licence_q.step())
       h.licence = LicenceRecord{licence_q.int64(0), pupil_id, licence_q.text(1), licence_q.text(2), licence_q.text(3)};
     while (corrections_q.step()) h.corrections.push_back(read_correction(corrections_q));
+    while (notes_q.step()) h.notes.push_back(read_session_note(notes_q));
     h.trend = mark_trend(h.sessions);
     h.reevaluation_overdue = h.licence && h.licence->reevaluation_due < now;  // same form: string order is time order
     tx.commit();
@@ -1143,6 +1225,11 @@ class SqlStore final : public Store {
       }
       if (version == latest) return tx.commit();
       d_.exec("migrate", dialect_.migrations[version]);
+      // The outcome of every session that is over, as session_outcome() gives it.
+      if (version + 1 == kOutcomeStoredVersion)
+        d_.exec("migrate", "UPDATE sessions SET outcome = " +
+                               outcome_sql("state", "reason", TASK_INCOMPLETE_SQL " IS NOT NULL") +
+                               " WHERE state IN ('ended', 'failed', 'aborted')");
       Query(d_, "migrate", "INSERT INTO schema_migrations(version, applied_at) VALUES (?1, ?2)")
           .bind(version + 1)
           .bind(now_iso8601())

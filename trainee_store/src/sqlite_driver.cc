@@ -546,25 +546,26 @@ END;
 CREATE TRIGGER school_totals_exam_out AFTER DELETE ON exams BEGIN
   UPDATE school_totals SET exams = exams - 1 WHERE school_id = (SELECT school_id FROM pupils WHERE id = OLD.pupil_id);
 END;
-)sql",    // 16: which server runs each open session, so that several servers on one store each ingest
+)sql",
+    // 16: each session's outcome on its row, written when it settles (the store back-fills the
+    // sessions before it), so that the lists filter by outcome and result on an index of their own
+    // rather than working the outcome out row by row.
+    OUTCOME_STORED(""),
+    // 17: which server runs each open session, so that several servers on one store each ingest
     // and supervise their own sessions, and take over those of a server that has stopped (its
     // last sign of life in servers.seen_at older than the lease).
     SERVERS_MIGRATION,
 };
 
-// Read FROM kSessions. The second column is NULL: read_session derives the public id from the id,
+// Read FROM sessions. The second column is NULL: read_session derives the public id from the id,
 // as the schema does, without the schema's printf on every row. The one before last says whether
-// the score notes the task left unfinished (the evaluator's rule "task_incomplete"), which
-// session_outcome() needs: joined from the partial index of those sessions alone (migration 10;
-// the planner would take the whole key's index). A correlated EXISTS per row made reading a
-// pupil's 50 sessions 58 us; this join, 44 us, of which 2 us is the flag.
+// the score notes the task left unfinished (TASK_LEFT_SQL: of the stored outcome, where it was
+// joined from the task-incomplete scores' index).
 constexpr const char* kSessionColumns =
     "sessions.id, NULL, sessions.pupil_id, sessions.cab_id, sessions.scenario, sessions.mode, "
     "sessions.state, sessions.reason, sessions.examiner_id, sessions.created_at, sessions.ended_at, sessions.mark, "
-    "sessions.passed, incomplete.session_id IS NOT NULL, sessions.started_by";
-constexpr const char* kSessions =
-    "sessions LEFT JOIN score_counts incomplete INDEXED BY score_counts_task_incomplete "
-    "ON incomplete.session_id = sessions.id AND incomplete.kind = 'task_incomplete'";
+    "sessions.passed, " TASK_LEFT_SQL ", sessions.started_by";
+constexpr const char* kSessions = "sessions";
 
 // SQLite's dialect: NOCASE folds ASCII capitals only, as canonical_username() does, and LIKE
 // ignores ASCII capitals by itself.

@@ -148,7 +148,9 @@ struct Session {
   std::string created_at, ended_at;    // ended_at empty while open
   std::optional<double> mark;    // the evaluator's, as stored: mark_of() says whether it counts
   std::optional<bool> passed;
-  bool task_left_unfinished = false;  // its score counts a "task_incomplete" fault
+  // Its score counts a "task_incomplete" fault, as read by the store: for a session that ended when
+  // its time ran out ("duration"), the one end whose outcome it decides; false for any other.
+  bool task_left_unfinished = false;
   std::optional<int64_t> started_by;  // the user who started it (none for sessions from before it was kept)
 };
 
@@ -196,6 +198,10 @@ struct SessionFilter {
   std::string result;                    // "passed" (completed and passed), "not_passed" (over, and not so); empty: any
   std::string sort = "created_at";       // "created_at", "pupil", "cab", "scenario", "mode", "mark"
   bool descending = true;
+  // Keyset paging, as PupilFilter's: the page after this session's row (its public id) in the
+  // list's order (sorted by created_at, else kInvalid; kNotFound if no such session of the
+  // school), the offset counted from there. Empty: none.
+  std::string after;
 };
 // A session as a list shows it: with its pupil's name.
 struct SessionRow {
@@ -219,6 +225,9 @@ struct ExamFilter {
   std::optional<int64_t> group_id;
   std::string sort = "taken_at";        // "taken_at", "pupil", "kind", "score"
   bool descending = true;
+  // Keyset paging, as PupilFilter's: the page after this exam record's row in the list's order
+  // (sorted by taken_at, else kInvalid; kNotFound if no such exam of the school).
+  std::optional<int64_t> after;
 };
 
 // What a session's end means, the one rule that the store's trend, the API,
@@ -470,6 +479,7 @@ struct PupilHistory {
   std::optional<LicenceRecord> licence;  // the latest
   bool reevaluation_overdue = false;     // licence.reevaluation_due before `now`
   std::vector<ExamCorrection> corrections;  // of the pupil's exams, oldest first
+  std::vector<SessionNote> notes;           // the debrief notes on the pupil's sessions, oldest first
 };
 
 // Schools and their accounts: staff and pupils' logins.
@@ -571,6 +581,11 @@ class PupilStore {
 
   // PupilHistory for `pupil_id`, with overdue computed against `now`; nullopt if no such pupil.
   virtual std::optional<PupilHistory> history(int64_t pupil_id, const std::string& now) = 0;
+  // The same, and the login token of `token_hash` as find_login_token() reads it (into `token`),
+  // from the same snapshot in the same trip to the database: a request's login and its page,
+  // where each was a round trip of its own to PostgreSQL. An empty hash looks up no token.
+  virtual std::optional<PupilHistory> history(int64_t pupil_id, const std::string& now, const std::string& token_hash,
+                                              std::optional<LoginToken>& token) = 0;
 };
 
 // Cabs, as they announce themselves, and their bookings.
