@@ -168,9 +168,10 @@ TEST(Hud, TheSeeThroughMastExplainsItselfWhileItIsOn) {
   hud.set_command(c);
   const std::vector<HudItem> items = hud.draw_list(960, 720, 1);
   EXPECT_TRUE(has_text(items, "See-through mast (training aid): the mast, the overhead guard and the carriage"));
-  for (const HudItem& i : items) {
-    if (i.role == "aid_explained") EXPECT_LT(i.x, 960 / 4) << "at the side, clear of the forks";
-  }
+  for (const HudItem& i : items)
+    if (i.role == "aid_explained") {
+      EXPECT_LT(i.x, 960 / 4) << "at the side, clear of the forks";
+    }
   hud.toggle_compact();
   EXPECT_FALSE(has_text(hud.draw_list(960, 720, 1), "drawn faint"));
   bool in_help = false;
