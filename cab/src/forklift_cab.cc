@@ -13,6 +13,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -217,6 +218,7 @@ struct Options {
   FrameView::Options frames;
   std::string window_size = "960x720";
   std::string language;  // what the pupil reads: "en", "es" (default from the environment)
+  bool language_given = false;  // --language: always; else the session's pupil's while it runs
 };
 
 std::string help_footer(const ControllerMap& map) {
@@ -238,10 +240,7 @@ class CabProgram {
       : o_(std::move(o)), input_(is, map, read_calibration(o_.calibration_file)),
         hud_(hs, load_fault_words(kDataDir + "/evaluation/rules.json", o_.language), o_.language), map_(std::move(map)),
         rear_view_below_m_s_(cab_json.value("rear_view_below_m_s", -0.05)), trace_(o_.trace) {
-    input_.set_language(o_.language);
-    std::vector<std::pair<std::string, std::string>> help = key_map(o_.language);
-    for (auto& line : controller_help(map_, o_.language)) help.push_back(line);
-    hud_.set_help(std::move(help));
+    set_help_language();
     sound_settings_ = ss;
     font_ = cab_json.at("hud").at("font").get<std::string>();
     font_bold_ = cab_json.at("hud").at("font_bold").get<std::string>();
@@ -264,8 +263,14 @@ class CabProgram {
   void terminal_line();
   void calibration_step();
   void save_window();
+  // The controllers' notices and the F1 help in o_.language.
+  void set_help_language();
+  // A session's status names its pupil's language: without --language the cab speaks it (when it
+  // is one this cab has; the cab PC's own otherwise) from then on.
+  void speak(const char* session_language, size_t size);
 
   Options o_;
+  const std::string home_language_ = o_.language;  // the cab PC's (or --language)
   CabInput input_;
   Hud hud_;
   ControllerMap map_;
@@ -474,6 +479,7 @@ void CabProgram::take_dds() {
     // session it drives (named by the worker's "waiting"/"running" or its truck state) counts.
     if (phase == SessionPhase::kWaiting || phase == SessionPhase::kRunning) {
       session_ = s.session_id;
+      speak(s.language, sizeof s.language);
       // The worker's truck's end stops: what a script's angle is as a fraction of them.
       if (std::isfinite(s.steer_lock_rad) && s.steer_lock_rad > 0 && s.steer_lock_rad <= M_PI / 2) {
         steer_lock_rad_ = s.steer_lock_rad;
@@ -489,6 +495,24 @@ void CabProgram::take_dds() {
     std::fflush(stdout);
     if (!ended_at_) ended_at_ = t;  // over: the window shows it a moment, then the cab goes back to its menu
   });
+}
+
+void CabProgram::set_help_language() {
+  input_.set_language(o_.language);
+  std::vector<std::pair<std::string, std::string>> help = key_map(o_.language);
+  for (auto& line : controller_help(map_, o_.language)) help.push_back(line);
+  hud_.set_help(std::move(help));
+}
+
+void CabProgram::speak(const char* session_language, size_t size) {
+  if (o_.language_given) return;
+  // Untrusted text off the wire: only a language the catalogue has is taken.
+  const std::string asked(session_language, strnlen(session_language, size));
+  const std::string lang = i18n::shipped().has_language(asked) ? asked : home_language_;
+  if (lang == o_.language) return;
+  o_.language = lang;
+  hud_.set_language(lang, load_fault_words(kDataDir + "/evaluation/rules.json", lang));
+  set_help_language();
 }
 
 void CabProgram::draw(bool fresh_frame) {
@@ -829,11 +853,14 @@ int main(int argc, char** argv) {
     std::cerr << "forklift-cab: the message catalogues cannot be read: " << e.what() << '\n';
     return 2;
   }
-  app.add_option("--language", o.language, "the language the pupil reads the display, the help and the messages in (default: "
-                 "LC_ALL, LC_MESSAGES or LANG when it is one of them, else en)")
-      ->check(CLI::IsMember(languages));
+  CLI::Option* language = app.add_option("--language", o.language,
+                                         "the language the pupil reads the display, the help and the messages in, always (default: "
+                                         "the session's pupil's while a session runs, as its worker says; else LC_ALL, "
+                                         "LC_MESSAGES or LANG when it is one of them, else en)")
+                              ->check(CLI::IsMember(languages));
   try {
     app.parse(argc, argv);
+    o.language_given = language->count() > 0;
     if (o.cab_id.empty() && !o.list) throw CLI::RequiredError("--cab");
     if (o.render == "local" && o.scenario.empty())
       throw CLI::ValidationError("--render local", "needs --scenario, the scenario the session runs, to draw its scene");

@@ -131,6 +131,12 @@ Hud::Hud(HudSettings settings, std::map<std::string, FaultWords> words, std::str
 
 std::string Hud::t(const std::string& key, const nlohmann::json& vars) const { return cab_words(lang_, key, vars); }
 
+void Hud::set_language(std::string lang, std::map<std::string, FaultWords> words) {
+  lang_ = i18n::shipped().supported(lang);
+  words_ = std::move(words);
+  if (waiting_) session_line_ = t("session.waiting");
+}
+
 void Hud::on_state(const fk_TruckState& s) {
   state_ = s;
   have_state_ = true;

@@ -65,6 +65,8 @@ class Hud {
   // Every word the display shows is in `lang` (data/i18n/<lang>/cab.json), `words` too.
   Hud(HudSettings settings, std::map<std::string, FaultWords> words, std::string lang = "en");
   const std::string& language() const { return lang_; }
+  // From now on in `lang` (the session's pupil's), `words` too; what is shown stays as it was said.
+  void set_language(std::string lang, std::map<std::string, FaultWords> words);
 
   void on_state(const fk_TruckState& s);
   void on_event(const fk_Event& e, double now_s);

@@ -13,6 +13,8 @@
 #include <sstream>
 #include <thread>
 
+#include "forklift/i18n/catalogue.h"
+
 namespace forklift::host {
 
 namespace {
@@ -55,7 +57,7 @@ double memory_free_mib() {
 }  // namespace
 
 std::optional<std::string> request_problem(const fk_WorkerRequest& r, const std::string& host_id) {
-  for (const char* text : {r.session_id, r.host_id, r.action, r.cab_id, r.mode, r.aids})
+  for (const char* text : {r.session_id, r.host_id, r.action, r.cab_id, r.mode, r.aids, r.language})
     if (!dds::valid_utf8(text)) return "a request whose text is not UTF-8";
   if (host_id != r.host_id) return "a request for host '" + std::string(r.host_id) + "'";
   if (!matches(r.session_id, "s-[0-9]{1,18}")) return "a request for session '" + std::string(r.session_id) + "', which is not a session id";
@@ -221,6 +223,9 @@ void HostAgent::start(const fk_WorkerRequest& r) {
   l.realtime = config_.realtime_workers;
   if (r.duration_s > 0) l.duration_s = r.duration_s;
   if (r.aids[0]) l.aids = std::string(r.aids);
+  // The pupil's language goes on to the cab; one this host's worker does not know is left out (the
+  // cab speaks its own), not refused: the session runs all the same.
+  if (i18n::shipped().has_language(r.language)) l.language = r.language;
   l.frames = WorkerFrames{r.frame_fps, r.frame_width, r.frame_height, bool(r.frame_jpeg)};
   if (r.frame_fps <= 0) l.frames = WorkerFrames{0, 640, 480, false};
   if (l.mode == Mode::kExam && config_.security_dir.empty()) return refuse(r, "host " + config_.host_id + " runs without DDS Security, which exams need");

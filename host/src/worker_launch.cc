@@ -24,6 +24,7 @@ std::vector<std::string> worker_command(const WorkerLaunch& w) {
                                    "--start-timeout", std::to_string(w.start_timeout_s), "--mode", name(w.mode)};
   if (w.duration_s) { args.push_back("--duration"); args.push_back(std::to_string(*w.duration_s)); }
   if (w.aids) { args.push_back("--aids"); args.push_back(*w.aids); }
+  if (!w.language.empty()) { args.push_back("--language"); args.push_back(w.language); }
   if (!w.dds_config.empty()) { args.push_back("--dds-config"); args.push_back(w.dds_config); }
   if (!w.security_dir.empty()) { args.push_back("--security"); args.push_back(w.security_dir); }
   if (w.frames) {

@@ -33,12 +33,13 @@ class Fleet : private GateWorld {
   ~Fleet() override;  // stops the threads; running workers are told to stop (SIGTERM)
 
   // Spawns the worker for a session created in the store, on a worker host with room or else on
-  // this machine; `aids` is its --aids list (nullopt: the worker's default for the session's mode).
+  // this machine; `aids` is its --aids list (nullopt: the worker's default for the session's mode);
+  // `language` the pupil's (one the catalogue has; "" none), which the worker tells the cab.
   // Throws std::runtime_error when no host takes it and this machine may not (it already runs
   // max_workers, or runs no workers itself), or the cab is busy.
   void start_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
-                    const std::optional<std::string>& aids = std::nullopt) {
-    placement_.start_worker(s, scenario_file, duration_s, aids);
+                    const std::optional<std::string>& aids = std::nullopt, const std::string& language = "") {
+    placement_.start_worker(s, scenario_file, duration_s, aids, language);
   }
   // The instructor's abort: SIGUSR1 to the session's worker, which ends the session with reason
   // "aborted" (SIGTERM, the server stopping, ends it as "signal"); false if it has no worker here.

@@ -70,7 +70,7 @@ void HostPlacement::request(const std::string& host, const std::string& session,
 }
 
 void HostPlacement::start_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
-                                 const std::optional<std::string>& aids) {
+                                 const std::optional<std::string>& aids, const std::string& language) {
   std::vector<std::string> hosts;
   bool any_host = false;
   {
@@ -81,7 +81,7 @@ void HostPlacement::start_worker(const store::Session& s, const std::string& sce
     hosts = placement(s.cab_id);
   }
   std::string refusals;
-  if (!hosts.empty() && start_hosted_worker(s, scenario_file, duration_s, aids, hosts, refusals)) return;
+  if (!hosts.empty() && start_hosted_worker(s, scenario_file, duration_s, aids, language, hosts, refusals)) return;
   if (!fleet_.config.local_workers) {
     if (!refusals.empty()) throw std::runtime_error("no worker host took the session (" + refusals + ")");
     throw std::runtime_error(any_host ? "every worker host is full, stopping or passed over"
@@ -91,11 +91,12 @@ void HostPlacement::start_worker(const store::Session& s, const std::string& sce
   }
   // No host took it, or none is about: this machine runs the worker, as one without hosts does.
   if (!refusals.empty()) spdlog::warn("session {}: no worker host took it ({}); its worker runs here", s.public_id, refusals);
-  local_.start_local(s, scenario_file, duration_s, aids);
+  local_.start_local(s, scenario_file, duration_s, aids, language);
 }
 
 bool HostPlacement::start_hosted_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
-                                        const std::optional<std::string>& aids, std::vector<std::string> candidates,
+                                        const std::optional<std::string>& aids, const std::string& language,
+                                        std::vector<std::string> candidates,
                                         std::string& refusals) {
   const FleetConfig& config = fleet_.config;
   const auto deadline = Clock::now() + seconds(config.start_budget_s);
@@ -109,6 +110,7 @@ bool HostPlacement::start_hosted_worker(const store::Session& s, const std::stri
   dds::set_string(r->mode, name(s.mode));
   r->duration_s = duration_s.value_or(0);
   dds::set_string(r->aids, aids.value_or(""));
+  dds::set_string(r->language, language);
   dds::set_string(r->scenario_json, scenario);
   if (config.frames) {
     r->frame_fps = config.frames->fps;

@@ -26,7 +26,7 @@ class HostPlacement {
 
   // See Fleet::start_worker.
   void start_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
-                    const std::optional<std::string>& aids);
+                    const std::optional<std::string>& aids, const std::string& language);
   void request(const std::string& host, const std::string& session, WorkerAction action);  // abort, kill (under mu)
 
   // What the gate let in (ingest thread).
@@ -50,7 +50,7 @@ class HostPlacement {
   // Tries the candidates in turn within the start's budget; false (with each host's refusal in
   // `refusals`) when none took it, so that the caller may run the worker here instead.
   bool start_hosted_worker(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
-                           const std::optional<std::string>& aids, std::vector<std::string> candidates,
+                           const std::optional<std::string>& aids, const std::string& language, std::vector<std::string> candidates,
                            std::string& refusals);
   dds::Writer<fk_WorkerRequest>& request_writer(const std::string& host);  // under mu
   void write_worker_files(const fk_WorkerReport& r);

@@ -177,7 +177,8 @@ store::Session start_session(Context& ctx, const Principal& p, const json& b,
     std::ofstream(file) << run.dump(2) << '\n';
   }
   try {
-    ctx.fleet->start_worker(s, file, duration, aids);
+    // The pupil's language, for a cab that has none of its own set (its HUD, help and end words).
+    ctx.fleet->start_worker(s, file, duration, aids, ctx.words->supported(ctx.db().pupil_language(pupil.id)));
   } catch (const std::exception& e) {
     ctx.db().set_session_state_audited(s.public_id, SessionPhase::kFailed, e.what(), store::now_iso8601(), kServerActor);
     session_log(s.public_id, name(SessionPhase::kFailed), {{"reason", "no worker could start"}, {"by", "server"}});

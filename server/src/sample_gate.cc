@@ -178,7 +178,8 @@ std::optional<store::ScoreRecord> SampleGate::score(const fk_Score& s, const dds
 }
 
 std::optional<StatusIn> SampleGate::valid_status(const fk_SessionStatus& s) {
-  if (auto bad = bad_text({{"its state", s.state}, {"its reason", s.reason}})) {
+  // Its language is the cab's alone (the server reads none), checked as text all the same.
+  if (auto bad = bad_text({{"its state", s.state}, {"its reason", s.reason}, {"its language", s.language}})) {
     malformed("fk_SessionStatus", *bad);
     return std::nullopt;
   }

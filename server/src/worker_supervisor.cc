@@ -100,7 +100,7 @@ void WorkerSupervisor::signal_worker(const WorkerInfo& w, int sig) {
 }
 
 void WorkerSupervisor::start_local(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
-                                   const std::optional<std::string>& aids) {
+                                   const std::optional<std::string>& aids, const std::string& language) {
   const FleetConfig& config = fleet_.config;
   if (fleet_.secure()) {
     // The worker's identity must exist before it is spawned: a clear refusal now, not a failed
@@ -120,6 +120,7 @@ void WorkerSupervisor::start_local(const store::Session& s, const std::string& s
   l.start_timeout_s = config.start_timeout_s;
   l.duration_s = duration_s;
   l.aids = aids;
+  l.language = language;
   l.frames = config.frames;
   l.realtime = config.realtime_workers;
 

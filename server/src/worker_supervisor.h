@@ -30,7 +30,7 @@ class WorkerSupervisor {
   // Spawns the session's worker on this machine. Throws std::runtime_error when the machine
   // already runs max_workers, the cab is busy, or (under DDS Security) the worker has no identity.
   void start_local(const store::Session& s, const std::string& scenario_file, std::optional<double> duration_s,
-                   const std::optional<std::string>& aids);
+                   const std::optional<std::string>& aids, const std::string& language);
   // The instructor's abort (SIGUSR1); false if the session has no worker here.
   bool abort(const std::string& session);
   // SIGTERM to every worker that runs on this machine (the server is stopping).

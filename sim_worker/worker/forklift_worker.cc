@@ -18,6 +18,7 @@
 #include <thread>
 
 #include "control_intake.h"
+#include "forklift/i18n/catalogue.h"
 #include "forklift/protocol/aids.h"
 #include "forklift/protocol/protocol.h"
 #include "forklift/scene/scenario.h"
@@ -174,6 +175,16 @@ int main(int argc, char** argv) {
                  "training aids a cab may ask for: a comma list of rear_view, see_through_mast, chase_camera, fork_camera, or all or "
                  "none "
                  "(training default: all; an exam allows none)");
+  std::string language;
+  app.add_option("--language", language,
+                 "the pupil's language (en, es), told to the cab with the session's status: a cab started without "
+                 "--language speaks it while the session runs (default: none, the cab speaks its own)")
+      ->check([](const std::string& v) {
+        if (i18n::shipped().has_language(v)) return std::string();
+        std::string known;
+        for (const std::string& l : i18n::shipped().languages()) known += (known.empty() ? "" : ", ") + l;
+        return "'" + v + "' is not one of the school's languages (" + known + ")";
+      });
   app.add_flag("--jpeg", frames.jpeg, "publish JPEG frames (for cabs on a real network) instead of raw RGB");
   app.add_option("--jpeg-quality", frames.jpeg_quality, "JPEG quality of --jpeg frames, 1-100")->check(CLI::Range(1, 100));
   app.add_option("--frame-shadows", frames.quality.shadow_map_px,
@@ -237,6 +248,7 @@ int main(int argc, char** argv) {
     dds::set_string(s.state, name(phase));
     s.sim_time_s = t;
     dds::set_string(s.reason, reason);
+    dds::set_string(s.language, language);
     status_writer->write(s);
     if (cab_status_writer) cab_status_writer->write(s);
   };

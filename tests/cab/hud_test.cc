@@ -117,6 +117,23 @@ TEST(Hud, TheSessionsEndIsSaidInWordsAndAnAbortNamesTheInstructor) {
   }
 }
 
+// A cab left running takes each session's pupil's language (the worker's status names it): the
+// waiting line is said again in it, and what comes after too; a language the catalogue has not is
+// English, never its code or an empty line.
+TEST(Hud, TheSessionsLanguageTakesOverFromTheCabsOwn) {
+  Hud hud = make_hud("en");
+  hud.set_language("es", load_fault_words(std::string(FORKLIFT_DATA_DIR) + "/evaluation/rules.json", "es"));
+  EXPECT_EQ(hud.language(), "es");
+  EXPECT_TRUE(has_text(hud.draw_list(960, 720, 0), "Esperando a que empiece la sesión"));
+  hud.on_status("running", "", 1);
+  hud.on_state(moving());
+  EXPECT_TRUE(has_text(hud.draw_list(960, 720, 1.5), "Sesión iniciada"));
+  hud.set_language("xx", {});
+  EXPECT_EQ(hud.language(), "en");
+  hud.on_status("ended", "aborted", 20);
+  EXPECT_TRUE(has_text(hud.draw_list(960, 720, 20.5), "Session aborted by your instructor"));
+}
+
 // The instructor's hand, as the worker's state carries it: a paused session is said across the
 // middle, a message above it while the state holds it; text that is not UTF-8 is not shown.
 TEST(Hud, APausedSessionAndTheInstructorsMessageAreSaid) {

@@ -170,8 +170,8 @@ start() {  # CAB TIME_LIMIT: starts a session, prints its id
   menu start --pupil "$pupil" --cab "$1" --scenario first_drive_yard --time-limit "$2" | sed -n 's/^session \(s-[0-9]*\) started.*/\1/p'
 }
 cabs=()
-drive() {  # CAB [IDENTITY]: a scripted cab in C, in the background
-  spawn "$C" "$bin/forklift-cab" --cab "$1" --script "$script" --wait-worker 60 --no-window --no-sound ${2:+--identity $2} \
+drive() {  # CAB [IDENTITY]: a scripted cab in C, set up in English, in the background
+  spawn "$C" env LC_ALL=C.UTF-8 "$bin/forklift-cab" --cab "$1" --script "$script" --wait-worker 60 --no-window --no-sound ${2:+--identity $2} \
     > "$out/cab-$1${2:+-as-$2}.log" 2>&1 &
   cabs+=($!)
 }
@@ -187,6 +187,9 @@ wait_hosts 2
 if [ "$secure" != "--secure" ]; then
   # 1. Four sessions on two hosts of two places each, started through A; B joins the domain.
   start_server "$T" "$addr_T" B
+  # The pupil reads Spanish: each host is asked to tell its worker (fk_WorkerRequest.language), and
+  # the cabs, given no --language, speak it.
+  sql "UPDATE pupils SET language = 'es' WHERE id = $pupil" > /dev/null
   sessions=()
   for c in c1 c2 c3 c4; do
     s=$(start "$c" 12)
@@ -200,6 +203,9 @@ if [ "$secure" != "--secure" ]; then
   [ "$(printf '%s\n' "${on_host[@]}" | grep -c '^h1$')" -eq 2 ] && [ "$(printf '%s\n' "${on_host[@]}" | grep -c '^h2$')" -eq 2 ] ||
     fail placement "four sessions were not two on each host: ${on_host[*]}"
   wait_cabs
+  for c in c1 c2 c3 c4; do
+    grep -q '^sesión s-[0-9]*: ' "$out/cab-$c.log" || fail language "cab $c did not speak its pupil's Spanish: $(tail -2 "$out/cab-$c.log")"
+  done
   for s in "${sessions[@]}"; do
     wait_state "$s" ended 30 || fail ingest "session $s is $(session_state "$s"), not ended"
     for _ in $(seq 50); do [ "$(sql "SELECT count(*) FROM scores sc JOIN sessions s ON s.id = sc.session_id WHERE s.public_id = '$s'")" = 1 ] && break; sleep 0.2; done

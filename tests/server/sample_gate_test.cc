@@ -285,6 +285,10 @@ TEST(SampleGate, Statuses) {
   dds::set_string(bad_reason.reason, kNotUtf8);
   fk_SessionStatus bad_state = status("ended");
   dds::set_string(bad_state.state, kNotUtf8);
+  fk_SessionStatus odd_language = status("running");  // the cab's to judge: the server reads none
+  dds::set_string(odd_language.language, "xx");
+  fk_SessionStatus bad_language = status("running");
+  dds::set_string(bad_language.language, kNotUtf8);
   run({
       {"running", offer_status(kWorker, status("running")), nullptr, "", true},
       {"ended", offer_status(kWorker, status("ended")), nullptr, "", true},
@@ -293,6 +297,8 @@ TEST(SampleGate, Statuses) {
       {"from its cab's partition", offer_status(kWorkerInCab, status("ended")), kWrongSender, "not from its worker"},
       {"reason not UTF-8", offer_status(kWorker, bad_reason), kMalformed, "its reason is not UTF-8"},
       {"state not UTF-8", offer_status(kWorker, bad_state), kMalformed, "its state is not UTF-8"},
+      {"a language no cab has", offer_status(kWorker, odd_language), nullptr, "", true},
+      {"language not UTF-8", offer_status(kWorker, bad_language), kMalformed, "its language is not UTF-8"},
       {"session not UTF-8", offer_status(kWorker, status("ended", kNotUtf8)), kMalformed, "whose session is not UTF-8"},
   });
   FakeWorld world;

@@ -31,6 +31,7 @@ struct WorkerLaunch {
   double start_timeout_s = 120;
   std::optional<double> duration_s;
   std::optional<std::string> aids;
+  std::string language;                // the pupil's, for the cab (--language; one the catalogue has); "" none
   std::optional<WorkerFrames> frames;  // nullopt: the worker's defaults
   bool realtime = false;               // its tick at real-time priority where permitted (--realtime)
 };
