@@ -66,9 +66,13 @@ std::vector<WorkerProcess> WorkerSupervisor::take_over(store::Store& db, const s
       // Not here: on a worker host, whose report adopts it within the hosts' lease (on_report);
       // else gone (or a second worker on a cab that has one), settled from its log after that.
       const auto grace = seconds(dds::kHostLeaseS + 1);
+      const bool logged = static_cast<bool>(std::ifstream(fleet_.log_path(s.public_id)));
       fleet_.bindings[s.public_id] = {w.cab, w.participant, now + grace + std::chrono::seconds(2)};
-      fleet_.finishing.push_back({w, s.state == SessionPhase::kStarting && !std::ifstream(fleet_.log_path(s.public_id))
-                                         ? "the session never started (the server stopped while starting it)"
+      // Taken over from another server, a worker not on a worker host ran on that server's own
+      // machine: its log is there, out of this one's reach.
+      fleet_.finishing.push_back({w, s.state == SessionPhase::kStarting && !logged ? "the session never started (the server stopped while starting it)"
+                                     : !all_workers && !logged
+                                         ? "the school's server that ran it stopped, and its worker ran on that server's own machine"
                                          : "",
                                   now + grace});
     }
