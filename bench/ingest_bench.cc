@@ -464,7 +464,8 @@ int main(int argc, char** argv) {
       std::vector<double> start_ms;
       for (int i = 0; i < n; ++i) {
         auto s = std::make_unique<FakeSession>();
-        s->cab = "ing" + std::to_string(n) + "-" + std::to_string(i + 1);
+        // Named for the run too: a server of the run before may still be going away.
+        s->cab = "ing" + std::to_string(server_count) + "s" + std::to_string(n) + "-" + std::to_string(i + 1);
         s->pupil = pupils[i];
         s->states = std::make_unique<dds::Writer<fk_TruckState>>(part, dds::cab_partition(s->cab));
         s->events = std::make_unique<dds::Writer<fk_Event>>(part, dds::worker_partition(s->cab));
@@ -482,7 +483,9 @@ int main(int argc, char** argv) {
         s->id = json::parse(r->body)["id"];
         // Best-effort states published before the server's reader is matched are lost on the way:
         // a worker's are too, but they are not the server's to count.
-        for (int k = 0; k < 500 && (s->states->matched() == 0 || s->events->matched() == 0); ++k)
+        // The server makes its reader of the cab's states when it binds the session (a round of
+        // its ingest later); a busy machine may take seconds to match it.
+        for (int k = 0; k < 5000 && (s->states->matched() == 0 || s->events->matched() == 0); ++k)
           std::this_thread::sleep_for(std::chrono::milliseconds(2));
         fk_SessionStatus st{};
         dds::set_string(st.session_id, s->id);

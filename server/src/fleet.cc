@@ -219,8 +219,9 @@ void Fleet::ingest() {
   // partition: with several servers on one store, each is sent its own sessions' states alone
   // (60 a second each, the bulk of the ingest), not every cab's to read and drop. Every state,
   // not only each cab's newest: the truck path is taken from them, and a round of the ingest held
-  // up (a store transaction, a busy machine) would otherwise lose the states that came meanwhile.
-  // 16 is over a quarter of a second of a worker's 60 Hz.
+  // up (a store transaction, another server's commit on a shared SQLite file, a busy machine)
+  // would otherwise lose the states that came meanwhile. 64 is a second of a worker's 60 Hz (held
+  // only while a round is held up: a sample taken is freed).
   std::map<std::string, std::unique_ptr<dds::Reader<fk_TruckState>>> states;  // by cab
   auto read_states_of_bound_cabs = [&] {
     std::set<std::string> cabs;
@@ -231,7 +232,7 @@ void Fleet::ingest() {
     std::erase_if(states, [&](const auto& r) { return !cabs.count(r.first); });  // a deleted reader leaves the wait set
     for (const std::string& cab : cabs)
       if (!states.count(cab)) {
-        auto r = std::make_unique<dds::Reader<fk_TruckState>>(*participant_, dds::cab_partition(cab), 16);
+        auto r = std::make_unique<dds::Reader<fk_TruckState>>(*participant_, dds::cab_partition(cab), 64);
         ws.attach_reader(r->handle());
         states.emplace(cab, std::move(r));
       }
@@ -279,8 +280,7 @@ void Fleet::ingest() {
     announced.clear();
   };
   // A round at most every kRoundEvery: the samples that came meanwhile are taken together, a
-  // reader at a time, rather than a round for each (the readers keep 16 states per cab, over a
-  // quarter of a second). The truck states' writers are learnt less often: a worker's lives for
+  // reader at a time, rather than a round for each (the readers keep 64 states per cab). The truck states' writers are learnt less often: a worker's lives for
   // its session, and one not learnt yet is asked for when its sample is taken.
   constexpr auto kRoundEvery = std::chrono::milliseconds(10);
   constexpr auto kLearnStatesEvery = std::chrono::milliseconds(250);
