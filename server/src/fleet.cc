@@ -55,11 +55,6 @@ std::vector<WorkerInfo> Fleet::workers() {
   return out;
 }
 
-bool Fleet::workers_session(const std::string& session) {
-  std::lock_guard<std::mutex> lock(state_.mu);
-  return state_.workers.count(session) > 0;
-}
-
 bool Fleet::cab_busy(const std::string& cab) {
   std::lock_guard<std::mutex> lock(state_.mu);
   return !state_.session_on(cab).empty();
@@ -280,8 +275,9 @@ void Fleet::ingest() {
     announced.clear();
   };
   // A round at most every kRoundEvery: the samples that came meanwhile are taken together, a
-  // reader at a time, rather than a round for each (the readers keep 64 states per cab). The truck states' writers are learnt less often: a worker's lives for
-  // its session, and one not learnt yet is asked for when its sample is taken.
+  // reader at a time, rather than a round for each (the readers keep 64 states per cab). The
+  // truck states' writers are learnt less often: a worker's lives for its session, and one not
+  // learnt yet is asked for when its sample is taken.
   constexpr auto kRoundEvery = std::chrono::milliseconds(10);
   constexpr auto kLearnStatesEvery = std::chrono::milliseconds(250);
   auto learnt_states_at = Clock::now() - kLearnStatesEvery;

@@ -52,7 +52,6 @@ class Fleet : private GateWorld {
   std::optional<std::string> instruct(const std::string& session, const Instruction& what, const std::string& by);
 
   std::vector<WorkerInfo> workers();
-  bool workers_session(const std::string& session);  // whether a worker runs it here
   std::vector<HostInfo> hosts() { return placement_.hosts(); }  // the worker hosts heard from, alive or not
   // Whether the session's worker runs here or has ended without its logs stored yet (they are
   // stored a moment after it exits, when its last samples have had time to arrive).

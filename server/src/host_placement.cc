@@ -338,7 +338,7 @@ void HostPlacement::keep_heard(const fk_WorkerReport& r, Clock::time_point now) 
   // Forgotten a while after its worker's end (its server has settled it, or it is taken over
   // with this copy), or with a newer report.
   std::erase_if(heard_, [&](const auto& h) {
-    return std::string(h.second->r.state) == name(WorkerReportState::kExited) && now - h.second->at > std::chrono::minutes(2);
+    return h.second->exited() && now - h.second->at > std::chrono::minutes(2);
   });
   auto h = std::make_unique<Heard>();
   h->r = r;
@@ -358,7 +358,7 @@ void HostPlacement::keep_heard(const fk_WorkerReport& r, Clock::time_point now) 
 bool HostPlacement::abort_heard(const std::string& session) {
   std::lock_guard<std::mutex> lock(fleet_.mu);
   const auto it = heard_.find(session);
-  if (it == heard_.end() || std::string(it->second->r.state) == name(WorkerReportState::kExited)) return false;
+  if (it == heard_.end() || it->second->exited()) return false;
   request(it->second->r.host_id, session, WorkerAction::kAbort);
   return true;
 }

@@ -79,6 +79,7 @@ class HostPlacement {
     fk_WorkerReport r{};
     std::vector<uint8_t> log, sig, err;  // r's sequences point here
     Clock::time_point at;
+    bool exited() const { return std::string(r.state) == name(WorkerReportState::kExited); }
   };
   void keep_heard(const fk_WorkerReport& r, Clock::time_point now);  // under mu
 

@@ -41,13 +41,12 @@ store::Session session_for(Context& ctx, const httplib::Request& req, const Prin
   return visible_session(ctx, p, req.matches[1]);
 }
 
-// Why a session has no running worker here: it is over, another server of the school runs it
-// (its live view and the instructor's hand are there), or its worker is gone.
-std::string not_running_here(Context& ctx, const store::Session& s) {
+// Why a session is neither followed nor acted on here when another server of the school runs
+// it (its live view and the instructor's hand are there); nullopt when none other does.
+std::optional<std::string> run_elsewhere(Context& ctx, const store::Session& s) {
   const auto server = ctx.db().session_server(s.public_id);
-  if (server && !server->empty() && *server != ctx.fleet->config().server_id)
-    return "session " + s.public_id + " is run by the school's server " + *server + ": follow it and act on it there";
-  return "session " + s.public_id + " has no running worker (" + std::string(name(s.state)) + ")";
+  if (!server || server->empty() || *server == ctx.fleet->config().server_id) return std::nullopt;
+  return "session " + s.public_id + " is run by the school's server " + *server + ": follow it and act on it there";
 }
 
 // The session of the request, for staff, with what the fleet sees of it now (live follow).
@@ -56,7 +55,9 @@ std::pair<store::Session, LiveView> followed(Context& ctx, const httplib::Reques
   require_role(p, {Role::kAdmin, Role::kInstructor, Role::kExaminer});
   const store::Session s = session_for(ctx, req, p);
   const auto v = ctx.fleet->follow(s.public_id);
-  if (!v) throw ApiError(409, "not_running", not_running_here(ctx, s));
+  if (!v)
+    throw ApiError(409, "not_running",
+                   run_elsewhere(ctx, s).value_or("session " + s.public_id + " has no running worker (" + name(s.state) + ")"));
   return {s, *v};
 }
 
@@ -332,7 +333,7 @@ void session_routes(Routes& svr, Context& ctx) {
     if (s.state != SessionPhase::kRunning)
       throw ApiError(409, "not_running", "session " + s.public_id + " is " + name(s.state) + ", not running");
     if (const auto problem = ctx.fleet->instruct(s.public_id, what, p.username))
-      throw ApiError(409, "not_running", ctx.fleet->workers_session(s.public_id) ? *problem : not_running_here(ctx, s));
+      throw ApiError(409, "not_running", run_elsewhere(ctx, s).value_or(*problem));
     const char* audited = *action == InstructorAction::kPause    ? "session_paused"
                           : *action == InstructorAction::kResume ? "session_resumed"
                           : *action == InstructorAction::kRewind ? "session_rewound"

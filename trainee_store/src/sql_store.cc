@@ -655,9 +655,9 @@ class SqlStore final : public Store {
   }
 
   std::optional<std::string> session_server(const std::string& public_id) override {
+    Transaction tx(d_, __func__, TxKind::kStatement);
     Query q(d_, __func__,
             "SELECT COALESCE(server_id, '') FROM sessions WHERE public_id = ?1 AND state NOT IN ('ended', 'failed', 'aborted')");
-    Transaction tx(d_, __func__, TxKind::kStatement);
     q.bind(public_id);
     std::optional<std::string> server;
     if (q.step()) server = q.text(0);
