@@ -181,8 +181,16 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
   std::string DropMigration14() {
     return DropMigration15() + "ALTER TABLE users DROP COLUMN language; ALTER TABLE pupils DROP COLUMN language; DELETE FROM schema_migrations WHERE version >= 14; ";
   }
+  std::string DropMigration18() {
+    return std::string(sqlite() ? "DROP TRIGGER pupil_fault_counts_in; DROP TRIGGER pupil_fault_counts_out; "
+                                : "DROP TRIGGER pupil_fault_counts_in ON events; DROP TRIGGER pupil_fault_counts_out ON events; "
+                                  "DROP FUNCTION pupil_fault_counts_count; ") +
+           "DROP TABLE pupil_fault_counts; "
+           "CREATE INDEX events_faults_by_session ON events(session_id, worry_level, kind) WHERE worry_level > 0; "
+           "DELETE FROM schema_migrations WHERE version >= 18; ";
+  }
   std::string DropMigration17() {
-    return "ALTER TABLE sessions DROP COLUMN server_id; DROP TABLE servers; DELETE FROM schema_migrations WHERE version >= 17; ";
+    return DropMigration18() + "ALTER TABLE sessions DROP COLUMN server_id; DROP TABLE servers; DELETE FROM schema_migrations WHERE version >= 17; ";
   }
   std::string DropMigration16() {
     // The passed sessions' indexes as 15 left them (13's on SQLite).
@@ -904,6 +912,7 @@ TEST_P(StoreTest, HistoryAggregatesFaultsTrendAndLicence) {
   store_->add_event(MakeEvent(s2, 1, "overspeed", 3));
   store_->add_event(MakeEvent(s2, 2, "collision", 3));
   store_->add_event(MakeEvent(bobs, 1, "collision", 3));  // someone else's
+  store_->add_event(MakeEvent(s2, 2, "collision", 3));  // heard twice: counted once
   store_->set_session_state(aborted, SessionPhase::kAborted, "cab lost", "2026-01-02T10:05:00Z");
   // The worker's score follows an abort: an aborted session keeps it, and has no mark.
   store_->set_score(fs::ScoreRecord{aborted, 95, true, {}}, "t");
@@ -1193,6 +1202,26 @@ TEST_P(StoreTest, TheStoredOutcomeIsTheOutcomeRulesOnEveryEnd) {
   ASSERT_EQ(RawExec(DropMigration16()), "");  // schema 15, as an older program left it
   store_ = Open();
   check("back-filled by the upgrade");
+}
+
+// The history's fault counts are kept per pupil as events come (migration 18); a store from before
+// them has its counts filled by the upgrade, and counts on from there.
+TEST_P(StoreTest, TheFaultCountsOfAStoreFromBeforeThemAreFilledByTheUpgrade) {
+  const int64_t ann = NewPupil("Ann"), bob = NewPupil("Bob");
+  const std::string a1 = NewSession(ann).public_id, b1 = NewSession(bob).public_id;
+  store_->add_event(MakeEvent(a1, 1, "overspeed", 2));
+  store_->add_event(MakeEvent(a1, 2, "overspeed", 1));
+  store_->add_event(MakeEvent(a1, 3, "horn", 0));
+  store_->add_event(MakeEvent(b1, 1, "collision", 3));
+  store_.reset();
+  ASSERT_EQ(RawExec(DropMigration18()), "");  // schema 17, as an older program left it
+  store_ = Open();
+  EXPECT_EQ(store_->history(ann, "t")->faults_by_kind, (std::map<std::string, int>{{"overspeed", 2}}));
+  EXPECT_EQ(store_->history(bob, "t")->faults_by_kind, (std::map<std::string, int>{{"collision", 1}}));
+  store_->add_event(MakeEvent(a1, 4, "collision", 3));
+  store_->add_event(MakeEvent(a1, 4, "collision", 3));  // heard twice
+  EXPECT_EQ(store_->history(ann, "t")->faults_by_kind, (std::map<std::string, int>{{"collision", 1}, {"overspeed", 2}}));
+  EXPECT_EQ(store_->history(bob, "t")->faults_by_kind, (std::map<std::string, int>{{"collision", 1}}));
 }
 
 // Two servers on one database (two Store objects: two connections) ingest the same 200 sessions'

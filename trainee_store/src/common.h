@@ -42,6 +42,13 @@ constexpr const char* kServerBusy = "the database server of the school's records
   "ALTER TABLE sessions ADD COLUMN server_id TEXT; " \
   "CREATE TABLE servers (id TEXT PRIMARY KEY, seen_at TEXT NOT NULL);"
 
+// Migration 18's first fill of each pupil's fault counts (pupil_fault_counts), the same in both
+// dialects: the events with a worry level, by the pupil whose session they happened in.
+#define PUPIL_FAULT_COUNTS_FILL                                                                   \
+  "INSERT INTO pupil_fault_counts(pupil_id, kind, count) SELECT s.pupil_id, e.kind, COUNT(*) "   \
+  "FROM events e JOIN sessions s ON s.id = e.session_id WHERE e.worry_level > 0 "               \
+  "GROUP BY s.pupil_id, e.kind;"
+
 #define SCHOOL_TOTALS_FILL                                                                              \
   "INSERT INTO school_totals(school_id, pupils, sessions, exams) SELECT id, "                           \
   "(SELECT COUNT(*) FROM pupils p WHERE p.school_id = schools.id), "                                    \

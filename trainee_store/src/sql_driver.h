@@ -203,8 +203,6 @@ struct Dialect {
   const char* insert_score_audit;
   // SELECT of a state change's details, a JSON object (?1 session, ?2 from, ?3 to, ?4 reason).
   const char* state_audit_details;
-  // A pupil's (?) faults: rows of (kind, how many), summed by kind.
-  const char* fault_counts;
 };
 
 // The store over `driver`, speaking `dialect`; applies pending migrations.

@@ -1175,7 +1175,7 @@ class SqlStore final : public Store {
     Query pupil_q(d_, __func__, "SELECT " PUPIL_COLUMNS " FROM pupils WHERE id = ?1");
     Query sessions_q(d_, __func__, sessions_of_sql());
     Query exams_q(d_, __func__, "SELECT " EXAM_ROWS " WHERE e.pupil_id = ?1 ORDER BY e.taken_at, e.id");
-    Query faults_q(d_, __func__, dialect_.fault_counts);
+    Query faults_q(d_, __func__, "SELECT kind, count FROM pupil_fault_counts WHERE pupil_id = ?1 AND count > 0");
     Query licence_q(d_, __func__,
                     "SELECT id, issued_at, reevaluation_due, issued_by FROM licences "
                     "WHERE pupil_id = ?1 ORDER BY issued_at DESC, id DESC LIMIT 1");
@@ -1199,7 +1199,7 @@ class SqlStore final : public Store {
     h.pupil = read_pupil(pupil_q);
     while (sessions_q.step()) h.sessions.push_back(read_session(sessions_q));
     while (exams_q.step()) h.exams.push_back(read_exam(exams_q));
-    while (faults_q.step()) h.faults_by_kind[faults_q.text(0)] += static_cast<int>(faults_q.int64(1));
+    while (faults_q.step()) h.faults_by_kind[faults_q.text(0)] = static_cast<int>(faults_q.int64(1));
     if (licence_q.step())
       h.licence = LicenceRecord{licence_q.int64(0), pupil_id, licence_q.text(1), licence_q.text(2), licence_q.text(3)};
     while (corrections_q.step()) h.corrections.push_back(read_correction(corrections_q));
