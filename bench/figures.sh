@@ -90,8 +90,9 @@ measure "forklift-bench-ingest --db postgresql --servers 1 2 --sessions 300 --se
   "$alloc" sh -c "exec $bin/forklift-bench-ingest --db postgresql --servers 1 2 --sessions 300 --seconds $seconds --dir $work/ingest-pg --port \$FORKLIFT_TEST_PORT --dds-domain \$FORKLIFT_TEST_DOMAIN"
 
 # The lists and the history as the store grows: generated stores of 100,000, 1 million and 10
-# million sessions on both backends (kept in the bench folder: some 10 GB at 10 million; the first
-# run generates them, some 15 minutes), every list's p99 at the largest, and each call's growth.
+# million sessions on both backends (kept in the bench folder: some 15 GB at 10 million; the first
+# run generates them, some 15 minutes), every list's p99 at the largest, and each call's growth
+# (its p50 from the smallest to the largest, with its p99 at each size).
 # --quick: 100,000 sessions alone, no growth rows.
 sizes="100000 1000000 10000000"
 [ "$quick" = 1 ] && sizes=100000

@@ -181,9 +181,14 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
   std::string DropMigration14() {
     return DropMigration15() + "ALTER TABLE users DROP COLUMN language; ALTER TABLE pupils DROP COLUMN language; DELETE FROM schema_migrations WHERE version >= 14; ";
   }
+  std::string DropMigration20() {
+    // The index as 16 made it (PostgreSQL's with the id).
+    return std::string("DROP INDEX sessions_by_school_outcome; CREATE INDEX sessions_by_school_outcome ON sessions(school_id, outcome, created_at") +
+           (sqlite() ? "); " : ", id); ") + "DELETE FROM schema_migrations WHERE version >= 20; ";
+  }
   std::string DropMigration19() {
     // The exams' indexes as 15 and 8 left them (PostgreSQL's with the id as 15 made it).
-    return std::string("DROP INDEX exams_by_school_kind_result; DROP INDEX exams_by_school_time; ALTER TABLE exams DROP COLUMN school_id; ") +
+    return DropMigration20() + "DROP INDEX exams_by_school_kind_result; DROP INDEX exams_by_school_time; ALTER TABLE exams DROP COLUMN school_id; " +
            (sqlite() ? "CREATE INDEX exams_by_kind_result ON exams(kind, passed, taken_at); "
                      : "CREATE INDEX exams_by_kind_result ON exams(kind, passed, taken_at, id); ") +
            "CREATE INDEX exams_by_time ON exams(taken_at); DELETE FROM schema_migrations WHERE version >= 19; ";

@@ -567,6 +567,11 @@ DROP INDEX exams_by_time;
 CREATE INDEX exams_by_school_kind_result ON exams(school_id, kind, passed, taken_at, id);
 CREATE INDEX exams_by_school_time ON exams(school_id, taken_at, id);
 )sql",
+    // 20: the school's sessions by outcome carry the result too, as SQLite's 20.
+    R"sql(
+DROP INDEX sessions_by_school_outcome;
+CREATE INDEX sessions_by_school_outcome ON sessions(school_id, outcome, created_at, id, passed);
+)sql",
 };
 
 // A session's columns: the one before last says whether the score notes the task left unfinished

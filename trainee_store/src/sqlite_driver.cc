@@ -575,6 +575,14 @@ DROP INDEX exams_by_time;
 CREATE INDEX exams_by_school_kind_result ON exams(school_id, kind, passed, taken_at);
 CREATE INDEX exams_by_school_time ON exams(school_id, taken_at);
 )sql",
+    // 20: the school's sessions by outcome carry the result too, so that counting the passed ones
+    // reads that index alone: it looked up each of up to 10,001 rows for its result (16 ms at 10
+    // million sessions, 2.6 ms at 100,000).
+    R"sql(
+-- After the id, so that the order by time and id stays the index's own.
+DROP INDEX sessions_by_school_outcome;
+CREATE INDEX sessions_by_school_outcome ON sessions(school_id, outcome, created_at, id, passed);
+)sql",
 };
 
 // Read FROM sessions. The second column is NULL: read_session derives the public id from the id,
