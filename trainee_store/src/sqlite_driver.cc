@@ -582,6 +582,10 @@ CREATE INDEX exams_by_school_time ON exams(school_id, taken_at);
 -- After the id, so that the order by time and id stays the index's own.
 DROP INDEX sessions_by_school_outcome;
 CREATE INDEX sessions_by_school_outcome ON sessions(school_id, outcome, created_at, id, passed);
+-- Its statistics at once, where the store has any (an empty table gets none): without them the
+-- planner took it for a narrow one and sorted every session of the school for the newest page
+-- (56 ms at 100,000 sessions, 370 ms at a million).
+ANALYZE sessions_by_school_outcome;
 )sql",
 };
 
