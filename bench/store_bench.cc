@@ -211,12 +211,12 @@ int main(int argc, char** argv) {
         const bool offset_paging = what.find("(offset)") != std::string::npos;
         if (n == *std::max_element(sizes.begin(), sizes.end()) && what != "a pupil's history" && offset_paging)
           bench::comparison("store: " + what + " (" + with_commas(n) + " sessions, " + db + "): p99",
-                            bench::fmt("%.1f ms (p50 %.2f ms)", l.pct(0.99), l.pct(0.5)));
+                            bench::fmt("%.2f ms (p50 %.2f ms)", l.pct(0.99), l.pct(0.5)));
         if (n == *std::max_element(sizes.begin(), sizes.end()) && what != "a pupil's history" && !offset_paging) {
           const bool met = l.pct(0.99) < 50;
           all_met &= met;
           bench::figure("store: " + what + " (" + with_commas(n) + " sessions, " + db + "): p99", "< 50 ms",
-                        bench::fmt("%.1f ms (p50 %.2f ms)", l.pct(0.99), l.pct(0.5)), met);
+                        bench::fmt("%.2f ms (p50 %.2f ms)", l.pct(0.99), l.pct(0.5)), met);
         }
       }
       std::printf("load average %.2f\n\n", [] { double l[3]; return getloadavg(l, 3) > 0 ? l[0] : NAN; }());
