@@ -27,7 +27,9 @@ rows="$work/rows"
 # Ports and DDS domains from the tests' allocator, as every program that listens takes them.
 alloc=build/tests/forklift-test-alloc
 
-# Runs a benchmark; its FIGURE lines become rows, with the command that printed them.
+# Runs a benchmark; its FIGURE lines become rows, with the command that printed them (and
+# $suffix after each figure's name, where one figure is measured at several settings).
+suffix=""
 measure() {
   local shown="$1"; shift
   echo "figures.sh: $shown" >&2
@@ -35,7 +37,7 @@ measure() {
   "$@" > "$work/out" 2> "$work/err" || true
   grep -qP '^FIGURE\t' "$work/out" || { cat "$work/err" >&2; echo "figures.sh: '$shown' printed no figures" >&2; exit 1; }
   grep -P '^FIGURE\t' "$work/out" | while IFS=$'\t' read -r _ figure goal measured met; do
-    printf '| %s | %s | %s | %s | `%s` |\n' "$figure" "$goal" "$measured" "$met" "$shown" >> "$rows"
+    printf '| %s | %s | %s | %s | `%s` |\n' "$figure$suffix" "$goal" "$measured" "$met" "$shown" >> "$rows"
   done
 }
 
@@ -98,6 +100,17 @@ sizes="100000 1000000 10000000"
 [ "$quick" = 1 ] && sizes=100000
 measure "forklift-bench-store --sessions $sizes --db sqlite postgresql --seconds $seconds" \
   "$bin/forklift-bench-store" --sessions $sizes --db sqlite postgresql --seconds "$seconds" --dir "${FORKLIFT_BENCH_DIR:-build/bench-data}"
+# The ingest on a copy of each of those stores (300 sessions, the goal's), on each backend.
+bench_dir="${FORKLIFT_BENCH_DIR:-build/bench-data}"
+for n in $sizes; do
+  suffix=", on a store of $n sessions"
+  measure "forklift-bench-ingest --sessions 300 --seconds $seconds --from $bench_dir/store_$n.db" \
+    "$alloc" sh -c "exec $bin/forklift-bench-ingest --sessions 300 --seconds $seconds --from $bench_dir/store_$n.db --dir $work/ingest-$n --port \$FORKLIFT_TEST_PORT --dds-domain \$FORKLIFT_TEST_DOMAIN"
+  measure "forklift-bench-ingest --db postgresql --from-postgresql $bench_dir/postgresql/store_$n --sessions 300 --seconds $seconds" \
+    "$alloc" sh -c "exec $bin/forklift-bench-ingest --db postgresql --from-postgresql $bench_dir/postgresql/store_$n --sessions 300 --seconds $seconds --dir $work/ingest-pg-$n --port \$FORKLIFT_TEST_PORT --dds-domain \$FORKLIFT_TEST_DOMAIN"
+  rm -rf "$work/ingest-$n" "$work/ingest-pg-$n"
+done
+suffix=""
 
 machine="$(nproc) cores ($(lscpu | sed -n 's/^Model name: *//p' | head -1)), $(free -g | awk '/^Mem:/{print $2}') GiB, $(uname -sr), load average $(cut -d' ' -f1-3 /proc/loadavg) at the end, $(date -u +%Y-%m-%d)"
 {
