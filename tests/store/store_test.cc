@@ -188,7 +188,9 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
   }
   std::string DropMigration19() {
     // The exams' indexes as 15 and 8 left them (PostgreSQL's with the id as 15 made it).
-    return DropMigration20() + "DROP INDEX exams_by_school_kind_result; DROP INDEX exams_by_school_time; ALTER TABLE exams DROP COLUMN school_id; " +
+    return DropMigration20() + (sqlite() ? "DROP TRIGGER exams_school_is_the_pupils; "
+                                         : "DROP TRIGGER exams_school_is_the_pupils ON exams; DROP FUNCTION exam_school_is_the_pupils; ") +
+           "DROP INDEX exams_by_school_kind_result; DROP INDEX exams_by_school_time; ALTER TABLE exams DROP COLUMN school_id; " +
            (sqlite() ? "CREATE INDEX exams_by_kind_result ON exams(kind, passed, taken_at); "
                      : "CREATE INDEX exams_by_kind_result ON exams(kind, passed, taken_at, id); ") +
            "CREATE INDEX exams_by_time ON exams(taken_at); DELETE FROM schema_migrations WHERE version >= 19; ";
@@ -597,7 +599,7 @@ TEST_P(StoreTest, ExamsAreFoundByKindDateAndResultWithTheirCorrections) {
 // A school's exams are listed from the school kept on each exam's row: another school's are never
 // among them, by kind and result or all of them, with their totals; the same after the upgrade
 // that keeps the school there (schema 19) filled it in for the exams before it, which still
-// refuse any change afterwards.
+// refuse any change afterwards; an exam written without its pupil's school is refused.
 TEST_P(StoreTest, ASchoolsExamsAreItsOwnAsBeforeTheUpgradeThatKeepsTheSchoolOnThem) {
   const int64_t other_school = store_->create_school("Other school");
   const int64_t ann = NewPupil("Ann"), zoe = store_->create_pupil(other_school, "Zoe", "");
@@ -641,6 +643,12 @@ TEST_P(StoreTest, ASchoolsExamsAreItsOwnAsBeforeTheUpgradeThatKeepsTheSchoolOnTh
   check("filled in by the upgrade");
   EXPECT_NE(RawExec("UPDATE exams SET score = 1"), "");
   EXPECT_NE(RawExec("DELETE FROM exams"), "");
+  // Written past the store, an exam without its pupil's school is refused: the lists would miss it.
+  const std::string exam = "INSERT INTO exams(pupil_id, kind, score, passed, taken_at, school_id) VALUES (" + std::to_string(ann) +
+                           ", 'theory', 0.5, FALSE, '2026-11-29T08:00:00Z', ";
+  EXPECT_NE(RawExec(exam + "NULL)"), "");
+  EXPECT_NE(RawExec(exam + std::to_string(other_school) + ")"), "");
+  EXPECT_EQ(RawExec(exam + std::to_string(school_) + ")"), "");
 }
 
 TEST_P(StoreTest, ACabIsNeverBookedTwiceAtOnce) {

@@ -566,6 +566,19 @@ DROP INDEX exams_by_kind_result;
 DROP INDEX exams_by_time;
 CREATE INDEX exams_by_school_kind_result ON exams(school_id, kind, passed, taken_at, id);
 CREATE INDEX exams_by_school_time ON exams(school_id, taken_at, id);
+-- As SQLite's: an exam without its pupil's school is refused (one of no pupil is the foreign key's).
+CREATE FUNCTION exam_school_is_the_pupils() RETURNS trigger LANGUAGE plpgsql AS $$
+DECLARE
+  school BIGINT;
+BEGIN
+  SELECT school_id INTO school FROM pupils WHERE id = NEW.pupil_id;
+  IF FOUND AND NEW.school_id IS DISTINCT FROM school THEN
+    RAISE EXCEPTION 'an exam is of its pupil''s school';
+  END IF;
+  RETURN NEW;
+END
+$$;
+CREATE TRIGGER exams_school_is_the_pupils BEFORE INSERT ON exams FOR EACH ROW EXECUTE FUNCTION exam_school_is_the_pupils();
 )sql",
     // 20: the school's sessions by outcome carry the result too, as SQLite's 20.
     R"sql(

@@ -574,6 +574,14 @@ DROP INDEX exams_by_kind_result;
 DROP INDEX exams_by_time;
 CREATE INDEX exams_by_school_kind_result ON exams(school_id, kind, passed, taken_at);
 CREATE INDEX exams_by_school_time ON exams(school_id, taken_at);
+-- An exam written without its pupil's school would be missing from the school's lists while
+-- counted in its total: refused (one of no pupil is the foreign key's).
+CREATE TRIGGER exams_school_is_the_pupils BEFORE INSERT ON exams
+WHEN EXISTS (SELECT 1 FROM pupils WHERE id = NEW.pupil_id)
+  AND NEW.school_id IS NOT (SELECT school_id FROM pupils WHERE id = NEW.pupil_id)
+BEGIN
+  SELECT RAISE(ABORT, 'an exam is of its pupil''s school');
+END;
 )sql",
     // 20: the school's sessions by outcome carry the result too, so that counting the passed ones
     // reads that index alone: it looked up each of up to 10,001 rows for its result (16 ms at 10
