@@ -27,7 +27,9 @@ rows="$work/rows"
 # Ports and DDS domains from the tests' allocator, as every program that listens takes them.
 alloc=build/tests/forklift-test-alloc
 
-# Runs a benchmark; its FIGURE lines become rows, with the command that printed them.
+# Runs a benchmark; its FIGURE lines become rows, with the command that printed them (and
+# $suffix after each figure's name, where one figure is measured at several settings).
+suffix=""
 measure() {
   local shown="$1"; shift
   echo "figures.sh: $shown" >&2
@@ -35,7 +37,7 @@ measure() {
   "$@" > "$work/out" 2> "$work/err" || true
   grep -qP '^FIGURE\t' "$work/out" || { cat "$work/err" >&2; echo "figures.sh: '$shown' printed no figures" >&2; exit 1; }
   grep -P '^FIGURE\t' "$work/out" | while IFS=$'\t' read -r _ figure goal measured met; do
-    printf '| %s | %s | %s | %s | `%s` |\n' "$figure" "$goal" "$measured" "$met" "$shown" >> "$rows"
+    printf '| %s | %s | %s | %s | `%s` |\n' "$figure$suffix" "$goal" "$measured" "$met" "$shown" >> "$rows"
   done
 }
 
@@ -90,13 +92,25 @@ measure "forklift-bench-ingest --db postgresql --servers 1 2 --sessions 300 --se
   "$alloc" sh -c "exec $bin/forklift-bench-ingest --db postgresql --servers 1 2 --sessions 300 --seconds $seconds --dir $work/ingest-pg --port \$FORKLIFT_TEST_PORT --dds-domain \$FORKLIFT_TEST_DOMAIN"
 
 # The lists and the history as the store grows: generated stores of 100,000, 1 million and 10
-# million sessions on both backends (kept in the bench folder: some 10 GB at 10 million; the first
-# run generates them, some 15 minutes), every list's p99 at the largest, and each call's growth.
+# million sessions on both backends (kept in the bench folder: some 15 GB at 10 million; the first
+# run generates them, some 15 minutes), every list's p99 at the largest, and each call's growth
+# (its p50 from the smallest to the largest, with its p99 at each size).
 # --quick: 100,000 sessions alone, no growth rows.
 sizes="100000 1000000 10000000"
 [ "$quick" = 1 ] && sizes=100000
 measure "forklift-bench-store --sessions $sizes --db sqlite postgresql --seconds $seconds" \
   "$bin/forklift-bench-store" --sessions $sizes --db sqlite postgresql --seconds "$seconds" --dir "${FORKLIFT_BENCH_DIR:-build/bench-data}"
+# The ingest on a copy of each of those stores (300 sessions, the goal's), on each backend.
+bench_dir="${FORKLIFT_BENCH_DIR:-build/bench-data}"
+for n in $sizes; do
+  suffix=", on a store of $n sessions"
+  measure "forklift-bench-ingest --sessions 300 --seconds $seconds --from $bench_dir/store_$n.db" \
+    "$alloc" sh -c "exec $bin/forklift-bench-ingest --sessions 300 --seconds $seconds --from $bench_dir/store_$n.db --dir $work/ingest-$n --port \$FORKLIFT_TEST_PORT --dds-domain \$FORKLIFT_TEST_DOMAIN"
+  measure "forklift-bench-ingest --db postgresql --from-postgresql $bench_dir/postgresql/store_$n --sessions 300 --seconds $seconds" \
+    "$alloc" sh -c "exec $bin/forklift-bench-ingest --db postgresql --from-postgresql $bench_dir/postgresql/store_$n --sessions 300 --seconds $seconds --dir $work/ingest-pg-$n --port \$FORKLIFT_TEST_PORT --dds-domain \$FORKLIFT_TEST_DOMAIN"
+  rm -rf "$work/ingest-$n" "$work/ingest-pg-$n"
+done
+suffix=""
 
 machine="$(nproc) cores ($(lscpu | sed -n 's/^Model name: *//p' | head -1)), $(free -g | awk '/^Mem:/{print $2}') GiB, $(uname -sr), load average $(cut -d' ' -f1-3 /proc/loadavg) at the end, $(date -u +%Y-%m-%d)"
 {

@@ -259,7 +259,7 @@ int main(int argc, char** argv) {
   int clients = 2, port = 18190, domain = 78;
   std::vector<int> server_counts = {1};
   double history_rate = 200;
-  std::string out_dir = "out/bench-ingest", db = "sqlite", from;
+  std::string out_dir = "out/bench-ingest", db = "sqlite", from, from_postgresql;
   bool check = false;
   app.add_option("--sessions", steps, "concurrent sessions of each step, one step after another")->check(CLI::Range(1, 1000));
   app.add_option("--seconds", seconds, "length of each step's measured window, s")->check(CLI::Range(0.5, 600.0));
@@ -271,6 +271,9 @@ int main(int argc, char** argv) {
   app.add_option("--from", from, "an SQLite store to copy and measure on, whose pupils' histories are asked (e.g. forklift-bench-server's "
                  "out/bench/server-10000x50.db); default: a new store, where the histories asked are this program's pupils'")
       ->check(CLI::ExistingFile);
+  app.add_option("--from-postgresql", from_postgresql, "with --db postgresql: a database of a kept PostgreSQL server to copy and "
+                 "measure on, as the server's folder and the database's name (forklift-bench-store's "
+                 "build/bench-data/postgresql/store_1000000); the copy is dropped at the end");
   app.add_option("--servers", server_counts, "servers sharing the store, each with its own id, port (the first --port, the others free ones) and log folder; "
                  "each step's sessions are started through each in turn, and each must ingest its own alone. Several counts: one run "
                  "each, on a new store, and how many sessions the servers hold per core each, against one server's (1 2)")
@@ -306,15 +309,26 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "--from copies an SQLite store: it goes with --db sqlite\n");
       return 2;
     }
+    if (!from_postgresql.empty() && db != "postgresql") {
+      std::fprintf(stderr, "--from-postgresql copies a database of a PostgreSQL server: it goes with --db postgresql\n");
+      return 2;
+    }
     if (db == "sqlite") {
       location = dir + "/ingest.db";
       for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(location + suffix);
       if (!from.empty()) std::filesystem::copy_file(from, location);
     } else if (db == "postgresql") {
       try {
-        postgres = std::make_unique<forklift::test::PostgresServer>(dir + "/postgresql", true);
+        const std::filesystem::path copied(from_postgresql);
+        postgres = std::make_unique<forklift::test::PostgresServer>(from_postgresql.empty() ? dir + "/postgresql" : copied.parent_path().string(), true);
         postgres->drop_database("ingest");
-        location = postgres->create_database("ingest");
+        if (from_postgresql.empty()) {
+          location = postgres->create_database("ingest");
+        } else {
+          const std::string why = postgres->exec("postgres", "CREATE DATABASE ingest TEMPLATE \"" + copied.filename().string() + "\" STRATEGY FILE_COPY");
+          if (!why.empty()) throw std::runtime_error("cannot copy " + from_postgresql + ": " + why);
+          location = postgres->uri("ingest");
+        }
       } catch (const std::exception& e) {
         std::fprintf(stderr, "cannot start PostgreSQL: %s\n", e.what());
         return 1;
@@ -650,6 +664,11 @@ int main(int argc, char** argv) {
     host_thread.join();
     for (const auto& p : servers) p->signal(SIGTERM);
     for (const auto& p : servers) p->wait(10);
+    // A copy of a generated store is as large as it (some 11 GB at 10 million sessions).
+    if (!from_postgresql.empty()) {
+      store.reset();
+      postgres->drop_database("ingest");
+    }
 
     // The goal: the most sessions ingested with nothing lost and the history's p99 under 10 ms.
     int held = 0;

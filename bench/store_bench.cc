@@ -211,12 +211,12 @@ int main(int argc, char** argv) {
         const bool offset_paging = what.find("(offset)") != std::string::npos;
         if (n == *std::max_element(sizes.begin(), sizes.end()) && what != "a pupil's history" && offset_paging)
           bench::comparison("store: " + what + " (" + with_commas(n) + " sessions, " + db + "): p99",
-                            bench::fmt("%.1f ms (p50 %.2f ms)", l.pct(0.99), l.pct(0.5)));
+                            bench::fmt("%.2f ms (p50 %.2f ms)", l.pct(0.99), l.pct(0.5)));
         if (n == *std::max_element(sizes.begin(), sizes.end()) && what != "a pupil's history" && !offset_paging) {
           const bool met = l.pct(0.99) < 50;
           all_met &= met;
           bench::figure("store: " + what + " (" + with_commas(n) + " sessions, " + db + "): p99", "< 50 ms",
-                        bench::fmt("%.1f ms (p50 %.2f ms)", l.pct(0.99), l.pct(0.5)), met);
+                        bench::fmt("%.2f ms (p50 %.2f ms)", l.pct(0.99), l.pct(0.5)), met);
         }
       }
       std::printf("load average %.2f\n\n", [] { double l[3]; return getloadavg(l, 3) > 0 ? l[0] : NAN; }());
@@ -241,12 +241,16 @@ int main(int argc, char** argv) {
       for (int64_t n : sorted) std::printf(" %8.2f (%7.2f)", by_size.at(n).first, by_size.at(n).second);
       const double growth = by_size.at(sorted.back()).first / by_size.at(sorted.front()).first;
       std::printf(" %7.2fx\n", growth);
-      const bool met = growth <= log_ratio;
-      bench::figure("store growth: " + what + " (" + db + "), p50 " + with_commas(sorted.front()) + " -> " +
-                        with_commas(sorted.back()) + " sessions",
-                    bench::fmt("<= %.2fx", log_ratio),
-                    bench::fmt("%.2fx (%.2f -> %.2f ms)", growth, by_size.at(sorted.front()).first, by_size.at(sorted.back()).first),
-                    met);
+      // The row carries the p99 at every size too, so that the table shows each list's curve.
+      std::string measured = bench::fmt("%.2fx (p50 %.2f -> %.2f ms); p99", growth, by_size.at(sorted.front()).first,
+                                        by_size.at(sorted.back()).first);
+      for (size_t i = 0; i < sorted.size(); ++i)
+        measured += bench::fmt("%s %.2f ms at %s", i ? "," : "", by_size.at(sorted[i]).second, with_commas(sorted[i]).c_str());
+      const std::string row = "store growth: " + what + " (" + db + "), p50 " + with_commas(sorted.front()) + " -> " +
+                              with_commas(sorted.back()) + " sessions";
+      // Offset paging walks past every row before the page, by design: a comparison, as its p99.
+      if (what.find("(offset)") != std::string::npos) bench::comparison(row, measured);
+      else bench::figure(row, bench::fmt("<= %.2fx", log_ratio), measured, growth <= log_ratio);
     }
     std::printf("\n");
   }

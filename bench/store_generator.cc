@@ -250,16 +250,16 @@ void fill_postgresql(const std::string& uri, Layout& l, bool progress, Clock::ti
   });
   say(progress, "scores", l.n, l.n, t0);
   int64_t exam = l.first_exam;
-  pg.copy("exams(id, pupil_id, kind, session_id, score, passed, taken_at)", [&](const auto& line) {
+  pg.copy("exams(id, pupil_id, kind, session_id, score, passed, taken_at, school_id)", [&](const auto& line) {
     for (int64_t k = 0; k < l.pupils; ++k) {
       const PupilRow p = pupil_row(l, k);
       line(std::to_string(exam++) + '\t' + std::to_string(p.id) + "\ttheory\t\\N\t" + num(p.theory_score) + '\t' +
-           (p.theory_score >= 80 ? "t" : "f") + '\t' + p.created_at);
+           (p.theory_score >= 80 ? "t" : "f") + '\t' + p.created_at + '\t' + s);
     }
     for (int64_t i = 0; i < l.n; ++i)
       if (const SessionRow r = session_row(l, i); r.exam && r.scored)
         line(std::to_string(exam++) + '\t' + std::to_string(r.pupil) + "\tpractical\t" + std::to_string(r.id) + '\t' +
-             num(r.mark) + '\t' + (r.passed ? "t" : "f") + '\t' + r.ended_at);
+             num(r.mark) + '\t' + (r.passed ? "t" : "f") + '\t' + r.ended_at + '\t' + s);
   });
   l.exams = exam - l.first_exam;
   say(progress, "indexes", 0, static_cast<int64_t>(indexes.size()), t0);
@@ -345,7 +345,7 @@ void fill_sqlite(const std::string& path, Layout& l, bool progress, Clock::time_
   }
   sqlite3_stmt* pupil = db.prepare("INSERT INTO pupils(id, school_id, name, email, created_at) VALUES (?1, ?2, ?3, ?4, ?5)");
   sqlite3_stmt* exam = db.prepare(
-      "INSERT INTO exams(id, pupil_id, kind, session_id, score, passed, taken_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)");
+      "INSERT INTO exams(id, pupil_id, kind, session_id, score, passed, taken_at, school_id) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)");
   int64_t exam_id = l.first_exam;
   const auto add_exam = [&](int64_t pupil_id, const char* kind, std::optional<int64_t> session, double score, bool passed,
                             const std::string& at) {
@@ -357,6 +357,7 @@ void fill_sqlite(const std::string& path, Layout& l, bool progress, Clock::time_
     sqlite3_bind_double(exam, 5, score);
     sqlite3_bind_int(exam, 6, passed);
     text(exam, 7, at);
+    sqlite3_bind_int64(exam, 8, l.school);
     db.run(exam);
   };
   for (int64_t k = 0; k < l.pupils; ++k) {

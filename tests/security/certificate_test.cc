@@ -483,8 +483,9 @@ TEST_F(Certificates, AnExamOnAScenarioThatIsNoExamCourseNeverCounts) {
                       "VALUES (" + pupil + ", 'oldcab', 'first_drive_yard', 'exam', 'ended', 'task_complete', " + examiner +
                       ", '2025-03-01T10:00:00Z', '2025-03-01T10:05:00Z', 96, 1); "
                       "INSERT INTO scores(session_id, mark, passed) VALUES (last_insert_rowid(), 96, 1); "
-                      "INSERT INTO exams(pupil_id, kind, session_id, score, passed, examiner_id, taken_at) VALUES (" + pupil +
-                      ", 'practical', (SELECT MAX(id) FROM sessions), 96, 1, " + examiner + ", '2025-03-01T10:05:00Z')"),
+                      "INSERT INTO exams(pupil_id, kind, session_id, score, passed, examiner_id, taken_at, school_id) VALUES (" + pupil +
+                      ", 'practical', (SELECT MAX(id) FROM sessions), 96, 1, " + examiner +
+                      ", '2025-03-01T10:05:00Z', (SELECT school_id FROM pupils WHERE id = " + pupil + "))"),
             "");
   const json old = exam_of(s.call("GET", path + "/history", p.examiner).second, "practical");
   ASSERT_FALSE(old.is_null());

@@ -181,10 +181,25 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
   std::string DropMigration14() {
     return DropMigration15() + "ALTER TABLE users DROP COLUMN language; ALTER TABLE pupils DROP COLUMN language; DELETE FROM schema_migrations WHERE version >= 14; ";
   }
+  std::string DropMigration20() {
+    // The index as 16 made it (PostgreSQL's with the id).
+    return std::string("DROP INDEX sessions_by_school_outcome; CREATE INDEX sessions_by_school_outcome ON sessions(school_id, outcome, created_at") +
+           (sqlite() ? "); " : ", id); ") + "DELETE FROM schema_migrations WHERE version >= 20; ";
+  }
+  std::string DropMigration19() {
+    // The exams' indexes as 15 and 8 left them (PostgreSQL's with the id as 15 made it).
+    return DropMigration20() + (sqlite() ? "DROP TRIGGER exams_school_is_the_pupils; "
+                                         : "DROP TRIGGER exams_school_is_the_pupils ON exams; DROP FUNCTION exam_school_is_the_pupils; ") +
+           "DROP INDEX exams_by_school_kind_result; DROP INDEX exams_by_school_time; ALTER TABLE exams DROP COLUMN school_id; " +
+           (sqlite() ? "CREATE INDEX exams_by_kind_result ON exams(kind, passed, taken_at); "
+                     : "CREATE INDEX exams_by_kind_result ON exams(kind, passed, taken_at, id); ") +
+           "CREATE INDEX exams_by_time ON exams(taken_at); DELETE FROM schema_migrations WHERE version >= 19; ";
+  }
   std::string DropMigration18() {
-    return std::string(sqlite() ? "DROP TRIGGER pupil_fault_counts_in; DROP TRIGGER pupil_fault_counts_out; "
-                                : "DROP TRIGGER pupil_fault_counts_in ON events; DROP TRIGGER pupil_fault_counts_out ON events; "
-                                  "DROP FUNCTION pupil_fault_counts_count; ") +
+    return DropMigration19() +
+           (sqlite() ? "DROP TRIGGER pupil_fault_counts_in; DROP TRIGGER pupil_fault_counts_out; "
+                     : "DROP TRIGGER pupil_fault_counts_in ON events; DROP TRIGGER pupil_fault_counts_out ON events; "
+                       "DROP FUNCTION pupil_fault_counts_count; ") +
            "DROP TABLE pupil_fault_counts; "
            "CREATE INDEX events_faults_by_session ON events(session_id, worry_level, kind) WHERE worry_level > 0; "
            "DELETE FROM schema_migrations WHERE version >= 18; ";
@@ -588,6 +603,61 @@ TEST_P(StoreTest, ExamsAreFoundByKindDateAndResultWithTheirCorrections) {
   ASSERT_EQ(page.exams.size(), 1u);
   EXPECT_EQ(page.exams[0].pupil_name, "Bob");
   EXPECT_EQ(page.exams[0].corrections, 1);
+}
+
+// A school's exams are listed from the school kept on each exam's row: another school's are never
+// among them, by kind and result or all of them, with their totals; the same after the upgrade
+// that keeps the school there (schema 19) filled it in for the exams before it, which still
+// refuse any change afterwards; an exam written without its pupil's school is refused.
+TEST_P(StoreTest, ASchoolsExamsAreItsOwnAsBeforeTheUpgradeThatKeepsTheSchoolOnThem) {
+  const int64_t other_school = store_->create_school("Other school");
+  const int64_t ann = NewPupil("Ann"), zoe = store_->create_pupil(other_school, "Zoe", "");
+  fs::ExamRecord practical;
+  practical.kind = forklift::ExamKind::kPractical;
+  practical.score = 90;
+  practical.passed = true;
+  std::vector<int64_t> ours, theirs;
+  for (int i = 0; i < 6; ++i) {
+    practical.pupil_id = i % 2 ? zoe : ann;
+    practical.taken_at = "2026-11-2" + std::to_string(i) + "T10:00:00Z";
+    practical.passed = i < 4;
+    (i % 2 ? theirs : ours).push_back(store_->add_exam(practical));
+  }
+  (void)store_->add_exam(TheoryRecord(zoe, 0.9, true, "2026-11-27T08:00:00Z"));
+  const int64_t ann_theory = store_->add_exam(TheoryRecord(ann, 0.9, true, "2026-11-28T08:00:00Z"));
+  const auto listed = [&](int64_t school, bool practical_passed) {
+    fs::ExamFilter f;
+    f.school_id = school;
+    if (practical_passed) {
+      f.kind = forklift::ExamKind::kPractical;
+      f.passed = true;
+    }
+    const fs::ExamPage page = store_->find_exams(f, 100, 0);
+    std::vector<int64_t> ids;
+    for (const auto& r : page.exams) ids.push_back(r.exam.id);
+    EXPECT_EQ(page.total, static_cast<int64_t>(ids.size()));
+    return ids;
+  };
+  using V = std::vector<int64_t>;
+  const auto check = [&](const char* when) {
+    EXPECT_EQ(listed(school_, false), (V{ann_theory, ours[2], ours[1], ours[0]})) << when;
+    EXPECT_EQ(listed(school_, true), (V{ours[1], ours[0]})) << when;
+    EXPECT_EQ(listed(other_school, true), (V{theirs[1], theirs[0]})) << when;
+    EXPECT_EQ(listed(other_school, false).size(), 4u) << when;
+  };
+  check("as written");
+  store_.reset();
+  ASSERT_EQ(RawExec(DropMigration19()), "");  // schema 18, as an older program left it
+  store_ = Open();
+  check("filled in by the upgrade");
+  EXPECT_NE(RawExec("UPDATE exams SET score = 1"), "");
+  EXPECT_NE(RawExec("DELETE FROM exams"), "");
+  // Written past the store, an exam without its pupil's school is refused: the lists would miss it.
+  const std::string exam = "INSERT INTO exams(pupil_id, kind, score, passed, taken_at, school_id) VALUES (" + std::to_string(ann) +
+                           ", 'theory', 0.5, FALSE, '2026-11-29T08:00:00Z', ";
+  EXPECT_NE(RawExec(exam + "NULL)"), "");
+  EXPECT_NE(RawExec(exam + std::to_string(other_school) + ")"), "");
+  EXPECT_EQ(RawExec(exam + std::to_string(school_) + ")"), "");
 }
 
 TEST_P(StoreTest, ACabIsNeverBookedTwiceAtOnce) {
@@ -1049,13 +1119,13 @@ TEST_P(StoreTest, HistoryOnALargeStore) {
   EXPECT_EQ(h->faults_by_kind.at("overspeed"), kSessions);
 }
 
-// Every list reads the sessions through an index, never the whole table: its plan, as the database
+// Every list reads the sessions and the exams through an index, never the whole table: its plan, as the database
 // gives it (EXPLAIN on PostgreSQL, EXPLAIN QUERY PLAN on SQLite), at a generated store of 100,000
 // sessions (bench/store_generator.h: 2,040 pupils over two years on 8 cabs, with their results,
 // practical and theory exams), filled in a few seconds, with the statistics ANALYZE makes as
 // autovacuum (PostgreSQL) and the server's optimize (SQLite) do; at 10 million sessions
 // (forklift-bench-store --explain) the plans are the same. A list whose plan reads the whole
-// table is named with its plan; so is one that hashes every task-incomplete score of the store
+// table of sessions or exams is named with its plan; so is one that hashes every task-incomplete score of the store
 // for a page (PostgreSQL's hashed SubPlan, which grows with the store).
 TEST_P(StoreTest, EveryListReadsTheSessionsThroughAnIndex) {
   const forklift::bench::GeneratedStore g = forklift::bench::generate_sessions(location_, 100000);
@@ -1140,21 +1210,54 @@ TEST_P(StoreTest, EveryListReadsTheSessionsThroughAnIndex) {
   lists();  // PostgreSQL's plans for a prepared statement settle over its first runs: asked after
   const std::vector<std::string> plans = store_->query_plans(lists);
   ASSERT_GE(plans.size(), 12u);  // every list's count and page, and the history's statements
-  int sessions_read = 0;
+  int sessions_read = 0, exams_read = 0;
   for (const std::string& plan : plans) {
     const std::string sql = plan.substr(0, plan.find('\n'));
-    if (sql.find("sessions") == std::string::npos) continue;
-    ++sessions_read;
-    // A table scan: "Seq Scan on sessions" (PostgreSQL), "SCAN sessions" with no index (SQLite).
+    const bool of_exams = sql.find("FROM exams e") != std::string::npos;
+    if (sql.find("sessions") == std::string::npos && !of_exams) continue;
+    sessions_read += sql.find("sessions") != std::string::npos;
+    exams_read += of_exams;
+    // A table scan: "Seq Scan on sessions" (PostgreSQL), "SCAN sessions" with no index (SQLite);
+    // the same of the exams, "e" in the statements that read them.
     std::istringstream lines(plan.substr(sql.size()));
     for (std::string line; std::getline(lines, line);) {
-      const bool scan = sqlite() ? line.find("SCAN sessions") != std::string::npos && line.find("INDEX") == std::string::npos
-                                 : line.find("Seq Scan on sessions") != std::string::npos;
-      EXPECT_FALSE(scan) << "a table scan of the sessions:\n" << plan;
+      std::istringstream words(line);
+      std::string word, scanned;
+      while (words >> word && word != "SCAN") {}
+      words >> scanned;
+      const bool scan = sqlite() ? (scanned == "sessions" || scanned == "exams" || (of_exams && scanned == "e")) &&
+                                       line.find("INDEX") == std::string::npos
+                                 : line.find("Seq Scan on sessions") != std::string::npos ||
+                                       line.find("Seq Scan on exams ") != std::string::npos;
+      EXPECT_FALSE(scan) << "a table scan of the sessions or the exams:\n" << plan;
       EXPECT_EQ(line.find("hashed SubPlan"), std::string::npos) << "a hash of the whole store's rows:\n" << plan;
     }
   }
   EXPECT_GE(sessions_read, 18);
+  EXPECT_GE(exams_read, 5);  // the exams lists' pages, the count of a filtered one, the history's exams
+}
+
+// A store with its planner's statistics keeps them through the upgrade that widened the school's
+// sessions by outcome (schema 20): without them SQLite took the new index for a narrow one and
+// sorted every session of the school for the newest page (370 ms at a million sessions). The
+// newest page is read in an index's order, sorting nothing, before the upgrade and after it.
+TEST_P(StoreTest, TheNewestSessionsAreReadInAnIndexsOrderAfterTheUpgradeThatWidenedOne) {
+  const forklift::bench::GeneratedStore g = forklift::bench::generate_sessions(location_, 5000);
+  fs::SessionFilter newest;
+  newest.school_id = g.school_id;
+  const auto sorting_plan = [&] {
+    store_->find_sessions(newest, 50, 0);  // PostgreSQL's plan of a prepared statement settles over its first runs
+    for (const std::string& plan : store_->query_plans([&] { store_->find_sessions(newest, 50, 0); }))
+      if (plan.find("FROM sessions") != std::string::npos &&
+          (plan.find("TEMP B-TREE FOR ORDER BY") != std::string::npos || plan.find("Sort Key") != std::string::npos))
+        return plan;
+    return std::string();
+  };
+  EXPECT_EQ(sorting_plan(), "") << "as generated";
+  store_.reset();
+  ASSERT_EQ(RawExec(DropMigration20()), "");  // schema 19, as an older program left it
+  store_ = Open();
+  EXPECT_EQ(sorting_plan(), "") << "after the upgrade";
 }
 
 // The outcome kept on a session's row (the lists' filter by outcome and result) is

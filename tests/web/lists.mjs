@@ -74,7 +74,7 @@ try {
 
   // Today's sessions (12, on two cabs, half of them passed, the last stopped by its time limit),
   // yesterday's one, and a theory exam, as the server would have written them (each session's
-  // outcome with it, as the store keeps it).
+  // outcome with it, and each row's school, as the store keeps them).
   const school = execFileSync('sqlite3', [db, `SELECT school_id FROM pupils WHERE id = ${ids[0]};`], { encoding: 'utf8' }).trim();
   const rows = [];
   for (let i = 0; i < 12; i++) {
@@ -85,7 +85,7 @@ try {
   execFileSync('sqlite3', [db, `.timeout 5000`,
     'INSERT INTO sessions (pupil_id, cab_id, scenario, mode, state, reason, created_at, ended_at, mark, passed, started_by, school_id, outcome) VALUES ' +
     rows.join(', ') + ';',
-    `INSERT INTO exams (pupil_id, kind, score, passed, taken_at, details) VALUES (${ids[3]}, 'theory', 0.875, 1, '${today}T12:00:00Z', '{}');`]);
+    `INSERT INTO exams (pupil_id, kind, score, passed, taken_at, details, school_id) VALUES (${ids[3]}, 'theory', 0.875, 1, '${today}T12:00:00Z', '{}', ${school});`]);
 
   // ---------------------------------------------------------------- the browser
   browser = await chromium.launch({ executablePath: args.chromium, headless: !args.headed });
