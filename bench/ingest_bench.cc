@@ -273,7 +273,7 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   app.add_option("--from-postgresql", from_postgresql, "with --db postgresql: a database of a kept PostgreSQL server to copy and "
                  "measure on, as the server's folder and the database's name (forklift-bench-store's "
-                 "build/bench-data/postgresql/store_1000000); the copy is dropped at the end");
+                 "build/bench-data/postgresql/store_1000000); the copy is dropped at the end; default: a new store");
   app.add_option("--servers", server_counts, "servers sharing the store, each with its own id, port (the first --port, the others free ones) and log folder; "
                  "each step's sessions are started through each in turn, and each must ingest its own alone. Several counts: one run "
                  "each, on a new store, and how many sessions the servers hold per core each, against one server's (1 2)")
