@@ -175,3 +175,36 @@ TEST(ServerOnPostgresql, FiftyStartsOnOneCabThroughTwoServersOpenOneSession) {
   ASSERT_FALSE(started.empty());
   EXPECT_EQ(b.call("POST", "/api/sessions/" + started + "/abort", admin).first, 200);
 }
+
+// A kept PostgreSQL folder (a bench's generated stores) whose server another run still has going
+// is refused, and that server outlives the refused run's process (whose watchdog stopped it).
+TEST(ServerOnPostgresql, ASecondRunOnAKeptFolderLeavesTheFirstRunsServerAlone) {
+  const std::string dir = testing::TempDir() + "/postgresql-kept-" + std::to_string(getpid());
+  {
+    forklift::test::PostgresServer first(dir, true);
+    const std::string db = "kept";
+    first.create_database(db);
+    // The second run is a process of its own, as a second bench is: 3 if it was refused in words.
+    const pid_t second = fork();
+    ASSERT_GE(second, 0);
+    if (second == 0) {
+      try {
+        forklift::test::PostgresServer again(dir, true);
+        _exit(1);
+      } catch (const std::runtime_error& e) {
+        _exit(std::string(e.what()).find("already runs in") != std::string::npos ? 3 : 2);
+      }
+    }
+    int status = 0;
+    ASSERT_EQ(waitpid(second, &status, 0), second);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 3) << "the second run's end: " << status;
+    // Its watchdog, had it one, acts as soon as the process is gone.
+    for (int i = 0; i < 10; ++i) {
+      std::vector<std::string> rows;
+      ASSERT_EQ(first.exec(db, "SELECT 1", &rows), "") << "the first run's server was stopped";
+      EXPECT_EQ(rows, std::vector<std::string>{"1"});
+      usleep(100000);
+    }
+  }
+  std::filesystem::remove_all(dir);
+}

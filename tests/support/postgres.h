@@ -15,11 +15,13 @@
 #include <fcntl.h>
 #include <libpq-fe.h>
 #include <pwd.h>
+#include <signal.h>
 #include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -48,6 +50,7 @@ class PostgresServer {
                                  ": install Debian's postgresql package (scripts/install-deps.sh does), or set "
                                  "FORKLIFT_PG_BINDIR to the folder of its binaries");
     std::filesystem::create_directories(dir_);
+    if (keep_) refuse_a_running_server();
     let_server_user_reach(dir_);
     give_to_server_user(dir_);
     start_watchdog();
@@ -117,6 +120,16 @@ class PostgresServer {
     return env && *env ? env : "/usr/lib/postgresql/15/bin";
   }
   std::string data() const { return dir_ + "/data"; }
+
+  // A kept folder's server that another run started (a bench still going on the same folder) is
+  // left alone: this one's watchdog would stop it on the way out.
+  void refuse_a_running_server() const {
+    std::ifstream pid_file(data() + "/postmaster.pid");
+    long pid = 0;
+    if (pid_file >> pid && pid > 0 && (kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM))
+      throw std::runtime_error("a PostgreSQL server already runs in " + data() + " (process " + std::to_string(pid) +
+                               "; another run on the same folder?): wait for it to end, or give this run another folder");
+  }
 
   // As root, the server's files belong to "postgres"; otherwise they are this user's already.
   static const passwd* server_user() {
