@@ -72,13 +72,18 @@ void SessionRecorder::status(store::Store& db, const StatusIn& s) { set_state(db
 
 void SessionRecorder::truck_state(const fk_TruckState& t, std::map<std::string, std::vector<store::PathPoint>>& path) {
   std::lock_guard<std::mutex> lock(fleet_.mu);
-  auto it = fleet_.workers.find(t.session_id);
-  if (it == fleet_.workers.end()) return;
-  it->second.last = t;
-  it->second.last_state = Clock::now();
-  it->second.seen_state = true;
+  WorkerInfo* w = nullptr;
+  if (auto it = fleet_.workers.find(t.session_id); it != fleet_.workers.end()) w = &it->second;
+  // A worker gone whose last states are still coming (its host's report of its end may come
+  // first): they are the session's until it is settled, its path's last point among them.
+  for (auto f = fleet_.finishing.begin(); !w && f != fleet_.finishing.end(); ++f)
+    if (f->worker.session == t.session_id) w = &f->worker;
+  if (!w) return;
+  w->last = t;
+  w->last_state = Clock::now();
+  w->seen_state = true;
   // One point every path_interval_s of sim time.
-  auto& last = it->second.last_path_point_s;
+  auto& last = w->last_path_point_s;
   if (!last || t.sim_time_s >= *last + fleet_.config.path_interval_s) {
     last = t.sim_time_s;
     path[t.session_id].push_back({t.sim_time_s, t.x_m, t.y_m, t.yaw_rad, t.speed_m_s, t.lift_m});
