@@ -5,6 +5,7 @@
 
 #include <sys/types.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <ctime>
@@ -158,6 +159,10 @@ struct FleetState {
   std::map<std::string, WorkerInfo> workers;  // by session
   std::map<std::string, Binding> bindings;     // by session, for the sample gate
   std::vector<Finishing> finishing;            // settled by the supervisor thread
+  // The entry of `session` in finishing, else finishing.end() (under mu).
+  std::vector<Finishing>::iterator finishing_of(const std::string& session) {
+    return std::find_if(finishing.begin(), finishing.end(), [&](const Finishing& f) { return f.worker.session == session; });
+  }
   std::set<std::string> unsettled;             // sessions with a worker here whose logs are not stored yet
   RefusedSamples refused;
   IngestedSamples ingested;                    // counted a round of the ingest at a time

@@ -293,8 +293,7 @@ void HostPlacement::on_report(store::Store& db, const fk_WorkerReport& r) {
   {
     std::lock_guard<std::mutex> lock(fleet_.mu);
     const auto w = fleet_.workers.find(session);
-    const auto ending = std::find_if(fleet_.finishing.begin(), fleet_.finishing.end(),
-                                     [&](const FleetState::Finishing& x) { return x.worker.session == session; });
+    const auto ending = fleet_.finishing_of(session);
     // Never a report on a session whose worker this server runs itself: its own files are the truth.
     if ((w != fleet_.workers.end() && w->second.host.empty()) || (ending != fleet_.finishing.end() && ending->worker.child)) {
       const uint64_t n = ++fleet_.refused.wrong_sender;

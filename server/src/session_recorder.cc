@@ -72,12 +72,12 @@ void SessionRecorder::status(store::Store& db, const StatusIn& s) { set_state(db
 
 void SessionRecorder::truck_state(const fk_TruckState& t, std::map<std::string, std::vector<store::PathPoint>>& path) {
   std::lock_guard<std::mutex> lock(fleet_.mu);
+  // A running worker's, or a finished one's whose last states are still coming (its host's report
+  // of its end may come first): they are the session's until it is settled, its path's last
+  // point among them.
   WorkerInfo* w = nullptr;
   if (auto it = fleet_.workers.find(t.session_id); it != fleet_.workers.end()) w = &it->second;
-  // A worker gone whose last states are still coming (its host's report of its end may come
-  // first): they are the session's until it is settled, its path's last point among them.
-  for (auto f = fleet_.finishing.begin(); !w && f != fleet_.finishing.end(); ++f)
-    if (f->worker.session == t.session_id) w = &f->worker;
+  else if (auto f = fleet_.finishing_of(t.session_id); f != fleet_.finishing.end()) w = &f->worker;
   if (!w) return;
   w->last = t;
   w->last_state = Clock::now();
