@@ -3,8 +3,9 @@
 //
 // For each --sessions size and each --db, a store generated with that many sessions
 // (store_generator.h: COPY into PostgreSQL, one transaction of prepared inserts into SQLite), kept
-// in --dir for later runs; then each list a school's pages ask for (a page of 50 with its total,
-// as the server asks), and a pupil's history, called back to back from one thread for --seconds
+// in --dir for later runs: a region's schools of --per-school sessions each, their rows
+// interleaved. Then each list the first school's pages ask for (a page of 50 with its total, as
+// the server asks), and a pupil's history, called back to back from one thread for --seconds
 // each: latency p50 and p99. At the end the growth curve: each call's p50 at each size, and how it
 // grew from the smallest size to the largest against the logarithm of the store's size.
 //
@@ -59,11 +60,14 @@ struct Kept {
   bench::GeneratedStore g;
   void save(const std::string& path) const {
     std::ofstream(path) << g.school_id << ' ' << g.pupils << ' ' << g.sessions << ' ' << g.exams << ' ' << g.cabs << ' '
-                        << g.days << ' ' << g.first_pupil_id << ' ' << g.seconds << '\n';
+                        << g.days << ' ' << g.first_pupil_id << ' ' << g.seconds << ' ' << g.first_session_id << ' '
+                        << g.first_exam_id << ' ' << g.schools << ' ' << g.all_sessions << '\n';
   }
+  // False for a description from before the stores held a region's schools: that store is made again.
   bool load(const std::string& path) {
     std::ifstream in(path);
-    return static_cast<bool>(in >> g.school_id >> g.pupils >> g.sessions >> g.exams >> g.cabs >> g.days >> g.first_pupil_id >> g.seconds);
+    return static_cast<bool>(in >> g.school_id >> g.pupils >> g.sessions >> g.exams >> g.cabs >> g.days >> g.first_pupil_id >>
+                             g.seconds >> g.first_session_id >> g.first_exam_id >> g.schools >> g.all_sessions);
   }
 };
 
@@ -83,6 +87,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> dbs = {"sqlite", "postgresql"};
   std::string dir = "out/bench";
   double seconds = 3;
+  int64_t per_school = bench::kGeneratedSessionsPerSchool;
   bool generate_only = false, explain = false;
   app.add_option("--sessions,--generate-sessions", sizes, "store sizes: sessions generated in each store")
       ->check(CLI::Range(int64_t{1}, int64_t{100000000}));
@@ -91,6 +96,9 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"sqlite", "postgresql"}));
   app.add_option("--dir", dir, "where the generated stores are kept (10 million sessions: 4 GB in SQLite, some 11 GB in PostgreSQL)");
   app.add_option("--seconds", seconds, "time each list is called for")->check(CLI::Range(0.1, 600.0));
+  app.add_option("--per-school", per_school, "sessions of each generated school: a bigger store is more schools of a region, "
+                 "as many as it takes (the lists and the history are of the first)")
+      ->check(CLI::Range(int64_t{1}, int64_t{100000000}));
   app.add_flag("--generate-only", generate_only, "fill the stores and stop");
   app.add_flag("--explain", explain, "print each call's statements with their plans (EXPLAIN on PostgreSQL, "
                "EXPLAIN QUERY PLAN on SQLite) before timing it");
@@ -110,7 +118,8 @@ int main(int argc, char** argv) {
   for (const int64_t n : sizes) {
     for (const std::string& db : dbs) {
       std::string location;
-      const std::string name = "store_" + std::to_string(n);
+      const std::string name =
+          "store_" + std::to_string(n) + (per_school == bench::kGeneratedSessionsPerSchool ? "" : "_per_" + std::to_string(per_school));
       const std::string kept_file = dir + "/" + name + "." + db + ".generated";
       Kept kept;
       bool fresh = !kept.load(kept_file);
@@ -129,7 +138,7 @@ int main(int argc, char** argv) {
         }
         if (fresh) {
           std::fprintf(stderr, "generating %s sessions into %s\n", with_commas(n).c_str(), db.c_str());
-          kept.g = bench::generate_sessions(location, n, true);
+          kept.g = bench::generate_sessions(location, n, true, per_school);
           kept.save(kept_file);
         }
       } catch (const std::exception& e) {
@@ -138,17 +147,20 @@ int main(int argc, char** argv) {
         return 1;
       }
       const bench::GeneratedStore& g = kept.g;
-      std::printf("%s, %s sessions of %s pupils on %d cabs over %d days, %s exams (generated in %.0f s)\n", db.c_str(),
-                  with_commas(g.sessions).c_str(), with_commas(g.pupils).c_str(), g.cabs, g.days, with_commas(g.exams).c_str(),
-                  g.seconds);
+      std::printf("%s, %s sessions of %d schools (generated in %.0f s); the school measured: %s sessions of %s pupils on %d "
+                  "cabs over %d days, %s exams\n",
+                  db.c_str(), with_commas(g.all_sessions).c_str(), g.schools, g.seconds, with_commas(g.sessions).c_str(),
+                  with_commas(g.pupils).c_str(), g.cabs, g.days, with_commas(g.exams).c_str());
       if (generate_only) continue;
 
       auto store = store::Store::open(location);
       std::uniform_int_distribution<int> day(0, g.days - 1), cab(1, g.cabs);
-      std::uniform_int_distribution<int64_t> pupil(g.first_pupil_id, g.first_pupil_id + g.pupils - 1),
-          offset(0, std::max<int64_t>(0, g.pupils - 50));
-      // A generated store's sessions and exams are numbered from 1 (it held none before).
-      std::uniform_int_distribution<int64_t> session(1, g.sessions), exam(1, std::max<int64_t>(1, g.exams));
+      // The measured school's pupils, sessions and exams, among the other schools'.
+      std::uniform_int_distribution<int64_t> pupil_k(0, g.pupils - 1), offset(0, std::max<int64_t>(0, g.pupils - 50));
+      std::uniform_int_distribution<int64_t> session_i(0, g.sessions - 1), exam_e(0, std::max<int64_t>(1, g.exams) - 1);
+      const auto pupil = [&](std::mt19937& r) { return g.pupil_id(pupil_k(r)); };
+      const auto session = [&](std::mt19937& r) { return g.session_id(session_i(r)); };
+      const auto exam = [&](std::mt19937& r) { return g.exam_id(exam_e(r)); };
       const auto public_id = [](int64_t id) {
         char text[32];
         std::snprintf(text, sizeof text, "s-%06lld", static_cast<long long>(id));
@@ -174,7 +186,7 @@ int main(int argc, char** argv) {
           {"sessions: the page after one (keyset)",
            [&](std::mt19937& r) { auto f = sessions; f.after = public_id(session(r)); store->find_sessions(f, 50, 0); }},
           {"sessions: a page anywhere (offset)",
-           [&](std::mt19937& r) { store->find_sessions(sessions, 50, static_cast<int>(session(r) - 1)); }},
+           [&](std::mt19937& r) { store->find_sessions(sessions, 50, static_cast<int>(session_i(r))); }},
           {"sessions: a day's", [&](std::mt19937& r) { auto f = sessions; a_day(r, f); store->find_sessions(f, 50, 0); }},
           {"sessions: a cab's day",
            [&](std::mt19937& r) { auto f = sessions; a_day(r, f); f.cab_id = "cab" + std::to_string(cab(r)); store->find_sessions(f, 50, 0); }},

@@ -43,15 +43,34 @@ uint64_t mix(uint64_t x) {  // splitmix64: a session's dice, the same on every r
   return x ^ (x >> 31);
 }
 
+// One school's rows. Its k-th pupil, i-th session and e-th exam have the ids first_pupil +
+// k * stride, first_session + i * stride and first_exam + e * stride: the region's schools' rows
+// interleave, each school's first ids one after the other's.
 struct Layout {
   int64_t n = 0;          // sessions
   int64_t block = 1;      // pupils who drive in turn through the same weeks (a cohort)
   int64_t pupils = 0;
   int cabs = 4;
-  int64_t first_session = 1, first_pupil = 1, first_exam = 1;
+  int64_t first_session = 1, first_pupil = 1, first_exam = 1, stride = 1;
   int64_t exams = 0;  // written
   int64_t school = 0;
+  std::string cab_prefix = "cab";  // its cabs' names: cab_prefix + 1, 2, ...
+
+  int64_t next_exam_id() { return first_exam + exams++ * stride; }
 };
+
+// `each(layout, k)` for each school's k-th row of `count(layout)` rows, the k-th of every school
+// before the (k + 1)-th of any: the schools' rows in the order their days bring them.
+template <class Count, class Each>
+void interleaved(std::vector<Layout>& ls, Count count, Each each) {
+  int64_t most = 0;
+  for (const Layout& l : ls) most = std::max(most, count(l));
+  for (int64_t k = 0; k < most; ++k)
+    for (Layout& l : ls)
+      if (k < count(l)) each(l, k);
+}
+const auto sessions_of = [](const Layout& l) { return l.n; };
+const auto pupils_of = [](const Layout& l) { return l.pupils; };
 
 struct SessionRow {
   int64_t id, pupil;
@@ -88,9 +107,9 @@ std::string time_text(int day, int seconds) {
 // cohort in turn; its cab the next in turn; its result by its dice.
 SessionRow session_row(const Layout& l, int64_t i) {
   SessionRow s{};
-  s.id = l.first_session + i;
+  s.id = l.first_session + i * l.stride;
   const int64_t in_block = i % (l.block * kSessionsPerPupil);
-  s.pupil = l.first_pupil + i / (l.block * kSessionsPerPupil) * l.block + in_block % l.block;
+  s.pupil = l.first_pupil + (i / (l.block * kSessionsPerPupil) * l.block + in_block % l.block) * l.stride;
   s.cab = static_cast<int>(i % l.cabs) + 1;
   const int64_t day = i * kDays / l.n;
   const int64_t in_day = i - first_of_day(l, day), of_day = std::max<int64_t>(1, first_of_day(l, day + 1) - first_of_day(l, day));
@@ -128,7 +147,7 @@ SessionRow session_row(const Layout& l, int64_t i) {
 
 PupilRow pupil_row(const Layout& l, int64_t k) {
   PupilRow p;
-  p.id = l.first_pupil + k;
+  p.id = l.first_pupil + k * l.stride;
   const size_t nf = std::size(kFirst), nl = std::size(kLast);
   const std::string first = kFirst[mix(k) % nf], last = kLast[(mix(k) >> 20) % nl];
   p.name = first + " " + last + " " + std::to_string(k);
@@ -201,7 +220,7 @@ std::string num(double v) {
   return b;
 }
 
-void fill_postgresql(const std::string& uri, Layout& l, bool progress, Clock::time_point t0) {
+void fill_postgresql(const std::string& uri, std::vector<Layout>& ls, bool progress, Clock::time_point t0) {
   PgConn pg(uri);
   pg.exec("SET synchronous_commit = off");
   pg.exec("SET maintenance_work_mem = '512MB'");
@@ -212,56 +231,64 @@ void fill_postgresql(const std::string& uri, Layout& l, bool progress, Clock::ti
       "SELECT indexname, indexdef FROM pg_indexes WHERE schemaname = current_schema() AND tablename IN "
       "('pupils', 'sessions', 'scores', 'score_counts', 'exams') AND indexname NOT IN (SELECT conname FROM pg_constraint)");
   for (const auto& [name, definition] : indexes) pg.exec("DROP INDEX " + name);
-  l.first_pupil = std::stoll(pg.exec("SELECT COALESCE(MAX(id), 0) + 1 FROM pupils"));
-  l.first_exam = std::stoll(pg.exec("SELECT COALESCE(MAX(id), 0) + 1 FROM exams"));
-  const std::string s = std::to_string(l.school);
-  pg.exec("INSERT INTO cabs(id, school_id) SELECT 'cab' || n, " + s + " FROM generate_series(1, " + std::to_string(l.cabs) +
-          ") n ON CONFLICT DO NOTHING");
+  const int64_t first_pupil = std::stoll(pg.exec("SELECT COALESCE(MAX(id), 0) + 1 FROM pupils"));
+  const int64_t first_exam = std::stoll(pg.exec("SELECT COALESCE(MAX(id), 0) + 1 FROM exams"));
+  int64_t all = 0, pupils = 0;
+  for (size_t j = 0; j < ls.size(); ++j) {
+    Layout& l = ls[j];
+    l.first_pupil = first_pupil + static_cast<int64_t>(j);
+    l.first_exam = first_exam + static_cast<int64_t>(j);
+    all += l.n;
+    pupils += l.pupils;
+    pg.exec("INSERT INTO cabs(id, school_id) SELECT '" + l.cab_prefix + "' || n, " + std::to_string(l.school) +
+            " FROM generate_series(1, " + std::to_string(l.cabs) + ") n ON CONFLICT DO NOTHING");
+  }
   pg.copy("pupils(id, school_id, name, email, created_at)", [&](const auto& line) {
-    for (int64_t k = 0; k < l.pupils; ++k) {
+    interleaved(ls, pupils_of, [&](const Layout& l, int64_t k) {
       const PupilRow p = pupil_row(l, k);
-      line(std::to_string(p.id) + '\t' + s + '\t' + p.name + '\t' + p.email + '\t' + p.created_at);
-    }
+      line(std::to_string(p.id) + '\t' + std::to_string(l.school) + '\t' + p.name + '\t' + p.email + '\t' + p.created_at);
+    });
   });
-  say(progress, "pupils", l.pupils, l.pupils, t0);
+  say(progress, "pupils", pupils, pupils, t0);
   pg.copy("sessions(id, pupil_id, cab_id, scenario, mode, state, reason, created_at, ended_at, mark, passed, school_id, outcome)",
           [&](const auto& line) {
-            for (int64_t i = 0; i < l.n; ++i) {
+            int64_t done = 0;
+            interleaved(ls, sessions_of, [&](const Layout& l, int64_t i) {
               const SessionRow r = session_row(l, i);
-              line(std::to_string(r.id) + '\t' + std::to_string(r.pupil) + "\tcab" + std::to_string(r.cab) + '\t' + r.scenario +
-                   (r.exam ? "\texam\t" : "\ttraining\t") + r.state + '\t' + r.reason + '\t' + r.created_at + '\t' + r.ended_at +
-                   '\t' + (r.scored ? num(r.mark) : "\\N") + '\t' + (r.scored ? (r.passed ? "t" : "f") : "\\N") + '\t' + s + '\t' + r.outcome);
-              if (i % 1000000 == 0) say(progress, "sessions", i, l.n, t0);
-            }
+              line(std::to_string(r.id) + '\t' + std::to_string(r.pupil) + '\t' + l.cab_prefix + std::to_string(r.cab) + '\t' +
+                   r.scenario + (r.exam ? "\texam\t" : "\ttraining\t") + r.state + '\t' + r.reason + '\t' + r.created_at + '\t' +
+                   r.ended_at + '\t' + (r.scored ? num(r.mark) : "\\N") + '\t' + (r.scored ? (r.passed ? "t" : "f") : "\\N") + '\t' +
+                   std::to_string(l.school) + '\t' + r.outcome);
+              if (done++ % 1000000 == 0) say(progress, "sessions", done, all, t0);
+            });
           });
-  say(progress, "sessions", l.n, l.n, t0);
+  say(progress, "sessions", all, all, t0);
   pg.copy("scores(session_id, mark, passed)", [&](const auto& line) {
-    for (int64_t i = 0; i < l.n; ++i)
-      if (const SessionRow r = session_row(l, i); r.scored)
-        line(std::to_string(r.id) + '\t' + num(r.mark) + '\t' + (r.passed ? "t" : "f"));
+    interleaved(ls, sessions_of, [&](const Layout& l, int64_t i) {
+      if (const SessionRow r = session_row(l, i); r.scored) line(std::to_string(r.id) + '\t' + num(r.mark) + '\t' + (r.passed ? "t" : "f"));
+    });
   });
   pg.copy("score_counts(session_id, kind, count)", [&](const auto& line) {
-    for (int64_t i = 0; i < l.n; ++i) {
+    interleaved(ls, sessions_of, [&](const Layout& l, int64_t i) {
       const SessionRow r = session_row(l, i);
-      if (!r.scored) continue;
+      if (!r.scored) return;
       line(std::to_string(r.id) + '\t' + r.fault + '\t' + std::to_string(r.fault_count));
       if (r.task_incomplete) line(std::to_string(r.id) + "\ttask_incomplete\t1");
-    }
+    });
   });
-  say(progress, "scores", l.n, l.n, t0);
-  int64_t exam = l.first_exam;
+  say(progress, "scores", all, all, t0);
   pg.copy("exams(id, pupil_id, kind, session_id, score, passed, taken_at, school_id)", [&](const auto& line) {
-    for (int64_t k = 0; k < l.pupils; ++k) {
+    interleaved(ls, pupils_of, [&](Layout& l, int64_t k) {
       const PupilRow p = pupil_row(l, k);
-      line(std::to_string(exam++) + '\t' + std::to_string(p.id) + "\ttheory\t\\N\t" + num(p.theory_score) + '\t' +
-           (p.theory_score >= 80 ? "t" : "f") + '\t' + p.created_at + '\t' + s);
-    }
-    for (int64_t i = 0; i < l.n; ++i)
+      line(std::to_string(l.next_exam_id()) + '\t' + std::to_string(p.id) + "\ttheory\t\\N\t" + num(p.theory_score) + '\t' +
+           (p.theory_score >= 80 ? "t" : "f") + '\t' + p.created_at + '\t' + std::to_string(l.school));
+    });
+    interleaved(ls, sessions_of, [&](Layout& l, int64_t i) {
       if (const SessionRow r = session_row(l, i); r.exam && r.scored)
-        line(std::to_string(exam++) + '\t' + std::to_string(r.pupil) + "\tpractical\t" + std::to_string(r.id) + '\t' +
-             num(r.mark) + '\t' + (r.passed ? "t" : "f") + '\t' + r.ended_at + '\t' + s);
+        line(std::to_string(l.next_exam_id()) + '\t' + std::to_string(r.pupil) + "\tpractical\t" + std::to_string(r.id) + '\t' +
+             num(r.mark) + '\t' + (r.passed ? "t" : "f") + '\t' + r.ended_at + '\t' + std::to_string(l.school));
+    });
   });
-  l.exams = exam - l.first_exam;
   say(progress, "indexes", 0, static_cast<int64_t>(indexes.size()), t0);
   for (const auto& [name, definition] : indexes) pg.exec(definition);
   for (const char* t : {"pupils", "sessions", "exams"})
@@ -318,14 +345,14 @@ struct Sqlite {
 void text(sqlite3_stmt* s, int i, const std::string& v) { sqlite3_bind_text(s, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT); }
 void text(sqlite3_stmt* s, int i, const char* v) { sqlite3_bind_text(s, i, v, -1, SQLITE_STATIC); }
 
-void fill_sqlite(const std::string& path, Layout& l, bool progress, Clock::time_point t0) {
+void fill_sqlite(const std::string& path, std::vector<Layout>& ls, bool progress, Clock::time_point t0) {
   Sqlite db(path);
   // A generated store can be made again: no need to survive a power cut while it is filled. Each
   // insert that fires a trigger keeps a statement journal: in memory, not a temporary file
   // (400,000 writes to /var/tmp for 20,000 sessions).
   db.exec("PRAGMA synchronous = OFF; PRAGMA cache_size = -1048576; PRAGMA cache_spill = OFF; PRAGMA temp_store = MEMORY; BEGIN IMMEDIATE");
-  l.first_pupil = db.value("SELECT COALESCE(MAX(id), 0) + 1 FROM pupils");
-  l.first_exam = db.value("SELECT COALESCE(MAX(id), 0) + 1 FROM exams");
+  const int64_t first_pupil = db.value("SELECT COALESCE(MAX(id), 0) + 1 FROM pupils");
+  const int64_t first_exam = db.value("SELECT COALESCE(MAX(id), 0) + 1 FROM exams");
   // The filled tables' indexes (not their keys) made once at the end, as PostgreSQL's.
   std::vector<std::pair<std::string, std::string>> indexes;
   {
@@ -338,18 +365,24 @@ void fill_sqlite(const std::string& path, Layout& l, bool progress, Clock::time_
   }
   for (const auto& [name, definition] : indexes) db.exec("DROP INDEX " + name);
   sqlite3_stmt* cab = db.prepare("INSERT INTO cabs(id, school_id) VALUES (?1, ?2) ON CONFLICT DO NOTHING");
-  for (int c = 1; c <= l.cabs; ++c) {
-    text(cab, 1, "cab" + std::to_string(c));
-    sqlite3_bind_int64(cab, 2, l.school);
-    db.run(cab);
+  int64_t all = 0;
+  for (size_t j = 0; j < ls.size(); ++j) {
+    Layout& l = ls[j];
+    l.first_pupil = first_pupil + static_cast<int64_t>(j);
+    l.first_exam = first_exam + static_cast<int64_t>(j);
+    all += l.n;
+    for (int c = 1; c <= l.cabs; ++c) {
+      text(cab, 1, l.cab_prefix + std::to_string(c));
+      sqlite3_bind_int64(cab, 2, l.school);
+      db.run(cab);
+    }
   }
   sqlite3_stmt* pupil = db.prepare("INSERT INTO pupils(id, school_id, name, email, created_at) VALUES (?1, ?2, ?3, ?4, ?5)");
   sqlite3_stmt* exam = db.prepare(
       "INSERT INTO exams(id, pupil_id, kind, session_id, score, passed, taken_at, school_id) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)");
-  int64_t exam_id = l.first_exam;
-  const auto add_exam = [&](int64_t pupil_id, const char* kind, std::optional<int64_t> session, double score, bool passed,
-                            const std::string& at) {
-    sqlite3_bind_int64(exam, 1, exam_id++);
+  const auto add_exam = [&](Layout& l, int64_t pupil_id, const char* kind, std::optional<int64_t> session, double score,
+                            bool passed, const std::string& at) {
+    sqlite3_bind_int64(exam, 1, l.next_exam_id());
     sqlite3_bind_int64(exam, 2, pupil_id);
     text(exam, 3, kind);
     if (session) sqlite3_bind_int64(exam, 4, *session);
@@ -360,7 +393,7 @@ void fill_sqlite(const std::string& path, Layout& l, bool progress, Clock::time_
     sqlite3_bind_int64(exam, 8, l.school);
     db.run(exam);
   };
-  for (int64_t k = 0; k < l.pupils; ++k) {
+  interleaved(ls, pupils_of, [&](Layout& l, int64_t k) {
     const PupilRow p = pupil_row(l, k);
     sqlite3_bind_int64(pupil, 1, p.id);
     sqlite3_bind_int64(pupil, 2, l.school);
@@ -368,18 +401,19 @@ void fill_sqlite(const std::string& path, Layout& l, bool progress, Clock::time_
     text(pupil, 4, p.email);
     text(pupil, 5, p.created_at);
     db.run(pupil);
-    add_exam(p.id, "theory", std::nullopt, p.theory_score, p.theory_score >= 80, p.created_at);
-  }
+    add_exam(l, p.id, "theory", std::nullopt, p.theory_score, p.theory_score >= 80, p.created_at);
+  });
   sqlite3_stmt* session = db.prepare(
       "INSERT INTO sessions(id, pupil_id, cab_id, scenario, mode, state, reason, created_at, ended_at, mark, passed, school_id, outcome) "
       "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13)");
   sqlite3_stmt* score = db.prepare("INSERT INTO scores(session_id, mark, passed) VALUES (?1, ?2, ?3)");
   sqlite3_stmt* count = db.prepare("INSERT INTO score_counts(session_id, kind, count) VALUES (?1, ?2, ?3)");
-  for (int64_t i = 0; i < l.n; ++i) {
+  int64_t done = 0;
+  interleaved(ls, sessions_of, [&](Layout& l, int64_t i) {
     const SessionRow r = session_row(l, i);
     sqlite3_bind_int64(session, 1, r.id);
     sqlite3_bind_int64(session, 2, r.pupil);
-    text(session, 3, "cab" + std::to_string(r.cab));
+    text(session, 3, l.cab_prefix + std::to_string(r.cab));
     text(session, 4, r.scenario);
     text(session, 5, r.exam ? "exam" : "training");
     text(session, 6, r.state);
@@ -409,11 +443,10 @@ void fill_sqlite(const std::string& path, Layout& l, bool progress, Clock::time_
       };
       add_count(r.fault, r.fault_count);
       if (r.task_incomplete) add_count("task_incomplete", 1);
-      if (r.exam) add_exam(r.pupil, "practical", r.id, r.mark, r.passed, r.ended_at);
+      if (r.exam) add_exam(l, r.pupil, "practical", r.id, r.mark, r.passed, r.ended_at);
     }
-    if (i % 1000000 == 0) say(progress, "sessions", i, l.n, t0);
-  }
-  l.exams = exam_id - l.first_exam;
+    if (done++ % 1000000 == 0) say(progress, "sessions", done, all, t0);
+  });
   say(progress, "indexes", 0, static_cast<int64_t>(indexes.size()), t0);
   for (const auto& [name, definition] : indexes) db.exec(definition);
   db.exec("COMMIT");
@@ -427,44 +460,60 @@ void fill_sqlite(const std::string& path, Layout& l, bool progress, Clock::time_
 
 std::string generated_day(int day) { return time_text(day, 0).substr(0, 10); }
 
-GeneratedStore generate_sessions(const std::string& location, int64_t sessions, bool progress) {
+GeneratedStore generate_sessions(const std::string& location, int64_t sessions, bool progress, int64_t per_school) {
   if (sessions < 1) throw std::runtime_error("at least one session to generate");
+  if (per_school < 1) throw std::runtime_error("at least one session a school");
   const auto t0 = Clock::now();
-  Layout l;
-  l.n = sessions;
+  const int64_t schools = (sessions + per_school - 1) / per_school;
+  std::vector<Layout> ls(static_cast<size_t>(schools));
   {
-    // Made and migrated by the store itself, its school too.
+    // Made and migrated by the store itself, its schools too.
     auto store = store::Store::open(location);
-    l.school = store->create_school("Generated school");
+    if (store::is_postgresql_location(location)) {
+      PgConn pg(location);
+      if (pg.exec("SELECT EXISTS (SELECT 1 FROM sessions)") == "t")
+        throw std::runtime_error("the store holds sessions already: generate into a new one");
+    } else {
+      Sqlite db(location);
+      if (db.value("SELECT EXISTS (SELECT 1 FROM sessions)"))
+        throw std::runtime_error("the store holds sessions already: generate into a new one");
+    }
+    for (int64_t j = 0; j < schools; ++j) {
+      Layout& l = ls[static_cast<size_t>(j)];
+      l.school = store->create_school(schools == 1 ? "Generated school" : "Generated school " + std::to_string(j + 1));
+      if (j > 0) l.cab_prefix = "school" + std::to_string(j + 1) + "-cab";
+      // Shared out evenly: the first sessions % schools schools have one more.
+      l.n = sessions / schools + (j < sessions % schools ? 1 : 0);
+      l.first_session = 1 + j;
+      l.stride = schools;
+      l.cabs = static_cast<int>(std::max<int64_t>(4, l.n / (kDays * kSessionsPerCabDay)));
+      // A cohort drives every other day: half a day's sessions of pupils at once.
+      l.block = std::max<int64_t>(1, l.n / kDays / 2);
+      const int64_t whole = l.block * kSessionsPerPupil;
+      const int64_t last = (l.n - 1) / whole;
+      l.pupils = last * l.block + std::min(l.block, l.n - last * whole);
+    }
   }
-  l.cabs = static_cast<int>(std::max<int64_t>(4, sessions / (kDays * kSessionsPerCabDay)));
-  // A cohort drives every other day: half a day's sessions of pupils at once.
-  l.block = std::max<int64_t>(1, sessions / kDays / 2);
-  const int64_t whole = l.block * kSessionsPerPupil;
-  const int64_t last = (sessions - 1) / whole;
-  l.pupils = last * l.block + std::min(l.block, sessions - last * whole);
-  if (store::is_postgresql_location(location)) {
-    PgConn pg(location);
-    if (pg.exec("SELECT EXISTS (SELECT 1 FROM sessions)") == "t")
-      throw std::runtime_error("the store holds sessions already: generate into a new one");
-  } else {
-    Sqlite db(location);
-    if (db.value("SELECT EXISTS (SELECT 1 FROM sessions)"))
-      throw std::runtime_error("the store holds sessions already: generate into a new one");
-  }
-  if (store::is_postgresql_location(location)) fill_postgresql(location, l, progress, t0);
-  else fill_sqlite(location, l, progress, t0);
+  if (store::is_postgresql_location(location)) fill_postgresql(location, ls, progress, t0);
+  else fill_sqlite(location, ls, progress, t0);
+  const Layout& first = ls.front();
   GeneratedStore g;
-  g.school_id = l.school;
-  g.pupils = l.pupils;
-  g.sessions = l.n;
-  g.exams = l.exams;
-  g.cabs = l.cabs;
+  g.school_id = first.school;
+  g.pupils = first.pupils;
+  g.sessions = first.n;
+  g.exams = first.exams;
+  g.cabs = first.cabs;
   g.first_day = generated_day(0);
   g.days = kDays;
-  g.first_pupil_id = l.first_pupil;
+  g.first_pupil_id = first.first_pupil;
+  g.first_session_id = first.first_session;
+  g.first_exam_id = first.first_exam;
+  g.schools = static_cast<int>(schools);
+  g.all_sessions = sessions;
   g.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-  if (progress) std::fprintf(stderr, "\rgenerated %lld sessions in %.1f s                    \n", static_cast<long long>(l.n), g.seconds);
+  if (progress)
+    std::fprintf(stderr, "\rgenerated %lld sessions of %lld schools in %.1f s                    \n", static_cast<long long>(sessions),
+                 static_cast<long long>(schools), g.seconds);
   return g;
 }
 

@@ -1121,16 +1121,17 @@ TEST_P(StoreTest, HistoryOnALargeStore) {
 
 // Every list reads the sessions and the exams through an index, never the whole table: its plan, as the database
 // gives it (EXPLAIN on PostgreSQL, EXPLAIN QUERY PLAN on SQLite), at a generated store of 100,000
-// sessions (bench/store_generator.h: 2,040 pupils over two years on 8 cabs, with their results,
-// practical and theory exams), filled in a few seconds, with the statistics ANALYZE makes as
+// sessions of two schools (bench/store_generator.h: each 1,020 pupils over two years on 4 cabs, with
+// their results, practical and theory exams, the two schools' rows interleaved), filled in a few seconds, with the statistics ANALYZE makes as
 // autovacuum (PostgreSQL) and the server's optimize (SQLite) do; at 10 million sessions
 // (forklift-bench-store --explain) the plans are the same. A list whose plan reads the whole
 // table of sessions or exams is named with its plan; so is one that hashes every task-incomplete score of the store
 // for a page (PostgreSQL's hashed SubPlan, which grows with the store).
 TEST_P(StoreTest, EveryListReadsTheSessionsThroughAnIndex) {
-  const forklift::bench::GeneratedStore g = forklift::bench::generate_sessions(location_, 100000);
-  ASSERT_EQ(g.sessions, 100000);
-  const int64_t school = g.school_id, some_pupil = g.first_pupil_id + g.pupils / 2;
+  const forklift::bench::GeneratedStore g = forklift::bench::generate_sessions(location_, 100000, false, 50000);
+  ASSERT_EQ(g.schools, 2);
+  ASSERT_EQ(g.sessions, 50000);
+  const int64_t school = g.school_id, some_pupil = g.pupil_id(g.pupils / 2);
   const auto day = [&](int d, fs::SessionFilter f) {
     f.from = forklift::bench::generated_day(d) + "T00:00:00Z";
     f.to = forklift::bench::generated_day(d + 1) + "T00:00:00Z";
@@ -1140,10 +1141,10 @@ TEST_P(StoreTest, EveryListReadsTheSessionsThroughAnIndex) {
   // Rows deep in the lists, for their next pages by keyset.
   fs::SessionFilter school_sessions;
   school_sessions.school_id = school;
-  const std::string deep_session = store_->find_sessions(school_sessions, 1, 50000).sessions.at(0).session.public_id;
+  const std::string deep_session = store_->find_sessions(school_sessions, 1, 20000).sessions.at(0).session.public_id;
   fs::ExamFilter school_exams;
   school_exams.school_id = school;
-  const int64_t deep_exam = store_->find_exams(school_exams, 1, 3000).exams.at(0).exam.id;
+  const int64_t deep_exam = store_->find_exams(school_exams, 1, static_cast<int>(g.exams / 2)).exams.at(0).exam.id;
   const auto lists = [&] {
     fs::PupilFilter pupils;
     pupils.school_id = school;
@@ -1196,7 +1197,7 @@ TEST_P(StoreTest, EveryListReadsTheSessionsThroughAnIndex) {
   // The whole school's totals are the kept ones; a filter that matches more than the store counts says so.
   fs::SessionFilter all;
   all.school_id = school;
-  EXPECT_EQ(store_->find_sessions(all, 1, 0).total, 100000);
+  EXPECT_EQ(store_->find_sessions(all, 1, 0).total, 50000);
   EXPECT_FALSE(store_->find_sessions(all, 1, 0).total_is_at_least);
   fs::ExamFilter every_exam;
   every_exam.school_id = school;
@@ -1205,7 +1206,7 @@ TEST_P(StoreTest, EveryListReadsTheSessionsThroughAnIndex) {
   const fs::SessionPage passed_page = store_->find_sessions(all, 1, 0);
   EXPECT_EQ(passed_page.total, fs::kCountedAtMost);
   EXPECT_TRUE(passed_page.total_is_at_least);
-  EXPECT_EQ(RawQuery("SELECT sessions FROM school_totals WHERE school_id = " + std::to_string(school)), std::vector<std::string>{"100000"});
+  EXPECT_EQ(RawQuery("SELECT sessions FROM school_totals WHERE school_id = " + std::to_string(school)), std::vector<std::string>{"50000"});
 
   lists();  // PostgreSQL's plans for a prepared statement settle over its first runs: asked after
   const std::vector<std::string> plans = store_->query_plans(lists);
@@ -1235,6 +1236,52 @@ TEST_P(StoreTest, EveryListReadsTheSessionsThroughAnIndex) {
   }
   EXPECT_GE(sessions_read, 18);
   EXPECT_GE(exams_read, 5);  // the exams lists' pages, the count of a filtered one, the history's exams
+}
+
+// The generated region (bench/store_generator.h): its schools share the sessions out, their rows
+// interleaved as their days bring them, and each school's lists hold its own rows alone, at the
+// ids the generator says.
+TEST_P(StoreTest, AGeneratedRegionsSchoolsEachListTheirOwnRows) {
+  const forklift::bench::GeneratedStore g = forklift::bench::generate_sessions(location_, 3001, false, 1000);
+  ASSERT_EQ(g.schools, 4);
+  EXPECT_EQ(g.all_sessions, 3001);
+  EXPECT_EQ(g.sessions, 751);  // 3001 shared by 4: the first school has the one left over
+  const std::string stride = std::to_string(g.schools), school = std::to_string(g.school_id);
+  // Interleaved: the first sessions are one of each school's, in turn.
+  EXPECT_EQ(RawQuery("SELECT COUNT(DISTINCT school_id) FROM sessions WHERE id <= 4"), std::vector<std::string>{"4"});
+  EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM sessions"), std::vector<std::string>{"3001"});
+  // The school's rows are at the ids the generator gives, and no other school's are.
+  EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM sessions WHERE school_id = " + school + " AND (id - " +
+                     std::to_string(g.first_session_id) + ") % " + stride + " = 0 AND id <= " + std::to_string(g.session_id(g.sessions - 1))),
+            std::vector<std::string>{std::to_string(g.sessions)});
+  EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM pupils WHERE school_id = " + school + " AND (id - " + std::to_string(g.first_pupil_id) +
+                     ") % " + stride + " = 0 AND id <= " + std::to_string(g.pupil_id(g.pupils - 1))),
+            std::vector<std::string>{std::to_string(g.pupils)});
+  EXPECT_EQ(RawQuery("SELECT COUNT(*) FROM exams WHERE school_id = " + school + " AND (id - " + std::to_string(g.first_exam_id) +
+                     ") % " + stride + " = 0 AND id <= " + std::to_string(g.exam_id(g.exams - 1))),
+            std::vector<std::string>{std::to_string(g.exams)});
+
+  fs::SessionFilter sessions;
+  sessions.school_id = g.school_id;
+  const fs::SessionPage page = store_->find_sessions(sessions, 50, 0);
+  EXPECT_EQ(page.total, g.sessions);
+  ASSERT_EQ(page.sessions.size(), 50u);
+  for (const auto& row : page.sessions) EXPECT_EQ((row.session.pupil_id - g.first_pupil_id) % g.schools, 0) << row.session.public_id;
+  fs::PupilFilter pupils;
+  pupils.school_id = g.school_id;
+  EXPECT_EQ(store_->find_pupils(pupils, 50, 0).total, g.pupils);
+  fs::ExamFilter exams;
+  exams.school_id = g.school_id;
+  EXPECT_EQ(store_->find_exams(exams, 50, 0).total, g.exams);
+  // A pupil's history is their own 50 sessions, with their theory exam.
+  const auto h = store_->history(g.pupil_id(g.pupils / 2), "2027-01-01T00:00:00Z");
+  ASSERT_TRUE(h);
+  EXPECT_EQ(h->sessions.size(), 50u);
+  for (const auto& s : h->sessions) EXPECT_EQ(s.pupil_id, g.pupil_id(g.pupils / 2));
+  EXPECT_FALSE(h->exams.empty());
+  // Another school's session is no cursor in this school's list.
+  sessions.after = "s-000002";
+  EXPECT_THROW(store_->find_sessions(sessions, 50, 0), fs::StoreError);
 }
 
 // A store with its planner's statistics keeps them through the upgrade that widened the school's
