@@ -147,7 +147,7 @@ int main(int argc, char** argv) {
         return 1;
       }
       const bench::GeneratedStore& g = kept.g;
-      std::printf("%s, %s sessions of %d schools (generated in %.0f s); the school measured: %s sessions of %s pupils on %d "
+      std::printf("%s, %s sessions of %d school(s) (generated in %.0f s); the school measured: %s sessions of %s pupils on %d "
                   "cabs over %d days, %s exams\n",
                   db.c_str(), with_commas(g.all_sessions).c_str(), g.schools, g.seconds, with_commas(g.sessions).c_str(),
                   with_commas(g.pupils).c_str(), g.cabs, g.days, with_commas(g.exams).c_str());

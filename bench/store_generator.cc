@@ -512,8 +512,8 @@ GeneratedStore generate_sessions(const std::string& location, int64_t sessions, 
   g.all_sessions = sessions;
   g.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   if (progress)
-    std::fprintf(stderr, "\rgenerated %lld sessions of %lld schools in %.1f s                    \n", static_cast<long long>(sessions),
-                 static_cast<long long>(schools), g.seconds);
+    std::fprintf(stderr, "\rgenerated %lld sessions of %lld school%s in %.1f s                    \n", static_cast<long long>(sessions),
+                 static_cast<long long>(schools), schools == 1 ? "" : "s", g.seconds);
   return g;
 }
 
