@@ -23,6 +23,7 @@ const FLPlan = (() => {
 
   // A person in a high-visibility vest, seen from above: yellow with an orange band; red once struck.
   const PERSON = { vest: '#ffd400', band: '#e8590c', struck: '#b42318' };
+  const SPILL = '#7a5a2e';  // oil on the floor
   // What a person who moves is doing, in the page's words (an activity no catalogue knows as it is).
   const activityWords = (a) => (FL.has(`plan.activity.${a}`) ? FL.t(`plan.activity.${a}`) : a);
   const t = (key, vars) => FL.t(key, vars);
@@ -72,6 +73,26 @@ const FLPlan = (() => {
       const fill = ZONE_FILL[z.kind];
       if (fill) root.append(svg('polygon', { points: poly(z.polygon), fill, opacity: 0.8 }, svg('title', {}, `${z.id}: ${z.kind}, ${z.speed_limit_m_s} m/s`)));
     }
+    // the spills: one on the floor filled, one still to come (its cue, or the instructor's) outlined
+    // until the live state says it is down (showSpills)
+    const spillRects = [];
+    (plan ? plan.spills || [] : []).forEach((sp, i) => {
+      const [x0, y0, x1, y1] = sp.rect, grip = Math.round(sp.friction_scale * 100);
+      const r = svg('rect', { class: 'spill', 'data-spill': sp.id, x: X(x0), y: Y(y1), width: +(x1 - x0).toFixed(3), height: +(y1 - y0).toFixed(3),
+                              fill: SPILL, stroke: SPILL, 'stroke-width': u * 0.25 }, svg('title', {}));
+      spillRects[i] = { r, sp, grip };
+      root.append(r);
+    });
+    const showSpills = (onFloor) => {
+      spillRects.forEach(({ r, sp, grip }, i) => {
+        const down = !sp.triggered || onFloor.has(i);
+        r.dataset.onFloor = String(down);
+        r.setAttribute('fill-opacity', down ? '0.45' : '0');
+        r.setAttribute('stroke-dasharray', down ? 'none' : `${u} ${u * 0.6}`);
+        r.firstChild.textContent = t(down ? 'plan.spill' : 'plan.spill_to_come', { id: sp.id, grip });
+      });
+    };
+    showSpills(new Set());
     // a grid, every `step` metres
     const step = niceStep(Math.max(W, H));
     const grid = svg('g', { stroke: '#d0d7de', 'stroke-width': u * 0.12 });
@@ -264,6 +285,8 @@ const FLPlan = (() => {
       },
       truckWords,
       shapeOf: (id) => root.querySelector(`[data-object="${CSS.escape(id)}"]`),
+      // The spills with a cue that are on the floor now: their places in the plan's spills.
+      showSpills: (places) => showSpills(new Set(places || [])),
     };
   }
 

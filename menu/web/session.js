@@ -372,6 +372,7 @@
   function drawLive() {
     if (!drawn || replay) return;
     const { overlay, X, Y, u } = drawn;
+    drawn.showSpills(liveState ? liveState.spills_on_floor : []);
     if (!liveState) { clear(overlay); return; }
     const truck = FL.svg('circle', { id: 'live-truck', cx: X(liveState.x_m), cy: Y(liveState.y_m), r: u * 1.2, fill: '#f2c230', stroke: '#222',
                                      'stroke-width': u * 0.25, 'data-t': liveState.sim_time_s.toFixed(2) },
@@ -386,17 +387,25 @@
   const hazardItems = new Map();
   function hazardControls(s, state) {
     const words = (a, truck) => drawn ? (truck ? drawn.truckWords(a) : drawn.activityWords(a)) : a;
+    // The pallets that fall and the spills by their places in the plan's lists, as the worker says.
+    const fell = new Set(state && state.falling_pallets ? state.falling_pallets.started : []);
+    const landed = new Set(state && state.falling_pallets ? state.falling_pallets.landed : []);
+    const spilt = new Set(state && state.spills_on_floor ? state.spills_on_floor : []);
+    const fallWords = { waiting: 'session.pallet_waiting', falling: 'session.pallet_falling', down: 'session.pallet_down' };
     const hazards = [
       ...(state && state.pedestrians ? state.pedestrians : []).map((p) => ({ id: p.id, kind: 'pedestrian', activity: p.activity,
         label: t('session.start_pedestrian', { id: p.id }), done: t('session.pedestrian_out', { id: p.id }), status: `${p.id}: ${words(p.activity)}` })),
       ...(state && state.trucks ? state.trucks : []).map((o) => ({ id: o.id, kind: 'truck', activity: o.activity,
         label: t('session.start_truck', { id: o.id }), done: t('session.truck_out', { id: o.id }), status: `${o.id}: ${words(o.activity, true)}` })),
-      ...(plan && plan.falling_pallets ? plan.falling_pallets : []).map((f) => ({ id: f.pallet, kind: 'falling pallet', activity: 'waiting',
-        label: t('session.drop_pallet', { id: f.pallet }), done: t('session.pallet_falls', { id: f.pallet }),
-        status: t('session.pallet_waiting', { id: f.pallet }) })),
-      ...(plan && plan.spills ? plan.spills.filter((p) => p.triggered) : []).map((p) => ({ id: p.id, kind: 'spill', activity: 'waiting',
+      ...(plan && plan.falling_pallets ? plan.falling_pallets : []).map((f, i) => {
+        const activity = landed.has(i) ? 'down' : fell.has(i) ? 'falling' : 'waiting';
+        return { id: f.pallet, kind: 'falling pallet', activity,
+                 label: t('session.drop_pallet', { id: f.pallet }), done: t('session.pallet_falls', { id: f.pallet }),
+                 status: t(fallWords[activity], { id: f.pallet }) };
+      }),
+      ...(plan && plan.spills ? plan.spills : []).flatMap((p, i) => p.triggered ? [{ id: p.id, kind: 'spill', activity: spilt.has(i) ? 'on_floor' : 'waiting',
         label: t('session.spill_now', { id: p.id }), done: t('session.spill_appears', { id: p.id }),
-        status: t('session.spill_waiting', { id: p.id }) })),
+        status: t(spilt.has(i) ? 'session.spill_on_floor' : 'session.spill_waiting', { id: p.id }) }] : []),
     ];
     document.getElementById('hazards').hidden = !(s.state === 'running' && s.mode === 'training' && hazards.length > 0);
     for (const h of hazards) {

@@ -28,6 +28,14 @@ using store::Role;
 
 namespace {
 
+// The places of the bits set in `bits`, lowest first.
+json set_bits(uint64_t bits) {
+  json out = json::array();
+  for (int i = 0; i < 64; ++i)
+    if (bits >> i & 1) out.push_back(i);
+  return out;
+}
+
 // With the event in words (its title, what was measured and its limit) in `lang`, for the pages.
 json event_json(Context& ctx, const store::EventRecord& e, const std::string& lang) {
   return {{"seq", e.seq}, {"sim_time_s", e.sim_time_s}, {"kind", e.kind}, {"worry_level", e.worry_level},
@@ -383,7 +391,11 @@ void session_routes(Routes& svr, Context& ctx) {
                // what the pupil is at: the steps of the task done, and the current one in words
                {"task", {{"steps_done", t.task_steps_done}, {"steps_total", t.task_steps_total}, {"step", std::string(t.task_step)}}},
                {"time_left_s", t.time_left_s < 0 ? json(nullptr) : json(t.time_left_s)},
-               {"pedestrians", people}, {"trucks", trucks}};
+               {"pedestrians", people}, {"trucks", trucks},
+               // Which of the scenario's falling pallets and spills have started (their places
+               // in its lists), for the instructor's list of hazards still to come.
+               {"falling_pallets", {{"started", set_bits(t.falls_started)}, {"landed", set_bits(t.falls_landed)}}},
+               {"spills_on_floor", set_bits(t.spills_on_floor)}};
     }
     send_json(res, 200, {{"session", s.public_id}, {"state", state}, {"frame_available", !v.jpeg.empty()},
                          {"frame_seq", v.frame_seq}, {"frame_sim_time_s", v.frame_sim_time_s}});

@@ -237,6 +237,11 @@ bool SampleGate::truck_state(const fk_TruckState& t, const dds_sample_info_t& in
       return false;
     }
   }
+  // A pallet lies on the floor only after it left its beams.
+  if ((t.falls_landed & ~t.falls_started) != 0) {
+    malformed("fk_TruckState", "a truck state with a pallet on the floor that never left its beams");
+    return false;
+  }
   return true;
 }
 

@@ -69,6 +69,14 @@ fk_TruckState truck_state(const SessionRun& run, const std::string& cab, const s
   list_seen(model.scene.pedestrians, state.pedestrians, s.pedestrians, s.pedestrian_count);
   // And the other trucks on their routes.
   list_seen(model.scene.trucks, state.trucks, s.trucks, s.truck_count);
+  // The pallets that fall and the spills, started or not: the instructor's list says which are
+  // still to come.
+  for (size_t i = 0; i < state.falls.size() && i < 32; ++i) {
+    if (state.falls[i].started) s.falls_started |= uint32_t{1} << i;
+    if (state.falls[i].landed) s.falls_landed |= uint32_t{1} << i;
+  }
+  for (size_t i = 0; i < state.spills.size() && i < 64; ++i)
+    if (state.spills[i].appeared) s.spills_on_floor |= uint64_t{1} << i;
   // Lining up with a pallet: a learning aid, never in an exam. It follows the task: the pallet
   // the current step is about, wherever it is (another nearer is not the one to take); with no
   // such step, the nearest ahead.

@@ -252,6 +252,26 @@ TEST(Instructor, ARewindGoesBackToTheKeptStateAndTheLogReplaysBitForBit) {
     ASSERT_LT(traced["samples"][i - 1]["t"].get<double>(), traced["samples"][i]["t"].get<double>()) << "sample " << i;
 }
 
+// The pallet that falls and the spill with a cue, started by the instructor: the cab's states say
+// which have started, the pallet leaving its beams and then lying on the floor, so that the
+// instructor's page no longer offers them.
+TEST(Instructor, AStartedFallingPalletAndSpillAreOnTheCabsStates) {
+  LiveSession live_session("s-8", "4", "1", "pedestrian_awareness");
+  Process& w = live_session.worker;
+  fk_TruckState before{};
+  ASSERT_TRUE(states_until(live_session.states, 60, [&](const fk_TruckState& s) { before = s; return s.sim_time_s > 0.5; })) << w.err();
+  EXPECT_EQ(before.falls_started, 0u);
+  EXPECT_EQ(before.falls_landed, 0u);
+  EXPECT_EQ(before.spills_on_floor, 0u) << "S1 waits for its cue";
+  live_session.instructor.write(action(live_session.id, 40, "hazard", "P2"));
+  live_session.instructor.write(action(live_session.id, 41, "hazard", "S1"));
+  EXPECT_TRUE(states_until(live_session.states, 30, [](const fk_TruckState& s) { return s.falls_started == 1u && s.spills_on_floor == 1u; }))
+      << w.err();
+  EXPECT_TRUE(states_until(live_session.states, 30, [](const fk_TruckState& s) { return s.falls_landed == 1u; })) << "P2 lands";
+  ASSERT_EQ(w.wait(60), 0) << w.err();
+  EXPECT_EQ(forklift_test::output_json(w)["instructor"]["hazards"], 2);
+}
+
 // "Hazard now" over DDS: the instructor sets the walkway's pedestrian walking while the truck is
 // still beyond his trigger; a pedestrian the scenario does not have is refused. The log says when,
 // the pedestrian has walked in its replay, and the replay is bit for bit.

@@ -2,7 +2,8 @@
 // and scripted cab on the pedestrian_awareness course: the live plan draws the walkway's
 // pedestrian where the worker's states put him, waiting for his cue; the instructor reaches
 // "Start pedestrian W1 now" by Tab alone and starts him with Enter; the plan then shows him walking
-// north along his path, and the hazard is audited. The live page with its hazard list passes
+// north along his path, and the hazard is audited. The pallet that falls and the spill, started
+// from their buttons, then say they are down and cannot be started again. The live page with its hazard list passes
 // axe-core. Once the session has ended, the debrief's replay draws him where the re-run has him,
 // waiting before the hazard and walking after it.
 //
@@ -78,6 +79,7 @@ try {
     check(/Drop pallet P2 now/.test(await page.textContent('#hazard-list button[data-hazard="P2"]')), 'the falling pallet is listed');
     check(/Spill S1 now/.test(await page.textContent('#hazard-list button[data-hazard="S1"]')), 'the spill that waits is listed');
     check(/S1: a spill, not on the floor/.test(await page.textContent('li[data-hazard="S1"]')), 'in words');
+    check(await page.getAttribute('#plan-svg rect.spill[data-spill="S1"]', 'data-on-floor') === 'false', 'the plan outlines the spill to come');
   });
 
   await step('the live page with its hazard list passes axe-core', async () => {
@@ -102,6 +104,27 @@ try {
     await page.waitForSelector('li[data-pedestrian="W1"][data-activity="walking"]');
     check(await page.getAttribute(button, 'aria-disabled') === 'true', 'a walking pedestrian cannot be started again');
     check(await page.evaluate((sel) => document.activeElement === document.querySelector(sel), button), 'the focus stays on the button');
+  });
+
+  await step('the instructor drops pallet P2 and puts spill S1 down: each then says so, and cannot be started again', async () => {
+    for (const [id, done, status] of [['P2', 'Pallet P2 falls from its rack now.', 'P2: (falling from its rack|fallen, on the floor)'],
+                                       ['S1', 'Spill S1 is on the floor now.', 'S1: a spill, on the floor']]) {
+      const button = `#hazard-list button[data-hazard="${id}"]`;
+      check(await page.getAttribute(button, 'aria-disabled') === 'false', `${id} waits for the instructor`);
+      await page.click(button);
+      await page.waitForSelector(`#message:has-text("${done}")`);
+      await page.waitForFunction(([sel, re]) => new RegExp(re).test(document.querySelector(sel).textContent),
+                                 [`li[data-hazard="${id}"]`, status]);
+      check(await page.getAttribute(button, 'aria-disabled') === 'true', `${id} cannot be started again`);
+    }
+    await page.waitForSelector('#plan-svg rect.spill[data-spill="S1"][data-on-floor="true"]');
+    check(/Spill S1: on the floor, the tyres grip 20 % of their own/.test(await page.textContent('#plan-svg rect.spill[data-spill="S1"] title')),
+          `the plan names it: ${await page.textContent('#plan-svg rect.spill[data-spill="S1"] title')}`);
+    await page.waitForSelector('li[data-hazard="P2"][data-activity="down"]', { timeout: 10000 });
+    check(/P2: fallen, on the floor/.test(await page.textContent('li[data-hazard="P2"]')), 'the pallet lies on the floor, in words');
+    const live = (await api('GET', `/sessions/${session.id}/live`, ines)).state;
+    check(JSON.stringify([live.falling_pallets.started, live.falling_pallets.landed, live.spills_on_floor]) === '[[0],[0],[0]]',
+          `the live state says so: ${JSON.stringify(live.falling_pallets)}, ${JSON.stringify(live.spills_on_floor)}`);
   });
 
   await step('the plan follows him north along the walkway', async () => {
