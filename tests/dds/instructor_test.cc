@@ -256,7 +256,7 @@ TEST(Instructor, ARewindGoesBackToTheKeptStateAndTheLogReplaysBitForBit) {
 // which have started, the pallet leaving its beams and then lying on the floor, so that the
 // instructor's page no longer offers them.
 TEST(Instructor, AStartedFallingPalletAndSpillAreOnTheCabsStates) {
-  LiveSession live_session("s-8", "4", "1", "pedestrian_awareness");
+  LiveSession live_session("s-80801", "4", "1", "pedestrian_awareness");  // an id of its own: the worker's files are named by it
   Process& w = live_session.worker;
   fk_TruckState before{};
   ASSERT_TRUE(states_until(live_session.states, 60, [&](const fk_TruckState& s) { before = s; return s.sim_time_s > 0.5; })) << w.err();
