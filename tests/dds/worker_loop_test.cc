@@ -900,7 +900,7 @@ TEST(WorkerLoop, StatesCarryTheirLagBehindTheWallClockAndNeverRunMoreThanTwoTick
     return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
   };
   const int64_t before_ns = wall_ns();
-  Process w = worker(domain, "wa", "ahead", {"--duration", "2", "--rate", "60"});
+  Process w = worker(domain, "wa", "lag", {"--duration", "2", "--rate", "60"});
   dds::Participant p(dds::DomainSettings::resolve(domain, ""));
   dds::Writer<fk_Controls> cab(p, dds::cab_partition("wa"));
   dds::Reader<fk_TruckState> states(p, dds::cab_partition("wa"));
