@@ -640,15 +640,16 @@ int main(int argc, char** argv) {
           step.problems.push_back("session " + s->id + ": " + std::to_string(stored.size()) + " events stored (" + std::to_string(from_dds) +
                                   " from DDS) of " + std::to_string(s->event_times.size()) + " published");
         // The last states' point is stored with the ingest's next batch: up to 5 s for it.
+        const std::vector<double> expected = expected_path(s->ticks, rate);
         std::vector<double> path;
-        for (int i = 0; i < 50 && (i == 0 || path != expected_path(s->ticks, rate)); ++i) {
+        for (int i = 0; i < 50 && (i == 0 || path != expected); ++i) {
           if (i > 0) std::this_thread::sleep_for(std::chrono::milliseconds(100));
           path.clear();
           for (const auto& p : store->list_path(s->id)) path.push_back(p.sim_time_s);
         }
-        if (path != expected_path(s->ticks, rate))
+        if (path != expected)
           step.problems.push_back("session " + s->id + ": a truck path of " + std::to_string(path.size()) + " points, not the " +
-                                  std::to_string(expected_path(s->ticks, rate).size()) + " every state gives");
+                                  std::to_string(expected.size()) + " every state gives");
       }
       for (const std::string& k : host.killed())
         for (const auto& s : sessions)

@@ -72,6 +72,18 @@ void interleaved(std::vector<Layout>& ls, Count count, Each each) {
 const auto sessions_of = [](const Layout& l) { return l.n; };
 const auto pupils_of = [](const Layout& l) { return l.pupils; };
 
+// Each school's first pupil and exam ids: the store's next free ones for the first school, one more
+// for each school after it (their rows interleave). The sessions of them all.
+int64_t give_first_ids(std::vector<Layout>& ls, int64_t first_pupil, int64_t first_exam) {
+  int64_t all = 0;
+  for (size_t j = 0; j < ls.size(); ++j) {
+    ls[j].first_pupil = first_pupil + static_cast<int64_t>(j);
+    ls[j].first_exam = first_exam + static_cast<int64_t>(j);
+    all += ls[j].n;
+  }
+  return all;
+}
+
 struct SessionRow {
   int64_t id, pupil;
   int cab;
@@ -231,14 +243,10 @@ void fill_postgresql(const std::string& uri, std::vector<Layout>& ls, bool progr
       "SELECT indexname, indexdef FROM pg_indexes WHERE schemaname = current_schema() AND tablename IN "
       "('pupils', 'sessions', 'scores', 'score_counts', 'exams') AND indexname NOT IN (SELECT conname FROM pg_constraint)");
   for (const auto& [name, definition] : indexes) pg.exec("DROP INDEX " + name);
-  const int64_t first_pupil = std::stoll(pg.exec("SELECT COALESCE(MAX(id), 0) + 1 FROM pupils"));
-  const int64_t first_exam = std::stoll(pg.exec("SELECT COALESCE(MAX(id), 0) + 1 FROM exams"));
-  int64_t all = 0, pupils = 0;
-  for (size_t j = 0; j < ls.size(); ++j) {
-    Layout& l = ls[j];
-    l.first_pupil = first_pupil + static_cast<int64_t>(j);
-    l.first_exam = first_exam + static_cast<int64_t>(j);
-    all += l.n;
+  const int64_t all = give_first_ids(ls, std::stoll(pg.exec("SELECT COALESCE(MAX(id), 0) + 1 FROM pupils")),
+                                     std::stoll(pg.exec("SELECT COALESCE(MAX(id), 0) + 1 FROM exams")));
+  int64_t pupils = 0;
+  for (const Layout& l : ls) {
     pupils += l.pupils;
     pg.exec("INSERT INTO cabs(id, school_id) SELECT '" + l.cab_prefix + "' || n, " + std::to_string(l.school) +
             " FROM generate_series(1, " + std::to_string(l.cabs) + ") n ON CONFLICT DO NOTHING");
@@ -351,8 +359,8 @@ void fill_sqlite(const std::string& path, std::vector<Layout>& ls, bool progress
   // insert that fires a trigger keeps a statement journal: in memory, not a temporary file
   // (400,000 writes to /var/tmp for 20,000 sessions).
   db.exec("PRAGMA synchronous = OFF; PRAGMA cache_size = -1048576; PRAGMA cache_spill = OFF; PRAGMA temp_store = MEMORY; BEGIN IMMEDIATE");
-  const int64_t first_pupil = db.value("SELECT COALESCE(MAX(id), 0) + 1 FROM pupils");
-  const int64_t first_exam = db.value("SELECT COALESCE(MAX(id), 0) + 1 FROM exams");
+  const int64_t all = give_first_ids(ls, db.value("SELECT COALESCE(MAX(id), 0) + 1 FROM pupils"),
+                                     db.value("SELECT COALESCE(MAX(id), 0) + 1 FROM exams"));
   // The filled tables' indexes (not their keys) made once at the end, as PostgreSQL's.
   std::vector<std::pair<std::string, std::string>> indexes;
   {
@@ -365,18 +373,12 @@ void fill_sqlite(const std::string& path, std::vector<Layout>& ls, bool progress
   }
   for (const auto& [name, definition] : indexes) db.exec("DROP INDEX " + name);
   sqlite3_stmt* cab = db.prepare("INSERT INTO cabs(id, school_id) VALUES (?1, ?2) ON CONFLICT DO NOTHING");
-  int64_t all = 0;
-  for (size_t j = 0; j < ls.size(); ++j) {
-    Layout& l = ls[j];
-    l.first_pupil = first_pupil + static_cast<int64_t>(j);
-    l.first_exam = first_exam + static_cast<int64_t>(j);
-    all += l.n;
+  for (const Layout& l : ls)
     for (int c = 1; c <= l.cabs; ++c) {
       text(cab, 1, l.cab_prefix + std::to_string(c));
       sqlite3_bind_int64(cab, 2, l.school);
       db.run(cab);
     }
-  }
   sqlite3_stmt* pupil = db.prepare("INSERT INTO pupils(id, school_id, name, email, created_at) VALUES (?1, ?2, ?3, ?4, ?5)");
   sqlite3_stmt* exam = db.prepare(
       "INSERT INTO exams(id, pupil_id, kind, session_id, score, passed, taken_at, school_id) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)");
